@@ -1,0 +1,185 @@
+"""The frozen result of an identification, with health flags and a readable summary."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+__all__ = ["FitResult", "HealthFlag"]
+
+CORRELATION_LIMIT = 0.95
+
+
+@dataclass(frozen=True)
+class HealthFlag:
+    """One failed health check: a short code and a sentence saying what it means."""
+
+    code: str  # "not-converged", "outside-bounds", "high-correlation", "rank-deficient", …
+    message: str
+
+    def __str__(self) -> str:
+        return f"[{self.code}] {self.message}"
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Result of a weighted least-squares identification (paper Section 2, Eqs. 1–5).
+
+    Attributes
+    ----------
+    params, stderr : pandas.Series
+        Estimates θ̂ and their standard deviations σ = √diag Cov(θ̂) (Eq. 3), indexed by name.
+    cov : pandas.DataFrame
+        Cov(θ̂) = s²·(JᵀJ)⁻¹ with s² = Σ(w·e)²/(N − Np) (Eq. 4) and J = ∂(w·f)/∂θ (Eq. 5).
+    epsilon : float
+        Fit quality ε (Eq. 2), on the weighted residuals and data.
+    rss : float
+        Weighted residual sum of squares Σ(w·e)².
+    dof : int
+        N − Np.
+    """
+
+    model_name: str
+    params: pd.Series
+    stderr: pd.Series
+    cov: pd.DataFrame
+    epsilon: float
+    rss: float
+    nobs: int
+    dof: int
+    nfev: int
+    niter: int
+    converged: bool
+    message: str
+    units: dict[str, str]
+    bounds: dict[str, tuple[float, float]]
+    jacobian_method: str
+    method: str = "Levenberg-Marquardt (weighted, Eq. 1)"
+    condition_number: float = np.nan
+    residuals: np.ndarray = field(default=None, repr=False)  # weighted residuals w·(y − f)
+    extra_flags: tuple[HealthFlag, ...] = ()
+    notes: tuple[str, ...] = ()
+    groups: pd.DataFrame | None = field(default=None, repr=False)  # per-test bookkeeping
+
+    # -- statsmodels-style aliases and derived values -------------------------------------
+    @property
+    def bse(self) -> pd.Series:
+        """Alias of :attr:`stderr` (statsmodels' name)."""
+        return self.stderr
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(self.params.index)
+
+    @cached_property
+    def corr(self) -> pd.DataFrame:
+        """Correlation matrix of the estimates."""
+        sd = self.stderr.to_numpy()
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = self.cov.to_numpy() / np.outer(sd, sd)
+        return pd.DataFrame(c, index=self.cov.index, columns=self.cov.columns)
+
+    @property
+    def scale(self) -> float:
+        """Residual variance s² = RSS/(N − Np) of the weighted residuals."""
+        return self.rss / self.dof if self.dof > 0 else np.nan
+
+    def conf_int(self, alpha: float = 0.05) -> pd.DataFrame:
+        """Two-sided (1 − alpha) Student-t intervals θ̂ ± t(1−α/2, dof)·σ."""
+        if not 0 < alpha < 1:
+            raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+        t = stats.t.ppf(1 - alpha / 2, self.dof)
+        return pd.DataFrame(
+            {"lower": self.params - t * self.stderr, "upper": self.params + t * self.stderr}
+        )
+
+    @cached_property
+    def flags(self) -> tuple[HealthFlag, ...]:
+        """Every failed health check, with its reason (empty when the fit is healthy)."""
+        out: list[HealthFlag] = []
+        if not self.converged:
+            out.append(HealthFlag("not-converged", f"the optimiser did not converge: {self.message}"))
+        for name, value in self.params.items():
+            lo, hi = self.bounds.get(name, (-np.inf, np.inf))
+            if not lo <= value <= hi:
+                out.append(
+                    HealthFlag(
+                        "outside-bounds",
+                        f"{name} = {value:.4g} lies outside its physically plausible range "
+                        f"({lo:g}, {hi:g})",
+                    )
+                )
+        names = self.param_names
+        corr = self.corr.to_numpy()
+        for i in range(len(names)):
+            for j in range(i + 1, len(names)):
+                if abs(corr[i, j]) > CORRELATION_LIMIT:
+                    out.append(
+                        HealthFlag(
+                            "high-correlation",
+                            f"corr({names[i]}, {names[j]}) = {corr[i, j]:+.3f}: the data barely "
+                            f"separate them; use their joint covariance, not the σ alone",
+                        )
+                    )
+        out.extend(self.extra_flags)
+        return tuple(out)
+
+    @property
+    def healthy(self) -> bool:
+        return not self.flags
+
+    # -- report ---------------------------------------------------------------------------
+    def summary(self) -> str:
+        """A fit report in the manner of lmfit and statsmodels, ending with numbered notes."""
+        width = 78
+        lines = [
+            f" {self.model_name} fit ".center(width, "="),
+            f"{'Method:':<18}{self.method}",
+            f"{'Converged:':<18}{self.converged} ({self.message})",
+            f"{'Observations:':<18}{self.nobs:<12d}{'Parameters:':<14}{len(self.params):<6d}"
+            f"{'DoF:':<6}{self.dof}",
+            f"{'Function evals:':<18}{self.nfev:<12d}{'Iterations:':<14}{self.niter}",
+            f"{'epsilon (Eq. 2):':<18}{self.epsilon:<12.4f}{'Weighted RSS:':<14}{self.rss:.6g}",
+            f"{'Jacobian:':<18}{self.jacobian_method:<12}{'cond(J):':<14}"
+            f"{self.condition_number:.3g}",
+            "-" * width,
+            f"{'param':>8} {'value':>14} {'sigma (Eq.3)':>14} {'rel.':>8} {'95% CI (t)':>25}  unit",
+        ]
+        ci = self.conf_int(0.05)
+        for name in self.param_names:
+            v, s = self.params[name], self.stderr[name]
+            rel = abs(s / v) if v != 0 else np.inf
+            lines.append(
+                f"{name:>8} {v:>14.6g} {s:>14.4g} {rel:>8.2%} "
+                f"[{ci.loc[name, 'lower']:>11.5g},{ci.loc[name, 'upper']:>11.5g}]  "
+                f"{self.units.get(name, '')}"
+            )
+        if len(self.params) > 1:
+            lines.append("-" * width)
+            lines.append("Correlations:")
+            names = self.param_names
+            for i in range(len(names)):
+                for j in range(i + 1, len(names)):
+                    lines.append(f"  corr({names[i]}, {names[j]}) = {self.corr.iloc[i, j]:+.4f}")
+        lines.append("-" * width)
+        flags = self.flags
+        lines.append("Health: OK" if not flags else f"Health: {len(flags)} flag(s)")
+        lines.extend(f"  ! {flag}" for flag in flags)
+        notes = (
+            "Cov = s^2 (J^T J)^-1 with s^2 = sum (w e)^2 / (N - Np) (Eq. 4), J = d(w f)/dtheta "
+            "(Eq. 5); sigma = sqrt(diag Cov) (Eq. 3).",
+            "epsilon (Eq. 2) = 1 - sqrt(sum (w e)^2 / (N - 2)) / (sum |w y| / N), on the "
+            "weighted data as in the paper's normalised pressures.",
+            *self.notes,
+        )
+        lines.append("Notes:")
+        lines.extend(f"  [{i}] {note}" for i, note in enumerate(notes, 1))
+        lines.append("=" * width)
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()

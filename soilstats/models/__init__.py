@@ -1,0 +1,23 @@
+"""Soil models of the paper, each with analytic Jacobian, names, units and plausible bounds."""
+
+from __future__ import annotations
+
+from .base import Model
+from .shear import JANOSI, MOHR_COULOMB
+from .sinkage import BEKKER, BERNSTEIN, REECE
+
+__all__ = ["BEKKER", "BERNSTEIN", "JANOSI", "MODELS", "MOHR_COULOMB", "REECE", "Model", "get_model"]
+
+MODELS: dict[str, Model] = {m.name: m for m in (BEKKER, BERNSTEIN, REECE, JANOSI, MOHR_COULOMB)}
+
+
+def get_model(name: str | Model) -> Model:
+    """The model called ``name`` (or ``name`` itself if it is already a :class:`Model`)."""
+    if isinstance(name, Model):
+        return name
+    try:
+        return MODELS[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown model {name!r}; choose one of {sorted(MODELS)} or pass a soilstats.Model"
+        ) from None

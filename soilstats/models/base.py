@@ -1,0 +1,58 @@
+"""The :class:`Model` record: a soil equation with its analytic Jacobian, names, units, bounds."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Model"]
+
+
+@dataclass(frozen=True)
+class Model:
+    """A soil model y = f(x, θ) as the identification needs it.
+
+    Attributes
+    ----------
+    name : str
+        Short name used throughout (``"bekker"``, ``"janosi"`` …).
+    equation : str
+        Where the equation stands in the paper (e.g. ``"Eq. 7"``) and its formula.
+    inputs : tuple of str
+        Meaning and unit of each row of ``x`` (``x`` is 1-D for one input, shape (k, N) for k).
+    param_names, units : tuple of str
+        Parameter names (``params`` are indexed by them) and SI units.
+    bounds : tuple of (low, high)
+        Physically plausible range of each parameter.  Fits are *not* constrained to it
+        (a constrained optimum has no valid covariance); a value outside is a health flag.
+    func : callable
+        ``func(x, *params) -> y`` vectorised over samples.
+    jac : callable
+        ``jac(x, *params) -> (N, p)`` analytic ∂f/∂θ.
+    """
+
+    name: str
+    equation: str
+    inputs: tuple[str, ...]
+    output: str
+    param_names: tuple[str, ...]
+    units: tuple[str, ...]
+    bounds: tuple[tuple[float, float], ...]
+    func: Callable[..., np.ndarray] = field(repr=False)
+    jac: Callable[..., np.ndarray] = field(repr=False)
+
+    def __call__(self, x, *params) -> np.ndarray:
+        return self.func(x, *params)
+
+    @property
+    def n_params(self) -> int:
+        return len(self.param_names)
+
+    def describe(self) -> str:
+        """One line per parameter: name, unit and plausible range."""
+        rows = [f"{self.name}: {self.equation}"]
+        for name, unit, (lo, hi) in zip(self.param_names, self.units, self.bounds, strict=True):
+            rows.append(f"  {name:>5s} [{unit}]  plausible in ({lo:g}, {hi:g})")
+        return "\n".join(rows)

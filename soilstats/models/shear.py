@@ -1,0 +1,72 @@
+"""Shear models: Janosi–Hanamoto (Eq. 13) and Mohr–Coulomb (Eq. 15).
+
+Inputs are the normal pressure σ in Pa and the shear deformation j in m (Eq. 14); output is
+the shear stress τ in Pa (Eq. 12).  The friction angle φ is a parameter in **degrees** (the
+unit every table of the field uses); the Jacobian is with respect to degrees accordingly.
+Eq. 13 is used in the Janosi–Hanamoto form with exponent −j/K (the paper's typesetting shows
+−σ/K, a misprint: K is a shear deformation modulus in m, so it must divide j).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Model
+
+__all__ = ["JANOSI", "MOHR_COULOMB"]
+
+_DEG = np.pi / 180.0
+
+
+def mohr_coulomb(sigma, c, phi):
+    """τ_max = c + σ·tan φ (Eq. 15).  ``x = σ [Pa]``; c in Pa, φ in degrees."""
+    return c + np.asarray(sigma, float) * np.tan(phi * _DEG)
+
+
+def mohr_coulomb_jac(sigma, c, phi):
+    sigma = np.asarray(sigma, float)
+    return np.column_stack([np.ones_like(sigma), sigma * _DEG / np.cos(phi * _DEG) ** 2])
+
+
+def janosi(x, c, phi, K):
+    """τ = (c + σ tan φ)(1 − exp(−j/K)) (Eq. 13).  ``x = (σ [Pa], j [m])``; K in m."""
+    sigma, j = x
+    return (c + sigma * np.tan(phi * _DEG)) * -np.expm1(-np.asarray(j, float) / K)
+
+
+def janosi_jac(x, c, phi, K):
+    sigma, j = np.asarray(x[0], float), np.asarray(x[1], float)
+    growth = -np.expm1(-j / K)
+    tau_max = c + sigma * np.tan(phi * _DEG)
+    return np.column_stack(
+        [
+            growth,
+            sigma * _DEG / np.cos(phi * _DEG) ** 2 * growth,
+            -tau_max * np.exp(-j / K) * j / K**2,
+        ]
+    )
+
+
+MOHR_COULOMB = Model(
+    name="mohr-coulomb",
+    equation="Eq. 15: tau = c + sigma * tan(phi)",
+    inputs=("sigma [Pa]",),
+    output="tau [Pa]",
+    param_names=("c", "phi"),
+    units=("Pa", "deg"),
+    bounds=((0.0, np.inf), (0.0, 90.0)),
+    func=mohr_coulomb,
+    jac=mohr_coulomb_jac,
+)
+
+JANOSI = Model(
+    name="janosi",
+    equation="Eq. 13: tau = (c + sigma * tan(phi)) * (1 - exp(-j/K))",
+    inputs=("sigma [Pa]", "j [m]"),
+    output="tau [Pa]",
+    param_names=("c", "phi", "K"),
+    units=("Pa", "deg", "m"),
+    bounds=((0.0, np.inf), (0.0, 90.0), (0.0, np.inf)),
+    func=janosi,
+    jac=janosi_jac,
+)
