@@ -7,7 +7,6 @@ from collections.abc import Callable, Sequence
 from typing import Literal
 
 import numpy as np
-import pandas as pd
 
 from ..errors import ConvergenceError, ConvergenceWarning
 from ..models import Model
@@ -15,12 +14,38 @@ from .jacobian import make_jacobian
 from .levenberg_marquardt import levenberg_marquardt
 from .result import FitResult, HealthFlag
 
-__all__ = ["epsilon", "identify", "RANK_CONDITION_LIMIT"]
+__all__ = ["RANK_CONDITION_LIMIT", "epsilon", "identify"]
 
 # Above this cond(J) the covariance means nothing and the end point is degenerate (a minimum
 # "at infinity" of a rational model, a vanished exponential term …).  The hardest honest
 # NIST problems sit at cond(J) ≈ 1e9, degenerate end points at 1e14 and beyond.
 RANK_CONDITION_LIMIT = 1e12
+
+
+def _covariance(jac: np.ndarray, rss: float, dof: int) -> tuple[float, np.ndarray]:
+    """(cond(J D⁻¹), Cov = s²·(JᵀJ)⁻¹) with s² = RSS/(N − Np) (Eq. 4).
+
+    J is column-equilibrated first (D = column norms), so the condition number measures
+    real collinearity, not the units of the parameters.  Below cond 1e4 the inverse comes
+    from the p×p Gram matrix (error ~cond²·ε < 1e-8); above, from the SVD of J D⁻¹, which
+    does not square the condition number (the hard NIST sets sit at cond ~1e8).
+    """
+    n_par = jac.shape[1]
+    if not np.all(np.isfinite(jac)):
+        return np.inf, np.full((n_par, n_par), np.nan)
+    scale = np.sqrt(np.einsum("ij,ij->j", jac, jac))
+    if np.any(scale == 0):
+        return np.inf, np.full((n_par, n_par), np.nan)
+    s2 = rss / dof if dof > 0 else np.nan
+    eig, vecs = np.linalg.eigh((jac.T @ jac) / np.outer(scale, scale))
+    if eig[0] > 0 and eig[-1] / eig[0] < 1e8:
+        cond = float(np.sqrt(eig[-1] / eig[0]))
+        inv = (vecs / eig) @ vecs.T
+    else:
+        _, sv, vt = np.linalg.svd(jac / scale, full_matrices=False)
+        cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else np.inf
+        inv = (vt.T / sv**2) @ vt
+    return cond, inv / np.outer(scale, scale) * s2
 
 
 def epsilon(residuals: np.ndarray, y: np.ndarray) -> float:
@@ -86,7 +111,10 @@ def identify(
     """
     if on_failure not in ("raise", "warn"):
         raise ValueError(f"on_failure must be 'raise' or 'warn', got {on_failure!r}")
+    fast = None
     if isinstance(model, Model):
+        if jac is None:
+            fast = model.evaluators(x)
         f, jac = model.func, jac or model.jac
         param_names = param_names or model.param_names
         units = units or dict(zip(model.param_names, model.units, strict=True))
@@ -115,47 +143,66 @@ def identify(
         jac, jacobian_method = make_jacobian(f, x, p0)
 
     wy = w * y
+    w_col = w[:, None]
+    if fast is not None:
+        f_theta, jac_theta = fast
+    else:
+
+        def f_theta(theta):
+            return f(x, *theta)
+
+        def jac_theta(theta):
+            return jac(x, *theta)
 
     def residual(theta: np.ndarray) -> np.ndarray:
-        with np.errstate(all="ignore"):
-            return wy - w * np.asarray(f(x, *theta), float).ravel()
+        return wy - w * np.asarray(f_theta(theta), float).ravel()
 
     def jacobian(theta: np.ndarray) -> np.ndarray:
-        with np.errstate(all="ignore"):
-            return w[:, None] * np.asarray(jac(x, *theta), float).reshape(n_obs, n_par)
+        return w_col * np.asarray(jac_theta(theta), float).reshape(n_obs, n_par)
 
-    out = levenberg_marquardt(
-        residual, jacobian, p0, xtol=xtol, ftol=ftol, gtol=gtol, max_iter=max_iter
-    )
+    # Trial steps may leave the model's domain (overflow, log of a negative): that is a
+    # rejected step, handled by the optimiser, not a warning for the user.
+    with np.errstate(all="ignore"):
+        out = levenberg_marquardt(
+            residual, jacobian, p0, xtol=xtol, ftol=ftol, gtol=gtol, max_iter=max_iter
+        )
     rss = 2.0 * out.cost
     dof = n_obs - n_par
     converged = out.converged
     message = out.reason
-    if np.all(np.isfinite(out.jacobian)):
-        _, s, vt = np.linalg.svd(out.jacobian, full_matrices=False)
-        cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
-    else:
-        s, vt, cond = None, None, np.inf
+    cond, cov = _covariance(out.jacobian, rss, dof)
     flags = list(extra_flags)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        relative_sd = np.sqrt(np.diag(cov)) / np.abs(out.params)
+    # Column scaling makes cond(J) blind to a parameter whose column has vanished (BoxBOD
+    # from start 1 runs b2 to where exp(−b2·x) ≈ 0): its σ then dwarfs its value.
+    undetermined = [
+        param_names[k] for k in np.flatnonzero(np.isfinite(relative_sd) & (relative_sd > 1e8))
+    ]
+    if undetermined and cond <= RANK_CONDITION_LIMIT:
+        converged = False
+        message = (
+            f"{message}; but {', '.join(undetermined)} is not determined at the end point "
+            "(σ exceeds 1e8 × its value: the model no longer depends on it, typically a "
+            "degenerate minimum at infinity); try other starting values"
+        )
+        flags.append(HealthFlag("undetermined", f"σ/|θ| > 1e8 for {', '.join(undetermined)}"))
     if cond > RANK_CONDITION_LIMIT:
         converged = False
         message = (
             f"{message}; but the Jacobian at the end point is rank-deficient "
-            f"(cond = {cond:.2g} > {RANK_CONDITION_LIMIT:.0e}): the parameters are not "
-            "determined there (typically a degenerate minimum at infinity); try other "
-            "starting values"
+            f"(cond = {cond:.2g} > {RANK_CONDITION_LIMIT:.0e} after column scaling): the "
+            "parameters are not determined there (typically a degenerate minimum at "
+            "infinity); try other starting values"
         )
         flags.append(HealthFlag("rank-deficient", f"cond(J) = {cond:.3g}"))
         cov = np.full((n_par, n_par), np.nan)
-    else:
-        # Cov = s²·(JᵀJ)⁻¹ = s²·V Σ⁻² Vᵀ: the SVD avoids squaring cond(J) (Eq. 4).
-        cov = (vt.T / s**2) @ vt * (rss / dof if dof > 0 else np.nan)
-    stderr = np.sqrt(np.diag(cov))
     result = FitResult(
         model_name=name,
-        params=pd.Series(out.params, index=param_names, name="value"),
-        stderr=pd.Series(stderr, index=param_names, name="stderr"),
-        cov=pd.DataFrame(cov, index=param_names, columns=param_names),
+        param_names=param_names,
+        values=out.params,
+        errors=np.sqrt(np.diag(cov)),
+        covariance=cov,
         epsilon=epsilon(out.residuals, wy),
         rss=rss,
         nobs=n_obs,

@@ -51,7 +51,9 @@ def ridders_jacobian(f: Callable, x, params: np.ndarray, *, levels: int = 6) -> 
             down = up.copy()
             up[k] += h
             down[k] -= h
-            row = [(np.asarray(f(x, *up), float) - np.asarray(f(x, *down), float)).ravel() / (2 * h)]
+            row = [
+                (np.asarray(f(x, *up), float) - np.asarray(f(x, *down), float)).ravel() / (2 * h)
+            ]
             fac = 1.4**2
             for j in range(1, i + 1):
                 row.append((row[j - 1] * fac - table[i - 1][j - 1]) / (fac - 1))

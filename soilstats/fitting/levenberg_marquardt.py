@@ -16,6 +16,7 @@ most of the budget of a 3 000-point Bekker fit).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -37,6 +38,16 @@ class LMOutcome:
     niter: int
     converged: bool
     reason: str
+
+
+def _norm(v: np.ndarray) -> float:
+    return math.sqrt(float(v @ v))
+
+
+# Below this cond(J D⁻¹) the step is solved from the scaled normal equations (a p×p eigen-
+# problem, cheap); above it the squared condition number would spoil the step, so the SVD of
+# J D⁻¹ is used.  The covariance is always formed from the SVD (see identify.py).
+_NORMAL_EQUATIONS_COND = 1e6
 
 
 def levenberg_marquardt(
@@ -63,55 +74,79 @@ def levenberg_marquardt(
     max_iter : int
         Iterations before giving up; ``converged=False`` is then returned, never a silent value.
     """
+    tiny = np.finfo(float).tiny
     theta = np.array(p0, dtype=float)
     r = residual(theta)
     nfev = 1
     if not np.all(np.isfinite(r)):
-        return LMOutcome(theta, r, np.full((r.size, theta.size), np.nan), np.inf, nfev, 0, 0,
-                         False, "the model is not finite at the starting values")
+        return LMOutcome(
+            theta,
+            r,
+            np.full((r.size, theta.size), np.nan),
+            np.inf,
+            nfev,
+            0,
+            0,
+            False,
+            "the model is not finite at the starting values",
+        )
     J = jacobian(theta)
     njev = 1
     cost = 0.5 * float(r @ r)
-    diag = np.maximum(np.linalg.norm(J, axis=0), np.finfo(float).tiny)
+    diag = np.full(theta.size, tiny)
     lam = None
     nu = 2.0
     reason = f"iteration limit ({max_iter}) reached"
     converged = False
     niter = 0
-    for niter in range(1, max_iter + 1):
-        if not np.all(np.isfinite(J)):
+    for niter in range(1, max_iter + 1):  # noqa: B007 (niter is reported after the loop)
+        # Everything below works on the p×p Gram matrix G = JᵀJ; J itself (N×p) is touched
+        # only by two products, which is what keeps an iteration cheap for large N.
+        gram = J.T @ J
+        g = J.T @ r
+        if not (np.all(np.isfinite(gram)) and np.all(np.isfinite(g))):
             reason = "the Jacobian is not finite"
             break
-        diag = np.maximum(diag, np.linalg.norm(J, axis=0))
-        g = J.T @ r
-        # Scaled gradient: cosine of the angle between r and each column of J (MINPACK gtol).
-        rnorm = np.sqrt(2 * cost)
+        col_norm = np.sqrt(np.diag(gram))
+        diag = np.maximum(diag, col_norm)
+        rnorm = math.sqrt(2 * cost)
         if rnorm == 0.0:
             converged, reason = True, "zero residual"
             break
-        gnorm = np.max(np.abs(g) / (np.linalg.norm(J, axis=0) * rnorm + np.finfo(float).tiny))
-        if gnorm <= gtol:
+        # Scaled gradient: cosine of the angle between r and each column of J (MINPACK gtol).
+        if np.max(np.abs(g) / (col_norm * rnorm + tiny)) <= gtol:
             converged, reason = True, f"gradient below gtol={gtol:g}"
             break
-        U, s, Vt = np.linalg.svd(J / diag, full_matrices=False)
-        ur = U.T @ r
+        gs = g / diag
+        eig, vecs = np.linalg.eigh(gram / np.outer(diag, diag))
+        if eig[0] > eig[-1] / _NORMAL_EQUATIONS_COND**2:
+            s2, proj, basis = eig, vecs.T @ gs, vecs  # (JᵀJ + λD²)⁻¹Jᵀr in the eigenbasis
+        else:
+            _, s, vt = np.linalg.svd(J / diag, full_matrices=False)
+            s2, proj, basis = s**2, vt @ gs, vt.T
         if lam is None:
-            lam = 1e-3 * float(s[0] ** 2)
+            lam = 1e-3 * float(s2.max())
         step_accepted = False
+        step_small = False
+        theta_norm = _norm(diag * theta)
         while True:
-            step = (Vt.T @ (s * ur / (s**2 + lam))) / diag
+            step = (basis @ (proj / (s2 + lam))) / diag
+            # Predicted reduction of the linear model: ½(‖r‖² − ‖r − Jδ‖²).  When it or the
+            # step is already below tolerance, the trial evaluation could only measure
+            # rounding noise: stop here rather than spend evaluations on it.
+            Jstep = J @ step
+            predicted = float(Jstep @ r) - 0.5 * float(Jstep @ Jstep)
+            step_small = _norm(diag * step) <= xtol * (theta_norm + xtol)
+            if step_small or 0 <= predicted <= ftol * cost:
+                break
             trial = theta + step
             r_trial = residual(trial)
             nfev += 1
-            cost_trial = 0.5 * float(r_trial @ r_trial) if np.all(np.isfinite(r_trial)) else np.inf
-            # Predicted reduction of the linear model: ½(‖r‖² − ‖r − Jδ‖²).
-            Jstep = J @ step
-            predicted = float(Jstep @ r) - 0.5 * float(Jstep @ Jstep)
+            cost_trial = 0.5 * float(r_trial @ r_trial)
+            if not math.isfinite(cost_trial):  # NaN or overflow: outside the model's domain
+                cost_trial = np.inf
             actual = cost - cost_trial
             rho = actual / predicted if predicted > 0 else -1.0
-            step_small = np.linalg.norm(diag * step) <= xtol * (
-                np.linalg.norm(diag * theta) + xtol
-            )
             if rho > 1e-4:
                 theta, r, old_cost, cost = trial, r_trial, cost, cost_trial
                 lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
@@ -120,21 +155,23 @@ def levenberg_marquardt(
                 break
             lam *= nu
             nu *= 2.0
-            if step_small or not np.isfinite(lam) or lam > 1e300:
+            if not np.isfinite(lam) or lam > 1e300:
                 break
         if not step_accepted:
             if step_small:
                 converged, reason = True, f"step below xtol={xtol:g}"
+            elif 0 <= predicted <= ftol * cost:
+                converged, reason = True, f"predicted cost reduction below ftol={ftol:g}"
             else:
                 reason = "no step reduces the cost (damping exhausted)"
             break
         J = jacobian(theta)
         njev += 1
-        rel_reduction = (old_cost - cost) / max(old_cost, np.finfo(float).tiny)
         if step_small:
             converged, reason = True, f"step below xtol={xtol:g}"
             break
-        if rel_reduction <= ftol and predicted / max(old_cost, np.finfo(float).tiny) <= ftol:
+        scale = max(old_cost, tiny)
+        if (old_cost - cost) / scale <= ftol and predicted / scale <= ftol:
             converged, reason = True, f"relative cost reduction below ftol={ftol:g}"
             break
     return LMOutcome(theta, r, J, cost, nfev, njev, niter, converged, reason)

@@ -31,6 +31,8 @@ class FitResult:
 
     Attributes
     ----------
+    values, errors, covariance : numpy.ndarray
+        The same numbers as ``params``, ``stderr``, ``cov`` without labels.
     params, stderr : pandas.Series
         Estimates θ̂ and their standard deviations σ = √diag Cov(θ̂) (Eq. 3), indexed by name.
     cov : pandas.DataFrame
@@ -44,9 +46,10 @@ class FitResult:
     """
 
     model_name: str
-    params: pd.Series
-    stderr: pd.Series
-    cov: pd.DataFrame
+    param_names: tuple[str, ...]
+    values: np.ndarray  # θ̂ as a plain array (params is the named view)
+    errors: np.ndarray  # σ (Eq. 3)
+    covariance: np.ndarray  # Cov(θ̂) (Eq. 4)
     epsilon: float
     rss: float
     nobs: int
@@ -65,22 +68,37 @@ class FitResult:
     notes: tuple[str, ...] = ()
     groups: pd.DataFrame | None = field(default=None, repr=False)  # per-test bookkeeping
 
-    # -- statsmodels-style aliases and derived values -------------------------------------
+    # -- named views, built on first use (pandas construction costs more than a whole fit) --
+    @cached_property
+    def _index(self) -> pd.Index:
+        return pd.Index(self.param_names, dtype=object)
+
+    @cached_property
+    def params(self) -> pd.Series:
+        """Estimates θ̂, indexed by parameter name."""
+        return pd.Series(self.values, index=self._index, name="value")
+
+    @cached_property
+    def stderr(self) -> pd.Series:
+        """Standard deviations σ = √diag Cov(θ̂) (Eq. 3), indexed by parameter name."""
+        return pd.Series(self.errors, index=self._index, name="stderr")
+
+    @cached_property
+    def cov(self) -> pd.DataFrame:
+        """Covariance matrix Cov(θ̂) (Eq. 4), labelled by parameter name."""
+        return pd.DataFrame(self.covariance, index=self._index, columns=self._index)
+
     @property
     def bse(self) -> pd.Series:
         """Alias of :attr:`stderr` (statsmodels' name)."""
         return self.stderr
 
-    @property
-    def param_names(self) -> tuple[str, ...]:
-        return tuple(self.params.index)
-
     @cached_property
     def corr(self) -> pd.DataFrame:
         """Correlation matrix of the estimates."""
-        sd = self.stderr.to_numpy()
+        sd = self.errors
         with np.errstate(invalid="ignore", divide="ignore"):
-            c = self.cov.to_numpy() / np.outer(sd, sd)
+            c = self.covariance / np.outer(sd, sd)
         return pd.DataFrame(c, index=self.cov.index, columns=self.cov.columns)
 
     @property
@@ -102,7 +120,9 @@ class FitResult:
         """Every failed health check, with its reason (empty when the fit is healthy)."""
         out: list[HealthFlag] = []
         if not self.converged:
-            out.append(HealthFlag("not-converged", f"the optimiser did not converge: {self.message}"))
+            out.append(
+                HealthFlag("not-converged", f"the optimiser did not converge: {self.message}")
+            )
         for name, value in self.params.items():
             lo, hi = self.bounds.get(name, (-np.inf, np.inf))
             if not lo <= value <= hi:

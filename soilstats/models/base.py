@@ -31,6 +31,10 @@ class Model:
         ``func(x, *params) -> y`` vectorised over samples.
     jac : callable
         ``jac(x, *params) -> (N, p)`` analytic ∂f/∂θ.
+    prepare : callable, optional
+        ``prepare(x) -> (f(θ), jac(θ))``: closures over ``x`` that precompute what does not
+        depend on θ (e.g. ln z) and share work between f and its Jacobian.  Same values as
+        ``func``/``jac``; used by the optimiser where speed matters.
     """
 
     name: str
@@ -42,6 +46,13 @@ class Model:
     bounds: tuple[tuple[float, float], ...]
     func: Callable[..., np.ndarray] = field(repr=False)
     jac: Callable[..., np.ndarray] = field(repr=False)
+    prepare: Callable | None = field(default=None, repr=False)
+
+    def evaluators(self, x) -> tuple[Callable, Callable]:
+        """(f(θ), jac(θ)) for fixed inputs ``x``; fast closures where the model has them."""
+        if self.prepare is not None:
+            return self.prepare(x)
+        return (lambda theta: self.func(x, *theta)), (lambda theta: self.jac(x, *theta))
 
     def __call__(self, x, *params) -> np.ndarray:
         return self.func(x, *params)

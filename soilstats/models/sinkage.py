@@ -25,7 +25,10 @@ def _power(z: np.ndarray, n: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def bekker(x, kc, kphi, n):
-    """Bekker p = (kc/b + kφ)·z^n (Eq. 7).  ``x = (b [m], z [m])``; kc in N/m^(n+1), kφ in N/m^(n+2)."""
+    """Bekker p = (kc/b + kφ)·z^n (Eq. 7).
+
+    ``x = (b [m], z [m])``; kc in N/m^(n+1), kφ in N/m^(n+2), p in Pa.
+    """
     b, z = x
     zn, _ = _power(z, n)
     return (kc / b + kphi) * zn
@@ -61,6 +64,62 @@ def reece_jac(x, k1, k2, n):
     return np.column_stack([zbn, b * zbn, (k1 + k2 * b) * zbn * ln_zb])
 
 
+class _PowerCache:
+    """z^n for fixed z, with ln z precomputed and the last z^n kept (f and J share it)."""
+
+    def __init__(self, z) -> None:
+        z = np.asarray(z, dtype=float)
+        self.contact = z > 0
+        self.all_contact = bool(self.contact.all())
+        self.lnz = np.log(np.where(self.contact, z, 1.0))
+        self._n = None
+        self._zn = None
+
+    def __call__(self, n: float) -> np.ndarray:
+        if n != self._n:
+            zn = np.exp(n * self.lnz)
+            if not self.all_contact:
+                zn[~self.contact] = 0.0
+            self._n, self._zn = n, zn
+        return self._zn
+
+
+def _prepare_bekker(x):
+    b, z = x
+    inv_b = 1.0 / np.asarray(b, dtype=float)
+    power = _PowerCache(z)
+    out = np.empty((inv_b.size, 3))
+
+    def f(theta):
+        kc, kphi, n = theta
+        return (kc * inv_b + kphi) * power(n)
+
+    def jac(theta):
+        kc, kphi, n = theta
+        zn = power(n)
+        np.multiply(zn, inv_b, out=out[:, 0])
+        out[:, 1] = zn
+        np.multiply((kc * inv_b + kphi) * zn, power.lnz, out=out[:, 2])
+        return out.copy()
+
+    return f, jac
+
+
+def _prepare_bernstein(z):
+    power = _PowerCache(z)
+
+    def f(theta):
+        k, n = theta
+        return k * power(n)
+
+    def jac(theta):
+        k, n = theta
+        zn = power(n)
+        return np.column_stack([zn, k * zn * power.lnz])
+
+    return f, jac
+
+
 _N_RANGE = (0.0, 5.0)  # measured n of dry granular soils and clays lie well inside (paper: 0.8–3.6)
 
 BEKKER = Model(
@@ -73,6 +132,7 @@ BEKKER = Model(
     bounds=((0.0, np.inf), (0.0, np.inf), _N_RANGE),
     func=bekker,
     jac=bekker_jac,
+    prepare=_prepare_bekker,
 )
 
 BERNSTEIN = Model(
@@ -85,6 +145,7 @@ BERNSTEIN = Model(
     bounds=((0.0, np.inf), _N_RANGE),
     func=bernstein,
     jac=bernstein_jac,
+    prepare=_prepare_bernstein,
 )
 
 REECE = Model(

@@ -20,7 +20,7 @@ NIST_DIR = Path(os.environ.get("SOILSTATS_NIST_DIR", _DEFAULT))
 
 
 def lre(estimate: float, certified: float) -> float:
-    """Log relative error: agreeing significant digits (capped at 15; absolute when certified is 0)."""
+    """Log relative error: agreeing significant digits (capped at 15; absolute if certified 0)."""
     if certified == 0.0:
         err = abs(estimate)
         return 15.0 if err == 0 else -math.log10(err)
@@ -72,7 +72,15 @@ def load_nonlinear(name: str) -> NonlinearSet:
     y = np.log(data[:, 0]) if name == "Nelson" else data[:, 0]
     x = data[:, 1:].T if ncols == 3 else data[:, 1]
     return NonlinearSet(
-        name, x, y, np.array(start1), np.array(start2), np.array(cert), np.array(sd), rss, difficulty
+        name,
+        x,
+        y,
+        np.array(start1),
+        np.array(start2),
+        np.array(cert),
+        np.array(sd),
+        rss,
+        difficulty,
     )
 
 
@@ -180,3 +188,59 @@ def load_linear(name: str) -> LinearSet:
 LINEAR_NAMES = ["Norris", "Pontius", "NoInt1", "NoInt2", "Filip", "Longley"] + [
     f"Wampler{i}" for i in range(1, 6)
 ]
+
+
+# -- one-way ANOVA sets -----------------------------------------------------------------------
+@dataclass(frozen=True)
+class AnovaSet:
+    name: str
+    treatment: np.ndarray  # integer labels, first data column
+    response: np.ndarray
+    response_text: tuple[str, ...]  # the response exactly as printed, for exact arithmetic
+    df_between: int
+    ss_between: float
+    ms_between: float
+    f: float
+    df_within: int
+    ss_within: float
+    ms_within: float
+    r_squared: float
+    residual_sd: float
+
+
+def load_anova(name: str) -> AnovaSet:
+    """Data and certified values of one NIST StRD ANOVA set, the values parsed by label.
+
+    AtmWtAg's certified block sits one line lower than its header says, hence labels, not lines.
+    """
+    lines = _lines(NIST_DIR / "anova" / f"{name}.dat")
+    text = "\n".join(lines[:60])
+    num = r"([-+0-9.Ee]+)"
+    between = re.search(rf"^Between \w+\s+(\d+)\s+{num}\s+{num}\s+{num}\s*$", text, re.M)
+    within = re.search(rf"^Within \w+\s+(\d+)\s+{num}\s+{num}\s*$", text, re.M)
+    r2 = float(re.search(rf"Certified R-Squared\s+{num}", text).group(1))
+    sd = float(re.search(rf"Standard Deviation\s+{num}", text).group(1))
+    treatment, response = [], []
+    for line in lines[60:]:
+        parts = line.split()
+        if len(parts) == 2:
+            treatment.append(int(parts[0]))
+            response.append(parts[1])
+    return AnovaSet(
+        name,
+        np.array(treatment),
+        np.array([float(v) for v in response]),
+        tuple(response),
+        int(between.group(1)),
+        float(between.group(2)),
+        float(between.group(3)),
+        float(between.group(4)),
+        int(within.group(1)),
+        float(within.group(2)),
+        float(within.group(3)),
+        r2,
+        sd,
+    )
+
+
+ANOVA_NAMES = ["SiRstv", *(f"SmLs{i:02d}" for i in range(1, 10)), "AtmWtAg"]

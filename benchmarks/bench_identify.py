@@ -1,0 +1,142 @@
+"""Benchmark: the paper-size Bekker identification against the tools a user would pick instead.
+
+Problem (Section 2.1's example, scaled to three plates): plates b = 0.025/0.05/0.075 m,
+10 tests per plate, 100 points per test (3 000 samples), per-test preparation scatter and
+sensor noise, per-test weights 1/max(p).  Every contender starts cold from the same point
+(Wong's linearised estimate, which is also what ``fit_sinkage`` uses) and must return
+parameters *and* their covariance.
+
+    python benchmarks/bench_identify.py            # one run, prints ratios
+
+Reported as ratios from one run on this machine; not a unit test.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import curve_fit
+
+import soilstats
+from soilstats import BEKKER, identify
+from soilstats.identification.wong import wong_bekker
+
+TRUTH = np.array([-9.8e3, 1.2e6, 0.8])  # Table 5, soil01
+
+
+def paper_size_campaign(seed: int = 0) -> soilstats.Campaign:
+    rng = np.random.default_rng(seed)
+    tests, rows = [], []
+    for radius in (0.025, 0.05, 0.075):
+        for rep in range(10):
+            tid = f"r{radius}-{rep}"
+            kc, kphi, n = TRUTH * [1, rng.normal(1, 0.05), 1] + [0, 0, rng.normal(0, 0.01)]
+            z = np.linspace(5e-4, 0.05, 100)
+            p = BEKKER.func((np.full(100, radius), z), kc, kphi, n)
+            force = p * np.pi * radius**2 + rng.normal(0, 2.0, 100)
+            tests.append(
+                {
+                    "test_id": tid,
+                    "kind": "sinkage",
+                    "soil": "soil01",
+                    "shape": "circle",
+                    "radius_m": radius,
+                    "repetition": rep + 1,
+                }
+            )
+            rows.append(pd.DataFrame({"test_id": tid, "z_m": z, "force_N": force}))
+    return soilstats.Campaign.from_frames(pd.DataFrame(tests), pd.concat(rows, ignore_index=True))
+
+
+def timed(fn, repeat: int) -> tuple[float, object]:
+    out = fn()  # warm imports and caches of the library itself, not of the problem
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+def main(repeat: int = 50) -> pd.DataFrame:
+    campaign = paper_size_campaign()
+    pooled = soilstats.identification.pool_sinkage(campaign, points_per_test=100)
+    b, z, p, w = pooled.x["b_m"], pooled.x["z_m"], pooled.y, pooled.weights
+    x = np.vstack([b, z])
+    p0 = wong_bekker(b, z, p)[0]
+
+    def ours_arrays():
+        return identify(BEKKER, x, p, p0, weights=w)
+
+    def ours_campaign():
+        return soilstats.fit_sinkage(campaign, "bekker")
+
+    def scipy_curve_fit():
+        return curve_fit(BEKKER.func, x, p, p0=p0, sigma=1 / w, absolute_sigma=False)
+
+    def scipy_curve_fit_jac():
+        return curve_fit(BEKKER.func, x, p, p0=p0, sigma=1 / w, jac=BEKKER.jac)
+
+    def wong():
+        return wong_bekker(b, z, p)
+
+    contenders = {
+        "soilstats.identify (arrays)": ours_arrays,
+        "soilstats.fit_sinkage (campaign)": ours_campaign,
+        "scipy curve_fit": scipy_curve_fit,
+        "scipy curve_fit + analytic jac": scipy_curve_fit_jac,
+        "Wong (linearised)": wong,
+    }
+    try:
+        import lmfit
+
+        model = lmfit.Model(
+            lambda b, z, kc, kphi, n: BEKKER.func((b, z), kc, kphi, n), independent_vars=["b", "z"]
+        )
+        params = model.make_params(kc=p0[0], kphi=p0[1], n=p0[2])
+
+        def lmfit_fit():
+            return model.fit(p, params, b=b, z=z, weights=w)
+
+        contenders["lmfit Model.fit"] = lmfit_fit
+    except ImportError:
+        print("lmfit not installed: skipped (pip install lmfit)")
+
+    reference = ours_arrays()
+    rows = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for name, fn in contenders.items():
+            seconds, out = timed(fn, repeat)
+            if isinstance(out, soilstats.FitResult):
+                theta = out.params.to_numpy()
+            elif isinstance(out, tuple):
+                theta = np.asarray(out[0])
+            else:
+                theta = np.array([out.params[k].value for k in ("kc", "kphi", "n")])
+            agree = np.max(
+                np.abs(theta - reference.params.to_numpy()) / np.abs(reference.stderr.to_numpy())
+            )
+            rows.append(
+                {"contender": name, "ms_per_fit": seconds * 1e3, "max |Δθ|/σ vs soilstats": agree}
+            )
+    table = pd.DataFrame(rows)
+    base = table.loc[0, "ms_per_fit"]
+    table["time ratio (x soilstats.identify)"] = table["ms_per_fit"] / base
+    print(
+        f"Paper-size Bekker problem: {p.size} samples, {len(pooled.groups)} tests, "
+        f"median of {repeat} cold-start fits each"
+    )
+    print(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+    print(
+        f"\nsoilstats.identify: {base:.3f} ms per complete fit (target <= 1 ms); "
+        f"curve_fit / soilstats = {table.loc[2, 'ms_per_fit'] / base:.1f}x"
+    )
+    return table
+
+
+if __name__ == "__main__":
+    main()

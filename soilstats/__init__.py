@@ -1,0 +1,57 @@
+"""soilstats — Bevameter soil-parameter identification with honest uncertainty.
+
+Turns raw plate-sinkage and shear-ring measurements into Bekker, Bernstein, Reece,
+Janosi–Hanamoto and Mohr–Coulomb parameters by the weighted identification of
+Holz et al.'s "systematic approach" (weighted Levenberg–Marquardt, fit quality ε, σ from the
+covariance), with health flags on every fit.
+
+>>> import soilstats
+>>> campaign = soilstats.load_campaign("cullinan-sand")          # bundled real data
+>>> fit = soilstats.fit_sinkage(campaign, "bernstein", preparation="1")
+>>> fit.params["n"], fit.stderr["n"]                               # doctest: +SKIP
+>>> print(fit.summary())                                           # doctest: +SKIP
+
+Any model f(x, *params) can be identified the same way::
+
+    result = soilstats.identify(f, x, y, p0=[1.0, 0.1], weights=w)
+"""
+
+from __future__ import annotations
+
+from .campaign import Campaign, bundled_campaigns, load_campaign
+from .errors import (
+    CampaignError,
+    ConvergenceError,
+    ConvergenceWarning,
+    IdentifiabilityError,
+    SoilstatsWarning,
+)
+from .fitting import FitResult, identify, linear_least_squares
+from .identification import fit_shear, fit_sinkage, parameter_table
+from .models import BEKKER, BERNSTEIN, JANOSI, MOHR_COULOMB, REECE, Model, get_model
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BEKKER",
+    "BERNSTEIN",
+    "JANOSI",
+    "MOHR_COULOMB",
+    "REECE",
+    "Campaign",
+    "CampaignError",
+    "ConvergenceError",
+    "ConvergenceWarning",
+    "FitResult",
+    "IdentifiabilityError",
+    "Model",
+    "SoilstatsWarning",
+    "bundled_campaigns",
+    "fit_shear",
+    "fit_sinkage",
+    "get_model",
+    "identify",
+    "linear_least_squares",
+    "load_campaign",
+    "parameter_table",
+]

@@ -1,0 +1,1 @@
+"""Command-line programs; each ``soilstats/<name>.py`` shim runs one with ``python -m``."""

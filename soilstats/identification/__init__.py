@@ -1,0 +1,10 @@
+"""The paper's identification procedures on campaigns (Sections 2.1 and 2.2)."""
+
+from __future__ import annotations
+
+from .shear import fit_shear
+from .sinkage import fit_sinkage, pool_sinkage
+from .steady_state import steady_state
+from .table import parameter_table
+
+__all__ = ["fit_shear", "fit_sinkage", "parameter_table", "pool_sinkage", "steady_state"]

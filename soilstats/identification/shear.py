@@ -1,0 +1,203 @@
+"""``fit_shear``: shear parameters from shear-ring tests (Section 2.2, Eqs. 12–15)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from ..errors import CampaignError
+from ..fitting.identify import epsilon, identify
+from ..fitting.linear import linear_least_squares
+from ..fitting.result import FitResult, HealthFlag
+from ..models import JANOSI, MOHR_COULOMB, get_model
+from .pooling import select_one_soil
+from .steady_state import steady_state
+
+__all__ = ["fit_shear"]
+
+_DEG = 180.0 / np.pi
+
+
+def _collect(campaign, selection, steady_only: bool, weighting: str):
+    chosen, tests = select_one_soil(campaign, "shear", selection)
+    samples = chosen.shear
+    by_test = samples.groupby("test_id", sort=False).indices
+    sig, tau, jj, ww, rows = [], [], [], [], []
+    for _, test in tests.iterrows():
+        tid = test["test_id"]
+        idx = by_test.get(tid, np.array([], int))
+        s = samples["sigma_Pa"].to_numpy(float)[idx]
+        t = samples["tau_Pa"].to_numpy(float)[idx]
+        j = samples["j_m"].to_numpy(float)[idx]
+        row = {"test_id": tid, "samples": int(idx.size), "sigma_mean_Pa": float(np.mean(s))}
+        if steady_only:
+            ss = steady_state(j, t)
+            row.update(
+                steady=ss.steady,
+                steady_from_j_m=float(j[ss.indices].min()) if ss.indices.size else np.nan,
+                used=int(ss.indices.size),
+                tau_ss_Pa=ss.tau_level,
+                reason=ss.reason,
+            )
+            if not ss.steady:
+                rows.append(row)
+                continue
+            keep = ss.indices
+        else:
+            keep = np.flatnonzero(j >= 0)
+            row.update(used=int(keep.size), excluded_j_negative=int(idx.size - keep.size))
+        t_max = float(np.max(t[keep]))
+        if weighting == "max-stress" and t_max <= 0:
+            raise CampaignError(
+                f"max shear stress {t_max:g} Pa ≤ 0: the weight 1/max(τ) is undefined",
+                file="shear.csv",
+                column="torque_Nm",
+                test_id=str(tid),
+            )
+        weight = 1.0 / t_max if weighting == "max-stress" else 1.0
+        row["weight"] = weight
+        sig.append(s[keep])
+        tau.append(t[keep])
+        jj.append(j[keep])
+        ww.append(np.full(keep.size, weight))
+        rows.append(row)
+    groups = pd.DataFrame(rows)
+    if not sig:
+        raise CampaignError(
+            "no selected shear test reaches a steady state, so Mohr–Coulomb (Eq. 15) has no "
+            "data; see the steady-state rule in soilstats.identification.steady_state",
+            file="shear.csv",
+            column="torque_Nm",
+        )
+    return (
+        np.concatenate(sig),
+        np.concatenate(tau),
+        np.concatenate(jj),
+        np.concatenate(ww),
+        groups,
+    )
+
+
+def fit_shear(
+    campaign,
+    model: str = "mohr-coulomb",
+    *,
+    weighting: Literal["none", "max-stress"] | None = None,
+    p0=None,
+    on_failure: Literal["raise", "warn"] = "raise",
+    **selection,
+) -> FitResult:
+    """Identify c, φ (Mohr–Coulomb, Eq. 15) or c, φ, K (Janosi–Hanamoto, Eq. 13).
+
+    Mohr–Coulomb is a *linear* least-squares fit of τ = c + σ·tan φ on the steady-state part
+    of every test (rule in :mod:`soilstats.identification.steady_state`); φ and its σ follow
+    from tan φ by the delta method.  Janosi–Hanamoto is the weighted LM fit of Eq. 13 on
+    whole records (j ≥ 0).  Weighting defaults to unit weights for Mohr–Coulomb (as the
+    paper's Section 4.2) and 1/max(τ) per test for Janosi (Section 2.2 → 2.1).
+    """
+    spec = get_model(model)
+    if spec not in (MOHR_COULOMB, JANOSI):
+        raise ValueError(f"model must be 'mohr-coulomb' or 'janosi' for shear, got {model!r}")
+    if weighting is None:
+        weighting = "none" if spec is MOHR_COULOMB else "max-stress"
+    if weighting not in ("none", "max-stress"):
+        raise ValueError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
+    sigma, tau, j, w, groups = _collect(campaign, selection, spec is MOHR_COULOMB, weighting)
+    n_tests = len(groups)
+    notes = [
+        f"{n_tests} shear tests; normal pressures "
+        f"{groups['sigma_mean_Pa'].min():.4g}–{groups['sigma_mean_Pa'].max():.4g} Pa."
+    ]
+    flags = []
+    if spec is MOHR_COULOMB:
+        unsteady = groups[~groups["steady"].astype(bool)]
+        notes.append(
+            "Steady-state part per test: from where tau stays >= 95% of its plateau "
+            "(median of the last 25% of j); used only if it drifts <= 10%."
+        )
+        if len(unsteady):
+            msg = (
+                f"{len(unsteady)} test(s) never reached a steady state and were not used: "
+                + "; ".join(f"{r.test_id}: {r.reason}" for r in unsteady.itertuples())
+            )
+            notes.append(msg)
+            flags.append(HealthFlag("excluded-tests", msg))
+        if (
+            np.unique(np.round(groups.loc[groups["steady"].astype(bool), "sigma_mean_Pa"], 6)).size
+            < 2
+        ):
+            raise CampaignError(
+                "Mohr–Coulomb needs steady-state data at two or more normal "
+                "pressures (Section 2.2)",
+                file="shear.csv",
+                column="normal_force_N",
+            )
+        lin = linear_least_squares(
+            np.column_stack([np.ones_like(sigma), sigma]), tau, weights=w, names=("c", "tan_phi")
+        )
+        c, t = lin.params.to_numpy()
+        grad = np.array([[1.0, 0.0], [0.0, _DEG / (1.0 + t * t)]])  # d(c, φ°)/d(c, tan φ)
+        cov = grad @ lin.cov.to_numpy() @ grad.T
+        names = MOHR_COULOMB.param_names
+        notes.append(
+            "Linear least squares (Section 2.2); phi = atan(tan phi), sigma by the delta method."
+        )
+        return FitResult(
+            model_name="mohr-coulomb",
+            param_names=names,
+            values=np.array([c, np.degrees(np.arctan(t))]),
+            errors=np.sqrt(np.diag(cov)),
+            covariance=cov,
+            epsilon=epsilon(w * lin.residuals, w * tau),
+            rss=lin.rss,
+            nobs=lin.nobs,
+            dof=lin.dof,
+            nfev=0,
+            niter=0,
+            converged=True,
+            message="linear least squares (closed form)",
+            units=dict(zip(names, MOHR_COULOMB.units, strict=True)),
+            bounds=dict(zip(names, MOHR_COULOMB.bounds, strict=True)),
+            jacobian_method="none",
+            method="linear least squares on the steady-state part (Eq. 15)",
+            condition_number=lin.condition_number,
+            residuals=w * lin.residuals,
+            extra_flags=tuple(flags),
+            notes=tuple(notes),
+            groups=groups,
+        )
+    if p0 is None:
+        # Start from Mohr–Coulomb on the upper half of j and K from the 63 % point.
+        upper = j >= np.median(j)
+        lin = linear_least_squares(
+            np.column_stack([np.ones(upper.sum()), sigma[upper]]), tau[upper]
+        )
+        c0, t0 = lin.params.to_numpy()
+        tau_max = c0 + sigma * t0
+        ratio = np.clip(tau / np.where(tau_max > 0, tau_max, np.inf), 0, 0.999)
+        k0 = (
+            float(
+                np.median(
+                    -j[(ratio > 0.2) & (ratio < 0.9)]
+                    / np.log1p(-ratio[(ratio > 0.2) & (ratio < 0.9)])
+                )
+            )
+            if np.any((ratio > 0.2) & (ratio < 0.9))
+            else float(np.median(j))
+        )
+        p0 = [max(c0, 1.0), np.degrees(np.arctan(max(t0, 1e-3))), max(k0, 1e-5)]
+    notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
+    result = identify(
+        JANOSI,
+        np.vstack([sigma, j]),
+        tau,
+        p0,
+        weights=w,
+        on_failure=on_failure,
+        notes=notes,
+        extra_flags=flags,
+    )
+    return replace(result, groups=groups)

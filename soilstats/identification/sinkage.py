@@ -1,0 +1,241 @@
+"""``fit_sinkage``: the paper's pressure–sinkage identification (Section 2.1, Eqs. 6–11)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from ..errors import CampaignError, IdentifiabilityError
+from ..fitting.identify import epsilon, identify
+from ..fitting.result import FitResult
+from ..models import BERNSTEIN, REECE, get_model
+from .pooling import PooledData, equidistant_indices, select_one_soil
+from .wong import wong_bekker, wong_bernstein
+
+__all__ = ["fit_sinkage", "pool_sinkage"]
+
+SINKAGE_MODELS = ("bekker", "bernstein", "reece")
+
+
+def pool_sinkage(
+    campaign,
+    *,
+    points_per_test: int | None = 100,
+    weighting: Literal["max-pressure", "none"] = "max-pressure",
+    **selection,
+) -> PooledData:
+    """Stack the selected sinkage tests into (b, z) → p arrays with per-test weights.
+
+    Samples with z ≤ 0 (sensor zero offsets, the plate not yet in contact) are excluded:
+    z^n has no real value there.  Samples with p ≤ 0 at z > 0 are kept — they are
+    measurements, and least squares handles them.  Of the rest, ``points_per_test`` samples
+    nearest to equally spaced sinkages are used (Section 2.1; ``None`` keeps all).  Each test is
+    weighted by 1/max(p) over its used samples (Section 2.1), or 1 with ``weighting="none"``.
+    """
+    if weighting not in ("max-pressure", "none"):
+        raise ValueError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
+    chosen, tests = select_one_soil(campaign, "sinkage", selection)
+    samples = chosen.sinkage
+    by_test = {tid: idx for tid, idx in samples.groupby("test_id", sort=False).indices.items()}
+    zs, ps, bs, ws, owner, rows = [], [], [], [], [], []
+    z_all = samples["z_m"].to_numpy(float)
+    p_all = samples["pressure_Pa"].to_numpy(float)
+    for position, (_, test) in enumerate(tests.iterrows()):
+        tid = test["test_id"]
+        idx = by_test.get(tid, np.array([], int))
+        z, p = z_all[idx], p_all[idx]
+        contact = z > 0
+        z, p = z[contact], p[contact]
+        use = equidistant_indices(z, points_per_test)
+        z, p = z[use], p[use]
+        if z.size < 3:
+            raise CampaignError(
+                f"only {z.size} samples with z > 0; a sinkage fit needs at least 3 per test",
+                file="sinkage.csv",
+                column="z_m",
+                test_id=str(tid),
+            )
+        p_max = float(p.max())
+        if weighting == "max-pressure" and p_max <= 0:
+            raise CampaignError(
+                f"max pressure is {p_max:g} Pa ≤ 0, so the weight 1/max(p) of Section 2.1 is "
+                "undefined; check the force sign or exclude the test",
+                file="sinkage.csv",
+                column="force_N",
+                test_id=str(tid),
+            )
+        weight = 1.0 / p_max if weighting == "max-pressure" else 1.0
+        zs.append(z)
+        ps.append(p)
+        bs.append(np.full(z.size, float(test["b_m"])))
+        ws.append(np.full(z.size, weight))
+        owner.append(np.full(z.size, position))
+        rows.append(
+            {
+                "test_id": tid,
+                "b_m": float(test["b_m"]),
+                "samples": int(idx.size),
+                "excluded_z_nonpositive": int((~contact).sum()),
+                "used": int(z.size),
+                "z_max_m": float(z.max()),
+                "p_max_Pa": p_max,
+                "weight": weight,
+            }
+        )
+    return PooledData(
+        x={"b_m": np.concatenate(bs), "z_m": np.concatenate(zs)},
+        y=np.concatenate(ps),
+        weights=np.concatenate(ws),
+        test_index=np.concatenate(owner),
+        groups=pd.DataFrame(rows),
+    )
+
+
+def _check_identifiable(model_name: str, pooled: PooledData) -> None:
+    sizes = np.unique(pooled.x["b_m"])
+    if model_name in ("bekker", "reece") and sizes.size < 2:
+        raise IdentifiabilityError(
+            f"the {model_name} model needs tests with at least two plate sizes b to separate "
+            f"its size terms (Section 2.1); the selection has one (b = {sizes[0]:g} m). "
+            "Fit model='bernstein' instead, or add tests with another plate size."
+        )
+
+
+def _notes(pooled: PooledData, points_per_test, weighting, model_name) -> list[str]:
+    g = pooled.groups
+    notes = [
+        f"{len(g)} tests pooled ({', '.join(map(str, g['test_id'][:6]))}"
+        f"{', …' if len(g) > 6 else ''}); plate sizes b = "
+        f"{', '.join(f'{b:g}' for b in sorted(g['b_m'].unique()))} m.",
+        (
+            "Weights w = 1/max(p) per test (Section 2.1), so each test's pressures span 0..1."
+            if weighting == "max-pressure"
+            else "Unit weights (weighting='none')."
+        ),
+        (
+            f"Up to {points_per_test} samples per test, nearest to equally spaced sinkages "
+            f"(Section 2.1): {int(g['used'].sum())} of {int(g['samples'].sum())} used."
+            if points_per_test
+            else f"All {int(g['used'].sum())} samples with z > 0 used."
+        ),
+    ]
+    dropped = int(g["excluded_z_nonpositive"].sum())
+    if dropped:
+        notes.append(
+            f"{dropped} samples with z <= 0 excluded (no real z^n; per test in result.groups)."
+        )
+    return notes
+
+
+def fit_sinkage(
+    campaign,
+    model: str = "bekker",
+    *,
+    method: Literal["lm", "wong"] = "lm",
+    points_per_test: int | None = 100,
+    weighting: Literal["max-pressure", "none"] = "max-pressure",
+    p0=None,
+    on_failure: Literal["raise", "warn"] = "raise",
+    **selection,
+) -> FitResult:
+    """Identify Bekker (Eq. 7), Bernstein (Eq. 8) or Reece parameters from sinkage tests.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        From :func:`soilstats.load_campaign`.
+    model : {"bekker", "bernstein", "reece"}
+    method : {"lm", "wong"}
+        ``"lm"``: the paper's weighted Levenberg–Marquardt (Eq. 9) with σ from Eq. 3–5.
+        ``"wong"``: Wong's p²-weighted log–log regression, for comparison (Fig. 3).
+    points_per_test, weighting
+        See :func:`pool_sinkage`.
+    p0 : sequence, optional
+        Starting values; by default Wong's estimate (a closed-form linear solve).
+    **selection
+        Test-log filters, e.g. ``soil="soil01", velocity_m_s=4.8e-3``; must leave one soil.
+
+    Returns
+    -------
+    FitResult
+        ``params``/``stderr`` indexed ``kc, kphi, n`` / ``k, n`` / ``k1, k2, n``;
+        ``groups`` holds the per-test bookkeeping (samples used, excluded, weight).
+    """
+    spec = get_model(model)
+    if spec.name not in SINKAGE_MODELS:
+        raise ValueError(f"model must be one of {SINKAGE_MODELS} for sinkage, got {model!r}")
+    if method not in ("lm", "wong"):
+        raise ValueError(f"method must be 'lm' or 'wong', got {method!r}")
+    pooled = pool_sinkage(
+        campaign, points_per_test=points_per_test, weighting=weighting, **selection
+    )
+    _check_identifiable(spec.name, pooled)
+    b, z, p, w = pooled.x["b_m"], pooled.x["z_m"], pooled.y, pooled.weights
+    x = z if spec is BERNSTEIN else np.vstack([b, z])
+    notes = _notes(pooled, points_per_test, weighting, spec.name)
+
+    if method == "wong":
+        if spec is REECE:
+            raise ValueError("Wong's method is defined for the Bekker and Bernstein models")
+        wong = wong_bernstein if spec is BERNSTEIN else wong_bekker
+        args = (z, p) if spec is BERNSTEIN else (b, z, p)
+        theta, cov, n_nonpos = wong(*args)
+        resid = w * (p - spec.func(x, *theta))
+        rss = float(resid @ resid)
+        notes.append(
+            "Wong's method: ln p on ln z weighted by p^2; sigma from the linearised "
+            f"regressions, not Eq. 4. {n_nonpos} samples with p <= 0 have no log and were excluded."
+        )
+        names = spec.param_names
+        return FitResult(
+            model_name=f"{spec.name} (Wong)",
+            param_names=names,
+            values=np.asarray(theta, float),
+            errors=np.sqrt(np.diag(cov)),
+            covariance=cov,
+            epsilon=epsilon(resid, w * p),
+            rss=rss,
+            nobs=p.size,
+            dof=p.size - len(names),
+            nfev=0,
+            niter=0,
+            converged=True,
+            message="closed-form linear regressions",
+            units=dict(zip(names, spec.units, strict=True)),
+            bounds=dict(zip(names, spec.bounds, strict=True)),
+            jacobian_method="none",
+            method="Wong: p^2-weighted log-log regression",
+            residuals=resid,
+            notes=tuple(notes),
+            groups=pooled.groups,
+        )
+
+    if p0 is None:
+        p0 = _starting_values(spec.name, b, z, p)
+    result = identify(spec, x, p, p0, weights=w, on_failure=on_failure, notes=notes)
+    return _with_groups(result, pooled)
+
+
+def _with_groups(result: FitResult, pooled: PooledData) -> FitResult:
+    from dataclasses import replace
+
+    return replace(result, groups=pooled.groups)
+
+
+def _starting_values(model_name: str, b, z, p) -> np.ndarray:
+    """Wong's linearised estimate: cheap and usually within a few LM steps of the optimum."""
+    try:
+        if model_name == "bernstein":
+            return wong_bernstein(z, p)[0]
+        theta = wong_bekker(b, z, p)[0]
+    except (ValueError, np.linalg.LinAlgError):
+        theta = np.array([0.0, np.median(p / np.maximum(z, 1e-9)), 1.0])
+    if model_name == "reece":
+        # Reece's (k1 + k2·b)(z/b)^n equals Bekker's form when k1 = kc·b^(n−1), k2 = kφ·b^(n−1)
+        # at a reference b; use the geometric mean plate size for the map.
+        kc, kphi, n = theta
+        b_ref = float(np.exp(np.mean(np.log(np.unique(b)))))
+        return np.array([kc * b_ref ** (n - 1), kphi * b_ref ** (n - 1), n])
+    return theta
