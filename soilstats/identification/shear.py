@@ -115,7 +115,7 @@ def fit_shear(
     if spec is MOHR_COULOMB:
         unsteady = groups[~groups["steady"].astype(bool)]
         notes.append(
-            "Steady-state part per test: from where tau stays >= 95% of its plateau "
+            "Steady-state part per test: from where tau stays >= 98% of its plateau "
             "(median of the last 25% of j); used only if it drifts <= 10%."
         )
         if len(unsteady):

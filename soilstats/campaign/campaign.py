@@ -1,0 +1,379 @@
+"""The :class:`Campaign`: a validated test log, its samples and their derived quantities."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+from pandas.api.types import is_bool_dtype
+
+from ..errors import CampaignError, SoilstatsWarning
+from . import io
+from ._cells import TEXT_DTYPE
+from .derived import add_sample_columns, add_test_columns
+from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
+from .summary import describe
+from .validate import Frames, Issue, validate
+
+__all__ = ["SKIPPED_COLUMNS", "Campaign", "load_campaign"]
+
+OnError = Literal["raise", "skip"]
+#: Columns of :attr:`Campaign.skipped`.
+SKIPPED_COLUMNS: tuple[str, ...] = ("test_id", "file", "column", "row", "reason")
+
+
+def _skipped_table(issues: list[Issue]) -> pd.DataFrame:
+    """One row per skipped test: its first problem, and how many more it has."""
+    by_key: dict[str, list[Issue]] = {}
+    for issue in issues:
+        by_key.setdefault(issue.key, []).append(issue)
+    rows = []
+    for key, found in by_key.items():
+        first, more = found[0], len(found) - 1
+        extra = (
+            f" (and {more} more problem{'s' if more > 1 else ''} with this test)" if more else ""
+        )
+        rows.append((key, first.file, first.column, first.row, first.message + extra))
+    cols = list(zip(*rows, strict=True)) if rows else [[]] * len(SKIPPED_COLUMNS)
+    out = {
+        c: pd.Series(list(v), dtype="Int64" if c == "row" else TEXT_DTYPE)
+        for c, v in zip(SKIPPED_COLUMNS, cols, strict=True)
+    }
+    return pd.DataFrame(out)
+
+
+def _check_on_error(on_error: str) -> None:
+    if on_error not in ("raise", "skip"):
+        raise ValueError(f"on_error={on_error!r} is not an option; use 'raise' or 'skip'")
+
+
+def _check_derived(
+    given: pd.Series, computed: pd.Series, name: str, col: str, ids: pd.Series
+) -> None:
+    """An input column named like a derived one must agree with the computed value."""
+    g = pd.to_numeric(given, errors="coerce").to_numpy(dtype=np.float64, na_value=np.nan)
+    c = computed.to_numpy(dtype=np.float64, na_value=np.nan)
+    ok = np.isclose(g, c, rtol=1e-9, atol=0.0, equal_nan=True)
+    if ok.all():
+        return
+    i = int(np.flatnonzero(~ok)[0])
+    raise CampaignError(
+        f"this column is computed by soilstats, and the value given, {given.iloc[i]!r}, differs "
+        f"from the computed {c[i]!r} — drop the column (soilstats adds it; see "
+        "docs/campaign-format.md for how it is computed)",
+        file=name,
+        column=col,
+        test_id=str(ids.iloc[i]),
+        row=int(given.index[i]) + 1,
+    )
+
+
+def _derive(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> dict[str, pd.DataFrame]:
+    """Append the derived columns; index of each table = original data row, reset at the end."""
+    given = {s: {c: tables[s][c] for c in DERIVED_COLUMNS[s] if c in tables[s]} for s in FILES}
+    base = {s: tables[s].drop(columns=list(given[s])) for s in FILES}
+    ids = pd.concat([base["sinkage"]["test_id"], base["shear"]["test_id"]], ignore_index=True)
+    n = ids.value_counts().reindex(base["tests"]["test_id"].to_numpy(), fill_value=0)
+    tests = add_test_columns(base["tests"], n.to_numpy())
+    sinkage, shear = add_sample_columns(tests, base["sinkage"], base["shear"])
+    out = {"tests": tests, "sinkage": sinkage, "shear": shear}
+    for s in FILES:
+        for col, values in given[s].items():
+            _check_derived(values, out[s][col], names[s], col, out[s]["test_id"])
+    return {s: f.reset_index(drop=True) for s, f in out.items()}
+
+
+def _build(frames: Frames, *, source: str, on_error: OnError) -> Campaign:
+    _check_on_error(on_error)
+    tables = validate(frames)
+    if tables.issues and on_error == "raise":
+        raise tables.issues[0].error()
+    skipped = _skipped_table(tables.issues)
+    bad = list(skipped["test_id"])
+    kept = {s: getattr(tables, s) for s in FILES}
+    kept = {s: f[~f["test_id"].isin(bad)] for s, f in kept.items()}
+    if kept["tests"].empty:
+        raise CampaignError(
+            f"every test was skipped ({len(bad)}); the first problem: {tables.issues[0].message}"
+            " — fix the campaign (see campaign.skipped of a partial load for the reasons)",
+            file=tables.issues[0].file,
+        )
+    out = _derive(kept, {s: name for s, (_, name) in frames.items()})
+    if len(skipped):
+        listed = "; ".join(
+            f"{r.test_id!r} ({r.file}, column {r.column!r}"
+            + (f", row {r.row}" if not pd.isna(r.row) else "")
+            + f": {r.reason.split(';')[0].split(' — ')[0]})"
+            for r in skipped.itertuples()
+        )
+        warnings.warn(
+            f"skipped {len(skipped)} test{'s' if len(skipped) > 1 else ''} with all their "
+            f"samples: {listed}. The reasons are in campaign.skipped.",
+            SoilstatsWarning,
+            stacklevel=3,  # the caller of load_campaign or from_frames
+        )
+    return Campaign(out["tests"], out["sinkage"], out["shear"], source, skipped)
+
+
+def load_campaign(path_or_name: str | os.PathLike[str], *, on_error: OnError = "raise") -> Campaign:
+    """Read and validate a campaign folder, or a bundled campaign by name.
+
+    Parameters
+    ----------
+    path_or_name : str or os.PathLike
+        A folder holding ``tests.csv`` (or ``.parquet``) and the sample files, or the name of
+        a bundled campaign (:func:`bundled_campaigns`). A ``str`` equal to a bundled name
+        means the bundled campaign; pass a :class:`pathlib.Path` for a local folder.
+    on_error : {"raise", "skip"}
+        ``"raise"`` (default): raise the first broken rule, scanning tests file, sinkage file,
+        shear file. ``"skip"``: drop every test that breaks a per-test rule with all its
+        samples, list them in :attr:`Campaign.skipped` and emit one
+        :class:`~soilstats.errors.SoilstatsWarning`. File-level problems always raise.
+
+    Returns
+    -------
+    Campaign
+
+    Raises
+    ------
+    CampaignError
+        For an unknown name or path, an unreadable or ambiguous file, or a broken rule.
+    """
+    _check_on_error(on_error)
+    folder, source = io.resolve(path_or_name)
+    return _build(io.read_folder(folder), source=source, on_error=on_error)
+
+
+def _values_present(series: pd.Series, limit: int = 20) -> str:
+    vals = series.dropna().unique().tolist()
+    vals = sorted(vals, key=lambda v: (str(type(v)), v))
+    shown = ", ".join(repr(v) for v in vals[:limit])
+    more = f", … ({len(vals)} in all)" if len(vals) > limit else ""
+    missing = " and missing" if series.isna().any() else ""
+    return f"[{shown}{more}]{missing}"
+
+
+def _is_missing(value: object) -> bool:
+    return value is None or value is pd.NA or (isinstance(value, float) and np.isnan(value))
+
+
+def _match(series: pd.Series, want: Any, column: str) -> np.ndarray:
+    """Boolean mask of the rows of ``series`` that a selection criterion keeps."""
+    if callable(want):
+        got = want(series)
+        got = got if isinstance(got, pd.Series) else pd.Series(np.asarray(got).reshape(-1))
+        if len(got) != len(series) or not is_bool_dtype(got.dtype):
+            raise CampaignError(
+                f"the predicate must return one bool per test ({len(series)} tests), got "
+                f"{len(got)} values of dtype {got.dtype} — return e.g. `col > 0.1`",
+                column=column,
+            )
+        return got.to_numpy(dtype=bool, na_value=False)
+    if isinstance(want, Iterable) and not isinstance(want, str | bytes):
+        wanted = list(want)
+        mask = series.isin(wanted).to_numpy(dtype=bool, na_value=False)
+        if any(_is_missing(w) for w in wanted):
+            mask |= series.isna().to_numpy()
+        return mask
+    if _is_missing(want):
+        return series.isna().to_numpy()
+    try:
+        return (series == want).to_numpy(dtype=bool, na_value=False)
+    except TypeError:  # e.g. comparing a text column with a number: nothing matches
+        return np.zeros(len(series), dtype=bool)
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class Campaign:
+    """A validated Bevameter campaign (see ``docs/campaign-format.md``).
+
+    Build one with :func:`load_campaign` or :meth:`from_frames`; treat the tables as
+    read-only (methods return new campaigns, they never modify this one).
+
+    Attributes
+    ----------
+    tests : DataFrame
+        The log as read — every column, extra covariates included, in file order — plus the
+        derived ``b_m`` [m], ``area_m2`` [m²], ``aspect_ratio`` [-] (sinkage tests),
+        ``ring_area_m2`` [m²] (shear tests) and ``n_samples``; NaN where not applicable.
+    sinkage : DataFrame
+        ``test_id``, ``z_m`` [m], ``force_N`` [N], any extra columns, and ``pressure_Pa``
+        (Eq. 6). Rows in file order; readings with z ≤ 0 or force ≤ 0 are kept.
+    shear : DataFrame
+        ``test_id``, ``angle_rad``, ``torque_Nm`` [N m], ``normal_force_N`` [N], extras, and
+        ``sigma_Pa`` [Pa], ``tau_Pa`` [Pa] (Eq. 12), ``j_m`` [m] (Eq. 14).
+    source : str
+        Folder path, ``"bundled:<name>"`` or ``"<memory>"``.
+    skipped : DataFrame
+        Tests dropped by ``on_error="skip"``: test_id, file, column, row, reason.
+    """
+
+    tests: pd.DataFrame
+    sinkage: pd.DataFrame
+    shear: pd.DataFrame
+    source: str = "<memory>"
+    skipped: pd.DataFrame = field(default_factory=lambda: _skipped_table([]))
+
+    @classmethod
+    def from_frames(
+        cls,
+        tests: pd.DataFrame,
+        sinkage: pd.DataFrame | None = None,
+        shear: pd.DataFrame | None = None,
+        *,
+        source: str = "<memory>",
+        on_error: OnError = "raise",
+    ) -> Campaign:
+        """Validate in-memory tables exactly like :func:`load_campaign`.
+
+        Messages call the tables ``tests.csv``, ``sinkage.csv`` and ``shear.csv``; rows are
+        1-based positions in the frames. Columns named like derived ones (e.g. the
+        ``tests`` of another campaign) must agree with the recomputed values.
+        """
+        frames: Frames = {}
+        for stem, frame in zip(FILES, (tests, sinkage, shear), strict=True):
+            if frame is not None and not isinstance(frame, pd.DataFrame):
+                raise TypeError(f"{stem} must be a pandas DataFrame or None, not {type(frame)}")
+            frames[stem] = (frame, f"{stem}.csv")
+        return _build(frames, source=source, on_error=on_error)
+
+    @property
+    def covariates(self) -> list[str]:
+        """Extra (non-format, non-derived) columns of the log, in file order."""
+        derived = DERIVED_COLUMNS["tests"]
+        return [c for c in self.tests.columns if spec("tests", c) is None and c not in derived]
+
+    def select(self, **criteria: Any) -> Campaign:
+        """Keep the tests that meet every criterion, with their samples.
+
+        Parameters
+        ----------
+        **criteria
+            ``column=value`` on any column of :attr:`tests` (format, covariate or derived):
+            a scalar keeps equal values (None/NaN keeps missing ones), a list, tuple, set or
+            array keeps members, a callable gets the column (a Series) and returns a bool
+            mask. Use ``select(**{"odd-name": v})`` for names that are not identifiers.
+
+        Returns
+        -------
+        Campaign
+            A new campaign (same source and skipped list).
+
+        Raises
+        ------
+        CampaignError
+            For an unknown column, or if no test meets all criteria.
+        """
+        cols = list(self.tests.columns)
+        for col in criteria:
+            if col not in cols:
+                raise CampaignError(
+                    f"unknown column for select(); the columns of the log are {cols} — "
+                    "use one of them (names are case-sensitive)",
+                    column=col,
+                )
+        mask = np.ones(len(self.tests), dtype=bool)
+        masks = {c: _match(self.tests[c], w, c) for c, w in criteria.items()}
+        for m in masks.values():
+            mask &= m
+        if not mask.any():
+            empty = [c for c, m in masks.items() if not m.any()]
+            why = "; ".join(
+                f"{c}={criteria[c]!r} (values present: {_values_present(self.tests[c])})"
+                for c in (empty or criteria)
+            )
+            what = "matched no test" if empty else "each match some tests, but no test meets all"
+            raise CampaignError(
+                f"select() kept no test: {why} {what} — change the criteria (text columns "
+                "compare as text: '5', not 5)",
+                column=(empty or list(criteria))[0],
+            )
+        keep = self.tests["test_id"][mask]
+        return replace(
+            self,
+            tests=self.tests[mask].reset_index(drop=True),
+            sinkage=self._rows_of(self.sinkage, keep),
+            shear=self._rows_of(self.shear, keep),
+        )
+
+    @staticmethod
+    def _rows_of(table: pd.DataFrame, ids: pd.Series) -> pd.DataFrame:
+        return table[table["test_id"].isin(list(ids))].reset_index(drop=True)
+
+    def samples(self, test_id: str) -> pd.DataFrame:
+        """The samples of one test (from the sinkage or shear table), in file order."""
+        hit = self.tests.loc[self.tests["test_id"] == test_id, "kind"]
+        if hit.empty:
+            ids = list(self.tests["test_id"])
+            raise CampaignError(
+                f"no test {test_id!r} in this campaign; its tests are {ids[:20]}"
+                + (f" … ({len(ids)} in all)" if len(ids) > 20 else "")
+                + " — use one of them (test_id is text: '001', not 1)",
+                column="test_id",
+            )
+        table = self.sinkage if hit.iloc[0] == "sinkage" else self.shear
+        return table[table["test_id"] == test_id]
+
+    def save(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        format: Literal["csv", "parquet"] = "csv",
+        overwrite: bool = False,
+    ) -> Path:
+        """Write the campaign's raw columns (no derived ones) to a folder.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Folder; created if needed.
+        format : {"csv", "parquet"}
+            File format. CSV floats are written with ``repr`` precision, so
+            ``load_campaign(c.save(p))`` gives back the same values exactly.
+        overwrite : bool
+            Replace campaign files already in the folder (all of tests/sinkage/shear in
+            both formats are removed first). Without it, existing campaign files raise.
+
+        Returns
+        -------
+        Path
+            The folder. A sample file is omitted when its table has no rows.
+        """
+        if format not in ("csv", "parquet"):
+            raise ValueError(f"format={format!r} is not an option; use 'csv' or 'parquet'")
+        folder = Path(path)
+        folder.mkdir(parents=True, exist_ok=True)
+        existing = [folder / n for n in io.CAMPAIGN_FILE_NAMES if (folder / n).exists()]
+        if existing and not overwrite:
+            raise CampaignError(
+                f"{str(folder)!r} already holds campaign files {[p.name for p in existing]} — "
+                "save to a new folder or pass overwrite=True"
+            )
+        for p in existing:
+            p.unlink()
+        for stem, table in (
+            ("tests", self.tests),
+            ("sinkage", self.sinkage),
+            ("shear", self.shear),
+        ):
+            if stem != "tests" and table.empty:
+                continue
+            raw = table.drop(columns=[c for c in DERIVED_COLUMNS[stem] if c in table.columns])
+            io.write_table(raw, folder / f"{stem}.{format}", format)
+        return folder
+
+    def __repr__(self) -> str:
+        kinds = self.tests["kind"].value_counts()
+        by_kind = ", ".join(f"{int(kinds.get(k, 0))} {k}" for k in KINDS)
+        soils = ", ".join(str(s) for s in self.tests["soil"].unique())
+        return f"<Campaign {self.source!r}: {len(self.tests)} tests ({by_kind}); soils: {soils}>"
+
+    def summary(self) -> str:
+        """A readable overview: tests by kind and soil, columns, covariates, samples, skips."""
+        return describe(self)

@@ -1,0 +1,206 @@
+"""Loading: bundled campaigns, the real Cullinan data kept as measured, typing, parquet."""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from soilstats.campaign import Campaign, bundled_campaigns, load_campaign
+from soilstats.data import DATA_DIR
+from soilstats.errors import CampaignError
+
+CULLINAN = DATA_DIR / "cullinan-sand"
+
+
+@pytest.fixture(scope="module")
+def cullinan() -> Campaign:
+    return load_campaign("cullinan-sand")
+
+
+def _raw_sinkage() -> list[list[str]]:
+    # Independent reading with the csv module and Python's float(): the reference values.
+    with (CULLINAN / "sinkage.csv").open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["test_id", "z_m", "force_N"]
+    return rows[1:]
+
+
+def test_bundled_names_and_source(cullinan):
+    assert "cullinan-sand" in bundled_campaigns()
+    assert cullinan.source == "bundled:cullinan-sand"
+    assert len(cullinan.tests) == 13 and len(cullinan.sinkage) == 26000
+    assert cullinan.shear.empty and list(cullinan.shear.columns[:4]) == [
+        "test_id",
+        "angle_rad",
+        "torque_Nm",
+        "normal_force_N",
+    ]
+
+
+def test_bundled_readme_keeps_attribution():
+    text = (CULLINAN / "README.md").read_text(encoding="utf-8")
+    assert text.startswith("> Bundled with soilstats under CC-BY-4.0")
+    assert "doi:10.1016/j.jterra.2023.06.002" in text and "CC-BY-4.0" in text
+
+
+def test_unknown_name_lists_bundled_and_says_path_missing():
+    with pytest.raises(CampaignError) as info:
+        load_campaign("culinan-sand")
+    msg = str(info.value)
+    assert "'cullinan-sand'" in msg and "path does not exist" in msg
+
+
+def test_file_instead_of_folder_is_refused():
+    with pytest.raises(CampaignError, match="is a file"):
+        load_campaign(CULLINAN / "tests.csv")
+
+
+def test_path_forms_give_the_same_campaign(cullinan):
+    by_path = load_campaign(CULLINAN)
+    by_str = load_campaign(str(CULLINAN))
+    assert by_path.source == str(CULLINAN)
+    for c in (by_path, by_str):
+        pd.testing.assert_frame_equal(c.tests, cullinan.tests)
+        pd.testing.assert_frame_equal(c.sinkage, cullinan.sinkage)
+
+
+def test_loading_26k_rows_is_fast():
+    start = time.perf_counter()
+    load_campaign("cullinan-sand")
+    assert time.perf_counter() - start < 1.0
+
+
+def test_every_sample_is_kept_as_measured_in_file_order(cullinan):
+    raw = _raw_sinkage()
+    assert list(cullinan.sinkage["test_id"]) == [r[0] for r in raw]
+    z = np.array([float(r[1]) for r in raw])
+    force = np.array([float(r[2]) for r in raw])
+    np.testing.assert_array_equal(cullinan.sinkage["z_m"].to_numpy(), z)
+    np.testing.assert_array_equal(cullinan.sinkage["force_N"].to_numpy(), force)
+
+
+def test_readings_at_or_below_zero_are_kept(cullinan):
+    s = cullinan.sinkage
+    negative_z = s[s["z_m"] < 0]
+    negative_f = s[s["force_N"] < 0]
+    assert len(negative_z) > 0 and len(negative_f) > 0
+    # several tests, not one, read below zero near their start
+    assert negative_f["test_id"].nunique() > 1
+    assert (negative_f["pressure_Pa"] < 0).all()  # p = F/A keeps the sign
+
+
+def test_test_starting_deep_is_kept(cullinan):
+    start = cullinan.samples("method2-test4")["z_m"].iloc[0]
+    assert start == pytest.approx(3.4e-3, abs=0.05e-3)
+    others = cullinan.select(test_id=lambda s: s != "method2-test4")
+    firsts = others.sinkage.groupby("test_id")["z_m"].first()
+    assert (firsts.abs() < 1e-4).all()
+
+
+def test_log_typing_and_covariates(cullinan):
+    t = cullinan.tests
+    assert cullinan.covariates == ["session", "dry_density_kg_m3", "void_ratio"]
+    assert t["preparation"].iloc[0] == "5"  # preparation is text in the format
+    assert t["repetition"].dtype == np.float64
+    assert t["dry_density_kg_m3"].dtype == np.float64  # every recorded value parses
+    assert t["dry_density_kg_m3"].notna().sum() == 3  # empty cells are missing, not 0
+    assert not pd.api.types.is_numeric_dtype(t["session"])
+    assert list(t.columns[:10]) == list(pd.read_csv(CULLINAN / "tests.csv", nrows=0).columns)
+    assert (t["n_samples"] == 2000).all()
+
+
+def test_text_keys_stay_text(write_campaign):
+    folder = write_campaign(
+        tests="test_id,kind,soil,shape,radius_m,operator,velocity_m_s,note,batch\n"
+        "001,sinkage,NA,circle,0.05,,,NA,1\n"
+        "NA,sinkage,loam,circle,0.05,ann,0.001,wet,\n",
+        sinkage="test_id,z_m,force_N\n001,0,1\nNA,0,1\n",
+    )
+    t = load_campaign(folder).tests
+    assert list(t["test_id"]) == ["001", "NA"]
+    assert t["soil"].iloc[0] == "NA"  # a text value, not a missing one
+    assert pd.isna(t["operator"].iloc[0]) and t["operator"].iloc[1] == "ann"
+    assert np.isnan(t["velocity_m_s"].iloc[0])  # empty optional number: NaN, never 0
+    assert t["velocity_m_s"].iloc[1] == 0.001
+    assert list(t["note"]) == ["NA", "wet"]  # a text covariate keeps every value
+    assert t["batch"].dtype == np.float64 and t["batch"].iloc[0] == 1.0
+    assert np.isnan(t["batch"].iloc[1])
+
+
+def test_missing_tokens_in_numeric_covariate(write_campaign):
+    folder = write_campaign(
+        tests="test_id,kind,soil,shape,radius_m,moisture_pct\n"
+        "a,sinkage,s,circle,0.05,NA\nb,sinkage,s,circle,0.05,3.5\nc,sinkage,s,circle,0.05,\n",
+        sinkage="test_id,z_m,force_N\na,0,1\nb,0,1\nc,0,1\n",
+    )
+    m = load_campaign(folder).tests["moisture_pct"]
+    assert m.dtype == np.float64
+    np.testing.assert_array_equal(m.to_numpy(), [np.nan, 3.5, np.nan])
+
+
+def test_extra_sample_columns_are_kept_and_typed(write_campaign, campaign_frames):
+    campaign_frames["sinkage"]["temperature_C"] = ["20", "", "21", "22", "23"]
+    campaign_frames["sinkage"]["flag"] = ["ok", "", "ok", "drift", "ok"]
+    c = load_campaign(write_campaign(**campaign_frames))
+    s = c.sinkage
+    assert list(s.columns) == ["test_id", "z_m", "force_N", "temperature_C", "flag", "pressure_Pa"]
+    assert s["temperature_C"].dtype == np.float64 and np.isnan(s["temperature_C"].iloc[1])
+    assert s["flag"].iloc[3] == "drift" and pd.isna(s["flag"].iloc[1])
+
+
+def test_sample_rows_need_not_be_contiguous(write_campaign, campaign_frames):
+    c = load_campaign(write_campaign(**campaign_frames))
+    np.testing.assert_array_equal(c.samples("c1")["z_m"].to_numpy(), [-0.0001, 0.001, 0.002])
+    np.testing.assert_array_equal(c.samples("r1")["force_N"].to_numpy(), [0.0, 20.0])
+    assert list(c.samples("s1")["torque_Nm"]) == [0.0, 40.0]
+
+
+def test_parquet_loads_identically_to_csv(tmp_path, cullinan, write_campaign, campaign_frames):
+    # Parquet files written directly with typed columns, as another tool would.
+    folder = tmp_path / "pq"
+    folder.mkdir()
+    tests = pd.read_csv(CULLINAN / "tests.csv", dtype={"test_id": str, "preparation": str})
+    tests.to_parquet(folder / "tests.parquet")
+    raw = _raw_sinkage()
+    sink = pd.DataFrame(
+        {
+            "test_id": [r[0] for r in raw],
+            "z_m": [float(r[1]) for r in raw],
+            "force_N": [float(r[2]) for r in raw],
+        }
+    )
+    sink.to_parquet(folder / "sinkage.parquet")
+    pq = load_campaign(folder)
+    pd.testing.assert_frame_equal(pq.tests, cullinan.tests)
+    pd.testing.assert_frame_equal(pq.sinkage, cullinan.sinkage, check_exact=True)
+    # and text-celled parquet of the small campaign (with shear) equals its csv
+    csv_campaign = load_campaign(write_campaign(**campaign_frames))
+    small = tmp_path / "small"
+    small.mkdir()
+    for stem, frame in campaign_frames.items():
+        frame.to_parquet(small / f"{stem}.parquet")
+    pq_small = load_campaign(small)
+    for name in ("tests", "sinkage", "shear"):
+        pd.testing.assert_frame_equal(getattr(pq_small, name), getattr(csv_campaign, name))
+
+
+def test_from_frames_with_typed_columns(campaign_frames, write_campaign):
+    from_csv = load_campaign(write_campaign(**campaign_frames))
+    typed = Campaign.from_frames(
+        from_csv.tests.drop(columns=["n_samples"]), from_csv.sinkage, from_csv.shear
+    )
+    assert typed.source == "<memory>"
+    pd.testing.assert_frame_equal(typed.tests, from_csv.tests)
+    pd.testing.assert_frame_equal(typed.shear, from_csv.shear)
+
+
+def test_byte_order_mark_is_ignored(write_campaign, campaign_frames):
+    folder = write_campaign(**campaign_frames)
+    path = Path(folder) / "tests.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert list(load_campaign(folder).tests["test_id"]) == ["c1", "r1", "s1"]

@@ -1,0 +1,141 @@
+"""Selection, per-test samples, save/load round trips, repr and summary."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from soilstats.campaign import Campaign, load_campaign
+from soilstats.errors import CampaignError
+
+
+@pytest.fixture(scope="module")
+def cullinan() -> Campaign:
+    return load_campaign("cullinan-sand")
+
+
+@pytest.fixture
+def small(write_campaign, campaign_frames) -> Campaign:
+    return load_campaign(write_campaign(**campaign_frames))
+
+
+def _assert_same(a: Campaign, b: Campaign) -> None:
+    for name in ("tests", "sinkage", "shear"):
+        pd.testing.assert_frame_equal(getattr(a, name), getattr(b, name), check_exact=True)
+
+
+def test_select_scalar_on_text_column(cullinan):
+    sel = cullinan.select(preparation="1")
+    assert list(sel.tests["repetition"]) == [1, 2, 3, 4, 5, 6]
+    assert set(sel.sinkage["test_id"]) == set(sel.tests["test_id"])
+    assert len(sel.sinkage) == 6 * 2000
+    assert len(cullinan.tests) == 13  # the original is untouched
+
+
+def test_select_list_callable_covariate_and_derived(cullinan):
+    assert len(cullinan.select(preparation=["3", "4", "5"]).tests) == 3
+    assert len(cullinan.select(session={"27Aug", "27SEPT"}).tests) == 6
+    dense = cullinan.select(dry_density_kg_m3=lambda s: s > 1500)
+    assert list(dense.tests["test_id"]) == ["method5-test1", "method4-test1"]
+    assert len(cullinan.select(dry_density_kg_m3=None).tests) == 10  # not recorded
+    assert len(cullinan.select(b_m=cullinan.tests["b_m"].iloc[0], kind="sinkage").tests) == 13
+
+
+def test_select_keeps_sample_order(small):
+    sel = small.select(kind="sinkage")
+    assert list(sel.sinkage["test_id"]) == ["c1", "c1", "r1", "c1", "r1"]
+    assert sel.shear.empty
+
+
+def test_select_unknown_column(cullinan):
+    with pytest.raises(CampaignError, match="unknown column") as info:
+        cullinan.select(moisture=3)
+    assert info.value.column == "moisture"
+    assert "dry_density_kg_m3" in str(info.value)
+
+
+def test_select_nothing_says_which_criterion_and_values(cullinan):
+    with pytest.raises(CampaignError) as info:
+        cullinan.select(kind="sinkage", preparation=5)
+    msg = str(info.value)
+    assert "preparation=5" in msg and "'1', '2', '3', '4', '5'" in msg and "'5', not 5" in msg
+    assert info.value.column == "preparation"
+    with pytest.raises(CampaignError, match="no test meets all"):
+        cullinan.select(preparation="5", session="24Aug")
+
+
+def test_select_predicate_must_return_bools(cullinan):
+    with pytest.raises(CampaignError, match="one bool per test"):
+        cullinan.select(radius_m=lambda s: s * 2)
+
+
+def test_samples_unknown_test(small):
+    with pytest.raises(CampaignError, match=r"no test 'c9'.*'c1', 'r1', 's1'"):
+        small.samples("c9")
+
+
+def test_campaign_is_frozen(small):
+    with pytest.raises(AttributeError):
+        small.source = "x"  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_round_trip_small(tmp_path, small, fmt):
+    folder = small.save(tmp_path / "out", format=fmt)
+    assert sorted(p.name for p in folder.iterdir()) == [
+        f"{s}.{fmt}" for s in ("shear", "sinkage", "tests")
+    ]
+    back = load_campaign(folder)
+    _assert_same(back, small)
+    assert back.covariates == small.covariates == ["moisture_pct", "bin"]
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_round_trip_cullinan_exact(tmp_path, cullinan, fmt):
+    folder = cullinan.save(tmp_path / "c", format=fmt)
+    assert not (folder / f"shear.{fmt}").exists()  # no rows, no file
+    _assert_same(load_campaign(folder), cullinan)
+
+
+def test_round_trip_awkward_values(tmp_path, campaign_frames):
+    z = ["-0.0", "5e-324", "1.7976931348623157e308", "0.1", "0.30000000000000004"]
+    campaign_frames["sinkage"]["z_m"] = z
+    campaign_frames["tests"]["note"] = ['a "quoted", text', "", "line\nbreak"]
+    c = Campaign.from_frames(**campaign_frames)
+    back = load_campaign(c.save(tmp_path / "a"))
+    _assert_same(back, c)
+    assert np.signbit(back.sinkage["z_m"].iloc[0])
+    written = (tmp_path / "a" / "tests.csv").read_text().splitlines()[1]
+    assert written.startswith("c1,sinkage,loam,1,circle,0.05,,,0.01")  # whole numbers as ints
+
+
+def test_save_refuses_to_mix_with_existing_files(tmp_path, small):
+    folder = small.save(tmp_path / "x")
+    with pytest.raises(CampaignError, match="overwrite=True"):
+        small.save(folder, format="parquet")
+    small.select(kind="sinkage").save(folder, format="parquet", overwrite=True)
+    assert sorted(p.name for p in folder.iterdir()) == ["sinkage.parquet", "tests.parquet"]
+    with pytest.raises(ValueError, match="'csv' or 'parquet'"):
+        small.save(tmp_path / "y", format="xlsx")  # type: ignore[arg-type]
+
+
+def test_repr_and_summary(cullinan, small):
+    assert repr(cullinan) == (
+        "<Campaign 'bundled:cullinan-sand': 13 tests (13 sinkage, 0 shear); soils: cullinan-sand>"
+    )
+    text = cullinan.summary()
+    for fragment in (
+        "tests: 13 (sinkage 13, shear 0)",
+        "dry_density_kg_m3 (numeric, 3 of 13 recorded)",
+        "sinkage samples: 26000 rows",
+        "z_m",
+        "force_N",
+        "rows with z ≤ 0",
+        "skipped tests: none",
+        "Notes:",
+    ):
+        assert fragment in text, fragment
+    small_text = small.summary()
+    assert "rings: r 0.1–0.15 m, 10 grousers (×1)" in small_text
+    assert "shear samples: 2 rows" in small_text
