@@ -29,6 +29,8 @@ from .errors import (
 from .fitting import FitResult, identify, linear_least_squares
 from .identification import fit_shear, fit_sinkage, parameter_table
 from .models import BEKKER, BERNSTEIN, JANOSI, MOHR_COULOMB, REECE, Model, get_model
+from .simulation import simulate
+from .statistics import anova_oneway
 
 __version__ = "0.1.0"
 
@@ -46,6 +48,7 @@ __all__ = [
     "IdentifiabilityError",
     "Model",
     "SoilstatsWarning",
+    "anova_oneway",
     "bundled_campaigns",
     "fit_shear",
     "fit_sinkage",
@@ -54,4 +57,5 @@ __all__ = [
     "linear_least_squares",
     "load_campaign",
     "parameter_table",
+    "simulate",
 ]

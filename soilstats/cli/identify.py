@@ -4,7 +4,13 @@ For each soil, the sinkage tests are grouped by one test-log column (``--by``; b
 first of velocity_m_s, preparation that varies) and each group is fitted with the paper's
 weighted Levenberg–Marquardt.  Bekker needs two or more plate sizes in a group; where a group
 has only one, the Bernstein model is used instead and the table says so.  Shear tests, where
-present, are fitted with Mohr–Coulomb on their steady-state parts, grouped the same way.
+present, are fitted with Mohr–Coulomb on their steady-state parts, grouped by ``--shear-by``
+(default: the first of tool, r_inner_m that varies).
+
+Campaigns with a ``series`` column (the bundled simulated-paper campaign) hold several test
+series that share soils and velocities; by default the sinkage table uses the ``velocity``
+series and the shear table the ``shear-ring`` series, as the paper's Tables 5 and 6.  Use
+``--series NAME`` or ``--select COLUMN=VALUE`` (repeatable) to choose others.
 """
 
 from __future__ import annotations
@@ -21,6 +27,8 @@ from ..identification.table import format_parameter_table
 
 DEFAULT_DATA = "cullinan-sand"
 _GROUPING_CANDIDATES = ("velocity_m_s", "preparation")
+_SHEAR_GROUPING_CANDIDATES = ("tool", "r_inner_m")
+_DEFAULT_SERIES = {"sinkage": "velocity", "shear": "shear-ring"}
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -47,6 +55,25 @@ def _parser() -> argparse.ArgumentParser:
         help="test-log column that defines the conditions (default: "
         "velocity_m_s, else preparation, whichever varies)",
     )
+    parser.add_argument(
+        "--shear-by",
+        default=None,
+        help="test-log column defining shear conditions (default: tool, else "
+        "r_inner_m, whichever varies)",
+    )
+    parser.add_argument(
+        "--series",
+        default=None,
+        help="only tests of this series (campaigns with a 'series' column; "
+        "default: velocity for sinkage, shear-ring for shear)",
+    )
+    parser.add_argument(
+        "--select",
+        action="append",
+        default=[],
+        metavar="COLUMN=VALUE",
+        help="only tests whose COLUMN equals VALUE (repeatable)",
+    )
     parser.add_argument("--soil", action="append", help="only this soil (repeatable)")
     parser.add_argument("--method", choices=("lm", "wong"), default="lm")
     parser.add_argument("--points-per-test", type=int, default=100)
@@ -54,7 +81,7 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _grouping(tests, requested):
+def _grouping(tests, requested, candidates=_GROUPING_CANDIDATES):
     if requested:
         if requested not in tests.columns:
             raise CampaignError(
@@ -63,7 +90,7 @@ def _grouping(tests, requested):
                 column=requested,
             )
         return requested
-    for column in _GROUPING_CANDIDATES:
+    for column in candidates:
         if column in tests.columns and tests[column].dropna().nunique() > 1:
             return column
     return None
@@ -75,16 +102,67 @@ def _label(value) -> str:
     return str(value)
 
 
+def _parse_select(items: list[str]) -> dict[str, str]:
+    selection = {}
+    for item in items:
+        column, sep, value = item.partition("=")
+        if not sep or not column:
+            raise ValueError(f"--select takes COLUMN=VALUE, got {item!r}")
+        selection[column] = value
+    return selection
+
+
+def _apply_filters(campaign, kind: str, args) -> object:
+    """The campaign restricted to --select and the series to tabulate for ``kind``."""
+    selection = _parse_select(args.select)
+    chosen = campaign
+    for column, text in selection.items():
+        if column not in chosen.tests.columns:
+            raise CampaignError(
+                f"--select: no column {column!r}; columns: {list(chosen.tests.columns)}",
+                file="tests.csv",
+                column=column,
+            )
+        values = chosen.tests[column]
+        # Compare as the column's own type: numbers as numbers, text as text.
+        numeric = np.issubdtype(values.dtype, np.number)
+        chosen = chosen.select(**{column: float(text) if numeric else text})
+    tests = chosen.tests
+    if "series" in tests.columns and "series" not in selection:
+        series = args.series or _DEFAULT_SERIES[kind]
+        present = set(tests.loc[tests["kind"] == kind, "series"].dropna().astype(str))
+        if series in present:
+            chosen = chosen.select(
+                series=lambda col, s=series: (col.astype(str) == s) | (chosen.tests["kind"] != kind)
+            )
+        elif args.series:
+            raise CampaignError(
+                f"--series {series!r} has no {kind} tests; series present: {sorted(present)}",
+                file="tests.csv",
+                column="series",
+            )
+    return chosen
+
+
 def run(args: argparse.Namespace, out=sys.stdout) -> int:
-    campaign = load_campaign(args.data)
-    print(f"Campaign: {campaign.source}", file=out)
-    tests = campaign.tests
-    soils = args.soil or sorted(tests["soil"].astype(str).unique())
+    full = load_campaign(args.data)
+    print(f"Campaign: {full.source}", file=out)
+    soils = args.soil or sorted(full.tests["soil"].astype(str).unique())
     for kind in ("sinkage", "shear"):
+        if not (full.tests["kind"] == kind).any():
+            continue
+        campaign = _apply_filters(full, kind, args)
+        tests = campaign.tests
         kind_tests = tests[tests["kind"] == kind]
         if kind_tests.empty:
             continue
-        by = _grouping(kind_tests, args.by)
+        by = (
+            _grouping(kind_tests, args.by)
+            if kind == "sinkage"
+            else _grouping(kind_tests, args.shear_by, _SHEAR_GROUPING_CANDIDATES)
+        )
+        if "series" in kind_tests.columns and kind_tests["series"].nunique() == 1:
+            print(f"\n[{kind}: series {kind_tests['series'].iloc[0]!r}]", file=out)
         for soil in soils:
             sub = kind_tests[kind_tests["soil"].astype(str) == soil]
             if sub.empty:

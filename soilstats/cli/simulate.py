@@ -28,12 +28,21 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("spec", metavar="SPEC", help="SPEC file (TOML, see docs/simulator.md)")
     parser.add_argument("out", metavar="OUT", help="output folder (created if needed)")
-    parser.add_argument("--seed", type=int, required=True,
-                        help="seed of numpy.random.default_rng (the only source of randomness)")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace campaign and truth files already in OUT")
-    parser.add_argument("--progress", choices=("auto", "on", "off"), default="auto",
-                        help="tqdm progress bar on stderr (auto: only on a terminal)")
+    parser.add_argument(
+        "--seed",
+        type=int,
+        required=True,
+        help="seed of numpy.random.default_rng (the only source of randomness)",
+    )
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace campaign and truth files already in OUT"
+    )
+    parser.add_argument(
+        "--progress",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="tqdm progress bar on stderr (auto: only on a terminal)",
+    )
     return parser
 
 
@@ -47,6 +56,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     kinds = sim.campaign.tests["kind"].value_counts()
-    print(f"wrote {len(sim.campaign.tests)} simulated tests ({int(kinds.get('sinkage', 0))} "
-          f"sinkage, {int(kinds.get('shear', 0))} shear) to {folder}")
+    print(
+        f"wrote {len(sim.campaign.tests)} simulated tests ({int(kinds.get('sinkage', 0))} "
+        f"sinkage, {int(kinds.get('shear', 0))} shear) to {folder}"
+    )
     return 0

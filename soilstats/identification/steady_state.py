@@ -7,7 +7,10 @@ operational and testable:
 1. The plateau level τ_ss is the median shear stress over the last ``tail`` fraction (25 %) of
    the record's shear deformation j.
 2. The steady-state part starts at the first sample from which a running median of τ
-   (window: 2 % of the samples, at least 5) stays at or above ``level`` (98 %) of τ_ss.
+   (window: 2 % of the samples, at least 5) stays at or above ``level`` (98 %) of τ_ss — or,
+   where the record is noisier than that band, above τ_ss minus three standard deviations of
+   the running median (noise measured robustly, by the MAD, on the tail).  Without the noise
+   allowance a record with ~1 % noise never "stays" above 98 % and is wrongly rejected.
 3. The part must be steady: a straight line fitted to τ(j) over it may change by at most
    ``max_drift`` (10 %) of τ_ss across the part, and the part must hold at least
    ``min_samples`` (10) samples.  Otherwise the test is reported as not reaching a steady
@@ -58,7 +61,10 @@ def steady_state(
     tau_level = float(np.median(ts[tail_mask]))
     window = max(5, int(0.02 * ts.size) | 1)
     smooth = median_filter(ts, size=window, mode="nearest")
-    below = np.flatnonzero(smooth < level * tau_level)
+    tail_noise = 1.4826 * np.median(np.abs(ts[tail_mask] - smooth[tail_mask]))
+    # The running median of `window` samples scatters by ≈ 1.25·sd/√window.
+    allowance = max((1.0 - level) * abs(tau_level), 3.0 * 1.25 * tail_noise / np.sqrt(window))
+    below = np.flatnonzero(smooth < tau_level - allowance)
     start = int(below[-1] + 1) if below.size else 0
     part = order[start:]
     if part.size < min_samples:

@@ -1,0 +1,309 @@
+"""``simulate``: a campaign in the campaign format from known soil parameters, with its truth.
+
+Random numbers come only from ``numpy.random.default_rng(seed)``, split into two independent
+streams (parameters, noise) so that switching a noise source off leaves every test's drawn
+parameters unchanged.  The same SPEC and seed give byte-identical files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..campaign import Campaign
+from .design import draw_parameters, expand, operator_biases
+from .effects import apparent_shear, side_wall_K0, side_wall_ratio, softening_of
+from .shear import shear_samples
+from .sinkage import sinkage_samples
+from .spec import SHEAR_PARAMS, SINKAGE_PARAMS, Spec, load_spec, parse_spec
+
+__all__ = ["SimulatedCampaign", "simulate"]
+
+_LOG_ORDER = (
+    "test_id",
+    "kind",
+    "soil",
+    "preparation",
+    "operator",
+    "repetition",
+    "shape",
+    "radius_m",
+    "width_m",
+    "length_m",
+    "velocity_m_s",
+    "r_inner_m",
+    "r_outer_m",
+    "grousers",
+    "grouser_height_m",
+    "omega_rpm",
+    "series",
+)
+_PRIVATE = ("b_m", "area_m2", "aspect_ratio", "normal_pressure_Pa")
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedCampaign:
+    """A simulated campaign and the truth it was drawn from.
+
+    Attributes
+    ----------
+    campaign : Campaign
+        The data, exactly as :func:`soilstats.load_campaign` reads it back after :meth:`save`.
+    truth : dict
+        Per-soil parameters (with condition overrides), planted effects, preparation scatter
+        and operator biases, noise levels, resolution, the SPEC's name, file and SHA-256, and
+        the seed.  Units: kc N/m^(n+1), kphi N/m^(n+2), n -, c Pa, phi deg, K m.
+    test_truth : DataFrame
+        One row per test: the drawn parameters (``kc, kphi, n, c, phi, K``), the soil-level
+        values for that test's condition after effects and before scatter (``*_soil``), the
+        scatter factor, the operator bias, and for shear tests the set-point
+        ``normal_pressure_Pa``, the per-test zero offsets (``force_offset_N``,
+        ``torque_offset_Nm``), and the apparent Mohr–Coulomb values that Eq. 12 + Eq. 15
+        report when side walls act (``c_apparent_Pa``, ``phi_apparent_deg``, drawn;
+        ``c_apparent_soil``, ``phi_apparent_soil``, soil level).
+    spec : Spec
+    seed : int
+    """
+
+    campaign: Campaign
+    truth: dict[str, Any]
+    test_truth: pd.DataFrame
+    spec: Spec
+    seed: int
+
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
+        """Write the campaign files plus ``truth.json``, ``truth_tests.csv`` and ``README.md``.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Folder (created if needed).  Other files in it (e.g. the SPEC) are left alone.
+        overwrite : bool
+            Replace existing campaign and truth files.
+
+        Returns
+        -------
+        Path
+            The folder.
+        """
+        folder = Path(path)
+        own = [folder / n for n in ("truth.json", "truth_tests.csv", "README.md")]
+        if not overwrite and any(p.exists() for p in own):
+            raise FileExistsError(
+                f"{str(folder)!r} already holds simulation files; pass "
+                "overwrite=True (CLI: --overwrite) or choose a new folder"
+            )
+        self.campaign.save(folder, overwrite=overwrite)
+        (folder / "truth.json").write_text(
+            json.dumps(self.truth, indent=2, sort_keys=True) + "\n", encoding="utf-8"
+        )
+        self.test_truth.to_csv(folder / "truth_tests.csv", index=False, lineterminator="\n")
+        (folder / "README.md").write_text(self._readme(), encoding="utf-8")
+        return folder
+
+    def _readme(self) -> str:
+        spec = self.spec
+        kinds = self.campaign.tests["kind"].value_counts()
+        series = ", ".join(f"{s.name} ({s.kind})" for s in spec.series)
+        return f"""# {spec.name} — SIMULATED campaign (not measured data)
+
+{spec.description.strip() or "A campaign simulated by soilstats."}
+
+**These data are simulated** by `soilstats.simulation.simulate` (soilstats
+{self.truth["soilstats_version"]}) from SPEC `{spec.source}` (SHA-256 `{spec.sha256 or "-"}`)
+with seed {self.seed}. No Bevameter produced them.
+
+- {len(self.campaign.tests)} tests: {int(kinds.get("sinkage", 0))} sinkage,
+  {int(kinds.get("shear", 0))} shear; series: {series}.
+- `tests.csv`, `sinkage.csv`, `shear.csv`: the campaign format (docs/campaign-format.md);
+  the `series` column names the test series of each test.
+- `truth.json`: the soils' parameters, the planted effects, scatter, noise and resolution.
+- `truth_tests.csv`: every test's drawn parameters (kc N/m^(n+1), kphi N/m^(n+2), n -,
+  c Pa, phi deg, K m) and its soil-level values.
+
+Regenerate (byte-identical) with
+
+    python -m soilstats.simulate {spec.source} OUT --seed {self.seed}
+
+run in the folder that holds `{spec.source}`; the format of the SPEC is in docs/simulator.md.
+"""
+
+
+def _as_spec(spec: Spec | dict | str | os.PathLike[str]) -> Spec:
+    if isinstance(spec, Spec):
+        return spec
+    if isinstance(spec, dict):
+        return parse_spec(spec)
+    return load_spec(spec)
+
+
+def _truth(spec: Spec, seed: int, biases: dict[tuple[str, str], float]) -> dict[str, Any]:
+    from .. import __version__
+
+    def plain(v):
+        if isinstance(v, dict):
+            return {str(k): plain(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
+            return [plain(x) for x in v]
+        return v
+
+    return {
+        "simulated": True,
+        "seed": seed,
+        "soilstats_version": __version__,
+        "spec": {"name": spec.name, "source": spec.source, "sha256": spec.sha256},
+        "units": {
+            "kc": "N/m^(n+1)",
+            "kphi": "N/m^(n+2)",
+            "n": "-",
+            "c": "Pa",
+            "phi": "deg",
+            "K": "m",
+        },
+        "soils": {
+            name: {
+                "params": soil.params,
+                "conditions": [{"where": w, "params": p} for w, p in soil.conditions],
+            }
+            for name, soil in spec.soils.items()
+        },
+        "effects": [
+            plain({"kind": e.kind, "soils": e.soils, "series": e.series, **e.options})
+            for e in spec.effects
+        ],
+        "preparations": {
+            name: {
+                "scatter": dataclasses.asdict(p.scatter),
+                "operator_cv": p.operator_cv,
+                "operator_biases": {op: b for (pr, op), b in biases.items() if pr == name},
+            }
+            for name, p in spec.preparations.items()
+        },
+        "noise": dataclasses.asdict(spec.noise),
+        "resolution": dataclasses.asdict(spec.resolution),
+    }
+
+
+def simulate(
+    spec: Spec | dict | str | os.PathLike[str], *, seed: int, progress: bool = False
+) -> SimulatedCampaign:
+    """Simulate the campaign a SPEC describes.
+
+    Parameters
+    ----------
+    spec : Spec, dict or path
+        A checked :class:`Spec`, the dict of a parsed TOML file, or the path of a SPEC file
+        (format in ``docs/simulator.md``).
+    seed : int
+        Seed of ``numpy.random.default_rng``; the only source of randomness.
+    progress : bool
+        Show a tqdm progress bar (on stderr) over the tests.
+
+    Returns
+    -------
+    SimulatedCampaign
+
+    Raises
+    ------
+    SpecError
+        For a malformed SPEC (a ``ValueError`` naming the key and the valid options).
+    """
+    spec = _as_spec(spec)
+    param_rng, noise_rng = np.random.default_rng(seed).spawn(2)
+    biases = operator_biases(spec, param_rng)
+    rows = expand(spec)
+    series_of = {s.name: s for s in spec.series}
+    sink_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
+    shear_parts: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = []
+    truth_rows = []
+    iterator = rows
+    if progress:
+        from tqdm import tqdm
+
+        iterator = tqdm(rows, desc=f"simulating {spec.name}", unit="test")
+    for row in iterator:
+        series = series_of[row["series"]]
+        bias = biases[(row["preparation"], row["operator"])]
+        params = draw_parameters(spec, row, param_rng, bias)
+        # The other law's parameters were drawn too (to keep the streams aligned) but do not
+        # act on this test: report them as missing.
+        unused = SHEAR_PARAMS if row["kind"] == "sinkage" else SINKAGE_PARAMS
+        shown = {k: (np.nan if k.removesuffix("_soil") in unused else v) for k, v in params.items()}
+        record = {
+            "test_id": row["test_id"],
+            "series": row["series"],
+            "soil": row["soil"],
+            "kind": row["kind"],
+            **shown,
+            "operator_bias": bias + 0.0,
+        }
+        if row["kind"] == "sinkage":
+            soft = softening_of(spec.effects, row)
+            z, force, offset = sinkage_samples(
+                row,
+                params,
+                soft,
+                spec.noise,
+                spec.resolution,
+                series.start_m,
+                series.sinkage_m,
+                series.points,
+                noise_rng,
+            )
+            sink_parts.append((row["test_id"], z, force))
+            record["force_offset_N"] = offset
+            record["softening_zc_m"], record["softening_factor"] = soft or (np.nan, np.nan)
+        else:
+            K0 = side_wall_K0(spec.effects, row)
+            angle, torque, normal, offset = shear_samples(
+                row,
+                params,
+                K0,
+                spec.noise,
+                spec.resolution,
+                series.shear_deformation_m,
+                series.points,
+                noise_rng,
+            )
+            shear_parts.append((row["test_id"], angle, torque, normal))
+            record["torque_offset_Nm"] = offset
+            a = side_wall_ratio(row["r_inner_m"], row["r_outer_m"], row["grouser_height_m"])
+            k0 = 0.0 if K0 is None else K0
+            a = 0.0 if K0 is None else a
+            record["normal_pressure_Pa"] = row["normal_pressure_Pa"]
+            record["side_wall_K0"] = np.nan if K0 is None else K0
+            record["c_apparent_Pa"], record["phi_apparent_deg"] = apparent_shear(
+                params["c"], params["phi"], a, k0
+            )
+            record["c_apparent_soil"], record["phi_apparent_soil"] = apparent_shear(
+                params["c_soil"], params["phi_soil"], a, k0
+            )
+        truth_rows.append(record)
+
+    tests = pd.DataFrame([{k: v for k, v in r.items() if k not in _PRIVATE} for r in rows])
+    order = [c for c in _LOG_ORDER if c in tests.columns]
+    tests = tests[order + [c for c in tests.columns if c not in order]]
+    sinkage = _stack(sink_parts, ("z_m", "force_N"))
+    shear = _stack(shear_parts, ("angle_rad", "torque_Nm", "normal_force_N"))
+    campaign = Campaign.from_frames(
+        tests, sinkage, shear, source=f"simulated:{spec.name}:seed={seed}"
+    )
+    test_truth = pd.DataFrame(truth_rows)
+    return SimulatedCampaign(campaign, _truth(spec, seed, biases), test_truth, spec, seed)
+
+
+def _stack(parts: list[tuple], columns: tuple[str, ...]) -> pd.DataFrame | None:
+    if not parts:
+        return None
+    ids = np.concatenate([np.full(p[1].size, p[0], dtype=object) for p in parts])
+    data = {"test_id": ids}
+    for i, col in enumerate(columns, start=1):
+        data[col] = np.concatenate([p[i] for p in parts])
+    return pd.DataFrame(data)

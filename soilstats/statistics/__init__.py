@@ -1,0 +1,56 @@
+"""Statistics of setup-effect studies: does a setup variable change the identified parameters?
+
+One tidy :class:`pandas.DataFrame` in (one row per test or per measured point), small tables
+and frozen results out.  Every function checks its columns and raises
+:class:`StatisticsInputError` (a :class:`ValueError`) with the column named; missing values
+raise unless ``dropna=True``, and are then counted in the result.
+
+============================  =============================================================
+:func:`anova_oneway`          one-way ANOVA table, accurate to the data's last digit (NIST)
+:func:`anova_twoway`          factor + blocking factor(s), type II sums of squares
+:func:`ancova`                shear lines τ = c + σ·tanφ by group: do c, φ differ?
+:func:`tukey_hsd`             which pairs of levels differ (simultaneous intervals)
+:func:`effect_sizes`          η², partial η², ω², partial ω² of an ANOVA table
+:func:`scatter_table`         between-repetition scatter per level (n, mean, sd, cv)
+:func:`variance_test`         Brown–Forsythe / Levene test of equal scatter
+:func:`welch_anova`           equal means without equal variances
+:func:`verdicts`              Holm-adjusted verdicts across soils × responses at α
+============================  =============================================================
+
+>>> import pandas as pd
+>>> from soilstats.statistics import anova_oneway, effect_row, verdicts
+>>> d = pd.DataFrame({"v": [10, 10, 10, 50, 50, 50], "n": [0.8, 0.9, 0.85, 1.1, 1.2, 1.15]})
+>>> table = anova_oneway(d, "n", "v")
+>>> bool(verdicts([effect_row("soil01", "n", "v", table)]).loc[0, "significant"])
+True
+"""
+
+from __future__ import annotations
+
+from ._data import ConfoundingError, StatisticsInputError
+from .ancova import AncovaResult, ancova
+from .effect_size import effect_sizes
+from .oneway import anova_oneway
+from .posthoc import tukey_hsd
+from .result import TestResult
+from .twoway import anova_twoway
+from .variance import scatter_table, variance_test, welch_anova
+from .verdict import VERDICT_COLUMNS, effect_row, verdicts
+
+__all__ = [
+    "VERDICT_COLUMNS",
+    "AncovaResult",
+    "ConfoundingError",
+    "StatisticsInputError",
+    "TestResult",
+    "ancova",
+    "anova_oneway",
+    "anova_twoway",
+    "effect_row",
+    "effect_sizes",
+    "scatter_table",
+    "tukey_hsd",
+    "variance_test",
+    "verdicts",
+    "welch_anova",
+]

@@ -1,0 +1,197 @@
+"""ANCOVA for shear: do the Mohr–Coulomb lines τ = c + σ·tanφ differ between groups?
+
+With shear stress τ as response, normal stress σ as covariate and a setup variable as group
+(ring size, grouser height, …), three nested least-squares models are compared:
+
+* M0 ``τ ~ σ``           one line for all groups (common c and φ);
+* M1 ``τ ~ σ + group``   parallel lines: own intercept c_g, common slope tanφ;
+* M2 ``τ ~ σ * group``   separate lines: own c_g and tanφ_g.
+
+Two F-tests answer the paper's question:
+
+* **slopes** (do the friction angles differ?): M1 against M2;
+* **intercepts** (do the cohesions differ, given a common slope?): M0 against M1.
+
+Both use the residual mean square of the largest model M2 as denominator, the convention of
+:func:`statsmodels.stats.anova.anova_lm` (and R's ``anova``) for a sequence of models, so each
+test stays valid when the other hypothesis is false.  F = (RSS_small − RSS_big)/Δdf ÷
+RSS_M2/df_M2.  When the slopes differ, the intercept test compares the groups at the data's
+average σ rather than at σ = 0; read it together with the per-group lines.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import statsmodels.api as sm
+from statsmodels.stats.anova import anova_lm
+
+from ._data import StatisticsInputError, prepare
+from .result import TestResult
+
+__all__ = ["AncovaResult", "ancova"]
+
+
+@dataclass(frozen=True)
+class AncovaResult:
+    """Comparison of the common, parallel and separate lines of ``response`` on ``covariate``.
+
+    Attributes
+    ----------
+    comparison : pandas.DataFrame
+        Rows ``common``, ``parallel``, ``separate`` (M0, M1, M2); columns ``df_resid, ssr,
+        df_diff, ss_diff, F, PR(>F)`` as :func:`statsmodels.stats.anova.anova_lm` computes
+        them (its ``Pr(>F)`` renamed ``PR(>F)`` like the other tables here).
+    lines : pandas.DataFrame
+        Per group (from M2): ``n``, ``intercept`` (c, the response's unit), ``intercept_se``,
+        ``slope`` (tanφ when response and covariate share a unit), ``slope_se``, ``phi_deg``
+        (atan(slope) in degrees).  Standard errors use M2's pooled residual variance.
+    response, covariate, group : str
+        The columns analysed.
+    n_obs, n_dropped : int
+        Observations used and rows dropped for missing values.
+    """
+
+    comparison: pd.DataFrame
+    lines: pd.DataFrame
+    response: str
+    covariate: str
+    group: str
+    n_obs: int
+    n_dropped: int
+
+    def _test(self, row: str, what: str) -> TestResult:
+        r = self.comparison.loc[row]
+        ssr_full = self.comparison.loc["separate", "ssr"]
+        notes = [f"H0: {what}; denominator: residual mean square of the separate-lines model"]
+        if self.n_dropped:
+            notes.append(f"{self.n_dropped} row(s) with missing values dropped")
+        return TestResult(
+            test=f"ANCOVA F-test of H0: {what}",
+            statistic=float(r["F"]),
+            p_value=float(r["PR(>F)"]),
+            df_num=float(r["df_diff"]),
+            df_den=float(self.comparison.loc["separate", "df_resid"]),
+            effect_size=float(r["ss_diff"] / (r["ss_diff"] + ssr_full)),
+            effect_size_name="partial_eta_sq",
+            notes=tuple(notes),
+        )
+
+    @property
+    def slope_test(self) -> TestResult:
+        """Do the slopes (friction angles φ) differ between groups?  (parallel vs separate)"""
+        return self._test("separate", f"one slope of {self.response!r} on {self.covariate!r}")
+
+    @property
+    def intercept_test(self) -> TestResult:
+        """Do the intercepts (cohesions c) differ, given a common slope?  (common vs parallel)"""
+        return self._test("parallel", "one intercept, given a common slope")
+
+    def summary(self) -> str:
+        """Model comparison, per-group lines and both tests, with numbered notes."""
+        with pd.option_context("display.width", 120, "display.precision", 4):
+            parts = [
+                f"ANCOVA of {self.response!r} on {self.covariate!r} by {self.group!r} "
+                f"({self.n_obs} observations)",
+                "",
+                self.comparison.to_string(),
+                "",
+                self.lines.to_string(),
+                "",
+                self.slope_test.summary(),
+                "",
+                self.intercept_test.summary(),
+            ]
+        return "\n".join(parts)
+
+    def __str__(self) -> str:
+        return self.summary()
+
+
+def ancova(
+    data: pd.DataFrame,
+    response: str,
+    covariate: str,
+    group: str,
+    *,
+    dropna: bool = False,
+) -> AncovaResult:
+    """Compare the straight lines of ``response`` against ``covariate`` between groups.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        Tidy data, one row per (σ, τ) point.  Not modified.
+    response : str
+        Shear stress column τ (e.g. kPa).
+    covariate : str
+        Normal stress column σ (same unit as τ for the slope to be tanφ).
+    group : str
+        Setup variable whose levels are compared.
+    dropna : bool, default False
+        Drop rows with missing values (counted in ``n_dropped``) instead of raising.
+
+    Returns
+    -------
+    AncovaResult
+        With ``slope_test`` and ``intercept_test`` (see the module docstring for the models).
+
+    Raises
+    ------
+    StatisticsInputError
+        Bad input as for :func:`anova_oneway`, a group with fewer than two distinct covariate
+        values (no slope), or no residual degrees of freedom for the separate-lines model.
+    """
+    frame, n_dropped = prepare(data, [response, covariate], [group], dropna=dropna)
+    distinct = frame.groupby(group, sort=False)[covariate].nunique()
+    flat = distinct[distinct < 2]
+    if len(flat):
+        raise StatisticsInputError(
+            f"group(s) {list(flat.index)} have fewer than two distinct {covariate!r} values, so "
+            "their slope is undefined; every group needs tests at two or more normal stresses",
+            column=group,
+        )
+    k, n = len(distinct), len(frame)
+    if n <= 2 * k:
+        raise StatisticsInputError(
+            f"{n} points cannot test {k} separate lines ({2 * k} parameters); the "
+            "separate-lines model needs residual degrees of freedom",
+            column=response,
+        )
+    y = frame[response].to_numpy(dtype=float)
+    x = frame[covariate].to_numpy(dtype=float)
+    codes, levels = pd.factorize(frame[group])
+    onehot = np.eye(k)[codes]
+    # The three nested designs, built directly (no formula parsing: fast in simulation loops).
+    designs = [
+        np.column_stack([np.ones(n), x]),  # M0: τ ~ σ
+        np.column_stack([onehot, x]),  # M1: τ ~ σ + group
+        np.hstack([onehot, onehot * x[:, None]]),  # M2: τ ~ σ * group (separate lines)
+    ]
+    fits = [sm.OLS(y, design).fit() for design in designs]
+    comparison = anova_lm(*fits).rename(columns={"Pr(>F)": "PR(>F)"})  # as in the other tables
+    comparison.index = pd.Index(["common", "parallel", "separate"])
+    sep = fits[2]
+    lines = pd.DataFrame(
+        {
+            "n": np.bincount(codes, minlength=k),
+            "intercept": sep.params[:k],
+            "intercept_se": sep.bse[:k],
+            "slope": sep.params[k:],
+            "slope_se": sep.bse[k:],
+        },
+        index=pd.Index(list(levels), name=group),
+    )
+    lines["phi_deg"] = [math.degrees(math.atan(s)) for s in lines["slope"]]
+    return AncovaResult(
+        comparison=comparison,
+        lines=lines,
+        response=response,
+        covariate=covariate,
+        group=group,
+        n_obs=n,
+        n_dropped=n_dropped,
+    )
