@@ -33,8 +33,16 @@ def sinkage_campaign(seed=0, radii=(0.025, 0.05, 0.075), reps=4, noise_n=1.0, so
                 z = np.concatenate([[-2e-5, 0.0], np.linspace(2e-4, 0.04, 150)])
                 p = BEKKER.func((np.full(z.size, radius), z), *TRUTH.values())
                 force = p * np.pi * radius**2 + rng.normal(0, noise_n, z.size)
-                tests.append({"test_id": tid, "kind": "sinkage", "soil": soil,
-                              "shape": "circle", "radius_m": radius, "repetition": rep + 1})
+                tests.append(
+                    {
+                        "test_id": tid,
+                        "kind": "sinkage",
+                        "soil": soil,
+                        "shape": "circle",
+                        "radius_m": radius,
+                        "repetition": rep + 1,
+                    }
+                )
                 rows.append(pd.DataFrame({"test_id": tid, "z_m": z, "force_N": force}))
     return Campaign.from_frames(pd.DataFrame(tests), pd.concat(rows, ignore_index=True))
 
@@ -51,10 +59,27 @@ def shear_campaign(seed=0, c=120.0, phi=32.0, K=0.008, pressures=(4e3, 8e3, 12e3
             tau = JANOSI.func((np.full(j.size, sigma), j), c, phi, K)
             torque = tau * 2 * np.pi * (ro**3 - ri**3) / 3 + rng.normal(0, 0.05, j.size)
             normal = sigma * np.pi * (ro**2 - ri**2) + rng.normal(0, 0.5, j.size)
-            tests.append({"test_id": tid, "kind": "shear", "soil": "s1", "r_inner_m": ri,
-                          "r_outer_m": ro, "grousers": 12, "grouser_height_m": 0.005})
-            rows.append(pd.DataFrame({"test_id": tid, "angle_rad": alpha, "torque_Nm": torque,
-                                      "normal_force_N": normal}))
+            tests.append(
+                {
+                    "test_id": tid,
+                    "kind": "shear",
+                    "soil": "s1",
+                    "r_inner_m": ri,
+                    "r_outer_m": ro,
+                    "grousers": 12,
+                    "grouser_height_m": 0.005,
+                }
+            )
+            rows.append(
+                pd.DataFrame(
+                    {
+                        "test_id": tid,
+                        "angle_rad": alpha,
+                        "torque_Nm": torque,
+                        "normal_force_N": normal,
+                    }
+                )
+            )
     return Campaign.from_frames(pd.DataFrame(tests), shear=pd.concat(rows, ignore_index=True))
 
 
