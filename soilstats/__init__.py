@@ -34,6 +34,16 @@ from .statistics import anova_oneway
 
 __version__ = "0.1.0"
 
+
+def __getattr__(name: str):
+    # The Bayesian layer imports arviz/xarray (seconds); load it only when asked for.
+    if name == "sample_posterior":
+        from .bayes import sample_posterior
+
+        return sample_posterior
+    raise AttributeError(f"module 'soilstats' has no attribute {name!r}")
+
+
 __all__ = [
     "BEKKER",
     "BERNSTEIN",
@@ -57,5 +67,6 @@ __all__ = [
     "linear_least_squares",
     "load_campaign",
     "parameter_table",
+    "sample_posterior",
     "simulate",
 ]

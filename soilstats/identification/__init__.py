@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
-from .shear import fit_shear
+from .shear import fit_shear, pool_shear
 from .sinkage import fit_sinkage, pool_sinkage
 from .steady_state import steady_state
 from .table import parameter_table
 
-__all__ = ["fit_shear", "fit_sinkage", "parameter_table", "pool_sinkage", "steady_state"]
+__all__ = [
+    "fit_shear",
+    "fit_sinkage",
+    "parameter_table",
+    "pool_shear",
+    "pool_sinkage",
+    "steady_state",
+]

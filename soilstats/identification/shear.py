@@ -16,12 +16,17 @@ from ..models import JANOSI, MOHR_COULOMB, get_model
 from .pooling import select_one_soil
 from .steady_state import steady_state
 
-__all__ = ["fit_shear"]
+__all__ = ["fit_shear", "pool_shear"]
 
 _DEG = 180.0 / np.pi
 
 
-def _collect(campaign, selection, steady_only: bool, weighting: str):
+def pool_shear(campaign, selection: dict, steady_only: bool, weighting: str):
+    """Stack the selected shear tests: (σ [Pa], τ [Pa], j [m], weights, per-test groups).
+
+    ``steady_only`` keeps each test's steady-state part (Mohr–Coulomb); otherwise all samples
+    with j ≥ 0 (Janosi).  ``weighting`` is ``"none"`` or ``"max-stress"`` (1/max τ per test).
+    """
     chosen, tests = select_one_soil(campaign, "shear", selection)
     samples = chosen.shear
     by_test = samples.groupby("test_id", sort=False).indices
@@ -105,7 +110,7 @@ def fit_shear(
         weighting = "none" if spec is MOHR_COULOMB else "max-stress"
     if weighting not in ("none", "max-stress"):
         raise ValueError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
-    sigma, tau, j, w, groups = _collect(campaign, selection, spec is MOHR_COULOMB, weighting)
+    sigma, tau, j, w, groups = pool_shear(campaign, selection, spec is MOHR_COULOMB, weighting)
     n_tests = len(groups)
     notes = [
         f"{n_tests} shear tests; normal pressures "

@@ -1,0 +1,158 @@
+"""The pooled likelihood: the paper's weighted objective (Eq. 1) as a Gaussian model.
+
+The least-squares fit of the paper minimises ½‖w·(y − f(x, θ))‖² with w = 1/max(p) per test
+(Section 2.1).  Read as a probability model this is
+
+    w_i·(y_i − f(x_i, θ)) ~ N(0, σ_w²)   independently,
+
+i.e. each test's noise scales with its own pressure range (σ_w is dimensionless for the
+sinkage weights, in Pa for unit weights).  σ_w is **marginalised analytically** under the
+Jeffreys prior p(σ_w) ∝ 1/σ_w:
+
+    p(θ | y) ∝ p(θ) · S(θ)^(−N/2),   S(θ) = Σ_i w_i²·(y_i − f(x_i, θ))²,
+
+so the sampler works in the model's own dimension, and its posterior reproduces the
+Student-t intervals of least squares for a linear model.  Draws of σ_w are then taken from
+their exact conditional σ_w² | θ, y ~ Inv-Gamma(N/2, S(θ)/2), so (θ, σ_w) is a joint draw.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..models import BEKKER, BERNSTEIN, Model
+from .priors import Prior
+
+__all__ = ["PooledProblem"]
+
+
+@dataclass(frozen=True, eq=False)
+class PooledProblem:
+    """Data, model and priors of a pooled posterior, with a walker-vectorised log-density.
+
+    Attributes
+    ----------
+    model : Model
+        The soil model.
+    x : ndarray
+        Inputs as the model takes them: (N,) or (k, N).
+    y, w : ndarray, shape (N,)
+        Measurements (Pa) and the weights w_r of Eq. 1.
+    test_index : ndarray of int, shape (N,)
+        Row of ``groups`` each sample belongs to.
+    groups : DataFrame
+        One row per test (``test_id`` …), from the identification's bookkeeping.
+    priors : tuple of Prior
+        One per parameter.
+    plate_sizes : ndarray
+        Distinct plate sizes b [m] (sinkage models; used for the kc/b + kφ > 0 constraint).
+    """
+
+    model: Model
+    x: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    test_index: np.ndarray
+    groups: pd.DataFrame
+    priors: tuple[Prior, ...]
+    plate_sizes: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+    def __post_init__(self) -> None:
+        # Precomputed pieces of the residual: w·y, and for power-law models ln z (the
+        # identification has already excluded z ≤ 0, so the logarithm is finite).
+        wy = self.w * self.y
+        object.__setattr__(self, "_wy", wy)
+        object.__setattr__(self, "_wy2", float(wy @ wy))
+        # Power-law models are linear in their moduli, so S(θ) = Σ(wy)² − 2 kᵀF(n) + kᵀG(n)k
+        # with F(n) = Σ wy·a·zⁿ and G(n) = Σ a aᵀ z²ⁿ (a = (w/b, w) for Bekker, w for
+        # Bernstein): one exp per sample and walker, the sums by matrix products.  ln z is
+        # finite because the identification has excluded z ≤ 0.
+        if self.model is BEKKER:
+            b, z = self.x
+            a = np.column_stack([self.w / b, self.w])
+        elif self.model is BERNSTEIN:
+            z = self.x
+            a = self.w[:, None]
+        else:
+            return
+        object.__setattr__(self, "_lnz", np.log(z))
+        object.__setattr__(self, "_F", a * wy[:, None])  # (N, m)
+        pairs = np.einsum("ni,nj->nij", a, a).reshape(z.size, -1)
+        object.__setattr__(self, "_G", pairs)  # (N, m²)
+        object.__setattr__(self, "_m", a.shape[1])
+
+    @property
+    def n_obs(self) -> int:
+        return int(self.y.size)
+
+    def weighted_prediction(self, theta: np.ndarray) -> np.ndarray:
+        """w·f(x, θ) for each row of ``theta`` (W, p) → (W, N)."""
+        return self.w * self.prediction(theta)
+
+    def prediction(self, theta: np.ndarray) -> np.ndarray:
+        """f(x, θ) in the measurement's unit (Pa) for each row of ``theta`` → (W, N)."""
+        theta = np.atleast_2d(theta)
+        cols = [theta[:, i : i + 1] for i in range(theta.shape[1])]
+        return np.broadcast_to(
+            np.asarray(self.model.func(self.x, *cols), float), (theta.shape[0], self.n_obs)
+        )
+
+    def rss(self, theta: np.ndarray) -> np.ndarray:
+        """S(θ) = Σ w²(y − f)² for each row of ``theta`` → (W,)."""
+        theta = np.atleast_2d(theta)
+        if hasattr(self, "_lnz"):
+            m = self._m
+            k, n = theta[:, :m], theta[:, m]
+            zn = np.exp(n[:, None] * self._lnz)  # (W, N): the one costly step
+            f = zn @ self._F  # (W, m)
+            g = ((zn * zn) @ self._G).reshape(-1, m, m)  # (W, m, m)
+            s = self._wy2 - 2.0 * np.einsum("wi,wi->w", k, f) + np.einsum("wi,wij,wj->w", k, g, k)
+            # The expansion loses digits only when S ≪ Σ(wy)², i.e. near-noiseless data;
+            # recompute those walkers directly.
+            close = s < 1e-8 * self._wy2
+            if np.any(close):
+                s[close] = self._rss_direct(theta[close])
+            return s
+        return self._rss_direct(theta)
+
+    def _rss_direct(self, theta: np.ndarray) -> np.ndarray:
+        r = self._wy - self.weighted_prediction(theta)
+        return np.einsum("ij,ij->i", r, r)
+
+    def log_prior(self, theta: np.ndarray) -> np.ndarray:
+        """Sum of the parameters' log-priors, with the physical constraints → (W,)."""
+        theta = np.atleast_2d(theta)
+        out = np.zeros(theta.shape[0])
+        for i, prior in enumerate(self.priors):
+            out += prior.logpdf(theta[:, i])
+        if self.plate_sizes.size and self.model.name in ("bekker", "reece"):
+            # Positive pressure on every plate: kc/b + kφ > 0 (Bekker), k1 + k2·b > 0 (Reece).
+            a, c = theta[:, 0:1], theta[:, 1:2]
+            b = self.plate_sizes[None, :]
+            k = a / b + c if self.model is BEKKER else a + c * b
+            out = np.where(np.all(k > 0, axis=1), out, -np.inf)
+        return out
+
+    def log_prob(self, theta: np.ndarray) -> np.ndarray:
+        """Log posterior density (σ_w marginalised) for walkers ``theta`` (W, p) → (W,)."""
+        theta = np.atleast_2d(theta)
+        lp = self.log_prior(theta)
+        ok = np.isfinite(lp)
+        out = np.full(theta.shape[0], -np.inf)
+        if ok.any():
+            with np.errstate(all="ignore"):
+                s = self.rss(theta[ok])
+            good = np.isfinite(s) & (s > 0)
+            vals = np.where(
+                good, lp[ok] - 0.5 * self.n_obs * np.log(np.where(good, s, 1.0)), -np.inf
+            )
+            out[ok] = vals
+        return out
+
+    def draw_sigma(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """σ_w drawn from σ_w² | θ, y ~ Inv-Gamma(N/2, S(θ)/2), one per row of ``theta``."""
+        s = self.rss(theta)
+        return np.sqrt(s / (2.0 * rng.gamma(0.5 * self.n_obs, 1.0, size=s.shape)))

@@ -1,0 +1,231 @@
+"""``sample_posterior``: the pooled posterior of a soil model's parameters (emcee + ArviZ)."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from datetime import UTC, datetime
+
+import numpy as np
+import xarray as xr
+
+from ..errors import ConvergenceWarning
+from ..models import get_model
+from ._arviz import az
+from .data import pooled_problem
+from .likelihood import PooledProblem
+from .result import PosteriorResult, diagnose
+from .sampler import EnsembleRun, run_ensemble
+
+__all__ = ["DEFAULT_DRAWS", "sample_posterior"]
+
+#: Kept draws over all walkers at the default settings: ESS ≈ draws/τ with τ ≈ 2 steps, and
+#: 16 walkers × 375 steps keep the split-R-hat bias (τ − 1)/(2·steps) near 0.003.
+DEFAULT_DRAWS = 6000
+#: Posterior-predictive replicates stored per walker (the full set would be draws × N).
+PPC_PER_CHAIN = 8
+
+
+def sample_posterior(
+    campaign,
+    model: str = "bekker",
+    *,
+    draws: int = DEFAULT_DRAWS,
+    seed: int | None = None,
+    progress: bool = False,
+    priors: Mapping[str, object] | None = None,
+    walkers: int = 16,
+    points_per_test: int | None = 100,
+    **selection,
+) -> PosteriorResult:
+    """Sample the posterior of ``model``'s parameters given a campaign's tests (pooled model).
+
+    The likelihood is the paper's weighted objective (Eq. 1, weights 1/max p per test for
+    sinkage, Section 2.1) read as Gaussian noise on the weighted residuals with an unknown
+    scale σ_w, which is marginalised analytically under the Jeffreys prior (see
+    :mod:`soilstats.bayes.likelihood`); priors are physics-only by default
+    (:mod:`soilstats.bayes.priors`).  emcee runs a walker-vectorised log-density from the
+    least-squares fit; burn-in and thinning follow the measured autocorrelation time.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        From :func:`soilstats.load_campaign`.
+    model : {"bekker", "bernstein", "reece", "mohr-coulomb", "janosi"}
+        Soil model.
+    draws : int
+        Kept draws over all walkers (default 6000).
+    seed : int, optional
+        Seed; the same seed gives bit-identical draws.
+    progress : bool
+        Show a tqdm progress bar.
+    priors : mapping, optional
+        Per-parameter overrides: ``{"n": (0.5, 2.0)}``, ``{"c": None}`` (flat on ℝ) or a
+        :class:`soilstats.bayes.Prior`.
+    walkers : int
+        emcee walkers (≥ 2 × parameters); each is one ArviZ chain.
+    points_per_test : int or None
+        Sinkage samples per test (Section 2.1), as for the least-squares fit.
+    **selection
+        Test-log filters (``soil="soil01"`` …); must leave one soil.
+
+    Returns
+    -------
+    PosteriorResult
+        With ``idata`` (posterior, sample_stats, observed_data, posterior_predictive),
+        ``summary()`` and ``draws()``.  If R-hat > 1.01 or ESS < 400 for any parameter a
+        :class:`~soilstats.errors.ConvergenceWarning` is emitted and ``converged`` is False.
+    """
+    spec = get_model(model)
+    extra = (
+        {"points_per_test": points_per_test}
+        if spec.name in ("bekker", "bernstein", "reece")
+        else {}
+    )
+    problem, fit = pooled_problem(campaign, spec.name, priors=priors, **extra, **selection)
+    if not fit.converged or not np.all(np.isfinite(fit.cov.to_numpy())):
+        raise ValueError(
+            f"the least-squares fit of {spec.name} did not give a usable start and covariance "
+            f"({fit.message}); the posterior sampler needs it — see fit_sinkage/fit_shear"
+        )
+    run = run_ensemble(
+        problem.log_prob,
+        fit.params.to_numpy(),
+        fit.cov.to_numpy(),
+        draws=draws,
+        seed=seed,
+        n_walkers=walkers,
+        progress=progress,
+        description=f"{spec.name} posterior",
+    )
+    rng = np.random.default_rng(None if seed is None else [seed, 1])
+    idata = _inference_data(problem, run, rng)
+    return finish(
+        idata,
+        problem.model.name,
+        "pooled",
+        spec.param_names,
+        dict(zip(spec.param_names, spec.units, strict=True)),
+        (*spec.param_names, "sigma_w"),
+        run,
+        _pooled_notes(problem),
+        fit,
+    )
+
+
+def finish(
+    idata, model_name, kind, param_names, units, var_names, run: EnsembleRun, notes, lsq
+) -> PosteriorResult:
+    """Wrap up a run: diagnostics, the loud warning if not converged, the result object."""
+    sampler = {
+        "walkers": run.chain.shape[0],
+        "steps": run.steps,
+        "burn": run.burn,
+        "thin": run.thin,
+        "kept": run.chain.shape[0] * run.chain.shape[1],
+        "tau": run.tau,
+        "tau_max": float(np.max(run.tau)),
+        "acceptance": float(np.mean(run.acceptance)),
+        "seconds": run.seconds,
+        "evaluations": run.evaluations,
+        "tau_reliable": run.tau_reliable,
+    }
+    result = PosteriorResult(
+        idata=idata,
+        model_name=model_name,
+        kind=kind,
+        param_names=tuple(param_names),
+        units=units,
+        var_names=tuple(var_names),
+        problems=(),
+        sampler=sampler,
+        notes=tuple(notes),
+        lsq=lsq,
+    )
+    problems = diagnose(result.diagnostics)
+    if not run.tau_reliable:
+        problems = (
+            *problems,
+            f"kept chain shorter than 50 autocorrelation times "
+            f"(tau = {sampler['tau_max']:.1f} steps): tau itself is uncertain",
+        )
+    object.__setattr__(result, "problems", problems)
+    idata.posterior.attrs["converged"] = int(not problems)
+    idata.posterior.attrs["convergence_problems"] = "; ".join(problems) or "none"
+    if problems:
+        warnings.warn(
+            f"{model_name} posterior NOT converged: "
+            + "; ".join(problems)
+            + " — increase draws, or check the model and priors; result.converged is False",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
+    return result
+
+
+def _pooled_notes(problem: PooledProblem) -> list[str]:
+    g = problem.groups
+    priors = "; ".join(
+        f"{n}: {p}" for n, p in zip(problem.model.param_names, problem.priors, strict=True)
+    )
+    notes = [
+        f"Pooled model: {len(g)} tests, {problem.n_obs} samples; w(y - f) ~ N(0, sigma_w^2) "
+        "with the least-squares weights (1/max per test for sinkage and Janosi, 1 for "
+        "Mohr-Coulomb), sigma_w marginalised under p(sigma_w) ~ 1/sigma_w, then drawn from "
+        "its conditional.",
+        f"Priors: {priors}"
+        + ("; kc/b + kphi > 0 on every plate." if problem.model.name == "bekker" else "."),
+        "The pooled posterior describes how well the pooled data pin ONE parameter set; it "
+        "shrinks with more tests. For a new preparation of the soil use the population model.",
+    ]
+    return notes
+
+
+def _inference_data(problem: PooledProblem, run: EnsembleRun, rng) -> object:
+    names = problem.model.param_names
+    chains, draws, _ = run.chain.shape
+    flat = run.chain.reshape(-1, len(names))
+    sigma = problem.draw_sigma(flat, rng).reshape(chains, draws)
+    coords = {"chain": np.arange(chains), "draw": np.arange(draws)}
+    posterior = xr.Dataset(
+        {n: (("chain", "draw"), run.chain[:, :, i]) for i, n in enumerate(names)}
+        | {"sigma_w": (("chain", "draw"), sigma)},
+        coords=coords,
+        attrs=_attrs(problem),
+    )
+    stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
+    obs_coords = {
+        "obs": np.arange(problem.n_obs),
+        "test_id": ("obs", problem.groups["test_id"].astype(str).to_numpy()[problem.test_index]),
+    }
+    x = np.atleast_2d(problem.x)
+    for label, row in zip(problem.model.inputs, x, strict=True):
+        obs_coords[label.split(" ")[0]] = ("obs", row)
+    observed = xr.Dataset(
+        {"y": ("obs", problem.y), "weight": ("obs", problem.w)}, coords=obs_coords
+    )
+    k = min(PPC_PER_CHAIN, draws)
+    sub = np.linspace(0, draws - 1, k).astype(int)
+    theta = run.chain[:, sub].reshape(-1, len(names))
+    mean = problem.prediction(theta)
+    noise = sigma[:, sub].reshape(-1, 1) / problem.w * rng.standard_normal(mean.shape)
+    ppc = xr.Dataset(
+        {"y": (("chain", "draw", "obs"), (mean + noise).reshape(chains, k, -1))},
+        coords={"chain": np.arange(chains), "draw": sub} | obs_coords,
+    )
+    return az.InferenceData(
+        posterior=posterior, sample_stats=stats, observed_data=observed, posterior_predictive=ppc
+    )
+
+
+def _attrs(problem: PooledProblem) -> dict:
+    return {
+        "created_at": datetime.now(UTC).isoformat(timespec="seconds"),
+        "inference_library": "emcee",
+        "model": problem.model.name,
+        "equation": problem.model.equation,
+        "units": "; ".join(
+            f"{n} [{u}]"
+            for n, u in zip(problem.model.param_names, problem.model.units, strict=True)
+        ),
+    }

@@ -1,0 +1,175 @@
+"""The frozen result of a posterior run: ArviZ data, diagnostics, a readable summary, draws."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import pandas as pd
+
+from ._arviz import az
+
+__all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose"]
+
+#: Convergence thresholds (Vehtari et al. 2021, "Rank-normalization, folding, and
+#: localization", Bayesian Analysis 16:667): R-hat ≤ 1.01 and bulk and tail ESS ≥ 400.
+RHAT_MAX = 1.01
+ESS_MIN = 400
+
+
+def diagnose(table: pd.DataFrame) -> tuple[str, ...]:
+    """Convergence problems in an ArviZ summary table (empty when every check passes)."""
+    out = []
+    for name, row in table.iterrows():
+        if not row["r_hat"] <= RHAT_MAX:
+            out.append(f"{name}: R-hat = {row['r_hat']:.4f} > {RHAT_MAX}")
+        for col in ("ess_bulk", "ess_tail"):
+            if not row[col] >= ESS_MIN:
+                out.append(f"{name}: {col.replace('_', ' ')} = {row[col]:.0f} < {ESS_MIN}")
+    return tuple(out)
+
+
+@dataclass(frozen=True, eq=False)
+class PosteriorResult:
+    """Posterior of a soil model's parameters (see :func:`soilstats.bayes.sample_posterior`).
+
+    Attributes
+    ----------
+    idata : arviz.InferenceData
+        Groups ``posterior`` (parameters, SI units, φ in degrees; walkers as chains),
+        ``sample_stats`` (``lp``), ``observed_data`` and ``posterior_predictive``.
+    model_name : str
+        Soil model (``"bekker"`` …), with ``kind`` ``"pooled"`` or ``"population"``.
+    param_names : tuple of str
+        The soil parameters whose draws :meth:`draws` returns.  For the population model
+        these are the parameters of a *new* preparation of the soil.
+    units : dict
+        Unit of each parameter.
+    var_names : tuple of str
+        Every sampled quantity checked for convergence.
+    problems : tuple of str
+        Failed convergence checks (R-hat > 1.01, ESS < 400); empty when converged.
+    sampler : dict
+        Walkers, steps, burn-in, thinning, τ, acceptance, seconds, evaluations.
+    notes : tuple of str
+        Model, likelihood and prior conventions, printed as numbered notes by :meth:`summary`.
+    """
+
+    idata: object
+    model_name: str
+    kind: str
+    param_names: tuple[str, ...]
+    units: dict[str, str]
+    var_names: tuple[str, ...]
+    problems: tuple[str, ...]
+    sampler: dict = field(repr=False)
+    notes: tuple[str, ...] = ()
+    lsq: object = field(default=None, repr=False)  # the least-squares FitResult it started from
+
+    @property
+    def converged(self) -> bool:
+        """True when R-hat ≤ 1.01 and bulk/tail ESS ≥ 400 for every sampled quantity."""
+        return not self.problems
+
+    def summary_table(self, prob: float = 0.9) -> pd.DataFrame:
+        """ArviZ summary: mean, sd, ``prob`` HDI, MCSE, bulk/tail ESS, R-hat, per quantity.
+
+        Parameters
+        ----------
+        prob : float
+            Probability of the highest-density interval; columns are named by it
+            (``hdi_5%``/``hdi_95%`` for 0.9).
+        """
+        return az.summary(
+            self.idata,
+            var_names=list(self.var_names),
+            hdi_prob=prob,
+            kind="all",
+            round_to="none",
+        )
+
+    @cached_property
+    def diagnostics(self) -> pd.DataFrame:
+        """:meth:`summary_table` at 90 %, computed once."""
+        return self.summary_table(0.9)
+
+    def interval(self, prob: float = 0.9, kind: str = "eti") -> pd.DataFrame:
+        """Credible interval of each parameter: equal-tailed (``"eti"``) or HDI (``"hdi"``)."""
+        if not 0 < prob < 1:
+            raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+        if kind == "hdi":
+            hdi = az.hdi(self.idata, hdi_prob=prob, var_names=list(self.param_names))
+            return pd.DataFrame(
+                {n: hdi[n].to_numpy() for n in self.param_names}, index=["lower", "upper"]
+            ).T
+        if kind != "eti":
+            raise ValueError(f"kind must be 'eti' or 'hdi', got {kind!r}")
+        d = self.draws()
+        q = [(1 - prob) / 2, (1 + prob) / 2]
+        return d.quantile(q).T.set_axis(["lower", "upper"], axis=1)
+
+    def draws(self, n: int | None = None, seed: int | None = None) -> pd.DataFrame:
+        """Joint draws of the soil parameters, one row per draw (SI units, φ in degrees).
+
+        Parameters
+        ----------
+        n : int, optional
+            Number of rows; all draws (chains stacked) by default.  Fewer than available are
+            taken without replacement, more with replacement.
+        seed : int, optional
+            Seed of the subsampling.
+        """
+        post = self.idata.posterior
+        table = pd.DataFrame({name: post[name].to_numpy().reshape(-1) for name in self.param_names})
+        if n is None:
+            return table
+        rng = np.random.default_rng(seed)
+        pick = rng.choice(len(table), size=n, replace=n > len(table))
+        return table.iloc[pick].reset_index(drop=True)
+
+    def summary(self, prob: float = 0.9) -> str:
+        """Readable report: estimates, ``prob`` HDI, diagnostics, sampler and numbered notes."""
+        width = 92
+        tab = self.summary_table(prob)
+        lo, hi = tab.columns[2], tab.columns[3]
+        s = self.sampler
+        lines = [
+            f" {self.model_name} posterior ({self.kind}) ".center(width, "="),
+            f"Sampler: emcee, {s['walkers']} walkers, {s['steps']} steps, burn-in {s['burn']}, "
+            f"thin {s['thin']}, {s['kept']} draws kept, {s['seconds']:.2f} s",
+            f"Autocorrelation time (steps): {s['tau_max']:.2f} (max over parameters); "
+            f"acceptance {s['acceptance']:.2f}",
+            "-" * width,
+            f"{'quantity':>14} {'mean':>12} {'sd':>11} {lo + ' ':>12}{hi:>11} {'mcse':>9}"
+            f" {'ess_bulk':>8} {'ess_tail':>8} {'r_hat':>6}",
+        ]
+        for name, r in tab.iterrows():
+            lines.append(
+                f"{name:>14} {r['mean']:>12.5g} {r['sd']:>11.4g} {r[lo]:>12.5g}{r[hi]:>11.5g}"
+                f" {r['mcse_mean']:>9.3g} {r['ess_bulk']:>8.0f} {r['ess_tail']:>8.0f}"
+                f" {r['r_hat']:>6.3f}"
+            )
+        lines.append("-" * width)
+        if self.converged:
+            lines.append(f"Convergence: OK (R-hat <= {RHAT_MAX}, bulk and tail ESS >= {ESS_MIN})")
+        else:
+            lines.append(
+                f"Convergence: NOT CONVERGED — {len(self.problems)} failed check(s); "
+                "do not use these draws (run longer: more draws)"
+            )
+            lines.extend(f"  ! {p}" for p in self.problems)
+        units = ", ".join(f"{n} [{self.units[n]}]" for n in self.param_names)
+        notes = (
+            f"Intervals are {prob:.0%} highest-density intervals (HDI); mcse is the Monte "
+            f"Carlo standard error of the mean.",
+            f"Units: {units}.",
+            *self.notes,
+        )
+        lines.append("Notes:")
+        lines.extend(f"  [{i}] {note}" for i, note in enumerate(notes, 1))
+        lines.append("=" * width)
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()

@@ -1,0 +1,107 @@
+"""Posterior sampling (issue #5): reproducibility, the linear case, flags and the CLI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from posterior_sim import joint_campaign
+
+from soilstats.bayes import joint_draws, sample_posterior, simulator_parameters
+from soilstats.bayes._arviz import az
+from soilstats.identification import fit_shear
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    return joint_campaign(np.random.default_rng(11), repetitions=4, points=60)
+
+
+def test_same_seed_gives_bit_identical_draws(campaign):
+    a = sample_posterior(campaign, "bekker", seed=5).draws()
+    b = sample_posterior(campaign, "bekker", seed=5).draws()
+    c = sample_posterior(campaign, "bekker", seed=6).draws()
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    assert not a.equals(c)
+
+
+def test_mohr_coulomb_flat_priors_match_least_squares(campaign):
+    # Linear model, flat priors, sigma marginalised under 1/sigma: the posterior of
+    # (c, tan phi) is Student-t with dof N - 2 around the LS estimate with scale = its
+    # standard error, so mean = estimate and sd = stderr * sqrt(dof / (dof - 2)).
+    fit = fit_shear(campaign, "mohr-coulomb")
+    post = sample_posterior(
+        campaign, "mohr-coulomb", seed=1, draws=16000, priors={"c": None, "phi": None}
+    )
+    d = post.draws()
+    factor = np.sqrt(fit.dof / (fit.dof - 2))
+    for name in ("c", "phi"):
+        mcse = post.diagnostics.loc[name, "mcse_mean"]
+        assert abs(d[name].mean() - fit.params[name]) < 4 * mcse + 1e-3 * fit.stderr[name]
+        assert d[name].std() == pytest.approx(fit.stderr[name] * factor, rel=0.05)
+
+
+def test_result_groups_summary_and_convergence(campaign):
+    post = sample_posterior(campaign, "janosi", seed=2)
+    assert post.converged, post.problems
+    groups = set(post.idata.groups())
+    assert {"posterior", "sample_stats", "observed_data", "posterior_predictive"} <= groups
+    text = post.summary()
+    assert "90% highest-density" in text and "Convergence: OK" in text
+    assert post.diagnostics["r_hat"].max() <= 1.01
+    assert post.diagnostics[["ess_bulk", "ess_tail"]].min().min() >= 400
+
+
+def test_not_converged_is_loud(campaign):
+    from soilstats.errors import ConvergenceWarning
+
+    with pytest.warns(ConvergenceWarning, match="NOT converged"):
+        post = sample_posterior(campaign, "bekker", seed=3, draws=64)
+    assert not post.converged
+    assert "NOT CONVERGED" in post.summary()
+
+
+def test_joint_draws_and_simulator_format(campaign):
+    sink = sample_posterior(campaign, "bekker", seed=1)
+    shear = sample_posterior(campaign, "janosi", seed=1)
+    joint = joint_draws(sink, shear, 500, seed=0)
+    assert list(joint.columns) == ["kc", "kphi", "n", "c", "phi", "K"]
+    sim = simulator_parameters(joint)
+    assert sim["Mohr_friction"].between(0, 90).all()
+    assert np.array_equal(sim["Bekker_Kphi"], joint["kphi"])
+
+
+def test_cli_writes_all_outputs(campaign, tmp_path):
+    from soilstats.cli.posterior import main
+
+    folder = campaign.save(tmp_path / "camp")
+    out = tmp_path / "out"
+    code = main(
+        [
+            str(folder),
+            "--soil",
+            "sim-sand",
+            "--model",
+            "bekker+janosi",
+            "--seed",
+            "1",
+            "--out",
+            str(out),
+            "--simulator",
+            "chrono-scm",
+        ]
+    )
+    assert code == 0
+    for name in (
+        "posterior.nc",
+        "posterior_janosi.nc",
+        "draws.csv",
+        "summary.csv",
+        "report.pdf",
+        "chrono-scm.csv",
+    ):
+        assert (out / name).exists(), name
+    idata = az.from_netcdf(str(out / "posterior.nc"))
+    assert "kc" in idata.posterior
+    draws = pd.read_csv(out / "draws.csv")
+    assert list(draws.columns) == ["kc", "kphi", "n", "c", "phi", "K"]
