@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from soilstats import BEKKER, BERNSTEIN, ConvergenceError, identify
-from soilstats.fitting.identify import epsilon
+from soilstats.fitting import epsilon
 
 
 @pytest.mark.slow

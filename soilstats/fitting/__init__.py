@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from .identify import epsilon, identify
+from .identify import identify
 from .linear import LinearFit, linear_least_squares
-from .result import FitResult, HealthFlag
+from .result import FitResult, HealthFlag, epsilon
 
 __all__ = ["FitResult", "HealthFlag", "LinearFit", "epsilon", "identify", "linear_least_squares"]

@@ -12,7 +12,7 @@ from ..errors import ConvergenceError, ConvergenceWarning
 from ..models import Model
 from .jacobian import make_jacobian
 from .levenberg_marquardt import levenberg_marquardt
-from .result import FitResult, HealthFlag
+from .result import FitResult, HealthFlag, epsilon
 
 __all__ = ["RANK_CONDITION_LIMIT", "epsilon", "identify"]
 
@@ -46,16 +46,6 @@ def _covariance(jac: np.ndarray, rss: float, dof: int) -> tuple[float, np.ndarra
         cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else np.inf
         inv = (vt.T / sv**2) @ vt
     return cond, inv / np.outer(scale, scale) * s2
-
-
-def epsilon(residuals: np.ndarray, y: np.ndarray) -> float:
-    """Fit quality ε = 1 − √(Σe²/(N−2)) / (Σ|y|/N) (Eq. 2); 1 is a perfect fit."""
-    residuals = np.asarray(residuals, float)
-    y = np.asarray(y, float)
-    n = y.size
-    if n <= 2:
-        return np.nan
-    return float(1.0 - np.sqrt(residuals @ residuals / (n - 2)) / (np.abs(y).sum() / n))
 
 
 def identify(

@@ -9,9 +9,19 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-__all__ = ["FitResult", "HealthFlag"]
+__all__ = ["FitResult", "HealthFlag", "epsilon"]
 
 CORRELATION_LIMIT = 0.95
+
+
+def epsilon(residuals: np.ndarray, y: np.ndarray) -> float:
+    """Fit quality ε = 1 − √(Σe²/(N−2)) / (Σ|y|/N) (Eq. 2); 1 is a perfect fit."""
+    residuals = np.asarray(residuals, float)
+    y = np.asarray(y, float)
+    n = y.size
+    if n <= 2:
+        return np.nan
+    return float(1.0 - np.sqrt(residuals @ residuals / (n - 2)) / (np.abs(y).sum() / n))
 
 
 @dataclass(frozen=True)
@@ -67,6 +77,56 @@ class FitResult:
     extra_flags: tuple[HealthFlag, ...] = ()
     notes: tuple[str, ...] = ()
     groups: pd.DataFrame | None = field(default=None, repr=False)  # per-test bookkeeping
+
+    @classmethod
+    def closed_form(
+        cls,
+        model,
+        values,
+        covariance,
+        weighted_residuals,
+        weighted_y,
+        *,
+        name: str | None = None,
+        method: str,
+        message: str,
+        condition_number: float = np.nan,
+        notes=(),
+        extra_flags=(),
+        groups=None,
+    ) -> FitResult:
+        """Result of a non-iterative estimate (Wong's regressions, linear Mohr–Coulomb).
+
+        ``model`` supplies names, units and bounds; ε (Eq. 2) and the RSS come from the
+        weighted residuals and data, exactly as for the LM fits, so the two compare directly.
+        """
+        names = model.param_names
+        covariance = np.asarray(covariance, float)
+        resid = np.asarray(weighted_residuals, float)
+        return cls(
+            model_name=name or model.name,
+            param_names=names,
+            values=np.asarray(values, float),
+            errors=np.sqrt(np.diag(covariance)),
+            covariance=covariance,
+            epsilon=epsilon(resid, weighted_y),
+            rss=float(resid @ resid),
+            nobs=resid.size,
+            dof=resid.size - len(names),
+            nfev=0,
+            niter=0,
+            converged=True,
+            message=message,
+            units=dict(zip(names, model.units, strict=True)),
+            bounds=dict(zip(names, model.bounds, strict=True)),
+            jacobian_method="none",
+            method=method,
+            condition_number=condition_number,
+            residuals=resid,
+            extra_flags=tuple(extra_flags),
+            notes=tuple(notes),
+            groups=groups,
+        )
 
     # -- named views, built on first use (pandas construction costs more than a whole fit) --
     @cached_property

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError
-from ..fitting.identify import epsilon, identify
+from ..fitting.identify import identify
 from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
 from ..models import JANOSI, MOHR_COULOMB, get_model
@@ -146,32 +146,20 @@ def fit_shear(
         c, t = lin.params.to_numpy()
         grad = np.array([[1.0, 0.0], [0.0, _DEG / (1.0 + t * t)]])  # d(c, φ°)/d(c, tan φ)
         cov = grad @ lin.cov.to_numpy() @ grad.T
-        names = MOHR_COULOMB.param_names
         notes.append(
             "Linear least squares (Section 2.2); phi = atan(tan phi), sigma by the delta method."
         )
-        return FitResult(
-            model_name="mohr-coulomb",
-            param_names=names,
-            values=np.array([c, np.degrees(np.arctan(t))]),
-            errors=np.sqrt(np.diag(cov)),
-            covariance=cov,
-            epsilon=epsilon(w * lin.residuals, w * tau),
-            rss=lin.rss,
-            nobs=lin.nobs,
-            dof=lin.dof,
-            nfev=0,
-            niter=0,
-            converged=True,
-            message="linear least squares (closed form)",
-            units=dict(zip(names, MOHR_COULOMB.units, strict=True)),
-            bounds=dict(zip(names, MOHR_COULOMB.bounds, strict=True)),
-            jacobian_method="none",
+        return FitResult.closed_form(
+            MOHR_COULOMB,
+            [c, np.degrees(np.arctan(t))],
+            cov,
+            w * lin.residuals,
+            w * tau,
             method="linear least squares on the steady-state part (Eq. 15)",
+            message="linear least squares (closed form)",
             condition_number=lin.condition_number,
-            residuals=w * lin.residuals,
-            extra_flags=tuple(flags),
-            notes=tuple(notes),
+            notes=notes,
+            extra_flags=flags,
             groups=groups,
         )
     if p0 is None:
@@ -183,14 +171,10 @@ def fit_shear(
         c0, t0 = lin.params.to_numpy()
         tau_max = c0 + sigma * t0
         ratio = np.clip(tau / np.where(tau_max > 0, tau_max, np.inf), 0, 0.999)
+        rising = (ratio > 0.2) & (ratio < 0.9)
         k0 = (
-            float(
-                np.median(
-                    -j[(ratio > 0.2) & (ratio < 0.9)]
-                    / np.log1p(-ratio[(ratio > 0.2) & (ratio < 0.9)])
-                )
-            )
-            if np.any((ratio > 0.2) & (ratio < 0.9))
+            float(np.median(-j[rising] / np.log1p(-ratio[rising])))
+            if rising.any()
             else float(np.median(j))
         )
         p0 = [max(c0, 1.0), np.degrees(np.arctan(max(t0, 1e-3))), max(k0, 1e-5)]

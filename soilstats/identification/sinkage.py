@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Literal
 
 import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError, IdentifiabilityError
-from ..fitting.identify import epsilon, identify
+from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BERNSTEIN, REECE, get_model
 from .pooling import PooledData, equidistant_indices, select_one_soil
@@ -182,45 +183,26 @@ def fit_sinkage(
         wong = wong_bernstein if spec is BERNSTEIN else wong_bekker
         args = (z, p) if spec is BERNSTEIN else (b, z, p)
         theta, cov, n_nonpos = wong(*args)
-        resid = w * (p - spec.func(x, *theta))
-        rss = float(resid @ resid)
         notes.append(
             "Wong's method: ln p on ln z weighted by p^2; sigma from the linearised "
             f"regressions, not Eq. 4. {n_nonpos} samples with p <= 0 have no log and were excluded."
         )
-        names = spec.param_names
-        return FitResult(
-            model_name=f"{spec.name} (Wong)",
-            param_names=names,
-            values=np.asarray(theta, float),
-            errors=np.sqrt(np.diag(cov)),
-            covariance=cov,
-            epsilon=epsilon(resid, w * p),
-            rss=rss,
-            nobs=p.size,
-            dof=p.size - len(names),
-            nfev=0,
-            niter=0,
-            converged=True,
-            message="closed-form linear regressions",
-            units=dict(zip(names, spec.units, strict=True)),
-            bounds=dict(zip(names, spec.bounds, strict=True)),
-            jacobian_method="none",
+        return FitResult.closed_form(
+            spec,
+            theta,
+            cov,
+            w * (p - spec.func(x, *theta)),
+            w * p,
+            name=f"{spec.name} (Wong)",
             method="Wong: p^2-weighted log-log regression",
-            residuals=resid,
-            notes=tuple(notes),
+            message="closed-form linear regressions",
+            notes=notes,
             groups=pooled.groups,
         )
 
     if p0 is None:
         p0 = _starting_values(spec.name, b, z, p)
     result = identify(spec, x, p, p0, weights=w, on_failure=on_failure, notes=notes)
-    return _with_groups(result, pooled)
-
-
-def _with_groups(result: FitResult, pooled: PooledData) -> FitResult:
-    from dataclasses import replace
-
     return replace(result, groups=pooled.groups)
 
 
