@@ -27,7 +27,7 @@ from .errors import (
     SoilstatsWarning,
 )
 from .fitting import FitResult, identify, linear_least_squares
-from .identification import fit_shear, fit_sinkage, parameter_table
+from .identification import fit_per_test, fit_shear, fit_sinkage, parameter_table
 from .models import BEKKER, BERNSTEIN, JANOSI, MOHR_COULOMB, REECE, Model, get_model
 from .simulation import simulate
 from .statistics import anova_oneway
@@ -60,6 +60,7 @@ __all__ = [
     "SoilstatsWarning",
     "anova_oneway",
     "bundled_campaigns",
+    "fit_per_test",
     "fit_shear",
     "fit_sinkage",
     "get_model",

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from .per_test import fit_per_test
 from .shear import fit_shear, pool_shear
 from .sinkage import fit_sinkage, pool_sinkage
 from .steady_state import steady_state
 from .table import parameter_table
 
 __all__ = [
+    "fit_per_test",
     "fit_shear",
     "fit_sinkage",
     "parameter_table",

@@ -3,12 +3,24 @@
 from __future__ import annotations
 
 from .base import Model
-from .shear import JANOSI, MOHR_COULOMB
+from .shear import JANOSI, MOHR_COULOMB, SHEAR_CURVE
 from .sinkage import BEKKER, BERNSTEIN, REECE
 
-__all__ = ["BEKKER", "BERNSTEIN", "JANOSI", "MODELS", "MOHR_COULOMB", "REECE", "Model", "get_model"]
+__all__ = [
+    "BEKKER",
+    "BERNSTEIN",
+    "JANOSI",
+    "MODELS",
+    "MOHR_COULOMB",
+    "REECE",
+    "SHEAR_CURVE",
+    "Model",
+    "get_model",
+]
 
-MODELS: dict[str, Model] = {m.name: m for m in (BEKKER, BERNSTEIN, REECE, JANOSI, MOHR_COULOMB)}
+MODELS: dict[str, Model] = {
+    m.name: m for m in (BEKKER, BERNSTEIN, REECE, JANOSI, MOHR_COULOMB, SHEAR_CURVE)
+}
 
 
 def get_model(name: str | Model) -> Model:

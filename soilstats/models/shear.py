@@ -13,7 +13,7 @@ import numpy as np
 
 from .base import Model
 
-__all__ = ["JANOSI", "MOHR_COULOMB"]
+__all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE"]
 
 _DEG = np.pi / 180.0
 
@@ -69,4 +69,32 @@ JANOSI = Model(
     bounds=((0.0, np.inf), (0.0, 90.0), (0.0, np.inf)),
     func=janosi,
     jac=janosi_jac,
+)
+
+
+def shear_curve(j, tau_max, K):
+    """τ = τ_max·(1 − exp(−j/K)): Eq. 13 for one test at one normal pressure.
+
+    ``x = j [m]``; τ_max in Pa (= c + σ tan φ of that test), K in m.  One test cannot separate
+    c from φ, so per-test shear analyses identify (τ_max, K) and leave c, φ to Eq. 15.
+    """
+    return tau_max * -np.expm1(-np.asarray(j, float) / K)
+
+
+def shear_curve_jac(j, tau_max, K):
+    j = np.asarray(j, float)
+    decay = np.exp(-j / K)
+    return np.column_stack([-np.expm1(-j / K), -tau_max * decay * j / K**2])
+
+
+SHEAR_CURVE = Model(
+    name="shear-curve",
+    equation="Eq. 13 at one normal pressure: tau = tau_max * (1 - exp(-j/K))",
+    inputs=("j [m]",),
+    output="tau [Pa]",
+    param_names=("tau_max", "K"),
+    units=("Pa", "m"),
+    bounds=((0.0, np.inf), (0.0, np.inf)),
+    func=shear_curve,
+    jac=shear_curve_jac,
 )

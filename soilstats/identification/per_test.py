@@ -1,0 +1,165 @@
+"""Per-test identification: one parameter set per test, as the response of setup studies.
+
+A pooled fit (Section 2) answers "what are this soil's parameters?"; a setup study asks
+"does this factor move them, beyond the test-to-test scatter?", and needs one value per test
+(one repetition = one observation of the ANOVA).  What one test can identify:
+
+* **sinkage** — one plate size, so Bernstein p = k·z^n (Eq. 8) with k = kc/b + kφ; the
+  size terms of Bekker (Eq. 7) need several plates and stay a pooled question.
+* **shear** — one normal pressure, so τ = τ_max·(1 − e^{−j/K}) (Eq. 13 with τ_max =
+  c + σ tan φ), plus the steady-state level τ_ss and the mean normal pressure σ of the test
+  (the data points of Eq. 15 / Figs. 11–14); c and φ come from τ_ss against σ.
+
+Every selected test gets a row; a test whose fit fails keeps its row with ``converged`` False,
+NaN parameters and the reason in ``message`` — and a warning counts them.  Nothing is dropped.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+
+from ..errors import CampaignError, ConvergenceError, ConvergenceWarning
+from ..fitting.identify import identify
+from ..models import BERNSTEIN, SHEAR_CURVE
+from .pooling import equidistant_indices
+from .steady_state import steady_state
+from .wong import wong_bernstein
+
+__all__ = ["fit_per_test"]
+
+
+def fit_per_test(
+    campaign,
+    kind: Literal["sinkage", "shear"] = "sinkage",
+    *,
+    points_per_test: int | None = 100,
+    progress: bool = False,
+    **selection,
+) -> pd.DataFrame:
+    """Fit every selected test on its own; one row per test with its test-log columns.
+
+    Parameters
+    ----------
+    campaign : Campaign
+    kind : {"sinkage", "shear"}
+    points_per_test : int or None
+        Sinkage: samples nearest to equally spaced sinkages (Section 2.1), as in
+        :func:`soilstats.fit_sinkage`.
+    progress : bool
+        Show a tqdm progress bar.
+    **selection
+        Test-log filters (any number of soils may remain: nothing is pooled).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The test log (with derived columns) plus, for sinkage, ``k`` [N/m^(n+2)], ``k_sd``,
+        ``n``, ``n_sd``, ``z_max_m``, ``p_max_Pa``; for shear, ``tau_max`` [Pa],
+        ``tau_max_sd``, ``K`` [m], ``K_sd``, ``sigma_mean_Pa``, ``tau_ss_Pa`` (NaN when the
+        test never reaches a steady state), ``steady``; and for both ``epsilon`` (Eq. 2 on
+        the 1/max-weighted data), ``nobs``, ``converged``, ``message``.
+    """
+    if kind not in ("sinkage", "shear"):
+        raise ValueError(f"kind must be 'sinkage' or 'shear', got {kind!r}")
+    chosen = campaign.select(**selection) if selection else campaign
+    tests = chosen.tests[chosen.tests["kind"] == kind].reset_index(drop=True)
+    if tests.empty:
+        crit = ", ".join(f"{k}={v!r}" for k, v in selection.items()) or "no selection"
+        raise CampaignError(f"no {kind} tests match ({crit})", file="tests.csv", column="kind")
+    samples = chosen.sinkage if kind == "sinkage" else chosen.shear
+    by_test = samples.groupby("test_id", sort=False).indices
+    fit_one = _fit_sinkage_test if kind == "sinkage" else _fit_shear_test
+    if kind == "sinkage":
+        columns = {"z": samples["z_m"], "y": samples["pressure_Pa"]}
+    else:
+        columns = {"z": samples["j_m"], "y": samples["tau_Pa"], "sigma": samples["sigma_Pa"]}
+    columns = {key: col.to_numpy(float) for key, col in columns.items()}
+    ids = tests["test_id"].astype(str).to_numpy()
+    iterator = ids
+    if progress:
+        from tqdm.auto import tqdm
+
+        iterator = tqdm(ids, desc=f"per-test {kind} fits", unit="test")
+    rows = []
+    for tid in iterator:
+        idx = by_test.get(tid, np.array([], int))
+        rows.append(fit_one(tid, {k: v[idx] for k, v in columns.items()}, points_per_test))
+    fits = pd.DataFrame(rows)
+    failed = fits.loc[~fits["converged"], "test_id"].tolist()
+    if failed:
+        warnings.warn(
+            f"{len(failed)} of {len(fits)} per-test {kind} fits did not converge "
+            f"({', '.join(failed[:8])}{', …' if len(failed) > 8 else ''}); their rows hold NaN "
+            "and the reason in 'message'",
+            ConvergenceWarning,
+            stacklevel=2,
+        )
+    return tests.merge(fits, on="test_id", how="left", validate="one_to_one")
+
+
+def _fit_sinkage_test(tid: str, data: dict, points_per_test) -> dict:
+    z, p = data["z"], data["y"]
+    contact = z > 0
+    z, p = z[contact], p[contact]
+    use = equidistant_indices(z, points_per_test)
+    z, p = z[use], p[use]
+    row = {"test_id": tid, "nobs": int(z.size), "z_max_m": np.nan, "p_max_Pa": np.nan}
+    if z.size < 3 or p.max() <= 0:
+        return _failed(
+            row, ("k", "n"), f"{z.size} samples with z > 0 and max p {p.max(initial=0):g} Pa"
+        )
+    row.update(z_max_m=float(z.max()), p_max_Pa=float(p.max()))
+    weights = np.full(z.size, 1.0 / p.max())
+    try:
+        p0 = wong_bernstein(z, p)[0]
+        fit = identify(BERNSTEIN, z, p, p0, weights=weights, name=f"bernstein {tid}")
+    except (ConvergenceError, ValueError, np.linalg.LinAlgError) as exc:
+        return _failed(row, ("k", "n"), str(exc))
+    return _fitted(row, fit)
+
+
+def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
+    j, tau, sigma = data["z"], data["y"], data["sigma"]
+    row = {
+        "test_id": tid,
+        "sigma_mean_Pa": float(np.mean(sigma)) if sigma.size else np.nan,
+        "tau_ss_Pa": np.nan,
+        "steady": False,
+    }
+    if j.size:
+        ss = steady_state(j, tau)
+        row.update(steady=bool(ss.steady), tau_ss_Pa=float(ss.tau_level) if ss.steady else np.nan)
+    keep = j >= 0
+    j, tau = j[keep], tau[keep]
+    row["nobs"] = int(j.size)
+    if j.size < 3 or tau.max(initial=0) <= 0:
+        return _failed(row, ("tau_max", "K"), f"{j.size} samples with j >= 0")
+    weights = np.full(j.size, 1.0 / tau.max())
+    # Start: plateau from the top decile, K from where τ first reaches 63 % of it (1 − 1/e).
+    tau_top = float(np.median(np.sort(tau)[-max(3, tau.size // 10) :]))
+    reach = np.flatnonzero(tau >= 0.632 * tau_top)
+    k0 = float(j[reach[0]]) if reach.size and j[reach[0]] > 0 else float(np.ptp(j)) / 20 or 1e-3
+    try:
+        fit = identify(SHEAR_CURVE, j, tau, [tau_top, k0], weights=weights, name=f"shear {tid}")
+    except (ConvergenceError, ValueError, np.linalg.LinAlgError) as exc:
+        return _failed(row, ("tau_max", "K"), str(exc))
+    return _fitted(row, fit)
+
+
+def _fitted(row: dict, fit) -> dict:
+    for name, value, sd in zip(fit.param_names, fit.values, fit.errors, strict=True):
+        row[name], row[f"{name}_sd"] = float(value), float(sd)
+    flags = [f.code for f in fit.flags]
+    row.update(epsilon=fit.epsilon, converged=bool(fit.converged), message="; ".join(flags) or "ok")
+    return row
+
+
+def _failed(row: dict, names, reason: str) -> dict:
+    for name in names:
+        row[name] = row[f"{name}_sd"] = np.nan
+    row.update(epsilon=np.nan, converged=False, message=reason)
+    return row
