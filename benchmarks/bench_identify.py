@@ -51,17 +51,25 @@ def paper_size_campaign(seed: int = 0) -> soilstats.Campaign:
     return soilstats.Campaign.from_frames(pd.DataFrame(tests), pd.concat(rows, ignore_index=True))
 
 
-def timed(fn, repeat: int) -> tuple[float, object]:
-    out = fn()  # warm imports and caches of the library itself, not of the problem
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), out
+def timed_interleaved(contenders: dict, repeat: int) -> tuple[dict, dict]:
+    """Median seconds per call of every contender, measured round-robin.
+
+    Each round calls every contender once (in rotating order), so a load change on a shared
+    machine hits all of them alike and the *ratios* stay meaningful; medians drop outliers.
+    """
+    outputs = {name: fn() for name, fn in contenders.items()}  # warm imports and caches
+    times = {name: [] for name in contenders}
+    names = list(contenders)
+    for round_ in range(repeat):
+        shift = round_ % len(names)
+        for name in names[shift:] + names[:shift]:
+            t0 = time.perf_counter()
+            outputs[name] = contenders[name]()
+            times[name].append(time.perf_counter() - t0)
+    return {name: float(np.median(t)) for name, t in times.items()}, outputs
 
 
-def main(repeat: int = 50) -> pd.DataFrame:
+def main(repeat: int = 200) -> pd.DataFrame:
     campaign = paper_size_campaign()
     pooled = soilstats.identification.pool_sinkage(campaign, points_per_test=100)
     b, z, p, w = pooled.x["b_m"], pooled.x["z_m"], pooled.y, pooled.weights
@@ -109,26 +117,30 @@ def main(repeat: int = 50) -> pd.DataFrame:
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        for name, fn in contenders.items():
-            seconds, out = timed(fn, repeat)
-            if isinstance(out, soilstats.FitResult):
-                theta = out.params.to_numpy()
-            elif isinstance(out, tuple):
-                theta = np.asarray(out[0])
-            else:
-                theta = np.array([out.params[k].value for k in ("kc", "kphi", "n")])
-            agree = np.max(
-                np.abs(theta - reference.params.to_numpy()) / np.abs(reference.stderr.to_numpy())
-            )
-            rows.append(
-                {"contender": name, "ms_per_fit": seconds * 1e3, "max |Δθ|/σ vs soilstats": agree}
-            )
+        seconds, outputs = timed_interleaved(contenders, repeat)
+    for name, out in outputs.items():
+        if isinstance(out, soilstats.FitResult):
+            theta = out.params.to_numpy()
+        elif isinstance(out, tuple):
+            theta = np.asarray(out[0])
+        else:
+            theta = np.array([out.params[k].value for k in ("kc", "kphi", "n")])
+        agree = np.max(
+            np.abs(theta - reference.params.to_numpy()) / np.abs(reference.stderr.to_numpy())
+        )
+        rows.append(
+            {
+                "contender": name,
+                "ms_per_fit": seconds[name] * 1e3,
+                "max |Δθ|/σ vs soilstats": agree,
+            }
+        )
     table = pd.DataFrame(rows)
     base = table.loc[0, "ms_per_fit"]
     table["time ratio (x soilstats.identify)"] = table["ms_per_fit"] / base
     print(
         f"Paper-size Bekker problem: {p.size} samples, {len(pooled.groups)} tests, "
-        f"median of {repeat} cold-start fits each"
+        f"median of {repeat} cold-start fits each, interleaved"
     )
     print(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     print(

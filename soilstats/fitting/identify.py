@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import ConvergenceError, ConvergenceWarning
 from ..models import Model
 from .jacobian import make_jacobian
-from .levenberg_marquardt import levenberg_marquardt
+from .levenberg_marquardt import gram_matrix, levenberg_marquardt
 from .result import FitResult, HealthFlag, epsilon
 
 __all__ = ["RANK_CONDITION_LIMIT", "epsilon", "identify"]
@@ -22,22 +22,27 @@ __all__ = ["RANK_CONDITION_LIMIT", "epsilon", "identify"]
 RANK_CONDITION_LIMIT = 1e12
 
 
-def _covariance(jac: np.ndarray, rss: float, dof: int) -> tuple[float, np.ndarray]:
+def _covariance(
+    jac: np.ndarray, rss: float, dof: int, gram: np.ndarray | None = None
+) -> tuple[float, np.ndarray]:
     """(cond(J D⁻¹), Cov = s²·(JᵀJ)⁻¹) with s² = RSS/(N − Np) (Eq. 4).
 
     J is column-equilibrated first (D = column norms), so the condition number measures
     real collinearity, not the units of the parameters.  Below cond 1e4 the inverse comes
-    from the p×p Gram matrix (error ~cond²·ε < 1e-8); above, from the SVD of J D⁻¹, which
-    does not square the condition number (the hard NIST sets sit at cond ~1e8).
+    from the p×p Gram matrix (error ~cond²·ε < 1e-8; ``gram`` = JᵀJ if the caller has it);
+    above, from the SVD of J D⁻¹, which does not square the condition number (the hard NIST
+    sets sit at cond ~1e8).
     """
     n_par = jac.shape[1]
-    if not np.all(np.isfinite(jac)):
+    if gram is None:
+        gram = gram_matrix(jac.T)
+    if not np.isfinite(gram).all():  # a NaN or inf anywhere in J reaches JᵀJ
         return np.inf, np.full((n_par, n_par), np.nan)
-    scale = np.sqrt(np.einsum("ij,ij->j", jac, jac))
+    scale = np.sqrt(gram.diagonal())
     if np.any(scale == 0):
         return np.inf, np.full((n_par, n_par), np.nan)
     s2 = rss / dof if dof > 0 else np.nan
-    eig, vecs = np.linalg.eigh((jac.T @ jac) / np.outer(scale, scale))
+    eig, vecs = np.linalg.eigh(gram / np.outer(scale, scale))
     if eig[0] > 0 and eig[-1] / eig[0] < 1e8:
         cond = float(np.sqrt(eig[-1] / eig[0]))
         inv = (vecs / eig) @ vecs.T
@@ -101,10 +106,10 @@ def identify(
     """
     if on_failure not in ("raise", "warn"):
         raise ValueError(f"on_failure must be 'raise' or 'warn', got {on_failure!r}")
-    fast = None
+    fast = False
     if isinstance(model, Model):
         if jac is None:
-            fast = model.evaluators(x)
+            fast = True
         f, jac = model.func, jac or model.jac
         param_names = param_names or model.param_names
         units = units or dict(zip(model.param_names, model.units, strict=True))
@@ -133,22 +138,22 @@ def identify(
         jac, jacobian_method = make_jacobian(f, x, p0)
 
     wy = w * y
-    w_col = w[:, None]
-    if fast is not None:
-        f_theta, jac_theta = fast
+    if fast:
+        # The model's own closures: weights folded into precomputed arrays, f and J sharing
+        # their common factors, J built row-wise as the optimiser wants it.
+        f_weighted, jacobian = model.evaluators(x, w)
+
+        def residual(theta: np.ndarray) -> np.ndarray:
+            return wy - f_weighted(theta)
+
     else:
+        w_col = w[:, None]
 
-        def f_theta(theta):
-            return f(x, *theta)
+        def residual(theta: np.ndarray) -> np.ndarray:
+            return wy - w * np.asarray(f(x, *theta), float).ravel()
 
-        def jac_theta(theta):
-            return jac(x, *theta)
-
-    def residual(theta: np.ndarray) -> np.ndarray:
-        return wy - w * np.asarray(f_theta(theta), float).ravel()
-
-    def jacobian(theta: np.ndarray) -> np.ndarray:
-        return w_col * np.asarray(jac_theta(theta), float).reshape(n_obs, n_par)
+        def jacobian(theta: np.ndarray) -> np.ndarray:
+            return (w_col * np.asarray(jac(x, *theta), float).reshape(n_obs, n_par)).T
 
     # Trial steps may leave the model's domain (overflow, log of a negative): that is a
     # rejected step, handled by the optimiser, not a warning for the user.
@@ -160,7 +165,7 @@ def identify(
     dof = n_obs - n_par
     converged = out.converged
     message = out.reason
-    cond, cov = _covariance(out.jacobian, rss, dof)
+    cond, cov = _covariance(out.jacobian, rss, dof, out.gram)
     flags = list(extra_flags)
     with np.errstate(divide="ignore", invalid="ignore"):
         relative_sd = np.sqrt(np.diag(cov)) / np.abs(out.params)

@@ -27,7 +27,7 @@ from ..fitting.identify import identify
 from ..models import BERNSTEIN, SHEAR_CURVE
 from .pooling import equidistant_indices
 from .steady_state import steady_state
-from .wong import wong_bernstein
+from .wong import wong_start
 
 __all__ = ["fit_per_test"]
 
@@ -115,7 +115,7 @@ def _fit_sinkage_test(tid: str, data: dict, points_per_test) -> dict:
     row.update(z_max_m=float(z.max()), p_max_Pa=float(p.max()))
     weights = np.full(z.size, 1.0 / p.max())
     try:
-        p0 = wong_bernstein(z, p)[0]
+        p0 = wong_start(None, z, p)
         fit = identify(BERNSTEIN, z, p, p0, weights=weights, name=f"bernstein {tid}")
     except (ConvergenceError, ValueError, np.linalg.LinAlgError) as exc:
         return _failed(row, ("k", "n"), str(exc))

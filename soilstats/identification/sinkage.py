@@ -13,7 +13,7 @@ from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BERNSTEIN, REECE, get_model
 from .pooling import PooledData, equidistant_indices, select_one_soil
-from .wong import wong_bekker, wong_bernstein
+from .wong import wong_bekker, wong_bernstein, wong_start
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
@@ -39,13 +39,15 @@ def pool_sinkage(
         raise ValueError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
     chosen, tests = select_one_soil(campaign, "sinkage", selection)
     samples = chosen.sinkage
-    by_test = {tid: idx for tid, idx in samples.groupby("test_id", sort=False).indices.items()}
-    zs, ps, bs, ws, owner, rows = [], [], [], [], [], []
+    by_test = samples.groupby("test_id", sort=False).indices
     z_all = samples["z_m"].to_numpy(float)
     p_all = samples["pressure_Pa"].to_numpy(float)
-    for position, (_, test) in enumerate(tests.iterrows()):
-        tid = test["test_id"]
-        idx = by_test.get(tid, np.array([], int))
+    test_ids = tests["test_id"].to_numpy(object)
+    plate_sizes = tests["b_m"].to_numpy(float)
+    empty = np.array([], int)
+    zs, ps, rows = [], [], []
+    for tid, b in zip(test_ids, plate_sizes, strict=True):
+        idx = by_test.get(tid, empty)
         z, p = z_all[idx], p_all[idx]
         contact = z > 0
         z, p = z[contact], p[contact]
@@ -67,30 +69,40 @@ def pool_sinkage(
                 column="force_N",
                 test_id=str(tid),
             )
-        weight = 1.0 / p_max if weighting == "max-pressure" else 1.0
         zs.append(z)
         ps.append(p)
-        bs.append(np.full(z.size, float(test["b_m"])))
-        ws.append(np.full(z.size, weight))
-        owner.append(np.full(z.size, position))
         rows.append(
-            {
-                "test_id": tid,
-                "b_m": float(test["b_m"]),
-                "samples": int(idx.size),
-                "excluded_z_nonpositive": int((~contact).sum()),
-                "used": int(z.size),
-                "z_max_m": float(z.max()),
-                "p_max_Pa": p_max,
-                "weight": weight,
-            }
+            (
+                tid,
+                b,
+                idx.size,
+                int((~contact).sum()),
+                z.size,
+                float(z.max()),
+                p_max,
+                1.0 / p_max if weighting == "max-pressure" else 1.0,
+            )
         )
+    groups = pd.DataFrame(
+        rows,
+        columns=[
+            "test_id",
+            "b_m",
+            "samples",
+            "excluded_z_nonpositive",
+            "used",
+            "z_max_m",
+            "p_max_Pa",
+            "weight",
+        ],
+    )
+    used = groups["used"].to_numpy()
     return PooledData(
-        x={"b_m": np.concatenate(bs), "z_m": np.concatenate(zs)},
+        x={"b_m": np.repeat(groups["b_m"].to_numpy(), used), "z_m": np.concatenate(zs)},
         y=np.concatenate(ps),
-        weights=np.concatenate(ws),
-        test_index=np.concatenate(owner),
-        groups=pd.DataFrame(rows),
+        weights=np.repeat(groups["weight"].to_numpy(), used),
+        test_index=np.repeat(np.arange(len(groups)), used),
+        groups=groups,
     )
 
 
@@ -210,8 +222,8 @@ def _starting_values(model_name: str, b, z, p) -> np.ndarray:
     """Wong's linearised estimate: cheap and usually within a few LM steps of the optimum."""
     try:
         if model_name == "bernstein":
-            return wong_bernstein(z, p)[0]
-        theta = wong_bekker(b, z, p)[0]
+            return wong_start(None, z, p)
+        theta = wong_start(b, z, p)
     except (ValueError, np.linalg.LinAlgError):
         theta = np.array([0.0, np.median(p / np.maximum(z, 1e-9)), 1.0])
     if model_name == "reece":

@@ -32,8 +32,9 @@ class Model:
     jac : callable
         ``jac(x, *params) -> (N, p)`` analytic ∂f/∂θ.
     prepare : callable, optional
-        ``prepare(x) -> (f(θ), jac(θ))``: closures over ``x`` that precompute what does not
-        depend on θ (e.g. ln z) and share work between f and its Jacobian.  Same values as
+        ``prepare(x, w) -> (θ ↦ w·f, θ ↦ (w·∂f/∂θ)ᵀ)``: closures over ``x`` and the weights
+        ``w`` (N,) that precompute what does not depend on θ (e.g. ln z, w/b), share work
+        between f and its Jacobian, and return the Jacobian as (p, N) rows.  Same values as
         ``func``/``jac``; used by the optimiser where speed matters.
     """
 
@@ -48,11 +49,24 @@ class Model:
     jac: Callable[..., np.ndarray] = field(repr=False)
     prepare: Callable | None = field(default=None, repr=False)
 
-    def evaluators(self, x) -> tuple[Callable, Callable]:
-        """(f(θ), jac(θ)) for fixed inputs ``x``; fast closures where the model has them."""
+    def evaluators(self, x, weights) -> tuple[Callable, Callable]:
+        """(θ ↦ w·f(x, θ), θ ↦ (w·∂f/∂θ)ᵀ of shape (p, N)) for fixed ``x`` and weights ``w``.
+
+        The model's fast closures where it has them (see ``prepare``), else wrappers of
+        ``func`` and ``jac``.
+        """
+        w = np.asarray(weights, dtype=float)
         if self.prepare is not None:
-            return self.prepare(x)
-        return (lambda theta: self.func(x, *theta)), (lambda theta: self.jac(x, *theta))
+            return self.prepare(x, w)
+        w_col = w[:, None]
+
+        def f_weighted(theta):
+            return w * np.asarray(self.func(x, *theta), float)
+
+        def jac_rows(theta):
+            return (w_col * np.asarray(self.jac(x, *theta), float)).T
+
+        return f_weighted, jac_rows
 
     def __call__(self, x, *params) -> np.ndarray:
         return self.func(x, *params)

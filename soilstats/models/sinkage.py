@@ -84,38 +84,47 @@ class _PowerCache:
         return self._zn
 
 
-def _prepare_bekker(x):
+def _prepare_bekker(x, w):
     b, z = x
-    inv_b = 1.0 / np.asarray(b, dtype=float)
+    w_over_b = w / np.asarray(b, dtype=float)
     power = _PowerCache(z)
-    out = np.empty((inv_b.size, 3))
+    last = {"theta": None, "f": None}
 
     def f(theta):
         kc, kphi, n = theta
-        return (kc * inv_b + kphi) * power(n)
+        value = (kc * w_over_b + kphi * w) * power(n)
+        last["theta"], last["f"] = (kc, kphi, n), value
+        return value
 
     def jac(theta):
         kc, kphi, n = theta
         zn = power(n)
-        np.multiply(zn, inv_b, out=out[:, 0])
-        out[:, 1] = zn
-        np.multiply((kc * inv_b + kphi) * zn, power.lnz, out=out[:, 2])
-        return out.copy()
+        # w·f is the third column's common factor; the optimiser asks for J at the point it
+        # has just evaluated, so reuse it rather than recompute.
+        wf = last["f"] if last["theta"] == (kc, kphi, n) else f(theta)
+        rows = np.empty((3, zn.size))
+        np.multiply(zn, w_over_b, out=rows[0])
+        np.multiply(zn, w, out=rows[1])
+        np.multiply(wf, power.lnz, out=rows[2])
+        return rows
 
     return f, jac
 
 
-def _prepare_bernstein(z):
+def _prepare_bernstein(z, w):
     power = _PowerCache(z)
 
     def f(theta):
         k, n = theta
-        return k * power(n)
+        return (k * w) * power(n)
 
     def jac(theta):
         k, n = theta
         zn = power(n)
-        return np.column_stack([zn, k * zn * power.lnz])
+        rows = np.empty((2, zn.size))
+        np.multiply(zn, w, out=rows[0])
+        np.multiply(rows[0], k * power.lnz, out=rows[1])
+        return rows
 
     return f, jac
 
