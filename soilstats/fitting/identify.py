@@ -13,6 +13,7 @@ from ..models import Model
 from .jacobian import make_jacobian
 from .levenberg_marquardt import gram_matrix, levenberg_marquardt
 from .result import FitResult, HealthFlag, epsilon
+from .separable import refine_exponent
 
 __all__ = ["RANK_CONDITION_LIMIT", "epsilon", "identify"]
 
@@ -142,6 +143,9 @@ def identify(
         # The model's own closures: weights folded into precomputed arrays, f and J sharing
         # their common factors, J built row-wise as the optimiser wants it.
         f_weighted, jacobian = model.evaluators(x, w)
+        if model.separable is not None:
+            basis, log_z = model.separable(x, w)
+            p0, _ = refine_exponent(basis, log_z, wy, p0, ftol=ftol)
 
         def residual(theta: np.ndarray) -> np.ndarray:
             return wy - f_weighted(theta)

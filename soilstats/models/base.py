@@ -36,6 +36,11 @@ class Model:
         ``w`` (N,) that precompute what does not depend on θ (e.g. ln z, w/b), share work
         between f and its Jacobian, and return the Jacobian as (p, N) rows.  Same values as
         ``func``/``jac``; used by the optimiser where speed matters.
+    separable : callable, optional
+        For models linear in all parameters but a last exponent n (p = Σ aᵢ·gᵢ(x)·z^n):
+        ``separable(x, w) -> (n ↦ U(n), ln z)`` with U the (q, N) weighted basis rows
+        w·gᵢ(x)·z^n.  Lets the identification reach the optimum by variable projection
+        before its LM (see :mod:`soilstats.fitting.separable`).
     """
 
     name: str
@@ -48,6 +53,7 @@ class Model:
     func: Callable[..., np.ndarray] = field(repr=False)
     jac: Callable[..., np.ndarray] = field(repr=False)
     prepare: Callable | None = field(default=None, repr=False)
+    separable: Callable | None = field(default=None, repr=False)
 
     def evaluators(self, x, weights) -> tuple[Callable, Callable]:
         """(θ ↦ w·f(x, θ), θ ↦ (w·∂f/∂θ)ᵀ of shape (p, N)) for fixed ``x`` and weights ``w``.

@@ -129,6 +129,27 @@ def _prepare_bernstein(z, w):
     return f, jac
 
 
+def _separable_bekker(x, w):
+    b, z = x
+    w_over_b = w / np.asarray(b, dtype=float)
+    power = _PowerCache(z)
+
+    def basis(n):
+        zn = power(n)
+        return np.vstack([w_over_b * zn, w * zn])
+
+    return basis, power.lnz
+
+
+def _separable_bernstein(z, w):
+    power = _PowerCache(z)
+
+    def basis(n):
+        return (w * power(n))[None, :]
+
+    return basis, power.lnz
+
+
 _N_RANGE = (0.0, 5.0)  # measured n of dry granular soils and clays lie well inside (paper: 0.8–3.6)
 
 BEKKER = Model(
@@ -142,6 +163,7 @@ BEKKER = Model(
     func=bekker,
     jac=bekker_jac,
     prepare=_prepare_bekker,
+    separable=_separable_bekker,
 )
 
 BERNSTEIN = Model(
@@ -155,6 +177,7 @@ BERNSTEIN = Model(
     func=bernstein,
     jac=bernstein_jac,
     prepare=_prepare_bernstein,
+    separable=_separable_bernstein,
 )
 
 REECE = Model(
