@@ -1,0 +1,99 @@
+"""Which tests a study reads, and the clear error when the campaign cannot answer it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["StudyDataError", "level_label", "select_tests"]
+
+
+class StudyDataError(ValueError):
+    """The campaign lacks what a study needs (the message says what, and what was found)."""
+
+
+def level_label(value) -> str:
+    """A factor level as text: numbers in short general format (4.8e-3 → '0.0048')."""
+    if isinstance(value, float | np.floating):
+        return f"{value:g}"
+    return str(value)
+
+
+def _matches(column: pd.Series, wanted) -> pd.Series:
+    values = wanted if isinstance(wanted, list) else [wanted]
+    if pd.api.types.is_numeric_dtype(column):
+        try:
+            nums = [float(v) for v in values]
+        except (TypeError, ValueError):
+            return pd.Series(False, index=column.index)
+        return column.apply(lambda x: any(np.isclose(x, v, rtol=1e-9, atol=0) for v in nums))
+    return column.astype(str).isin([str(v) for v in values])
+
+
+def select_tests(campaign, spec) -> pd.DataFrame:
+    """The test-log rows of ``spec``: its kind, ``tests.where`` (columns required) and
+    ``tests.where_present`` (applied only when the campaign has the column).
+
+    Raises
+    ------
+    StudyDataError
+        A required column is missing, no test matches, or the factor is not recorded.
+    """
+    tests = campaign.tests
+    chosen = tests[tests["kind"] == spec.kind]
+    what = f"{spec.name} study"
+    if chosen.empty:
+        raise StudyDataError(
+            f"{what} needs {spec.kind} tests; the campaign {campaign.source} has none "
+            f"(kinds present: {sorted(tests['kind'].unique())})"
+        )
+    for column, wanted in spec.where.items():
+        if column not in tests.columns:
+            raise StudyDataError(
+                f"{what} needs the test-log column {column!r} (tests.where); columns present: "
+                f"{list(tests.columns)}"
+            )
+        chosen = chosen[_matches(chosen[column], wanted)]
+    for column, wanted in spec.where_present.items():
+        if column in tests.columns:
+            chosen = chosen[_matches(chosen[column], wanted)]
+    if chosen.empty:
+        raise StudyDataError(
+            f"{what}: no {spec.kind} test matches {spec.where | spec.where_present}"
+        )
+    if spec.factor not in tests.columns:
+        raise StudyDataError(
+            f"{what} needs {spec.kind} tests with the column {spec.factor!r} (its factor); "
+            f"columns present: {list(tests.columns)}"
+        )
+    missing = chosen[spec.factor].isna()
+    if missing.all():
+        raise StudyDataError(
+            f"{what} needs {spec.kind} tests with {spec.factor} recorded; it is empty for all "
+            f"{len(chosen)} selected tests"
+        )
+    return chosen[~missing].copy()
+
+
+def soils_with_levels(tests: pd.DataFrame, spec) -> tuple[list[str], list[str]]:
+    """Soils with ≥ 2 levels of the factor, and notes on the soils left out.
+
+    Raises
+    ------
+    StudyDataError
+        No soil has two or more levels (e.g. "velocity study needs sinkage tests with at
+        least two velocity_m_s values per soil").
+    """
+    levels = tests.groupby("soil")[spec.factor].nunique()
+    good = sorted(levels[levels >= 2].index.astype(str))
+    notes = [
+        f"soil {soil} left out: one {spec.factor} value only "
+        f"({', '.join(map(level_label, tests.loc[tests['soil'] == soil, spec.factor].unique()))})"
+        for soil in sorted(levels[levels < 2].index.astype(str))
+    ]
+    if not good:
+        raise StudyDataError(
+            f"{spec.name} study needs {spec.kind} tests with at least two {spec.factor} values "
+            f"per soil; found {', '.join(f'{s}: {n}' for s, n in levels.items())}"
+        )
+    return good, notes

@@ -1,0 +1,142 @@
+"""Does the factor change a per-test response?  ANOVA with blocks, Tukey pairs, relevance.
+
+For each soil and response (one value per test, see :mod:`.responses`):
+
+1. **ANOVA** of the response by the factor, with the spec's blocking factors that vary within
+   the soil (type II two-way ANOVA, :func:`soilstats.statistics.anova_twoway`); without
+   blocks, or when the factor is confounded with them (each method on its own test day), the
+   one-way ANOVA (:func:`soilstats.statistics.anova_oneway`) — and the confounding is stated.
+2. **Tukey HSD** pairs (:func:`soilstats.statistics.tukey_hsd`) on the response with the
+   block means removed (exact for the balanced designs of the paper; with blocks the
+   intervals are slightly narrow, as they ignore the block degrees of freedom).
+3. **Relevance**: the spec's margin (e.g. ±15 % pressure) against the largest pairwise
+   difference and its simultaneous interval, so that an effect far smaller than a rover team
+   cares about is not reported as one that matters merely because many tests resolve it.
+
+The verdicts across soils and responses are then Holm-adjusted (:mod:`.verdict`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..statistics import (
+    ConfoundingError,
+    StatisticsInputError,
+    anova_oneway,
+    anova_twoway,
+    effect_row,
+    tukey_hsd,
+)
+from .data import level_label
+
+__all__ = ["factor_effects"]
+
+
+def _active_blocks(frame: pd.DataFrame, spec) -> list[str]:
+    return [b for b in spec.blocks if b in frame.columns and frame[b].dropna().nunique() > 1]
+
+
+def _remove_block_means(frame: pd.DataFrame, response: str, blocks: list[str]) -> pd.Series:
+    y = frame[response].astype(float)
+    for block in blocks:
+        y = y - y.groupby(frame[block]).transform("mean") + y.mean()
+    return y
+
+
+def _tidy_anova(table: pd.DataFrame, soil: str, response: str) -> pd.DataFrame:
+    out = table.reset_index(names="term")
+    out.insert(0, "response", response)
+    out.insert(0, "soil", soil)
+    out["test"] = table.attrs.get("test", "ANOVA")
+    return out
+
+
+def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float) -> dict:
+    """ANOVA, Tukey pairs and relevance of every response of ``spec`` for one soil.
+
+    Parameters
+    ----------
+    per_test : pandas.DataFrame
+        One row per test of this soil, with the factor, block and response columns.
+    spec : StudySpec
+    soil : str
+    alpha : float
+        Level of the Tukey intervals (the study's α).
+
+    Returns
+    -------
+    dict
+        ``effects`` (rows for :func:`soilstats.statistics.verdicts`, with the relevance
+        columns), ``anova`` (tidy ANOVA rows), ``pairs`` (Tukey rows), ``notes``.
+    """
+    factor = spec.factor
+    frame = per_test.copy()
+    frame["level"] = frame[factor].map(level_label)
+    effects, anovas, pairs, notes = [], [], [], []
+    for resp in spec.responses:
+        data = frame.dropna(subset=[resp.name])
+        dropped = len(frame) - len(data)
+        if dropped:
+            notes.append(f"{soil}, {resp.name}: {dropped} test(s) without a value left out")
+        if data["level"].nunique() < 2:
+            notes.append(f"{soil}, {resp.name}: fewer than two {factor} levels with values")
+            continue
+        blocks = _active_blocks(data, spec)
+        try:
+            if blocks:
+                table = anova_twoway(data, resp.name, "level", blocks)
+            else:
+                table = anova_oneway(data, resp.name, "level")
+        except ConfoundingError:
+            joined = ", ".join(blocks)
+            notes.append(
+                f"{soil}: {factor} is confounded with {joined} — its levels cannot be told "
+                f"apart from the {joined} they were tested in (e.g. a level tested in one "
+                f"{joined} only), so the {factor} effect reported includes any {joined} effect "
+                "(one-way ANOVA, no blocks)"
+            )
+            blocks = []
+            table = anova_oneway(data, resp.name, "level")
+        except StatisticsInputError as err:
+            notes.append(f"{soil}, {resp.name}: not tested — {err}")
+            continue
+        table = table.rename(index={"level": factor, "between": factor})
+        anovas.append(_tidy_anova(table, soil, resp.name))
+        row = effect_row(soil, resp.name, factor, table)
+        row["blocks"] = ", ".join(blocks)
+        row["n_tests"] = len(data)
+        adjusted = data.assign(_y=_remove_block_means(data, resp.name, blocks))
+        try:
+            tk = tukey_hsd(adjusted, "_y", "level", alpha=alpha)
+        except StatisticsInputError as err:
+            notes.append(f"{soil}, {resp.name}: no pairwise comparison — {err}")
+            tk = None
+        row.update(_relevance(tk, resp))
+        effects.append(row)
+        if tk is not None:
+            tk = tk.assign(soil=soil, response=resp.name)
+            pairs.append(tk)
+    return {
+        "effects": effects,
+        "anova": pd.concat(anovas, ignore_index=True) if anovas else pd.DataFrame(),
+        "pairs": pd.concat(pairs, ignore_index=True) if pairs else pd.DataFrame(),
+        "notes": notes,
+    }
+
+
+def _relevance(tk: pd.DataFrame | None, resp) -> dict:
+    """Largest pairwise difference, its simultaneous bound, and the margin they face."""
+    if tk is None or tk.empty:
+        return {"largest_difference": np.nan, "difference_bound": np.nan, "margin": np.nan}
+    biggest = tk.loc[tk["meandiff"].abs().idxmax()]
+    bound = float(np.maximum(tk["lower"].abs(), tk["upper"].abs()).max())
+    margin = resp.margin_on_scale
+    return {
+        "largest_difference": float(abs(biggest["meandiff"])),
+        "largest_pair": f"{biggest['group1']} vs {biggest['group2']}",
+        "difference_bound": bound,
+        "margin": np.nan if margin is None else margin,
+        "margin_kind": resp.margin_kind if margin is not None else "",
+    }

@@ -1,0 +1,210 @@
+"""The preparation study's criteria (the paper's Table 1), evaluated as its Table 3.
+
+* **Criterion 1** — applicable to a small bin and to a large rover testbed: from each
+  method's *description in the study specification* (Table 2): loosening depth ≥ the spec's
+  minimum, loosening and levelling tools that scale up, no time-consuming movement.  The
+  description is used only when the campaign's test log confirms it (``match_columns``);
+  otherwise the criterion is ``n/a`` — a method label alone ("3") does not say which method
+  a lab used.
+* **Criterion 2** — several persons give no remarkable differences: no significant operator
+  effect (two-way ANOVA of log10 p_ref by operator, plate size as block; Holm across the
+  methods of a soil) and a between-repetition scatter (pooled within-plate sd of ln p_ref,
+  ≈ the coefficient of variation of the pressure at the reference sinkage) ≤ the spec's bound.
+* **Criterion 3** — fit quality ε (Eq. 2) of the method's pooled identification as close to
+  one as the best method's: within ``epsilon_within_best``.
+
+Score Σ = (+1 per ``+``) − (1 per ``−``); ``n/a`` counts 0 and is never hidden.  The best
+method has the highest mean Σ over the soils it was tested on (ties: higher mean ε), and is
+named only if every criterion could be assessed for it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from statsmodels.stats.multitest import multipletests
+
+from ..statistics import ConfoundingError, StatisticsInputError, anova_oneway, anova_twoway
+
+__all__ = ["evaluate_criteria"]
+
+PLUS, MINUS, NA = "+", "-", "n/a"
+
+
+def _criterion1(method: str, tests: pd.DataFrame, crit) -> tuple[str, str]:
+    desc = crit.methods.get(method)
+    if desc is None:
+        return NA, f"no description of method {method} in the specification"
+    rows = tests[tests["preparation"].astype(str) == method]
+    for column in crit.match_columns:
+        if column not in rows.columns or rows[column].isna().all():
+            return NA, (
+                f"the test log has no {column!r} to confirm that method {method} is the one "
+                "described in the specification"
+            )
+        seen = {str(v) if not isinstance(v, float) else f"{v:g}" for v in rows[column].dropna()}
+        want = desc.get(column)
+        want = f"{want:g}" if isinstance(want, int | float) else str(want)
+        if seen != {want}:
+            return NA, f"log {column}={sorted(seen)} differs from the description ({want})"
+    reasons = []
+    depth = desc.get("loosening_depth_cm")
+    if depth is None or depth < crit.min_loosening_depth_cm:
+        reasons.append(f"loosening depth {depth} cm < {crit.min_loosening_depth_cm:g} cm")
+    for key in ("loosening_tool", "levelling_tool"):
+        if key in desc and desc[key] not in crit.scalable_tools:
+            reasons.append(f"{key.replace('_', ' ')} '{desc[key]}' does not scale to a testbed")
+    for key in ("loosening_movement", "loosening_pattern"):
+        if desc.get(key) in crit.time_consuming:
+            reasons.append(f"'{desc[key]}' is time-consuming on a large testbed")
+    if reasons:
+        return MINUS, "; ".join(reasons)
+    return PLUS, f"depth {depth} cm, scalable tools"
+
+
+def _scatter_cv(g: pd.DataFrame) -> tuple[float, int]:
+    """Pooled within-plate sd of ln p_ref (≈ cv of the pressure) and its degrees of freedom."""
+    y = g["log10_p_ref"].dropna() * math.log(10)
+    blocks = g.loc[y.index, "b_m"] if "b_m" in g else pd.Series(0, index=y.index)
+    resid = y - y.groupby(blocks).transform("mean")
+    df = len(y) - blocks.nunique()
+    return (float(np.sqrt((resid**2).sum() / df)) if df > 0 else math.nan), int(df)
+
+
+def _operator_p(g: pd.DataFrame, column: str) -> float:
+    if column not in g.columns or g[column].dropna().nunique() < 2:
+        return math.nan
+    data = g.dropna(subset=["log10_p_ref", column])
+    try:
+        if "b_m" in data and data["b_m"].nunique() > 1:
+            table = anova_twoway(data, "log10_p_ref", column, "b_m")
+            return float(table.loc[column, "PR(>F)"])
+        return float(anova_oneway(data, "log10_p_ref", column).loc["between", "PR(>F)"])
+    except (StatisticsInputError, ConfoundingError):
+        return math.nan
+
+
+def evaluate_criteria(
+    per_test: pd.DataFrame, epsilons: pd.DataFrame, spec, alpha: float
+) -> tuple[pd.DataFrame, dict]:
+    """Table 3: one row per soil and method with the three criteria, their reasons and Σ.
+
+    Parameters
+    ----------
+    per_test : pandas.DataFrame
+        Per-test responses (``log10_p_ref``, ``b_m``, operator, preparation, soil).
+    epsilons : pandas.DataFrame
+        Columns ``soil``, ``level`` (method), ``epsilon`` of the pooled fits.
+    spec : StudySpec
+    alpha : float
+
+    Returns
+    -------
+    (pandas.DataFrame, dict)
+        The criteria table and ``{"best": str | None, "reason": str}``.
+    """
+    crit = spec.criteria
+    rows = []
+    for soil, soil_tests in per_test.groupby("soil", sort=True):
+        eps = epsilons[epsilons["soil"] == soil].set_index("level")["epsilon"]
+        best_eps = eps.max()
+        methods = sorted(soil_tests["preparation"].astype(str).unique(), key=_natural)
+        p_ops = {
+            m: _operator_p(
+                soil_tests[soil_tests["preparation"].astype(str) == m], crit.operator_column
+            )
+            for m in methods
+        }
+        tested = {m: p for m, p in p_ops.items() if not math.isnan(p)}
+        adjusted = {}
+        if tested:
+            p_holm = multipletests(list(tested.values()), alpha=alpha, method="holm")[1]
+            adjusted = dict(zip(tested, p_holm, strict=True))
+        for m in methods:
+            g = soil_tests[soil_tests["preparation"].astype(str) == m]
+            c1, why1 = _criterion1(m, per_test, crit)
+            cv, df = _scatter_cv(g)
+            parts, why2 = [], []
+            if m in adjusted:
+                ok = adjusted[m] >= alpha
+                parts.append(ok)
+                why2.append(f"operator p_Holm = {adjusted[m]:.3g}")
+            else:
+                why2.append(
+                    f"operator effect not assessable (no {crit.operator_column!r} "
+                    "with two or more persons)"
+                )
+            if df > 0:
+                parts.append(cv <= crit.max_scatter_cv)
+                why2.append(f"scatter cv = {cv:.3f} (bound {crit.max_scatter_cv:g}, {df} df)")
+            else:
+                why2.append(f"scatter not assessable ({len(g)} test(s), no repetition)")
+            if parts and not all(parts):
+                c2 = MINUS
+            elif len(parts) == 2:
+                c2 = PLUS
+            else:
+                c2 = NA
+            e = eps.get(m, math.nan)
+            if math.isnan(e):
+                c3, why3 = NA, "no pooled fit"
+            else:
+                ok = e >= best_eps - crit.epsilon_within_best
+                c3 = PLUS if ok else MINUS
+                why3 = f"ε = {e:.3f} (best {best_eps:.3f}, tolerance {crit.epsilon_within_best:g})"
+            score = sum({PLUS: 1, MINUS: -1, NA: 0}[c] for c in (c1, c2, c3))
+            rows.append(
+                dict(
+                    soil=soil,
+                    method=m,
+                    tests=len(g),
+                    crit1=c1,
+                    crit2=c2,
+                    crit3=c3,
+                    sigma=score,
+                    epsilon=e,
+                    scatter_cv=cv,
+                    operator_p_holm=adjusted.get(m, math.nan),
+                    crit1_reason=why1,
+                    crit2_reason="; ".join(why2),
+                    crit3_reason=why3,
+                )
+            )
+    table = pd.DataFrame(rows)
+    return table, _best(table)
+
+
+def _natural(label: str):
+    return (0, int(label), "") if label.isdigit() else (1, 0, label)
+
+
+def _best(table: pd.DataFrame) -> dict:
+    if table.empty:
+        return {"best": None, "reason": "no method evaluated"}
+    agg = table.groupby("method").agg(
+        sigma=("sigma", "mean"), epsilon=("epsilon", "mean"), soils=("soil", "nunique")
+    )
+    ranked = agg.sort_values(["sigma", "epsilon"], ascending=False)
+    top = str(ranked.index[0])
+    rows = table[table["method"] == top]
+    na = rows[(rows[["crit1", "crit2", "crit3"]] == NA).any(axis=1)]
+    if len(na):
+        return {
+            "best": None,
+            "ranking": [str(m) for m in ranked.index],
+            "reason": (
+                f"no method is named best: method {top} ranks first by the assessable criteria, "
+                "but not every criterion could be assessed for it "
+                f"({'; '.join(na['crit1_reason'].tolist() + na['crit2_reason'].tolist())})"
+            ),
+        }
+    tied = ranked[ranked["sigma"] == ranked["sigma"].iloc[0]]
+    reason = f"method {top}: highest mean Σ = {ranked['sigma'].iloc[0]:+.1f}"
+    if len(tied) > 1:
+        reason += (
+            f", tied with {', '.join(str(m) for m in tied.index[1:])}; the tie is broken by the "
+            f"higher mean ε ({tied['epsilon'].iloc[0]:.3f})"
+        )
+    return {"best": top, "ranking": [str(m) for m in ranked.index], "reason": reason}

@@ -1,0 +1,133 @@
+"""The result of one study: tables, verdicts, notes — frozen, with ``summary()``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import pandas as pd
+
+__all__ = ["StudyResult"]
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    """Everything a study found, ready for the JSON, CSV and PDF outputs.
+
+    Attributes
+    ----------
+    spec : StudySpec
+    source : str
+        The campaign read (folder or bundled name).
+    date : str
+        ISO date and time of the run.
+    soils : list of str
+    effects : pandas.DataFrame
+        One row per soil and response: ``soil, response, factor, statistic`` (F),
+        ``p_value``, ``p_adjusted`` (Holm), ``significant``, ``effect_size`` (partial η²),
+        ``test``, relevance columns and ``verdict``/``matters`` (see :mod:`.verdict`).
+    anova : pandas.DataFrame
+        The ANOVA tables (sinkage) or ANCOVA model comparisons (shear), tidy.
+    pairs : pandas.DataFrame
+        Tukey HSD pairs (sinkage studies; empty for shear).
+    parameters : pandas.DataFrame
+        Per-condition pooled identification (the paper's Tables 5–7): ``soil, condition,
+        parameter, value, stderr, unit, epsilon, tests, flags, model``.
+    lines : pandas.DataFrame
+        Shear: per-level ANCOVA lines (c [Pa], φ [deg]).
+    per_test : pandas.DataFrame
+        The per-test responses analysed.
+    criteria : pandas.DataFrame or None
+        Preparation: the Table 3 criteria per soil and method.
+    best : dict or None
+        Preparation: ``{"best": method or None, "reason": ...}``.
+    notes : tuple of str
+        Caveats: confounding, tests left out, soils skipped, failed fits.
+    seconds : float
+        Wall time of the analysis (without the PDF).
+    """
+
+    spec: object
+    source: str
+    date: str
+    soils: list
+    effects: pd.DataFrame
+    anova: pd.DataFrame
+    pairs: pd.DataFrame
+    parameters: pd.DataFrame
+    lines: pd.DataFrame
+    per_test: pd.DataFrame
+    criteria: pd.DataFrame | None = None
+    best: dict | None = None
+    notes: tuple[str, ...] = ()
+    seconds: float = math.nan
+    seed: int | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    def reference_pairs(self) -> pd.DataFrame:
+        """Tukey pairs against the spec's reference level, as ``level − reference``."""
+        ref = self.spec.reference
+        if ref is None or self.pairs.empty:
+            return pd.DataFrame()
+        from .data import level_label
+
+        ref = level_label(ref)
+        rows = []
+        for _, r in self.pairs.iterrows():
+            if ref not in (r["group1"], r["group2"]):
+                continue
+            sign = 1.0 if r["group1"] == ref else -1.0
+            lo, hi = sorted((sign * r["lower"], sign * r["upper"]))
+            rows.append(
+                dict(
+                    soil=r["soil"],
+                    response=r["response"],
+                    level=r["group2"] if sign > 0 else r["group1"],
+                    reference=ref,
+                    difference=sign * r["meandiff"],
+                    lower=lo,
+                    upper=hi,
+                    p_adj=r["p_adj"],
+                    significant=bool(r["reject"]),
+                )
+            )
+        out = pd.DataFrame(rows)
+        if out.empty:
+            return out
+        margins = {r.name: r.margin_on_scale for r in self.spec.responses}
+        out["relative_change"] = [
+            10**d - 1 if resp.startswith("log10_") else math.nan
+            for d, resp in zip(out["difference"], out["response"], strict=True)
+        ]
+        out["relevant"] = [
+            bool(sig and (margins.get(resp) is None or abs(d) > margins[resp]))
+            for sig, d, resp in zip(
+                out["significant"], out["difference"], out["response"], strict=True
+            )
+        ]
+        return out
+
+    def summary(self) -> str:
+        """The verdicts in a few lines, then numbered notes."""
+        lines = [f"Study {self.name!r}: {self.spec.title}", f"Data: {self.source}"]
+        if not self.effects.empty:
+            for _, r in self.effects.iterrows():
+                lines.append(
+                    f"  {r['soil']:<14} {r['response']:<12} F = {r['statistic']:9.3g}  "
+                    f"p_Holm = {r['p_adjusted']:.3g}  -> {r['verdict']}"
+                )
+        if self.best is not None:
+            lines.append(
+                f"Best preparation method: {self.best.get('best')} — {self.best['reason']}"
+            )
+        if self.notes:
+            lines.append("Notes:")
+            lines += [f"  [{i}] {n}" for i, n in enumerate(self.notes, 1)]
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()

@@ -1,0 +1,151 @@
+"""Run one study on a campaign: select tests, per-test responses, statistics, tables.
+
+Data flow (one way): campaign → per-test fits (:mod:`.responses`) → statistics
+(:mod:`.effects`, :mod:`.shear`, :mod:`.preparation`, :mod:`.verdict`) → :class:`StudyResult`;
+outputs and the PDF only read the result.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import time
+
+import pandas as pd
+
+from ..errors import ConvergenceError, IdentifiabilityError
+from ..identification import fit_shear, fit_sinkage
+from ..identification.table import parameter_table
+from .data import StudyDataError, level_label, select_tests, soils_with_levels
+from .effects import factor_effects
+from .preparation import evaluate_criteria
+from .responses import PerTestCache
+from .result import StudyResult
+from .shear import shear_effects
+from .verdict import classify
+
+__all__ = ["run_study"]
+
+
+def _pooled_fits(campaign, tests: pd.DataFrame, spec, soil: str, notes: list) -> pd.DataFrame:
+    """Per-condition identification of one soil (the paper's Tables 5–7), tidy."""
+    fits, models = {}, {}
+    sub = tests[tests["soil"].astype(str) == soil]
+    for value, group in sub.groupby(spec.factor, sort=True):
+        label = level_label(value)
+        ids = group["test_id"].astype(str).tolist()
+        model = spec.model
+        if spec.kind == "sinkage" and model in ("bekker", "reece") and group["b_m"].nunique() < 2:
+            if spec.fallback_model is None:
+                notes.append(f"{soil}, {label}: one plate size — {model} not identifiable")
+                continue
+            model = spec.fallback_model
+        try:
+            if spec.kind == "sinkage":
+                fits[label] = fit_sinkage(campaign, model, test_id=ids)
+            else:
+                fits[label] = fit_shear(campaign, model, test_id=ids)
+            models[label] = model
+        except (ConvergenceError, IdentifiabilityError, ValueError) as err:
+            notes.append(f"{soil}, {spec.factor} = {label}: pooled {model} fit failed — {err}")
+    if not fits:
+        return pd.DataFrame()
+    table = parameter_table(fits)
+    table.insert(0, "soil", soil)
+    table["model"] = table["condition"].map(models)
+    return table
+
+
+def run_study(
+    spec,
+    campaign,
+    *,
+    cache: PerTestCache | None = None,
+    progress: bool = False,
+    seed: int | None = None,
+) -> StudyResult:
+    """Run ``spec`` on ``campaign`` and return its :class:`StudyResult`.
+
+    Parameters
+    ----------
+    spec : StudySpec
+        From :func:`soilstats.study.load_spec`.
+    campaign : Campaign
+    cache : PerTestCache, optional
+        Shared per-test fits (for several studies on one campaign).
+    progress : bool
+        tqdm progress bars for the per-test fits.
+    seed : int, optional
+        Recorded in the result; the shipped studies draw no random numbers.
+
+    Raises
+    ------
+    StudyDataError
+        The campaign lacks what the study needs.
+    """
+    start = time.perf_counter()
+    cache = cache or PerTestCache(campaign, progress=progress)
+    tests = select_tests(campaign, spec)
+    soils, notes = soils_with_levels(tests, spec)
+    tests = tests[tests["soil"].astype(str).isin(soils)]
+    ids = tests["test_id"].astype(str).tolist()
+    n_warn = len(cache.warnings)
+    if spec.kind == "sinkage":
+        per_test = cache.sinkage(ids, spec.z_ref_m, spec.z_window_m)
+        short = per_test["p_ref_Pa"].isna().sum()
+        if short == len(per_test):
+            raise StudyDataError(
+                f"{spec.name} study needs sinkage tests reaching z_ref_m = {spec.z_ref_m:g} m; "
+                f"none of the {len(per_test)} selected tests does"
+            )
+        if short:
+            notes.append(
+                f"{short} test(s) do not reach z_ref = {spec.z_ref_m * 1e3:g} mm: no p_ref"
+            )
+    else:
+        per_test = cache.shear(ids)
+    notes += cache.warnings[n_warn:]
+    effect_rows, anovas, pairs, lines, params = [], [], [], [], []
+    for soil in soils:
+        data = per_test[per_test["soil"].astype(str) == soil]
+        if spec.kind == "shear":
+            out = shear_effects(data, spec, soil)
+            lines.append(out["lines"])
+        else:
+            out = factor_effects(data, spec, soil, spec.alpha)
+            pairs.append(out["pairs"])
+        effect_rows += out["effects"]
+        anovas.append(out["anova"])
+        notes += out["notes"]
+        params.append(_pooled_fits(campaign, tests, spec, soil, notes))
+    effects = classify(effect_rows, alpha=spec.alpha, family=spec.family)
+    parameters = pd.concat(params, ignore_index=True) if params else pd.DataFrame()
+    criteria = best = None
+    if spec.type == "preparation":
+        eps = parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
+        criteria, best = evaluate_criteria(
+            per_test, eps.rename(columns={"condition": "level"}), spec, spec.alpha
+        )
+        single = per_test.groupby(["soil", spec.factor]).size()
+        single = single[single == 1]
+        if len(single):
+            notes.append(
+                "single test (no repetition, scatter unknown): "
+                + ", ".join(f"{s} {spec.factor} {m}" for s, m in single.index)
+            )
+    return StudyResult(
+        spec=spec,
+        source=str(campaign.source),
+        date=_dt.datetime.now().isoformat(timespec="seconds"),
+        soils=soils,
+        effects=effects,
+        anova=pd.concat(anovas, ignore_index=True) if anovas else pd.DataFrame(),
+        pairs=pd.concat(pairs, ignore_index=True) if pairs else pd.DataFrame(),
+        parameters=parameters,
+        lines=pd.concat(lines, ignore_index=True) if lines else pd.DataFrame(),
+        per_test=per_test,
+        criteria=criteria,
+        best=best,
+        notes=tuple(dict.fromkeys(notes)),
+        seconds=time.perf_counter() - start,
+        seed=seed,
+    )

@@ -1,0 +1,118 @@
+"""Do the Mohr–Coulomb lines τ = c + σ·tanφ (Eq. 15) differ between the factor's levels?
+
+Data: one point per shear test — its mean normal pressure σ and its steady-state shear
+stress τ_ss (the points of the paper's Figs. 11–14; a test, not a sample, is the unit of
+replication, since the samples of one test share its preparation).  Tests that never reach a
+steady state are left out and listed.
+
+Tests, per soil (from :func:`soilstats.statistics.ancova`, lines by ordinary least squares):
+
+* ``phi`` — do the friction angles differ?  slopes, parallel vs separate lines;
+* ``c`` — do the cohesions differ?  H0: equal intercepts *in the separate-lines model*
+  (a Wald F-test; the ANCOVA's intercept test assumes a common slope, and when the slopes
+  differ it compares the lines at the mean σ, which is not c);
+* ``line`` — do the lines differ at all (c or φ)?  common line vs separate lines.
+
+c is an extrapolation to σ = 0 from tests at 3–20 kPa, so its interval is wide: a few tens of
+Pa of cohesion are often not resolved, as the paper notes for its Table 6.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import statsmodels.api as sm
+from scipy import stats
+
+from ..statistics import StatisticsInputError, TestResult, ancova, effect_row
+from .data import level_label
+
+__all__ = ["shear_effects"]
+
+
+def _line_test(result) -> TestResult:
+    cmp = result.comparison
+    ssr0, df0 = cmp.loc["common", "ssr"], cmp.loc["common", "df_resid"]
+    ssr2, df2 = cmp.loc["separate", "ssr"], cmp.loc["separate", "df_resid"]
+    dfn = df0 - df2
+    f = ((ssr0 - ssr2) / dfn) / (ssr2 / df2)
+    return TestResult(
+        test="ANCOVA F-test of H0: one line (common c and φ)",
+        statistic=float(f),
+        p_value=float(stats.f.sf(f, dfn, df2)),
+        df_num=float(dfn),
+        df_den=float(df2),
+        effect_size=float((ssr0 - ssr2) / ssr0),
+        effect_size_name="partial_eta_sq",
+    )
+
+
+def _cohesion_test(frame: pd.DataFrame, response: str, covariate: str, group: str) -> TestResult:
+    y = frame[response].to_numpy(float)
+    x = frame[covariate].to_numpy(float)
+    codes, levels = pd.factorize(frame[group])
+    k = len(levels)
+    onehot = np.eye(k)[codes]
+    fit = sm.OLS(y, np.hstack([onehot, onehot * x[:, None]])).fit()
+    contrasts = np.zeros((k - 1, 2 * k))
+    contrasts[:, 0] = 1.0
+    contrasts[np.arange(k - 1), np.arange(1, k)] = -1.0
+    wald = fit.f_test(contrasts)
+    f = float(np.squeeze(wald.fvalue))
+    return TestResult(
+        test="Wald F-test of H0: equal intercepts c in the separate-lines model",
+        statistic=f,
+        p_value=float(wald.pvalue),
+        df_num=float(wald.df_num),
+        df_den=float(wald.df_denom),
+        effect_size=f * wald.df_num / (f * wald.df_num + wald.df_denom),
+        effect_size_name="partial_eta_sq",
+    )
+
+
+def shear_effects(per_test: pd.DataFrame, spec, soil: str) -> dict:
+    """ANCOVA tests of c, φ and the whole line for one soil (see the module docstring).
+
+    Returns
+    -------
+    dict
+        ``effects`` (rows for the verdicts), ``anova`` (the model comparison, tidy),
+        ``lines`` (per-level c [Pa], φ [deg] with standard errors), ``notes``.
+    """
+    factor = spec.factor
+    frame = per_test.assign(level=per_test[factor].map(level_label))
+    notes = []
+    unsteady = frame[~frame["steady"].astype(bool) | frame["tau_ss_Pa"].isna()]
+    if len(unsteady):
+        notes.append(
+            f"{soil}: {len(unsteady)} test(s) never reached a steady state and are left out "
+            f"({', '.join(unsteady['test_id'].astype(str))})"
+        )
+    data = frame.drop(unsteady.index)
+    try:
+        result = ancova(data, "tau_ss_Pa", "sigma_mean_Pa", "level")
+    except StatisticsInputError as err:
+        notes.append(f"{soil}: not tested — {err}")
+        return {"effects": [], "anova": pd.DataFrame(), "lines": pd.DataFrame(), "notes": notes}
+    tests = {
+        "phi": result.slope_test,
+        "c": _cohesion_test(data, "tau_ss_Pa", "sigma_mean_Pa", "level"),
+        "line": _line_test(result),
+    }
+    effects = []
+    for resp in spec.responses:
+        row = effect_row(soil, resp.name, factor, tests[resp.name])
+        row.update(blocks="", n_tests=len(data), margin=np.nan, largest_difference=np.nan)
+        lines = result.lines
+        if resp.name in ("c", "phi"):
+            col = "intercept" if resp.name == "c" else "phi_deg"
+            row["largest_difference"] = float(lines[col].max() - lines[col].min())
+            if resp.margin is not None:
+                row["margin"] = resp.margin
+        effects.append(row)
+    comparison = result.comparison.reset_index(names="model")
+    comparison.insert(0, "soil", soil)
+    lines = result.lines.reset_index(names="level")
+    lines.insert(0, "soil", soil)
+    lines["phi_se_deg"] = np.degrees(lines["slope_se"] / (1.0 + lines["slope"] ** 2))
+    return {"effects": effects, "anova": comparison, "lines": lines, "notes": notes}

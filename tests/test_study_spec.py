@@ -1,0 +1,65 @@
+"""Study specifications: the shipped ones load; malformed ones fail with a clear message."""
+
+from __future__ import annotations
+
+import pytest
+
+from soilstats.study import SpecError, available_studies, load_spec
+from soilstats.study.spec import studies_dir
+
+VALID = """
+name = "mine"
+type = "shear"
+factor = "grousers"
+model = "mohr-coulomb"
+responses = ["phi"]
+"""
+
+
+def test_seven_studies_are_shipped_and_valid():
+    assert available_studies() == [
+        "preparation",
+        "velocity",
+        "tool-shape",
+        "shear-ring",
+        "grousers",
+        "grouser-height",
+        "shear-velocity",
+    ]
+    for name in available_studies():
+        spec = load_spec(name)
+        assert spec.name == name and spec.responses and spec.paper
+    assert (studies_dir() / "velocity.toml").is_file()
+
+
+def test_a_user_study_is_a_file(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(VALID)
+    spec = load_spec(path)
+    assert (spec.name, spec.kind, spec.responses[0].name) == ("mine", "shear", "phi")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ("typo_key = 1\n", "unknown key"),
+        ("alpha = 2\n", "must lie in (0, 1)"),
+        ('figures = ["pie"]\n', "is not one of"),
+    ],
+)
+def test_malformed_specs_name_the_key(tmp_path, change, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(change + VALID)
+    with pytest.raises(SpecError, match=r"bad\.toml") as err:
+        load_spec(path)
+    assert message in str(err.value)
+
+
+def test_unknown_response_and_missing_factor(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text(VALID.replace('["phi"]', '["kc"]'))
+    with pytest.raises(SpecError, match="'kc' is not one of"):
+        load_spec(path)
+    path.write_text(VALID.replace('factor = "grousers"\n', ""))
+    with pytest.raises(SpecError, match="'factor': is required"):
+        load_spec(path)
