@@ -19,6 +19,7 @@ Any model f(x, *params) can be identified the same way::
 from __future__ import annotations
 
 from .campaign import Campaign, bundled_campaigns, load_campaign
+from .discovery import DiscoveryResult, discover
 from .errors import (
     CampaignError,
     ConvergenceError,
@@ -54,12 +55,14 @@ __all__ = [
     "CampaignError",
     "ConvergenceError",
     "ConvergenceWarning",
+    "DiscoveryResult",
     "FitResult",
     "IdentifiabilityError",
     "Model",
     "SoilstatsWarning",
     "anova_oneway",
     "bundled_campaigns",
+    "discover",
     "fit_per_test",
     "fit_shear",
     "fit_sinkage",

@@ -1,0 +1,26 @@
+"""Discovery: what the soil model gets wrong in a campaign, the cause, the extension, the gain.
+
+>>> import soilstats
+>>> result = soilstats.discover("simulated-paper")     # doctest: +SKIP
+>>> print(result.summary())                             # doctest: +SKIP
+>>> result.to_json()                                    # doctest: +SKIP
+
+=================  ========================================================================
+``candidates``     test-log and derived covariates; categorical or continuous; confounding
+``data``           per (kind, soil): per-test fits and pooled samples (Section 2.1 weights)
+``diagnose``       base fit, per-test deviations, F-tests within strata, Holm
+``flags``          physical red flags (negative kc/kφ, implausible n, kc–kφ collinear)
+``families``       extended model equations with analytic Jacobians
+``extensions``     the library: velocity, softening, Reece, side walls, generic covariate
+``crossval``       leave-whole-tests / conditions-out gain with its uncertainty, AIC/BIC
+``result``         :class:`DiscoveryResult`, :class:`Finding`
+``report``         the PDF report
+=================  ========================================================================
+"""
+
+from __future__ import annotations
+
+from .pipeline import discover
+from .result import DiscoveryResult, Finding
+
+__all__ = ["DiscoveryResult", "Finding", "discover"]

@@ -1,0 +1,238 @@
+"""Candidate causes: every test-log column and derived quantity that could explain a misfit.
+
+A *candidate* is one column of the per-test table of one (kind, soil): a named log column
+(``velocity_m_s``, ``operator``, ``grouser_height_m`` …), any extra covariate a lab adds
+(``bin``, ``moisture_pct``, ``date`` …) or a derived quantity (plate size ``b_m``, ``area_m2``,
+``aspect_ratio``; the sinkage depth range ``z_max_m``; the mean normal pressure
+``sigma_mean_Pa`` of a shear test).
+
+Each candidate is **categorical** (text, or numbers with a few replicated levels such as three
+velocities) or **continuous** (numbers with many distinct values, e.g. a moisture reading per
+test).  Two candidates are **confounded** in a campaign when their effects cannot be told
+apart from its design: *aliased* (the same partition of the tests, e.g. ``tool`` and ``b_m``)
+or *nested* (one determines the other, e.g. ``preparation`` determines ``session`` in the
+Cullinan campaign).  Confounding is reported, never resolved by a guess.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "Candidate",
+    "Relation",
+    "candidate_values",
+    "enumerate_candidates",
+    "relations",
+]
+
+# Identifiers and bookkeeping, not causes.  ``repetition`` numbers repeats within a condition
+# (and in simulated designs assigns operators in turn), so it would alias with ``operator``.
+_NOT_CAUSES = frozenset({"test_id", "kind", "soil", "repetition", "n_samples"})
+# Raw geometry summarised by the derived b, area and aspect ratio (Eq. 7's b): keeping both
+# would only add aliased pairs.
+_SUMMARISED = {"sinkage": frozenset({"radius_m", "width_m", "length_m"}), "shear": frozenset()}
+_OTHER_KIND = {
+    "sinkage": frozenset(
+        {"r_inner_m", "r_outer_m", "grousers", "grouser_height_m", "omega_rpm", "ring_area_m2"}
+    ),
+    "shear": frozenset(
+        {"shape", "radius_m", "width_m", "length_m", "velocity_m_s", "b_m", "area_m2"}
+        | {"aspect_ratio"}
+    ),
+}
+_DERIVED = {
+    "sinkage": ("b_m", "area_m2", "aspect_ratio", "z_max_m"),
+    "shear": ("ring_area_m2", "sigma_mean_Pa"),
+}
+#: Numeric columns with at most this many distinct, replicated values are tested as levels.
+MAX_LEVELS = 8
+MISSING = "<not recorded>"
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate cause of one (kind, soil).
+
+    Attributes
+    ----------
+    name : str
+        Column of the per-test table.
+    categorical : bool
+        Tested as levels (one-way layout within strata) rather than as a linear trend.
+    numeric : bool
+        Holds numbers (then physical and linear extensions can use its values).
+    derived : bool
+        Computed by soilstats (b, area, aspect ratio, depth range, normal pressure).
+    n_recorded : int
+        Tests in which it is recorded (not NaN).
+    levels : int
+        Distinct recorded values.
+    """
+
+    name: str
+    categorical: bool
+    numeric: bool
+    derived: bool
+    n_recorded: int
+    levels: int
+
+
+@dataclass(frozen=True)
+class Relation:
+    """Confounding between two candidates: ``aliased`` or ``nested`` (``finer`` determines
+    ``coarser``)."""
+
+    kind: str
+    finer: str
+    coarser: str
+
+
+def _rounded(values: pd.Series) -> pd.Series:
+    """Numbers to 9 significant digits, so CSV round-off does not split a level."""
+    x = pd.to_numeric(values, errors="coerce").astype(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mag = np.where(x != 0, np.floor(np.log10(np.abs(x))), 0.0)
+    scale = 10.0 ** (8 - np.nan_to_num(mag))
+    return pd.Series(np.round(x * scale) / scale, index=values.index)
+
+
+def candidate_values(table: pd.DataFrame, name: str) -> pd.Series:
+    """The column as the tests use it: numbers rounded to 9 digits, text unchanged."""
+    col = table[name]
+    if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
+        return _rounded(col)
+    return col.astype(object).where(col.notna(), np.nan)
+
+
+def enumerate_candidates(
+    table: pd.DataFrame, kind: str, *, min_recorded: int = 4
+) -> tuple[list[Candidate], list[str]]:
+    """Candidates of one (kind, soil) per-test table, and notes on the columns left out.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        One row per test: test log, derived columns and the per-test fit columns.
+    kind : {"sinkage", "shear"}
+    min_recorded : int
+        A column recorded in fewer tests is not tested (and a note says so).
+
+    Returns
+    -------
+    (list of Candidate, list of str)
+    """
+    fit_columns = {
+        "k",
+        "k_sd",
+        "n",
+        "n_sd",
+        "epsilon",
+        "nobs",
+        "converged",
+        "message",
+        "p_max_Pa",
+        "tau_max",
+        "tau_max_sd",
+        "K",
+        "K_sd",
+        "tau_ss_Pa",
+        "steady",
+    }
+    skip = _NOT_CAUSES | _SUMMARISED[kind] | _OTHER_KIND[kind] | fit_columns
+    names = [c for c in table.columns if c not in skip and not str(c).startswith("_")]
+    out: list[Candidate] = []
+    notes: list[str] = []
+    for name in names:
+        values = candidate_values(table, name)
+        recorded = values.notna()
+        n_rec = int(recorded.sum())
+        if n_rec == 0:
+            continue
+        distinct = values[recorded].nunique()
+        if distinct < 2:
+            continue  # constant: nothing to compare
+        if n_rec < min_recorded:
+            notes.append(
+                f"{kind}: {name!r} is recorded for {n_rec} of {len(table)} tests only; too few "
+                "to test, not analysed"
+            )
+            continue
+        numeric = pd.api.types.is_numeric_dtype(values.dtype)
+        counts = values[recorded].value_counts()
+        replicated = bool((counts >= 2).mean() >= 0.5)
+        categorical = (not numeric) or (distinct <= MAX_LEVELS and replicated)
+        if not numeric and not (counts >= 2).any():
+            notes.append(
+                f"{kind}: {name!r} has a different value in every test ({distinct} values); "
+                "a one-test-per-level column cannot be tested, not analysed"
+            )
+            continue
+        out.append(
+            Candidate(
+                name=name,
+                categorical=categorical,
+                numeric=numeric,
+                derived=name in _DERIVED[kind],
+                n_recorded=n_rec,
+                levels=int(distinct),
+            )
+        )
+    return out, notes
+
+
+def _codes(values: pd.Series) -> np.ndarray:
+    return pd.factorize(values.astype(object).where(values.notna(), MISSING))[0]
+
+
+def _determines(a: np.ndarray, b: np.ndarray) -> bool:
+    """True when every level of ``a`` holds a single level of ``b`` (b is a function of a)."""
+    pairs = np.unique(np.column_stack([a, b]), axis=0)
+    return pairs.shape[0] == np.unique(a).size
+
+
+def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation]:
+    """Aliased and nested pairs among the candidates, over the rows of ``table``.
+
+    Categorical pairs: aliased when each determines the other, nested when one determines the
+    other.  A continuous candidate is confounded with a categorical one when the latter
+    explains ≥ 95 % of its variance (it hardly varies within the levels); two continuous ones
+    when |r| ≥ 0.98.
+    """
+    out: list[Relation] = []
+    cols = {c.name: candidate_values(table, c.name) for c in candidates}
+    codes = {c.name: _codes(cols[c.name]) for c in candidates if c.categorical}
+    for i, a in enumerate(candidates):
+        for b in candidates[i + 1 :]:
+            if a.categorical and b.categorical:
+                ab = _determines(codes[a.name], codes[b.name])
+                ba = _determines(codes[b.name], codes[a.name])
+                if ab and ba:
+                    out.append(Relation("aliased", a.name, b.name))
+                elif ab:
+                    out.append(Relation("nested", a.name, b.name))
+                elif ba:
+                    out.append(Relation("nested", b.name, a.name))
+            elif a.categorical != b.categorical:
+                cat, con = (a, b) if a.categorical else (b, a)
+                x = cols[con.name].astype(float)
+                ok = x.notna().to_numpy()
+                if ok.sum() < 3:
+                    continue
+                xs = x[ok].to_numpy()
+                groups = pd.Series(xs).groupby(codes[cat.name][ok])
+                ss_tot = float(((xs - xs.mean()) ** 2).sum())
+                ss_within = float(groups.transform(lambda g: (g - g.mean()) ** 2).sum())
+                if ss_tot > 0 and 1.0 - ss_within / ss_tot >= 0.95:
+                    out.append(Relation("nested", cat.name, con.name))
+            else:
+                x = cols[a.name].astype(float)
+                y = cols[b.name].astype(float)
+                ok = (x.notna() & y.notna()).to_numpy()
+                if ok.sum() >= 3 and np.std(x[ok]) > 0 and np.std(y[ok]) > 0:
+                    if abs(np.corrcoef(x[ok], y[ok])[0, 1]) >= 0.98:
+                        out.append(Relation("aliased", a.name, b.name))
+    return out

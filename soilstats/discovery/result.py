@@ -1,0 +1,263 @@
+"""The frozen result of a discovery: findings (strongest first), red flags, caveats."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["DiscoveryResult", "Finding"]
+
+
+def _num(x):
+    """JSON-safe number: NaN and ±inf become None."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True, eq=False)
+class Finding:
+    """One cause of misfit, the extension that models it and its out-of-sample gain.
+
+    Attributes
+    ----------
+    kind, soil : str
+    cause : str
+        The candidate column or derived quantity (e.g. ``velocity_m_s``, ``aspect_ratio``).
+    confounded_with : tuple of str
+        Candidates whose effect this design cannot tell apart from the cause's.
+    p_value : float
+        Holm-adjusted p-value of the cause's strongest response (family: every candidate ×
+        response × group of the campaign).
+    p_raw : float
+    responses : tuple of str
+        Per-test responses in which the cause showed (``level``, ``shape``, ``K``).
+    statistic, effect_size : float
+        F and partial η² of the strongest response.
+    n_tests : int
+        Tests in scope (the strata in which the cause varies).
+    extension : str or None
+        The extended model kept (None when no extension gives a real out-of-sample gain).
+    fit : FitResult or None
+        The kept extension fitted to all tests in scope: parameters ± σ (Eq. 3).
+    gain : Gain or None
+        Cross-validated gain of the kept (or, if none is kept, the best tried) extension.
+    gain_conditions : Gain or None
+        Leave-one-condition-out gain, for extensions that can extrapolate to a new level.
+    information : dict
+        AIC/BIC of base and extended fits.
+    tried : tuple of dict
+        Every extension tried, with its gain or the reason it failed.
+    caveats : tuple of str
+    """
+
+    kind: str
+    soil: str
+    cause: str
+    confounded_with: tuple[str, ...]
+    p_value: float
+    p_raw: float
+    responses: tuple[str, ...]
+    statistic: float
+    effect_size: float
+    n_tests: int
+    extension: str | None
+    fit: object | None = field(default=None, repr=False)
+    base_fit: object | None = field(default=None, repr=False)
+    gain: object | None = None
+    gain_conditions: object | None = None
+    information: dict = field(default_factory=dict)
+    tried: tuple[dict, ...] = ()
+    caveats: tuple[str, ...] = ()
+    scope_rows: np.ndarray | None = field(default=None, repr=False)
+    group: object | None = field(default=None, repr=False)
+    fitted: object | None = field(default=None, repr=False)
+    base_fitted: object | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict:
+        """The JSON shape of issue #6, plus the supporting detail."""
+        gain = self.gain.to_dict() if self.gain is not None else None
+        if gain is not None:
+            gain = {k: (_num(v) if isinstance(v, float) else v) for k, v in gain.items()}
+        out = {
+            "kind": self.kind,
+            "soil": self.soil,
+            "cause": self.cause,
+            "p_value": _num(self.p_value),
+            "extension": self.extension,
+            "gain": gain,
+            "confounded_with": list(self.confounded_with),
+            "p_raw": _num(self.p_raw),
+            "responses": list(self.responses),
+            "statistic": _num(self.statistic),
+            "effect_size": _num(self.effect_size),
+            "n_tests": self.n_tests,
+            "parameters": None,
+            "information": {k: _num(v) for k, v in self.information.items()},
+            "tried": list(self.tried),
+            "caveats": list(self.caveats),
+        }
+        if self.gain_conditions is not None:
+            out["gain_conditions"] = {
+                k: (_num(v) if isinstance(v, float) else v)
+                for k, v in self.gain_conditions.to_dict().items()
+            }
+        if self.fit is not None:
+            out["parameters"] = {
+                name: {"value": _num(v), "sigma": _num(s), "unit": self.fit.units.get(name, "")}
+                for name, v, s in zip(
+                    self.fit.param_names, self.fit.values, self.fit.errors, strict=True
+                )
+            }
+        return out
+
+    def summary_lines(self) -> list[str]:
+        conf = (
+            f" (confounded with {', '.join(self.confounded_with)})" if self.confounded_with else ""
+        )
+        lines = [
+            f"{self.kind} / {self.soil}: cause {self.cause}{conf}",
+            f"  shows in {', '.join(self.responses)}: F = {self.statistic:.4g}, partial eta^2 = "
+            f"{self.effect_size:.3f}, p = {self.p_raw:.3g} (Holm-adjusted {self.p_value:.3g}), "
+            f"{self.n_tests} tests in scope",
+        ]
+        if self.gain is not None:
+            g = self.gain
+            lines.append(
+                f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds): "
+                f"base {g.base:.4f} -> extended {g.extended:.4f} (gain {g.relative:+.1%}, paired "
+                f"difference {g.difference:.3g} +/- {g.se:.2g})"
+            )
+        else:
+            lines.append("  extension: none (no extension could be cross-validated)")
+        if self.gain_conditions is not None:
+            g = self.gain_conditions
+            lines.append(
+                f"  leave-one-condition-out ({g.folds} conditions): base {g.base:.4f} -> "
+                f"extended {g.extended:.4f} (gain {g.relative:+.1%}, real: {g.real})"
+            )
+        if self.fit is not None:
+            for name, v, s in zip(
+                self.fit.param_names, self.fit.values, self.fit.errors, strict=True
+            ):
+                lines.append(
+                    f"    {name:>34} = {v:>12.5g} +/- {s:<10.3g} {self.fit.units.get(name, '')}"
+                )
+        for t in self.tried:
+            if t.get("error"):
+                lines.append(f"  tried {t['extension']}: failed — {t['error']}")
+            elif t["extension"] != self.extension:
+                lines.append(
+                    f"  tried {t['extension']}: gain {t['relative']:+.1%} (real: {t['real']})"
+                )
+        lines += [f"  caveat: {c}" for c in self.caveats]
+        return lines
+
+
+@dataclass(frozen=True, eq=False)
+class DiscoveryResult:
+    """What the soil model gets wrong in a campaign, and what extending it gains.
+
+    Attributes
+    ----------
+    findings : tuple of Finding
+        Strongest first (smallest adjusted p, then largest F).
+    flags : tuple of dict
+        Physical red flags (``kind, soil, scope, code, message``); not findings.
+    tests : pandas.DataFrame
+        Every candidate × response × group significance test (raw and Holm-adjusted p).
+    confounded : tuple of dict
+        Aliased and nested candidate pairs per group.
+    explained : tuple of dict
+        Significant candidates whose structure vanished once a stronger finding's extension
+        was fitted (e.g. the plate-size pattern left by a velocity effect).
+    notes : tuple of str
+        What was excluded or could not be tested, and why.
+    alpha, seed, runtime_s, source
+    """
+
+    findings: tuple[Finding, ...]
+    flags: tuple[dict, ...]
+    tests: pd.DataFrame = field(repr=False)
+    confounded: tuple[dict, ...] = ()
+    explained: tuple[dict, ...] = ()
+    notes: tuple[str, ...] = ()
+    alpha: float = 0.05
+    seed: int = 0
+    runtime_s: float = float("nan")
+    source: str = ""
+
+    def to_dict(self) -> dict:
+        return {
+            "findings": [f.to_dict() for f in self.findings],
+            "flags": list(self.flags),
+            "confounded": list(self.confounded),
+            "explained": list(self.explained),
+            "notes": list(self.notes),
+            "alpha": self.alpha,
+            "seed": self.seed,
+            "source": self.source,
+        }
+
+    def to_json(self, **kwargs) -> str:
+        """One JSON object: ``{"findings": [...], "flags": [...], ...}`` (issue #6 shape)."""
+        return json.dumps(self.to_dict(), **{"indent": 2, **kwargs})
+
+    def summary(self) -> str:
+        width = 100
+        lines = [
+            " discovery: what the soil model gets wrong ".center(width, "="),
+            f"campaign: {self.source}   alpha = {self.alpha} (Holm over "
+            f"{int(self.tests['p_value'].notna().sum()) if len(self.tests) else 0} tests)   "
+            f"seed = {self.seed}   runtime {self.runtime_s:.1f} s",
+            "-" * width,
+        ]
+        if not self.findings:
+            lines.append("No finding: no candidate cause passes the test.")
+        for i, f in enumerate(self.findings, 1):
+            first, *rest = f.summary_lines()
+            lines.append(f"[{i}] {first}")
+            lines.extend(rest)
+        if self.explained:
+            lines.append("-" * width)
+            lines.append("Significant at first, explained by a stronger finding's extension:")
+            for e in self.explained:
+                lines.append(
+                    f"  {e['kind']} / {e['soil']}: {e['candidate']} (by {e['by']}; p after = "
+                    f"{e['p_after']:.3g})"
+                )
+        lines.append("-" * width)
+        lines.append(f"Physical red flags ({len(self.flags)}):" if self.flags else "No red flags.")
+        for fl in self.flags:
+            lines.append(
+                f"  ! {fl['kind']} / {fl['soil']} [{fl['scope']}] {fl['code']}: {fl['message']}"
+            )
+        if self.confounded:
+            lines.append("-" * width)
+            lines.append("Confounded candidates (effects this design cannot separate):")
+            for c in self.confounded:
+                lines.append(f"  {c['kind']} / {c['soil']}: {c['text']}")
+        lines.append("-" * width)
+        notes = [
+            "Per-test responses: level = ln of the test's own pressure (shear: plateau stress) "
+            "over the base model's; shape = its n minus the base n; K = ln K over the base K.",
+            "Each candidate is tested within strata of the other design candidates not "
+            "confounded with it (F-test); Holm's method controls the chance of any false cause.",
+            "Gain: cross-validation leaving out whole tests; each extension is measured against "
+            "the base model alone (extensions are not combined).",
+            "AIC/BIC treat samples as independent; samples of one test are not, so they "
+            "overstate the evidence — the cross-validated gain decides.",
+            *self.notes,
+        ]
+        lines.append("Notes:")
+        lines.extend(f"  [{i}] {n}" for i, n in enumerate(notes, 1))
+        lines.append("=" * width)
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()
