@@ -42,6 +42,10 @@ def __getattr__(name: str):
         from .bayes import sample_posterior
 
         return sample_posterior
+    if name == "run_study":  # the study layer imports matplotlib/seaborn for its reports
+        from .study import run_study
+
+        return run_study
     raise AttributeError(f"module 'soilstats' has no attribute {name!r}")
 
 
