@@ -112,7 +112,7 @@ class StudyResult:
         return out
 
     def summary(self) -> str:
-        """The verdicts in a few lines, then numbered notes."""
+        """The verdicts in a few lines, the criteria table (preparation), then numbered notes."""
         lines = [f"Study {self.name!r}: {self.spec.title}", f"Data: {self.source}"]
         if not self.effects.empty:
             for _, r in self.effects.iterrows():
@@ -120,6 +120,26 @@ class StudyResult:
                     f"  {r['soil']:<14} {r['response']:<12} F = {r['statistic']:9.3g}  "
                     f"p_Holm = {r['p_adjusted']:.3g}  -> {r['verdict']}"
                 )
+        if self.criteria is not None and not self.criteria.empty:
+            lines.append("Criteria of Table 1 per method (as Table 3; Σ = sum of +1/−1):")
+            table = self.criteria.assign(
+                method=lambda d: d["method"].astype(str),
+                epsilon=lambda d: d["epsilon"].map(lambda v: f"{v:.3f}"),
+                scatter_cv=lambda d: d["scatter_cv"].map(lambda v: f"{v:.3f}"),
+            )[
+                [
+                    "soil",
+                    "method",
+                    "tests",
+                    "crit1",
+                    "crit2",
+                    "crit3",
+                    "sigma",
+                    "epsilon",
+                    "scatter_cv",
+                ]
+            ]
+            lines += ["  " + row for row in table.to_string(index=False).splitlines()]
         if self.best is not None:
             lines.append(
                 f"Best preparation method: {self.best.get('best')} — {self.best['reason']}"
