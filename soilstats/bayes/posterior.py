@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
+from dataclasses import replace
 from datetime import UTC, datetime
 
 import numpy as np
@@ -14,8 +15,9 @@ from ..models import get_model
 from ._arviz import az
 from .data import pooled_problem
 from .likelihood import PooledProblem
-from .result import PosteriorResult, diagnose
+from .result import PosteriorResult, diagnose, draws_converge
 from .sampler import EnsembleRun, run_ensemble
+from .transforms import Coordinates, sampling_coordinates
 
 __all__ = ["DEFAULT_DRAWS", "sample_posterior"]
 
@@ -88,18 +90,26 @@ def sample_posterior(
             f"the least-squares fit of {spec.name} did not give a usable start and covariance "
             f"({fit.message}); the posterior sampler needs it — see fit_sinkage/fit_shear"
         )
+    theta0, cov0 = fit.params.to_numpy(), fit.cov.to_numpy()
+    coords = sampling_coordinates(spec, theta0, cov0, problem.plate_sizes)
     run = run_ensemble(
-        problem.log_prob,
-        fit.params.to_numpy(),
-        fit.cov.to_numpy(),
+        target_in(problem, coords),
+        coords.to_u(theta0)[0],
+        coords.covariance(theta0, cov0),
         draws=draws,
         seed=seed,
         n_walkers=walkers,
         progress=progress,
         description=f"{spec.name} posterior",
+        accept=lambda chain: draws_converge(
+            dict(
+                zip(spec.param_names, np.moveaxis(coords.to_theta_chain(chain), -1, 0), strict=True)
+            )
+        ),
     )
+    run, rss = _back_to_theta(problem, coords, run)
     rng = np.random.default_rng(None if seed is None else [seed, 1])
-    idata = _inference_data(problem, run, rng)
+    idata = _inference_data(problem, run, rss, rng)
     return finish(
         idata,
         problem.model.name,
@@ -129,6 +139,7 @@ def finish(
         "seconds": run.seconds,
         "evaluations": run.evaluations,
         "tau_reliable": run.tau_reliable,
+        "extended": run.extended,
     }
     result = PosteriorResult(
         idata=idata,
@@ -181,11 +192,47 @@ def _pooled_notes(problem: PooledProblem) -> list[str]:
     return notes
 
 
-def _inference_data(problem: PooledProblem, run: EnsembleRun, rng) -> object:
+def target_in(problem: PooledProblem, coords: Coordinates):
+    """The log posterior density in the sampling coordinates u (vectorised over walkers).
+
+    log p_u(u) = log p(θ(u) | y) + log|det ∂θ/∂u| (:mod:`soilstats.bayes.transforms`).
+    """
+    if coords.identity:
+        return problem.log_prob
+
+    def log_prob(u: np.ndarray) -> np.ndarray:
+        with np.errstate(all="ignore"):  # far-out proposals overflow: rejected below
+            theta = coords.to_theta(u)
+        ok = np.all(np.isfinite(theta), axis=1)
+        out = np.full(theta.shape[0], -np.inf)
+        if ok.any():
+            out[ok] = problem.log_prob(theta[ok]) + coords.log_jacobian(u[ok])
+        return out
+
+    return log_prob
+
+
+def _back_to_theta(
+    problem: PooledProblem, coords: Coordinates, run: EnsembleRun
+) -> tuple[EnsembleRun, np.ndarray]:
+    """The run's chain and log density in model parameters, and S(θ) of every kept draw.
+
+    S(θ) is recovered from the stored log density, ln S = 2·(log p(θ) − lp_θ)/N,
+    rather than recomputed (that would cost one more likelihood pass over every draw).
+    """
+    chains, draws, dim = run.chain.shape
+    u = run.chain.reshape(-1, dim)
+    theta = coords.to_theta(u)
+    lp = run.log_prob.reshape(-1) - coords.log_jacobian(u)  # density of θ, not of u
+    ln_s = 2.0 * (problem.log_prior(theta) - lp) / problem.n_obs
+    run = replace(run, chain=theta.reshape(chains, draws, dim), log_prob=lp.reshape(chains, draws))
+    return run, np.exp(ln_s).reshape(chains, draws)
+
+
+def _inference_data(problem: PooledProblem, run: EnsembleRun, rss: np.ndarray, rng) -> object:
     names = problem.model.param_names
     chains, draws, _ = run.chain.shape
-    flat = run.chain.reshape(-1, len(names))
-    sigma = problem.draw_sigma(flat, rng).reshape(chains, draws)
+    sigma = problem.draw_sigma_from_rss(rss.reshape(-1), rng).reshape(chains, draws)
     coords = {"chain": np.arange(chains), "draw": np.arange(draws)}
     posterior = xr.Dataset(
         {n: (("chain", "draw"), run.chain[:, :, i]) for i, n in enumerate(names)}

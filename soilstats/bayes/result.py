@@ -7,10 +7,11 @@ from functools import cached_property
 
 import numpy as np
 import pandas as pd
+import xarray as xr
 
 from ._arviz import az
 
-__all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose"]
+__all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose", "draws_converge"]
 
 #: Convergence thresholds (Vehtari et al. 2021, "Rank-normalization, folding, and
 #: localization", Bayesian Analysis 16:667): R-hat ≤ 1.01 and bulk and tail ESS ≥ 400.
@@ -28,6 +29,22 @@ def diagnose(table: pd.DataFrame) -> tuple[str, ...]:
             if not row[col] >= ESS_MIN:
                 out.append(f"{name}: {col.replace('_', ' ')} = {row[col]:.0f} < {ESS_MIN}")
     return tuple(out)
+
+
+def draws_converge(draws: dict[str, np.ndarray]) -> bool:
+    """True when every array (chains, draws) passes R-hat ≤ 1.01 and bulk/tail ESS ≥ 400.
+
+    The same rank-normalised split R-hat and ESS as :func:`arviz.summary` (and so as
+    :func:`diagnose`); used while sampling to decide whether to run on.
+    """
+    ds = xr.Dataset({k: (("chain", "draw"), np.asarray(v)) for k, v in draws.items()})
+    rhat = az.rhat(ds)
+    bulk = az.ess(ds, method="bulk")
+    tail = az.ess(ds, method="tail")
+    return all(
+        float(rhat[k]) <= RHAT_MAX and float(bulk[k]) >= ESS_MIN and float(tail[k]) >= ESS_MIN
+        for k in draws
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,7 +154,8 @@ class PosteriorResult:
         lines = [
             f" {self.model_name} posterior ({self.kind}) ".center(width, "="),
             f"Sampler: emcee, {s['walkers']} walkers, {s['steps']} steps, burn-in {s['burn']}, "
-            f"thin {s['thin']}, {s['kept']} draws kept, {s['seconds']:.2f} s",
+            f"thin {s['thin']}, {s['kept']} draws kept, {s['seconds']:.2f} s"
+            + (f" (run on {s['extended']}x to converge)" if s.get("extended") else ""),
             f"Autocorrelation time (steps): {s['tau_max']:.2f} (max over parameters); "
             f"acceptance {s['acceptance']:.2f}",
             "-" * width,

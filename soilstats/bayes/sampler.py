@@ -8,7 +8,10 @@ Procedure (:func:`run_ensemble`):
    estimated on them (emcee's estimator, Goodman & Weare / Sokal windowing).
 3. Burn-in = ⌈3·τ_max⌉ steps (at least 10) and thinning = max(1, ⌊τ_max/2⌋) are fixed from τ;
    sampling continues until ``draws`` thinned draws (over all walkers) follow the burn-in.
-4. τ is re-estimated on the kept part; if the kept chain is shorter than 50·τ_max (emcee's
+4. If the caller's convergence check (``accept``: R-hat ≤ 1.01, ESS ≥ 400) fails on the kept
+   draws, the chain runs on until the kept part is twice as long, at most twice; the same
+   check then decides the result's verdict, so a failure is still reported, only rarer.
+5. τ is re-estimated on the kept part; if the kept chain is shorter than 50·τ_max (emcee's
    rule of thumb for a reliable τ) this is reported as a diagnostic.
 
 Randomness: one :class:`numpy.random.Generator` seeded from ``seed`` makes the starting
@@ -46,6 +49,7 @@ class EnsembleRun:
     seconds: float
     evaluations: int  # log-probability evaluations (walker-level)
     tau_reliable: bool  # kept chain ≥ 50·τ_max
+    extended: int = 0  # times the kept part was doubled because ``accept`` said no
 
 
 def _start(log_prob, centre, cov, n_walkers, rng) -> np.ndarray:
@@ -78,6 +82,8 @@ def run_ensemble(
     progress: bool = False,
     moves: str = "laplace",
     description: str = "sampling",
+    accept: Callable[[np.ndarray], bool] | None = None,
+    max_extend: int = 2,
 ) -> EnsembleRun:
     """Sample ``log_prob`` (vectorised over walkers) with emcee; see the module docstring.
 
@@ -96,6 +102,13 @@ def run_ensemble(
         evolution (30 %); ``"de"``: differential evolution only (DEMove 80 %, DESnookerMove
         20 %, for posteriors without a reliable Laplace approximation); ``"stretch"``:
         emcee's default stretch move (the benchmark's baseline).
+    accept : callable, optional
+        ``accept(chain (walkers, draws, p)) -> bool``: the convergence check of the kept
+        draws.  While it fails, the run continues until the kept part is twice as long, at
+        most ``max_extend`` times (so at most 4× the requested draws by default); the final
+        verdict is the caller's, and a failure stays a failure.
+    max_extend : int
+        Most doublings of the kept part.
     """
     centre = np.asarray(centre, float)
     cov = np.asarray(cov, float)
@@ -155,10 +168,22 @@ def run_ensemble(
         burn = adapted + max(10, math.ceil(3 * tau))
         thin = max(1, int(tau / 2))
         needed = max(burn + thin * per_walker, burn + math.ceil(50 * tau))
-        if needed > sampler.iteration:
-            bar.total = needed
-            bar.refresh()
-            state = advance(state, needed - sampler.iteration)
+        extended = 0
+        while True:
+            if needed > sampler.iteration:
+                bar.total = needed
+                bar.refresh()
+                state = advance(state, needed - sampler.iteration)
+            if accept is None or extended >= max_extend:
+                break
+            kept = sampler.get_chain()[burn:][::thin][-per_walker:]
+            if accept(np.swapaxes(kept, 0, 1)):
+                break
+            # Not converged yet: double the kept part (the chain simply runs on; nothing
+            # already drawn is discarded or re-weighted), at most ``max_extend`` times.
+            per_walker *= 2
+            extended += 1
+            needed = burn + thin * per_walker
     seconds = time.perf_counter() - t0
     steps = sampler.iteration
     full = sampler.get_chain()[burn:]  # (steps, walkers, p)
@@ -176,4 +201,5 @@ def run_ensemble(
         seconds=seconds,
         evaluations=steps * n_walkers,
         tau_reliable=bool(full.shape[0] >= 50 * np.max(tau_kept)),
+        extended=extended,
     )

@@ -21,6 +21,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..bayes import SIMULATOR_FORMATS, joint_draws, sample_population, sample_posterior
+from ..bayes.data import SINKAGE_MODELS
 from ..bayes.plots import write_report
 from ..campaign import load_campaign
 from ..errors import CampaignError, ConvergenceWarning
@@ -35,6 +36,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("campaign", help="campaign folder or bundled campaign name")
     p.add_argument("--soil", required=True, help="soil name (the soil column of tests.csv)")
     p.add_argument("--model", required=True, help="model, or sinkage+shear (bekker+janosi)")
+    p.add_argument(
+        "--select",
+        action="append",
+        default=[],
+        metavar="[KIND:]COLUMN=VALUE",
+        help="only tests whose test-log COLUMN equals VALUE (repeatable); a KIND: prefix "
+        "(sinkage: or shear:) limits it to that kind's tests, e.g. --select "
+        "sinkage:series=velocity --select sinkage:velocity_m_s=0.0048 --select "
+        "shear:series=shear-ring",
+    )
     p.add_argument(
         "--population",
         action="store_true",
@@ -52,8 +63,37 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _selected(campaign, items: list[str], model: str):
+    """The campaign for ``model`` with the ``--select [KIND:]COLUMN=VALUE`` items applied.
+
+    Values compare as the column's type (numbers as numbers).  An item with a KIND: prefix
+    is used only for that kind's model; tests of the other kind are always kept.
+    """
+    kind = "sinkage" if model in SINKAGE_MODELS else "shear"
+    other = (campaign.tests["kind"] != kind).to_numpy()
+    out = {}
+    for item in items:
+        prefix, colon, rest = item.partition(":")
+        if colon and prefix in ("sinkage", "shear") and "=" not in prefix:
+            if prefix != kind:
+                continue
+            item = rest
+        column, sep, text = item.partition("=")
+        if not sep or not column:
+            raise ValueError(f"--select takes [KIND:]COLUMN=VALUE, got {item!r}")
+        if column not in campaign.tests.columns:
+            raise ValueError(
+                f"--select: no column {column!r}; columns: {list(campaign.tests.columns)}"
+            )
+        numeric = pd.api.types.is_numeric_dtype(campaign.tests[column])
+        value = float(text) if numeric else text
+        out[column] = lambda col, v=value: (col == v).to_numpy() | other
+    return campaign.select(**out) if out else campaign
+
+
 def _run(campaign, model, args):
     kw = {"seed": args.seed, "progress": args.progress, "soil": args.soil}
+    campaign = _selected(campaign, args.select, model)
     if args.draws is not None:
         kw["draws"] = args.draws
     if args.population and model in ("bekker", "bernstein"):
