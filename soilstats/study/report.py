@@ -20,6 +20,7 @@ from matplotlib.backends.backend_pdf import PdfPages
 
 from ..identification.table import format_value
 from .figures import make_figures
+from .result import CRITERIA_COLUMNS
 
 __all__ = ["write_report"]
 
@@ -136,22 +137,7 @@ def _verdict_lines(result) -> list[str]:
     if result.criteria is not None:
         crit = result.criteria
         lines.append("Criteria of Table 1 per method (as the paper's Table 3):")
-        lines += _frame_lines(
-            crit[
-                [
-                    "soil",
-                    "method",
-                    "tests",
-                    "crit1",
-                    "crit2",
-                    "crit3",
-                    "sigma",
-                    "epsilon",
-                    "scatter_cv",
-                    "operator_p_holm",
-                ]
-            ]
-        )
+        lines += _frame_lines(crit[CRITERIA_COLUMNS])
         lines.append("")
         lines.append(f"Best method: {result.best.get('best')}")
         lines += _wrap(result.best["reason"])

@@ -7,7 +7,21 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-__all__ = ["StudyResult"]
+__all__ = ["CRITERIA_COLUMNS", "StudyResult"]
+
+# The columns of the paper's Table 3 as the summary and the PDF print them.
+CRITERIA_COLUMNS = [
+    "soil",
+    "method",
+    "tests",
+    "crit1",
+    "crit2",
+    "crit3",
+    "sigma",
+    "epsilon",
+    "scatter_cv",
+    "operator_p_holm",
+]
 
 
 @dataclass(frozen=True)
