@@ -78,7 +78,7 @@ def _per_test_fits(pooled) -> tuple[np.ndarray, np.ndarray, np.ndarray, list, li
         n0, lnk0 = np.polyfit(lnz, lnp, 1, w=np.clip(p, 0, None))
         try:
             fit = identify(BERNSTEIN, z, p, [np.exp(lnk0), n0], weights=w)
-        except (ConvergenceError, np.linalg.LinAlgError):
+        except (ConvergenceError, ValueError, np.linalg.LinAlgError):  # as fit_per_test
             failed.append(tid)
             continue
         cov = fit.cov.to_numpy()

@@ -26,7 +26,9 @@ def _matches(column: pd.Series, wanted) -> pd.Series:
             nums = [float(v) for v in values]
         except (TypeError, ValueError):
             return pd.Series(False, index=column.index)
-        return column.apply(lambda x: any(np.isclose(x, v, rtol=1e-9, atol=0) for v in nums))
+        x = column.to_numpy(float, na_value=np.nan)[:, None]
+        close = np.isclose(x, nums, rtol=1e-9, atol=0)
+        return pd.Series(close.any(axis=1), index=column.index)
     return column.astype(str).isin([str(v) for v in values])
 
 

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import seaborn as sns
 
-from .data import level_label
+from .data import _matches, level_label
 
 __all__ = ["FIGURES", "make_figures"]
 
@@ -35,7 +35,7 @@ def curves(result, campaign) -> plt.Figure:
     tests = result.per_test
     for column, value in spec.curves_where.items():
         if column in tests.columns:
-            keep = np.isclose(tests[column].astype(float), float(value))
+            keep = _matches(tests[column], value)
             if keep.any():
                 tests = tests[keep]
     samples = campaign.sinkage[campaign.sinkage["test_id"].isin(set(tests["test_id"]))]
@@ -172,7 +172,7 @@ FIGURES = {
 
 
 def make_figures(result, campaign) -> list[tuple[str, plt.Figure]]:
-    """The spec's figures, in its order; a figure that cannot be drawn is skipped, with a note."""
+    """The spec's figures, in its order (``relative`` is skipped without pooled parameters)."""
     out = []
     for name in result.spec.figures:
         if name == "relative" and result.parameters.empty:

@@ -9,18 +9,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..statistics import VERDICT_COLUMNS
+
 __all__ = ["to_json_dict", "write_outputs"]
 
 _EFFECT_KEYS = [
-    "soil",
-    "response",
-    "factor",
-    "statistic",
-    "p_value",
-    "p_adjusted",
-    "significant",
-    "effect_size",
-    "test",
+    *VERDICT_COLUMNS,
     "blocks",
     "n_tests",
     "largest_difference",

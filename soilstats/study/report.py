@@ -113,8 +113,12 @@ def _verdict_lines(result) -> list[str]:
     eff = result.effects
     if not eff.empty:
         lines.append(
-            f"alpha = {spec.alpha:g}; p-values Holm-adjusted across all "
-            f"{len(eff)} tests of the study"
+            f"alpha = {spec.alpha:g}; p-values Holm-adjusted "
+            + (
+                f"across all {len(eff)} tests of the study"
+                if spec.family is None
+                else f"within each {spec.family}"
+            )
         )
         for _, r in eff.iterrows():
             margin = ""

@@ -52,7 +52,8 @@ class PerTestCache:
         """Rows of :func:`soilstats.fit_per_test` for ``test_ids`` (fitting those not yet done)."""
         ids = [str(t) for t in test_ids]
         done = self._fits.get(kind)
-        missing = ids if done is None else [t for t in ids if t not in set(done["test_id"])]
+        have = set() if done is None else set(done["test_id"])
+        missing = [t for t in ids if t not in have]
         if missing:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")

@@ -9,7 +9,7 @@ import pandas as pd
 
 __all__ = ["CRITERIA_COLUMNS", "StudyResult"]
 
-# The columns of the paper's Table 3 as the summary and the PDF print them.
+# The columns of the paper's Table 3 as the PDF prints them (the summary without the p-value).
 CRITERIA_COLUMNS = [
     "soil",
     "method",
@@ -140,19 +140,7 @@ class StudyResult:
                 method=lambda d: d["method"].astype(str),
                 epsilon=lambda d: d["epsilon"].map(lambda v: f"{v:.3f}"),
                 scatter_cv=lambda d: d["scatter_cv"].map(lambda v: f"{v:.3f}"),
-            )[
-                [
-                    "soil",
-                    "method",
-                    "tests",
-                    "crit1",
-                    "crit2",
-                    "crit3",
-                    "sigma",
-                    "epsilon",
-                    "scatter_cv",
-                ]
-            ]
+            )[[c for c in CRITERIA_COLUMNS if c != "operator_p_holm"]]
             lines += ["  " + row for row in table.to_string(index=False).splitlines()]
         if self.best is not None:
             lines.append(
