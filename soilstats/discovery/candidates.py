@@ -26,7 +26,9 @@ __all__ = [
     "Relation",
     "candidate_values",
     "enumerate_candidates",
+    "level_codes",
     "relations",
+    "spans_log",
 ]
 
 # Identifiers and bookkeeping, not causes.  ``repetition`` numbers repeats within a condition
@@ -184,7 +186,13 @@ def enumerate_candidates(
     return out, notes
 
 
-def _codes(values: pd.Series) -> np.ndarray:
+def spans_log(x: np.ndarray) -> bool:
+    """Whether a continuous candidate enters on ln x: all x > 0, spanning more than a factor 4."""
+    return bool(np.all(x > 0) and x.max() / x.min() > 4.0)
+
+
+def level_codes(values: pd.Series) -> np.ndarray:
+    """Integer level codes of a column (unrecorded values form a level of their own)."""
     return pd.factorize(values.astype(object).where(values.notna(), MISSING))[0]
 
 
@@ -204,7 +212,7 @@ def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation
     """
     out: list[Relation] = []
     cols = {c.name: candidate_values(table, c.name) for c in candidates}
-    codes = {c.name: _codes(cols[c.name]) for c in candidates if c.categorical}
+    codes = {c.name: level_codes(cols[c.name]) for c in candidates if c.categorical}
     for i, a in enumerate(candidates):
         for b in candidates[i + 1 :]:
             if a.categorical and b.categorical:

@@ -64,10 +64,6 @@ class Group:
         keep[np.asarray(rows, int)] = True
         return keep[self.owner]
 
-    def column(self, name: str) -> np.ndarray:
-        """A per-test column broadcast to the samples."""
-        return self.tests[name].to_numpy()[self.owner]
-
 
 def _pool(tests: pd.DataFrame, samples: pd.DataFrame, kind: str, points: int):
     by_test = samples.groupby("test_id", sort=False).indices

@@ -29,7 +29,15 @@ from scipy import stats
 
 from ..errors import ConvergenceError
 from ..statistics import verdicts
-from .candidates import MISSING, Candidate, Relation, candidate_values, enumerate_candidates
+from .candidates import (
+    MISSING,
+    Candidate,
+    Relation,
+    candidate_values,
+    enumerate_candidates,
+    level_codes,
+    spans_log,
+)
 from .candidates import relations as find_relations
 from .extensions import SinkageExtension, base_model
 
@@ -47,6 +55,25 @@ class Diagnosis:
     candidates: tuple[Candidate, ...]
     relations: tuple[Relation, ...]
     notes: tuple[str, ...]
+
+
+def _sinkage_deviations(table: pd.DataFrame, idx, log_k_model, n_model) -> None:
+    """``level`` (ln p_test − ln p_model at z_ref, half the median depth) and ``shape``
+    (n_test − n_model) of the rows ``idx``, written into ``table``."""
+    z_ref = 0.5 * float(np.nanmedian(table["z_max_m"]))
+    k_i, n_i = table.loc[idx, "k"].to_numpy(float), table.loc[idx, "n"].to_numpy(float)
+    level = np.log(k_i) + n_i * np.log(z_ref) - log_k_model - n_model * np.log(z_ref)
+    table.loc[idx, "_dev_level"] = np.where(np.isfinite(level), level, np.nan)
+    table.loc[idx, "_dev_shape"] = n_i - n_model
+
+
+def _shear_deviations(table: pd.DataFrame, idx, plateau, k_model) -> None:
+    """``level`` (ln τ_max − ln plateau_model) and ``K`` (ln K − ln K_model) of the rows
+    ``idx``, written into ``table``."""
+    level = np.log(table.loc[idx, "tau_max"].to_numpy(float)) - np.log(plateau)
+    dev_k = np.log(table.loc[idx, "K"].to_numpy(float) / k_model)
+    table.loc[idx, "_dev_level"] = np.where(np.isfinite(level), level, np.nan)
+    table.loc[idx, "_dev_K"] = np.where(np.isfinite(dev_k), dev_k, np.nan)
 
 
 def add_responses(group):
@@ -78,37 +105,30 @@ def add_responses(group):
         theta = base.result.values
         with np.errstate(divide="ignore", invalid="ignore"):
             if group.kind == "sinkage":
-                z_ref = 0.5 * float(np.nanmedian(table["z_max_m"]))
                 if model.bekker:
                     k_base = theta[0] / table["b_m"].to_numpy(float) + theta[1]
                 else:
                     k_base = np.full(len(table), theta[0])
-                n_base = theta[-1]
-                k_i, n_i = table["k"].to_numpy(float), table["n"].to_numpy(float)
-                level = np.log(k_i) + n_i * np.log(z_ref) - np.log(k_base) - n_base * np.log(z_ref)
-                table["_dev_level"] = np.where(np.isfinite(level), level, np.nan)
-                table["_dev_shape"] = n_i - n_base
+                _sinkage_deviations(table, table.index, np.log(k_base), theta[-1])
             else:
                 c, phi, k = theta[:3]
                 plateau = c + table["sigma_mean_Pa"].to_numpy(float) * np.tan(np.radians(phi))
-                level = np.log(table["tau_max"].to_numpy(float)) - np.log(plateau)
-                table["_dev_level"] = np.where(np.isfinite(level), level, np.nan)
-                dev_k = np.log(table["K"].to_numpy(float) / k)
-                table["_dev_K"] = np.where(np.isfinite(dev_k), dev_k, np.nan)
+                _shear_deviations(table, table.index, plateau, k)
         unused = np.setdiff1d(np.arange(len(table)), rows)
         table.loc[table.index[unused], [f"_dev_{r}" for r in RESPONSES[group.kind]]] = np.nan
     return replace(group, tests=table), base, notes
 
 
-def _codes(values: pd.Series) -> np.ndarray:
-    return pd.factorize(values.astype(object).where(values.notna(), MISSING))[0]
-
-
 def _trend(x: np.ndarray) -> np.ndarray:
     """A continuous candidate as a regressor: ln x when x > 0 spans more than a factor four."""
-    if np.all(x > 0) and x.max() / x.min() > 4.0:
-        return np.log(x)
-    return x
+    return np.log(x) if spans_log(x) else x
+
+
+def _strata(columns: list[np.ndarray], n: int) -> np.ndarray:
+    """Stratum code of each of ``n`` rows: one per combination of the block codes given."""
+    if not columns:
+        return np.zeros(n, int)
+    return np.unique(np.column_stack(columns), axis=0, return_inverse=True)[1].ravel()
 
 
 def strata_test(y, x, *, categorical: bool, strata) -> dict:
@@ -201,17 +221,13 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
         related[r.finer].add(r.coarser)
         related[r.coarser].add(r.finer)
     eligible = {c.name for c in cands if _block_eligible(sub, c)}
-    codes = {c.name: _codes(candidate_values(table, c.name)) for c in cands if c.categorical}
+    values_of = {c.name: candidate_values(table, c.name) for c in cands}
+    codes = {c.name: level_codes(values_of[c.name]) for c in cands if c.categorical}
     rows_out: list[dict] = []
     for cand in cands:
         blocks = [b for b in sorted(eligible) if b != cand.name and b not in related[cand.name]]
-        if blocks:
-            strata = np.unique(
-                np.column_stack([codes[b] for b in blocks]), axis=0, return_inverse=True
-            )[1].ravel()
-        else:
-            strata = np.zeros(len(table), int)
-        values = candidate_values(table, cand.name)
+        strata = _strata([codes[b] for b in blocks], len(table))
+        values = values_of[cand.name]
         recorded = values.notna().to_numpy()
         x_all = codes[cand.name] if cand.categorical else values.to_numpy(float)
         for response in RESPONSES[group.kind]:
@@ -328,33 +344,21 @@ def conditional_responses(group, fitted) -> pd.DataFrame:
                 ok = np.isfinite(lp[i]) & (wt[i] > 0)
                 if ok.sum() >= 3:
                     n_hat[i], lk_hat[i] = np.polyfit(lz[i, ok], lp[i, ok], 1, w=wt[i, ok])
-            z_ref = 0.5 * float(np.nanmedian(table["z_max_m"]))
-            k_i, n_i = table.loc[idx, "k"].to_numpy(float), table.loc[idx, "n"].to_numpy(float)
-            level = np.log(k_i) + n_i * np.log(z_ref) - lk_hat - n_hat * np.log(z_ref)
-            table.loc[idx, "_dev_level"] = np.where(np.isfinite(level), level, np.nan)
-            table.loc[idx, "_dev_shape"] = n_i - n_hat
+            _sinkage_deviations(table, idx, lk_hat, n_hat)
         else:
             t1, t2 = y_hat[0::2], y_hat[1::2]
             r = t2 / t1 - 1.0  # = exp(−j₁/K̂)
-            plateau = t1 / (1.0 - r)
             k_hat = -x["j"][0] / np.log(r)
-            level = np.log(table.loc[idx, "tau_max"].to_numpy(float)) - np.log(plateau)
-            dev_k = np.log(table.loc[idx, "K"].to_numpy(float) / k_hat)
-            table.loc[idx, "_dev_level"] = np.where(np.isfinite(level), level, np.nan)
-            table.loc[idx, "_dev_K"] = np.where(np.isfinite(dev_k), dev_k, np.nan)
+            _shear_deviations(table, idx, t1 / (1.0 - r), k_hat)
     return table
 
 
 def retest(group, table, candidate: str, categorical: bool, blocks: str) -> dict[str, float]:
     """Raw p-value per response of one candidate against the responses in ``table``."""
     blocks_list = [b for b in blocks.split(", ") if b]
-    if blocks_list:
-        codes = np.column_stack([_codes(candidate_values(table, b)) for b in blocks_list])
-        strata = np.unique(codes, axis=0, return_inverse=True)[1].ravel()
-    else:
-        strata = np.zeros(len(table), int)
+    strata = _strata([level_codes(candidate_values(table, b)) for b in blocks_list], len(table))
     values = candidate_values(table, candidate)
-    x_all = _codes(values) if categorical else values.to_numpy(float)
+    x_all = level_codes(values) if categorical else values.to_numpy(float)
     out = {}
     for response in RESPONSES[group.kind]:
         y_all = table[f"_dev_{response}"].to_numpy(float)

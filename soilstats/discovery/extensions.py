@@ -32,7 +32,7 @@ from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..identification.wong import wong_start
 from ..models import REECE
-from .candidates import candidate_values
+from .candidates import MISSING, candidate_values, spans_log
 from .families import ShearLayout, SinkageLayout, shear_family, side_wall_ratio, sinkage_family
 
 __all__ = [
@@ -47,6 +47,8 @@ __all__ = [
 ]
 
 _UNIT_SINK = {"kc": "N/m^(n+1)", "kphi": "N/m^(n+2)", "k": "N/m^(n+2)", "n": "-"}
+#: Physically plausible ranges (health flags of the fit, not constraints of the optimiser).
+_SINK_BOUNDS = {"kc": (0, np.inf), "kphi": (0, np.inf), "k": (0, np.inf), "n": (0, 5)}
 
 
 @dataclass(frozen=True)
@@ -60,7 +62,7 @@ class Features:
         """Reference values from the training tests only (no peeking at held-out tests)."""
         values = candidate_values(tests, self.column).iloc[rows]
         if self.how == "levels":
-            counts = values.astype(object).fillna("<not recorded>").value_counts(sort=False)
+            counts = values.astype(object).fillna(MISSING).value_counts(sort=False)
             levels = list(counts.index)
             reference = counts.idxmax()  # most tests: the best-determined baseline
             return {"levels": [lv for lv in levels if lv != reference], "reference": reference}
@@ -68,7 +70,7 @@ class Features:
         x = x[np.isfinite(x)]
         if self.how == "velocity":
             return {"v_ref": float(np.exp(np.mean(np.log(x))))}
-        use_log = bool(np.all(x > 0) and x.max() / x.min() > 4.0)
+        use_log = spans_log(x)
         g = np.log(x) if use_log else x
         return {"log": use_log, "mean": float(g.mean()), "sd": float(g.std()) or 1.0}
 
@@ -83,7 +85,7 @@ class Features:
         """(n_tests, m) features of every row of the table (unseen levels → reference)."""
         values = candidate_values(tests, self.column)
         if self.how == "levels":
-            v = values.astype(object).fillna("<not recorded>").to_numpy()
+            v = values.astype(object).fillna(MISSING).to_numpy()
             return np.column_stack([v == lv for lv in state["levels"]]).astype(float)
         x = values.astype(float).to_numpy()
         if self.how == "velocity":
@@ -201,8 +203,7 @@ class SinkageExtension(Extension):
             mask, layout, (f, jac) = self._inputs(group, rows, state)
             p0 = start + [0.0] * (layout.size - len(start))
             names, units = self._names(state)
-            bounds = {"kc": (0, np.inf), "kphi": (0, np.inf), "k": (0, np.inf), "n": (0, 5)}
-            result = _identify(f, jac, y, w, p0, names, units, bounds, self.name)
+            result = _identify(f, jac, y, w, p0, names, units, _SINK_BOUNDS, self.name)
             return Fitted(self, result, state)
         return self._fit_softening(group, rows, state, start)
 
@@ -215,19 +216,17 @@ class SinkageExtension(Extension):
                 "softening of narrow plates (Fig. 9) cannot be fitted"
             )
         best, errors = None, []
-        z_all = group.x["z"][group.samples_of(rows)]
+        # z_c start: the best of a few depths, with the paper's "softer" factor 0.6.
+        grid = np.quantile(group.x["z"][group.samples_of(rows)], [0.1, 0.2, 0.35, 0.5, 0.7])
+        bounds = {**_SINK_BOUNDS, "z_c": (0, np.inf), "f_soft": (0, 1)}
         for thr in thresholds:
             st = {**state, "min_aspect": float(thr)}
             mask, layout, (f, jac) = self._inputs(group, rows, st)
             y, w = group.y[mask], group.w[mask]
             names, units = self._names(st)
             base_p0 = start + [0.0] * (layout.size - 2 - len(start))
-            # z_c start: the best of a few depths, with the paper's "softer" factor 0.6.
-            grid = np.quantile(z_all, [0.1, 0.2, 0.35, 0.5, 0.7])
             rss = [np.sum((w * (y - f(np.array([*base_p0, zc, 0.6])))) ** 2) for zc in grid]
             p0 = [*base_p0, float(grid[int(np.argmin(rss))]), 0.6]
-            bounds = {"kc": (0, np.inf), "kphi": (0, np.inf), "k": (0, np.inf), "n": (0, 5)}
-            bounds.update(z_c=(0, np.inf), f_soft=(0, 1))
             try:
                 result = _identify(f, jac, y, w, p0, names, units, bounds, self.name)
             except ConvergenceError as exc:

@@ -252,7 +252,7 @@ def discover(
             if accepted is not None:
                 cond_table = conditional_responses(g, accepted[1])
                 p_after = retest(g, cond_table, lead, bool(top["categorical"]), top["blocks"])
-                m = sum(1 for _ in leads)
+                m = len(leads)
                 if all(not (p * m < alpha) for p in p_after.values() if np.isfinite(p)):
                     explained.append(
                         {

@@ -20,6 +20,11 @@ def _num(x):
     return x if math.isfinite(x) else None
 
 
+def _clean(d: dict) -> dict:
+    """A dict's float values made JSON-safe (NaN and ±inf → None); other values unchanged."""
+    return {k: (_num(v) if isinstance(v, float) else v) for k, v in d.items()}
+
+
 @dataclass(frozen=True, eq=False)
 class Finding:
     """One cause of misfit, the extension that models it and its out-of-sample gain.
@@ -81,9 +86,7 @@ class Finding:
 
     def to_dict(self) -> dict:
         """The JSON shape of issue #6, plus the supporting detail."""
-        gain = self.gain.to_dict() if self.gain is not None else None
-        if gain is not None:
-            gain = {k: (_num(v) if isinstance(v, float) else v) for k, v in gain.items()}
+        gain = _clean(self.gain.to_dict()) if self.gain is not None else None
         out = {
             "kind": self.kind,
             "soil": self.soil,
@@ -99,14 +102,11 @@ class Finding:
             "n_tests": self.n_tests,
             "parameters": None,
             "information": {k: _num(v) for k, v in self.information.items()},
-            "tried": list(self.tried),
+            "tried": [_clean(t) for t in self.tried],
             "caveats": list(self.caveats),
         }
         if self.gain_conditions is not None:
-            out["gain_conditions"] = {
-                k: (_num(v) if isinstance(v, float) else v)
-                for k, v in self.gain_conditions.to_dict().items()
-            }
+            out["gain_conditions"] = _clean(self.gain_conditions.to_dict())
         if self.fit is not None:
             out["parameters"] = {
                 name: {"value": _num(v), "sigma": _num(s), "unit": self.fit.units.get(name, "")}
