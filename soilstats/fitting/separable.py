@@ -17,6 +17,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from .levenberg_marquardt import gram_matrix
+
 __all__ = ["refine_exponent"]
 
 
@@ -36,11 +38,7 @@ def _solve_small(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 def _project(rows: np.ndarray, wy: np.ndarray):
     """Linear coefficients a(n), residual r = wy − aᵀU, ½‖r‖², and the q×q Gram matrix."""
-    q = rows.shape[0]
-    gram = np.empty((q, q))
-    for i in range(q):
-        for j in range(i + 1):
-            gram[i, j] = gram[j, i] = rows[i] @ rows[j]
+    gram = gram_matrix(rows)
     a = _solve_small(gram, rows @ wy)
     r = wy - a @ rows
     return a, r, 0.5 * float(r @ r), gram
