@@ -18,6 +18,28 @@ def test_readme_has_exactly_two_setup_commands_and_ci_runs_the_test_one():
     blocks = _bash_blocks(setup)
     assert len(blocks) == 2, blocks
     main_job, tests = blocks
-    assert "pip install ." in main_job and "python -m soilstats." in main_job
+    assert "pip install ." in main_job and "soilstats study" in main_job
     assert "pytest" in tests
-    assert tests in (ROOT / ".ci" / "run").read_text()
+    # .ci/run takes the test command from the README itself, by this pattern.
+    ci = (ROOT / ".ci" / "run").read_text()
+    pattern = re.search(r"grep -m1 -E '([^']+)' README.md", ci).group(1)
+    found = [line for line in readme.splitlines() if re.search(pattern, line)]
+    assert found and found[0] == tests
+
+
+def test_ci_runs_in_a_fresh_clone_with_nothing_beside_it():
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert "mktemp -d" in ci and "git clone" in ci and "test ! -e ../shared" in ci
+
+
+def test_nothing_reads_outside_the_repository():
+    """No module, test or benchmark refers to the development-only ../shared folder."""
+    offenders = []
+    for folder in ("soilstats", "tests", "benchmarks"):
+        for path in (ROOT / folder).rglob("*.py"):
+            if path == Path(__file__).resolve():
+                continue
+            text = path.read_text(encoding="utf-8")
+            if re.search(r"\.\./shared|[\"']shared[\"']|/shared/", text):
+                offenders.append(str(path.relative_to(ROOT)))
+    assert not offenders, offenders

@@ -1,22 +1,20 @@
 """Readers and model functions for the NIST StRD reference data sets.
 
-The ``.dat`` files live in ``shared/reference/nist-strd/`` beside the repository (public domain,
-unedited; see its README for the layout).  Certified values are parsed by label from the file
+The ``.dat`` files are vendored in ``tests/data/nist-strd/`` (public domain, unedited; its README
+gives their provenance and layout).  Certified values are parsed by label from the file
 itself, never typed in here, so a test compares against NIST's numbers and nothing else.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-_DEFAULT = Path(__file__).resolve().parents[3] / "shared" / "reference" / "nist-strd"
-NIST_DIR = Path(os.environ.get("SOILSTATS_NIST_DIR", _DEFAULT))
+NIST_DIR = Path(__file__).resolve().parents[1] / "data" / "nist-strd"
 
 
 def lre(estimate: float, certified: float) -> float:
