@@ -12,8 +12,13 @@ __all__ = [
     "ConvergenceError",
     "ConvergenceWarning",
     "IdentifiabilityError",
+    "SoilstatsError",
     "SoilstatsWarning",
 ]
+
+
+class SoilstatsError(Exception):
+    """Base class of every error soilstats raises on purpose (bad input, failed fits)."""
 
 
 class SoilstatsWarning(UserWarning):
@@ -24,7 +29,7 @@ class ConvergenceWarning(SoilstatsWarning):
     """A fit or sampler finished, but a health check failed (see the result's flags)."""
 
 
-class CampaignError(ValueError):
+class CampaignError(SoilstatsError, ValueError):
     """A campaign breaks a rule of the campaign format.
 
     The message names the file, the column, the test and the row (1-based data row, the
@@ -57,11 +62,11 @@ class CampaignError(ValueError):
         super().__init__(f"{prefix}: {message}" if prefix else message)
 
 
-class IdentifiabilityError(ValueError):
+class IdentifiabilityError(SoilstatsError, ValueError):
     """The data cannot determine the model's parameters (e.g. Bekker with one plate size)."""
 
 
-class ConvergenceError(RuntimeError):
+class ConvergenceError(SoilstatsError, RuntimeError):
     """An optimiser did not reach a trustworthy minimum.
 
     ``result`` holds the last iterate (a :class:`soilstats.fitting.FitResult` with

@@ -78,6 +78,7 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
     out = tmp_path / "out"
     code = main(
         [
+            "--data",
             str(folder),
             "--soil",
             "sim-sand",
@@ -103,5 +104,5 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
         assert (out / name).exists(), name
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert "kc" in idata.posterior
-    draws = pd.read_csv(out / "draws.csv")
+    draws = pd.read_csv(out / "draws.csv", comment="#")
     assert list(draws.columns) == ["kc", "kphi", "n", "c", "phi", "K"]

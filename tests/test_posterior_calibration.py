@@ -107,14 +107,14 @@ def test_cli_population_with_select_on_real_data(tmp_path):
     from soilstats.cli.posterior import main
 
     out = tmp_path / "out"
-    args = ["cullinan-sand", "--soil", "cullinan-sand", "--model", "bernstein"]
+    args = ["--data", "cullinan-sand", "--soil", "cullinan-sand", "--model", "bernstein"]
     code = main([*args, "--population", "--select", "sinkage:preparation=1", "--out", str(out)])
     assert code == 0
-    draws = pd.read_csv(out / "draws.csv")
+    draws = pd.read_csv(out / "draws.csv", comment="#")
     assert list(draws.columns) == ["k", "n"] and (draws["k"] > 0).all()
-    summary = pd.read_csv(out / "summary.csv", index_col="quantity")
+    summary = pd.read_csv(out / "summary.csv", comment="#", index_col="quantity")
     assert {"mu_k", "sd_stiffness", "sd_n", "k", "n"} <= set(summary.index)
     assert summary["r_hat"].max() <= 1.01
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert idata.posterior.attrs["converged"] == 1
-    assert main([*args, "--select", "nosuchcolumn=1", "--out", str(out)]) == 2
+    assert main([*args, "--select", "nosuchcolumn=1", "--out", str(tmp_path / "o2")]) == 2

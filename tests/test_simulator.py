@@ -79,7 +79,17 @@ def test_saved_campaign_reads_back_exactly_and_says_simulated(tiny_spec, tmp_pat
 def test_cli_writes_the_same_files_as_the_library(tiny_spec, tmp_path):
     out = tmp_path / "cli"
     run = subprocess.run(
-        [sys.executable, "-m", "soilstats.simulate", str(tiny_spec), str(out), "--seed", "5"],
+        [
+            sys.executable,
+            "-m",
+            "soilstats",
+            "simulate",
+            str(tiny_spec),
+            "--out",
+            str(out),
+            "--seed",
+            "5",
+        ],
         capture_output=True,
         text=True,
         check=False,
@@ -89,14 +99,24 @@ def test_cli_writes_the_same_files_as_the_library(tiny_spec, tmp_path):
     for name in FILES:
         assert (out / name).read_bytes() == (lib / name).read_bytes(), name
     again = subprocess.run(
-        [sys.executable, "-m", "soilstats.simulate", str(tiny_spec), str(out), "--seed", "5"],
+        [
+            sys.executable,
+            "-m",
+            "soilstats",
+            "simulate",
+            str(tiny_spec),
+            "--out",
+            str(out),
+            "--seed",
+            "5",
+        ],
         capture_output=True,
         text=True,
         check=False,
     )
     assert again.returncode == 2 and "overwrite" in again.stderr
     helped = subprocess.run(
-        [sys.executable, "-m", "soilstats.simulate", "--help"],
+        [sys.executable, "-m", "soilstats", "simulate", "--help"],
         capture_output=True,
         text=True,
         check=True,

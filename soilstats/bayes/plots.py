@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 
+from ..report import Provenance, output_path
 from .result import PosteriorResult
 
 __all__ = ["write_report"]
@@ -96,14 +97,31 @@ def _ppc(res: PosteriorResult):
     return fig
 
 
-def write_report(results: list[PosteriorResult], path: str | Path) -> Path:
-    """Write trace, pair and posterior-predictive pages for each result to one PDF."""
-    path = Path(path)
-    with PdfPages(path) as pdf, warnings.catch_warnings():
+def write_report(
+    results: list[PosteriorResult],
+    path: str | Path,
+    *,
+    provenance: Provenance | None = None,
+    overwrite: bool = True,
+) -> Path:
+    """Write trace, pair and posterior-predictive pages for each result to one PDF.
+
+    ``provenance`` goes into the PDF metadata and onto a last page.
+    """
+    path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
+    title = "soilstats posterior: " + ", ".join(r.model_name for r in results)
+    metadata = None if provenance is None else provenance.pdf_metadata(title)
+    with PdfPages(path, metadata=metadata) as pdf, warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*tight_layout.*", category=UserWarning)
         for res in results:
             for make in (_trace, _pair, _ppc):
                 fig = make(res)
                 pdf.savefig(fig)
                 plt.close(fig)
+        if provenance is not None:
+            fig = plt.figure(figsize=(8.27, 11.69))
+            fig.text(0.06, 0.95, "Provenance", fontsize=13, weight="bold", va="top")
+            fig.text(0.06, 0.91, "\n".join(provenance.lines()), fontsize=7, va="top", wrap=True)
+            pdf.savefig(fig)
+            plt.close(fig)
     return path

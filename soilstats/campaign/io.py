@@ -154,7 +154,8 @@ def read_table(path: Path) -> pd.DataFrame:
             file=name,
             row=row,
         ) from exc
-    except (OSError, ValueError, pd.errors.EmptyDataError) as exc:
+    except (OSError, ValueError, csv.Error, pd.errors.EmptyDataError) as exc:
+        # csv.Error: e.g. a cell beyond the csv module's field limit (a binary file).
         raise _unreadable(path, exc) from exc
     return frame
 

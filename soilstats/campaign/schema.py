@@ -14,6 +14,7 @@ from typing import Literal
 __all__ = [
     "DERIVED_COLUMNS",
     "FILES",
+    "FORMAT_VERSION",
     "KINDS",
     "MISSING_TOKENS",
     "SAMPLE_FILE_OF_KIND",
@@ -23,6 +24,9 @@ __all__ = [
     "canonical_order",
     "spec",
 ]
+
+#: Version of the campaign format these specifications describe (``docs/campaign-format.md``).
+FORMAT_VERSION = "1"
 
 #: Values of ``kind`` and the sample file that holds the data of each kind.
 KINDS: tuple[str, ...] = ("sinkage", "shear")

@@ -1,10 +1,11 @@
 """Discover what the soil model gets wrong in a campaign: the cause, the extension, the gain.
 
-Fits the base model (Bekker/Bernstein for sinkage, Janosi–Hanamoto for shear), tests every
+Fits the base model (Bekker/Bernstein for sinkage, Janosi-Hanamoto for shear), tests every
 test-log column and derived quantity for structure in what the model leaves (Holm-controlled
 across all candidates), extends the model for the leading causes and measures the gain by
-cross-validation over whole tests.  Prints a readable summary, or with --json one JSON object
-{"findings": [...], "flags": [...], ...}; with --out a PDF report in that folder.
+cross-validation over whole tests. Prints a readable summary, or with --json one JSON object
+{"findings": [...], "flags": [...], ..., "provenance": {...}}; with --out, discover.json and
+the PDF report discover.pdf in that folder.
 """
 
 from __future__ import annotations
@@ -13,51 +14,48 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..campaign import bundled_campaigns
-from ..errors import CampaignError
+from .common import add_common_options, apply_selection, progress_enabled
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m soilstats.discover",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
+    """The discover subcommand's options."""
+    add_common_options(parser, out_help="write discover.json and discover.pdf into DIR")
     parser.add_argument(
-        "campaign",
-        metavar="CAMPAIGN_DIR",
-        help=f"campaign folder or bundled name ({', '.join(bundled_campaigns())})",
+        "--alpha", type=float, default=0.05, help="family-wise error rate (default 0.05)"
     )
-    parser.add_argument("--json", action="store_true", help="print one JSON object to stdout")
-    parser.add_argument("--out", metavar="DIR", help="write the PDF report discover.pdf here")
-    parser.add_argument("--alpha", type=float, default=0.05, help="family-wise error rate")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the cross-validation folds")
-    parser.add_argument(
-        "--progress",
-        choices=("auto", "on", "off"),
-        default="auto",
-        help="tqdm progress bars on stderr (auto: only on a terminal)",
-    )
-    return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+def run(args: argparse.Namespace) -> int:
+    """Run discovery; print the summary (or JSON) and write the files asked for."""
+    from ..campaign import load_campaign
     from ..discovery import discover
+    from ..report import Provenance, write_json
 
-    progress = {"on": True, "off": False, "auto": sys.stderr.isatty()}[args.progress]
-    try:
-        result = discover(args.campaign, alpha=args.alpha, seed=args.seed, progress=progress)
-    except (CampaignError, ValueError, FileNotFoundError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    campaign = apply_selection(load_campaign(args.data), args.select)
+    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
+    result = discover(
+        campaign,
+        alpha=args.alpha,
+        seed=args.seed,
+        progress=progress_enabled(args.progress),
+        provenance=provenance,
+    )
     if args.out:
         from ..discovery.report import write_report
 
-        path = write_report(result, Path(args.out))
-        print(f"wrote {path}", file=sys.stderr)
-    if args.json:
-        print(result.to_json())
-    else:
-        print(result.summary())
+        folder = Path(args.out)
+        document = {k: v for k, v in result.to_dict().items() if k != "provenance"}
+        json_path = write_json(
+            folder / "discover.json", document, provenance, overwrite=args.overwrite
+        )
+        pdf_path = write_report(result, folder, overwrite=args.overwrite)
+        print(f"wrote {json_path} and {pdf_path}", file=sys.stderr)
+    print(result.to_json() if args.json else result.summary())
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m soilstats.cli.discover ...``: the same as ``soilstats discover ...``."""
+    from .main import run_subcommand
+
+    return run_subcommand("discover", argv)

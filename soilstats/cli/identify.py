@@ -16,32 +16,21 @@ series and the shear table the ``shear-ring`` series, as the paper's Tables 5 an
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+from pathlib import Path
 
-import numpy as np
+from .common import add_common_options, apply_selection, parse_selection
 
-from ..campaign import bundled_campaigns, load_campaign
-from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
-from ..identification import fit_shear, fit_sinkage
-from ..identification.table import format_parameter_table
-
-DEFAULT_DATA = "cullinan-sand"
 _GROUPING_CANDIDATES = ("velocity_m_s", "preparation")
 _SHEAR_GROUPING_CANDIDATES = ("tool", "r_inner_m")
 _DEFAULT_SERIES = {"sinkage": "velocity", "shear": "shear-ring"}
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m soilstats.identify",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument(
-        "--data",
-        default=DEFAULT_DATA,
-        help=f"campaign folder or bundled name ({', '.join(bundled_campaigns())}); "
-        f"default {DEFAULT_DATA}",
+def configure(parser: argparse.ArgumentParser) -> None:
+    """The identify subcommand's options."""
+    add_common_options(
+        parser, out_help="also write identify.json and identify.csv (every fit) into DIR"
     )
     parser.add_argument(
         "--model",
@@ -67,21 +56,25 @@ def _parser() -> argparse.ArgumentParser:
         help="only tests of this series (campaigns with a 'series' column; "
         "default: velocity for sinkage, shear-ring for shear)",
     )
-    parser.add_argument(
-        "--select",
-        action="append",
-        default=[],
-        metavar="COLUMN=VALUE",
-        help="only tests whose COLUMN equals VALUE (repeatable)",
-    )
     parser.add_argument("--soil", action="append", help="only this soil (repeatable)")
-    parser.add_argument("--method", choices=("lm", "wong"), default="lm")
-    parser.add_argument("--points-per-test", type=int, default=100)
+    parser.add_argument(
+        "--method",
+        choices=("lm", "wong"),
+        default="lm",
+        help="lm: the paper's weighted Levenberg-Marquardt; wong: Wong's log-log method",
+    )
+    parser.add_argument(
+        "--points-per-test",
+        type=int,
+        default=100,
+        help="samples per test after equal-sinkage thinning (Section 2.1; default 100)",
+    )
     parser.add_argument("--verbose", action="store_true", help="print every fit's summary()")
-    return parser
 
 
 def _grouping(tests, requested, candidates=_GROUPING_CANDIDATES):
+    from ..errors import CampaignError
+
     if requested:
         if requested not in tests.columns:
             raise CampaignError(
@@ -97,128 +90,183 @@ def _grouping(tests, requested, candidates=_GROUPING_CANDIDATES):
 
 
 def _label(value) -> str:
+    import numpy as np
+
     if isinstance(value, float | np.floating):
         return f"{value:g}"
     return str(value)
 
 
-def _parse_select(items: list[str]) -> dict[str, str]:
-    selection = {}
-    for item in items:
-        column, sep, value = item.partition("=")
-        if not sep or not column:
-            raise ValueError(f"--select takes COLUMN=VALUE, got {item!r}")
-        selection[column] = value
-    return selection
+def _series_filter(campaign, kind: str, args):
+    """The campaign restricted to the series to tabulate for ``kind``, or None to skip ``kind``.
+
+    Only campaigns with a ``series`` column have series. ``--series`` names one for every
+    kind that has it (a kind without it is skipped); without it, each kind's default series
+    is used where present. ``--select series=...`` takes precedence over both.
+    """
+    tests = campaign.tests
+    if "series" not in tests.columns or any(
+        c.column == "series" for c in parse_selection(args.select)
+    ):
+        return campaign
+    series = args.series or _DEFAULT_SERIES[kind]
+    present = set(tests.loc[tests["kind"] == kind, "series"].dropna().astype(str))
+    if series in present:
+        keep = (tests["series"].astype(str) == series) | (tests["kind"] != kind)
+        return campaign.select(test_id=list(tests["test_id"][keep]))
+    return None if args.series else campaign
 
 
-def _apply_filters(campaign, kind: str, args) -> object:
-    """The campaign restricted to --select and the series to tabulate for ``kind``."""
-    selection = _parse_select(args.select)
-    chosen = campaign
-    for column, text in selection.items():
-        if column not in chosen.tests.columns:
-            raise CampaignError(
-                f"--select: no column {column!r}; columns: {list(chosen.tests.columns)}",
-                file="tests.csv",
-                column=column,
-            )
-        values = chosen.tests[column]
-        # Compare as the column's own type: numbers as numbers, text as text.
-        numeric = np.issubdtype(values.dtype, np.number)
-        chosen = chosen.select(**{column: float(text) if numeric else text})
-    tests = chosen.tests
-    if "series" in tests.columns and "series" not in selection:
-        series = args.series or _DEFAULT_SERIES[kind]
-        present = set(tests.loc[tests["kind"] == kind, "series"].dropna().astype(str))
-        if series in present:
-            chosen = chosen.select(
-                series=lambda col, s=series: (col.astype(str) == s) | (chosen.tests["kind"] != kind)
-            )
-        elif args.series:
-            raise CampaignError(
-                f"--series {series!r} has no {kind} tests; series present: {sorted(present)}",
-                file="tests.csv",
-                column="series",
-            )
-    return chosen
+def _check_series(campaign, args) -> None:
+    from ..errors import CampaignError
+
+    tests = campaign.tests
+    if args.series is None:
+        return
+    present = set(tests["series"].dropna().astype(str)) if "series" in tests.columns else set()
+    if args.series not in present:
+        raise CampaignError(
+            f"--series {args.series!r}: no such series; series present: {sorted(present)}",
+            file="tests.csv",
+            column="series",
+        )
 
 
-def run(args: argparse.Namespace, out=sys.stdout) -> int:
-    full = load_campaign(args.data)
+def _fit_soil(campaign, kind: str, soil: str, by, sub, args):
+    """Fit every condition of one soil; return ({model: {label: fit}}, failures)."""
+    from ..errors import ConvergenceError, IdentifiabilityError
+    from ..identification import fit_shear, fit_sinkage
+
+    values = sorted(sub[by].dropna().unique()) if by else [None]
+    fits: dict[str, dict] = {}
+    failures = []
+    for value in values:
+        selection = {"soil": soil} | ({by: value} if by else {})
+        label = _label(value) if by else "all"
+        try:
+            if kind == "sinkage":
+                model = args.model
+                if model == "auto":
+                    group = sub if not by else sub[sub[by] == value]
+                    model = "bekker" if group["b_m"].nunique() > 1 else "bernstein"
+                fit = fit_sinkage(
+                    campaign,
+                    model,
+                    method=args.method,
+                    points_per_test=args.points_per_test,
+                    **selection,
+                )
+            else:
+                model = "mohr-coulomb"
+                fit = fit_shear(campaign, model, **selection)
+        except (ConvergenceError, IdentifiabilityError) as err:
+            failures.append(f"{label}: {err}")
+            continue
+        fits.setdefault(model, {})[label] = fit
+    return fits, failures
+
+
+def _record(kind, soil, by, label, model, fit) -> dict:
+    return {
+        "kind": kind,
+        "soil": soil,
+        "condition": {"column": by, "value": label} if by else None,
+        "model": model,
+        "params": dict(fit.params),
+        "stderr": dict(fit.stderr),
+        "units": dict(fit.units),
+        "epsilon": fit.epsilon,
+        "health": [{"code": f.code, "message": f.message} for f in fit.flags],
+        "converged": fit.converged,
+        "nobs": fit.nobs,
+        "tests": None if fit.groups is None else len(fit.groups),
+        "notes": list(fit.notes),
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    """Fit every soil and condition; print Table-5-style tables or one JSON object."""
+    from ..campaign import load_campaign
+    from ..errors import CampaignError
+    from ..identification.table import format_parameter_table, parameter_table
+    from ..report import Provenance, json_safe, write_csv, write_json
+
+    full = apply_selection(load_campaign(args.data), args.select)
+    soils_present = sorted(full.tests["soil"].astype(str).unique())
+    unknown = sorted(set(args.soil or ()) - set(soils_present))
+    if unknown:
+        raise CampaignError(
+            f"--soil {', '.join(unknown)}: no such soil; soils present: {soils_present}",
+            file="tests.csv",
+            column="soil",
+        )
+    soils = args.soil or soils_present
+    _check_series(full, args)
+    out = sys.stderr if args.json else sys.stdout
     print(f"Campaign: {full.source}", file=out)
-    soils = args.soil or sorted(full.tests["soil"].astype(str).unique())
+    records, tables = [], []
     for kind in ("sinkage", "shear"):
         if not (full.tests["kind"] == kind).any():
             continue
-        campaign = _apply_filters(full, kind, args)
-        tests = campaign.tests
-        kind_tests = tests[tests["kind"] == kind]
-        if kind_tests.empty:
+        campaign = _series_filter(full, kind, args)
+        if campaign is None:
+            print(f"\n[{kind}: no tests of series {args.series!r}]", file=out)
             continue
-        by = (
-            _grouping(kind_tests, args.by)
-            if kind == "sinkage"
-            else _grouping(kind_tests, args.shear_by, _SHEAR_GROUPING_CANDIDATES)
-        )
+        kind_tests = campaign.tests[campaign.tests["kind"] == kind]
+        if kind == "sinkage":
+            by = _grouping(kind_tests, args.by)
+        else:
+            by = _grouping(kind_tests, args.shear_by, _SHEAR_GROUPING_CANDIDATES)
         if "series" in kind_tests.columns and kind_tests["series"].nunique() == 1:
             print(f"\n[{kind}: series {kind_tests['series'].iloc[0]!r}]", file=out)
         for soil in soils:
             sub = kind_tests[kind_tests["soil"].astype(str) == soil]
             if sub.empty:
                 continue
-            values = sorted(sub[by].dropna().unique()) if by else [None]
-            fits, failures = {}, []
-            model_used = set()
-            for value in values:
-                selection = {"soil": soil}
-                if by:
-                    selection[by] = value
-                label = _label(value) if by else "all"
-                try:
-                    if kind == "sinkage":
-                        model = args.model
-                        if model == "auto":
-                            group = sub if not by else sub[sub[by] == value]
-                            model = "bekker" if group["b_m"].nunique() > 1 else "bernstein"
-                        fit = fit_sinkage(
-                            campaign,
-                            model,
-                            method=args.method,
-                            points_per_test=args.points_per_test,
-                            **selection,
-                        )
-                        model_used.add(model)
-                    else:
-                        fit = fit_shear(campaign, "mohr-coulomb", **selection)
-                        model_used.add("mohr-coulomb")
-                except (ConvergenceError, IdentifiabilityError, CampaignError) as err:
-                    failures.append(f"{label}: {err}")
-                    continue
-                fits[label] = fit
-                if args.verbose:
-                    print(fit.summary(), file=out)
-            title = (
-                f"\n{kind} · {soil} · {', '.join(sorted(model_used))} · conditions by "
-                f"{by or '(all tests)'}"
-            )
-            if fits:
+            by_model, failures = _fit_soil(campaign, kind, soil, by, sub, args)
+            for model, fits in by_model.items():
+                title = f"\n{kind} · {soil} · {model} · conditions by {by or '(all tests)'}"
                 print(format_parameter_table(fits, title=title), file=out)
+                for label, fit in fits.items():
+                    if args.verbose:
+                        print(fit.summary(), file=out)
+                    records.append(_record(kind, soil, by, label, model, fit))
+                tables.append(parameter_table(fits).assign(kind=kind, soil=soil, model=model))
             for failure in failures:
-                print(f"  ! not identified — {failure}", file=out)
-            if kind == "sinkage" and "bernstein" in model_used and args.model == "auto":
+                print(f"  ! not identified: {failure}", file=out)
+            if kind == "sinkage" and "bernstein" in by_model and args.model == "auto":
                 print(
                     "  note: one plate size per condition, so Bekker's kc and kphi cannot be "
                     "separated (Section 2.1 needs two or more); Bernstein k, n shown.",
                     file=out,
                 )
+    if not records:
+        raise CampaignError(
+            "no condition could be identified in the selected tests (see the messages above)",
+            file="tests.csv",
+        )
+    provenance = Provenance.of(full, argv=args.argv, seed=args.seed)
+    document = {"fits": records}
+    if args.out:
+        import pandas as pd
+
+        folder = Path(args.out)
+        write_json(folder / "identify.json", document, provenance, overwrite=args.overwrite)
+        write_csv(
+            folder / "identify.csv",
+            pd.concat(tables, ignore_index=True),
+            provenance,
+            overwrite=args.overwrite,
+        )
+        print(f"wrote {folder / 'identify.json'} and identify.csv", file=sys.stderr)
+    if args.json:
+        document |= {"provenance": provenance.to_dict()}
+        print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    try:
-        return run(args)
-    except (CampaignError, ValueError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    """``python -m soilstats.cli.identify ...``: the same as ``soilstats identify ...``."""
+    from .main import run_subcommand
+
+    return run_subcommand("identify", argv)

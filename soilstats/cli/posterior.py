@@ -1,4 +1,4 @@
-"""Posterior draws of a soil's parameters for rover Monte Carlo (issue #5).
+"""Posterior draws of a soil's parameters for rover Monte Carlo.
 
 Writes to --out: posterior.nc (ArviZ netCDF; one group set per model, see below),
 draws.csv (one row per joint draw, one column per parameter, SI units, phi in degrees),
@@ -18,82 +18,41 @@ import sys
 import warnings
 from pathlib import Path
 
-import pandas as pd
+from .common import add_common_options, apply_selection, progress_enabled
 
-from ..bayes import SIMULATOR_FORMATS, joint_draws, sample_population, sample_posterior
-from ..bayes.data import SINKAGE_MODELS
-from ..bayes.plots import write_report
-from ..campaign import load_campaign
-from ..errors import CampaignError, ConvergenceWarning
+#: Simulators whose parameter sets --simulator writes (soilstats.bayes.SIMULATOR_FORMATS; a
+#: test keeps the two in step, the bayes package being too heavy to import for --help).
+SIMULATORS = ("chrono-scm",)
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="python -m soilstats.posterior",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+def configure(parser: argparse.ArgumentParser) -> None:
+    """The posterior subcommand's options."""
+    add_common_options(
+        parser,
+        out="required",
+        out_help="write posterior.nc, draws.csv, summary.csv and report.pdf into DIR",
     )
-    p.add_argument("campaign", help="campaign folder or bundled campaign name")
-    p.add_argument("--soil", required=True, help="soil name (the soil column of tests.csv)")
-    p.add_argument("--model", required=True, help="model, or sinkage+shear (bekker+janosi)")
-    p.add_argument(
-        "--select",
-        action="append",
-        default=[],
-        metavar="[KIND:]COLUMN=VALUE",
-        help="only tests whose test-log COLUMN equals VALUE (repeatable); a KIND: prefix "
-        "(sinkage: or shear:) limits it to that kind's tests, e.g. --select "
-        "sinkage:series=velocity --select sinkage:velocity_m_s=0.0048 --select "
-        "shear:series=shear-ring",
+    parser.add_argument("--soil", required=True, help="soil name (the soil column of tests.csv)")
+    parser.add_argument(
+        "--model", required=True, help="model, or sinkage+shear (e.g. bekker+janosi)"
     )
-    p.add_argument(
+    parser.add_argument(
         "--population",
         action="store_true",
         help="population model: draws for a NEW preparation (sinkage models)",
     )
-    p.add_argument("--draws", type=int, default=None, help="kept draws (default per model)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", required=True, type=Path, help="output folder")
-    p.add_argument(
+    parser.add_argument("--draws", type=int, default=None, help="kept draws (default per model)")
+    parser.add_argument(
         "--simulator",
-        choices=sorted(SIMULATOR_FORMATS),
+        choices=SIMULATORS,
         help="also write the draws as this simulator's parameter sets",
     )
-    p.add_argument("--progress", action="store_true", help="show progress bars")
-    return p
-
-
-def _selected(campaign, items: list[str], model: str):
-    """The campaign for ``model`` with the ``--select [KIND:]COLUMN=VALUE`` items applied.
-
-    Values compare as the column's type (numbers as numbers).  An item with a KIND: prefix
-    is used only for that kind's model; tests of the other kind are always kept.
-    """
-    kind = "sinkage" if model in SINKAGE_MODELS else "shear"
-    other = (campaign.tests["kind"] != kind).to_numpy()
-    out = {}
-    for item in items:
-        prefix, colon, rest = item.partition(":")
-        if colon and prefix in ("sinkage", "shear") and "=" not in prefix:
-            if prefix != kind:
-                continue
-            item = rest
-        column, sep, text = item.partition("=")
-        if not sep or not column:
-            raise ValueError(f"--select takes [KIND:]COLUMN=VALUE, got {item!r}")
-        if column not in campaign.tests.columns:
-            raise ValueError(
-                f"--select: no column {column!r}; columns: {list(campaign.tests.columns)}"
-            )
-        numeric = pd.api.types.is_numeric_dtype(campaign.tests[column])
-        value = float(text) if numeric else text
-        out[column] = lambda col, v=value: (col == v).to_numpy() | other
-    return campaign.select(**out) if out else campaign
 
 
 def _run(campaign, model, args):
-    kw = {"seed": args.seed, "progress": args.progress, "soil": args.soil}
-    campaign = _selected(campaign, args.select, model)
+    from ..bayes import sample_population, sample_posterior
+
+    kw = {"seed": args.seed, "progress": progress_enabled(args.progress), "soil": args.soil}
     if args.draws is not None:
         kw["draws"] = args.draws
     if args.population and model in ("bekker", "bernstein"):
@@ -101,44 +60,70 @@ def _run(campaign, model, args):
     return sample_posterior(campaign, model, **kw)
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+def run(args: argparse.Namespace) -> int:
+    """Sample, write the files, print the summaries; exit 1 when not converged."""
+    import json
+
+    import pandas as pd
+
+    from ..bayes import joint_draws
+    from ..bayes.plots import write_report
+    from ..campaign import load_campaign
+    from ..errors import ConvergenceWarning
+    from ..report import Provenance, json_safe, output_path, write_csv
+
     models = args.model.split("+")
-    try:
-        campaign = load_campaign(
-            args.campaign if Path(args.campaign).exists() is False else Path(args.campaign)
-        )
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ConvergenceWarning)
-            results = [_run(campaign, m, args) for m in models]
-    except (CampaignError, ValueError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    args.out.mkdir(parents=True, exist_ok=True)
+    campaign = apply_selection(load_campaign(args.data), args.select)
+    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
+    out = Path(args.out)
+    names = ["posterior.nc", "draws.csv", "summary.csv", "report.pdf"]
+    names += [f"posterior_{m}.nc" for m in models[1:]]
+    names += [f"{args.simulator}.csv"] if args.simulator else []
+    for name in names:  # refuse before sampling, not after minutes of work
+        output_path(out, name, overwrite=args.overwrite)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ConvergenceWarning)
+        results = [_run(campaign, m, args) for m in models]
     for i, res in enumerate(results):
         name = "posterior.nc" if i == 0 else f"posterior_{res.model_name}.nc"
-        res.idata.to_netcdf(str(args.out / name))
+        res.idata.to_netcdf(str(output_path(out, name, overwrite=True)))
     n = min(len(r.draws()) for r in results)
-    if len(results) == 2:
-        draws = joint_draws(results[0], results[1], n, seed=args.seed)
-    else:
-        draws = results[0].draws()
-    draws.to_csv(args.out / "draws.csv", index=False, float_format="%.10g")
+    draws = (
+        joint_draws(results[0], results[1], n, seed=args.seed)
+        if len(results) == 2
+        else results[0].draws()
+    )
+    write_csv(out / "draws.csv", draws, provenance, overwrite=True, float_format="%.10g")
     table = pd.concat([r.diagnostics.assign(model=r.model_name, kind=r.kind) for r in results])
     table.index.name = "quantity"
-    table.to_csv(args.out / "summary.csv")
-    write_report(results, args.out / "report.pdf")
+    write_csv(out / "summary.csv", table.reset_index(), provenance, overwrite=True)
+    write_report(results, out / "report.pdf", provenance=provenance)
     if args.simulator:
         from ..bayes import simulator_parameters
 
-        try:
-            sim = simulator_parameters(draws, args.simulator)
-        except ValueError as err:
-            print(f"error: {err}", file=sys.stderr)
-            return 2
-        sim.to_csv(args.out / f"{args.simulator}.csv", index=False, float_format="%.10g")
-    for res in results:
-        print(res.summary())
+        sim = simulator_parameters(draws, args.simulator)
+        write_csv(
+            out / f"{args.simulator}.csv", sim, provenance, overwrite=True, float_format="%.10g"
+        )
+    converged = all(r.converged for r in results)
+    if args.json:
+        print(
+            json.dumps(
+                json_safe(
+                    {
+                        "out": str(out),
+                        "converged": converged,
+                        "summary": table.reset_index().to_dict("records"),
+                        "warnings": [str(w.message) for w in caught],
+                        "provenance": provenance.to_dict(),
+                    }
+                ),
+                indent=2,
+            )
+        )
+    else:
+        for res in results:
+            print(res.summary())
     if args.population and any(m not in ("bekker", "bernstein") for m in models):
         print(
             "note: the population model covers sinkage models only; the shear block is the "
@@ -147,7 +132,14 @@ def main(argv: list[str] | None = None) -> int:
         )
     for w in caught:
         print(f"WARNING: {w.message}", file=sys.stderr)
-    if any(not r.converged for r in results):
+    if not converged:
         print("WARNING: NOT CONVERGED — see summary.csv and the notes above", file=sys.stderr)
         return 1
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m soilstats.cli.posterior ...``: the same as ``soilstats posterior ...``."""
+    from .main import run_subcommand
+
+    return run_subcommand("posterior", argv)

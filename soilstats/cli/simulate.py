@@ -7,57 +7,52 @@ give byte-identical files.  The SPEC format is documented in docs/simulator.md.
 
 Regenerate the bundled campaign (from the repository root):
 
-  python -m soilstats.simulate soilstats/data/simulated-paper/spec.toml \\
-      soilstats/data/simulated-paper --seed 2026 --overwrite
+  soilstats simulate soilstats/data/simulated-paper/spec.toml \\
+      --out soilstats/data/simulated-paper --seed 2026 --overwrite
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
-from ..errors import CampaignError
-from ..simulation import SpecError, simulate
+from .common import add_common_options, progress_enabled
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m soilstats.simulate",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
+    """The simulate subcommand's options."""
     parser.add_argument("spec", metavar="SPEC", help="SPEC file (TOML, see docs/simulator.md)")
-    parser.add_argument("out", metavar="OUT", help="output folder (created if needed)")
-    parser.add_argument(
-        "--seed",
-        type=int,
-        required=True,
-        help="seed of numpy.random.default_rng (the only source of randomness)",
+    add_common_options(
+        parser,
+        data=False,
+        select=False,
+        out="required",
+        out_help="write the simulated campaign (and its truth) into DIR",
     )
-    parser.add_argument(
-        "--overwrite", action="store_true", help="replace campaign and truth files already in OUT"
-    )
-    parser.add_argument(
-        "--progress",
-        choices=("auto", "on", "off"),
-        default="auto",
-        help="tqdm progress bar on stderr (auto: only on a terminal)",
-    )
-    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    """Simulate, save, and report what was written."""
+    from ..simulation import simulate
+
+    sim = simulate(args.spec, seed=args.seed, progress=progress_enabled(args.progress))
+    folder = sim.save(args.out, overwrite=args.overwrite)
+    kinds = sim.campaign.tests["kind"].value_counts()
+    counts = {"sinkage": int(kinds.get("sinkage", 0)), "shear": int(kinds.get("shear", 0))}
+    if args.json:
+        print(json.dumps({"out": str(folder), "seed": args.seed, "tests": counts}))
+    else:
+        print(
+            f"wrote {len(sim.campaign.tests)} simulated tests ({counts['sinkage']} sinkage, "
+            f"{counts['shear']} shear) to {folder}",
+            file=sys.stdout,
+        )
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    progress = {"on": True, "off": False, "auto": sys.stderr.isatty()}[args.progress]
-    try:
-        sim = simulate(args.spec, seed=args.seed, progress=progress)
-        folder = sim.save(args.out, overwrite=args.overwrite)
-    except (SpecError, CampaignError, FileExistsError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    kinds = sim.campaign.tests["kind"].value_counts()
-    print(
-        f"wrote {len(sim.campaign.tests)} simulated tests ({int(kinds.get('sinkage', 0))} "
-        f"sinkage, {int(kinds.get('shear', 0))} shear) to {folder}"
-    )
-    return 0
+    """``python -m soilstats.cli.simulate ...``: the same as ``soilstats simulate ...``."""
+    from .main import run_subcommand
+
+    return run_subcommand("simulate", argv)

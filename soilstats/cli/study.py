@@ -2,8 +2,8 @@
 
 NAME is a shipped study (preparation, velocity, tool-shape, shear-ring, grousers,
 grouser-height, shear-velocity), 'all' for every shipped study, or the path of a study
-specification (.toml; format in docs/studies.md — copy a shipped one from the 'studies'
-folder of the repository and change it).
+specification (.toml; format in docs/studies.md: copy a shipped one from the 'studies' folder
+of the repository and change it).
 
 Each study selects its tests, fits every test on its own (Bernstein k, n per plate test;
 steady-state shear stress per ring test), tests the factor per soil (ANOVA with blocking
@@ -12,97 +12,80 @@ and states a verdict per soil and response; the preparation study also scores th
 by the criteria of Table 1, as Table 3.
 
 Writes into --out: NAME.pdf (report with figures), NAME.json (verdicts, parameter tables)
-and NAME_*.csv tables.
+and NAME_*.csv tables, each with its provenance.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
 
-from ..campaign import bundled_campaigns, load_campaign
-from ..errors import CampaignError
-
-DEFAULT_DATA = "simulated-paper"
+from .common import add_common_options, apply_selection, progress_enabled
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m soilstats.study",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+def configure(parser: argparse.ArgumentParser) -> None:
+    """The study subcommand's options."""
     parser.add_argument("name", metavar="NAME", help="study name, 'all', or a .toml path")
-    parser.add_argument(
-        "--data",
-        default=DEFAULT_DATA,
-        help=f"campaign folder or bundled name ({', '.join(bundled_campaigns())}); "
-        f"default {DEFAULT_DATA}",
-    )
-    parser.add_argument("--out", default="reports", help="output folder (default reports/)")
-    parser.add_argument(
-        "--seed",
-        type=int,
-        default=None,
-        help="seed for any random step (recorded in the outputs; the shipped studies draw "
-        "no random numbers)",
-    )
-    parser.add_argument("--no-pdf", action="store_true", help="JSON and CSV only")
-    parser.add_argument(
-        "--progress",
-        choices=("auto", "on", "off"),
-        default="auto",
-        help="tqdm progress bars on stderr (auto: when it is a terminal)",
-    )
-    return parser
+    add_common_options(parser, default_out="reports")
+    parser.add_argument("--no-pdf", action="store_true", help="write JSON and CSV only")
 
 
-def run(args: argparse.Namespace, out=sys.stdout) -> int:
+def run(args: argparse.Namespace) -> int:
+    """Run the studies; readable summaries (or one JSON object) on stdout."""
+    from ..campaign import load_campaign
+    from ..report import Provenance
     from ..study import available_studies, load_spec, run_study, write_outputs, write_report
+    from ..study.outputs import to_json_dict
     from ..study.responses import PerTestCache
 
     names = available_studies() if args.name == "all" else [args.name]
     specs = [load_spec(n) for n in names]  # every spec checked before any work
-    campaign = load_campaign(args.data)
-    progress = args.progress == "on" or (args.progress == "auto" and sys.stderr.isatty())
+    campaign = apply_selection(load_campaign(args.data), args.select)
+    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
+    progress = progress_enabled(args.progress)
     cache = PerTestCache(campaign, progress=progress)
     out_dir = Path(args.out)
-    print(f"Campaign: {campaign.source}   output: {out_dir}/", file=out)
+    log = sys.stderr if args.json else sys.stdout
+    print(f"Campaign: {campaign.source}   output: {out_dir}/", file=log)
     if progress:
         from tqdm.auto import tqdm
 
-        specs_iter = tqdm(specs, desc="studies", unit="study")
-    else:
-        specs_iter = specs
-    timings = []
-    for spec in specs_iter:
+        specs = tqdm(specs, desc="studies", unit="study")
+    documents, timings = [], []
+    for spec in specs:
         start = time.perf_counter()
-        result = run_study(spec, campaign, cache=cache, progress=progress, seed=args.seed)
-        write_outputs(result, out_dir)
-        pages = 0 if args.no_pdf else write_report(result, campaign, out_dir / f"{spec.name}.pdf")
+        result = run_study(
+            spec, campaign, cache=cache, progress=progress, seed=args.seed, provenance=provenance
+        )
+        written = write_outputs(result, out_dir, overwrite=args.overwrite)
+        if not args.no_pdf:
+            pdf = out_dir / f"{spec.name}.pdf"
+            pages = write_report(result, campaign, pdf, overwrite=args.overwrite)
+            written.append(pdf)
         seconds = time.perf_counter() - start
         timings.append((spec.name, seconds))
-        print("\n" + result.summary(), file=out)
-        print(
-            f"  -> {out_dir / spec.name}.json, .pdf ({pages} pages), CSV;  {seconds:.1f} s",
-            file=out,
-        )
+        documents.append(to_json_dict(result) | {"files": [str(p) for p in written]})
+        if not args.json:
+            print("\n" + result.summary())
+        what = "JSON, CSV" + ("" if args.no_pdf else f", PDF ({pages} pages)")
+        print(f"  -> {out_dir / spec.name}.*: {what};  {seconds:.1f} s", file=log)
     if len(timings) > 1:
         print(
             "\nTime per study: "
             + ", ".join(f"{n} {s:.1f} s" for n, s in timings)
             + f"; total {sum(s for _, s in timings):.1f} s",
-            file=out,
+            file=log,
         )
+    if args.json:
+        print(json.dumps({"studies": documents, "provenance": provenance.to_dict()}, indent=2))
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
-    try:
-        return run(args)
-    except (CampaignError, ValueError) as err:  # SpecError, StudyDataError are ValueErrors
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    """``python -m soilstats.study ...``: the same as ``soilstats study ...``."""
+    from .main import run_subcommand
+
+    return run_subcommand("study", argv)

@@ -19,6 +19,7 @@ import pandas as pd
 
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError
+from ..report import Provenance
 from .candidates import candidate_values
 from .crossval import cross_validate, information_criteria, make_folds
 from .data import build_groups
@@ -172,6 +173,7 @@ def discover(
     max_leads: int = 4,
     points_per_test: int = 60,
     progress: bool = False,
+    provenance: Provenance | None = None,
 ) -> DiscoveryResult:
     """Find what the soil model gets wrong in a campaign, extend it, and measure the gain.
 
@@ -190,6 +192,8 @@ def discover(
         Samples per test, nearest to equally spaced sinkages / deformations (Section 2.1).
     progress : bool
         tqdm progress bars for the per-test fits and the extensions.
+    provenance : Provenance, optional
+        Recorded in the outputs (default: a library call on the campaign with ``seed``).
 
     Returns
     -------
@@ -385,4 +389,5 @@ def discover(
         seed=seed,
         runtime_s=time.perf_counter() - start,
         source=source,
+        provenance=provenance or Provenance.of(campaign, seed=seed),
     )

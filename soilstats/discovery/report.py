@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
+from ..report import output_path
 from .candidates import candidate_values
 
 __all__ = ["write_report"]
@@ -95,12 +96,23 @@ def _finding_page(index: int, f) -> Figure:
     return fig
 
 
-def write_report(result, folder: Path, *, name: str = "discover.pdf", max_findings: int = 12):
-    """Write the PDF report into ``folder`` (created if needed); returns its path."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / name
-    with PdfPages(path) as pdf:
+def write_report(
+    result,
+    folder: Path,
+    *,
+    name: str = "discover.pdf",
+    max_findings: int = 12,
+    overwrite: bool = False,
+):
+    """Write the PDF report into ``folder`` (created if needed); returns its path.
+
+    The last page and the PDF metadata carry the result's provenance; an existing file is
+    an error unless ``overwrite``.
+    """
+    path = output_path(folder, name, overwrite=overwrite)
+    provenance = result.provenance
+    metadata = None if provenance is None else provenance.pdf_metadata("soilstats discovery")
+    with PdfPages(path, metadata=metadata) as pdf:
         pdf.savefig(_text_page(result.summary().splitlines(), "soilstats discovery"))
         for i, f in enumerate(result.findings[:max_findings], 1):
             if f.group is not None and f.scope_rows is not None:
@@ -110,4 +122,6 @@ def write_report(result, folder: Path, *, name: str = "discover.pdf", max_findin
             for fl in result.flags
         ] or ["No red flags."]
         pdf.savefig(_text_page(flags, "Physical red flags"))
+        if provenance is not None:
+            pdf.savefig(_text_page(provenance.lines(), "Provenance"))
     return path

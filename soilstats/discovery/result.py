@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ..report import Provenance, json_safe
+
 __all__ = ["DiscoveryResult", "Finding"]
 
 
@@ -18,11 +20,6 @@ def _num(x):
         return None
     x = float(x)
     return x if math.isfinite(x) else None
-
-
-def _clean(d: dict) -> dict:
-    """A dict's float values made JSON-safe (NaN and ±inf → None); other values unchanged."""
-    return {k: (_num(v) if isinstance(v, float) else v) for k, v in d.items()}
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,7 +83,7 @@ class Finding:
 
     def to_dict(self) -> dict:
         """The JSON shape of issue #6, plus the supporting detail."""
-        gain = _clean(self.gain.to_dict()) if self.gain is not None else None
+        gain = json_safe(self.gain.to_dict()) if self.gain is not None else None
         out = {
             "kind": self.kind,
             "soil": self.soil,
@@ -102,11 +99,11 @@ class Finding:
             "n_tests": self.n_tests,
             "parameters": None,
             "information": {k: _num(v) for k, v in self.information.items()},
-            "tried": [_clean(t) for t in self.tried],
+            "tried": [json_safe(t) for t in self.tried],
             "caveats": list(self.caveats),
         }
         if self.gain_conditions is not None:
-            out["gain_conditions"] = _clean(self.gain_conditions.to_dict())
+            out["gain_conditions"] = json_safe(self.gain_conditions.to_dict())
         if self.fit is not None:
             out["parameters"] = {
                 name: {"value": _num(v), "sigma": _num(s), "unit": self.fit.units.get(name, "")}
@@ -191,8 +188,10 @@ class DiscoveryResult:
     seed: int = 0
     runtime_s: float = float("nan")
     source: str = ""
+    provenance: Provenance | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
+        """JSON-ready content (no run time: outputs are byte-identical between runs)."""
         return {
             "findings": [f.to_dict() for f in self.findings],
             "flags": list(self.flags),
@@ -202,11 +201,12 @@ class DiscoveryResult:
             "alpha": self.alpha,
             "seed": self.seed,
             "source": self.source,
+            "provenance": None if self.provenance is None else self.provenance.to_dict(),
         }
 
     def to_json(self, **kwargs) -> str:
-        """One JSON object: ``{"findings": [...], "flags": [...], ...}`` (issue #6 shape)."""
-        return json.dumps(self.to_dict(), **{"indent": 2, **kwargs})
+        """One JSON object: ``{"findings": [...], "flags": [...], ..., "provenance": {...}}``."""
+        return json.dumps(json_safe(self.to_dict()), **{"indent": 2, **kwargs})
 
     def summary(self) -> str:
         width = 100

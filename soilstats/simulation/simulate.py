@@ -130,7 +130,7 @@ with seed {self.seed}. No Bevameter produced them.
 
 Regenerate (byte-identical) with
 
-    python -m soilstats.simulate {spec.source} OUT --seed {self.seed}
+    soilstats simulate {spec.source} --out OUT --seed {self.seed}
 
 run in the folder that holds `{spec.source}`; the format of the SPEC is in docs/simulator.md.
 """

@@ -1,6 +1,6 @@
-"""``python -m soilstats.study NAME``: run a setup-effect study (see soilstats.cli.study)."""
+"""``python -m soilstats.study NAME``: the same as ``soilstats study NAME``."""
 
-from soilstats.cli.study import main
+from soilstats.cli.main import run_subcommand
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_subcommand("study"))

@@ -9,6 +9,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import matplotlib
 
 matplotlib.use("Agg")  # files only; never a window
@@ -63,6 +65,17 @@ def curves(result, campaign) -> plt.Figure:
     return fig
 
 
+@contextlib.contextmanager
+def _fixed_global_seed(seed: int):
+    """Seed numpy's global RNG for a display-only draw, then restore the caller's state."""
+    state = np.random.get_state()  # noqa: NPY002 (seaborn reads the legacy global RNG)
+    np.random.seed(seed)  # noqa: NPY002
+    try:
+        yield
+    finally:
+        np.random.set_state(state)  # noqa: NPY002
+
+
 def responses(result, campaign=None) -> plt.Figure:
     """One point per test, by condition, for each soil and response (the ANOVA's data)."""
     spec = result.spec
@@ -71,17 +84,18 @@ def responses(result, campaign=None) -> plt.Figure:
     data = result.per_test.assign(level=result.per_test[spec.factor].map(level_label))
     order = [level_label(v) for v in sorted(result.per_test[spec.factor].dropna().unique())]
     for ax, name in zip(axes[:, 0], names, strict=True):
-        sns.stripplot(
-            data=data,
-            x="level",
-            y=name,
-            hue="soil",
-            order=order,
-            dodge=True,
-            size=3,
-            ax=ax,
-            jitter=0.2,
-        )
+        with _fixed_global_seed(0):  # seaborn jitters with numpy's global RNG
+            sns.stripplot(
+                data=data,
+                x="level",
+                y=name,
+                hue="soil",
+                order=order,
+                dodge=True,
+                size=3,
+                ax=ax,
+                jitter=0.2,
+            )
         ax.set(xlabel=spec.factor, ylabel=name)
         ax.legend(fontsize=7)
     fig.suptitle("Per-test responses (one point per test)")

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
+from ..report import Provenance, json_safe, output_path, write_csv, write_json
 from ..statistics import VERDICT_COLUMNS
 
 __all__ = ["to_json_dict", "write_outputs"]
@@ -25,26 +23,11 @@ _EFFECT_KEYS = [
 ]
 
 
-def _clean(value):
-    """JSON-safe scalars: NaN → None, numpy → Python."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    if isinstance(value, np.bool_ | bool):
-        return bool(value)
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, float | np.floating):
-        return None if not math.isfinite(value) else float(value)
-    return value
-
-
 def _records(frame: pd.DataFrame | None, keys=None) -> list[dict]:
     if frame is None or frame.empty:
         return []
     cols = [k for k in (keys or frame.columns) if k in frame.columns]
-    return [_clean(r) for r in frame[cols].to_dict("records")]
+    return [json_safe(r) for r in frame[cols].to_dict("records")]
 
 
 def to_json_dict(result) -> dict:
@@ -55,7 +38,6 @@ def to_json_dict(result) -> dict:
         "title": spec.title,
         "paper": spec.paper,
         "data": result.source,
-        "date": result.date,
         "seed": result.seed,
         "factor": spec.factor,
         "alpha": spec.alpha,
@@ -68,21 +50,26 @@ def to_json_dict(result) -> dict:
         "reference_pairs": _records(result.reference_pairs()),
         "lines": _records(result.lines),
         "notes": list(result.notes),
-        "seconds": result.seconds,
     }
+    if result.date is not None:  # only when SOURCE_DATE_EPOCH asks for one
+        doc["date"] = result.date
     if result.criteria is not None:
         doc["criteria"] = _records(result.criteria)
-        doc["best_method"] = _clean(result.best)
-    return _clean(doc)
+        doc["best_method"] = json_safe(result.best)
+    return json_safe(doc)
 
 
-def write_outputs(result, out_dir: Path) -> list[Path]:
-    """Write ``NAME.json`` and the CSV tables into ``out_dir``; return the paths written."""
+def write_outputs(
+    result, out_dir: Path, provenance: Provenance | None = None, *, overwrite: bool = False
+) -> list[Path]:
+    """Write ``NAME.json`` and the ``NAME_*.csv`` tables into ``out_dir``; return the paths.
+
+    Every file carries ``provenance`` (default: a library call on ``result.source`` with the
+    result's seed). An existing file is an error unless ``overwrite``.
+    """
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     name = result.name
-    paths = [out_dir / f"{name}.json"]
-    paths[0].write_text(json.dumps(to_json_dict(result), indent=2) + "\n", encoding="utf-8")
+    provenance = provenance or result.provenance
     tables = {
         "effects": result.effects,
         "anova": result.anova,
@@ -92,10 +79,17 @@ def write_outputs(result, out_dir: Path) -> list[Path]:
         "per_test": result.per_test,
         "criteria": result.criteria,
     }
+    targets = [out_dir / f"{name}.json"] + [
+        out_dir / f"{name}_{label}.csv"
+        for label, frame in tables.items()
+        if frame is not None and not frame.empty
+    ]
+    for path in targets:  # refuse before writing anything, so no half-written set is left
+        output_path(out_dir, path.name, overwrite=overwrite)
+    paths = [write_json(targets[0], to_json_dict(result), provenance, overwrite=overwrite)]
     for label, frame in tables.items():
         if frame is None or frame.empty:
             continue
         path = out_dir / f"{name}_{label}.csv"
-        frame.to_csv(path, index=False)
-        paths.append(path)
+        paths.append(write_csv(path, frame, provenance, overwrite=overwrite))
     return paths

@@ -19,6 +19,7 @@ import pandas as pd
 from matplotlib.backends.backend_pdf import PdfPages
 
 from ..identification.table import format_value
+from ..report import Provenance, output_path
 from .figures import make_figures
 from .result import CRITERIA_COLUMNS
 
@@ -197,21 +198,28 @@ def _methods_lines(result) -> list[str]:
     return lines
 
 
-def write_report(result, campaign, path: Path) -> int:
-    """Write the PDF report of ``result`` to ``path``; return the number of pages."""
+def write_report(result, campaign, path: Path, *, overwrite: bool = False) -> int:
+    """Write the PDF report of ``result`` to ``path``; return the number of pages.
+
+    The last page and the PDF metadata carry the result's provenance; an existing file is
+    an error unless ``overwrite``.
+    """
     spec = result.spec
+    path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
+    provenance = result.provenance or Provenance.of(campaign, seed=result.seed)
     pages = 0
-    with PdfPages(path) as pdf:
+    with PdfPages(path, metadata=provenance.pdf_metadata(spec.title)) as pdf:
         fig = plt.figure(figsize=_A4)
         fig.text(0.5, 0.80, spec.title, ha="center", fontsize=15, weight="bold", wrap=True)
         info = [
             f"soilstats study '{spec.name}'",
             f"Paper: {spec.paper}",
             f"Data source: {result.source}",
-            f"Date: {result.date}",
             f"Factor: {spec.factor}    soils: {', '.join(result.soils)}",
             f"Seed: {result.seed}",
         ]
+        if result.date is not None:
+            info.append(f"Date: {result.date}")
         fig.text(0.5, 0.70, "\n".join(info), ha="center", va="top", fontsize=10)
         summary = (
             [f"{r['soil']} / {r['response']}: {r['verdict']}" for _, r in result.effects.iterrows()]
@@ -244,7 +252,9 @@ def write_report(result, campaign, path: Path) -> int:
             pdf.savefig(fig)
             plt.close(fig)
             pages += 1
-        meta = pdf.infodict()
-        meta["Title"] = spec.title
-        meta["Subject"] = f"soilstats study {spec.name} on {result.source}"
+        pages += _text_pages(pdf, "Provenance", _wrap_all(provenance.lines()))
     return pages
+
+
+def _wrap_all(lines: list[str], width: int = 110) -> list[str]:
+    return [part for line in lines for part in (textwrap.wrap(line, width) or [""])]

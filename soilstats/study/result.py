@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import pandas as pd
+
+from ..report import Provenance
 
 __all__ = ["CRITERIA_COLUMNS", "StudyResult"]
 
@@ -33,8 +35,9 @@ class StudyResult:
     spec : StudySpec
     source : str
         The campaign read (folder or bundled name).
-    date : str
-        ISO date and time of the run.
+    date : str or None
+        ISO time from ``SOURCE_DATE_EPOCH`` when set; None otherwise (outputs stay
+        byte-identical between runs).
     soils : list of str
     effects : pandas.DataFrame
         One row per soil and response: ``soil, response, factor, statistic`` (F),
@@ -58,12 +61,15 @@ class StudyResult:
     notes : tuple of str
         Caveats: confounding, tests left out, soils skipped, failed fits.
     seconds : float
-        Wall time of the analysis (without the PDF).
+        Wall time of the analysis (without the PDF); shown in summaries, never written to
+        files.
+    provenance : Provenance or None
+        Version, input hash, command and seed, recorded in every output.
     """
 
     spec: object
     source: str
-    date: str
+    date: str | None
     soils: list
     effects: pd.DataFrame
     anova: pd.DataFrame
@@ -76,7 +82,7 @@ class StudyResult:
     notes: tuple[str, ...] = ()
     seconds: float = math.nan
     seed: int | None = None
-    extra: dict = field(default_factory=dict)
+    provenance: Provenance | None = None
 
     @property
     def name(self) -> str:

@@ -7,7 +7,6 @@ outputs and the PDF only read the result.
 
 from __future__ import annotations
 
-import datetime as _dt
 import time
 
 import pandas as pd
@@ -15,6 +14,7 @@ import pandas as pd
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..identification import fit_shear, fit_sinkage
 from ..identification.table import parameter_table
+from ..report import Provenance, source_date
 from .data import StudyDataError, level_label, select_tests, soils_with_levels
 from .effects import factor_effects
 from .preparation import evaluate_criteria
@@ -62,6 +62,7 @@ def run_study(
     cache: PerTestCache | None = None,
     progress: bool = False,
     seed: int | None = None,
+    provenance: Provenance | None = None,
 ) -> StudyResult:
     """Run ``spec`` on ``campaign`` and return its :class:`StudyResult`.
 
@@ -76,6 +77,8 @@ def run_study(
         tqdm progress bars for the per-test fits.
     seed : int, optional
         Recorded in the result; the shipped studies draw no random numbers.
+    provenance : Provenance, optional
+        Recorded in every output (default: a library call on ``campaign`` with ``seed``).
 
     Raises
     ------
@@ -135,7 +138,7 @@ def run_study(
     return StudyResult(
         spec=spec,
         source=str(campaign.source),
-        date=_dt.datetime.now().isoformat(timespec="seconds"),
+        date=source_date(),
         soils=soils,
         effects=effects,
         anova=pd.concat(anovas, ignore_index=True) if anovas else pd.DataFrame(),
@@ -148,4 +151,5 @@ def run_study(
         notes=tuple(dict.fromkeys(notes)),
         seconds=time.perf_counter() - start,
         seed=seed,
+        provenance=provenance or Provenance.of(campaign, seed=seed),
     )

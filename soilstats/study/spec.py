@@ -19,6 +19,8 @@ from pathlib import Path
 
 import soilstats
 
+from ..report.files import safe_stem
+
 __all__ = [
     "STUDY_TYPES",
     "Criteria",
@@ -319,8 +321,13 @@ def load_spec(source: str | Path) -> StudySpec:
     z_ref = float(_get(raw, "z_ref_m", (int, float), path, default=0.025))
     if not z_ref > 0:
         raise _fail(path, "z_ref_m", f"value {z_ref!r} must be > 0 (a sinkage in m)")
+    name = _get(raw, "name", str, path, default=path.stem)
+    try:
+        safe_stem(name)  # the outputs are named after it: never a path
+    except ValueError as err:
+        raise _fail(path, "name", str(err)) from None
     return StudySpec(
-        name=_get(raw, "name", str, path, default=path.stem),
+        name=name,
         title=_get(raw, "title", str, path, default=path.stem),
         type=study_type,
         description=_get(raw, "description", str, path, default="").strip(),

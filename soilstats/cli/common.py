@@ -1,0 +1,258 @@
+"""What every subcommand shares: the common options, the selection grammar, exit codes.
+
+One option means one thing in every subcommand:
+
+``--data CAMPAIGN``
+    the campaign: a folder, or the name of a bundled campaign (default
+    :data:`DEFAULT_CAMPAIGN`).
+``--out DIR``
+    the folder the command writes its files into (created if needed); an existing file is
+    never replaced unless ``--overwrite`` is given.
+``--select [KIND:]COLUMN=VALUE``
+    keep only tests whose test-log COLUMN equals VALUE (repeatable; all must hold). VALUE is
+    compared as the column's type: numbers as numbers, text as text. A ``sinkage:`` or
+    ``shear:`` prefix applies the criterion to that kind of test only; the other kind's tests
+    are kept.
+``--seed N``
+    the seed of every random step (default 0); recorded in every output.
+``--progress {auto,on,off}``
+    tqdm progress bars on stderr (auto: only when stderr is a terminal).
+``--json``
+    print one JSON object on stdout instead of the readable report (messages go to stderr).
+
+Exit codes: 0 success, 2 bad input or usage (the message says what and where), 1 an internal
+error (a bug: the message asks for a report).
+
+This module imports nothing heavy: ``soilstats --help`` must answer at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..campaign import Campaign
+
+__all__ = [
+    "DEFAULT_CAMPAIGN",
+    "EXIT_INPUT",
+    "EXIT_INTERNAL",
+    "EXIT_OK",
+    "Criterion",
+    "add_common_options",
+    "apply_selection",
+    "guarded",
+    "parse_selection",
+    "progress_enabled",
+]
+
+EXIT_OK, EXIT_INTERNAL, EXIT_INPUT = 0, 1, 2
+
+#: The campaign a command uses when ``--data`` is not given: the bundled simulation of the
+#: paper's full design (the only bundled campaign with every test series the studies need).
+DEFAULT_CAMPAIGN = "simulated-paper"
+
+_KINDS = ("sinkage", "shear")
+
+
+def _bundled() -> str:
+    from ..data import bundled_names
+
+    return ", ".join(bundled_names())
+
+
+def add_common_options(
+    parser: argparse.ArgumentParser,
+    *,
+    data: bool = True,
+    out: str | None = "optional",
+    select: bool = True,
+    default_out: str | None = None,
+    out_help: str = "",
+) -> None:
+    """Add the shared options (see the module docstring) to one subcommand's parser.
+
+    ``out`` is ``"optional"``, ``"required"`` or None (the command writes no files).
+    """
+    if data:
+        parser.add_argument(
+            "--data",
+            metavar="CAMPAIGN",
+            default=DEFAULT_CAMPAIGN,
+            help=f"campaign folder or bundled name ({_bundled()}); default {DEFAULT_CAMPAIGN}",
+        )
+    if out is not None:
+        parser.add_argument(
+            "--out",
+            metavar="DIR",
+            required=out == "required",
+            default=default_out,
+            help=(out_help or "write the output files into DIR (created if needed)")
+            + (f"; default {default_out}/" if default_out else ""),
+        )
+        parser.add_argument(
+            "--overwrite", action="store_true", help="replace output files that already exist"
+        )
+    if select:
+        parser.add_argument(
+            "--select",
+            action="append",
+            default=[],
+            metavar="[KIND:]COLUMN=VALUE",
+            help="only tests whose test-log COLUMN equals VALUE (repeatable, all must hold); "
+            "a sinkage: or shear: prefix limits the criterion to that kind of test",
+        )
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of every random step (default 0; recorded)"
+    )
+    parser.add_argument(
+        "--progress",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="tqdm progress bars on stderr (auto: only on a terminal)",
+    )
+    parser.add_argument(
+        "--json", action="store_true", help="print one JSON object on stdout instead of text"
+    )
+
+
+def check_out(folder: str | None) -> None:
+    """Fail before any work if ``--out`` names an existing file (it must be a folder)."""
+    if folder is not None and os.path.exists(folder) and not os.path.isdir(folder):
+        raise NotADirectoryError(20, "not a folder", folder)
+
+
+def progress_enabled(choice: str) -> bool:
+    """``--progress`` as a bool: on, off, or (auto) whether stderr is a terminal."""
+    return {"on": True, "off": False}.get(choice, sys.stderr.isatty())
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """One ``--select [KIND:]COLUMN=VALUE`` item."""
+
+    column: str
+    text: str
+    kind: str | None = None  # None: every test; "sinkage"/"shear": tests of that kind only
+
+    def __str__(self) -> str:
+        prefix = f"{self.kind}:" if self.kind else ""
+        return f"{prefix}{self.column}={self.text}"
+
+
+def parse_selection(items: Sequence[str]) -> list[Criterion]:
+    """Parse ``--select`` items; a ``ValueError`` names the malformed one."""
+    out = []
+    for item in items:
+        kind = None
+        prefix, colon, rest = item.partition(":")
+        if colon and prefix in _KINDS:
+            kind, item = prefix, rest
+        column, sep, text = item.partition("=")
+        if not sep or not column:
+            raise ValueError(
+                f"--select takes [KIND:]COLUMN=VALUE (e.g. soil=soil01 or "
+                f"sinkage:velocity_m_s=0.01), got {item!r}"
+            )
+        out.append(Criterion(column.strip(), text.strip(), kind))
+    return out
+
+
+def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterion]) -> Campaign:
+    """The campaign restricted to the ``--select`` criteria (all must hold).
+
+    Each value is compared as its column's type: a numeric column takes a number (an error
+    otherwise), a text column the text as given. A criterion with a kind applies only to
+    that kind's tests. Unknown columns and criteria that keep nothing raise the campaign's
+    own :class:`~soilstats.errors.CampaignError`.
+    """
+    import numpy as np
+    import pandas as pd
+
+    from ..errors import CampaignError
+
+    criteria = [c if isinstance(c, Criterion) else parse_selection([c])[0] for c in items]
+    if not criteria:
+        return campaign
+    tests = campaign.tests
+    masks = []
+    for crit in criteria:
+        if crit.column not in tests.columns:
+            raise CampaignError(
+                f"--select {crit}: no such column; the test log has {list(tests.columns)}",
+                file="tests.csv",
+                column=crit.column,
+            )
+        column = tests[crit.column]
+        if pd.api.types.is_numeric_dtype(column):
+            try:
+                value: object = float(crit.text)
+            except ValueError:
+                raise CampaignError(
+                    f"--select {crit}: {crit.column!r} is a numeric column; give a number",
+                    file="tests.csv",
+                    column=crit.column,
+                ) from None
+            hit = np.isclose(column.to_numpy(dtype=float), value, rtol=1e-12, atol=0.0)
+        else:
+            hit = (column.astype("string") == crit.text).to_numpy(dtype=bool, na_value=False)
+        if crit.kind is not None:
+            hit = hit | (tests["kind"] != crit.kind).to_numpy()
+        masks.append(hit)
+    keep = np.logical_and.reduce(masks)
+    if not keep.any():
+        empty = [str(c) for c, m in zip(criteria, masks, strict=True) if not m.any()]
+        raise CampaignError(
+            "--select kept no test: "
+            + (f"{', '.join(empty)} matched none" if empty else "no test meets all criteria")
+            + " — check the values in the test log",
+            file="tests.csv",
+        )
+    return campaign.select(test_id=list(tests["test_id"][keep]))
+
+
+def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:
+    """Run a subcommand, mapping failures to exit codes and one-line messages.
+
+    Bad input of any kind (a campaign or spec that breaks a rule, a missing or unreadable
+    path, a directory where a file belongs, a refused overwrite) is exit 2 with the message;
+    anything else is a bug: exit 1, with the traceback for the report.
+    """
+    from ..errors import SoilstatsError
+
+    try:
+        check_out(getattr(args, "out", None))
+        return run(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except (SoilstatsError, ValueError, OSError) as err:
+        print(f"error: {_describe(err)}", file=sys.stderr)
+        return EXIT_INPUT
+    except Exception:
+        traceback.print_exc()
+        print(
+            "internal error: this is a bug in soilstats; please report it with the command "
+            "and the traceback above",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+
+
+def _describe(err: BaseException) -> str:
+    if isinstance(err, OSError) and err.filename is not None:
+        what = {
+            FileNotFoundError: "no such file or folder",
+            PermissionError: "permission denied",
+            IsADirectoryError: "is a folder, a file was expected",
+            NotADirectoryError: "is not a folder",
+            FileExistsError: "exists already (give --overwrite to replace it)",
+        }.get(type(err), err.strerror or type(err).__name__)
+        return f"{os.fsdecode(err.filename)!s}: {what}"
+    return str(err)

@@ -1,0 +1,280 @@
+"""The `soilstats` command: subcommands, shared options, exit codes, outputs and provenance."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import pkgutil
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+import soilstats
+from soilstats.cli.common import Criterion, apply_selection, guarded, parse_selection
+from soilstats.cli.main import SUBCOMMANDS, build_parser, main
+from soilstats.errors import CampaignError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(*argv: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", *argv], capture_output=True, text=True, check=False, cwd=cwd
+    )
+
+
+# ------------------------------------------------------------------------ front door, help
+
+
+def test_help_lists_every_subcommand(capsys):
+    assert main(["--help"]) == 0
+    out = capsys.readouterr().out
+    for name in SUBCOMMANDS:
+        assert re.search(rf"^\s+{name}\s", out, flags=re.M), name
+    assert "Apfelbeck" in out  # the method's paper, cited by its authors
+
+
+@pytest.mark.parametrize("name", list(SUBCOMMANDS))
+def test_every_subcommand_has_help_with_the_shared_options(name, capsys):
+    assert main([name, "--help"]) == 0
+    out = capsys.readouterr().out
+    for option in ("--seed", "--progress", "--json"):
+        assert option in out, (name, option)
+    assert not re.search(r"issue #?\d|#\d\d?\b", out), "help mentions internal issue numbers"
+
+
+def test_python_dash_m_runs_the_same_front_door():
+    top = _run("soilstats", "--help")
+    study = _run("soilstats.study", "--help")
+    assert top.returncode == 0 and "posterior" in top.stdout
+    assert study.returncode == 0 and "NAME" in study.stdout and "--data" in study.stdout
+    version = _run("soilstats", "--version")
+    assert version.stdout.strip() == f"soilstats {soilstats.__version__}"
+
+
+def test_console_script_is_declared():
+    text = (ROOT / "pyproject.toml").read_text()
+    assert 'soilstats = "soilstats.cli.main:main"' in text
+
+
+def test_the_campaign_is_given_the_same_way_everywhere():
+    parser = build_parser()
+    for name in ("study", "discover", "identify", "posterior"):
+        sub = parser._subparsers._group_actions[0].choices[name]
+        options = {s for a in sub._actions for s in a.option_strings}
+        assert {"--data", "--select", "--seed", "--progress", "--json", "--out"} <= options
+
+
+def test_public_functions_and_modules_never_share_a_name():
+    modules = {m.name for m in pkgutil.iter_modules(soilstats.__path__)}
+    assert not modules & set(soilstats.__all__), modules & set(soilstats.__all__)
+    importlib.import_module("soilstats.discovery")  # a subpackage import shadows nothing
+    assert callable(soilstats.discover) and callable(soilstats.identify)
+
+
+# ------------------------------------------------------------------------------ exit codes
+
+
+def test_unknown_subcommand_and_bad_option_are_usage_errors(capsys):
+    assert main(["no-such-command"]) == 2
+    assert main(["identify", "--no-such-option"]) == 2
+    assert "usage:" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        pytest.param(lambda p: p / "missing", id="missing-folder"),
+        pytest.param(lambda p: (p / "tests.csv").mkdir() or p, id="directory-where-file-belongs"),
+        pytest.param(
+            lambda p: (p / "tests.csv").write_text("test_id," + "x" * 200_000 + "\nA,1\n") or p,
+            id="huge-header-cell",
+        ),
+        pytest.param(
+            lambda p: (p / "tests.csv").write_bytes(b"\x00\xff\xfe binary \x00\n") or p,
+            id="binary-file",
+        ),
+    ],
+)
+def test_bad_paths_exit_2_without_traceback(make, tmp_path, capsys):
+    folder = make(tmp_path)
+    assert main(["identify", "--data", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "Traceback" not in err
+
+
+def test_out_that_is_a_file_is_refused_before_any_work(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert main(["study", "velocity", "--out", str(blocker)]) == 2
+    assert "is not a folder" in capsys.readouterr().err
+
+
+def test_permission_denied_is_bad_input_not_a_crash(tmp_path, capsys):
+    def denied(args):
+        raise PermissionError(13, "Permission denied", str(tmp_path / "tests.csv"))
+
+    assert guarded(denied, build_parser().parse_args(["identify"])) == 2
+    err = capsys.readouterr().err
+    assert err == f"error: {tmp_path / 'tests.csv'}: permission denied\n"
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root reads files whatever their mode")
+def test_unreadable_campaign_file_exits_2(tmp_path, capsys):
+    soilstats.load_campaign("cullinan-sand").save(tmp_path / "c")
+    (tmp_path / "c" / "tests.csv").chmod(0)
+    assert main(["identify", "--data", str(tmp_path / "c")]) == 2
+
+
+def test_internal_error_exits_1_and_asks_for_a_report(capsys):
+    def bug(args):
+        raise ZeroDivisionError("a bug")
+
+    assert guarded(bug, build_parser().parse_args(["identify"])) == 1
+    assert "internal error" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------- known defects (item 8)
+
+
+def test_select_on_a_text_column(capsys):
+    assert main(["identify", "--data", "cullinan-sand", "--select", "preparation=1"]) == 0
+    out = capsys.readouterr().out
+    assert "tests            6" in out  # method 1 has six tests
+
+
+def test_series_and_by_the_same_column_tabulates_each_model_apart(capsys):
+    code = main(["identify", "--series", "shape", "--by", "shape", "--progress", "off"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "sinkage · soil01" in out and "no tests of series 'shape'" in out
+
+
+def test_unknown_soil_is_an_error_not_an_empty_table(capsys):
+    assert main(["identify", "--data", "cullinan-sand", "--soil", "NOSUCH"]) == 2
+    captured = capsys.readouterr()
+    assert "NOSUCH" in captured.err and "cullinan-sand" in captured.err
+    assert "parameter" not in captured.out
+
+
+def test_no_pdf_writes_and_announces_no_pdf(tmp_path, capsys):
+    out = tmp_path / "r"
+    args = ["study", "preparation", "--data", "cullinan-sand", "--out", str(out), "--no-pdf"]
+    assert main([*args, "--progress", "off"]) == 0
+    assert not list(out.glob("*.pdf"))
+    assert "PDF" not in capsys.readouterr().out
+
+
+def test_posterior_simulator_choices_follow_the_bayes_package():
+    from soilstats.bayes import SIMULATOR_FORMATS
+    from soilstats.cli.posterior import SIMULATORS
+
+    assert set(SIMULATORS) == set(SIMULATOR_FORMATS)
+
+
+# ---------------------------------------------------------------------------------- select
+
+
+def test_selection_grammar():
+    assert parse_selection(["soil=soil01", "shear:tool=tool04"]) == [
+        Criterion("soil", "soil01"),
+        Criterion("tool", "tool04", "shear"),
+    ]
+    with pytest.raises(ValueError, match="COLUMN=VALUE"):
+        parse_selection(["soil"])
+
+
+def test_selection_compares_as_the_columns_type_and_respects_kind():
+    campaign = soilstats.load_campaign("simulated-paper")
+    fast = apply_selection(campaign, ["sinkage:velocity_m_s=0.0048"])
+    kinds = fast.tests.groupby("kind")["velocity_m_s"]
+    assert set(fast.tests.loc[fast.tests["kind"] == "sinkage", "velocity_m_s"]) == {0.0048}
+    assert (fast.tests["kind"] == "shear").sum() == (campaign.tests["kind"] == "shear").sum()
+    assert kinds.ngroups == 2
+    with pytest.raises(CampaignError, match="numeric column"):
+        apply_selection(campaign, ["velocity_m_s=fast"])
+    with pytest.raises(CampaignError, match="kept no test"):
+        apply_selection(campaign, ["soil=soil99"])
+
+
+# ----------------------------------------------------------------- outputs and provenance
+
+
+def test_existing_outputs_are_never_replaced_silently(tmp_path, capsys):
+    args = ["identify", "--data", "cullinan-sand", "--out", str(tmp_path), "--json"]
+    assert main(args) == 0
+    before = (tmp_path / "identify.json").read_bytes()
+    assert main(args) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert (tmp_path / "identify.json").read_bytes() == before
+    assert main([*args, "--overwrite"]) == 0
+
+
+def test_outputs_are_byte_identical_for_the_same_command(tmp_path, monkeypatch):
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    runs = []
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        monkeypatch.chdir(tmp_path / name)
+        code = main(["study", "preparation", "--data", "cullinan-sand", "--progress", "off"])
+        assert code == 0
+        runs.append(tmp_path / name / "reports")
+    files = sorted(p.name for p in runs[0].iterdir())
+    assert "preparation.pdf" in files and "preparation.json" in files
+    for name in files:
+        assert (runs[0] / name).read_bytes() == (runs[1] / name).read_bytes(), name
+
+
+def test_every_output_records_its_provenance(tmp_path, monkeypatch):
+    from pypdf import PdfReader
+
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    out = tmp_path / "r"
+    argv = ["study", "preparation", "--data", "cullinan-sand", "--out", str(out), "--seed", "7"]
+    assert main([*argv, "--progress", "off"]) == 0
+    campaign = soilstats.load_campaign("cullinan-sand")
+    from soilstats.report import campaign_sha256
+
+    digest = campaign_sha256(campaign)
+    doc = json.loads((out / "preparation.json").read_text())
+    prov = doc["provenance"]
+    assert prov["soilstats_version"] == soilstats.__version__ and prov["campaign_format"] == "1"
+    assert prov["campaign_sha256"] == digest and prov["seed"] == 7
+    assert prov["command"].startswith("soilstats study preparation --data cullinan-sand")
+    assert prov["created"] == "2023-11-14T22:13:20+00:00" and doc["date"] == prov["created"]
+    assert "Apfelbeck" in prov["method"]
+    for csv in out.glob("*.csv"):
+        head = csv.read_text().splitlines()[:8]
+        assert f"# campaign_sha256: {digest}" in head, csv.name
+        assert not pd.read_csv(csv, comment="#").empty
+    reader = PdfReader(out / "preparation.pdf")
+    assert digest in reader.metadata["/Subject"]
+    assert "soilstats study preparation" in reader.pages[-1].extract_text()
+
+
+def test_campaign_hash_is_of_the_content_not_the_container(tmp_path):
+    from soilstats.report import campaign_sha256
+
+    campaign = soilstats.load_campaign("cullinan-sand")
+    copy = soilstats.load_campaign(campaign.save(tmp_path / "c", format="parquet"))
+    assert campaign_sha256(copy) == campaign_sha256(campaign)
+    sinkage = campaign.sinkage.drop(columns="pressure_Pa")
+    sinkage.loc[5, "force_N"] += 1e-9
+    changed = soilstats.Campaign.from_frames(campaign.tests, sinkage)
+    assert campaign_sha256(changed) != campaign_sha256(campaign)
+
+
+def test_a_study_name_cannot_write_outside_out(tmp_path, capsys):
+    spec = (ROOT / "studies" / "preparation.toml").read_text()
+    evil = tmp_path / "evil.toml"
+    evil.write_text(re.sub(r'^name = ".*"$', 'name = "../../escaped"', spec, flags=re.M))
+    assert "../../escaped" in evil.read_text()
+    out = tmp_path / "deep" / "out"
+    assert main(["study", str(evil), "--data", "cullinan-sand", "--out", str(out)]) == 2
+    assert "name" in capsys.readouterr().err
+    assert not list(tmp_path.rglob("escaped*"))
