@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -40,6 +41,21 @@ NIST_RECORDS: list[tuple[str, str, str, float, float]] = []
 def nist_record() -> Callable[[tuple[str, str, str, float, float]], None]:
     """Record ``(kind, set name, start, digits a, digits b)`` of a NIST test for the report."""
     return NIST_RECORDS.append
+
+
+# --- the slow statistical checks: CI runs them, a local `pytest` does not ------------------
+#: Set to 1 (as .ci/run does) to run the tests marked ``slow`` too.
+SLOW_ENV = "SOILSTATS_SLOW"
+
+
+def pytest_collection_modifyitems(config, items):
+    """Skip ``slow`` tests unless SOILSTATS_SLOW=1 or the run selects markers itself."""
+    if os.environ.get(SLOW_ENV) == "1" or config.getoption("-m"):
+        return
+    skip = pytest.mark.skip(reason=f"slow statistical check: run with {SLOW_ENV}=1 (CI does)")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
 
 
 def pytest_terminal_summary(terminalreporter):
