@@ -9,11 +9,15 @@ from __future__ import annotations
 
 __all__ = [
     "CampaignError",
+    "ConfoundingError",
     "ConvergenceError",
     "ConvergenceWarning",
     "IdentifiabilityError",
     "SoilstatsError",
     "SoilstatsWarning",
+    "SpecError",
+    "StatisticsInputError",
+    "StudyDataError",
 ]
 
 
@@ -76,3 +80,46 @@ class ConvergenceError(SoilstatsError, RuntimeError):
     def __init__(self, message: str, result: object | None = None) -> None:
         super().__init__(message)
         self.result = result
+
+
+class SpecError(SoilstatsError, ValueError):
+    """A specification file (a study spec or a simulation SPEC) breaks a rule.
+
+    The message names the file, the key, the value and the valid options.
+    """
+
+
+class StudyDataError(SoilstatsError, ValueError):
+    """The campaign lacks what a study needs (the message says what, and what was found)."""
+
+
+class StatisticsInputError(SoilstatsError, ValueError):
+    """The data cannot be analysed as asked (missing column, too few levels, non-finite values).
+
+    Attributes
+    ----------
+    column : str or None
+        The offending column, where there is one.
+    """
+
+    def __init__(self, message: str, *, column: str | None = None) -> None:
+        self.column = column
+        super().__init__(f"column {column!r}: {message}" if column is not None else message)
+
+
+class ConfoundingError(StatisticsInputError):
+    """A factor's effect cannot be separated from a blocking factor's (rank-deficient design).
+
+    Attributes
+    ----------
+    factor, block : str
+        The tested factor and the blocking factor(s) it is confounded with.
+    df_lost : int
+        How many of the factor's degrees of freedom the blocks absorb.
+    """
+
+    def __init__(self, message: str, *, factor: str, block: str, df_lost: int) -> None:
+        self.factor = factor
+        self.block = block
+        self.df_lost = df_lost
+        super().__init__(message, column=factor)

@@ -10,6 +10,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..errors import SpecError
+
 __all__ = [
     "EFFECT_KINDS",
     "KINDS",
@@ -34,10 +36,6 @@ SHEAR_PARAMS: tuple[str, ...] = ("c", "phi", "K")
 PARAMS: tuple[str, ...] = SINKAGE_PARAMS + SHEAR_PARAMS
 KINDS = ("sinkage", "shear")
 EFFECT_KINDS = ("covariate", "velocity", "softening", "size", "side-walls")
-
-
-class SpecError(ValueError):
-    """A SPEC breaks a rule; the message names the key, the value and the valid options."""
 
 
 @dataclass(frozen=True)

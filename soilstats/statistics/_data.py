@@ -14,39 +14,11 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from ..errors import ConfoundingError, StatisticsInputError
+
 __all__ = ["ConfoundingError", "StatisticsInputError", "prepare"]
 
 
-class StatisticsInputError(ValueError):
-    """The data cannot be analysed as asked (missing column, too few levels, non-finite values).
-
-    Attributes
-    ----------
-    column : str or None
-        The offending column, where there is one.
-    """
-
-    def __init__(self, message: str, *, column: str | None = None) -> None:
-        self.column = column
-        super().__init__(f"column {column!r}: {message}" if column is not None else message)
-
-
-class ConfoundingError(StatisticsInputError):
-    """A factor's effect cannot be separated from a blocking factor's (rank-deficient design).
-
-    Attributes
-    ----------
-    factor, block : str
-        The tested factor and the blocking factor(s) it is confounded with.
-    df_lost : int
-        How many of the factor's degrees of freedom the blocks absorb.
-    """
-
-    def __init__(self, message: str, *, factor: str, block: str, df_lost: int) -> None:
-        self.factor = factor
-        self.block = block
-        self.df_lost = df_lost
-        super().__init__(message, column=factor)
 
 
 def _check_frame(data: object) -> pd.DataFrame:

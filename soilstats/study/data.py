@@ -5,11 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..errors import StudyDataError
+
 __all__ = ["StudyDataError", "level_label", "select_tests"]
-
-
-class StudyDataError(ValueError):
-    """The campaign lacks what a study needs (the message says what, and what was found)."""
 
 
 def level_label(value) -> str:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import soilstats
 
+from ..errors import SpecError
 from ..report.files import safe_stem
 
 __all__ = [
@@ -68,10 +69,6 @@ _TOP_KEYS = {
     "paper_finding",
     "criteria",
 }
-
-
-class SpecError(ValueError):
-    """A study specification breaks a rule; the message names file, key, value and options."""
 
 
 @dataclass(frozen=True)
