@@ -8,7 +8,7 @@ import numpy as np
 
 from ..fitting.result import FitResult
 from ..identification import fit_shear, fit_sinkage, pool_sinkage
-from ..identification.shear import pool_shear
+from ..identification.pooling import pool_shear
 from ..models import BERNSTEIN, MOHR_COULOMB, get_model
 from .likelihood import PooledProblem
 from .priors import resolve_priors
@@ -58,17 +58,21 @@ def pooled_problem(
     if spec.name in SHEAR_MODELS:
         fit = fit_shear(campaign, spec.name, **selection)
         weighting = "none" if spec is MOHR_COULOMB else "max-stress"
-        sigma, tau, j, w, groups = pool_shear(campaign, selection, spec is MOHR_COULOMB, weighting)
-        used = groups[groups["weight"].notna()] if "weight" in groups else groups
-        owner = np.repeat(np.arange(len(used)), used["used"].to_numpy(int))
+        pooled = pool_shear(
+            campaign, steady_only=spec is MOHR_COULOMB, weighting=weighting, **selection
+        )
+        sigma, j = pooled.x["sigma_Pa"], pooled.x["j_m"]
+        # Tests that contribute no sample (never steady) are not units of the posterior.
+        used = pooled.groups["used"].to_numpy() > 0
+        owner = np.cumsum(used)[pooled.test_index] - 1
         x = sigma if spec is MOHR_COULOMB else np.vstack([sigma, j])
         problem = PooledProblem(
             model=spec,
             x=x,
-            y=tau,
-            w=w,
+            y=pooled.y,
+            w=pooled.weights,
             test_index=owner,
-            groups=used.reset_index(drop=True),
+            groups=pooled.groups[used].reset_index(drop=True),
             priors=resolve_priors(spec.name, spec.param_names, priors),
         )
         return problem, fit

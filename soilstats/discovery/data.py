@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..errors import ConvergenceWarning
 from ..identification import fit_per_test
-from ..identification.pooling import equidistant_indices
+from ..identification.pooling import MIN_SAMPLES, pool_shear, pool_sinkage
 
 __all__ = ["Group", "build_groups"]
 
@@ -65,36 +65,26 @@ class Group:
         return keep[self.owner]
 
 
-def _pool(tests: pd.DataFrame, samples: pd.DataFrame, kind: str, points: int):
-    by_test = samples.groupby("test_id", sort=False).indices
+def _pool(campaign, kind: str, soil: str, table: pd.DataFrame, points: int):
+    """Section 2.1's samples of one (kind, soil), in the rows of ``table`` (the per-test fits)."""
     if kind == "sinkage":
-        a_all, y_all = samples["z_m"].to_numpy(float), samples["pressure_Pa"].to_numpy(float)
-        s_all = None
+        pooled = pool_sinkage(campaign, points_per_test=points, on_unusable="skip", soil=soil)
+        x = {"z": pooled.x["z_m"], "b": pooled.x["b_m"]}
     else:
-        a_all, y_all = samples["j_m"].to_numpy(float), samples["tau_Pa"].to_numpy(float)
-        s_all = samples["sigma_Pa"].to_numpy(float)
-    parts: dict[str, list] = {"a": [], "y": [], "w": [], "o": [], "s": [], "b": []}
-    usable = np.zeros(len(tests), bool)
-    for pos, tid in enumerate(tests["test_id"].astype(str)):
-        idx = by_test.get(tid, np.array([], int))
-        a, y = a_all[idx], y_all[idx]
-        keep = a > 0 if kind == "sinkage" else a >= 0
-        sel = np.flatnonzero(keep)
-        sel = sel[equidistant_indices(a[sel], points)]
-        if sel.size < 5 or y[sel].max() <= 0:
-            continue
-        usable[pos] = True
-        parts["a"].append(a[sel])
-        parts["y"].append(y[sel])
-        parts["w"].append(np.full(sel.size, 1.0 / y[sel].max()))
-        parts["o"].append(np.full(sel.size, pos))
-        if kind == "sinkage":
-            parts["b"].append(np.full(sel.size, float(tests["b_m"].iloc[pos])))
-        else:
-            parts["s"].append(s_all[idx][sel])
-    cat = {k: np.concatenate(v) if v else np.array([]) for k, v in parts.items()}
-    x = {"z": cat["a"], "b": cat["b"]} if kind == "sinkage" else {"j": cat["a"], "sigma": cat["s"]}
-    return x, cat["y"], cat["w"], cat["o"].astype(int), usable
+        pooled = pool_shear(
+            campaign,
+            steady_only=False,
+            weighting="max-stress",
+            points_per_test=points,
+            on_unusable="skip",
+            soil=soil,
+        )
+        x = {"j": pooled.x["j_m"], "sigma": pooled.x["sigma_Pa"]}
+    order = pooled.groups["test_id"].astype(str).to_numpy()
+    if not np.array_equal(order, table["test_id"].astype(str).to_numpy()):
+        raise AssertionError("pooled tests and per-test table are out of step")  # a bug
+    usable = pooled.groups["used"].to_numpy() > 0
+    return x, pooled.y, pooled.weights, pooled.test_index, usable
 
 
 def build_groups(
@@ -102,7 +92,8 @@ def build_groups(
 ) -> tuple[list[Group], list[str]]:
     """Split a campaign into (kind, soil) groups with per-test fits and pooled samples.
 
-    Tests whose record is unusable (fewer than 5 samples in contact, no positive response)
+    Tests whose record is unusable (fewer than :data:`MIN_SAMPLES` samples in contact, no
+    positive response; the rule of :mod:`soilstats.identification.pooling`)
     are dropped from the pooled samples, and per-test fits that fail keep NaN parameters;
     both are counted in the notes — nothing is dropped silently.
     """
@@ -124,14 +115,13 @@ def build_groups(
                     group_notes.append(f"{kind} / {soil}: {w.message}")
                 else:  # not ours to swallow
                     warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            samples = campaign.sinkage if kind == "sinkage" else campaign.shear
-            mine = samples[samples["test_id"].isin(table["test_id"])]
-            x, y, w, owner, usable = _pool(table, mine, kind, points_per_test)
+            x, y, w, owner, usable = _pool(campaign, kind, soil, table, points_per_test)
             if (~usable).any():
                 bad = table.loc[~usable, "test_id"].astype(str).tolist()
                 group_notes.append(
-                    f"{kind} / {soil}: {len(bad)} test(s) without a usable record (fewer than 5 "
-                    f"samples in contact or no positive reading), left out: {', '.join(bad[:6])}"
+                    f"{kind} / {soil}: {len(bad)} test(s) without a usable record (fewer than "
+                    f"{MIN_SAMPLES} samples in contact or no positive reading), left out: "
+                    f"{', '.join(bad[:6])}"
                 )
             if not usable.any():
                 notes.extend(group_notes)

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from .per_test import fit_per_test
-from .shear import fit_shear, pool_shear
-from .sinkage import fit_sinkage, pool_sinkage
+from .pooling import pool_shear, pool_sinkage
+from .shear import fit_shear
+from .sinkage import fit_sinkage
 from .steady_state import steady_state
 from .table import parameter_table
 

@@ -25,7 +25,7 @@ import pandas as pd
 from ..errors import CampaignError, ConvergenceError, ConvergenceWarning
 from ..fitting.identify import identify
 from ..models import BERNSTEIN, SHEAR_CURVE
-from .pooling import equidistant_indices
+from .pooling import kept_samples
 from .steady_state import steady_state
 from .wong import wong_start
 
@@ -102,18 +102,13 @@ def fit_per_test(
 
 
 def _fit_sinkage_test(tid: str, data: dict, points_per_test) -> dict:
-    z, p = data["z"], data["y"]
-    contact = z > 0
-    z, p = z[contact], p[contact]
-    use = equidistant_indices(z, points_per_test)
-    z, p = z[use], p[use]
+    kept = kept_samples(data["z"], data["y"], "sinkage", points_per_test=points_per_test)
+    z, p = data["z"][kept.index], data["y"][kept.index]
     row = {"test_id": tid, "nobs": int(z.size), "z_max_m": np.nan, "p_max_Pa": np.nan}
-    if z.size < 3 or p.max() <= 0:
-        return _failed(
-            row, ("k", "n"), f"{z.size} samples with z > 0 and max p {p.max(initial=0):g} Pa"
-        )
+    if kept.problem is not None:
+        return _failed(row, ("k", "n"), kept.problem)
     row.update(z_max_m=float(z.max()), p_max_Pa=float(p.max()))
-    weights = np.full(z.size, 1.0 / p.max())
+    weights = np.full(z.size, kept.weight)
     try:
         p0 = wong_start(None, z, p)
         fit = identify(BERNSTEIN, z, p, p0, weights=weights, name=f"bernstein {tid}")
@@ -133,12 +128,12 @@ def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
     if j.size:
         ss = steady_state(j, tau)
         row.update(steady=bool(ss.steady), tau_ss_Pa=float(ss.tau_level) if ss.steady else np.nan)
-    keep = j >= 0
-    j, tau = j[keep], tau[keep]
+    kept = kept_samples(j, tau, "shear", points_per_test=None)  # whole record, as fit_shear
+    j, tau = j[kept.index], tau[kept.index]
     row["nobs"] = int(j.size)
-    if j.size < 3 or tau.max(initial=0) <= 0:
-        return _failed(row, ("tau_max", "K"), f"{j.size} samples with j >= 0")
-    weights = np.full(j.size, 1.0 / tau.max())
+    if kept.problem is not None:
+        return _failed(row, ("tau_max", "K"), kept.problem)
+    weights = np.full(j.size, kept.weight)
     # Start: plateau from the top decile, K from where τ first reaches 63 % of it (1 − 1/e).
     tau_top = float(np.median(np.sort(tau)[-max(3, tau.size // 10) :]))
     reach = np.flatnonzero(tau >= 0.632 * tau_top)

@@ -6,84 +6,17 @@ from dataclasses import replace
 from typing import Literal
 
 import numpy as np
-import pandas as pd
 
 from ..errors import CampaignError
 from ..fitting.identify import identify
 from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
 from ..models import JANOSI, MOHR_COULOMB, get_model
-from .pooling import select_one_soil
-from .steady_state import steady_state
+from .pooling import pool_shear
 
 __all__ = ["fit_shear", "pool_shear"]
 
 _DEG = 180.0 / np.pi
-
-
-def pool_shear(campaign, selection: dict, steady_only: bool, weighting: str):
-    """Stack the selected shear tests: (σ [Pa], τ [Pa], j [m], weights, per-test groups).
-
-    ``steady_only`` keeps each test's steady-state part (Mohr–Coulomb); otherwise all samples
-    with j ≥ 0 (Janosi).  ``weighting`` is ``"none"`` or ``"max-stress"`` (1/max τ per test).
-    """
-    chosen, tests = select_one_soil(campaign, "shear", selection)
-    samples = chosen.shear
-    by_test = samples.groupby("test_id", sort=False).indices
-    sig, tau, jj, ww, rows = [], [], [], [], []
-    for _, test in tests.iterrows():
-        tid = test["test_id"]
-        idx = by_test.get(tid, np.array([], int))
-        s = samples["sigma_Pa"].to_numpy(float)[idx]
-        t = samples["tau_Pa"].to_numpy(float)[idx]
-        j = samples["j_m"].to_numpy(float)[idx]
-        row = {"test_id": tid, "samples": int(idx.size), "sigma_mean_Pa": float(np.mean(s))}
-        if steady_only:
-            ss = steady_state(j, t)
-            row.update(
-                steady=ss.steady,
-                steady_from_j_m=float(j[ss.indices].min()) if ss.indices.size else np.nan,
-                used=int(ss.indices.size),
-                tau_ss_Pa=ss.tau_level,
-                reason=ss.reason,
-            )
-            if not ss.steady:
-                rows.append(row)
-                continue
-            keep = ss.indices
-        else:
-            keep = np.flatnonzero(j >= 0)
-            row.update(used=int(keep.size), excluded_j_negative=int(idx.size - keep.size))
-        t_max = float(np.max(t[keep]))
-        if weighting == "max-stress" and t_max <= 0:
-            raise CampaignError(
-                f"max shear stress {t_max:g} Pa ≤ 0: the weight 1/max(τ) is undefined",
-                file="shear.csv",
-                column="torque_Nm",
-                test_id=str(tid),
-            )
-        weight = 1.0 / t_max if weighting == "max-stress" else 1.0
-        row["weight"] = weight
-        sig.append(s[keep])
-        tau.append(t[keep])
-        jj.append(j[keep])
-        ww.append(np.full(keep.size, weight))
-        rows.append(row)
-    groups = pd.DataFrame(rows)
-    if not sig:
-        raise CampaignError(
-            "no selected shear test reaches a steady state, so Mohr–Coulomb (Eq. 15) has no "
-            "data; see the steady-state rule in soilstats.identification.steady_state",
-            file="shear.csv",
-            column="torque_Nm",
-        )
-    return (
-        np.concatenate(sig),
-        np.concatenate(tau),
-        np.concatenate(jj),
-        np.concatenate(ww),
-        groups,
-    )
 
 
 def fit_shear(
@@ -108,9 +41,11 @@ def fit_shear(
         raise ValueError(f"model must be 'mohr-coulomb' or 'janosi' for shear, got {model!r}")
     if weighting is None:
         weighting = "none" if spec is MOHR_COULOMB else "max-stress"
-    if weighting not in ("none", "max-stress"):
-        raise ValueError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
-    sigma, tau, j, w, groups = pool_shear(campaign, selection, spec is MOHR_COULOMB, weighting)
+    pooled = pool_shear(
+        campaign, steady_only=spec is MOHR_COULOMB, weighting=weighting, **selection
+    )
+    sigma, j, tau, w = pooled.x["sigma_Pa"], pooled.x["j_m"], pooled.y, pooled.weights
+    groups = pooled.groups
     n_tests = len(groups)
     notes = [
         f"{n_tests} shear tests; normal pressures "

@@ -6,104 +6,17 @@ from dataclasses import replace
 from typing import Literal
 
 import numpy as np
-import pandas as pd
 
-from ..errors import CampaignError, IdentifiabilityError
+from ..errors import IdentifiabilityError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BERNSTEIN, REECE, get_model
-from .pooling import PooledData, equidistant_indices, select_one_soil
+from .pooling import PooledData, pool_sinkage
 from .wong import wong_bekker, wong_bernstein, wong_start
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
 SINKAGE_MODELS = ("bekker", "bernstein", "reece")
-
-
-def pool_sinkage(
-    campaign,
-    *,
-    points_per_test: int | None = 100,
-    weighting: Literal["max-pressure", "none"] = "max-pressure",
-    **selection,
-) -> PooledData:
-    """Stack the selected sinkage tests into (b, z) → p arrays with per-test weights.
-
-    Samples with z ≤ 0 (sensor zero offsets, the plate not yet in contact) are excluded:
-    z^n has no real value there.  Samples with p ≤ 0 at z > 0 are kept — they are
-    measurements, and least squares handles them.  Of the rest, ``points_per_test`` samples
-    nearest to equally spaced sinkages are used (Section 2.1; ``None`` keeps all).  Each test is
-    weighted by 1/max(p) over its used samples (Section 2.1), or 1 with ``weighting="none"``.
-    """
-    if weighting not in ("max-pressure", "none"):
-        raise ValueError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
-    chosen, tests = select_one_soil(campaign, "sinkage", selection)
-    samples = chosen.sinkage
-    by_test = samples.groupby("test_id", sort=False).indices
-    z_all = samples["z_m"].to_numpy(float)
-    p_all = samples["pressure_Pa"].to_numpy(float)
-    test_ids = tests["test_id"].to_numpy(object)
-    plate_sizes = tests["b_m"].to_numpy(float)
-    empty = np.array([], int)
-    zs, ps, rows = [], [], []
-    for tid, b in zip(test_ids, plate_sizes, strict=True):
-        idx = by_test.get(tid, empty)
-        z, p = z_all[idx], p_all[idx]
-        contact = z > 0
-        z, p = z[contact], p[contact]
-        use = equidistant_indices(z, points_per_test)
-        z, p = z[use], p[use]
-        if z.size < 3:
-            raise CampaignError(
-                f"only {z.size} samples with z > 0; a sinkage fit needs at least 3 per test",
-                file="sinkage.csv",
-                column="z_m",
-                test_id=str(tid),
-            )
-        p_max = float(p.max())
-        if weighting == "max-pressure" and p_max <= 0:
-            raise CampaignError(
-                f"max pressure is {p_max:g} Pa ≤ 0, so the weight 1/max(p) of Section 2.1 is "
-                "undefined; check the force sign or exclude the test",
-                file="sinkage.csv",
-                column="force_N",
-                test_id=str(tid),
-            )
-        zs.append(z)
-        ps.append(p)
-        rows.append(
-            (
-                tid,
-                b,
-                idx.size,
-                int((~contact).sum()),
-                z.size,
-                float(z.max()),
-                p_max,
-                1.0 / p_max if weighting == "max-pressure" else 1.0,
-            )
-        )
-    groups = pd.DataFrame(
-        rows,
-        columns=[
-            "test_id",
-            "b_m",
-            "samples",
-            "excluded_z_nonpositive",
-            "used",
-            "z_max_m",
-            "p_max_Pa",
-            "weight",
-        ],
-    )
-    used = groups["used"].to_numpy()
-    return PooledData(
-        x={"b_m": np.repeat(groups["b_m"].to_numpy(), used), "z_m": np.concatenate(zs)},
-        y=np.concatenate(ps),
-        weights=np.repeat(groups["weight"].to_numpy(), used),
-        test_index=np.repeat(np.arange(len(groups)), used),
-        groups=groups,
-    )
 
 
 def _check_identifiable(model_name: str, pooled: PooledData) -> None:
