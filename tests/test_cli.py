@@ -278,3 +278,23 @@ def test_a_study_name_cannot_write_outside_out(tmp_path, capsys):
     assert main(["study", str(evil), "--data", "cullinan-sand", "--out", str(out)]) == 2
     assert "name" in capsys.readouterr().err
     assert not list(tmp_path.rglob("escaped*"))
+
+
+def test_column_equals_value_has_one_meaning_everywhere():
+    """Campaign.select, --select and a study's `where` keep the same tests."""
+    from soilstats.study.data import select_tests
+    from soilstats.study.spec import load_spec
+
+    campaign = soilstats.load_campaign("simulated-paper")
+    typed = campaign.select(radius_m=0.05 * (1 + 1e-12), kind="sinkage", series="velocity")
+    cli = apply_selection(campaign, ["radius_m=0.05", "kind=sinkage", "series=velocity"])
+    assert set(typed.tests["test_id"]) == set(cli.tests["test_id"])
+    assert (
+        len(typed.tests)
+        == ((campaign.tests["radius_m"] == 0.05) & (campaign.tests["series"] == "velocity")).sum()
+    )
+    study = select_tests(campaign, load_spec("velocity"))  # where_present series = velocity
+    velocity = apply_selection(campaign, ["kind=sinkage", "series=velocity"])
+    assert set(study["test_id"]) == set(velocity.tests["test_id"])
+    with pytest.raises(CampaignError, match="compare as text"):
+        campaign.select(preparation=5)  # a text column: "5", not 5

@@ -11,7 +11,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-from pandas.api.types import is_bool_dtype
+from pandas.api.types import is_bool_dtype, is_numeric_dtype
 
 from ..errors import CampaignError, SoilstatsWarning
 from . import io
@@ -163,8 +163,20 @@ def _is_missing(value: object) -> bool:
     return value is None or value is pd.NA or (isinstance(value, float) and np.isnan(value))
 
 
-def _match(series: pd.Series, want: Any, column: str) -> np.ndarray:
-    """Boolean mask of the rows of ``series`` that a selection criterion keeps."""
+#: Relative tolerance of numeric equality in selections: a value typed in a TOML file or on
+#: the command line equals the value read from a CSV, whatever the last binary digit.
+SELECT_RTOL = 1e-9
+
+
+def match_values(series: pd.Series, want: Any, column: str) -> np.ndarray:
+    """Boolean mask of the rows of ``series`` that a selection criterion keeps.
+
+    The one meaning of "column = value" in soilstats (``Campaign.select``, ``--select``,
+    study specifications): a callable gets the column and returns one bool per row; a list,
+    tuple, set or array keeps members; None/NaN keeps missing values; any other scalar keeps
+    equal values. Numbers in a numeric column are equal within a relative 1e-9; text columns
+    compare as text (``"5"``, not ``5``).
+    """
     if callable(want):
         got = want(series)
         got = got if isinstance(got, pd.Series) else pd.Series(np.asarray(got).reshape(-1))
@@ -175,18 +187,29 @@ def _match(series: pd.Series, want: Any, column: str) -> np.ndarray:
                 column=column,
             )
         return got.to_numpy(dtype=bool, na_value=False)
-    if isinstance(want, Iterable) and not isinstance(want, str | bytes):
-        wanted = list(want)
-        mask = series.isin(wanted).to_numpy(dtype=bool, na_value=False)
-        if any(_is_missing(w) for w in wanted):
-            mask |= series.isna().to_numpy()
+    wanted = (
+        list(want) if isinstance(want, Iterable) and not isinstance(want, str | bytes) else [want]
+    )
+    mask = np.zeros(len(series), dtype=bool)
+    if any(_is_missing(w) for w in wanted):
+        mask |= series.isna().to_numpy()
+    present = [w for w in wanted if not _is_missing(w)]
+    if not present:
         return mask
-    if _is_missing(want):
-        return series.isna().to_numpy()
+    numbers = [
+        w for w in present if isinstance(w, int | float | np.number) and not isinstance(w, bool)
+    ]
+    if is_numeric_dtype(series) and not is_bool_dtype(series):
+        if numbers:
+            values = series.to_numpy(dtype=float, na_value=np.nan)[:, None]
+            mask |= np.isclose(values, np.asarray(numbers, float), rtol=SELECT_RTOL, atol=0.0).any(
+                axis=1
+            )
+        return mask
     try:
-        return (series == want).to_numpy(dtype=bool, na_value=False)
-    except TypeError:  # e.g. comparing a text column with a number: nothing matches
-        return np.zeros(len(series), dtype=bool)
+        return mask | series.isin(present).to_numpy(dtype=bool, na_value=False)
+    except TypeError:  # e.g. unhashable values: nothing matches
+        return mask
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -279,7 +302,7 @@ class Campaign:
                     column=col,
                 )
         mask = np.ones(len(self.tests), dtype=bool)
-        masks = {c: _match(self.tests[c], w, c) for c, w in criteria.items()}
+        masks = {c: match_values(self.tests[c], w, c) for c, w in criteria.items()}
         for m in masks.values():
             mask &= m
         if not mask.any():

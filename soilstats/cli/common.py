@@ -175,6 +175,7 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
     import numpy as np
     import pandas as pd
 
+    from ..campaign.campaign import match_values
     from ..errors import CampaignError
 
     criteria = [c if isinstance(c, Criterion) else parse_selection([c])[0] for c in items]
@@ -189,19 +190,17 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
                 file="tests.csv",
                 column=crit.column,
             )
-        column = tests[crit.column]
-        if pd.api.types.is_numeric_dtype(column):
+        value: object = crit.text
+        if pd.api.types.is_numeric_dtype(tests[crit.column]):
             try:
-                value: object = float(crit.text)
+                value = float(crit.text)
             except ValueError:
                 raise CampaignError(
                     f"--select {crit}: {crit.column!r} is a numeric column; give a number",
                     file="tests.csv",
                     column=crit.column,
                 ) from None
-            hit = np.isclose(column.to_numpy(dtype=float), value, rtol=1e-12, atol=0.0)
-        else:
-            hit = (column.astype("string") == crit.text).to_numpy(dtype=bool, na_value=False)
+        hit = match_values(tests[crit.column], value, crit.column)
         if crit.kind is not None:
             hit = hit | (tests["kind"] != crit.kind).to_numpy()
         masks.append(hit)

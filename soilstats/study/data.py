@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..campaign.campaign import match_values
 from ..errors import StudyDataError
 
 __all__ = ["StudyDataError", "level_label", "select_tests"]
@@ -15,19 +16,6 @@ def level_label(value) -> str:
     if isinstance(value, float | np.floating):
         return f"{value:g}"
     return str(value)
-
-
-def _matches(column: pd.Series, wanted) -> pd.Series:
-    values = wanted if isinstance(wanted, list) else [wanted]
-    if pd.api.types.is_numeric_dtype(column):
-        try:
-            nums = [float(v) for v in values]
-        except (TypeError, ValueError):
-            return pd.Series(False, index=column.index)
-        x = column.to_numpy(float, na_value=np.nan)[:, None]
-        close = np.isclose(x, nums, rtol=1e-9, atol=0)
-        return pd.Series(close.any(axis=1), index=column.index)
-    return column.astype(str).isin([str(v) for v in values])
 
 
 def select_tests(campaign, spec) -> pd.DataFrame:
@@ -53,10 +41,10 @@ def select_tests(campaign, spec) -> pd.DataFrame:
                 f"{what} needs the test-log column {column!r} (tests.where); columns present: "
                 f"{list(tests.columns)}"
             )
-        chosen = chosen[_matches(chosen[column], wanted)]
+        chosen = chosen[match_values(chosen[column], wanted, column)]
     for column, wanted in spec.where_present.items():
         if column in tests.columns:
-            chosen = chosen[_matches(chosen[column], wanted)]
+            chosen = chosen[match_values(chosen[column], wanted, column)]
     if chosen.empty:
         raise StudyDataError(
             f"{what}: no {spec.kind} test matches {spec.where | spec.where_present}"

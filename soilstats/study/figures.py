@@ -19,7 +19,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import seaborn as sns
 
-from .data import _matches, level_label
+from ..campaign.campaign import match_values
+from .data import level_label
 
 __all__ = ["FIGURES", "make_figures"]
 
@@ -37,7 +38,7 @@ def curves(result, campaign) -> plt.Figure:
     tests = result.per_test
     for column, value in spec.curves_where.items():
         if column in tests.columns:
-            keep = _matches(tests[column], value)
+            keep = match_values(tests[column], value, column)
             if keep.any():
                 tests = tests[keep]
     samples = campaign.sinkage[campaign.sinkage["test_id"].isin(set(tests["test_id"]))]
