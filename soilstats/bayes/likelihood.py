@@ -152,10 +152,6 @@ class PooledProblem:
             out[ok] = vals
         return out
 
-    def draw_sigma(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """σ_w drawn from σ_w² | θ, y ~ Inv-Gamma(N/2, S(θ)/2), one per row of ``theta``."""
-        return self.draw_sigma_from_rss(self.rss(theta), rng)
-
     def draw_sigma_from_rss(self, s: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """σ_w drawn from Inv-Gamma(N/2, S/2) for given values S(θ) (W,) → (W,)."""
         s = np.asarray(s, float)

@@ -17,7 +17,6 @@ __all__ = [
     "FORMAT_VERSION",
     "KINDS",
     "MISSING_TOKENS",
-    "SAMPLE_FILE_OF_KIND",
     "SHAPES",
     "SPECS",
     "ColumnSpec",
@@ -28,9 +27,8 @@ __all__ = [
 #: Version of the campaign format these specifications describe (``docs/campaign-format.md``).
 FORMAT_VERSION = "1"
 
-#: Values of ``kind`` and the sample file that holds the data of each kind.
+#: Values of ``kind``; the samples of a test of kind K are in the sample file K (.csv/.parquet).
 KINDS: tuple[str, ...] = ("sinkage", "shear")
-SAMPLE_FILE_OF_KIND: dict[str, str] = {"sinkage": "sinkage", "shear": "shear"}
 
 #: Values of ``shape`` (plate shape of a sinkage test).
 SHAPES: tuple[str, ...] = ("circle", "rectangle")

@@ -40,7 +40,7 @@ def _covariate(tests: pd.DataFrame, col: str) -> str:
     return f"{col} ({kind}, {int(s.notna().sum())} of {len(s)} recorded)"
 
 
-def _samples(c: Campaign, kind: str, table: pd.DataFrame, notes: list[str]) -> list[str]:
+def _samples(kind: str, table: pd.DataFrame, notes: list[str]) -> list[str]:
     if table.empty:
         return [f"{kind} samples: none"]
     per = table.groupby("test_id", sort=False).size()
@@ -98,8 +98,8 @@ def describe(c: Campaign) -> str:
     covs = c.covariates
     lines.append("covariates: " + (", ".join(_covariate(t, col) for col in covs) or "none"))
     notes: list[str] = []
-    lines += _samples(c, "sinkage", c.sinkage, notes)
-    lines += _samples(c, "shear", c.shear, notes)
+    lines += _samples("sinkage", c.sinkage, notes)
+    lines += _samples("shear", c.shear, notes)
     if c.skipped.empty:
         lines.append("skipped tests: none")
     else:

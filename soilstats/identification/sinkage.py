@@ -29,7 +29,7 @@ def _check_identifiable(model_name: str, pooled: PooledData) -> None:
         )
 
 
-def _notes(pooled: PooledData, points_per_test, weighting, model_name) -> list[str]:
+def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
     g = pooled.groups
     notes = [
         f"{len(g)} tests pooled ({', '.join(map(str, g['test_id'][:6]))}"
@@ -100,7 +100,7 @@ def fit_sinkage(
     _check_identifiable(spec.name, pooled)
     b, z, p, w = pooled.x["b_m"], pooled.x["z_m"], pooled.y, pooled.weights
     x = z if spec is BERNSTEIN else np.vstack([b, z])
-    notes = _notes(pooled, points_per_test, weighting, spec.name)
+    notes = _notes(pooled, points_per_test, weighting)
 
     if method == "wong":
         if spec is REECE:

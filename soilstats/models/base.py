@@ -80,10 +80,3 @@ class Model:
     @property
     def n_params(self) -> int:
         return len(self.param_names)
-
-    def describe(self) -> str:
-        """One line per parameter: name, unit and plausible range."""
-        rows = [f"{self.name}: {self.equation}"]
-        for name, unit, (lo, hi) in zip(self.param_names, self.units, self.bounds, strict=True):
-            rows.append(f"  {name:>5s} [{unit}]  plausible in ({lo:g}, {hi:g})")
-        return "\n".join(rows)

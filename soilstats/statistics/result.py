@@ -41,10 +41,6 @@ class TestResult:
     effect_size_name: str = ""
     notes: tuple[str, ...] = field(default=())
 
-    def significant(self, alpha: float) -> bool:
-        """True if ``p_value < alpha`` (uncorrected; see :func:`verdicts` for families)."""
-        return bool(self.p_value < alpha)
-
     def summary(self) -> str:
         """A few readable lines: the test, F(df1, df2) = …, p, effect size, numbered notes."""
         lines = [
