@@ -2,8 +2,10 @@
 
 Turns raw plate-sinkage and shear-ring measurements into Bekker, Bernstein, Reece,
 Janosi–Hanamoto and Mohr–Coulomb parameters by the weighted identification of
-Holz et al.'s "systematic approach" (weighted Levenberg–Marquardt, fit quality ε, σ from the
-covariance), with health flags on every fit.
+M. Apfelbeck, S. Kuß, B. Rebele, B. Schäfer, "A systematic approach to reliably characterize
+soils based on Bevameter testing", Journal of Terramechanics 48(5), 360–371, 2011
+(weighted Levenberg–Marquardt, fit quality ε, σ from the covariance), with health flags on
+every fit.
 
 >>> import soilstats
 >>> campaign = soilstats.load_campaign("cullinan-sand")          # bundled real data
@@ -14,39 +16,79 @@ covariance), with health flags on every fit.
 Any model f(x, *params) can be identified the same way::
 
     result = soilstats.identify(f, x, y, p0=[1.0, 0.1], weights=w)
+
+Importing soilstats is cheap: each public name is loaded from its module on first use
+(PEP 562), so ``import soilstats`` and ``soilstats --help`` do not pay for pandas, SciPy,
+statsmodels, matplotlib or ArviZ.
 """
 
 from __future__ import annotations
 
-from .campaign import Campaign, bundled_campaigns, load_campaign
-from .discovery import DiscoveryResult, discover
+import importlib
+from typing import TYPE_CHECKING
+
 from .errors import (
     CampaignError,
     ConvergenceError,
     ConvergenceWarning,
     IdentifiabilityError,
+    SoilstatsError,
     SoilstatsWarning,
 )
-from .fitting import FitResult, identify, linear_least_squares
-from .identification import fit_per_test, fit_shear, fit_sinkage, parameter_table
-from .models import BEKKER, BERNSTEIN, JANOSI, MOHR_COULOMB, REECE, Model, get_model
-from .simulation import simulate
-from .statistics import anova_oneway
 
 __version__ = "0.1.0"
 
+#: public name -> module that defines it (loaded on first access)
+_LAZY: dict[str, str] = {
+    "Campaign": "soilstats.campaign",
+    "bundled_campaigns": "soilstats.campaign",
+    "load_campaign": "soilstats.campaign",
+    "DiscoveryResult": "soilstats.discovery",
+    "discover": "soilstats.discovery",
+    "FitResult": "soilstats.fitting",
+    "identify": "soilstats.fitting",
+    "linear_least_squares": "soilstats.fitting",
+    "fit_per_test": "soilstats.identification",
+    "fit_shear": "soilstats.identification",
+    "fit_sinkage": "soilstats.identification",
+    "parameter_table": "soilstats.identification",
+    "BEKKER": "soilstats.models",
+    "BERNSTEIN": "soilstats.models",
+    "JANOSI": "soilstats.models",
+    "MOHR_COULOMB": "soilstats.models",
+    "REECE": "soilstats.models",
+    "Model": "soilstats.models",
+    "get_model": "soilstats.models",
+    "simulate": "soilstats.simulation",
+    "anova_oneway": "soilstats.statistics",
+    "run_study": "soilstats.study",
+    "sample_posterior": "soilstats.bayes",
+    "sample_population": "soilstats.bayes",
+}
+
+if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
+    from .bayes import sample_population, sample_posterior
+    from .campaign import Campaign, bundled_campaigns, load_campaign
+    from .discovery import DiscoveryResult, discover
+    from .fitting import FitResult, identify, linear_least_squares
+    from .identification import fit_per_test, fit_shear, fit_sinkage, parameter_table
+    from .models import BEKKER, BERNSTEIN, JANOSI, MOHR_COULOMB, REECE, Model, get_model
+    from .simulation import simulate
+    from .statistics import anova_oneway
+    from .study import run_study
+
 
 def __getattr__(name: str):
-    # The Bayesian layer imports arviz/xarray (seconds); load it only when asked for.
-    if name == "sample_posterior":
-        from .bayes import sample_posterior
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'soilstats' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
 
-        return sample_posterior
-    if name == "run_study":  # the study layer imports matplotlib/seaborn for its reports
-        from .study import run_study
 
-        return run_study
-    raise AttributeError(f"module 'soilstats' has no attribute {name!r}")
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
 
 
 __all__ = [
@@ -63,6 +105,7 @@ __all__ = [
     "FitResult",
     "IdentifiabilityError",
     "Model",
+    "SoilstatsError",
     "SoilstatsWarning",
     "anova_oneway",
     "bundled_campaigns",
@@ -75,6 +118,8 @@ __all__ = [
     "linear_least_squares",
     "load_campaign",
     "parameter_table",
+    "run_study",
+    "sample_population",
     "sample_posterior",
     "simulate",
 ]

@@ -15,10 +15,18 @@ from __future__ import annotations
 
 from .data import StudyDataError
 from .outputs import to_json_dict, write_outputs
-from .report import write_report
 from .result import StudyResult
 from .runner import run_study
 from .spec import SpecError, StudySpec, available_studies, load_spec
+
+
+def __getattr__(name: str):
+    if name == "write_report":  # the PDF report imports matplotlib and seaborn: only on use
+        from .report import write_report
+
+        return write_report
+    raise AttributeError(f"module 'soilstats.study' has no attribute {name!r}")
+
 
 __all__ = [
     "SpecError",

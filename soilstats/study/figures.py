@@ -11,10 +11,6 @@ from __future__ import annotations
 
 import contextlib
 
-import matplotlib
-
-matplotlib.use("Agg")  # files only; never a window
-
 import matplotlib.pyplot as plt
 import numpy as np
 import seaborn as sns

@@ -1,0 +1,60 @@
+"""Importing soilstats is cheap and changes no global state (a notebook user's backend)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import soilstats
+
+HEAVY = ("pandas", "scipy.stats", "statsmodels", "matplotlib", "seaborn", "arviz", "emcee")
+
+
+def _python(code: str) -> str:
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return run.stdout
+
+
+def test_import_soilstats_loads_no_heavy_library():
+    loaded = json.loads(
+        _python(
+            "import json, sys, soilstats; "
+            f"print(json.dumps([m for m in {list(HEAVY)!r} if m in sys.modules]))"
+        )
+    )
+    assert loaded == []
+
+
+def test_the_command_line_parser_loads_no_heavy_library():
+    loaded = json.loads(
+        _python(
+            "import json, sys; from soilstats.cli.main import build_parser; build_parser(); "
+            f"print(json.dumps([m for m in {list(HEAVY)!r} if m in sys.modules]))"
+        )
+    )
+    assert loaded == []
+
+
+def test_no_import_changes_the_matplotlib_backend():
+    code = """
+import importlib, pkgutil, matplotlib
+matplotlib.use("svg")
+calls = []
+real_use = matplotlib.use
+matplotlib.use = lambda *a, **k: calls.append(a) or real_use(*a, **k)
+import soilstats
+for mod in pkgutil.walk_packages(soilstats.__path__, "soilstats."):
+    if mod.name.startswith("soilstats.cli") or mod.name.endswith("__main__"):
+        continue
+    importlib.import_module(mod.name)
+print(matplotlib.get_backend(), len(calls))
+"""
+    backend, calls = _python(code).split()
+    assert backend.lower() == "svg" and calls == "0"
+
+
+def test_every_public_name_resolves_and_is_listed():
+    for name in soilstats.__all__:
+        assert getattr(soilstats, name) is not None, name
+    assert set(soilstats.__all__) <= set(dir(soilstats))
