@@ -17,8 +17,10 @@ from __future__ import annotations
 
 from ..data import bundled_names
 from .campaign import Campaign, load_campaign
+from .importing import import_campaign
+from .units import UnitsWarning
 
-__all__ = ["Campaign", "bundled_campaigns", "load_campaign"]
+__all__ = ["Campaign", "UnitsWarning", "bundled_campaigns", "import_campaign", "load_campaign"]
 
 
 def bundled_campaigns() -> list[str]:

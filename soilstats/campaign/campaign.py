@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -19,6 +19,7 @@ from ._cells import TEXT_DTYPE
 from .derived import add_sample_columns, add_test_columns
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
+from .units import check_plausible_units, convert_columns
 from .validate import Frames, Issue, validate
 
 __all__ = ["SKIPPED_COLUMNS", "Campaign", "load_campaign"]
@@ -89,7 +90,7 @@ def _derive(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> dict[str,
     return {s: f.reset_index(drop=True) for s, f in out.items()}
 
 
-def _build(frames: Frames, *, source: str, on_error: OnError) -> Campaign:
+def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool) -> Campaign:
     _check_on_error(on_error)
     tables = validate(frames)
     if tables.issues and on_error == "raise":
@@ -118,23 +119,37 @@ def _build(frames: Frames, *, source: str, on_error: OnError) -> Campaign:
             SoilstatsWarning,
             stacklevel=3,  # the caller of load_campaign or from_frames
         )
+    if check_units:
+        check_plausible_units(out["tests"], out["sinkage"], out["shear"])
     return Campaign(out["tests"], out["sinkage"], out["shear"], source, skipped)
 
 
-def load_campaign(path_or_name: str | os.PathLike[str], *, on_error: OnError = "raise") -> Campaign:
+def load_campaign(
+    path_or_name: str | os.PathLike[str] | Mapping[str, pd.DataFrame],
+    *,
+    on_error: OnError = "raise",
+    check_units: bool = True,
+) -> Campaign:
     """Read and validate a campaign folder, or a bundled campaign by name.
 
     Parameters
     ----------
-    path_or_name : str or os.PathLike
+    path_or_name : str, os.PathLike or mapping of DataFrames
         A folder holding ``tests.csv`` (or ``.parquet``) and the sample files, or the name of
         a bundled campaign (:func:`bundled_campaigns`). A ``str`` equal to a bundled name
-        means the bundled campaign; pass a :class:`pathlib.Path` for a local folder.
+        means the bundled campaign; pass a :class:`pathlib.Path` for a local folder. A
+        mapping ``{"tests": df, "sinkage": df, "shear": df}`` (sample tables optional) is
+        checked exactly like a folder (see :meth:`Campaign.from_frames`).
     on_error : {"raise", "skip"}
         ``"raise"`` (default): raise the first broken rule, scanning tests file, sinkage file,
         shear file. ``"skip"``: drop every test that breaks a per-test rule with all its
         samples, list them in :attr:`Campaign.skipped` and emit one
         :class:`~soilstats.errors.SoilstatsWarning`. File-level problems always raise.
+    check_units : bool
+        Check that values are plausible in the format's SI units
+        (:func:`soilstats.campaign.units.check_plausible_units`: sinkage or tool sizes that
+        only make sense in mm stop the load; forces, torques, angles that look like kN,
+        N·mm or degrees warn). Turn off only for data you know to be unusual.
 
     Returns
     -------
@@ -146,8 +161,22 @@ def load_campaign(path_or_name: str | os.PathLike[str], *, on_error: OnError = "
         For an unknown name or path, an unreadable or ambiguous file, or a broken rule.
     """
     _check_on_error(on_error)
+    if isinstance(path_or_name, Mapping):
+        unknown = sorted(set(path_or_name) - set(FILES))
+        if unknown or "tests" not in path_or_name:
+            raise CampaignError(
+                f"a campaign given as tables needs the keys 'tests' and optionally 'sinkage', "
+                f"'shear'; got {sorted(path_or_name)}",
+                file="tests.csv",
+            )
+        return Campaign.from_frames(**path_or_name, on_error=on_error, check_units=check_units)
+    if not isinstance(path_or_name, str | os.PathLike):
+        raise CampaignError(
+            f"load_campaign takes a folder, a bundled name or a dict of DataFrames, not "
+            f"{type(path_or_name).__name__}",
+        )
     folder, source = io.resolve(path_or_name)
-    return _build(io.read_folder(folder), source=source, on_error=on_error)
+    return _build(io.read_folder(folder), source=source, on_error=on_error, check_units=check_units)
 
 
 def _values_present(series: pd.Series, limit: int = 20) -> str:
@@ -252,19 +281,37 @@ class Campaign:
         *,
         source: str = "<memory>",
         on_error: OnError = "raise",
+        units: Mapping[str, str] | None = None,
+        check_units: bool = True,
     ) -> Campaign:
         """Validate in-memory tables exactly like :func:`load_campaign`.
 
         Messages call the tables ``tests.csv``, ``sinkage.csv`` and ``shear.csv``; rows are
         1-based positions in the frames. Columns named like derived ones (e.g. the
         ``tests`` of another campaign) must agree with the recomputed values.
+
+        ``units`` maps format columns to the unit their values are given in, e.g.
+        ``{"z_m": "mm", "force_N": "kN", "radius_m": "mm"}``; they are converted to SI
+        before validation (units per column: :data:`soilstats.campaign.units.UNITS`). The
+        input frames are never modified. ``check_units`` as in :func:`load_campaign`.
         """
         frames: Frames = {}
         for stem, frame in zip(FILES, (tests, sinkage, shear), strict=True):
             if frame is not None and not isinstance(frame, pd.DataFrame):
                 raise TypeError(f"{stem} must be a pandas DataFrame or None, not {type(frame)}")
+            if units:
+                frame = convert_columns(frame, units, f"{stem}.csv")
             frames[stem] = (frame, f"{stem}.csv")
-        return _build(frames, source=source, on_error=on_error)
+        if units:
+            known = {c for f, _ in frames.values() if f is not None for c in f.columns}
+            missing = sorted(set(units) - known)
+            if missing:
+                raise CampaignError(
+                    f"units given for {missing}, which no table has; units name format "
+                    "columns such as z_m, force_N, radius_m",
+                    column=missing[0],
+                )
+        return _build(frames, source=source, on_error=on_error, check_units=check_units)
 
     @property
     def covariates(self) -> list[str]:
