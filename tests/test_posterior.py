@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -104,5 +106,7 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
         assert (out / name).exists(), name
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert "kc" in idata.posterior
+    provenance = json.loads(idata.posterior.attrs["soilstats_provenance"])
+    assert provenance["seed"] == 1 and provenance["command"].startswith("soilstats posterior")
     draws = pd.read_csv(out / "draws.csv", comment="#")
     assert list(draws.columns) == ["kc", "kphi", "n", "c", "phi", "K"]

@@ -86,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
         results = [_run(campaign, m, args) for m in models]
     for i, res in enumerate(results):
         name = "posterior.nc" if i == 0 else f"posterior_{res.model_name}.nc"
+        # netCDF attributes take no None: the provenance travels as one JSON string.
+        res.idata.posterior.attrs["soilstats_provenance"] = json.dumps(provenance.to_dict())
         res.idata.to_netcdf(str(output_path(out, name, overwrite=True)))
     n = min(len(r.draws()) for r in results)
     draws = (
