@@ -30,7 +30,7 @@ import numpy as np
 
 __all__ = ["ShearLayout", "SinkageLayout", "shear_family", "side_wall_ratio", "sinkage_family"]
 
-_DEG = np.pi / 180.0
+RAD_PER_DEG = np.pi / 180.0
 
 
 def side_wall_ratio(r_inner, r_outer, height):
@@ -149,7 +149,7 @@ def shear_family(layout: ShearLayout, sigma, j, fc=None, ft=None, fk=None, a=Non
     def parts(theta):
         theta = np.asarray(theta, float)
         c, phi, k = theta[0], theta[1], theta[2]
-        t = np.tan(phi * _DEG)
+        t = np.tan(phi * RAD_PER_DEG)
         if layout.side_walls:
             s_c = 1.0 + a
             s_t = 1.0 + a * theta[-1]
@@ -172,7 +172,7 @@ def shear_family(layout: ShearLayout, sigma, j, fc=None, ft=None, fk=None, a=Non
         dk_eff = -level * decay * j / k_eff**2  # ∂τ/∂K_eff
         cols = [
             s_c * g,
-            sigma * s_t * _DEG / np.cos(phi * _DEG) ** 2 * g,
+            sigma * s_t * RAD_PER_DEG / np.cos(phi * RAD_PER_DEG) ** 2 * g,
             dk_eff * k_eff / theta[2],
         ]
         if layout.side_walls:

@@ -16,7 +16,7 @@ from .pooling import pool_shear
 
 __all__ = ["fit_shear", "pool_shear"]
 
-_DEG = 180.0 / np.pi
+DEG_PER_RAD = 180.0 / np.pi
 
 
 def fit_shear(
@@ -79,7 +79,7 @@ def fit_shear(
             np.column_stack([np.ones_like(sigma), sigma]), tau, weights=w, names=("c", "tan_phi")
         )
         c, t = lin.params.to_numpy()
-        grad = np.array([[1.0, 0.0], [0.0, _DEG / (1.0 + t * t)]])  # d(c, φ°)/d(c, tan φ)
+        grad = np.array([[1.0, 0.0], [0.0, DEG_PER_RAD / (1.0 + t * t)]])  # d(c, φ°)/d(c, tan φ)
         cov = grad @ lin.cov.to_numpy() @ grad.T
         notes.append(
             "Linear least squares (Section 2.2); phi = atan(tan phi), sigma by the delta method."

@@ -15,33 +15,35 @@ from .base import Model
 
 __all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE"]
 
-_DEG = np.pi / 180.0
+RAD_PER_DEG = np.pi / 180.0
 
 
 def mohr_coulomb(sigma, c, phi):
     """τ_max = c + σ·tan φ (Eq. 15).  ``x = σ [Pa]``; c in Pa, φ in degrees."""
-    return c + np.asarray(sigma, float) * np.tan(phi * _DEG)
+    return c + np.asarray(sigma, float) * np.tan(phi * RAD_PER_DEG)
 
 
 def mohr_coulomb_jac(sigma, c, phi):
     sigma = np.asarray(sigma, float)
-    return np.column_stack([np.ones_like(sigma), sigma * _DEG / np.cos(phi * _DEG) ** 2])
+    return np.column_stack(
+        [np.ones_like(sigma), sigma * RAD_PER_DEG / np.cos(phi * RAD_PER_DEG) ** 2]
+    )
 
 
 def janosi(x, c, phi, K):
     """τ = (c + σ tan φ)(1 − exp(−j/K)) (Eq. 13).  ``x = (σ [Pa], j [m])``; K in m."""
     sigma, j = x
-    return (c + sigma * np.tan(phi * _DEG)) * -np.expm1(-np.asarray(j, float) / K)
+    return (c + sigma * np.tan(phi * RAD_PER_DEG)) * -np.expm1(-np.asarray(j, float) / K)
 
 
 def janosi_jac(x, c, phi, K):
     sigma, j = np.asarray(x[0], float), np.asarray(x[1], float)
     growth = -np.expm1(-j / K)
-    tau_max = c + sigma * np.tan(phi * _DEG)
+    tau_max = c + sigma * np.tan(phi * RAD_PER_DEG)
     return np.column_stack(
         [
             growth,
-            sigma * _DEG / np.cos(phi * _DEG) ** 2 * growth,
+            sigma * RAD_PER_DEG / np.cos(phi * RAD_PER_DEG) ** 2 * growth,
             -tau_max * np.exp(-j / K) * j / K**2,
         ]
     )
