@@ -19,7 +19,7 @@ import soilstats
 from soilstats.discovery import discover
 from soilstats.discovery.candidates import enumerate_candidates, relations
 from soilstats.discovery.diagnose import strata_test
-from soilstats.discovery.families import SinkageLayout, shear_family, sinkage_family
+from soilstats.models.extended import SinkageLayout, shear_family, sinkage_family
 from soilstats.simulation import simulate
 from soilstats.statistics import anova_twoway
 
@@ -208,7 +208,7 @@ def test_family_jacobians_match_finite_differences():
     fun, jac = sinkage_family(layout, b, z, f, f, soft)
     theta = np.array([7e3, 5e5, 1.2, 0.1, 0.05, 0.008, 0.6])
     fun2, jac2 = shear_family(
-        __import__("soilstats.discovery.families", fromlist=["ShearLayout"]).ShearLayout(1, 1, 1),
+        __import__("soilstats.models.extended", fromlist=["ShearLayout"]).ShearLayout(1, 1, 1),
         rng.uniform(3e3, 2e4, n),
         rng.uniform(0, 0.1, n),
         f,

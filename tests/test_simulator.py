@@ -13,8 +13,8 @@ import pytest
 
 from soilstats import fit_shear, fit_sinkage
 from soilstats.data import bundled_path
+from soilstats.models import side_wall_ratio
 from soilstats.simulation import SpecError, load_spec, parse_spec, simulate
-from soilstats.simulation.effects import side_wall_ratio
 
 TINY = """
 name = "tiny"

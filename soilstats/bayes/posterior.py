@@ -115,7 +115,7 @@ def sample_posterior(
         problem.model.name,
         "pooled",
         spec.param_names,
-        dict(zip(spec.param_names, spec.units, strict=True)),
+        spec.unit_of,
         (*spec.param_names, "sigma_w"),
         run,
         _pooled_notes(problem),

@@ -27,6 +27,7 @@ __all__ = [
     "pressure",
     "rectangle_area",
     "ring_area",
+    "ring_torque",
     "shear_deformation",
     "shear_stress",
 ]
@@ -214,6 +215,25 @@ def shear_stress(torque: ArrayLike, r_inner: ArrayLike, r_outer: ArrayLike) -> F
     """
     ri, ro = _f(r_inner), _f(r_outer)
     return 3.0 * _f(torque) / (2.0 * np.pi * (ro**3 - ri**3))
+
+
+def ring_torque(tau: ArrayLike, r_inner: ArrayLike, r_outer: ArrayLike) -> FloatArray:
+    """Torque of a ring under uniform shear stress, T = τ·2π(r_o³ − r_i³)/3 (Eq. 12 inverted).
+
+    Parameters
+    ----------
+    tau : array_like
+        Shear stress τ [Pa].
+    r_inner, r_outer : array_like
+        Inner radius r_i and outer radius r_o [m].
+
+    Returns
+    -------
+    ndarray
+        Torque T [N m].
+    """
+    ri, ro = _f(r_inner), _f(r_outer)
+    return _f(tau) * 2.0 * np.pi * (ro**3 - ri**3) / 3.0
 
 
 def shear_deformation(angle: ArrayLike, r_inner: ArrayLike, r_outer: ArrayLike) -> FloatArray:

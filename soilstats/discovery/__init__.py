@@ -10,7 +10,6 @@
 ``data``           per (kind, soil): per-test fits and pooled samples (Section 2.1 weights)
 ``diagnose``       base fit, per-test deviations, F-tests within strata, Holm
 ``flags``          physical red flags (negative kc/kφ, implausible n, kc–kφ collinear)
-``families``       extended model equations with analytic Jacobians
 ``extensions``     the library: velocity, softening, Reece, side walls, generic covariate
 ``crossval``       leave-whole-tests / conditions-out gain with its uncertainty, AIC/BIC
 ``result``         :class:`DiscoveryResult`, :class:`Finding`

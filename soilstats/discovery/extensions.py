@@ -30,10 +30,11 @@ import numpy as np
 from ..errors import ConvergenceError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
+from ..identification.starting_values import janosi_start, reece_from_bekker, sinkage_start
 from ..identification.wong import wong_start
-from ..models import REECE
+from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
+from ..models.extended import ShearLayout, SinkageLayout, shear_family, sinkage_family
 from .candidates import MISSING, candidate_values, spans_log
-from .families import ShearLayout, SinkageLayout, shear_family, side_wall_ratio, sinkage_family
 
 __all__ = [
     "Extension",
@@ -46,9 +47,10 @@ __all__ = [
     "library",
 ]
 
-_UNIT_SINK = {"kc": "N/m^(n+1)", "kphi": "N/m^(n+2)", "k": "N/m^(n+2)", "n": "-"}
-#: Physically plausible ranges (health flags of the fit, not constraints of the optimiser).
-_SINK_BOUNDS = {"kc": (0, np.inf), "kphi": (0, np.inf), "k": (0, np.inf), "n": (0, 5)}
+#: Physically plausible ranges (health flags of the fit, not constraints of the optimiser):
+#: those of the base models; extension parameters are unbounded unless stated.
+_SINK_UNITS = {**BEKKER.unit_of, **BERNSTEIN.unit_of}
+_SINK_BOUNDS = {**BEKKER.bounds_of, **BERNSTEIN.bounds_of}
 
 
 @dataclass(frozen=True)
@@ -173,7 +175,7 @@ class SinkageExtension(Extension):
 
     def _names(self, state):
         names = ["kc", "kphi", "n"] if self.bekker else ["k", "n"]
-        units = [_UNIT_SINK[n] for n in names]
+        units = [_SINK_UNITS[n] for n in names]
         if self.features is not None:
             fn = self.features.names(state["features"])
             if self.stiffness:
@@ -197,8 +199,8 @@ class SinkageExtension(Extension):
         if base is not None:
             start = list(base.result.values)
         else:
-            b = group.x["b"][mask] if self.bekker else None
-            start = list(wong_start(b, group.x["z"][mask], y))
+            model = "bekker" if self.bekker else "bernstein"
+            start = list(sinkage_start(model, group.x["b"][mask], group.x["z"][mask], y))
         if not self.soften:
             mask, layout, (f, jac) = self._inputs(group, rows, state)
             p0 = start + [0.0] * (layout.size - len(start))
@@ -251,9 +253,7 @@ class ReeceExtension(Extension):
         mask = group.samples_of(np.asarray(rows, int))
         b, z, y, w = group.x["b"][mask], group.x["z"][mask], group.y[mask], group.w[mask]
         theta = base.result.values if base is not None else wong_start(b, z, y)
-        kc, kphi, n = theta
-        b_ref = float(np.exp(np.mean(np.log(np.unique(b)))))  # Bekker ≈ Reece at b_ref
-        p0 = [kc * b_ref ** (n - 1), kphi * b_ref ** (n - 1), n]
+        p0 = reece_from_bekker(theta, b)
         result = identify(REECE, np.vstack([b, z]), y, p0, weights=w, name=self.name)
         return Fitted(self, result, {})
 
@@ -291,7 +291,7 @@ class ShearExtension(Extension):
         return mask, layout, shear_family(layout, group.x["sigma"][mask], group.x["j"][mask], **kw)
 
     def _names(self, state):
-        names, units = ["c", "phi", "K"], ["Pa", "deg", "m"]
+        names, units = list(JANOSI.param_names), list(JANOSI.units)
         if self.features is not None:
             fn = self.features.names(state["features"])
             for t in ("c", "tan_phi", "K"):
@@ -313,14 +313,14 @@ class ShearExtension(Extension):
         if base is not None:
             start = list(base.result.values[:3])
         else:
-            start = _janosi_start(group.x["sigma"][mask], group.x["j"][mask], y)
+            start = list(janosi_start(group.x["sigma"][mask], group.x["j"][mask], y))
         if self.side_walls:
             # Start from intrinsic values: divide out the mean apparent-area factor.
             a_mean = float(np.mean(shear_inputs_a(group, rows)))
             start = [start[0] / (1 + a_mean), start[1], start[2], 0.4]
         p0 = start + [0.0] * (layout.size - len(start))
         names, units = self._names(state)
-        bounds = {"c": (0, np.inf), "phi": (0, 90), "K": (0, np.inf), "K0": (0, 1)}
+        bounds = {**JANOSI.bounds_of, "K0": (0, 1)}
         result = _identify(f, jac, y, w, p0, names, units, bounds, self.name)
         return Fitted(self, result, state)
 
@@ -333,18 +333,6 @@ def shear_inputs_a(group, rows) -> np.ndarray:
     """Side-wall ratio a of each of the tests ``rows``."""
     t = group.tests.iloc[np.asarray(rows, int)]
     return np.asarray(side_wall_ratio(t["r_inner_m"], t["r_outer_m"], t["grouser_height_m"]))
-
-
-def _janosi_start(sigma, j, tau) -> list[float]:
-    """c, φ from a line through the upper half of j; K from the 63 % point."""
-    upper = j >= np.median(j)
-    design = np.column_stack([np.ones(upper.sum()), sigma[upper]])
-    c0, t0 = np.linalg.lstsq(design, tau[upper], rcond=None)[0]
-    plateau = c0 + sigma * t0
-    ratio = np.clip(tau / np.where(plateau > 0, plateau, np.inf), 0, 0.999)
-    rising = (ratio > 0.2) & (ratio < 0.9)
-    k0 = float(np.median(-j[rising] / np.log1p(-ratio[rising]))) if rising.any() else 0.01
-    return [max(float(c0), 1.0), float(np.degrees(np.arctan(max(t0, 1e-3)))), max(k0, 1e-5)]
 
 
 # ------------------------------------------------------------------------------ the library

@@ -113,8 +113,8 @@ def identify(
             fast = True
         f, jac = model.func, jac or model.jac
         param_names = param_names or model.param_names
-        units = units or dict(zip(model.param_names, model.units, strict=True))
-        bounds = bounds or dict(zip(model.param_names, model.bounds, strict=True))
+        units = units or model.unit_of
+        bounds = bounds or model.bounds_of
         name = name or model.name
     else:
         f = model

@@ -13,6 +13,7 @@ from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
 from ..models import JANOSI, MOHR_COULOMB, get_model
 from .pooling import pool_shear
+from .starting_values import janosi_start
 
 __all__ = ["fit_shear", "pool_shear"]
 
@@ -98,21 +99,7 @@ def fit_shear(
             groups=groups,
         )
     if p0 is None:
-        # Start from Mohr–Coulomb on the upper half of j and K from the 63 % point.
-        upper = j >= np.median(j)
-        lin = linear_least_squares(
-            np.column_stack([np.ones(upper.sum()), sigma[upper]]), tau[upper]
-        )
-        c0, t0 = lin.params.to_numpy()
-        tau_max = c0 + sigma * t0
-        ratio = np.clip(tau / np.where(tau_max > 0, tau_max, np.inf), 0, 0.999)
-        rising = (ratio > 0.2) & (ratio < 0.9)
-        k0 = (
-            float(np.median(-j[rising] / np.log1p(-ratio[rising])))
-            if rising.any()
-            else float(np.median(j))
-        )
-        p0 = [max(c0, 1.0), np.degrees(np.arctan(max(t0, 1e-3))), max(k0, 1e-5)]
+        p0 = janosi_start(sigma, j, tau)
     notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
     result = identify(
         JANOSI,

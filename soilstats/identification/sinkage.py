@@ -12,7 +12,8 @@ from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BERNSTEIN, REECE, get_model
 from .pooling import PooledData, pool_sinkage
-from .wong import wong_bekker, wong_bernstein, wong_start
+from .starting_values import sinkage_start
+from .wong import wong_bekker, wong_bernstein
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
@@ -126,23 +127,6 @@ def fit_sinkage(
         )
 
     if p0 is None:
-        p0 = _starting_values(spec.name, b, z, p)
+        p0 = sinkage_start(spec.name, b, z, p)
     result = identify(spec, x, p, p0, weights=w, on_failure=on_failure, notes=notes)
     return replace(result, groups=pooled.groups)
-
-
-def _starting_values(model_name: str, b, z, p) -> np.ndarray:
-    """Wong's linearised estimate: cheap and usually within a few LM steps of the optimum."""
-    try:
-        if model_name == "bernstein":
-            return wong_start(None, z, p)
-        theta = wong_start(b, z, p)
-    except (ValueError, np.linalg.LinAlgError):
-        theta = np.array([0.0, np.median(p / np.maximum(z, 1e-9)), 1.0])
-    if model_name == "reece":
-        # Reece's (k1 + k2·b)(z/b)^n equals Bekker's form when k1 = kc·b^(n−1), k2 = kφ·b^(n−1)
-        # at a reference b; use the geometric mean plate size for the map.
-        kc, kphi, n = theta
-        b_ref = float(np.exp(np.mean(np.log(np.unique(b)))))
-        return np.array([kc * b_ref ** (n - 1), kphi * b_ref ** (n - 1), n])
-    return theta

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .base import Model
-from .shear import JANOSI, MOHR_COULOMB, SHEAR_CURVE
+from .shear import JANOSI, MOHR_COULOMB, SHEAR_CURVE, side_wall_ratio
 from .sinkage import BEKKER, BERNSTEIN, REECE
 
 __all__ = [
@@ -16,6 +16,7 @@ __all__ = [
     "SHEAR_CURVE",
     "Model",
     "get_model",
+    "side_wall_ratio",
 ]
 
 MODELS: dict[str, Model] = {

@@ -80,3 +80,13 @@ class Model:
     @property
     def n_params(self) -> int:
         return len(self.param_names)
+
+    @property
+    def unit_of(self) -> dict[str, str]:
+        """SI unit of each parameter, by name."""
+        return dict(zip(self.param_names, self.units, strict=True))
+
+    @property
+    def bounds_of(self) -> dict[str, tuple[float, float]]:
+        """Physically plausible range of each parameter, by name."""
+        return dict(zip(self.param_names, self.bounds, strict=True))

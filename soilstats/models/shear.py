@@ -13,7 +13,7 @@ import numpy as np
 
 from .base import Model
 
-__all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE"]
+__all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "side_wall_ratio"]
 
 RAD_PER_DEG = np.pi / 180.0
 
@@ -100,3 +100,15 @@ SHEAR_CURVE = Model(
     func=shear_curve,
     jac=shear_curve_jac,
 )
+
+
+def side_wall_ratio(r_inner, r_outer, height):
+    """a = 3h(r_i² + r_o²)/(r_o³ − r_i³) [-]: side-wall over base-area torque per unit stress.
+
+    Eq. 12 turns torque into τ over the ring's annulus only; the cylindrical walls of height h
+    [m] at r_i and r_o [m] add a·(c + K0·σ·tan φ) to the apparent τ (Section 4.2.3).  Scalars
+    in, a float out; arrays in, an array out.
+    """
+    r_inner, r_outer, height = (np.asarray(v, float) for v in (r_inner, r_outer, height))
+    a = 3.0 * height * (r_inner**2 + r_outer**2) / (r_outer**3 - r_inner**3)
+    return float(a) if a.ndim == 0 else a

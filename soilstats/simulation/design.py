@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..campaign.derived import aspect_ratio, bekker_b, plate_area
 from .effects import parameter_factors
 from .spec import PARAMS, Series, Spec
 
@@ -23,17 +24,13 @@ __all__ = ["draw_parameters", "expand", "operator_biases"]
 
 
 def _plate_columns(plate: dict[str, Any]) -> dict[str, Any]:
+    """The plate's b, area and aspect ratio, from the campaign's own geometry (Eqs. 6–7)."""
     out = dict(plate)
-    if plate["shape"] == "circle":
-        out["b_m"], out["area_m2"], out["aspect_ratio"] = (
-            plate["radius_m"],
-            math.pi * plate["radius_m"] ** 2,
-            1.0,
-        )
-    else:
-        out["b_m"] = plate["width_m"]
-        out["area_m2"] = plate["width_m"] * plate["length_m"]
-        out["aspect_ratio"] = plate["length_m"] / plate["width_m"]
+    shape, radius = plate["shape"], plate.get("radius_m", np.nan)
+    width, length = plate.get("width_m", np.nan), plate.get("length_m", np.nan)
+    out["b_m"] = float(bekker_b(shape, radius, width))
+    out["area_m2"] = float(plate_area(shape, radius, width, length))
+    out["aspect_ratio"] = float(aspect_ratio(shape, width, length))
     return out
 
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from .spec import PARAMS, Effect, SpecError
 
-__all__ = ["apparent_shear", "check_effect", "parameter_factors", "side_wall_ratio", "soften"]
+__all__ = ["apparent_shear", "check_effect", "parameter_factors", "soften"]
 
 _ALLOWED = {
     "covariate": ("column", "parameters", "levels", "slope", "reference"),
@@ -202,11 +202,6 @@ def side_wall_K0(effects: tuple[Effect, ...], row: dict[str, Any]) -> float | No
         if effect.kind == "side-walls" and effect.applies(row["soil"], row["series"]):
             return effect.options["K0"]
     return None
-
-
-def side_wall_ratio(r_inner: float, r_outer: float, height: float) -> float:
-    """a = 3h(r_i² + r_o²)/(r_o³ − r_i³): side-wall torque over Eq. 12's base torque per stress."""
-    return 3.0 * height * (r_inner**2 + r_outer**2) / (r_outer**3 - r_inner**3)
 
 
 def apparent_shear(c: float, phi_deg: float, a: float, K0: float) -> tuple[float, float]:

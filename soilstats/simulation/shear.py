@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..campaign.derived import ring_area, ring_torque
 from .sinkage import quantise
 from .spec import Noise, Resolution
 
@@ -52,7 +53,6 @@ def shear_samples(
         Noise stream; ``1 + 3·points`` normals are drawn whatever the noise levels.
     """
     ri, ro, h = row["r_inner_m"], row["r_outer_m"], row["grouser_height_m"]
-    ring_area = np.pi * (ro**2 - ri**2)
     r_mean = 0.5 * (ri + ro)
     angle = quantise(np.linspace(0.0, shear_deformation_m / r_mean, points), resolution.angle_rad)
     j = r_mean * angle  # Eq. 14
@@ -64,12 +64,12 @@ def shear_samples(
     tan_phi = np.tan(np.radians(params["phi"]))
     growth = -np.expm1(-j / params["K"])
     tau = (params["c"] + sigma * tan_phi) * growth  # Eq. 13
-    torque = tau * 2.0 * np.pi * (ro**3 - ri**3) / 3.0  # Eq. 12 inverted
+    torque = ring_torque(tau, ri, ro)  # Eq. 12 inverted
     if K0 is not None and h > 0:
         wall_stress = (params["c"] + K0 * sigma * tan_phi) * growth
         torque = torque + 2.0 * np.pi * h * (ri**2 + ro**2) * wall_stress
     torque = torque + offset + noise.torque_Nm * white
-    normal_force = sigma * ring_area + noise.normal_force_N * sensor
+    normal_force = sigma * ring_area(ri, ro) + noise.normal_force_N * sensor
     return (
         angle,
         quantise(torque, resolution.torque_Nm),

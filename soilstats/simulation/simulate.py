@@ -18,8 +18,9 @@ import numpy as np
 import pandas as pd
 
 from ..campaign import Campaign
+from ..models.shear import side_wall_ratio
 from .design import draw_parameters, expand, operator_biases
-from .effects import apparent_shear, side_wall_K0, side_wall_ratio, softening_of
+from .effects import apparent_shear, side_wall_K0, softening_of
 from .shear import shear_samples
 from .sinkage import sinkage_samples
 from .spec import SHEAR_PARAMS, SINKAGE_PARAMS, Spec, load_spec, parse_spec

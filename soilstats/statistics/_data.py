@@ -19,8 +19,6 @@ from ..errors import ConfoundingError, StatisticsInputError
 __all__ = ["ConfoundingError", "StatisticsInputError", "prepare"]
 
 
-
-
 def _check_frame(data: object) -> pd.DataFrame:
     if not isinstance(data, pd.DataFrame):
         raise StatisticsInputError(

@@ -19,7 +19,10 @@ side-wall terms of the torque conversion (Eq. 12 ignores them): S_c = 1 + a,
 S_t = 1 + a·K0, a = 3h(r_i² + r_o²)/(r_o³ − r_i³) for grousers of height h (docs/simulator.md).
 
 Every family is written as ``(f(θ), J(θ))`` closures over fixed inputs, for
-:func:`soilstats.identify`.
+:func:`soilstats.identify`.  The base parameters keep the units and plausible bounds of
+:data:`BEKKER`, :data:`BERNSTEIN` and :data:`JANOSI`; the side-wall ratio is
+:func:`~soilstats.models.shear.side_wall_ratio`.  Discovery (``soilstats.discovery``) chooses
+which family to fit; the equations live here with the base models.
 """
 
 from __future__ import annotations
@@ -28,19 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ShearLayout", "SinkageLayout", "shear_family", "side_wall_ratio", "sinkage_family"]
+from .shear import RAD_PER_DEG
 
-RAD_PER_DEG = np.pi / 180.0
-
-
-def side_wall_ratio(r_inner, r_outer, height):
-    """a = 3h(r_i² + r_o²)/(r_o³ − r_i³) [-]: side-wall over base-area torque per unit stress.
-
-    Eq. 12 turns torque into τ over the ring's annulus only; the cylindrical walls of height h
-    at r_i and r_o add a·(c + K0·σ·tan φ) to the apparent τ.
-    """
-    r_inner, r_outer, height = (np.asarray(v, float) for v in (r_inner, r_outer, height))
-    return 3.0 * height * (r_inner**2 + r_outer**2) / (r_outer**3 - r_inner**3)
+__all__ = ["ShearLayout", "SinkageLayout", "shear_family", "sinkage_family"]
 
 
 @dataclass(frozen=True)
