@@ -139,7 +139,7 @@ def main(repeat: int = 200) -> pd.DataFrame:
     base = table.loc[0, "ms_per_fit"]
     table["time ratio (x soilstats.identify)"] = table["ms_per_fit"] / base
     print(
-        f"Paper-size Bekker problem: {p.size} samples, {len(pooled.groups)} tests, "
+        f"Paper-size Bekker problem: {p.size} samples, {len(pooled.tests)} tests, "
         f"median of {repeat} cold-start fits each, interleaved"
     )
     print(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))

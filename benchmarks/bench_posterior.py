@@ -137,7 +137,7 @@ def main() -> pd.DataFrame:
     base = table["ESS/s"].iloc[0]
     table["ours / this"] = base / table["ESS/s"]
     print(
-        f"Paper-size Bekker posterior: {problem.n_obs} samples, {len(problem.groups)} tests; "
+        f"Paper-size Bekker posterior: {problem.n_obs} samples, {len(problem.tests)} tests; "
         f"ESS = min over (kc, kphi, n) of ArviZ bulk ESS; plain emcee: {WALKERS} walkers x "
         f"{STEPS} steps, {BURN} burn-in"
     )

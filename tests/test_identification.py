@@ -88,10 +88,14 @@ def test_bekker_recovers_truth_within_uncertainty():
     for name, value in TRUTH.items():
         assert abs(fit.params[name] - value) <= 4 * fit.stderr[name], name
     assert fit.converged and fit.epsilon > 0.9
-    groups = fit.groups
+    groups = fit.tests
     assert len(groups) == 12 and set(groups["excluded_z_nonpositive"]) == {2}
     assert np.allclose(groups["weight"], 1 / groups["p_max_Pa"])
     assert "z <= 0 excluded" in fit.summary()
+    doc = fit.to_dict()
+    assert doc["tests"] == 12 and set(doc["params"]) == set(TRUTH)
+    assert doc["stderr"]["n"] == pytest.approx(float(fit.stderr["n"]))
+    assert any("z <= 0 excluded" in note for note in doc["notes"])
 
 
 def test_lm_is_at_least_as_good_as_wong_in_epsilon():
@@ -147,7 +151,7 @@ def test_mohr_coulomb_on_steady_state_part():
     tan_sd = np.radians(fit.stderr["phi"]) * (1 + tan_fit**2)
     assert tan_truth * 0.99 - 4 * tan_sd <= tan_fit <= tan_truth + 4 * tan_sd
     assert 120.0 * 0.99 - 4 * fit.stderr["c"] <= fit.params["c"] <= 120.0 + 4 * fit.stderr["c"]
-    assert fit.groups["steady"].all()
+    assert fit.tests["steady"].all()
 
 
 def test_janosi_recovers_all_three_parameters():
@@ -165,7 +169,7 @@ def test_real_cullinan_campaign_identifies_per_method():
         assert 0 < fit.params["n"] < 3
     # method2-test4 starts 3.4 mm deep: kept and used, nothing excluded at z <= 0.
     fit = fit_sinkage(campaign, "bernstein", preparation="2")
-    row = fit.groups.set_index("test_id").loc["method2-test4"]
+    row = fit.tests.set_index("test_id").loc["method2-test4"]
     assert row["excluded_z_nonpositive"] == 0 and row["used"] == 100
     with pytest.raises(IdentifiabilityError):
         fit_sinkage(campaign, "bekker")

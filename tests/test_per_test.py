@@ -48,7 +48,7 @@ def test_sinkage_tests_recover_their_own_drawn_parameters(simulated):
     # that returned the soil-level value instead of the test's own would fail.
     np.testing.assert_allclose(fits["k"], k_true, rtol=0.03)
     np.testing.assert_allclose(fits["n"], truth["n"], atol=0.005)
-    assert (fits["n_sd"] > 0).all() and (fits["epsilon"] > 0.95).all()
+    assert (fits["n_stderr"] > 0).all() and (fits["epsilon"] > 0.95).all()
 
 
 def test_shear_tests_give_plateau_and_K_of_each_test(simulated):

@@ -38,10 +38,10 @@ def test_unusable_tests_say_why():
 def test_pooled_samples_map_back_to_their_tests():
     campaign = soilstats.load_campaign("simulated-paper")
     pooled = pool_shear(campaign, steady_only=False, weighting="max-stress", soil="soil01")
-    counts = np.bincount(pooled.test_index, minlength=len(pooled.groups))
-    assert np.array_equal(counts, pooled.groups["used"].to_numpy())
+    counts = np.bincount(pooled.test_index, minlength=len(pooled.tests))
+    assert np.array_equal(counts, pooled.tests["used"].to_numpy())
     taus = pooled.y
-    for pos in (0, len(pooled.groups) - 1):
+    for pos in (0, len(pooled.tests) - 1):
         mine = pooled.test_index == pos
         assert pooled.weights[mine] == pytest.approx(1 / taus[mine].max())
 
@@ -55,6 +55,6 @@ def test_skip_keeps_the_row_of_an_unusable_test(tmp_path):
     with pytest.raises(CampaignError, match=str(first)):
         pool_sinkage(broken)
     pooled = pool_sinkage(broken, on_unusable="skip")
-    row = pooled.groups.iloc[0]
+    row = pooled.tests.iloc[0]
     assert row["used"] == 0 and "at least 3" in row["problem"]
     assert 0 not in set(pooled.test_index)

@@ -42,5 +42,5 @@ def test_identify_result_is_unchanged_by_the_shortcut():
     slow = identify(BEKKER.func, x, p, [-5e3, 1e6, 1.0], jac=BEKKER.jac)
     assert fast.converged and fast.niter <= 2
     np.testing.assert_allclose(fast.values, slow.values, rtol=1e-8)
-    np.testing.assert_allclose(fast.errors, slow.errors, rtol=1e-6)
+    np.testing.assert_allclose(fast.stderr_values, slow.stderr_values, rtol=1e-6)
     assert fast.epsilon == pytest.approx(slow.epsilon, rel=1e-10)

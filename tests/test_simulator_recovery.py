@@ -141,7 +141,7 @@ def test_mohr_coulomb_recovers_truth_per_soil_and_ring(bundled, soil, tool):
     est, se = fit.params[["c", "phi"]].to_numpy(), fit.stderr[["c", "phi"]].to_numpy()
     tt = truth_tests.loc[sel.tests["test_id"]]
 
-    steady = fit.groups[fit.groups["steady"].astype(bool)].set_index("test_id")
+    steady = fit.tests[fit.tests["steady"].astype(bool)].set_index("test_id")
     used = sel.select(test_id=list(steady.index))
     real = fit_shear(
         _noise_free_shear(used, truth_tests, steady["steady_from_j_m"]), "mohr-coulomb"

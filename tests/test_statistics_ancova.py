@@ -58,7 +58,7 @@ def test_lines_recover_planted_cohesion_and_friction_angle():
     assert list(lines.index) == ["r0", "r1"] and list(lines["n"]) == [15, 15]
     for g, (cg, pg) in enumerate(zip(c, phi, strict=True)):
         row = lines.iloc[g]
-        assert abs(row["intercept"] - cg) < 4 * row["intercept_se"]
+        assert abs(row["intercept"] - cg) < 4 * row["intercept_stderr"]
         assert abs(row["phi_deg"] - pg) < 1.0
     assert res.slope_test.p_value < 1e-6
     text = res.summary()

@@ -50,7 +50,7 @@ def pooled_problem(
             y=pooled.y,
             w=pooled.weights,
             test_index=pooled.test_index,
-            groups=pooled.groups,
+            tests=pooled.tests,
             priors=resolve_priors(spec.name, spec.param_names, priors),
             plate_sizes=np.unique(b),
         )
@@ -63,7 +63,7 @@ def pooled_problem(
         )
         sigma, j = pooled.x["sigma_Pa"], pooled.x["j_m"]
         # Tests that contribute no sample (never steady) are not units of the posterior.
-        used = pooled.groups["used"].to_numpy() > 0
+        used = pooled.tests["used"].to_numpy() > 0
         owner = np.cumsum(used)[pooled.test_index] - 1
         x = sigma if spec is MOHR_COULOMB else np.vstack([sigma, j])
         problem = PooledProblem(
@@ -72,7 +72,7 @@ def pooled_problem(
             y=pooled.y,
             w=pooled.weights,
             test_index=owner,
-            groups=pooled.groups[used].reset_index(drop=True),
+            tests=pooled.tests[used].reset_index(drop=True),
             priors=resolve_priors(spec.name, spec.param_names, priors),
         )
         return problem, fit

@@ -42,8 +42,8 @@ class PooledProblem:
     y, w : ndarray, shape (N,)
         Measurements (Pa) and the weights w_r of Eq. 1.
     test_index : ndarray of int, shape (N,)
-        Row of ``groups`` each sample belongs to.
-    groups : DataFrame
+        Row of ``tests`` each sample belongs to.
+    tests : DataFrame
         One row per test (``test_id`` …), from the identification's bookkeeping.
     priors : tuple of Prior
         One per parameter.
@@ -56,7 +56,7 @@ class PooledProblem:
     y: np.ndarray
     w: np.ndarray
     test_index: np.ndarray
-    groups: pd.DataFrame
+    tests: pd.DataFrame
     priors: tuple[Prior, ...]
     plate_sizes: np.ndarray = field(default_factory=lambda: np.empty(0))
 

@@ -71,7 +71,7 @@ def _per_test_fits(pooled) -> tuple[np.ndarray, np.ndarray, np.ndarray, list, li
     of the tests used and the ids of tests whose fit failed (left out).
     """
     etas, covs, sizes, kept, failed = [], [], [], [], []
-    for t, tid in enumerate(pooled.groups["test_id"].astype(str)):
+    for t, tid in enumerate(pooled.tests["test_id"].astype(str)):
         m = pooled.test_index == t
         z, p, w = pooled.x["z_m"][m], pooled.y[m], pooled.weights[m]
         lnz, lnp = np.log(z), np.log(np.clip(p, p.max() * 1e-3, None))
@@ -373,7 +373,7 @@ def _population_idata(pops: _Population, run, rng, spec, pooled, kn, sizes, test
         pooled.y,
         pooled.weights,
         pooled.test_index,
-        pooled.groups,
+        pooled.tests,
         pops.priors,
     )
     posterior = xr.Dataset(

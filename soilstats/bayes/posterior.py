@@ -175,7 +175,7 @@ def finish(
 
 
 def _pooled_notes(problem: PooledProblem) -> list[str]:
-    g = problem.groups
+    g = problem.tests
     priors = "; ".join(
         f"{n}: {p}" for n, p in zip(problem.model.param_names, problem.priors, strict=True)
     )
@@ -243,7 +243,7 @@ def _inference_data(problem: PooledProblem, run: EnsembleRun, rss: np.ndarray, r
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
     obs_coords = {
         "obs": np.arange(problem.n_obs),
-        "test_id": ("obs", problem.groups["test_id"].astype(str).to_numpy()[problem.test_index]),
+        "test_id": ("obs", problem.tests["test_id"].astype(str).to_numpy()[problem.test_index]),
     }
     x = np.atleast_2d(problem.x)
     for label, row in zip(problem.model.inputs, x, strict=True):

@@ -179,7 +179,7 @@ def _record(kind, soil, by, label, model, fit) -> dict:
         "health": [{"code": f.code, "message": f.message} for f in fit.flags],
         "converged": fit.converged,
         "nobs": fit.nobs,
-        "tests": None if fit.groups is None else len(fit.groups),
+        "tests": None if fit.tests is None else len(fit.tests),
         "notes": list(fit.notes),
     }
 

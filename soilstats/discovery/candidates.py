@@ -129,18 +129,18 @@ def enumerate_candidates(
     """
     fit_columns = {
         "k",
-        "k_sd",
+        "k_stderr",
         "n",
-        "n_sd",
+        "n_stderr",
         "epsilon",
         "nobs",
         "converged",
         "message",
         "p_max_Pa",
         "tau_max",
-        "tau_max_sd",
+        "tau_max_stderr",
         "K",
-        "K_sd",
+        "K_stderr",
         "tau_ss_Pa",
         "steady",
     }

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, IdentifiabilityError
 
 __all__ = ["Gain", "cross_validate", "information_criteria", "make_folds"]
 
@@ -47,11 +47,11 @@ class Gain:
         RMS of the max-normalised prediction error over all held-out tests [-].
     relative : float
         1 − extended/base (> 0: the extension predicts better).
-    difference, se : float
+    difference, stderr : float
         Mean paired per-test difference of squared errors (base − extended) and its standard
         error.
     real : bool
-        ``difference > 2·se`` and ``relative > 0``.
+        ``difference > 2·stderr`` and ``relative > 0``.
     """
 
     metric: str
@@ -62,7 +62,7 @@ class Gain:
     extended: float
     relative: float
     difference: float
-    se: float
+    stderr: float
     real: bool
 
     def to_dict(self) -> dict:
@@ -72,7 +72,7 @@ class Gain:
             "extended": self.extended,
             "relative": self.relative,
             "difference": self.difference,
-            "se": self.se,
+            "stderr": self.stderr,
             "scheme": self.scheme,
             "folds": self.folds,
             "n_tests": self.n_tests,
@@ -112,8 +112,9 @@ def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> 
     ``folds`` (one fold number per row, from :func:`make_folds`) is shared by every extension
     compared for one finding, so their gains differ by the model only.  ``cache`` (a dict)
     keeps the base model's fold fits between calls.  Raises :class:`ConvergenceError` when a
-    fold's fit does not converge (the fold, the model and the reason are in the message): a
-    gain is never computed from a failed fit.
+    fold's fit does not converge and :class:`IdentifiabilityError` when a fold leaves too
+    little to fit (the fold, the model and the reason are in the message): a gain is never
+    computed from a failed fit.
     """
     rows = np.asarray(rows, int)
     folds = np.asarray(folds)
@@ -123,7 +124,9 @@ def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> 
     for fold in np.unique(folds):
         train, test = rows[folds != fold], rows[folds == fold]
         if train.size < 2:
-            raise ConvergenceError(f"fold {fold}: fewer than two training tests")
+            raise IdentifiabilityError(
+                f"cross-validation fold {fold} ({scheme}): fewer than two training tests"
+            )
         try:
             key = (scheme, int(fold))
             if key not in cache:
@@ -131,12 +134,12 @@ def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> 
                 cache[key] = (fb, _per_test_error(group, test, base_ext.predict(fb, group, test)))
             fb, err = cache[key]
             fe = ext.fit(group, train, base=fb)
-        except ConvergenceError as exc:
-            raise ConvergenceError(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
+        except (ConvergenceError, IdentifiabilityError) as exc:
+            raise type(exc)(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
         e_base[folds == fold] = err
         e_ext[folds == fold] = _per_test_error(group, test, ext.predict(fe, group, test))
     d = e_base - e_ext
-    se = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else np.inf
+    stderr = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else np.inf
     base, extended = float(np.sqrt(e_base.mean())), float(np.sqrt(e_ext.mean()))
     relative = 1.0 - extended / base if base > 0 else np.nan
     return Gain(
@@ -148,8 +151,8 @@ def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> 
         extended=extended,
         relative=float(relative),
         difference=float(d.mean()),
-        se=se,
-        real=bool(d.mean() > Z_KEEP * se and relative > 0),
+        stderr=stderr,
+        real=bool(d.mean() > Z_KEEP * stderr and relative > 0),
     )
 
 

@@ -80,10 +80,10 @@ def _pool(campaign, kind: str, soil: str, table: pd.DataFrame, points: int):
             soil=soil,
         )
         x = {"j": pooled.x["j_m"], "sigma": pooled.x["sigma_Pa"]}
-    order = pooled.groups["test_id"].astype(str).to_numpy()
+    order = pooled.tests["test_id"].astype(str).to_numpy()
     if not np.array_equal(order, table["test_id"].astype(str).to_numpy()):
         raise AssertionError("pooled tests and per-test table are out of step")  # a bug
-    usable = pooled.groups["used"].to_numpy() > 0
+    usable = pooled.tests["used"].to_numpy() > 0
     return x, pooled.y, pooled.weights, pooled.test_index, usable
 
 

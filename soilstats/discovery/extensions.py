@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, IdentifiabilityError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..identification.starting_values import janosi_start, reece_from_bekker, sinkage_start
@@ -213,7 +213,7 @@ class SinkageExtension(Extension):
         aspect = group.tests["aspect_ratio"].to_numpy(float)[rows]
         thresholds = sorted({a for a in np.round(aspect, 6) if a >= 1.5})
         if not thresholds:
-            raise ConvergenceError(
+            raise IdentifiabilityError(
                 f"{self.name}: no plate with aspect ratio ≥ 1.5 among the training tests; the "
                 "softening of narrow plates (Fig. 9) cannot be fitted"
             )

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from ..campaign import Campaign, load_campaign
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, IdentifiabilityError
 from ..report import Provenance
 from .candidates import candidate_values
 from .crossval import cross_validate, information_criteria, make_folds
@@ -285,8 +285,8 @@ def discover(
                         levels,
                         rng,
                     )
-                except ConvergenceError as exc:
-                    caveats.append(f"the base model did not converge on the tests in scope: {exc}")
+                except (ConvergenceError, IdentifiabilityError) as exc:
+                    caveats.append(f"cross-validation on the tests in scope failed: {exc}")
             else:
                 caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
             kept = chosen is not None and chosen[1].real
@@ -327,7 +327,7 @@ def discover(
                             make_folds(levels, "conditions", rng),
                             scheme="conditions",
                         )
-                    except ConvergenceError as exc:
+                    except (ConvergenceError, IdentifiabilityError) as exc:
                         caveats.append(f"leave-one-condition-out failed: {exc}")
             if chosen is not None and not chosen[1].real:
                 caveats.append(
@@ -339,8 +339,8 @@ def discover(
                     soil=g.soil,
                     cause=lead,
                     confounded_with=tuple(confounded_with),
-                    p_value=float(top["p_adjusted"]),
-                    p_raw=float(top["p_value"]),
+                    p_adjusted=float(top["p_adjusted"]),
+                    p_value=float(top["p_value"]),
                     responses=responses,
                     statistic=float(top["statistic"]),
                     effect_size=float(top["effect_size"]),
@@ -363,14 +363,14 @@ def discover(
                 # Re-test later leads against this extension fitted on the whole group.
                 try:
                     accepted = (chosen[0].name, chosen[0].fit(g, np.unique(g.owner)))
-                except ConvergenceError:
+                except (ConvergenceError, IdentifiabilityError):
                     accepted = (chosen[0].name, fitted)
         if len(leads) > max_leads:
             notes.append(
                 f"{g.label}: {len(leads) - max_leads} further significant cause(s) not extended "
                 f"(max_leads = {max_leads}): {', '.join(lv for lv, _ in leads[max_leads:])}"
             )
-    findings.sort(key=lambda f: (f.p_value, f.p_raw, -f.statistic))
+    findings.sort(key=lambda f: (f.p_adjusted, f.p_value, -f.statistic))
     untestable = table[table["p_value"].isna()] if not table.empty else table
     if len(untestable):
         names = sorted({f"{r.kind}/{r.soil}:{r.candidate}" for r in untestable.itertuples()})

@@ -33,10 +33,11 @@ class Finding:
         The candidate column or derived quantity (e.g. ``velocity_m_s``, ``aspect_ratio``).
     confounded_with : tuple of str
         Candidates whose effect this design cannot tell apart from the cause's.
-    p_value : float
+    p_adjusted : float
         Holm-adjusted p-value of the cause's strongest response (family: every candidate ×
         response × group of the campaign).
-    p_raw : float
+    p_value : float
+        The raw p-value of the same F-test.
     responses : tuple of str
         Per-test responses in which the cause showed (``level``, ``shape``, ``K``).
     statistic, effect_size : float
@@ -62,8 +63,8 @@ class Finding:
     soil: str
     cause: str
     confounded_with: tuple[str, ...]
+    p_adjusted: float
     p_value: float
-    p_raw: float
     responses: tuple[str, ...]
     statistic: float
     effect_size: float
@@ -88,11 +89,11 @@ class Finding:
             "kind": self.kind,
             "soil": self.soil,
             "cause": self.cause,
+            "p_adjusted": _num(self.p_adjusted),
             "p_value": _num(self.p_value),
             "extension": self.extension,
             "gain": gain,
             "confounded_with": list(self.confounded_with),
-            "p_raw": _num(self.p_raw),
             "responses": list(self.responses),
             "statistic": _num(self.statistic),
             "effect_size": _num(self.effect_size),
@@ -106,9 +107,9 @@ class Finding:
             out["gain_conditions"] = json_safe(self.gain_conditions.to_dict())
         if self.fit is not None:
             out["parameters"] = {
-                name: {"value": _num(v), "sigma": _num(s), "unit": self.fit.units.get(name, "")}
+                name: {"value": _num(v), "stderr": _num(s), "unit": self.fit.units.get(name, "")}
                 for name, v, s in zip(
-                    self.fit.param_names, self.fit.values, self.fit.errors, strict=True
+                    self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
                 )
             }
         return out
@@ -120,7 +121,8 @@ class Finding:
         lines = [
             f"{self.kind} / {self.soil}: cause {self.cause}{conf}",
             f"  shows in {', '.join(self.responses)}: F = {self.statistic:.4g}, partial eta^2 = "
-            f"{self.effect_size:.3f}, p = {self.p_raw:.3g} (Holm-adjusted {self.p_value:.3g}), "
+            f"{self.effect_size:.3f}, p = {self.p_value:.3g} "
+            f"(Holm-adjusted {self.p_adjusted:.3g}), "
             f"{self.n_tests} tests in scope",
         ]
         if self.gain is not None:
@@ -128,7 +130,7 @@ class Finding:
             lines.append(
                 f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds): "
                 f"base {g.base:.4f} -> extended {g.extended:.4f} (gain {g.relative:+.1%}, paired "
-                f"difference {g.difference:.3g} +/- {g.se:.2g})"
+                f"difference {g.difference:.3g} +/- {g.stderr:.2g})"
             )
         else:
             lines.append("  extension: none (no extension could be cross-validated)")
@@ -140,7 +142,7 @@ class Finding:
             )
         if self.fit is not None:
             for name, v, s in zip(
-                self.fit.param_names, self.fit.values, self.fit.errors, strict=True
+                self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
             ):
                 lines.append(
                     f"    {name:>34} = {v:>12.5g} +/- {s:<10.3g} {self.fit.units.get(name, '')}"

@@ -70,8 +70,6 @@ def identify(
     gtol: float = 1e-15,
     max_iter: int = 1000,
     on_failure: Literal["raise", "warn"] = "raise",
-    notes: Sequence[str] = (),
-    extra_flags: Sequence[HealthFlag] = (),
     name: str | None = None,
 ) -> FitResult:
     """Weighted Levenberg–Marquardt identification (Eq. 1) with σ from the covariance.
@@ -170,7 +168,7 @@ def identify(
     converged = out.converged
     message = out.reason
     cond, cov = _covariance(out.jacobian, rss, dof, out.gram)
-    flags = list(extra_flags)
+    flags: list[HealthFlag] = []
     with np.errstate(divide="ignore", invalid="ignore"):
         relative_sd = np.sqrt(np.diag(cov)) / np.abs(out.params)
     # Column scaling makes cond(J) blind to a parameter whose column has vanished (BoxBOD
@@ -200,7 +198,7 @@ def identify(
         model_name=name,
         param_names=param_names,
         values=out.params,
-        errors=np.sqrt(np.diag(cov)),
+        stderr_values=np.sqrt(np.diag(cov)),
         covariance=cov,
         epsilon=epsilon(out.residuals, wy),
         rss=rss,
@@ -216,7 +214,6 @@ def identify(
         condition_number=cond,
         residuals=out.residuals,
         extra_flags=tuple(flags),
-        notes=tuple(notes),
     )
     if not converged:
         text = f"{name}: identification did not converge — {message}"

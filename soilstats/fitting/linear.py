@@ -45,10 +45,6 @@ class LinearFit:
     residuals: np.ndarray = field(repr=False)
 
     @property
-    def bse(self) -> pd.Series:
-        return self.stderr
-
-    @property
     def residual_sd(self) -> float:
         return float(np.sqrt(self.rss / self.dof)) if self.dof > 0 else np.nan
 

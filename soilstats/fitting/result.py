@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -41,7 +41,7 @@ class FitResult:
 
     Attributes
     ----------
-    values, errors, covariance : numpy.ndarray
+    values, stderr_values, covariance : numpy.ndarray
         The same numbers as ``params``, ``stderr``, ``cov`` without labels.
     params, stderr : pandas.Series
         Estimates θ̂ and their standard deviations σ = √diag Cov(θ̂) (Eq. 3), indexed by name.
@@ -58,7 +58,7 @@ class FitResult:
     model_name: str
     param_names: tuple[str, ...]
     values: np.ndarray  # θ̂ as a plain array (params is the named view)
-    errors: np.ndarray  # σ (Eq. 3)
+    stderr_values: np.ndarray  # σ (Eq. 3)
     covariance: np.ndarray  # Cov(θ̂) (Eq. 4)
     epsilon: float
     rss: float
@@ -76,7 +76,6 @@ class FitResult:
     residuals: np.ndarray = field(default=None, repr=False)  # weighted residuals w·(y − f)
     extra_flags: tuple[HealthFlag, ...] = ()
     notes: tuple[str, ...] = ()
-    groups: pd.DataFrame | None = field(default=None, repr=False)  # per-test bookkeeping
 
     @classmethod
     def closed_form(
@@ -91,9 +90,6 @@ class FitResult:
         method: str,
         message: str,
         condition_number: float = np.nan,
-        notes=(),
-        extra_flags=(),
-        groups=None,
     ) -> FitResult:
         """Result of a non-iterative estimate (Wong's regressions, linear Mohr–Coulomb).
 
@@ -107,7 +103,7 @@ class FitResult:
             model_name=name or model.name,
             param_names=names,
             values=np.asarray(values, float),
-            errors=np.sqrt(np.diag(covariance)),
+            stderr_values=np.sqrt(np.diag(covariance)),
             covariance=covariance,
             epsilon=epsilon(resid, weighted_y),
             rss=float(resid @ resid),
@@ -123,9 +119,6 @@ class FitResult:
             method=method,
             condition_number=condition_number,
             residuals=resid,
-            extra_flags=tuple(extra_flags),
-            notes=tuple(notes),
-            groups=groups,
         )
 
     # -- named views, built on first use (pandas construction costs more than a whole fit) --
@@ -141,22 +134,17 @@ class FitResult:
     @cached_property
     def stderr(self) -> pd.Series:
         """Standard deviations σ = √diag Cov(θ̂) (Eq. 3), indexed by parameter name."""
-        return pd.Series(self.errors, index=self._index, name="stderr")
+        return pd.Series(self.stderr_values, index=self._index, name="stderr")
 
     @cached_property
     def cov(self) -> pd.DataFrame:
         """Covariance matrix Cov(θ̂) (Eq. 4), labelled by parameter name."""
         return pd.DataFrame(self.covariance, index=self._index, columns=self._index)
 
-    @property
-    def bse(self) -> pd.Series:
-        """Alias of :attr:`stderr` (statsmodels' name)."""
-        return self.stderr
-
     @cached_property
     def corr(self) -> pd.DataFrame:
         """Correlation matrix of the estimates."""
-        sd = self.errors
+        sd = self.stderr_values
         with np.errstate(invalid="ignore", divide="ignore"):
             c = self.covariance / np.outer(sd, sd)
         return pd.DataFrame(c, index=self.cov.index, columns=self.cov.columns)
@@ -212,7 +200,35 @@ class FitResult:
     def healthy(self) -> bool:
         return not self.flags
 
+    def annotated(self, notes=(), flags=()) -> FitResult:
+        """A copy with ``notes`` (str) and health ``flags`` (:class:`HealthFlag`) appended:
+        what the caller knows about the data that the fit itself cannot see."""
+        return replace(
+            self, notes=self.notes + tuple(notes), extra_flags=self.extra_flags + tuple(flags)
+        )
+
     # -- report ---------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """The JSON-ready content: estimates, stderr, units, ε, health and notes (NaN → None)."""
+
+        def num(v) -> float | None:
+            return float(v) if np.isfinite(v) else None
+
+        return {
+            "model": self.model_name,
+            "method": self.method,
+            "params": {k: num(v) for k, v in zip(self.param_names, self.values, strict=True)},
+            "stderr": {
+                k: num(v) for k, v in zip(self.param_names, self.stderr_values, strict=True)
+            },
+            "units": dict(self.units),
+            "epsilon": num(self.epsilon),
+            "converged": bool(self.converged),
+            "nobs": int(self.nobs),
+            "health": [{"code": f.code, "message": f.message} for f in self.flags],
+            "notes": list(self.notes),
+        }
+
     def summary(self) -> str:
         """A fit report in the manner of lmfit and statsmodels, ending with numbered notes."""
         width = 78
@@ -227,7 +243,8 @@ class FitResult:
             f"{'Jacobian:':<18}{self.jacobian_method:<12}{'cond(J):':<14}"
             f"{self.condition_number:.3g}",
             "-" * width,
-            f"{'param':>8} {'value':>14} {'sigma (Eq.3)':>14} {'rel.':>8} {'95% CI (t)':>25}  unit",
+            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} "
+            f"{'95% CI (t)':>25}  unit",
         ]
         ci = self.conf_int(0.05)
         for name in self.param_names:

@@ -57,9 +57,9 @@ def fit_per_test(
     Returns
     -------
     pandas.DataFrame
-        The test log (with derived columns) plus, for sinkage, ``k`` [N/m^(n+2)], ``k_sd``,
-        ``n``, ``n_sd``, ``z_max_m``, ``p_max_Pa``; for shear, ``tau_max`` [Pa],
-        ``tau_max_sd``, ``K`` [m], ``K_sd``, ``sigma_mean_Pa``, ``tau_ss_Pa`` (NaN when the
+        The test log (with derived columns) plus, for sinkage, ``k`` [N/m^(n+2)], ``k_stderr``,
+        ``n``, ``n_stderr``, ``z_max_m``, ``p_max_Pa``; for shear, ``tau_max`` [Pa],
+        ``tau_max_stderr``, ``K`` [m], ``K_stderr``, ``sigma_mean_Pa``, ``tau_ss_Pa`` (NaN when the
         test never reaches a steady state), ``steady``; and for both ``epsilon`` (Eq. 2 on
         the 1/max-weighted data), ``nobs``, ``converged``, ``message``.
     """
@@ -146,8 +146,8 @@ def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
 
 
 def _fitted(row: dict, fit) -> dict:
-    for name, value, sd in zip(fit.param_names, fit.values, fit.errors, strict=True):
-        row[name], row[f"{name}_sd"] = float(value), float(sd)
+    for name, value, sd in zip(fit.param_names, fit.values, fit.stderr_values, strict=True):
+        row[name], row[f"{name}_stderr"] = float(value), float(sd)
     flags = [f.code for f in fit.flags]
     row.update(epsilon=fit.epsilon, converged=bool(fit.converged), message="; ".join(flags) or "ok")
     return row
@@ -155,6 +155,6 @@ def _fitted(row: dict, fit) -> dict:
 
 def _failed(row: dict, names, reason: str) -> dict:
     for name in names:
-        row[name] = row[f"{name}_sd"] = np.nan
+        row[name] = row[f"{name}_stderr"] = np.nan
     row.update(epsilon=np.nan, converged=False, message=reason)
     return row

@@ -42,8 +42,8 @@ class PooledData:
     x: dict[str, np.ndarray]  # input columns by name, each (N,)
     y: np.ndarray  # (N,)
     weights: np.ndarray  # (N,)
-    test_index: np.ndarray  # (N,) position of each sample's test in ``groups``
-    groups: pd.DataFrame  # one row per test: bookkeeping of what was used and excluded
+    test_index: np.ndarray  # (N,) position of each sample's test in ``tests``
+    tests: pd.DataFrame  # one row per test: bookkeeping of what was used and excluded
 
 
 def equidistant_indices(z: np.ndarray, count: int | None) -> np.ndarray:
@@ -154,7 +154,7 @@ def pool_sinkage(
     weighted by 1/max(p) over its used samples (Section 2.1), or 1 with ``weighting="none"``.
 
     ``on_unusable="raise"`` makes a test the rule cannot use a :class:`CampaignError`;
-    ``"skip"`` keeps its row in ``groups`` (``used`` 0, the reason in ``problem``) with no
+    ``"skip"`` keeps its row in ``tests`` (``used`` 0, the reason in ``problem``) with no
     samples.
     """
     if weighting not in ("max-pressure", "none"):
@@ -214,7 +214,7 @@ def pool_sinkage(
         y=np.concatenate(ps),
         weights=np.repeat(groups["weight"].to_numpy(), used),
         test_index=np.repeat(np.arange(len(groups)), used),
-        groups=groups,
+        tests=groups,
     )
 
 
@@ -232,7 +232,7 @@ def pool_shear(
     ``steady_only`` keeps each test's steady-state part (Mohr–Coulomb, rule in
     :mod:`.steady_state`); otherwise Section 2.1's rule (:func:`kept_samples`: j >= 0,
     ``points_per_test`` nearest to equally spaced j) for Janosi–Hanamoto. ``weighting`` is
-    ``"none"`` or ``"max-stress"`` (1/max τ per test). Every test keeps a row in ``groups``;
+    ``"none"`` or ``"max-stress"`` (1/max τ per test). Every test keeps a row in ``tests``;
     one that contributes no sample has ``used`` 0 and the reason.
     """
     from .steady_state import steady_state
@@ -290,7 +290,7 @@ def pool_shear(
             "no selected shear test reaches a steady state, so Mohr–Coulomb (Eq. 15) has no "
             "data; see the steady-state rule in soilstats.identification.steady_state"
             if steady_only
-            else "no selected shear test has a usable record (see groups['problem'])"
+            else "no selected shear test has a usable record (see the fit's tests['problem'])"
         )
         raise CampaignError(why, file="shear.csv", column="torque_Nm")
     use = np.concatenate(used_rows)
@@ -300,7 +300,7 @@ def pool_shear(
         y=tau_all[use],
         weights=np.repeat(groups["weight"].to_numpy(float), counts),
         test_index=np.repeat(np.arange(len(groups)), counts),
-        groups=groups,
+        tests=groups,
     )
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Literal
 
 import numpy as np
@@ -13,6 +12,7 @@ from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
 from ..models import JANOSI, MOHR_COULOMB, get_model
 from .pooling import pool_shear
+from .result import CampaignFit
 from .starting_values import janosi_start
 
 __all__ = ["fit_shear", "pool_shear"]
@@ -46,7 +46,7 @@ def fit_shear(
         campaign, steady_only=spec is MOHR_COULOMB, weighting=weighting, **selection
     )
     sigma, j, tau, w = pooled.x["sigma_Pa"], pooled.x["j_m"], pooled.y, pooled.weights
-    groups = pooled.groups
+    groups = pooled.tests
     n_tests = len(groups)
     notes = [
         f"{n_tests} shear tests; normal pressures "
@@ -85,7 +85,7 @@ def fit_shear(
         notes.append(
             "Linear least squares (Section 2.2); phi = atan(tan phi), sigma by the delta method."
         )
-        return FitResult.closed_form(
+        mohr_coulomb = FitResult.closed_form(
             MOHR_COULOMB,
             [c, np.degrees(np.arctan(t))],
             cov,
@@ -94,10 +94,8 @@ def fit_shear(
             method="linear least squares on the steady-state part (Eq. 15)",
             message="linear least squares (closed form)",
             condition_number=lin.condition_number,
-            notes=notes,
-            extra_flags=flags,
-            groups=groups,
         )
+        return CampaignFit.of(mohr_coulomb, groups, notes, flags)
     if p0 is None:
         p0 = janosi_start(sigma, j, tau)
     notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
@@ -108,7 +106,5 @@ def fit_shear(
         p0,
         weights=w,
         on_failure=on_failure,
-        notes=notes,
-        extra_flags=flags,
     )
-    return replace(result, groups=groups)
+    return CampaignFit.of(result, groups, notes, flags)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Literal
 
 import numpy as np
@@ -12,6 +11,7 @@ from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BERNSTEIN, REECE, get_model
 from .pooling import PooledData, pool_sinkage
+from .result import CampaignFit
 from .starting_values import sinkage_start
 from .wong import wong_bekker, wong_bernstein
 
@@ -31,7 +31,7 @@ def _check_identifiable(model_name: str, pooled: PooledData) -> None:
 
 
 def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
-    g = pooled.groups
+    g = pooled.tests
     notes = [
         f"{len(g)} tests pooled ({', '.join(map(str, g['test_id'][:6]))}"
         f"{', …' if len(g) > 6 else ''}); plate sizes b = "
@@ -51,7 +51,7 @@ def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
     dropped = int(g["excluded_z_nonpositive"].sum())
     if dropped:
         notes.append(
-            f"{dropped} samples with z <= 0 excluded (no real z^n; per test in result.groups)."
+            f"{dropped} samples with z <= 0 excluded (no real z^n; per test in result.tests)."
         )
     return notes
 
@@ -86,9 +86,10 @@ def fit_sinkage(
 
     Returns
     -------
-    FitResult
-        ``params``/``stderr`` indexed ``kc, kphi, n`` / ``k, n`` / ``k1, k2, n``;
-        ``groups`` holds the per-test bookkeeping (samples used, excluded, weight).
+    CampaignFit
+        A :class:`~soilstats.fitting.FitResult` with ``params``/``stderr`` indexed
+        ``kc, kphi, n`` / ``k, n`` / ``k1, k2, n``; ``tests`` holds the per-test bookkeeping
+        (samples used, excluded, weight).
     """
     spec = get_model(model)
     if spec.name not in SINKAGE_MODELS:
@@ -113,7 +114,7 @@ def fit_sinkage(
             "Wong's method: ln p on ln z weighted by p^2; sigma from the linearised "
             f"regressions, not Eq. 4. {n_nonpos} samples with p <= 0 have no log and were excluded."
         )
-        return FitResult.closed_form(
+        closed = FitResult.closed_form(
             spec,
             theta,
             cov,
@@ -122,11 +123,10 @@ def fit_sinkage(
             name=f"{spec.name} (Wong)",
             method="Wong: p^2-weighted log-log regression",
             message="closed-form linear regressions",
-            notes=notes,
-            groups=pooled.groups,
         )
+        return CampaignFit.of(closed, pooled.tests, notes)
 
     if p0 is None:
         p0 = sinkage_start(spec.name, b, z, p)
-    result = identify(spec, x, p, p0, weights=w, on_failure=on_failure, notes=notes)
-    return replace(result, groups=pooled.groups)
+    result = identify(spec, x, p, p0, weights=w, on_failure=on_failure)
+    return CampaignFit.of(result, pooled.tests, notes)

@@ -38,7 +38,7 @@ def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
                     "stderr": fit.stderr[name],
                     "unit": fit.units.get(name, ""),
                     "epsilon": fit.epsilon,
-                    "tests": len(fit.groups) if fit.groups is not None else np.nan,
+                    "tests": len(fit.tests) if fit.tests is not None else np.nan,
                     "flags": "; ".join(flag.code for flag in fit.flags),
                 }
             )
@@ -64,7 +64,7 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
     body.append(
         [
             "tests",
-            *(str(len(fits[c].groups)) if fits[c].groups is not None else "-" for c in labels),
+            *(str(len(fits[c].tests)) if fits[c].tests is not None else "-" for c in labels),
         ]
     )
     body.append(

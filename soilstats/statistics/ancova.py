@@ -46,8 +46,8 @@ class AncovaResult:
         df_diff, ss_diff, F, PR(>F)`` as :func:`statsmodels.stats.anova.anova_lm` computes
         them (its ``Pr(>F)`` renamed ``PR(>F)`` like the other tables here).
     lines : pandas.DataFrame
-        Per group (from M2): ``n``, ``intercept`` (c, the response's unit), ``intercept_se``,
-        ``slope`` (tanφ when response and covariate share a unit), ``slope_se``, ``phi_deg``
+        Per group (from M2): ``n``, ``intercept`` (c, the response's unit), ``intercept_stderr``,
+        ``slope`` (tanφ when response and covariate share a unit), ``slope_stderr``, ``phi_deg``
         (atan(slope) in degrees).  Standard errors use M2's pooled residual variance.
     response, covariate, group : str
         The columns analysed.
@@ -179,9 +179,9 @@ def ancova(
         {
             "n": np.bincount(codes, minlength=k),
             "intercept": sep.params[:k],
-            "intercept_se": sep.bse[:k],
+            "intercept_stderr": sep.bse[:k],
             "slope": sep.params[k:],
-            "slope_se": sep.bse[k:],
+            "slope_stderr": sep.bse[k:],
         },
         index=pd.Index(list(levels), name=group),
     )

@@ -164,7 +164,7 @@ def evaluate_criteria(
                     crit1=c1,
                     crit2=c2,
                     crit3=c3,
-                    sigma=score,
+                    score=score,
                     epsilon=e,
                     scatter_cv=cv,
                     operator_p_holm=adjusted.get(m, math.nan),
@@ -185,9 +185,9 @@ def _best(table: pd.DataFrame) -> dict:
     if table.empty:
         return {"best": None, "reason": "no method evaluated"}
     agg = table.groupby("method").agg(
-        sigma=("sigma", "mean"), epsilon=("epsilon", "mean"), soils=("soil", "nunique")
+        score=("score", "mean"), epsilon=("epsilon", "mean"), soils=("soil", "nunique")
     )
-    ranked = agg.sort_values(["sigma", "epsilon"], ascending=False)
+    ranked = agg.sort_values(["score", "epsilon"], ascending=False)
     top = str(ranked.index[0])
     rows = table[table["method"] == top]
     na = rows[(rows[["crit1", "crit2", "crit3"]] == NA).any(axis=1)]
@@ -201,8 +201,8 @@ def _best(table: pd.DataFrame) -> dict:
                 f"({'; '.join(na['crit1_reason'].tolist() + na['crit2_reason'].tolist())})"
             ),
         }
-    tied = ranked[ranked["sigma"] == ranked["sigma"].iloc[0]]
-    reason = f"method {top}: highest mean Σ = {ranked['sigma'].iloc[0]:+.1f}"
+    tied = ranked[ranked["score"] == ranked["score"].iloc[0]]
+    reason = f"method {top}: highest mean Σ = {ranked['score'].iloc[0]:+.1f}"
     if len(tied) > 1:
         reason += (
             f", tied with {', '.join(str(m) for m in tied.index[1:])}; the tie is broken by the "

@@ -31,14 +31,14 @@ _EQUATIONS = {
         "p = k z^n                                  (Eq. 8)  Bernstein, per test and pooled",
         "min 1/2 || w (p_m - p(X, theta)) ||^2      (Eq. 9)  w = 1/max(p) per test",
         "eps = 1 - sqrt(sum e^2/(N-2)) / (sum|y|/N) (Eq. 2)  fit quality",
-        "sigma = sqrt(diag Cov), Cov = s^2 (J'J)^-1 (Eqs. 3-5)",
+        "stderr = sqrt(diag Cov), Cov = s^2 (J'J)^-1 (Eqs. 3-5)",
     ],
     "shear": [
         "tau = 3 T / (2 pi (ro^3 - ri^3))           (Eq. 12) shear stress",
         "j = (ro + ri)/2 * alpha                    (Eq. 14) shear deformation",
         "tau = (c + sigma tan phi)(1 - exp(-j/K))   (Eq. 13) per-test curve",
         "tau = c + sigma tan phi                    (Eq. 15) steady state, Mohr-Coulomb",
-        "sigma(c), sigma(phi) by linear least squares (paper ref. [9])",
+        "stderr(c), stderr(phi) by linear least squares (paper ref. [9])",
     ],
 }
 

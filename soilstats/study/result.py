@@ -19,7 +19,7 @@ CRITERIA_COLUMNS = [
     "crit1",
     "crit2",
     "crit3",
-    "sigma",
+    "score",
     "epsilon",
     "scatter_cv",
     "operator_p_holm",

@@ -114,5 +114,5 @@ def shear_effects(per_test: pd.DataFrame, spec, soil: str) -> dict:
     comparison.insert(0, "soil", soil)
     lines = result.lines.reset_index(names="level")
     lines.insert(0, "soil", soil)
-    lines["phi_se_deg"] = np.degrees(lines["slope_se"] / (1.0 + lines["slope"] ** 2))
+    lines["phi_stderr_deg"] = np.degrees(lines["slope_stderr"] / (1.0 + lines["slope"] ** 2))
     return {"effects": effects, "anova": comparison, "lines": lines, "notes": notes}
