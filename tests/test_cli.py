@@ -152,7 +152,8 @@ def test_series_and_by_the_same_column_tabulates_each_model_apart(capsys):
     code = main(["identify", "--series", "shape", "--by", "shape", "--progress", "off"])
     assert code == 0
     out = capsys.readouterr().out
-    assert "sinkage · soil01" in out and "no tests of series 'shape'" in out
+    assert "series shape · soil01 · bernstein" in out and "series shape · soil08 · bekker" in out
+    assert "no tests of series 'shape'" in out
 
 
 def test_unknown_soil_is_an_error_not_an_empty_table(capsys):

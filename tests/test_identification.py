@@ -183,3 +183,19 @@ def test_identify_cli_prints_table(capsys):
     assert "bernstein" in out and "epsilon (Eq. 2)" in out and "±" in out
     assert main(["--data", "no-such-campaign"]) == 2
     assert "no-such-campaign" in capsys.readouterr().err
+
+
+def test_fit_conditions_never_pools_series_and_picks_each_series_condition():
+    from soilstats.campaign import load_campaign
+    from soilstats.identification.conditions import fit_conditions
+
+    campaign = load_campaign("simulated-paper")
+    result = fit_conditions(campaign, "sinkage", soils=["soil01"])
+    series_of = campaign.tests.set_index("test_id")["series"].astype(str)
+    assert result.fits and not result.failures
+    for f in result.fits:
+        used = f.fit.tests["test_id"].astype(str)
+        assert set(series_of[used]) == {f.series}
+    columns = {f.series: f.column for f in result.fits}
+    assert columns["velocity"] == "velocity_m_s" and columns["preparation"] == "preparation"
+    assert result.to_dict()["fits"][0]["tests"] == result.fits[0].fit.n_tests

@@ -2,20 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
 from ..campaign.campaign import match_values
 from ..errors import StudyDataError
+from ..identification.conditions import condition_label
 
-__all__ = ["StudyDataError", "level_label", "select_tests"]
-
-
-def level_label(value) -> str:
-    """A factor level as text: numbers in short general format (4.8e-3 → '0.0048')."""
-    if isinstance(value, float | np.floating):
-        return f"{value:g}"
-    return str(value)
+__all__ = ["StudyDataError", "select_tests"]
 
 
 def select_tests(campaign, spec) -> pd.DataFrame:
@@ -74,9 +67,14 @@ def soils_with_levels(tests: pd.DataFrame, spec) -> tuple[list[str], list[str]]:
     """
     levels = tests.groupby("soil")[spec.factor].nunique()
     good = sorted(levels[levels >= 2].index.astype(str))
+
+    def values(soil) -> str:
+        return ", ".join(
+            map(condition_label, tests.loc[tests["soil"] == soil, spec.factor].unique())
+        )
+
     notes = [
-        f"soil {soil} left out: one {spec.factor} value only "
-        f"({', '.join(map(level_label, tests.loc[tests['soil'] == soil, spec.factor].unique()))})"
+        f"soil {soil} left out: one {spec.factor} value only ({values(soil)})"
         for soil in sorted(levels[levels < 2].index.astype(str))
     ]
     if not good:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..identification.conditions import condition_label
 from ..statistics import (
     ConfoundingError,
     StatisticsInputError,
@@ -29,7 +30,6 @@ from ..statistics import (
     effect_row,
     tukey_hsd,
 )
-from .data import level_label
 
 __all__ = ["factor_effects"]
 
@@ -73,7 +73,7 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float) -> dic
     """
     factor = spec.factor
     frame = per_test.copy()
-    frame["level"] = frame[factor].map(level_label)
+    frame["level"] = frame[factor].map(condition_label)
     effects, anovas, pairs, notes = [], [], [], []
     for resp in spec.responses:
         data = frame.dropna(subset=[resp.name])

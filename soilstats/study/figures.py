@@ -16,7 +16,7 @@ import numpy as np
 import seaborn as sns
 
 from ..campaign.campaign import match_values
-from .data import level_label
+from ..identification.conditions import condition_label
 
 __all__ = ["FIGURES", "make_figures"]
 
@@ -52,7 +52,7 @@ def curves(result, campaign) -> plt.Figure:
         for colour, (level, g) in zip(palette, stats.groupby(level=0), strict=True):
             z = g.index.get_level_values(1) * 1e3
             m, s = g["mean"] / 1e3, g["std"].fillna(0) / 1e3
-            ax.plot(z, m, color=colour, label=level_label(level))
+            ax.plot(z, m, color=colour, label=condition_label(level))
             ax.fill_between(z, m - s, m + s, color=colour, alpha=0.2)
         ax.set(title=soil, xlabel="sinkage z [mm]", ylabel="pressure p [kPa]")
         ax.legend(title=spec.factor, fontsize=7, title_fontsize=7)
@@ -78,8 +78,8 @@ def responses(result, campaign=None) -> plt.Figure:
     spec = result.spec
     names = [r.name for r in spec.responses if r.name in result.per_test.columns]
     fig, axes = plt.subplots(len(names), 1, figsize=(_SIZE[0], 2.6 * len(names)), squeeze=False)
-    data = result.per_test.assign(level=result.per_test[spec.factor].map(level_label))
-    order = [level_label(v) for v in sorted(result.per_test[spec.factor].dropna().unique())]
+    data = result.per_test.assign(level=result.per_test[spec.factor].map(condition_label))
+    order = [condition_label(v) for v in sorted(result.per_test[spec.factor].dropna().unique())]
     for ax, name in zip(axes[:, 0], names, strict=True):
         with _fixed_global_seed(0):  # seaborn jitters with numpy's global RNG
             sns.stripplot(
@@ -105,7 +105,7 @@ def relative(result, campaign=None) -> plt.Figure:
     params = result.parameters
     spec = result.spec
     fig, axes = _panels(max(1, params["parameter"].nunique()))
-    ref = level_label(spec.reference) if spec.reference is not None else None
+    ref = condition_label(spec.reference) if spec.reference is not None else None
     for ax, (name, g) in zip(axes, params.groupby("parameter", sort=False), strict=False):
         for soil, gs in g.groupby("soil"):
             base = gs[gs["condition"] == ref] if ref else gs.iloc[:1]
@@ -133,7 +133,7 @@ def mohr_coulomb(result, campaign=None) -> plt.Figure:
     """τ_ss against σ per test with each level's line τ = c + σ tanφ (Figs. 11–14)."""
     spec = result.spec
     fig, axes = _panels(len(result.soils))
-    data = result.per_test.assign(level=result.per_test[spec.factor].map(level_label))
+    data = result.per_test.assign(level=result.per_test[spec.factor].map(condition_label))
     for ax, soil in zip(axes, result.soils, strict=True):
         sub = data[(data["soil"] == soil) & data["tau_ss_Pa"].notna()]
         lines = result.lines[result.lines["soil"] == soil]

@@ -93,9 +93,9 @@ class StudyResult:
         ref = self.spec.reference
         if ref is None or self.pairs.empty:
             return pd.DataFrame()
-        from .data import level_label
+        from ..identification.conditions import condition_label
 
-        ref = level_label(ref)
+        ref = condition_label(ref)
         rows = []
         for _, r in self.pairs.iterrows():
             if ref not in (r["group1"], r["group2"]):

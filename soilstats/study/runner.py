@@ -11,11 +11,9 @@ import time
 
 import pandas as pd
 
-from ..errors import ConvergenceError, IdentifiabilityError
-from ..identification import fit_shear, fit_sinkage
-from ..identification.table import parameter_table
+from ..identification.conditions import fit_conditions
 from ..report import Provenance, source_date
-from .data import StudyDataError, level_label, select_tests, soils_with_levels
+from .data import StudyDataError, select_tests, soils_with_levels
 from .effects import factor_effects
 from .preparation import evaluate_criteria
 from .responses import PerTestCache
@@ -28,31 +26,22 @@ __all__ = ["run_study"]
 
 def _pooled_fits(campaign, tests: pd.DataFrame, spec, soil: str, notes: list) -> pd.DataFrame:
     """Per-condition identification of one soil (the paper's Tables 5–7), tidy."""
-    fits, models = {}, {}
-    sub = tests[tests["soil"].astype(str) == soil]
-    for value, group in sub.groupby(spec.factor, sort=True):
-        label = level_label(value)
-        ids = group["test_id"].astype(str).tolist()
-        model = spec.model
-        if spec.kind == "sinkage" and model in ("bekker", "reece") and group["b_m"].nunique() < 2:
-            if spec.fallback_model is None:
-                notes.append(f"{soil}, {label}: one plate size — {model} not identifiable")
-                continue
-            model = spec.fallback_model
-        try:
-            if spec.kind == "sinkage":
-                fits[label] = fit_sinkage(campaign, model, test_id=ids)
-            else:
-                fits[label] = fit_shear(campaign, model, test_id=ids)
-            models[label] = model
-        except (ConvergenceError, IdentifiabilityError, ValueError) as err:
-            notes.append(f"{soil}, {spec.factor} = {label}: pooled {model} fit failed — {err}")
-    if not fits:
-        return pd.DataFrame()
-    table = parameter_table(fits)
-    table.insert(0, "soil", soil)
-    table["model"] = table["condition"].map(models)
-    return table
+    result = fit_conditions(
+        campaign,
+        spec.kind,
+        by=spec.factor,
+        model=spec.model,
+        fallback_model=spec.fallback_model,
+        soils=[soil],
+        test_ids=tests["test_id"].astype(str).tolist(),
+    )
+    notes += list(result.notes) + [f"pooled fit failed: {f}" for f in result.failures]
+    table = result.table()
+    if table.empty:
+        return table
+    return table.drop(columns=["kind", "series"]).pipe(
+        lambda t: t[["soil", *[c for c in t.columns if c != "soil"]]]
+    )
 
 
 def run_study(

@@ -24,8 +24,8 @@ import pandas as pd
 import statsmodels.api as sm
 from scipy import stats
 
+from ..identification.conditions import condition_label
 from ..statistics import StatisticsInputError, TestResult, ancova, effect_row
-from .data import level_label
 
 __all__ = ["shear_effects"]
 
@@ -80,7 +80,7 @@ def shear_effects(per_test: pd.DataFrame, spec, soil: str) -> dict:
         ``lines`` (per-level c [Pa], φ [deg] with standard errors), ``notes``.
     """
     factor = spec.factor
-    frame = per_test.assign(level=per_test[factor].map(level_label))
+    frame = per_test.assign(level=per_test[factor].map(condition_label))
     notes = []
     unsteady = frame[~frame["steady"].astype(bool) | frame["tau_ss_Pa"].isna()]
     if len(unsteady):

@@ -1,0 +1,212 @@
+"""Per soil and condition identification: the paper's Tables 5–7 as one library call.
+
+A *condition* is one value of a test-log column (``by``: velocity, preparation, ring size …).
+Each (soil, condition) is fitted on its own with the paper's weighted LM (Section 2.1 pooling
+within it, never across conditions).  Campaigns with a ``series`` column keep their series
+apart too: tests of different series are different experiments and are never pooled.
+
+Used by ``soilstats identify`` and by every study's parameter table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
+from .result import CampaignFit
+from .shear import fit_shear
+from .sinkage import fit_sinkage
+from .table import format_parameter_table, parameter_table
+
+__all__ = [
+    "ConditionFit",
+    "ConditionFits",
+    "condition_label",
+    "default_condition",
+    "fit_conditions",
+]
+
+#: Test-log columns that define conditions when the caller names none, in order of preference.
+DEFAULT_CONDITION_COLUMNS = {
+    "sinkage": ("velocity_m_s", "preparation"),
+    "shear": ("tool", "r_inner_m"),
+}
+#: Bekker-type models need two or more plate sizes in a condition (Section 2.1).
+_NEEDS_SIZES = ("bekker", "reece")
+
+
+def condition_label(value) -> str:
+    """A condition value as text: numbers in short general format (4.8e-3 → '0.0048')."""
+    if isinstance(value, float | np.floating):
+        return f"{value:g}"
+    return str(value)
+
+
+def default_condition(tests: pd.DataFrame, kind: str, requested: str | None = None) -> str | None:
+    """The column whose values are the conditions: ``requested`` (checked), else the first of
+    :data:`DEFAULT_CONDITION_COLUMNS` that varies among ``tests``, else None (one condition)."""
+    if requested:
+        if requested not in tests.columns:
+            raise CampaignError(
+                f"condition column {requested!r} is not a test-log column; "
+                f"columns: {list(tests.columns)}",
+                file="tests.csv",
+                column=requested,
+            )
+        return requested
+    for column in DEFAULT_CONDITION_COLUMNS[kind]:
+        if column in tests.columns and tests[column].dropna().nunique() > 1:
+            return column
+    return None
+
+
+@dataclass(frozen=True)
+class ConditionFit:
+    """One (soil, series, condition) and its pooled fit."""
+
+    kind: str
+    soil: str
+    series: str | None
+    column: str | None
+    condition: str
+    model: str
+    fit: CampaignFit = field(repr=False)
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": self.kind,
+            "soil": self.soil,
+            "series": self.series,
+            "condition": {"column": self.column, "value": self.condition} if self.column else None,
+            "model": self.model,
+        } | {k: v for k, v in self.fit.to_dict().items() if k != "model"}
+
+
+@dataclass(frozen=True)
+class ConditionFits:
+    """Every (soil, condition) fit of one call, the conditions that failed, and why."""
+
+    fits: tuple[ConditionFit, ...]
+    failures: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    def blocks(self) -> dict[tuple, dict[str, CampaignFit]]:
+        """Fits grouped for Table-5 display: (kind, series, soil, model, column) → {label: fit}."""
+        out: dict[tuple, dict[str, CampaignFit]] = {}
+        for f in self.fits:
+            key = (f.kind, f.series, f.soil, f.model, f.column)
+            out.setdefault(key, {})[f.condition] = f.fit
+        return out
+
+    def table(self) -> pd.DataFrame:
+        """Tidy: one row per soil, condition and parameter (see :func:`parameter_table`)."""
+        frames = [
+            parameter_table(fits).assign(kind=k, series=s, soil=soil, model=m)
+            for (k, s, soil, m, _), fits in self.blocks().items()
+        ]
+        return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+    def summary(self) -> str:
+        """Table 5-style blocks, then the conditions not identified and the notes."""
+        lines = []
+        for (kind, series, soil, model, column), fits in self.blocks().items():
+            where = f" · series {series}" if series else ""
+            title = f"{kind}{where} · {soil} · {model} · conditions by {column or '(all tests)'}"
+            lines += ["", format_parameter_table(fits, title=title)]
+        lines += [f"  ! not identified: {failure}" for failure in self.failures]
+        lines += [f"  note: {note}" for note in self.notes]
+        return "\n".join(lines).lstrip("\n")
+
+    def to_dict(self) -> dict:
+        return {
+            "fits": [f.to_dict() for f in self.fits],
+            "failures": list(self.failures),
+            "notes": list(self.notes),
+        }
+
+
+def _model_for(kind: str, model: str, fallback: str | None, tests: pd.DataFrame):
+    """(model to fit or None, note): Bekker-type models fall back where one plate size."""
+    if kind == "shear":
+        return model, None
+    if model == "auto":
+        model, fallback = "bekker", fallback or "bernstein"
+    if model in _NEEDS_SIZES and tests["b_m"].nunique() < 2:
+        why = f"one plate size: {model}'s kc and kphi cannot be separated (Section 2.1)"
+        return (fallback, why) if fallback else (None, why)
+    return model, None
+
+
+def fit_conditions(
+    campaign,
+    kind: str,
+    *,
+    by: str | None = None,
+    model: str = "auto",
+    fallback_model: str | None = None,
+    soils: Sequence[str] | None = None,
+    test_ids: Sequence[str] | None = None,
+    **options,
+) -> ConditionFits:
+    """Fit every soil × series × condition of ``kind`` in ``campaign`` separately.
+
+    Parameters
+    ----------
+    campaign : Campaign
+    kind : ``"sinkage"`` or ``"shear"``
+    by : str, optional
+        Test-log column whose values are the conditions (default: :func:`default_condition`).
+    model : str
+        Sinkage: ``auto`` (Bekker, Bernstein where one plate size), ``bekker``, ``bernstein``,
+        ``reece``; shear: ``mohr-coulomb`` or ``janosi`` (``auto`` means Mohr–Coulomb).
+    fallback_model : str, optional
+        Model for a condition with one plate size when ``model`` needs several (else the
+        condition is reported as not identified).
+    soils, test_ids : sequence of str, optional
+        Restrict to these soils / tests.
+    **options
+        Passed to :func:`fit_sinkage` or :func:`fit_shear` (``method``, ``points_per_test`` …).
+    """
+    tests = campaign.tests[campaign.tests["kind"] == kind]
+    if test_ids is not None:
+        tests = tests[tests["test_id"].astype(str).isin(set(map(str, test_ids)))]
+    if soils is not None:
+        tests = tests[tests["soil"].astype(str).isin(set(map(str, soils)))]
+    if kind == "shear" and model == "auto":
+        model = "mohr-coulomb"
+    fits, failures = [], []
+    fallbacks: dict[tuple, list[str]] = {}
+    if "series" in tests.columns:
+        by_series = [(str(k), g) for k, g in tests.groupby("series", sort=True, dropna=False)]
+    else:
+        by_series = [(None, tests)]
+    for series, series_tests in by_series:
+        column = default_condition(series_tests, kind, by)
+        keys = ["soil", column] if column else ["soil"]
+        for key, group in series_tests.groupby(keys, sort=True, dropna=False):
+            soil = str(key[0])
+            label = condition_label(key[1]) if column else "all"
+            where = soil + (f", series {series}" if series else "")
+            where += f", {column} {label}" if column else ""
+            chosen, why = _model_for(kind, model, fallback_model, group)
+            if why:
+                fallbacks.setdefault((why, chosen), []).append(where)
+            if chosen is None:
+                continue
+            fitter = fit_sinkage if kind == "sinkage" else fit_shear
+            ids = list(group["test_id"].astype(str))
+            try:
+                fit = fitter(campaign, chosen, test_id=ids, **options)
+            except (ConvergenceError, IdentifiabilityError, CampaignError) as err:
+                failures.append(f"{where}: {chosen} — {err}")
+                continue
+            fits.append(ConditionFit(kind, soil, series, column, label, chosen, fit))
+    notes = [
+        f"{why}; {chosen + ' used' if chosen else 'not identified'}: {'; '.join(where)}"
+        for (why, chosen), where in fallbacks.items()
+    ]
+    return ConditionFits(tuple(fits), tuple(failures), tuple(notes))
