@@ -58,3 +58,25 @@ def test_every_public_name_resolves_and_is_listed():
     for name in soilstats.__all__:
         assert getattr(soilstats, name) is not None, name
     assert set(soilstats.__all__) <= set(dir(soilstats))
+
+
+def test_only_the_report_package_renders():
+    """Figures and PDFs have one home: no analysis module imports a plotting library."""
+    import ast
+    from pathlib import Path
+
+    package = Path(soilstats.__file__).parent
+    offenders = []
+    for path in package.rglob("*.py"):
+        if path.relative_to(package).parts[0] == "report":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                names = [node.module]
+            offenders += [
+                f"{path.name}: {n}" for n in names if n.split(".")[0] in ("matplotlib", "seaborn")
+            ]
+    assert offenders == []

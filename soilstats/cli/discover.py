@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
         provenance=provenance,
     )
     if args.out:
-        from ..discovery.report import write_report
+        from ..report.discovery_pdf import write_report
 
         folder = Path(args.out)
         document = {k: v for k, v in result.to_dict().items() if k != "provenance"}

@@ -67,10 +67,10 @@ def run(args: argparse.Namespace) -> int:
     import pandas as pd
 
     from ..bayes import joint_draws
-    from ..bayes.plots import write_report
     from ..campaign import load_campaign
     from ..errors import ConvergenceWarning
     from ..report import Provenance, json_safe, output_path, write_csv
+    from ..report.posterior_pdf import write_report
 
     models = args.model.split("+")
     campaign = apply_selection(load_campaign(args.data), args.select)

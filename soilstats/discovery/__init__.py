@@ -13,8 +13,10 @@
 ``extensions``     the library: velocity, softening, Reece, side walls, generic covariate
 ``crossval``       leave-whole-tests / conditions-out gain with its uncertainty, AIC/BIC
 ``result``         :class:`DiscoveryResult`, :class:`Finding`
-``report``         the PDF report
 =================  ========================================================================
+
+The PDF report is :mod:`soilstats.report.discovery_pdf`; the extended equations are in
+:mod:`soilstats.models.extended`.
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ from .spec import SpecError, StudySpec, available_studies, load_spec
 
 def __getattr__(name: str):
     if name == "write_report":  # the PDF report imports matplotlib and seaborn: only on use
-        from .report import write_report
+        from ..report.study_pdf import write_report
 
         return write_report
     raise AttributeError(f"module 'soilstats.study' has no attribute {name!r}")

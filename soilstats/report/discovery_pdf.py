@@ -16,26 +16,17 @@ import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
-from ..report import output_path
-from .candidates import candidate_values
+from ..discovery.candidates import candidate_values
+from .files import output_path
+from .pages import A4, provenance_page, text_pages, wrap_lines
+
+_INDENT = "      "
 
 __all__ = ["write_report"]
 
-_A4 = (8.27, 11.69)
-
-
-def _text_page(lines: list[str], title: str) -> Figure:
-    fig = Figure(figsize=_A4)
-    fig.text(0.05, 0.97, title, fontsize=13, weight="bold", va="top")
-    wrapped: list[str] = []
-    for line in lines:
-        wrapped += textwrap.wrap(line, 110, subsequent_indent="      ") or [""]
-    fig.text(0.05, 0.94, "\n".join(wrapped[:95]), family="monospace", fontsize=6.2, va="top")
-    return fig
-
 
 def _finding_page(index: int, f) -> Figure:
-    fig = Figure(figsize=_A4)
+    fig = Figure(figsize=A4)
     fig.suptitle(f"[{index}] {f.kind} / {f.soil}: cause {f.cause}", fontsize=12, weight="bold")
     g, rows = f.group, f.scope_rows
     ax1 = fig.add_axes((0.1, 0.68, 0.82, 0.22))
@@ -113,7 +104,9 @@ def write_report(
     provenance = result.provenance
     metadata = None if provenance is None else provenance.pdf_metadata("soilstats discovery")
     with PdfPages(path, metadata=metadata) as pdf:
-        pdf.savefig(_text_page(result.summary().splitlines(), "soilstats discovery"))
+        text_pages(
+            pdf, "soilstats discovery", wrap_lines(result.summary().splitlines(), indent=_INDENT)
+        )
         for i, f in enumerate(result.findings[:max_findings], 1):
             if f.group is not None and f.scope_rows is not None:
                 pdf.savefig(_finding_page(i, f))
@@ -121,7 +114,7 @@ def write_report(
             f"{fl['kind']} / {fl['soil']} [{fl['scope']}] {fl['code']}: {fl['message']}"
             for fl in result.flags
         ] or ["No red flags."]
-        pdf.savefig(_text_page(flags, "Physical red flags"))
+        text_pages(pdf, "Physical red flags", wrap_lines(flags, indent=_INDENT))
         if provenance is not None:
-            pdf.savefig(_text_page(provenance.lines(), "Provenance"))
+            provenance_page(pdf, provenance)
     return path

@@ -15,14 +15,14 @@ import pandas as pd
 from matplotlib.backends.backend_pdf import PdfPages
 
 from ..identification.table import format_value
-from ..report import Provenance, output_path
-from .figures import make_figures
-from .result import CRITERIA_COLUMNS
+from ..study.result import CRITERIA_COLUMNS
+from .files import output_path
+from .pages import A4, frame_lines, provenance_page, text_pages, wrap_paragraphs
+from .provenance import Provenance
+from .study_figures import make_figures
 
 __all__ = ["write_report"]
 
-_LINES_PER_PAGE = 62
-_A4 = (8.27, 11.69)
 
 _EQUATIONS = {
     "sinkage": [
@@ -41,34 +41,6 @@ _EQUATIONS = {
         "stderr(c), stderr(phi) by linear least squares (paper ref. [9])",
     ],
 }
-
-
-def _text_pages(pdf: PdfPages, title: str, lines: list[str]) -> int:
-    pages = 0
-    chunks = [lines[i : i + _LINES_PER_PAGE] for i in range(0, max(len(lines), 1), _LINES_PER_PAGE)]
-    for i, chunk in enumerate(chunks):
-        fig = plt.figure(figsize=_A4)
-        head = title if i == 0 else f"{title} (continued)"
-        fig.text(0.06, 0.965, head, fontsize=13, weight="bold", va="top")
-        fig.text(0.06, 0.935, "\n".join(chunk), fontsize=7.2, family="monospace", va="top")
-        pdf.savefig(fig)
-        plt.close(fig)
-        pages += 1
-    return pages
-
-
-def _wrap(text: str, width: int = 110) -> list[str]:
-    out = []
-    for para in text.split("\n\n"):
-        out += [*textwrap.wrap(" ".join(para.split()), width), ""]
-    return out
-
-
-def _frame_lines(frame: pd.DataFrame) -> list[str]:
-    with pd.option_context(
-        "display.width", 140, "display.max_columns", 30, "display.max_colwidth", 40
-    ):
-        return frame.to_string(index=False, float_format=lambda v: f"{v:.4g}").split("\n")
 
 
 def _parameter_lines(result) -> list[str]:
@@ -133,15 +105,15 @@ def _verdict_lines(result) -> list[str]:
             f"Each level against the reference {pairs['reference'].iloc[0]} "
             "(Tukey HSD, simultaneous intervals):"
         )
-        lines += _frame_lines(pairs.drop(columns=["reference"]))
+        lines += frame_lines(pairs.drop(columns=["reference"]))
         lines.append("")
     if result.criteria is not None:
         crit = result.criteria
         lines.append("Criteria of Table 1 per method (as the paper's Table 3):")
-        lines += _frame_lines(crit[CRITERIA_COLUMNS])
+        lines += frame_lines(crit[CRITERIA_COLUMNS])
         lines.append("")
         lines.append(f"Best method: {result.best.get('best')}")
-        lines += _wrap(result.best["reason"])
+        lines += wrap_paragraphs(result.best["reason"])
         lines.append("Reasons:")
         for _, r in crit.iterrows():
             lines += textwrap.wrap(
@@ -160,7 +132,7 @@ def _verdict_lines(result) -> list[str]:
 
 def _methods_lines(result) -> list[str]:
     spec = result.spec
-    lines = _wrap(spec.description)
+    lines = wrap_paragraphs(spec.description)
     lines.append("Equations used:")
     lines += ["  " + e for e in _EQUATIONS[spec.kind]]
     lines.append("")
@@ -190,7 +162,7 @@ def _methods_lines(result) -> list[str]:
             "Verdicts: effect (significant and beyond the margin), no relevant effect (all "
             "simultaneous intervals within the margin), inconclusive, no effect detected."
         )
-    lines += _wrap(stats)
+    lines += wrap_paragraphs(stats)
     return lines
 
 
@@ -205,7 +177,7 @@ def write_report(result, campaign, path: Path, *, overwrite: bool = False) -> in
     provenance = result.provenance or Provenance.of(campaign, seed=result.seed)
     pages = 0
     with PdfPages(path, metadata=provenance.pdf_metadata(spec.title)) as pdf:
-        fig = plt.figure(figsize=_A4)
+        fig = plt.figure(figsize=A4)
         fig.text(0.5, 0.80, spec.title, ha="center", fontsize=15, weight="bold", wrap=True)
         info = [
             f"soilstats study '{spec.name}'",
@@ -225,32 +197,32 @@ def write_report(result, campaign, path: Path, *, overwrite: bool = False) -> in
         if result.best is not None:
             summary.append(f"best preparation method: {result.best.get('best')}")
         text = "\n".join(
-            [*_wrap("The paper found: " + spec.paper_finding, 90), "Verdicts here:", *summary]
+            [
+                *wrap_paragraphs("The paper found: " + spec.paper_finding, 90),
+                "Verdicts here:",
+                *summary,
+            ]
         )
         fig.text(0.08, 0.52, text, va="top", fontsize=9, family="monospace")
         pdf.savefig(fig)
         plt.close(fig)
         pages += 1
-        pages += _text_pages(pdf, "Methods", _methods_lines(result))
-        pages += _text_pages(
+        pages += text_pages(pdf, "Methods", _methods_lines(result))
+        pages += text_pages(
             pdf,
             "Identified parameters per condition (value ± σ, Eqs. 3-5)",
             _parameter_lines(result),
         )
         title = "ANCOVA model comparisons" if spec.kind == "shear" else "ANOVA tables"
-        tables = _frame_lines(result.anova) if not result.anova.empty else ["(none)"]
+        tables = frame_lines(result.anova) if not result.anova.empty else ["(none)"]
         if not result.lines.empty:
             tables += ["", "Lines per level (separate-lines model):"]
-            tables += _frame_lines(result.lines)
-        pages += _text_pages(pdf, title, tables)
-        pages += _text_pages(pdf, "Verdicts", _verdict_lines(result))
+            tables += frame_lines(result.lines)
+        pages += text_pages(pdf, title, tables)
+        pages += text_pages(pdf, "Verdicts", _verdict_lines(result))
         for _name, fig in make_figures(result, campaign):
             pdf.savefig(fig)
             plt.close(fig)
             pages += 1
-        pages += _text_pages(pdf, "Provenance", _wrap_all(provenance.lines()))
+        pages += provenance_page(pdf, provenance)
     return pages
-
-
-def _wrap_all(lines: list[str], width: int = 110) -> list[str]:
-    return [part for line in lines for part in (textwrap.wrap(line, width) or [""])]

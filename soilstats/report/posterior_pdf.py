@@ -9,8 +9,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 
-from ..report import Provenance, output_path
-from .result import PosteriorResult
+from ..bayes.result import PosteriorResult
+from .files import output_path
+from .pages import provenance_page
+from .provenance import Provenance
 
 __all__ = ["write_report"]
 
@@ -116,9 +118,5 @@ def write_report(
                 pdf.savefig(fig)
                 plt.close(fig)
         if provenance is not None:
-            fig = plt.figure(figsize=(8.27, 11.69))
-            fig.text(0.06, 0.95, "Provenance", fontsize=13, weight="bold", va="top")
-            fig.text(0.06, 0.91, "\n".join(provenance.lines()), fontsize=7, va="top", wrap=True)
-            pdf.savefig(fig)
-            plt.close(fig)
+            provenance_page(pdf, provenance)
     return path
