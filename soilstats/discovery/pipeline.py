@@ -213,171 +213,31 @@ def discover(
     rng = np.random.default_rng(seed)
     groups, notes = build_groups(campaign, points_per_test=points_per_test, progress=progress)
     diags, table = diagnose_groups(groups, alpha=alpha)
-    notes = list(notes)
-    for d in diags:
-        notes.extend(n for n in d.notes if n not in notes)
-    findings: list[Finding] = []
-    explained: list[dict] = []
-    confounded: list[dict] = []
+    notes = list(dict.fromkeys([*notes, *(n for d in diags for n in d.notes)]))
+    confounded = [rec for d in diags for rec in _confounding_records(d)]
     work = []
-    for d in diags:
-        g = d.group
-        for r in d.relations:
-            text = (
-                f"{r.finer} and {r.coarser} are aliased (the same partition of the tests)"
-                if r.kind == "aliased"
-                else f"{r.finer} determines {r.coarser} (each {r.finer} has one {r.coarser})"
-            )
-            confounded.append(
-                {
-                    "kind": g.kind,
-                    "soil": g.soil,
-                    "relation": r.kind,
-                    "columns": [r.finer, r.coarser],
-                    "text": text,
-                }
-            )
-        if table.empty:
-            continue
-        rows = table[(table["kind"] == g.kind) & (table["soil"] == g.soil)]
-        leads = _leads(rows, d.relations)
-        work.append((d, rows, leads))
-    iterator = work
+    if not table.empty:
+        for d in diags:
+            rows = table[(table["kind"] == d.group.kind) & (table["soil"] == d.group.soil)]
+            work.append((d, rows, _leads(rows, d.relations)))
     if progress:
         from tqdm.auto import tqdm
 
-        iterator = tqdm(work, desc="extensions", unit="group")
-    for d, rows, leads in iterator:
-        g = d.group
-        accepted = None  # (name, fitted) of the latest kept extension in this group
-        for lead, confounded_with in leads[:max_leads]:
-            lead_rows = rows[(rows["candidate"] == lead) & rows["significant"]]
-            top = lead_rows.sort_values(["p_adjusted", "p_value"]).iloc[0]
-            if accepted is not None:
-                cond_table = conditional_responses(g, accepted[1])
-                p_after = retest(g, cond_table, lead, bool(top["categorical"]), top["blocks"])
-                m = len(leads)
-                if all(not (p * m < alpha) for p in p_after.values() if np.isfinite(p)):
-                    explained.append(
-                        {
-                            "kind": g.kind,
-                            "soil": g.soil,
-                            "candidate": lead,
-                            "by": accepted[0],
-                            "p_after": float(np.nanmin([*p_after.values(), 1.0])),
-                        }
-                    )
-                    continue
-            scope = np.asarray(top["rows"], int)
-            levels = candidate_values(g.tests, lead).astype(str).to_numpy()[scope]
-            responses = tuple(lead_rows["response"])
-            caveats = _caveats(lead_rows, lead, confounded_with)
-            base_ext, base_fitted, chosen, tried = None, None, None, []
-            if scope.size >= 6:
-                try:
-                    base_ext, base_fitted, chosen, tried = _try_extensions(
-                        g,
-                        scope,
-                        lead,
-                        confounded_with,
-                        bool(top["numeric"]),
-                        set(responses),
-                        levels,
-                        rng,
-                    )
-                except (ConvergenceError, IdentifiabilityError) as exc:
-                    caveats.append(f"cross-validation on the tests in scope failed: {exc}")
-            else:
-                caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
-            kept = chosen is not None and chosen[1].real
-            if kept and chosen[0].physical:
-                lead = _physical_name(lead, chosen[0].name, d.relations)
-                confounded_with = [m for m in [top["candidate"], *confounded_with] if m != lead]
-            fit = base_fit = fitted = None
-            info, gain_cond = {}, None
-            if chosen is not None:
-                fitted = chosen[2]
-                fit, base_fit = fitted.result, base_fitted.result
-                ib, ie = information_criteria(base_fit), information_criteria(fit)
-                info = {
-                    "aic_base": ib["aic"],
-                    "aic_extended": ie["aic"],
-                    "bic_base": ib["bic"],
-                    "bic_extended": ie["bic"],
-                }
-                implausible = _implausible(fit, base_fit)
-                if implausible:
-                    caveats.append(
-                        f"{chosen[0].name}: physically implausible parameter(s): "
-                        + "; ".join(implausible)
-                    )
-                n_levels = np.unique(levels).size
-                if (
-                    kept
-                    and n_levels >= 3
-                    and (chosen[0].physical or "linear" in chosen[0].name)
-                    and chosen[0].name != "softening"
-                ):
-                    try:
-                        gain_cond = cross_validate(
-                            g,
-                            scope,
-                            base_ext,
-                            chosen[0],
-                            make_folds(levels, "conditions", rng),
-                            scheme="conditions",
-                        )
-                    except (ConvergenceError, IdentifiabilityError) as exc:
-                        caveats.append(f"leave-one-condition-out failed: {exc}")
-            if chosen is not None and not chosen[1].real:
-                caveats.append(
-                    "no extension gives a real out-of-sample gain; the base model is kept"
-                )
-            findings.append(
-                Finding(
-                    kind=g.kind,
-                    soil=g.soil,
-                    cause=lead,
-                    confounded_with=tuple(confounded_with),
-                    p_adjusted=float(top["p_adjusted"]),
-                    p_value=float(top["p_value"]),
-                    responses=responses,
-                    statistic=float(top["statistic"]),
-                    effect_size=float(top["effect_size"]),
-                    n_tests=int(scope.size),
-                    extension=chosen[0].name if kept else None,
-                    fit=fit if kept else None,
-                    base_fit=base_fit,
-                    gain=chosen[1] if chosen is not None else None,
-                    gain_conditions=gain_cond,
-                    information=info,
-                    tried=tuple(tried),
-                    caveats=tuple(caveats),
-                    scope_rows=scope,
-                    group=g,
-                    fitted=fitted,
-                    base_fitted=base_fitted,
-                )
-            )
-            if kept and fitted is not None:
-                # Re-test later leads against this extension fitted on the whole group.
-                try:
-                    accepted = (chosen[0].name, chosen[0].fit(g, np.unique(g.owner)))
-                except (ConvergenceError, IdentifiabilityError):
-                    accepted = (chosen[0].name, fitted)
+        work = tqdm(work, desc="extensions", unit="group")
+    findings: list[Finding] = []
+    explained: list[dict] = []
+    for d, rows, leads in work:
+        found, why_not = _discover_group(d, rows, leads, alpha=alpha, rng=rng, max_leads=max_leads)
+        findings += found
+        explained += why_not
         if len(leads) > max_leads:
             notes.append(
-                f"{g.label}: {len(leads) - max_leads} further significant cause(s) not extended "
-                f"(max_leads = {max_leads}): {', '.join(lv for lv, _ in leads[max_leads:])}"
+                f"{d.group.label}: {len(leads) - max_leads} further significant cause(s) not "
+                f"extended (max_leads = {max_leads}): "
+                + ", ".join(lv for lv, _ in leads[max_leads:])
             )
     findings.sort(key=lambda f: (f.p_adjusted, f.p_value, -f.statistic))
-    untestable = table[table["p_value"].isna()] if not table.empty else table
-    if len(untestable):
-        names = sorted({f"{r.kind}/{r.soil}:{r.candidate}" for r in untestable.itertuples()})
-        notes.append(
-            f"{len(names)} candidate(s) could not be tested (no variation within strata, or no "
-            f"degrees of freedom): {', '.join(names[:12])}{', …' if len(names) > 12 else ''}"
-        )
+    notes += _untestable_note(table)
     return DiscoveryResult(
         findings=tuple(findings),
         flags=tuple(physical_flags(diags)),
@@ -391,3 +251,175 @@ def discover(
         source=source,
         provenance=provenance or Provenance.of(campaign, seed=seed),
     )
+
+
+# ----------------------------------------------------------------------------- the steps
+def _confounding_records(diag) -> list[dict]:
+    """What the design cannot tell apart in one (kind, soil), as JSON-ready records."""
+    g = diag.group
+    out = []
+    for r in diag.relations:
+        text = (
+            f"{r.finer} and {r.coarser} are aliased (the same partition of the tests)"
+            if r.kind == "aliased"
+            else f"{r.finer} determines {r.coarser} (each {r.finer} has one {r.coarser})"
+        )
+        out.append(
+            {
+                "kind": g.kind,
+                "soil": g.soil,
+                "relation": r.kind,
+                "columns": [r.finer, r.coarser],
+                "text": text,
+            }
+        )
+    return out
+
+
+def _discover_group(diag, rows, leads, *, alpha, rng, max_leads) -> tuple[list, list]:
+    """Findings of one (kind, soil), leads strongest first, and the leads that an extension
+    kept before them already explains."""
+    g = diag.group
+    findings, explained = [], []
+    accepted = None  # (name, fitted) of the latest kept extension in this group
+    for lead, confounded_with in leads[:max_leads]:
+        lead_rows = rows[(rows["candidate"] == lead) & rows["significant"]]
+        top = lead_rows.sort_values(["p_adjusted", "p_value"]).iloc[0]
+        if accepted is not None:
+            why = _explained_by(g, accepted, lead, top, n_leads=len(leads), alpha=alpha)
+            if why is not None:
+                explained.append(why)
+                continue
+        finding = _examine_lead(g, diag.relations, lead_rows, top, lead, confounded_with, rng)
+        findings.append(finding)
+        if finding.extension is not None:
+            # Re-test later leads against this extension fitted on the whole group.
+            ext = finding.fitted.extension
+            try:
+                accepted = (ext.name, ext.fit(g, np.unique(g.owner)))
+            except (ConvergenceError, IdentifiabilityError):
+                accepted = (ext.name, finding.fitted)
+    return findings, explained
+
+
+def _explained_by(g, accepted, lead, top, *, n_leads, alpha) -> dict | None:
+    """The record of ``lead`` explained by the accepted extension (no response stays
+    significant, Bonferroni over the leads), or None when it still shows."""
+    cond_table = conditional_responses(g, accepted[1])
+    p_after = retest(g, cond_table, lead, bool(top["categorical"]), top["blocks"])
+    if any(p * n_leads < alpha for p in p_after.values() if np.isfinite(p)):
+        return None
+    return {
+        "kind": g.kind,
+        "soil": g.soil,
+        "candidate": lead,
+        "by": accepted[0],
+        "p_after": float(np.nanmin([*p_after.values(), 1.0])),
+    }
+
+
+def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng) -> Finding:
+    """One finding: try the library's extensions on the tests in scope, keep one only where
+    its cross-validated gain is real, and state every caveat."""
+    scope = np.asarray(top["rows"], int)
+    levels = candidate_values(g.tests, lead).astype(str).to_numpy()[scope]
+    responses = tuple(lead_rows["response"])
+    caveats = _caveats(lead_rows, lead, confounded_with)
+    base_ext = base_fitted = chosen = None
+    tried: list = []
+    if scope.size >= 6:
+        numeric = bool(top["numeric"])
+        try:
+            base_ext, base_fitted, chosen, tried = _try_extensions(
+                g, scope, lead, confounded_with, numeric, set(responses), levels, rng
+            )
+        except (ConvergenceError, IdentifiabilityError) as exc:
+            caveats.append(f"cross-validation on the tests in scope failed: {exc}")
+    else:
+        caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
+    kept = chosen is not None and chosen[1].real
+    if kept and chosen[0].physical:
+        lead = _physical_name(lead, chosen[0].name, relations)
+        confounded_with = [m for m in [top["candidate"], *confounded_with] if m != lead]
+    fitted = chosen[2] if chosen is not None else None
+    fit = fitted.result if fitted is not None else None
+    base_fit = base_fitted.result if chosen is not None else None
+    info, gain_cond = {}, None
+    if chosen is not None:
+        info = _information(base_fit, fit)
+        implausible = _implausible(fit, base_fit)
+        if implausible:
+            caveats.append(
+                f"{chosen[0].name}: physically implausible parameter(s): " + "; ".join(implausible)
+            )
+        if kept:
+            gain_cond = _condition_gain(g, scope, base_ext, chosen[0], levels, rng, caveats)
+        else:
+            caveats.append("no extension gives a real out-of-sample gain; the base model is kept")
+    return Finding(
+        kind=g.kind,
+        soil=g.soil,
+        cause=lead,
+        confounded_with=tuple(confounded_with),
+        p_adjusted=float(top["p_adjusted"]),
+        p_value=float(top["p_value"]),
+        responses=responses,
+        statistic=float(top["statistic"]),
+        effect_size=float(top["effect_size"]),
+        n_tests=int(scope.size),
+        extension=chosen[0].name if kept else None,
+        fit=fit if kept else None,
+        base_fit=base_fit,
+        gain=chosen[1] if chosen is not None else None,
+        gain_conditions=gain_cond,
+        information=info,
+        tried=tuple(tried),
+        caveats=tuple(caveats),
+        scope_rows=scope,
+        group=g,
+        fitted=fitted,
+        base_fitted=base_fitted,
+    )
+
+
+def _information(base_fit, fit) -> dict:
+    """AIC and BIC of the base and the extended fit, side by side."""
+    ib, ie = information_criteria(base_fit), information_criteria(fit)
+    return {
+        "aic_base": ib["aic"],
+        "aic_extended": ie["aic"],
+        "bic_base": ib["bic"],
+        "bic_extended": ie["bic"],
+    }
+
+
+def _condition_gain(g, scope, base_ext, ext, levels, rng, caveats: list):
+    """Leave-one-condition-out gain: does the extension predict a condition it never saw?
+
+    Only for trends a formula can carry to a new level (physical or linear extensions, three
+    or more levels); softening has no such level.  A failure becomes a caveat.
+    """
+    if np.unique(levels).size < 3 or ext.name == "softening":
+        return None
+    if not (ext.physical or "linear" in ext.name):
+        return None
+    try:
+        return cross_validate(
+            g, scope, base_ext, ext, make_folds(levels, "conditions", rng), scheme="conditions"
+        )
+    except (ConvergenceError, IdentifiabilityError) as exc:
+        caveats.append(f"leave-one-condition-out failed: {exc}")
+        return None
+
+
+def _untestable_note(table: pd.DataFrame) -> list[str]:
+    """One note naming the candidates that could not be tested, if any."""
+    untestable = table[table["p_value"].isna()] if not table.empty else table
+    if not len(untestable):
+        return []
+    names = sorted({f"{r.kind}/{r.soil}:{r.candidate}" for r in untestable.itertuples()})
+    more = ", …" if len(names) > 12 else ""
+    return [
+        f"{len(names)} candidate(s) could not be tested (no variation within strata, or no "
+        f"degrees of freedom): {', '.join(names[:12])}{more}"
+    ]
