@@ -44,9 +44,8 @@ import pandas as pd
 import xarray as xr
 from scipy import optimize
 
-from ..errors import ConvergenceError
-from ..fitting import identify
 from ..identification import fit_sinkage, pool_sinkage
+from ..identification.per_test import TEST_FIT_ERRORS, fit_bernstein_test
 from ..models import BEKKER, BERNSTEIN, get_model
 from ._arviz import az
 from .likelihood import PooledProblem
@@ -74,11 +73,9 @@ def _per_test_fits(pooled) -> tuple[np.ndarray, np.ndarray, np.ndarray, list, li
     for t, tid in enumerate(pooled.tests["test_id"].astype(str)):
         m = pooled.test_index == t
         z, p, w = pooled.x["z_m"][m], pooled.y[m], pooled.weights[m]
-        lnz, lnp = np.log(z), np.log(np.clip(p, p.max() * 1e-3, None))
-        n0, lnk0 = np.polyfit(lnz, lnp, 1, w=np.clip(p, 0, None))
         try:
-            fit = identify(BERNSTEIN, z, p, [np.exp(lnk0), n0], weights=w)
-        except (ConvergenceError, ValueError, np.linalg.LinAlgError):  # as fit_per_test
+            fit = fit_bernstein_test(z, p, w, name=f"bernstein {tid}")
+        except TEST_FIT_ERRORS:  # reported below as left out, as fit_per_test reports it
             failed.append(tid)
             continue
         cov = fit.cov.to_numpy()

@@ -26,8 +26,8 @@ from ..errors import CampaignError, ConvergenceError, ConvergenceWarning
 from ..fitting.identify import identify
 from ..models import BERNSTEIN, SHEAR_CURVE
 from .pooling import kept_samples
+from .starting_values import sinkage_start
 from .steady_state import steady_state
-from .wong import wong_start
 
 __all__ = ["fit_per_test"]
 
@@ -108,13 +108,25 @@ def _fit_sinkage_test(tid: str, data: dict, points_per_test) -> dict:
     if kept.problem is not None:
         return _failed(row, ("k", "n"), kept.problem)
     row.update(z_max_m=float(z.max()), p_max_Pa=float(p.max()))
-    weights = np.full(z.size, kept.weight)
     try:
-        p0 = wong_start(None, z, p)
-        fit = identify(BERNSTEIN, z, p, p0, weights=weights, name=f"bernstein {tid}")
-    except (ConvergenceError, ValueError, np.linalg.LinAlgError) as exc:
+        fit = fit_bernstein_test(z, p, np.full(z.size, kept.weight), name=f"bernstein {tid}")
+    except TEST_FIT_ERRORS as exc:
         return _failed(row, ("k", "n"), str(exc))
     return _fitted(row, fit)
+
+
+#: What a single test's fit may raise: the test is then reported as failed, never dropped.
+TEST_FIT_ERRORS = (ConvergenceError, ValueError, np.linalg.LinAlgError)
+
+
+def fit_bernstein_test(z, p, weights, *, name: str = "bernstein"):
+    """Bernstein (Eq. 8) on one test's kept samples: z [m], p [Pa], per-sample weights.
+
+    The one per-test sinkage fit of soilstats (per-test responses, discovery, the population
+    posterior).  Starts from Wong's estimate; raises one of :data:`TEST_FIT_ERRORS`.
+    """
+    p0 = sinkage_start("bernstein", None, z, p)
+    return identify(BERNSTEIN, z, p, p0, weights=weights, name=name)
 
 
 def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
@@ -140,7 +152,7 @@ def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
     k0 = float(j[reach[0]]) if reach.size and j[reach[0]] > 0 else float(np.ptp(j)) / 20 or 1e-3
     try:
         fit = identify(SHEAR_CURVE, j, tau, [tau_top, k0], weights=weights, name=f"shear {tid}")
-    except (ConvergenceError, ValueError, np.linalg.LinAlgError) as exc:
+    except TEST_FIT_ERRORS as exc:
         return _failed(row, ("tau_max", "K"), str(exc))
     return _fitted(row, fit)
 
