@@ -52,6 +52,9 @@ def test_result_groups_summary_and_convergence(campaign):
     assert "90% highest-density" in text and "Convergence: OK" in text
     assert post.diagnostics["r_hat"].max() <= 1.01
     assert post.diagnostics[["ess_bulk", "ess_tail"]].min().min() >= 400
+    doc = json.loads(json.dumps(post.to_dict(), allow_nan=False))
+    assert doc["converged"] is True and set(doc["params"]) == set(post.param_names)
+    assert doc["stderr"]["K"] == pytest.approx(post.diagnostics.loc["K", "sd"])
 
 
 def test_not_converged_is_loud(campaign):

@@ -145,6 +145,27 @@ class PosteriorResult:
         pick = rng.choice(len(table), size=n, replace=n > len(table))
         return table.iloc[pick].reset_index(drop=True)
 
+    def to_dict(self, prob: float = 0.9) -> dict:
+        """The JSON-ready content: per quantity mean, stderr (posterior sd), interval and
+        diagnostics; convergence and its problems; units, sampler settings and notes."""
+        from ..report import json_safe
+
+        table = self.summary_table(prob)
+        return json_safe(
+            {
+                "model": self.model_name,
+                "kind": self.kind,
+                "params": {n: table.loc[n, "mean"] for n in self.param_names},
+                "stderr": {n: table.loc[n, "sd"] for n in self.param_names},
+                "units": dict(self.units),
+                "converged": self.converged,
+                "problems": list(self.problems),
+                "diagnostics": table.reset_index(names="quantity").to_dict("records"),
+                "sampler": dict(self.sampler),
+                "notes": list(self.notes),
+            }
+        )
+
     def summary(self, prob: float = 0.9) -> str:
         """Readable report: estimates, ``prob`` HDI, diagnostics, sampler and numbered notes."""
         width = 92

@@ -65,6 +65,14 @@ class Gain:
     stderr: float
     real: bool
 
+    def summary(self) -> str:
+        """One line: the out-of-sample error before and after, and whether the gain is real."""
+        return (
+            f"{self.metric} {self.base:.4g} -> {self.extended:.4g} ({self.relative:+.1%}; "
+            f"difference {self.difference:.3g} ± {self.stderr:.2g}, {self.scheme}, "
+            f"{self.folds} folds): {'real' if self.real else 'not real'}"
+        )
+
     def to_dict(self) -> dict:
         return {
             "metric": self.metric,

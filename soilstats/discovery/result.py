@@ -157,6 +157,10 @@ class Finding:
         lines += [f"  caveat: {c}" for c in self.caveats]
         return lines
 
+    def summary(self) -> str:
+        """The finding in a few readable lines (as in :meth:`DiscoveryResult.summary`)."""
+        return "\n".join(self.summary_lines())
+
 
 @dataclass(frozen=True, eq=False)
 class DiscoveryResult:

@@ -48,6 +48,37 @@ class LinearFit:
     def residual_sd(self) -> float:
         return float(np.sqrt(self.rss / self.dof)) if self.dof > 0 else np.nan
 
+    def summary(self) -> str:
+        """Estimates ± stderr, R², F and the residual standard deviation, in a few lines."""
+        lines = [f"Linear least squares: {self.nobs} observations, {self.dof} DoF"]
+        lines += [
+            f"  {name:>10} = {value:.6g} ± {self.stderr[name]:.3g}"
+            for name, value in self.params.items()
+        ]
+        lines.append(
+            f"  R² = {self.r_squared:.6g}, F = {self.fvalue:.4g} (p = {self.f_pvalue:.3g}), "
+            f"residual sd = {self.residual_sd:.4g}, cond = {self.condition_number:.3g}"
+        )
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """The JSON-ready content (NaN → None)."""
+        from ..report import json_safe
+
+        return json_safe(
+            {
+                "params": dict(self.params),
+                "stderr": dict(self.stderr),
+                "nobs": self.nobs,
+                "dof": self.dof,
+                "rss": self.rss,
+                "r_squared": self.r_squared,
+                "fvalue": self.fvalue,
+                "f_pvalue": self.f_pvalue,
+                "condition_number": self.condition_number,
+            }
+        )
+
     def conf_int(self, alpha: float = 0.05) -> pd.DataFrame:
         t = stats.t.ppf(1 - alpha / 2, self.dof)
         return pd.DataFrame(

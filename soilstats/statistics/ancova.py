@@ -107,6 +107,24 @@ class AncovaResult:
             ]
         return "\n".join(parts)
 
+    def to_dict(self) -> dict:
+        """The JSON-ready content: the model comparison, the lines per group, both tests."""
+        from ..report import json_safe
+
+        return json_safe(
+            {
+                "response": self.response,
+                "covariate": self.covariate,
+                "group": self.group,
+                "n_obs": self.n_obs,
+                "n_dropped": self.n_dropped,
+                "comparison": self.comparison.reset_index(names="model").to_dict("records"),
+                "lines": self.lines.reset_index().to_dict("records"),
+                "slope_test": self.slope_test.to_dict(),
+                "intercept_test": self.intercept_test.to_dict(),
+            }
+        )
+
     def __str__(self) -> str:
         return self.summary()
 

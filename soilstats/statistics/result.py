@@ -55,5 +55,22 @@ class TestResult:
             lines += [f"  [{i}] {note}" for i, note in enumerate(self.notes, 1)]
         return "\n".join(lines)
 
+    def to_dict(self) -> dict:
+        """The JSON-ready content (NaN → None)."""
+
+        def num(v: float) -> float | None:
+            return float(v) if math.isfinite(v) else None
+
+        return {
+            "test": self.test,
+            "statistic": num(self.statistic),
+            "p_value": num(self.p_value),
+            "df_num": num(self.df_num),
+            "df_den": num(self.df_den),
+            "effect_size": num(self.effect_size),
+            "effect_size_name": self.effect_size_name,
+            "notes": list(self.notes),
+        }
+
     def __str__(self) -> str:
         return self.summary()

@@ -131,6 +131,12 @@ class StudyResult:
         ]
         return out
 
+    def to_dict(self) -> dict:
+        """The study's JSON document (see :func:`soilstats.study.outputs.to_json_dict`)."""
+        from .outputs import to_json_dict
+
+        return to_json_dict(self)
+
     def summary(self) -> str:
         """The verdicts in a few lines, the criteria table (preparation), then numbered notes."""
         lines = [f"Study {self.name!r}: {self.spec.title}", f"Data: {self.source}"]
