@@ -9,8 +9,6 @@ and the assertions compare the named cause and, where the extension has a physic
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -248,26 +246,14 @@ def test_candidates_and_aliasing_on_simulated_paper_shear():
     assert ("aliased", frozenset({"tool", "r_inner_m"})) in rel
 
 
-def test_cli_json_and_pdf(tmp_path):
+def test_cli_json_and_pdf(tmp_path, capsys):
+    from soilstats.cli.main import main
+
     spec, _, _ = PLANTED["side-walls"]
     folder = simulate(spec, seed=3).campaign.save(tmp_path / "camp")
-    out = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "soilstats",
-            "discover",
-            "--data",
-            str(folder),
-            "--json",
-            "--out",
-            str(tmp_path / "rep"),
-        ],
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    doc = json.loads(out.stdout)
+    args = ["discover", "--data", str(folder), "--json", "--out", str(tmp_path / "rep")]
+    assert main(args) == 0
+    doc = json.loads(capsys.readouterr().out)
     assert doc["findings"][0]["cause"] == "grouser_height_m"
     assert isinstance(doc["flags"], list)
     pdf = tmp_path / "rep" / "discover.pdf"
@@ -277,15 +263,12 @@ def test_cli_json_and_pdf(tmp_path):
     assert "side-walls" in "".join(p.extract_text() for p in PdfReader(pdf).pages)
 
 
-def test_cli_null_prints_empty_findings(tmp_path):
+def test_cli_null_prints_empty_findings(tmp_path, capsys):
+    from soilstats.cli.main import main
+
     folder = simulate(NULL, seed=0).campaign.save(tmp_path / "null")
-    out = subprocess.run(
-        [sys.executable, "-m", "soilstats", "discover", "--data", str(folder), "--json"],
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    assert json.loads(out.stdout)["findings"] == []
+    assert main(["discover", "--data", str(folder), "--json", "--progress", "off"]) == 0
+    assert json.loads(capsys.readouterr().out)["findings"] == []
 
 
 def test_simulated_paper_names_the_papers_effects():

@@ -90,6 +90,7 @@ def test_bundled_pooled_posteriors_converge_at_defaults(name, model, selection):
         assert abs(d.loc[p, "mean"] - post.lsq.params[p]) < 2 * post.lsq.stderr[p]
 
 
+@pytest.mark.slow
 def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
     camp = soilstats.load_campaign("cullinan-sand")
     pop = sample_population(camp, "bernstein", seed=0, preparation="1")
