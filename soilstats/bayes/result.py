@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from ..report.text import notes_block
 from ._arviz import az
 
 __all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose", "draws_converge"]
@@ -205,8 +206,7 @@ class PosteriorResult:
             f"Units: {units}.",
             *self.notes,
         )
-        lines.append("Notes:")
-        lines.extend(f"  [{i}] {note}" for i, note in enumerate(notes, 1))
+        lines.extend(notes_block(notes))
         lines.append("=" * width)
         return "\n".join(lines)
 

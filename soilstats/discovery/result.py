@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from ..report import Provenance, json_safe
+from ..report.text import notes_block
 
 __all__ = ["DiscoveryResult", "Finding"]
 
@@ -260,8 +261,7 @@ class DiscoveryResult:
             "overstate the evidence — the cross-validated gain decides.",
             *self.notes,
         ]
-        lines.append("Notes:")
-        lines.extend(f"  [{i}] {n}" for i, n in enumerate(notes, 1))
+        lines.extend(notes_block(notes))
         lines.append("=" * width)
         return "\n".join(lines)
 

@@ -9,6 +9,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from ..report.text import notes_block
+
 __all__ = ["FitResult", "HealthFlag", "epsilon"]
 
 CORRELATION_LIMIT = 0.95
@@ -268,13 +270,12 @@ class FitResult:
         lines.extend(f"  ! {flag}" for flag in flags)
         notes = (
             "Cov = s^2 (J^T J)^-1 with s^2 = sum (w e)^2 / (N - Np) (Eq. 4), J = d(w f)/dtheta "
-            "(Eq. 5); sigma = sqrt(diag Cov) (Eq. 3).",
+            "(Eq. 5); stderr = sqrt(diag Cov) (Eq. 3).",
             "epsilon (Eq. 2) = 1 - sqrt(sum (w e)^2 / (N - 2)) / (sum |w y| / N), on the "
             "weighted data as in the paper's normalised pressures.",
             *self.notes,
         )
-        lines.append("Notes:")
-        lines.extend(f"  [{i}] {note}" for i, note in enumerate(notes, 1))
+        lines.extend(notes_block(notes))
         lines.append("=" * width)
         return "\n".join(lines)
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ..report.text import notes_block
+
 __all__ = ["TestResult"]
 
 
@@ -50,9 +52,7 @@ class TestResult:
         ]
         if self.effect_size_name:
             lines.append(f"  {self.effect_size_name} = {self.effect_size:.3g}")
-        if self.notes:
-            lines.append("Notes:")
-            lines += [f"  [{i}] {note}" for i, note in enumerate(self.notes, 1)]
+        lines += notes_block(self.notes)
         return "\n".join(lines)
 
     def to_dict(self) -> dict:

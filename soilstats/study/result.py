@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from ..report import Provenance
+from ..report.text import notes_block
 
 __all__ = ["CRITERIA_COLUMNS", "StudyResult"]
 
@@ -158,9 +159,7 @@ class StudyResult:
             lines.append(
                 f"Best preparation method: {self.best.get('best')} — {self.best['reason']}"
             )
-        if self.notes:
-            lines.append("Notes:")
-            lines += [f"  [{i}] {n}" for i, n in enumerate(self.notes, 1)]
+        lines += notes_block(self.notes)
         return "\n".join(lines)
 
     def __str__(self) -> str:

@@ -1,0 +1,13 @@
+"""Plain-text pieces every ``summary()`` shares, so that all reports read alike."""
+
+from __future__ import annotations
+
+__all__ = ["notes_block"]
+
+
+def notes_block(notes) -> list[str]:
+    """``Notes:`` and each note numbered ``[1] …`` (nothing when there are none)."""
+    notes = list(notes)
+    if not notes:
+        return []
+    return ["Notes:", *(f"  [{i}] {note}" for i, note in enumerate(notes, 1))]
