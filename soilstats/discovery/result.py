@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -13,14 +12,6 @@ from ..report import Provenance, json_safe
 from ..report.text import notes_block
 
 __all__ = ["DiscoveryResult", "Finding"]
-
-
-def _num(x):
-    """JSON-safe number: NaN and ±inf become None."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,17 +81,17 @@ class Finding:
             "kind": self.kind,
             "soil": self.soil,
             "cause": self.cause,
-            "p_adjusted": _num(self.p_adjusted),
-            "p_value": _num(self.p_value),
+            "p_adjusted": json_safe(self.p_adjusted),
+            "p_value": json_safe(self.p_value),
             "extension": self.extension,
             "gain": gain,
             "confounded_with": list(self.confounded_with),
             "responses": list(self.responses),
-            "statistic": _num(self.statistic),
-            "effect_size": _num(self.effect_size),
+            "statistic": json_safe(self.statistic),
+            "effect_size": json_safe(self.effect_size),
             "n_tests": self.n_tests,
             "parameters": None,
-            "information": {k: _num(v) for k, v in self.information.items()},
+            "information": {k: json_safe(v) for k, v in self.information.items()},
             "tried": [json_safe(t) for t in self.tried],
             "caveats": list(self.caveats),
         }
@@ -108,7 +99,11 @@ class Finding:
             out["gain_conditions"] = json_safe(self.gain_conditions.to_dict())
         if self.fit is not None:
             out["parameters"] = {
-                name: {"value": _num(v), "stderr": _num(s), "unit": self.fit.units.get(name, "")}
+                name: {
+                    "value": json_safe(v),
+                    "stderr": json_safe(s),
+                    "unit": self.fit.units.get(name, ""),
+                }
                 for name, v, s in zip(
                     self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
                 )

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from ..report.files import json_safe
 from ..report.text import notes_block
 
 __all__ = ["FitResult", "HealthFlag", "epsilon"]
@@ -213,23 +214,20 @@ class FitResult:
     def to_dict(self) -> dict:
         """The JSON-ready content: estimates, stderr, units, ε, health and notes (NaN → None)."""
 
-        def num(v) -> float | None:
-            return float(v) if np.isfinite(v) else None
-
-        return {
-            "model": self.model_name,
-            "method": self.method,
-            "params": {k: num(v) for k, v in zip(self.param_names, self.values, strict=True)},
-            "stderr": {
-                k: num(v) for k, v in zip(self.param_names, self.stderr_values, strict=True)
-            },
-            "units": dict(self.units),
-            "epsilon": num(self.epsilon),
-            "converged": bool(self.converged),
-            "nobs": int(self.nobs),
-            "health": [{"code": f.code, "message": f.message} for f in self.flags],
-            "notes": list(self.notes),
-        }
+        return json_safe(
+            {
+                "model": self.model_name,
+                "method": self.method,
+                "params": dict(zip(self.param_names, self.values, strict=True)),
+                "stderr": dict(zip(self.param_names, self.stderr_values, strict=True)),
+                "units": self.units,
+                "epsilon": self.epsilon,
+                "converged": self.converged,
+                "nobs": self.nobs,
+                "health": [{"code": f.code, "message": f.message} for f in self.flags],
+                "notes": self.notes,
+            }
+        )
 
     def summary(self) -> str:
         """A fit report in the manner of lmfit and statsmodels, ending with numbered notes."""

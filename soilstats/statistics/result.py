@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ..report.files import json_safe
 from ..report.text import notes_block
 
 __all__ = ["TestResult"]
@@ -58,19 +59,18 @@ class TestResult:
     def to_dict(self) -> dict:
         """The JSON-ready content (NaN → None)."""
 
-        def num(v: float) -> float | None:
-            return float(v) if math.isfinite(v) else None
-
-        return {
-            "test": self.test,
-            "statistic": num(self.statistic),
-            "p_value": num(self.p_value),
-            "df_num": num(self.df_num),
-            "df_den": num(self.df_den),
-            "effect_size": num(self.effect_size),
-            "effect_size_name": self.effect_size_name,
-            "notes": list(self.notes),
-        }
+        return json_safe(
+            {
+                "test": self.test,
+                "statistic": self.statistic,
+                "p_value": self.p_value,
+                "df_num": self.df_num,
+                "df_den": self.df_den,
+                "effect_size": self.effect_size,
+                "effect_size_name": self.effect_size_name,
+                "notes": self.notes,
+            }
+        )
 
     def __str__(self) -> str:
         return self.summary()
