@@ -60,6 +60,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         default=100,
         help="samples per test after equal-sinkage thinning (Section 2.1; default 100)",
     )
+    parser.add_argument(
+        "--test-resamples",
+        type=int,
+        default=200,
+        help="resamples of the cluster bootstrap over tests behind stderr_tests (0: off; "
+        "default 200, seeded by --seed)",
+    )
     parser.add_argument("--verbose", action="store_true", help="print every fit's summary()")
 
 
@@ -105,11 +112,9 @@ def run(args: argparse.Namespace) -> int:
             if args.series is not None:
                 print(f"\n[{kind}: no tests of series {args.series!r}]", file=out)
             continue
-        options = (
-            {"method": args.method, "points_per_test": args.points_per_test}
-            if kind == "sinkage"
-            else {}
-        )
+        options = {"test_resamples": args.test_resamples, "seed": args.seed}
+        if kind == "sinkage":
+            options |= {"method": args.method, "points_per_test": args.points_per_test}
         model = args.model if kind == "sinkage" else "mohr-coulomb"
         result = fit_conditions(campaign, kind, by=by, model=model, soils=args.soil, **options)
         print("\n" + result.summary(), file=out)

@@ -11,6 +11,7 @@ from ..fitting.identify import identify
 from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
 from ..models import JANOSI, MOHR_COULOMB, get_model
+from .bootstrap import test_bootstrap
 from .pooling import pool_shear
 from .result import CampaignFit
 from .starting_values import janosi_start
@@ -27,6 +28,8 @@ def fit_shear(
     weighting: Literal["none", "max-stress"] | None = None,
     p0=None,
     on_failure: Literal["raise", "warn"] = "raise",
+    test_resamples: int = 0,
+    seed: int = 0,
     **selection,
 ) -> FitResult:
     """Identify c, φ (Mohr–Coulomb, Eq. 15) or c, φ, K (Janosi–Hanamoto, Eq. 13).
@@ -36,6 +39,8 @@ def fit_shear(
     from tan φ by the delta method.  Janosi–Hanamoto is the weighted LM fit of Eq. 13 on
     whole records (j ≥ 0).  Weighting defaults to unit weights for Mohr–Coulomb (as the
     paper's Section 4.2) and 1/max(τ) per test for Janosi (Section 2.2 → 2.1).
+    ``test_resamples`` and ``seed`` run the cluster bootstrap over tests behind
+    ``stderr_tests``, as in :func:`fit_sinkage`.
     """
     spec = get_model(model)
     if spec not in (MOHR_COULOMB, JANOSI):
@@ -95,7 +100,8 @@ def fit_shear(
             message="linear least squares (closed form)",
             condition_number=lin.condition_number,
         )
-        return CampaignFit.of(mohr_coulomb, groups, notes, flags)
+        bootstrap = test_bootstrap(spec, sigma, pooled, mohr_coulomb, test_resamples, seed, notes)
+        return CampaignFit.of(mohr_coulomb, groups, notes, flags, bootstrap)
     if p0 is None:
         p0 = janosi_start(sigma, j, tau)
     notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
@@ -107,4 +113,6 @@ def fit_shear(
         weights=w,
         on_failure=on_failure,
     )
-    return CampaignFit.of(result, groups, notes, flags)
+    x = np.vstack([sigma, j])
+    bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
+    return CampaignFit.of(result, groups, notes, flags, bootstrap)

@@ -1,0 +1,154 @@
+"""Test-level uncertainty: a cluster bootstrap over whole tests (Section 2.1's "random
+characteristic" of the soil, which Eq. 4 does not see).
+
+Eq. 4's covariance treats every sample as an independent observation.  The samples of one
+test are not independent: each preparation gives the soil its own stiffness and exponent, so
+the test, not the sample, is the unit of replication.  Resampling whole tests with replacement
+and refitting gives the spread a new campaign of the same design would show: ``stderr_tests``.
+With no test-to-test scatter it agrees with Eq. 4's σ; with scatter it is larger, often by a
+factor of several on real data.
+
+A resample draws T tests (with replacement) out of the T tests used; it is fitted by the same
+weighted LM, started from the full-data estimate, with each test's weights multiplied by the
+square root of how often it was drawn (the same normal equations as repeating its samples).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from ..fitting.levenberg_marquardt import levenberg_marquardt
+from ..fitting.separable import refine_exponent
+
+__all__ = ["TestBootstrap", "bootstrap_tests", "test_bootstrap"]
+
+#: Below this many tests a bootstrap over tests says little (and resamples often hold a
+#: single plate size); the fit says so instead of reporting a number.
+MIN_TESTS = 5
+
+
+@dataclass(frozen=True)
+class TestBootstrap:
+    """Estimates of every resample (rows) and what they say about the estimate's spread."""
+
+    param_names: tuple[str, ...]
+    estimate: np.ndarray  # the full-data estimate the resamples started from
+    draws: np.ndarray  # (B, p) estimates of the resamples that converged
+    n_resamples: int
+    n_tests: int
+    seed: int
+
+    @property
+    def n_failed(self) -> int:
+        """Resamples whose fit did not converge (left out of ``draws``)."""
+        return self.n_resamples - len(self.draws)
+
+    @property
+    def stderr(self) -> pd.Series:
+        """Test-level standard error of each parameter: the sd of the resampled estimates."""
+        sd = (
+            self.draws.std(axis=0, ddof=1)
+            if len(self.draws) > 1
+            else np.full(len(self.param_names), np.nan)
+        )
+        return pd.Series(sd, index=list(self.param_names), name="stderr_tests")
+
+    def sign_stability(self) -> pd.Series:
+        """Share of resamples in which each parameter keeps the sign of the full estimate."""
+        same = np.sign(self.draws) == np.sign(self.estimate)
+        share = same.mean(axis=0) if len(self.draws) else np.full(len(self.param_names), np.nan)
+        return pd.Series(share, index=list(self.param_names), name="sign_stability")
+
+
+def bootstrap_tests(
+    model,
+    x,
+    y,
+    weights,
+    test_index,
+    estimate,
+    *,
+    n_resamples: int = 1000,
+    seed: int = 0,
+) -> TestBootstrap:
+    """Cluster bootstrap of a weighted LM fit over tests (see the module docstring).
+
+    Parameters
+    ----------
+    model : Model
+        The soil model of the fit (its analytic Jacobian and fast paths are used).
+    x, y, weights : array_like
+        The pooled data of the fit (as passed to :func:`soilstats.identify`).
+    test_index : array_like of int
+        For each sample, the position of its test (0 … T−1).
+    estimate : array_like
+        The full-data estimate; every resample starts there.
+    n_resamples : int
+        Number of resamples B (1000 gives the sd to about ±2 %).
+    seed : int
+        Seed of ``numpy.random.default_rng``: the same seed gives the same draws.
+    """
+    # Tests that contributed no sample are not part of the design: draw among the others.
+    _, test_index = np.unique(np.asarray(test_index, int), return_inverse=True)
+    n_tests = int(test_index.max()) + 1 if test_index.size else 0
+    rng = np.random.default_rng(seed)
+    w = np.asarray(weights, float)
+    draws = []
+    y = np.asarray(y, float)
+    start = np.asarray(estimate, float)
+    for _ in range(n_resamples):
+        counts = np.bincount(rng.integers(0, n_tests, n_tests), minlength=n_tests)
+        theta = _refit(model, x, y, w * np.sqrt(counts[test_index]), start)
+        if theta is not None:
+            draws.append(theta)
+    p = len(model.param_names)
+    return TestBootstrap(
+        param_names=tuple(model.param_names),
+        estimate=np.asarray(estimate, float),
+        draws=np.array(draws).reshape(-1, p),
+        n_resamples=n_resamples,
+        n_tests=n_tests,
+        seed=seed,
+    )
+
+
+def test_bootstrap(model, x, pooled, fit, n_resamples: int, seed: int, notes: list):
+    """The bootstrap of a pooled fit, or None (0 resamples, or too few tests: said in
+    ``notes``).  Resamples start from the fit's estimate."""
+    if n_resamples <= 0:
+        return None
+    n_tests = np.unique(pooled.test_index).size
+    if n_tests < MIN_TESTS:
+        notes.append(
+            f"no test-level stderr: {n_tests} tests are too few to resample (needs {MIN_TESTS})"
+        )
+        return None
+    return bootstrap_tests(
+        model,
+        x,
+        pooled.y,
+        pooled.weights,
+        pooled.test_index,
+        fit.values,
+        n_resamples=n_resamples,
+        seed=seed,
+    )
+
+
+def _refit(model, x, y, w, start) -> np.ndarray | None:
+    """The weighted LM optimum of one resample (the identification's own path: variable
+    projection to the exponent, then LM), or None when it does not converge.  No covariance:
+    the resample's estimate is all the bootstrap needs."""
+    wy = w * y
+    f_weighted, jacobian = model.evaluators(x, w)
+    with np.errstate(all="ignore"):
+        if model.separable is not None:
+            basis, log_z = model.separable(x, w)
+            start, _ = refine_exponent(basis, log_z, wy, start, ftol=1e-9)
+        out = levenberg_marquardt(lambda t: wy - f_weighted(t), jacobian, start, ftol=1e-15)
+    if not out.converged or not np.all(np.isfinite(out.params)):
+        return None
+    return out.params
