@@ -264,6 +264,12 @@ class Campaign:
         Folder path, ``"bundled:<name>"`` or ``"<memory>"``.
     skipped : DataFrame
         Tests dropped by ``on_error="skip"``: test_id, file, column, row, reason.
+    quality : QualityReport or None
+        Set on the campaign :func:`soilstats.quality.screen` returns: the screening findings
+        behind these (cleaned) samples. None: not screened yet.
+    window : AppliedWindow or None
+        Set by :func:`soilstats.identification.window.windowed`: the fitting window whose
+        samples were removed, with its per-test counts.
     """
 
     tests: pd.DataFrame
@@ -271,6 +277,8 @@ class Campaign:
     shear: pd.DataFrame
     source: str = "<memory>"
     skipped: pd.DataFrame = field(default_factory=lambda: _skipped_table([]))
+    quality: Any = None
+    window: Any = None
 
     @classmethod
     def from_frames(
@@ -374,7 +382,9 @@ class Campaign:
 
     @staticmethod
     def _rows_of(table: pd.DataFrame, ids: pd.Series) -> pd.DataFrame:
-        return table[table["test_id"].isin(list(ids))].reset_index(drop=True)
+        # The index stays the 0-based data row of the file, so that every sample a
+        # screening rule names (soilstats.quality) is named by its row in the file.
+        return table[table["test_id"].isin(list(ids))]
 
     def samples(self, test_id: str) -> pd.DataFrame:
         """The samples of one test (from the sinkage or shear table), in file order."""

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -26,7 +27,14 @@ from ..errors import CampaignError, SoilstatsWarning
 #: Samples a record needs before its size is judged (the fitting minimum, pooling.MIN_SAMPLES).
 MIN_SAMPLES = 3
 
-__all__ = ["UNITS", "UnitsWarning", "check_plausible_units", "to_si"]
+__all__ = [
+    "UNITS",
+    "UnitsFinding",
+    "UnitsWarning",
+    "check_plausible_units",
+    "implausible_units",
+    "to_si",
+]
 
 
 class UnitsWarning(SoilstatsWarning):
@@ -124,43 +132,74 @@ MAX_ROTATION_RAD = 4.0 * math.pi
 _GEOMETRY = ("radius_m", "width_m", "length_m", "r_inner_m", "r_outer_m", "grouser_height_m")
 
 
-def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame) -> None:
-    """Stop or warn where a value only makes sense in another unit (thresholds above).
+@dataclass(frozen=True)
+class UnitsFinding:
+    """Tests whose values in one column only make sense in another unit."""
 
-    ``tests``, ``sinkage``, ``shear`` are the validated tables with derived columns.
-    """
+    file: str
+    column: str
+    test_ids: tuple[str, ...]
+    values: tuple[float, ...]  # the offending size, one per test
+    what: str  # the reason and the fix
+    fatal: bool  # a length that cannot be right (stops a load), or a warning
+
+
+def implausible_units(
+    tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame
+) -> list[UnitsFinding]:
+    """Every column and test whose values' size suggests a unit other than SI (thresholds
+    above). The one home of the rule: loading stops or warns on it
+    (:func:`check_plausible_units`), and screening reports it as ``units``
+    (:mod:`soilstats.quality`)."""
+    found: list[UnitsFinding] = []
+
+    def add(mask: pd.Series, values: pd.Series, file, column, what, fatal=False) -> None:
+        hits = list(mask[mask].index)
+        if hits:
+            found.append(
+                UnitsFinding(
+                    file,
+                    column,
+                    tuple(map(str, hits)),
+                    tuple(float(values[t]) for t in hits),
+                    what,
+                    fatal,
+                )
+            )
+
     for column in _GEOMETRY:
         if column not in tests.columns:
             continue
-        values = tests[column].to_numpy(dtype=float, na_value=np.nan)
-        bad = np.flatnonzero(values > MAX_TOOL_SIZE_M)
-        if bad.size:
-            i = int(bad[0])
-            raise CampaignError(
-                f"{values[i]:g} m is larger than any Bevameter tool ({MAX_TOOL_SIZE_M:g} m): "
-                f"the column looks like millimetres or centimetres ({bad.size} tests) — divide "
-                "by 1000 (or 100), or import with unit = 'mm' (docs/importing.md)",
-                file="tests.csv",
-                column=column,
-                test_id=str(tests["test_id"].iloc[i]),
-            )
+        values = pd.Series(
+            tests[column].to_numpy(dtype=float, na_value=np.nan), index=tests["test_id"]
+        )
+        add(
+            values > MAX_TOOL_SIZE_M,
+            values,
+            "tests.csv",
+            column,
+            f"a size larger than any Bevameter tool ({MAX_TOOL_SIZE_M:g} m): the column looks "
+            "like millimetres or centimetres — divide by 1000 (or 100), or import with "
+            "unit = 'mm' (docs/importing.md)",
+            fatal=True,
+        )
     if len(sinkage):
         by_test = sinkage.groupby("test_id", sort=False)
         z_range = by_test["z_m"].max() - by_test["z_m"].min()
-        wide = z_range[z_range > MAX_SINKAGE_RANGE_M]
-        if len(wide):
-            raise CampaignError(
-                f"the sinkage spans {wide.iloc[0]:g} m in one test; a plate sinks centimetres, "
-                f"so z_m looks like millimetres ({len(wide)} tests) — divide by 1000, or import "
-                "with unit = 'mm' (docs/importing.md)",
-                file="sinkage.csv",
-                column="z_m",
-                test_id=str(wide.index[0]),
-            )
+        add(
+            z_range > MAX_SINKAGE_RANGE_M,
+            z_range,
+            "sinkage.csv",
+            "z_m",
+            f"a sinkage span above {MAX_SINKAGE_RANGE_M:g} m; a plate sinks centimetres, so "
+            "z_m looks like millimetres — divide by 1000, or import with unit = 'mm' "
+            "(docs/importing.md)",
+            fatal=True,
+        )
         # Judge the load only where the plate is in contact, on records long enough to fit.
         loaded = sinkage[sinkage["z_m"] > 0].groupby("test_id", sort=False)["pressure_Pa"]
         peak = loaded.max()[loaded.size() >= MIN_SAMPLES]
-        _warn_where(
+        add(
             peak < MIN_PEAK_PRESSURE_PA,
             peak,
             "sinkage.csv",
@@ -171,7 +210,7 @@ def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.
     if len(shear):
         by_test = shear.groupby("test_id", sort=False)
         tau_peak = by_test["tau_Pa"].max()
-        _warn_where(
+        add(
             tau_peak > MAX_PEAK_SHEAR_PA,
             tau_peak,
             "shear.csv",
@@ -179,7 +218,7 @@ def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.
             f"peak shear stress above {MAX_PEAK_SHEAR_PA:g} Pa: torque_Nm looks like N·mm "
             "(divide by 1000, or import with unit = 'N*mm')",
         )
-        _warn_where(
+        add(
             tau_peak < MIN_PEAK_SHEAR_PA,
             tau_peak,
             "shear.csv",
@@ -188,7 +227,7 @@ def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.
             "(multiply by 1000, or import with unit = 'kN*m')",
         )
         turned = by_test["angle_rad"].max() - by_test["angle_rad"].min()
-        _warn_where(
+        add(
             turned > MAX_ROTATION_RAD,
             turned,
             "shear.csv",
@@ -196,21 +235,33 @@ def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.
             "the ring turns more than two revolutions: angle_rad looks like degrees "
             "(multiply by pi/180, or import with unit = 'deg')",
         )
+    return found
 
 
-def _warn_where(mask: pd.Series, values: pd.Series, file: str, column: str, what: str) -> None:
-    hits = mask[mask].index
-    if not len(hits):
-        return
-    shown = ", ".join(f"{t!r} ({values[t]:.4g})" for t in list(hits)[:5])
-    more = f" and {len(hits) - 5} more" if len(hits) > 5 else ""
-    warnings.warn(
-        f"file {file!r}, column {column!r}: {len(hits)} test(s) with {what}: {shown}{more}. "
-        "Fitting data in the wrong unit gives wrong parameters; fix the data before trusting "
-        "any result.",
-        UnitsWarning,
-        stacklevel=4,
-    )
+def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame) -> None:
+    """Stop (lengths) or warn (loads, angles) where a value only makes sense in another unit.
+
+    ``tests``, ``sinkage``, ``shear`` are the validated tables with derived columns.
+    """
+    for finding in implausible_units(tests, sinkage, shear):
+        if finding.fatal:
+            raise CampaignError(
+                f"{finding.values[0]:g} m: {finding.what} ({len(finding.test_ids)} tests)",
+                file=finding.file,
+                column=finding.column,
+                test_id=finding.test_ids[0],
+            )
+        shown = ", ".join(
+            f"{t!r} ({v:.4g})" for t, v in zip(finding.test_ids[:5], finding.values, strict=False)
+        )
+        more = f" and {len(finding.test_ids) - 5} more" if len(finding.test_ids) > 5 else ""
+        warnings.warn(
+            f"file {finding.file!r}, column {finding.column!r}: {len(finding.test_ids)} "
+            f"test(s) with {finding.what}: {shown}{more}. Fitting data in the wrong unit gives "
+            "wrong parameters; fix the data before trusting any result.",
+            UnitsWarning,
+            stacklevel=3,
+        )
 
 
 def convert_columns(

@@ -46,9 +46,11 @@ __all__ = [
     "EXIT_OK",
     "Criterion",
     "add_common_options",
+    "add_data_options",
     "apply_selection",
     "guarded",
     "parse_selection",
+    "prepared_campaign",
     "progress_enabled",
 ]
 
@@ -120,6 +122,59 @@ def add_common_options(
     parser.add_argument(
         "--json", action="store_true", help="print one JSON object on stdout instead of text"
     )
+
+
+def add_data_options(parser: argparse.ArgumentParser, *, window: bool = True) -> None:
+    """``--quality`` (data screening) and, for sinkage fits, the window ``--z-max``/``--p-max``."""
+    parser.add_argument(
+        "--quality",
+        choices=("off", "flag", "clean"),
+        default="clean",
+        help="data screening (soilstats check): clean (default) leaves spikes and pre-contact "
+        "samples out of every fit; flag only reports; off checks nothing",
+    )
+    if not window:
+        return
+    parser.add_argument(
+        "--z-max",
+        action="append",
+        default=[],
+        metavar="[COLUMN=VALUE:]LIMIT",
+        help="fit sinkage only up to LIMIT m, for every test or those whose test-log COLUMN "
+        "equals VALUE (repeatable, e.g. --z-max radius_m=0.038:0.0034)",
+    )
+    parser.add_argument(
+        "--p-max",
+        action="append",
+        default=[],
+        metavar="[COLUMN=VALUE:]LIMIT",
+        help="fit sinkage only up to pressure LIMIT Pa (as --z-max)",
+    )
+
+
+def prepared_campaign(args: argparse.Namespace, *, out=None) -> Campaign:
+    """The campaign a command analyses: loaded, screened (``--quality``), windowed
+    (``--z-max``/``--p-max``) and selected (``--select``), in that order, so that screening
+    rows are the file's rows. One line on stderr (or ``out``) says what screening found."""
+    from ..campaign import load_campaign
+    from ..identification.window import FitWindow, windowed
+    from ..quality import screen
+
+    campaign = load_campaign(args.data)
+    report = screen(campaign, getattr(args, "quality", "clean"))
+    window = FitWindow.parse(getattr(args, "z_max", ()), getattr(args, "p_max", ()))
+    campaign = windowed(report.campaign, window)
+    if report.mode != "off":
+        counts = report.counts
+        excluded = len(report.excluded)
+        print(
+            f"Data quality ({report.mode}): "
+            + (", ".join(f"{c} in {n} tests" for c, n in counts.items()) or "no findings")
+            + (f"; {excluded} samples left out" if excluded else "")
+            + " (details: soilstats check)",
+            file=out or sys.stderr,
+        )
+    return apply_selection(campaign, args.select)
 
 
 def check_out(folder: str | None) -> None:

@@ -14,12 +14,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import add_common_options, apply_selection, progress_enabled
+from .common import add_common_options, add_data_options, prepared_campaign, progress_enabled
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     """The discover subcommand's options."""
     add_common_options(parser, out_help="write discover.json and discover.pdf into DIR")
+    add_data_options(parser)
     parser.add_argument(
         "--alpha", type=float, default=0.05, help="family-wise error rate (default 0.05)"
     )
@@ -27,11 +28,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run discovery; print the summary (or JSON) and write the files asked for."""
-    from ..campaign import load_campaign
     from ..discovery import discover
     from ..report import Provenance, write_json
 
-    campaign = apply_selection(load_campaign(args.data), args.select)
+    campaign = prepared_campaign(args)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     result = discover(
         campaign,

@@ -15,7 +15,7 @@ import json
 import sys
 from pathlib import Path
 
-from .common import add_common_options, apply_selection
+from .common import add_common_options, add_data_options, prepared_campaign
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -23,6 +23,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_common_options(
         parser, out_help="also write identify.json and identify.csv (every fit) into DIR"
     )
+    add_data_options(parser)
     parser.add_argument(
         "--model",
         choices=("auto", "bekker", "bernstein", "reece"),
@@ -87,12 +88,11 @@ def _check_series(campaign, series: str | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit every soil and condition; print Table-5-style tables or one JSON object."""
-    from ..campaign import load_campaign
     from ..errors import CampaignError
     from ..identification.conditions import fit_conditions
     from ..report import Provenance, json_safe, write_csv, write_json
 
-    campaign = apply_selection(load_campaign(args.data), args.select)
+    campaign = prepared_campaign(args)
     soils_present = sorted(campaign.tests["soil"].astype(str).unique())
     unknown = sorted(set(args.soil or ()) - set(soils_present))
     if unknown:

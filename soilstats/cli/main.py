@@ -18,6 +18,7 @@ from .common import guarded
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "study": ("study", "run setup-effect studies (Sections 3-4) and write their reports"),
     "discover": ("discover", "find what the soil model gets wrong, name the cause, extend it"),
+    "check": ("check", "screen the records for spikes, wrong units, seating offsets, failure"),
     "identify": ("identify", "identify soil parameters per soil and condition (Tables 5-6)"),
     "posterior": ("posterior", "sample parameter posteriors; joint draws for rover Monte Carlo"),
     "simulate": ("simulate", "simulate a campaign from a specification, with its truth"),

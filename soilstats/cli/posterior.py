@@ -18,7 +18,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from .common import add_common_options, apply_selection, progress_enabled
+from .common import add_common_options, add_data_options, prepared_campaign, progress_enabled
 
 #: Simulators whose parameter sets --simulator writes (soilstats.bayes.SIMULATOR_FORMATS; a
 #: test keeps the two in step, the bayes package being too heavy to import for --help).
@@ -32,6 +32,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         out="required",
         out_help="write posterior.nc, draws.csv, summary.csv and report.pdf into DIR",
     )
+    add_data_options(parser)
     parser.add_argument("--soil", required=True, help="soil name (the soil column of tests.csv)")
     parser.add_argument(
         "--model", required=True, help="model, or sinkage+shear (e.g. bekker+janosi)"
@@ -67,13 +68,12 @@ def run(args: argparse.Namespace) -> int:
     import pandas as pd
 
     from ..bayes import joint_draws
-    from ..campaign import load_campaign
     from ..errors import ConvergenceWarning
     from ..report import Provenance, json_safe, output_path, write_csv
     from ..report.posterior_pdf import write_report
 
     models = args.model.split("+")
-    campaign = apply_selection(load_campaign(args.data), args.select)
+    campaign = prepared_campaign(args)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     out = Path(args.out)
     names = ["posterior.nc", "draws.csv", "summary.csv", "report.pdf"]

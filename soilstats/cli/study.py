@@ -23,19 +23,19 @@ import sys
 import time
 from pathlib import Path
 
-from .common import add_common_options, apply_selection, progress_enabled
+from .common import add_common_options, add_data_options, prepared_campaign, progress_enabled
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     """The study subcommand's options."""
     parser.add_argument("name", metavar="NAME", help="study name, 'all', or a .toml path")
     add_common_options(parser, default_out="reports")
+    add_data_options(parser, window=False)
     parser.add_argument("--no-pdf", action="store_true", help="write JSON and CSV only")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the studies; readable summaries (or one JSON object) on stdout."""
-    from ..campaign import load_campaign
     from ..report import Provenance
     from ..study import available_studies, load_spec, run_study, write_outputs, write_report
     from ..study.outputs import to_json_dict
@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
 
     names = available_studies() if args.name == "all" else [args.name]
     specs = [load_spec(n) for n in names]  # every spec checked before any work
-    campaign = apply_selection(load_campaign(args.data), args.select)
+    campaign = prepared_campaign(args)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     progress = progress_enabled(args.progress)
     cache = PerTestCache(campaign, progress=progress)

@@ -78,6 +78,10 @@ class FitResult:
     condition_number: float = np.nan
     residuals: np.ndarray = field(default=None, repr=False)  # weighted residuals w·(y − f)
     extra_flags: tuple[HealthFlag, ...] = ()
+    #: Rows map parameter changes to the basis in which ``high-correlation`` is judged (None:
+    #: the parameters themselves). A power law's scale and exponent are coupled by where
+    #: z = 1 lies, not by the data; the identification judges its scales at the data's centre.
+    correlation_basis: np.ndarray | None = field(default=None, repr=False)
     notes: tuple[str, ...] = ()
 
     @classmethod
@@ -153,6 +157,17 @@ class FitResult:
         return pd.DataFrame(c, index=self.cov.index, columns=self.cov.columns)
 
     @property
+    def judged_corr(self) -> np.ndarray:
+        """The correlations ``high-correlation`` judges: in ``correlation_basis`` if set."""
+        if self.correlation_basis is None:
+            return self.corr.to_numpy()
+        t = np.asarray(self.correlation_basis, float)
+        cov = t @ self.covariance @ t.T
+        sd = np.sqrt(np.diag(cov))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return cov / np.outer(sd, sd)
+
+    @property
     def scale(self) -> float:
         """Residual variance s² = RSS/(N − Np) of the weighted residuals."""
         return self.rss / self.dof if self.dof > 0 else np.nan
@@ -185,7 +200,7 @@ class FitResult:
                     )
                 )
         names = self.param_names
-        corr = self.corr.to_numpy()
+        corr = self.judged_corr
         for i in range(len(names)):
             for j in range(i + 1, len(names)):
                 if abs(corr[i, j]) > CORRELATION_LIMIT:

@@ -17,10 +17,12 @@ import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
+from ..quality import screened
 from .result import CampaignFit
 from .shear import fit_shear
 from .sinkage import fit_sinkage
 from .table import format_parameter_table, parameter_table
+from .window import windowed
 
 __all__ = [
     "ConditionFit",
@@ -117,6 +119,8 @@ class ConditionFits:
             where = f" · series {series}" if series else ""
             title = f"{kind}{where} · {soil} · {model} · conditions by {column or '(all tests)'}"
             lines += ["", format_parameter_table(fits, title=title)]
+        windows = sorted({f.fit.window for f in self.fits if f.fit.window != "none"})
+        lines += [f"  window: {w}" for w in windows]
         lines += [f"  ! not identified: {failure}" for failure in self.failures]
         lines += [f"  note: {note}" for note in self.notes]
         return "\n".join(lines).lstrip("\n")
@@ -129,14 +133,28 @@ class ConditionFits:
         }
 
 
+#: Bekker-type models need plates whose sizes differ at least this much (largest / smallest
+#: b): kc/b + kphi separates kc from kphi only through the spread of 1/b. At 1.5 the kc
+#: term changes by a third across the plates; plates of 20 and 22.5 mm (1.125) change it by
+#: 11 %, which no real scatter lets a fit resolve.
+MIN_SIZE_RATIO = 1.5
+
+
 def _model_for(kind: str, model: str, fallback: str | None, tests: pd.DataFrame):
     """(model to fit or None, note): Bekker-type models fall back where one plate size."""
     if kind == "shear":
         return model, None
     if model == "auto":
         model, fallback = "bekker", fallback or "bernstein"
-    if model in _NEEDS_SIZES and tests["b_m"].nunique() < 2:
+    sizes = tests["b_m"].dropna()
+    if model in _NEEDS_SIZES and sizes.nunique() < 2:
         why = f"one plate size: {model}'s kc and kphi cannot be separated (Section 2.1)"
+        return (fallback, why) if fallback else (None, why)
+    if model in _NEEDS_SIZES and sizes.max() / sizes.min() < MIN_SIZE_RATIO:
+        why = (
+            f"plate sizes b = {sizes.min():g}-{sizes.max():g} m differ by less than "
+            f"{MIN_SIZE_RATIO:g}x: kc/b and kphi cannot be told apart by this design"
+        )
         return (fallback, why) if fallback else (None, why)
     return model, None
 
@@ -171,6 +189,8 @@ def fit_conditions(
     **options
         Passed to :func:`fit_sinkage` or :func:`fit_shear` (``method``, ``points_per_test`` …).
     """
+    campaign = screened(campaign, options.pop("quality", "clean"))
+    campaign = windowed(campaign, options.pop("window", None))
     tests = campaign.tests[campaign.tests["kind"] == kind]
     if test_ids is not None:
         tests = tests[tests["test_id"].astype(str).isin(set(map(str, test_ids)))]

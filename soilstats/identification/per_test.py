@@ -25,6 +25,8 @@ import pandas as pd
 from ..errors import CampaignError, ConvergenceError, ConvergenceWarning
 from ..fitting.identify import identify
 from ..models import BERNSTEIN, SHEAR_CURVE
+from ..quality import screened
+from .centring import centred
 from .pooling import kept_samples
 from .starting_values import sinkage_start
 from .steady_state import steady_state
@@ -65,7 +67,7 @@ def fit_per_test(
     """
     if kind not in ("sinkage", "shear"):
         raise ValueError(f"kind must be 'sinkage' or 'shear', got {kind!r}")
-    chosen = campaign.select(**selection) if selection else campaign
+    chosen = screened(campaign, "clean", **selection)
     tests = chosen.tests[chosen.tests["kind"] == kind].reset_index(drop=True)
     if tests.empty:
         crit = ", ".join(f"{k}={v!r}" for k, v in selection.items()) or "no selection"
@@ -126,7 +128,7 @@ def fit_bernstein_test(z, p, weights, *, name: str = "bernstein"):
     posterior).  Starts from Wong's estimate; raises one of :data:`TEST_FIT_ERRORS`.
     """
     p0 = sinkage_start("bernstein", None, z, p)
-    return identify(BERNSTEIN, z, p, p0, weights=weights, name=name)
+    return centred(identify(BERNSTEIN, z, p, p0, weights=weights, name=name), z)
 
 
 def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError
+from ..quality import screened
 
 __all__ = [
     "MIN_SAMPLES",
@@ -159,7 +160,7 @@ def pool_sinkage(
     """
     if weighting not in ("max-pressure", "none"):
         raise ValueError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
-    chosen, tests = select_one_soil(campaign, "sinkage", selection)
+    chosen, tests = select_one_soil(screened(campaign), "sinkage", selection)
     samples = chosen.sinkage
     by_test = samples.groupby("test_id", sort=False).indices
     z_all = samples["z_m"].to_numpy(float)
@@ -239,7 +240,7 @@ def pool_shear(
 
     if weighting not in ("none", "max-stress"):
         raise ValueError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
-    chosen, tests = select_one_soil(campaign, "shear", selection)
+    chosen, tests = select_one_soil(screened(campaign), "shear", selection)
     samples = chosen.shear
     by_test = samples.groupby("test_id", sort=False).indices
     sig_all = samples["sigma_Pa"].to_numpy(float)

@@ -26,6 +26,7 @@ class CampaignFit(FitResult):
 
     tests: pd.DataFrame | None = field(default=None, repr=False)
     bootstrap: TestBootstrap | None = field(default=None, repr=False)
+    data: dict = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(
@@ -35,17 +36,29 @@ class CampaignFit(FitResult):
         notes=(),
         flags: tuple[HealthFlag, ...] | list[HealthFlag] = (),
         bootstrap: TestBootstrap | None = None,
+        campaign=None,
     ) -> CampaignFit:
-        """``fit`` with the tests it used, the notes and flags of the pooling, and the
-        test-level bootstrap with the flags it raises."""
+        """``fit`` with the tests it used, the notes and flags of the pooling, the
+        test-level bootstrap with the flags it raises, and (from ``campaign``) the data
+        screening and fitting window behind its samples."""
         notes, flags = list(notes), list(flags)
+        data: dict = {}
+        if campaign is not None:
+            more_notes, more_flags, data = data_findings(campaign, tests["test_id"])
+            notes += more_notes
+            flags += more_flags
         if bootstrap is not None:
             more_notes, more_flags = _bootstrap_findings(fit, bootstrap)
             notes += more_notes
             flags += more_flags
         base = fit.annotated(notes, flags)
         fields_ = {f.name: getattr(base, f.name) for f in fields(FitResult)}
-        return cls(**fields_, tests=tests, bootstrap=bootstrap)
+        return cls(**fields_, tests=tests, bootstrap=bootstrap, data=data)
+
+    @property
+    def window(self) -> str:
+        """The fitting window, in words ('none' when the whole record was used)."""
+        return self.data.get("window_text", "none")
 
     @property
     def stderr_tests(self) -> pd.Series | None:
@@ -65,10 +78,15 @@ class CampaignFit(FitResult):
         out = super().to_dict() | {"tests": self.n_tests, "stderr_tests": None}
         if self.bootstrap is not None:
             out["stderr_tests"] = json_safe(dict(self.stderr_tests))
+        out["quality"] = self.data.get("quality")
+        out["window"] = self.data.get("window")
+        out["excluded"] = self.data.get("excluded", [])
         return out
 
     def summary(self) -> str:
         text = super().summary()
+        head, _, tail = text.rpartition("Health:")
+        text = head + f"Window: {self.window}\n" + "Health:" + tail
         if self.bootstrap is None:
             return text
         bs = self.bootstrap
@@ -85,8 +103,87 @@ class CampaignFit(FitResult):
         return head + "\n".join(lines) + "\nHealth:" + tail
 
 
+#: Screening codes that stay findings of a fit (spikes and pre-contact samples are left out
+#: in the default mode; load-capped is reported as a note: it is a fact of the design).
+_FIT_CODES = ("spike", "pre-contact", "units", "bearing-failure", "non-monotone", "saturation")
+
+
+def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict]:
+    """Notes, health flags and the JSON record of the screening and window behind a fit.
+
+    A ``bearing-failure`` whose onset the window cuts off is resolved (a note, no flag).
+    """
+    ids = [str(t) for t in test_ids]
+    notes: list[str] = []
+    flags: list[HealthFlag] = []
+    record: dict = {"quality": None, "window": None, "excluded": [], "window_text": "none"}
+    applied = getattr(campaign, "window", None)
+    z_limit = {}
+    if applied is not None:
+        per = applied.per_test[applied.per_test["test_id"].isin(ids)]
+        z_limit = dict(zip(per["test_id"], per["z_max"], strict=True))
+        outside = int(per["outside"].sum())
+        record["window"] = applied.to_dict() | {
+            "outside": {t: int(n) for t, n in zip(per["test_id"], per["outside"], strict=True) if n}
+        }
+        record["window_text"] = applied.window.describe()
+        notes.append(
+            f"Fitting window {applied.window.describe()}: {outside} samples of "
+            f"{int((per['outside'] > 0).sum())} tests outside it, not used."
+        )
+    report = getattr(campaign, "quality", None)
+    if report is None:
+        return notes, flags, record
+    mine = report.for_tests(ids)
+    record["quality"] = report.mode
+    excluded = mine.flagged(excluded=True)
+    record["excluded"] = [
+        {"test_id": f.test_id, "code": f.code, "rows": list(f.rows)} for f in excluded
+    ]
+    if excluded:
+        by_code: dict[str, set] = {}
+        for f in excluded:
+            by_code.setdefault(f.code, set()).add(f.test_id)
+        notes.append(
+            f"Data quality ({report.mode}): {sum(len(f.rows) for f in excluded)} samples left "
+            "out ("
+            + ", ".join(f"{code} in {len(t)} tests" for code, t in by_code.items())
+            + "; rows in to_dict()['excluded'])."
+            + (" z re-zeroed at the contact found." if "pre-contact" in by_code else "")
+        )
+    capped = {f.test_id for f in mine.flags if f.code == "load-capped"}
+    if capped:
+        notes.append(
+            f"load-capped: {len(capped)} tests stopped at one load, so their depth is an "
+            "outcome of stiffness; compare per-test exponents with the pooled one."
+        )
+    for code in _FIT_CODES:
+        hits = [f for f in mine.flagged(excluded=False) if f.code == code]
+        if code == "bearing-failure":
+            cut = [f for f in hits if z_limit.get(f.test_id, np.inf) <= f.value * (1 + 1e-9)]
+            if cut:
+                notes.append(
+                    f"bearing-failure in {len(cut)} tests lies outside the window (resolved)."
+                )
+            hits = [f for f in hits if f not in cut]
+        if hits:
+            tests_hit = sorted({f.test_id for f in hits})
+            flags.append(
+                HealthFlag(
+                    code,
+                    f"{len(tests_hit)} of {len(ids)} tests ({', '.join(tests_hit[:5])}"
+                    f"{', …' if len(tests_hit) > 5 else ''}): {hits[0].message}",
+                )
+            )
+    return notes, flags, record
+
+
 #: Eq. 4's σ and the test-level σ disagree beyond this factor (either way): flag it.
 DISAGREEMENT = 2.0
+#: Parameters whose sign is a physical statement (a modulus that may be either sign).
+SIGNED = ("kc", "kphi", "k1", "k2", "c")
+#: Below this share of resamples keeping the estimate's sign, the sign is not determined.
+MIN_SIGN_STABILITY = 0.9
 #: More resamples than this share not converging: the test-level σ is not to be trusted.
 MAX_FAILED_SHARE = 0.05
 
@@ -111,6 +208,21 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
                 "the test-level stderr differs from Eq. 4's by more than "
                 f"{DISAGREEMENT:g}× ({', '.join(off)}): the tests scatter more than their "
                 "samples say; quote stderr_tests, not stderr",
+            )
+        )
+    stability = bs.sign_stability()
+    unstable = [
+        f"{name} keeps its sign in {share:.0%}"
+        for name, share in stability.items()
+        if name in SIGNED and np.isfinite(share) and share < MIN_SIGN_STABILITY
+    ]
+    if unstable:
+        flags.append(
+            HealthFlag(
+                "sign-unstable",
+                f"over resamples of the tests {', '.join(unstable)} of them: the tests do not "
+                "determine it (with kc/kphi: the plate sizes do not separate them); do not "
+                "extrapolate to other contact widths",
             )
         )
     if bs.n_failed > MAX_FAILED_SHARE * bs.n_resamples:

@@ -11,6 +11,7 @@ from ..fitting.identify import identify
 from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
 from ..models import JANOSI, MOHR_COULOMB, get_model
+from ..quality import screened
 from .bootstrap import test_bootstrap
 from .pooling import pool_shear
 from .result import CampaignFit
@@ -30,6 +31,7 @@ def fit_shear(
     on_failure: Literal["raise", "warn"] = "raise",
     test_resamples: int = 0,
     seed: int = 0,
+    quality: Literal["off", "flag", "clean"] = "clean",
     **selection,
 ) -> FitResult:
     """Identify c, φ (Mohr–Coulomb, Eq. 15) or c, φ, K (Janosi–Hanamoto, Eq. 13).
@@ -40,13 +42,14 @@ def fit_shear(
     whole records (j ≥ 0).  Weighting defaults to unit weights for Mohr–Coulomb (as the
     paper's Section 4.2) and 1/max(τ) per test for Janosi (Section 2.2 → 2.1).
     ``test_resamples`` and ``seed`` run the cluster bootstrap over tests behind
-    ``stderr_tests``, as in :func:`fit_sinkage`.
+    ``stderr_tests``, as in :func:`fit_sinkage`; ``quality`` as there.
     """
     spec = get_model(model)
     if spec not in (MOHR_COULOMB, JANOSI):
         raise ValueError(f"model must be 'mohr-coulomb' or 'janosi' for shear, got {model!r}")
     if weighting is None:
         weighting = "none" if spec is MOHR_COULOMB else "max-stress"
+    campaign = screened(campaign, quality, **selection)
     pooled = pool_shear(
         campaign, steady_only=spec is MOHR_COULOMB, weighting=weighting, **selection
     )
@@ -101,7 +104,7 @@ def fit_shear(
             condition_number=lin.condition_number,
         )
         bootstrap = test_bootstrap(spec, sigma, pooled, mohr_coulomb, test_resamples, seed, notes)
-        return CampaignFit.of(mohr_coulomb, groups, notes, flags, bootstrap)
+        return CampaignFit.of(mohr_coulomb, groups, notes, flags, bootstrap, campaign)
     if p0 is None:
         p0 = janosi_start(sigma, j, tau)
     notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
@@ -115,4 +118,4 @@ def fit_shear(
     )
     x = np.vstack([sigma, j])
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
-    return CampaignFit.of(result, groups, notes, flags, bootstrap)
+    return CampaignFit.of(result, groups, notes, flags, bootstrap, campaign)

@@ -10,10 +10,13 @@ from ..errors import IdentifiabilityError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BERNSTEIN, REECE, get_model
+from ..quality import screened
 from .bootstrap import test_bootstrap
+from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
 from .starting_values import sinkage_start
+from .window import FitWindow, windowed
 from .wong import wong_bekker, wong_bernstein
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
@@ -68,6 +71,8 @@ def fit_sinkage(
     on_failure: Literal["raise", "warn"] = "raise",
     test_resamples: int = 0,
     seed: int = 0,
+    quality: Literal["off", "flag", "clean"] = "clean",
+    window: FitWindow | None = None,
     **selection,
 ) -> FitResult:
     """Identify Bekker (Eq. 7), Bernstein (Eq. 8) or Reece parameters from sinkage tests.
@@ -90,6 +95,13 @@ def fit_sinkage(
         1000 is a good choice; it costs well under a second for a paper-size problem.
     seed : int, default 0
         Seed of the bootstrap.
+    quality : {"off", "flag", "clean"}, default "clean"
+        Data screening (:func:`soilstats.quality.screen`) unless ``campaign`` was screened
+        already: ``clean`` leaves spikes and pre-contact samples out; every other finding of
+        the fit's tests becomes a health flag.
+    window : FitWindow, optional
+        Fitting window (z_max, p_max; global or per test-log column value), applied before
+        the equal-sinkage thinning; stated in the summary.
     **selection
         Test-log filters, e.g. ``soil="soil01", velocity_m_s=4.8e-3``; must leave one soil.
 
@@ -105,6 +117,7 @@ def fit_sinkage(
         raise ValueError(f"model must be one of {SINKAGE_MODELS} for sinkage, got {model!r}")
     if method not in ("lm", "wong"):
         raise ValueError(f"method must be 'lm' or 'wong', got {method!r}")
+    campaign = windowed(screened(campaign, quality, **selection), window)
     pooled = pool_sinkage(
         campaign, points_per_test=points_per_test, weighting=weighting, **selection
     )
@@ -133,10 +146,10 @@ def fit_sinkage(
             method="Wong: p^2-weighted log-log regression",
             message="closed-form linear regressions",
         )
-        return CampaignFit.of(closed, pooled.tests, notes)
+        return CampaignFit.of(centred(closed, z), pooled.tests, notes, campaign=campaign)
 
     if p0 is None:
         p0 = sinkage_start(spec.name, b, z, p)
-    result = identify(spec, x, p, p0, weights=w, on_failure=on_failure)
+    result = centred(identify(spec, x, p, p0, weights=w, on_failure=on_failure), z)
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
-    return CampaignFit.of(result, pooled.tests, notes, bootstrap=bootstrap)
+    return CampaignFit.of(result, pooled.tests, notes, bootstrap=bootstrap, campaign=campaign)

@@ -1,0 +1,61 @@
+"""``soilstats check``: screen a campaign's records for data-quality problems (docs/quality.md).
+
+Every test is run through the screening rules (spikes, implausible units, pre-contact
+segments, load-capped tests, bearing failure, non-monotone sinkage, saturation). The report
+lists each finding with its test, code and file rows, what the default cleaning leaves out
+of fits, and the sinkage windows that bearing failure proposes. Units are judged here, not
+at loading, so a campaign in the wrong unit is reported rather than refused.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from .common import add_common_options
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    """The check subcommand's options."""
+    parser.add_argument(
+        "folder", nargs="?", default=None, metavar="DIR", help="campaign folder (or --data)"
+    )
+    add_common_options(parser, select=False, out_help="also write check.json into DIR")
+    parser.add_argument(
+        "--quality",
+        choices=("flag", "clean"),
+        default="clean",
+        help="clean (default): say which samples the analyses leave out; flag: report only",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Screen the campaign and print the findings (or one JSON object)."""
+    from ..campaign import load_campaign
+    from ..quality import screen
+    from ..report import Provenance, json_safe, write_json
+
+    data = args.folder if args.folder is not None else args.data
+    campaign = load_campaign(Path(data) if args.folder is not None else data, check_units=False)
+    report = screen(campaign, args.quality)
+    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
+    document = report.to_dict()
+    if args.out:
+        write_json(Path(args.out) / "check.json", document, provenance, overwrite=args.overwrite)
+        print(f"wrote {Path(args.out) / 'check.json'}", file=sys.stderr)
+    if args.json:
+        document |= {"provenance": provenance.to_dict()}
+        print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
+    else:
+        print(f"Campaign: {campaign.source}")
+        print(report.summary())
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m soilstats.cli.check ...``: the same as ``soilstats check ...``."""
+    from .main import run_subcommand
+
+    return run_subcommand("check", argv)

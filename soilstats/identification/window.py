@@ -1,0 +1,166 @@
+"""Fitting windows: the sinkage and pressure range a fit may use, global or per test group.
+
+Where a test runs past bearing failure, or tests stop at one load so that small plates reach
+far higher pressures than large ones, the window decides the answer (on GRC-1 it moves n
+from 0.5 to 1.1). A window is therefore stated, applied before Section 2.1's equal-sinkage
+thinning (so the thinning spans the window), counted per test, and shown in every summary.
+
+A :class:`FitWindow` holds rules: a global one (no column) and any number that apply to the
+tests whose test-log ``column`` equals ``value`` (e.g. ``radius_m = 0.038``); a matching
+rule's limits replace the global ones.  Command lines write a rule as ``LIMIT`` or
+``COLUMN=VALUE:LIMIT`` (``--z-max radius_m=0.038:0.0034``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+
+from ..errors import CampaignError
+
+__all__ = ["AppliedWindow", "FitWindow", "WindowRule", "windowed"]
+
+
+@dataclass(frozen=True)
+class WindowRule:
+    """Limits for the tests whose ``column`` equals ``value`` (``column`` None: every test)."""
+
+    z_max: float | None = None  # [m]
+    p_max: float | None = None  # [Pa]
+    column: str | None = None
+    value: object = None
+
+    def describe(self) -> str:
+        limits = [f"z <= {self.z_max:g} m" if self.z_max is not None else ""]
+        limits.append(f"p <= {self.p_max:g} Pa" if self.p_max is not None else "")
+        where = "all tests" if self.column is None else f"{self.column} = {self.value}"
+        return f"{where}: {', '.join(x for x in limits if x)}"
+
+
+@dataclass(frozen=True)
+class FitWindow:
+    """The sinkage/pressure window of a fit (see the module docstring)."""
+
+    rules: tuple[WindowRule, ...] = ()
+
+    @classmethod
+    def of(cls, z_max: float | None = None, p_max: float | None = None) -> FitWindow:
+        """A global window: z <= ``z_max`` [m] and p <= ``p_max`` [Pa] for every test."""
+        return cls((WindowRule(_positive(z_max, "z_max"), _positive(p_max, "p_max")),))
+
+    @classmethod
+    def parse(cls, z_max=(), p_max=()) -> FitWindow:
+        """From command-line items ``LIMIT`` or ``COLUMN=VALUE:LIMIT`` (z in m, p in Pa)."""
+        rules: dict[tuple, dict] = {}
+        for name, items in (("z_max", z_max), ("p_max", p_max)):
+            for item in items or ():
+                where, colon, limit = str(item).rpartition(":")
+                key: tuple = (None, None)
+                if colon:
+                    column, eq, value = where.partition("=")
+                    if not eq or not column:
+                        raise ValueError(
+                            f"--{name.replace('_', '-')} takes LIMIT or COLUMN=VALUE:LIMIT "
+                            f"(e.g. radius_m=0.038:0.0034), got {item!r}"
+                        )
+                    key = (column.strip(), value.strip())
+                try:
+                    number = float(limit)
+                except ValueError:
+                    raise ValueError(
+                        f"--{name.replace('_', '-')} {item!r}: the limit {limit!r} is not a number"
+                    ) from None
+                rules.setdefault(key, {})[name] = _positive(number, name)
+        return cls(
+            tuple(WindowRule(column=c, value=v, **limits) for (c, v), limits in rules.items())
+        )
+
+    def __bool__(self) -> bool:
+        return any(r.z_max is not None or r.p_max is not None for r in self.rules)
+
+    def limits(self, tests: pd.DataFrame) -> pd.DataFrame:
+        """``test_id``, ``z_max``, ``p_max`` per test (NaN: no limit); a column rule whose
+        value matches a test replaces the global rule's limits."""
+        from ..campaign.campaign import match_values
+
+        out = pd.DataFrame({"test_id": tests["test_id"].astype(str).to_numpy()})
+        out["z_max"] = np.nan
+        out["p_max"] = np.nan
+        ordered = sorted(self.rules, key=lambda r: r.column is not None)
+        for rule in ordered:
+            if rule.column is None:
+                hit = np.ones(len(tests), bool)
+            else:
+                if rule.column not in tests.columns:
+                    raise CampaignError(
+                        f"window rule {rule.describe()!r}: no such column; the test log has "
+                        f"{list(tests.columns)}",
+                        file="tests.csv",
+                        column=rule.column,
+                    )
+                value = rule.value
+                if pd.api.types.is_numeric_dtype(tests[rule.column]):
+                    value = float(value)
+                hit = match_values(tests[rule.column], value, rule.column)
+            for name in ("z_max", "p_max"):
+                if getattr(rule, name) is not None:
+                    out.loc[hit, name] = getattr(rule, name)
+        return out
+
+    def describe(self) -> str:
+        """One line: every rule, or 'none'."""
+        return "; ".join(r.describe() for r in self.rules if r.z_max or r.p_max) or "none"
+
+    def to_dict(self) -> list[dict]:
+        return [
+            {"column": r.column, "value": r.value, "z_max_m": r.z_max, "p_max_Pa": r.p_max}
+            for r in self.rules
+        ]
+
+
+def _positive(value, name: str) -> float | None:
+    if value is None:
+        return None
+    value = float(value)
+    if not np.isfinite(value) or value <= 0:
+        raise ValueError(f"{name} must be a positive number, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class AppliedWindow:
+    """A window and what it left out, per test (``test_id``, ``z_max``, ``p_max``,
+    ``outside``: samples beyond the limits)."""
+
+    window: FitWindow
+    per_test: pd.DataFrame
+
+    def to_dict(self) -> dict:
+        outside = self.per_test[self.per_test["outside"] > 0]
+        return {
+            "rules": self.window.to_dict(),
+            "outside": {
+                str(t): int(n) for t, n in zip(outside["test_id"], outside["outside"], strict=True)
+            },
+        }
+
+
+def windowed(campaign, window: FitWindow | None):
+    """``campaign`` without the sinkage samples outside ``window`` (z > z_max or p > p_max),
+    the window and its per-test counts recorded in ``campaign.window``.  Shear tests are
+    not windowed."""
+    if window is None or not window:
+        return campaign
+    tests = campaign.tests[campaign.tests["kind"] == "sinkage"]
+    limits = window.limits(tests)
+    sink = campaign.sinkage
+    per_sample = limits.set_index("test_id").reindex(sink["test_id"].astype(str))
+    z_max = per_sample["z_max"].to_numpy(float)
+    p_max = per_sample["p_max"].to_numpy(float)
+    z, p = sink["z_m"].to_numpy(float), sink["pressure_Pa"].to_numpy(float)
+    outside = (~np.isnan(z_max) & (z > z_max)) | (~np.isnan(p_max) & (p > p_max))
+    counts = pd.Series(outside).groupby(sink["test_id"].astype(str).to_numpy()).sum()
+    limits["outside"] = limits["test_id"].map(counts).fillna(0).astype(int)
+    return replace(campaign, sinkage=sink[~outside], window=AppliedWindow(window, limits))

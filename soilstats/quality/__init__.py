@@ -1,0 +1,11 @@
+"""Data-quality screening of real Bevameter records (codes: :data:`CODES`; docs/quality.md).
+
+:func:`screen` runs every rule over a campaign and returns a :class:`QualityReport` with the
+findings and the cleaned campaign every analysis uses; :func:`screened` is the guard the
+fitting functions call.  The detectors on one record are in :mod:`.records`.
+"""
+
+from .codes import CODES, MODES, QualityCode
+from .screen import QualityFlag, QualityReport, screen, screened
+
+__all__ = ["CODES", "MODES", "QualityCode", "QualityFlag", "QualityReport", "screen", "screened"]

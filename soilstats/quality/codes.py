@@ -1,0 +1,104 @@
+"""The data-quality codes: what each means, why it matters, what to do (one home).
+
+``docs/quality.md`` repeats this wording (a test checks every code is there). ``excluded``
+says whether the samples a code names are left out of every fit in the default mode
+(``quality="clean"``); the other codes only flag.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["CODES", "MODES", "QualityCode"]
+
+#: ``off``: no screening; ``flag``: screen and report, exclude nothing; ``clean`` (default):
+#: also leave spikes and pre-contact samples out of every fit (and re-zero the sinkage at the
+#: contact point found).
+MODES = ("off", "flag", "clean")
+
+
+@dataclass(frozen=True)
+class QualityCode:
+    """One screening rule's code and its documentation."""
+
+    code: str
+    what: str
+    why: str
+    action: str
+    excluded: bool = False
+
+
+CODES: dict[str, QualityCode] = {
+    c.code: c
+    for c in (
+        QualityCode(
+            "spike",
+            "One or two samples that jump away from both neighbours by more than 10 robust "
+            "noise widths and 5 % of the test's span (running median of 5), then come back.",
+            "A sensor glitch is not soil. One spiked sinkage in 2,000 samples can move a test's "
+            "n from 1.2 to 0.06, and it also sets the test's range, so the equal-sinkage "
+            "thinning of Section 2.1 throws away most good samples.",
+            "Nothing by default: the samples are excluded from every fit and listed. Use "
+            "--quality flag to keep them, and check the rig's wiring if spikes are frequent.",
+            excluded=True,
+        ),
+        QualityCode(
+            "pre-contact",
+            "The force stays at its noise floor while the sinkage grows: the plate was zeroed "
+            "above the surface (seating offset). The contact point is where a power law "
+            "measured from it fits the loaded part far better (residuals halved) than one "
+            "measured from z = 0.",
+            "Bekker's and Bernstein's z is the sinkage below the surface. An offset zero bends "
+            "the curve and biases n and k; the free travel adds samples with p ~ 0.",
+            "Nothing by default: samples before the contact are excluded and z is re-zeroed "
+            "at the contact found (both listed). Zero the displacement at first contact in "
+            "future tests.",
+            excluded=True,
+        ),
+        QualityCode(
+            "units",
+            "A value whose size only makes sense in another unit (sinkage spanning more than "
+            "1 m, a tool larger than 1 m, a peak pressure below 200 Pa, a shear stress above "
+            "5 MPa or below 20 Pa, more than two ring revolutions).",
+            "A number in mm read as m fits without complaint and moves kφ by orders of magnitude.",
+            "Fix the column or import it with its unit (docs/importing.md). Fits of these "
+            "tests are not to be used.",
+        ),
+        QualityCode(
+            "load-capped",
+            "Three or more sinkage tests of one soil end at nearly the same force (spread "
+            "< 5 %) while their maximum sinkage differs by more than 25 %: the tests were "
+            "stopped at a load, not at a depth.",
+            "The depth reached is then an outcome of the soil's stiffness: soft tests run "
+            "deeper, and a pooled fit leans toward their shape (pooled n can lie outside "
+            "every test's n). z_max must never be read as a cause.",
+            "Fit within a common sinkage window (z_max) that every test reached, and compare "
+            "per-test exponents with the pooled one (aggregation-bias flag of the fit).",
+        ),
+        QualityCode(
+            "bearing-failure",
+            "After the force reaches 95 % of its peak the sinkage keeps running: the travel "
+            "at near-constant force is more than three times what a power law with the test's "
+            "own early exponent allows (and more than 25 % of the travel before it).",
+            "The soil under the plate failed (punch-through); pressure–sinkage models describe "
+            "the loading before failure. Samples past the onset drag n toward 0.",
+            "Fit within the proposed window (z_max = the onset, per plate; listed), e.g. "
+            "soilstats identify --z-max <value>.",
+        ),
+        QualityCode(
+            "non-monotone",
+            "The sinkage falls back below its running maximum by more than 2 % of the test's "
+            "travel over three or more samples (unloading, rebound or a slipping mount).",
+            "Pressure–sinkage models describe monotone loading; an unloading branch follows "
+            "another law (elastic rebound).",
+            "Cut the record at the start of unloading, or fit within a window.",
+        ),
+        QualityCode(
+            "saturation",
+            "Four or more samples sit exactly at a channel's maximum while the other channel "
+            "keeps changing: the sensor or its amplifier clipped.",
+            "Clipped values are not the soil's response; they flatten the top of the curve.",
+            "Re-run with a larger sensor range, or fit within a window below the clipping.",
+        ),
+    )
+}

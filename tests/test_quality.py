@@ -1,0 +1,202 @@
+"""Data-quality screening: finds what is planted in simulated records, nothing on clean ones,
+and the known artefacts of the two bundled real campaigns; fits after cleaning agree with fits
+on the clean data."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from soilstats import load_campaign
+from soilstats.campaign import Campaign
+from soilstats.campaign.schema import DERIVED_COLUMNS
+from soilstats.cli.main import main
+from soilstats.identification import fit_sinkage
+from soilstats.identification.window import FitWindow
+from soilstats.quality import CODES, screen
+from soilstats.quality.records import find_spikes
+from soilstats.simulation import simulate
+
+#: Soils spanning the exponents of sand to soft clay, and both signs of kc.
+SOILS = {
+    "loose": {"kc": 2.0e3, "kphi": 4.0e5, "n": 0.45},
+    "sand": {"kc": -9.8e3, "kphi": 1.2e6, "n": 0.82},
+    "stiff": {"kc": 5.0e4, "kphi": 3.0e7, "n": 1.6},
+}
+
+
+def _spec(points: int = 120, repetitions: int = 4) -> dict:
+    return {
+        "name": "quality",
+        "scatter": {"stiffness_cv": 0.1, "n_sd": 0.03},
+        "soils": SOILS,
+        "series": [
+            {
+                "name": "plates",
+                "kind": "sinkage",
+                "soils": list(SOILS),
+                "plates": [{"shape": "circle", "radius_m": b} for b in (0.025, 0.05, 0.075)],
+                "repetitions": repetitions,
+                "points": points,
+                "sinkage_m": 0.03,
+            }
+        ],
+    }
+
+
+def _clean(seed: int) -> Campaign:
+    return simulate(_spec(), seed=seed).campaign
+
+
+def _raw(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
+    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
+    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
+    return tests, sinkage.reset_index(drop=True)
+
+
+def _false_flags(seeds) -> list:
+    flagged = []
+    for seed in seeds:
+        report = screen(_clean(seed))
+        flagged += [(seed, f.test_id, f.code) for f in report.flags]
+    return flagged
+
+
+def test_clean_simulated_campaigns_raise_no_flag():
+    """False flags: none in 8 campaigns × 36 tests (exponents 0.45-1.6, force noise, sensor
+    offsets, records starting before contact), nor in the bundled 962-test campaign."""
+    assert _false_flags(range(8)) == []
+    assert screen(load_campaign("simulated-paper")).flags == ()
+
+
+@pytest.mark.slow
+def test_false_flag_rate_over_many_seeds_is_zero():
+    """The same over 150 more campaigns (5,400 clean tests)."""
+    assert _false_flags(range(1000, 1150)) == []
+
+
+def test_planted_spikes_are_found_excluded_and_the_fit_recovers():
+    clean = _clean(101)
+    tests, sinkage = _raw(clean)
+    rng = np.random.default_rng(5)
+    soil_tests = tests.loc[tests["soil"] == "sand", "test_id"].to_numpy()
+    planted = []
+    for tid in rng.choice(soil_tests, size=5, replace=False):
+        rows = np.flatnonzero(sinkage["test_id"].to_numpy() == tid)
+        row = int(rng.choice(rows[20:-20]))
+        sinkage.loc[row, "z_m"] *= 10.0  # a one-sample spike, 10x the real sinkage
+        planted.append(row + 1)
+    spiked = Campaign.from_frames(tests, sinkage)
+    report = screen(spiked)
+    found = sorted(r for f in report.flags if f.code == "spike" for r in f.rows)
+    assert found == sorted(planted)
+    assert {f.code for f in report.flags} == {"spike"}
+    reference = fit_sinkage(clean, "bekker", soil="sand")
+    cleaned = fit_sinkage(spiked, "bekker", soil="sand")
+    raw = fit_sinkage(spiked, "bekker", soil="sand", quality="off")
+    for name in ("kc", "kphi", "n"):
+        assert abs(cleaned.params[name] - reference.params[name]) < 2 * reference.stderr[name]
+    assert abs(raw.params["n"] - reference.params["n"]) > 3 * reference.stderr["n"]
+    rows = [r for e in cleaned.to_dict()["excluded"] for r in e["rows"]]
+    assert sorted(rows) == sorted(planted)
+
+
+def test_planted_seating_offsets_are_found_rezeroed_and_the_fit_recovers():
+    clean = _clean(102)
+    tests, sinkage = _raw(clean)
+    offset = 1.5e-3
+    chosen = list(tests.loc[tests["soil"] == "sand", "test_id"][:6])
+    parts = []
+    rng = np.random.default_rng(9)
+    for tid, group in sinkage.groupby("test_id", sort=False):
+        if tid in chosen:
+            free = pd.DataFrame(
+                {
+                    "test_id": tid,
+                    "z_m": np.linspace(0.0, offset, 12, endpoint=False),
+                    "force_N": rng.normal(0.0, 0.2, 12),
+                }
+            )
+            moved = group.assign(z_m=group["z_m"].clip(lower=0.0) + offset)
+            group = pd.concat([free, moved[moved["z_m"] > offset]])
+        parts.append(group)
+    seated = Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
+    report = screen(seated)
+    contacts = {f.test_id: f.value for f in report.flags if f.code == "pre-contact"}
+    assert set(contacts) == set(chosen)
+    assert all(abs(v - offset) < 0.2 * offset for v in contacts.values()), contacts
+    reference = fit_sinkage(clean, "bekker", soil="sand")
+    cleaned = fit_sinkage(seated, "bekker", soil="sand")
+    raw = fit_sinkage(seated, "bekker", soil="sand", quality="off")
+    assert abs(cleaned.params["n"] - reference.params["n"]) < 2 * reference.stderr["n"]
+    assert abs(raw.params["n"] - reference.params["n"]) > 3 * reference.stderr["n"]
+
+
+def test_sinkage_in_millimetres_is_a_units_flag_in_check_and_an_error_at_load():
+    tests, sinkage = _raw(_clean(103))
+    sinkage["z_m"] *= 1000.0
+    frames = {"tests": tests, "sinkage": sinkage}
+    with pytest.raises(Exception, match="millimetres"):
+        load_campaign(frames)
+    report = screen(load_campaign(frames, check_units=False))
+    assert {f.test_id for f in report.flags if f.code == "units"} == set(tests["test_id"])
+
+
+def test_real_campaigns_grc1_load_capped_and_small_plates_fail_cullinan_clean_of_artefacts():
+    grc = screen(load_campaign("grc1-oravec2009"))
+    by_code: dict[str, set] = {}
+    for f in grc.flags:
+        by_code.setdefault(f.code, set()).add(f.test_id)
+    assert by_code["load-capped"] == set(grc.tests["test_id"])
+    assert by_code["bearing-failure"] == {f"small-{i}" for i in range(1, 6)}
+    assert set(by_code) == {"load-capped", "bearing-failure"}
+    window = grc.proposed_windows()
+    assert list(window["b_m"]) == [0.038] and 2e-3 < window["z_max_m"].iloc[0] < 8e-3
+    cullinan = screen(load_campaign("cullinan-sand"))
+    assert not {f.code for f in cullinan.flags} & {"spike", "units", "pre-contact"}
+    assert len({f.test_id for f in cullinan.flags}) <= 1
+
+
+def test_spike_rule_ignores_steps_ramps_and_noise_but_finds_a_lone_sample():
+    rng = np.random.default_rng(0)
+    ramp = np.linspace(0, 1, 200) ** 1.7 + rng.normal(0, 0.002, 200)
+    step = np.r_[np.zeros(50), np.ones(50)]
+    assert find_spikes(ramp).size == 0 and find_spikes(step).size == 0
+    ramp[77] += 0.4
+    assert list(find_spikes(ramp)) == [77]
+
+
+def test_a_window_is_applied_counted_and_stated():
+    campaign = load_campaign("grc1-oravec2009")
+    window = FitWindow.parse(z_max=["radius_m=0.038:0.0034"], p_max=["150000"])
+    fit = fit_sinkage(campaign, "bekker", window=window)
+    record = fit.to_dict()["window"]
+    assert set(record["outside"]) >= {f"small-{i}" for i in range(1, 6)}
+    assert "radius_m = 0.038: z <= 0.0034 m" in fit.summary()
+    assert "bearing-failure" not in {f.code for f in fit.flags}  # cut off by the window
+    assert "bearing-failure" in {f.code for f in fit_sinkage(campaign, "bekker").flags}
+    with pytest.raises(ValueError, match="COLUMN=VALUE:LIMIT"):
+        FitWindow.parse(z_max=["radius_m:0.1"])
+
+
+def test_check_cli_json_and_identify_json_schema(capsys):
+    assert main(["check", "--data", "grc1-oravec2009", "--json"]) == 0
+    document = json.loads(capsys.readouterr().out)
+    first = document["tests"][0]
+    assert set(first) == {"test_id", "kind", "flags"}
+    assert {"code", "rows", "message"} <= set(first["flags"][0])
+    assert set(document["codes"]) == set(CODES)
+    assert main(["identify", "--data", "grc1-oravec2009", "--json", "--test-resamples", "20"]) == 0
+    fits = json.loads(capsys.readouterr().out)["fits"]
+    need = {"soil", "condition", "model", "params", "stderr", "stderr_tests", "health"}
+    assert need | {"epsilon", "window", "excluded"} <= set(fits[0])
+
+
+def test_every_code_is_documented():
+    text = (Path(__file__).parents[1] / "docs" / "quality.md").read_text(encoding="utf-8")
+    for code in CODES:
+        assert f"`{code}`" in text
