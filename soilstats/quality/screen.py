@@ -435,14 +435,17 @@ _SCREENED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def screened(campaign, quality: str = "clean", **selection):
     """``campaign`` (restricted to ``selection``) ready for analysis: screened in mode
     ``quality`` unless it was already (a campaign from :func:`screen` carries its report in
-    ``campaign.quality``). Only the selected tests are screened; results are cached."""
-    if getattr(campaign, "quality", None) is not None:
-        return campaign.select(**selection) if selection else campaign
-    if quality not in MODES:
-        raise CampaignError(f"quality must be one of {MODES}, got {quality!r}")
-    chosen = campaign.select(**selection) if selection else campaign
-    cache = _SCREENED.setdefault(campaign, {})
-    key = (quality, repr(sorted(selection.items(), key=str)))
-    if key not in cache:
-        cache[key] = screen(chosen, quality).campaign
-    return cache[key]
+    ``campaign.quality``).
+
+    The whole campaign is screened once per campaign and mode, then selected: fits are
+    called many times on one campaign with different selections (conditions, folds), and
+    ``load-capped`` judges all tests of a soil together.
+    """
+    if getattr(campaign, "quality", None) is None:
+        if quality not in MODES:
+            raise CampaignError(f"quality must be one of {MODES}, got {quality!r}")
+        cache = _SCREENED.setdefault(campaign, {})
+        if quality not in cache:
+            cache[quality] = screen(campaign, quality).campaign
+        campaign = cache[quality]
+    return campaign.select(**selection) if selection else campaign
