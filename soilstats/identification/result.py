@@ -123,8 +123,11 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
         per = applied.per_test[applied.per_test["test_id"].isin(ids)]
         z_limit = dict(zip(per["test_id"], per["z_max"], strict=True))
         outside = int(per["outside"].sum())
-        record["window"] = applied.to_dict() | {
-            "outside": {t: int(n) for t, n in zip(per["test_id"], per["outside"], strict=True) if n}
+        record["window"] = {
+            "rules": applied.window.to_dict(),
+            "outside": {
+                t: int(n) for t, n in zip(per["test_id"], per["outside"], strict=True) if n
+            },
         }
         record["window_text"] = applied.window.describe()
         notes.append(

@@ -49,7 +49,7 @@ def fit_shear(
         raise ValueError(f"model must be 'mohr-coulomb' or 'janosi' for shear, got {model!r}")
     if weighting is None:
         weighting = "none" if spec is MOHR_COULOMB else "max-stress"
-    campaign = screened(campaign, quality, **selection)
+    campaign = screened(campaign, quality)
     pooled = pool_shear(
         campaign, steady_only=spec is MOHR_COULOMB, weighting=weighting, **selection
     )

@@ -117,7 +117,7 @@ def fit_sinkage(
         raise ValueError(f"model must be one of {SINKAGE_MODELS} for sinkage, got {model!r}")
     if method not in ("lm", "wong"):
         raise ValueError(f"method must be 'lm' or 'wong', got {method!r}")
-    campaign = windowed(screened(campaign, quality, **selection), window)
+    campaign = windowed(screened(campaign, quality), window)
     pooled = pool_sinkage(
         campaign, points_per_test=points_per_test, weighting=weighting, **selection
     )

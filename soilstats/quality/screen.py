@@ -418,8 +418,8 @@ def screen(campaign, mode: str = "clean", *, progress: bool = False) -> QualityR
 
 def _cleaned(campaign, drop_labels: np.ndarray, offsets: dict[str, float]):
     """The campaign without the excluded samples, z re-zeroed where a contact was found."""
-    sink = campaign.sinkage.drop(index=[i for i in drop_labels if i in campaign.sinkage.index])
-    shear = campaign.shear.drop(index=[i for i in drop_labels if i in campaign.shear.index])
+    sink = campaign.sinkage.drop(index=campaign.sinkage.index.intersection(drop_labels))
+    shear = campaign.shear.drop(index=campaign.shear.index.intersection(drop_labels))
     if offsets:
         sink = sink.copy()
         shift = sink["test_id"].astype(str).map(offsets).fillna(0.0).to_numpy(float)
