@@ -11,6 +11,7 @@ from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BERNSTEIN, REECE, get_model
 from ..quality import screened
+from .adequacy import adequacy_findings
 from .bootstrap import test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
@@ -146,10 +147,22 @@ def fit_sinkage(
             method="Wong: p^2-weighted log-log regression",
             message="closed-form linear regressions",
         )
-        return CampaignFit.of(centred(closed, z), pooled.tests, notes, campaign=campaign)
+        closed = centred(closed, z)
+        flags = _adequacy(spec, pooled, closed, None)
+        return CampaignFit.of(closed, pooled.tests, notes, flags, campaign=campaign)
 
     if p0 is None:
         p0 = sinkage_start(spec.name, b, z, p)
     result = centred(identify(spec, x, p, p0, weights=w, on_failure=on_failure), z)
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
-    return CampaignFit.of(result, pooled.tests, notes, bootstrap=bootstrap, campaign=campaign)
+    flags = _adequacy(spec, pooled, result, bootstrap)
+    return CampaignFit.of(result, pooled.tests, notes, flags, bootstrap, campaign)
+
+
+def _adequacy(spec, pooled, fit, bootstrap) -> list:
+    """``lack-of-fit`` and (with the test bootstrap) ``aggregation-bias`` flags
+    (identification/adequacy.py)."""
+    b = None if spec is BERNSTEIN else pooled.x["b_m"]
+    se_n = None if bootstrap is None else float(bootstrap.stderr["n"])
+    n = float(fit.params["n"])
+    return adequacy_findings(pooled.x["z_m"], pooled.y, pooled.test_index, n, b, se_n)[1]
