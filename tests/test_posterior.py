@@ -95,6 +95,10 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
             str(out),
             "--simulator",
             "chrono-scm",
+            "--prior",
+            "n=0.5:2",
+            "--scm-elastic-K",
+            "5e7",
         ]
     )
     assert code == 0
@@ -103,13 +107,64 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
         "posterior_janosi.nc",
         "draws.csv",
         "summary.csv",
+        "posterior.json",
         "report.pdf",
         "chrono-scm.csv",
+        "chrono-scm.json",
     ):
         assert (out / name).exists(), name
+    record = json.loads((out / "posterior.json").read_text())
+    assert "n: flat on (0.5, 2)" in record["priors"]["bekker"]
+    assert record["support"]["passed"] and not record["forced"]
+    scm = json.loads((out / "chrono-scm.json").read_text())
+    assert scm["stated_inputs"]["elastic_K"] == {
+        "value": 5e7,
+        "unit": "Pa/m",
+        "source": "stated by user",
+    }
+    assert scm["stated_inputs"]["damping_R"]["value"] == 3e4
+    assert scm["seed"] == 1 and scm["soil"] == "sim-sand" and scm["version"]
+    sim = pd.read_csv(out / "chrono-scm.csv", comment="#")
+    assert (sim["elastic_K"] == 5e7).all() and (sim["damping_R"] == 3e4).all()
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert "kc" in idata.posterior
     provenance = json.loads(idata.posterior.attrs["soilstats_provenance"])
     assert provenance["seed"] == 1 and provenance["command"].startswith("soilstats posterior")
     draws = pd.read_csv(out / "draws.csv", comment="#")
     assert list(draws.columns) == ["kc", "kphi", "n", "c", "phi", "K"]
+
+
+def test_cli_writes_nothing_when_not_converged_unless_forced(campaign, tmp_path):
+    from soilstats.cli.posterior import main
+
+    folder = campaign.save(tmp_path / "camp")
+    args = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker", "--draws", "64"]
+    out = tmp_path / "out"
+    assert main([*args, "--out", str(out)]) == 2
+    assert not out.exists() or not any(out.iterdir())
+    assert main([*args, "--out", str(out), "--force"]) == 1
+    record = json.loads((out / "posterior.json").read_text())
+    assert record["forced"] and "not converged" in record["failures"][0]
+    draws = pd.read_csv(out / "draws.csv", comment="#")
+    assert np.isfinite(draws.to_numpy()).all() and (draws["n"] > 0).all()
+
+
+def test_cli_refuses_a_prior_for_no_parameter_before_sampling(campaign, tmp_path):
+    from soilstats.cli.posterior import main
+
+    folder = campaign.save(tmp_path / "camp")
+    code = main(
+        [
+            "--data",
+            str(folder),
+            "--soil",
+            "sim-sand",
+            "--model",
+            "bekker",
+            "--prior",
+            "nn=0:2",
+            "--out",
+            str(tmp_path / "o"),
+        ]
+    )
+    assert code == 2 and not (tmp_path / "o").exists()

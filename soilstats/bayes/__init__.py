@@ -20,7 +20,8 @@ ArviZ 0.17–0.23 (the 0.x ``InferenceData`` API) is supported.
 
 from __future__ import annotations
 
-from .joint import SIMULATOR_FORMATS, joint_draws, simulator_parameters
+from .export import SCM_DEFAULTS, SIMULATOR_FORMATS, simulator_parameters, simulator_record
+from .joint import joint_draws
 from .population import sample_population
 from .posterior import sample_posterior
 from .priors import DEFAULT_PRIORS, Normal, Prior, Uniform
@@ -30,6 +31,7 @@ __all__ = [
     "DEFAULT_PRIORS",
     "ESS_MIN",
     "RHAT_MAX",
+    "SCM_DEFAULTS",
     "SIMULATOR_FORMATS",
     "Normal",
     "PosteriorResult",
@@ -39,4 +41,5 @@ __all__ = [
     "sample_population",
     "sample_posterior",
     "simulator_parameters",
+    "simulator_record",
 ]

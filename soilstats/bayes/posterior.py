@@ -275,4 +275,7 @@ def _attrs(problem: PooledProblem) -> dict:
             f"{n} [{u}]"
             for n, u in zip(problem.model.param_names, problem.model.units, strict=True)
         ),
+        "priors": "; ".join(
+            f"{n}: {p}" for n, p in zip(problem.model.param_names, problem.priors, strict=True)
+        ),
     }

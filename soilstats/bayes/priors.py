@@ -32,7 +32,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DEFAULT_PRIORS", "Normal", "Prior", "Uniform", "resolve_priors"]
+__all__ = [
+    "DEFAULT_PRIORS",
+    "Normal",
+    "Prior",
+    "Uniform",
+    "parse_prior",
+    "priors_from_items",
+    "priors_from_toml",
+    "resolve_priors",
+]
 
 
 @dataclass(frozen=True)
@@ -140,3 +149,62 @@ def resolve_priors(
                 f"or None (flat on the real line), got {value!r}"
             )
     return tuple(chosen[name] for name in param_names)
+
+
+def parse_prior(text: str) -> Prior:
+    """A prior from its text form (command lines and TOML files).
+
+    ``LO:HI`` is flat on (LO, HI) (``inf``/``-inf`` allowed); ``normal:MU:SD`` is a normal
+    prior, ``normal:MU:SD:LO:HI`` the same truncated to (LO, HI). Values in the parameter's
+    own unit (SI, φ in degrees).
+    """
+    parts = [p.strip() for p in str(text).split(":")]
+    try:
+        if parts[0].lower() == "normal" and len(parts) in (3, 5):
+            mu, sd, *bounds = (float(p) for p in parts[1:])
+            lo, hi = bounds or (-np.inf, np.inf)
+            return Normal(lower=lo, upper=hi, mu=mu, sd=sd)
+        if len(parts) == 2:
+            lo, hi = float(parts[0]), float(parts[1])
+            if lo < hi:
+                return Uniform(lo, hi)
+    except ValueError:
+        pass
+    raise ValueError(
+        f"cannot read the prior {text!r}: write LO:HI (flat), normal:MU:SD or "
+        "normal:MU:SD:LO:HI, e.g. 0.2:2 or normal:1.0:0.3:0:inf"
+    )
+
+
+def priors_from_items(items) -> dict[str, Prior]:
+    """``["n=0.2:2", "kc=normal:0:5e4"]`` -> ``{"n": Prior, "kc": Prior}`` (``--prior``)."""
+    out: dict[str, Prior] = {}
+    for item in items or ():
+        name, eq, spec = str(item).partition("=")
+        if not eq or not name.strip():
+            raise ValueError(f"--prior takes NAME=SPEC (e.g. n=0.2:2), got {item!r}")
+        out[name.strip()] = parse_prior(spec)
+    return out
+
+
+def priors_from_toml(path, model_name: str) -> dict[str, Prior]:
+    """The ``[MODEL]`` table of a TOML file: ``NAME = "SPEC"`` (as :func:`parse_prior`).
+
+    A file may hold tables for several models (``[bekker]``, ``[janosi]``); a model without a
+    table keeps its defaults. Unknown parameter names are refused by :func:`resolve_priors`.
+    """
+    import tomllib
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        table = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        raise ValueError(f"cannot read the priors file {str(path)!r}: {err}") from None
+    section = table.get(model_name, {})
+    if not isinstance(section, dict):
+        raise ValueError(f"{path}: [{model_name}] must be a table of NAME = \"SPEC\" entries")
+    try:
+        return {name: parse_prior(spec) for name, spec in section.items()}
+    except ValueError as err:
+        raise ValueError(f"{path}, [{model_name}]: {err}") from None

@@ -2,8 +2,15 @@
 
 Writes to --out: posterior.nc (ArviZ netCDF; one group set per model, see below),
 draws.csv (one row per joint draw, one column per parameter, SI units, phi in degrees),
-summary.csv (mean, sd, 90 % HDI, MCSE, ESS, R-hat), report.pdf (trace, pair and
-posterior-predictive plots) and, with --simulator, the draws as a simulator's parameter sets.
+summary.csv (mean, sd, 90 % HDI, MCSE, ESS, R-hat), posterior.json (the record: priors,
+convergence, physical support, pooling warnings, provenance), report.pdf (trace, pair and
+posterior-predictive plots) and, with --simulator, the draws as a simulator's parameter sets
+(CSV) with their record (JSON).
+
+Nothing is written until the draws pass: every sampler converged (R-hat, ESS) and at most 1 %
+of the draws fall outside the physical support at the stated contact widths
+(soilstats.bayes.support). Otherwise exit 2 with the reasons, unless --force (exit 1, every
+file marked). Draws outside the support are never written.
 
 --model takes one model (bekker, bernstein, reece, mohr-coulomb, janosi) or a sinkage and a
 shear model joined by '+' (e.g. bekker+janosi): their posteriors are combined as
@@ -30,7 +37,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_common_options(
         parser,
         out="required",
-        out_help="write posterior.nc, draws.csv, summary.csv and report.pdf into DIR",
+        out_help="write posterior.nc, draws.csv, summary.csv, posterior.json and report.pdf "
+        "into DIR (only when the checks pass, or with --force)",
     )
     add_data_options(parser)
     parser.add_argument("--soil", required=True, help="soil name (the soil column of tests.csv)")
@@ -44,81 +52,267 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--draws", type=int, default=None, help="kept draws (default per model)")
     parser.add_argument(
+        "--prior",
+        action="append",
+        default=[],
+        metavar="NAME=SPEC",
+        help="prior of one parameter: LO:HI (flat), normal:MU:SD or normal:MU:SD:LO:HI, SI "
+        "units, phi in degrees (repeatable; replaces the physics default)",
+    )
+    parser.add_argument(
+        "--priors",
+        metavar="FILE.toml",
+        help='priors from a TOML file: a [MODEL] table of NAME = "SPEC" (--prior wins)',
+    )
+    parser.add_argument(
+        "--contact-width",
+        metavar="B_MIN[:B_MAX]",
+        help="contact widths [m] the draws will be used at: every draw must give a positive "
+        "plate modulus over them (default: the plate sizes of the data)",
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="write the outputs even when convergence or physical-support checks fail "
+        "(marked FORCED in every file; unphysical draws are still never written)",
+    )
+    parser.add_argument(
         "--simulator",
         choices=SIMULATORS,
-        help="also write the draws as this simulator's parameter sets",
+        help="also write the draws as this simulator's parameter sets (CSV and JSON record)",
     )
+    parser.add_argument(
+        "--scm-elastic-K",
+        type=float,
+        metavar="PA_PER_M",
+        help="Chrono SCM elastic stiffness [Pa/m] (default 4e7, Chrono's demos; not a "
+        "Bevameter parameter)",
+    )
+    parser.add_argument(
+        "--scm-damping-R",
+        type=float,
+        metavar="PA_S_PER_M",
+        help="Chrono SCM damping [Pa s/m] (default 3e4, Chrono's demos)",
+    )
+
+
+def _priors(args, model: str) -> dict:
+    from ..bayes.priors import priors_from_items, priors_from_toml
+
+    chosen = priors_from_toml(args.priors, model) if args.priors else {}
+    items = priors_from_items(args.prior)
+    return chosen | items
 
 
 def _run(campaign, model, args):
     from ..bayes import sample_population, sample_posterior
+    from ..models import get_model
 
     kw = {"seed": args.seed, "progress": progress_enabled(args.progress), "soil": args.soil}
     if args.draws is not None:
         kw["draws"] = args.draws
+    names = get_model(model).param_names
+    priors = {k: v for k, v in _priors(args, model).items() if k in names}
+    if priors:
+        kw["priors"] = priors
     if args.population and model in ("bekker", "bernstein"):
         return sample_population(campaign, model, **kw)
     return sample_posterior(campaign, model, **kw)
 
 
+def _check_prior_names(args, models) -> None:
+    """Every --prior names a parameter of one of the models (a typo must not pass silently)."""
+    from ..models import get_model
+
+    known = {n for m in models for n in get_model(m).param_names}
+    given = set(_priors(args, models[0])) | {k for m in models[1:] for k in _priors(args, m)}
+    unknown = sorted(given - known)
+    if unknown:
+        raise ValueError(
+            f"--prior/--priors name {unknown}, not parameters of {'+'.join(models)} "
+            f"(parameters: {sorted(known)})"
+        )
+
+
+def _check_simulator(args, models) -> None:
+    """--simulator needs the parameters it writes: refuse before sampling, not after."""
+    from ..bayes import SIMULATOR_FORMATS
+    from ..models import get_model
+
+    if not args.simulator:
+        return
+    have = {n for m in models for n in get_model(m).param_names}
+    missing = [k for k in SIMULATOR_FORMATS[args.simulator] if k not in have]
+    if missing:
+        raise ValueError(
+            f"--simulator {args.simulator} needs {list(SIMULATOR_FORMATS[args.simulator])}; "
+            f"{'+'.join(models)} lacks {missing}: use --model bekker+janosi"
+        )
+
+
+def _contact_widths(args, campaign) -> tuple[float, float]:
+    if args.contact_width:
+        lo, _, hi = args.contact_width.partition(":")
+        try:
+            widths = (float(lo), float(hi or lo))
+        except ValueError:
+            raise ValueError(
+                f"--contact-width takes B_MIN[:B_MAX] in metres, got {args.contact_width!r}"
+            ) from None
+        if not 0 < widths[0] <= widths[1]:
+            raise ValueError(f"--contact-width needs 0 < B_MIN <= B_MAX, got {widths}")
+        return widths
+    tests = campaign.tests
+    b = tests.loc[(tests["kind"] == "sinkage") & (tests["soil"].astype(str) == args.soil), "b_m"]
+    b = b.dropna()
+    return (float(b.min()), float(b.max())) if len(b) else (1.0, 1.0)
+
+
+#: Test-log columns whose several values in one posterior mean several conditions pooled.
+_CONDITION_COLUMNS = ("shape", "b_m", "velocity_m_s", "preparation", "series", "grousers")
+
+
+def pooling_warnings(campaign, soil: str, models) -> list[str]:
+    """Say when a posterior pools plate sizes (Bernstein) or test conditions."""
+    tests = campaign.tests[campaign.tests["soil"].astype(str) == soil]
+    out = []
+    for kind in ("sinkage", "shear"):
+        chosen = tests[tests["kind"] == kind]
+        if chosen.empty:
+            continue
+        for column in _CONDITION_COLUMNS:
+            if column not in chosen or (column == "b_m" and "bernstein" not in models):
+                continue
+            values = chosen[column].dropna().unique()
+            if len(values) > 1:
+                shown = ", ".join(str(v) for v in sorted(values, key=str)[:6])
+                out.append(
+                    f"the {kind} posterior pools {len(values)} values of {column} ({shown}): "
+                    "its draws describe the mixture, not any one condition; select one with "
+                    f"--select {kind}:{column}=VALUE if they differ"
+                )
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
-    """Sample, write the files, print the summaries; exit 1 when not converged."""
+    """Sample, check, and only then write; exit 2 (nothing written) when a check fails."""
     import json
 
     import pandas as pd
 
-    from ..bayes import joint_draws
+    from ..bayes import joint_draws, simulator_parameters, simulator_record
+    from ..bayes.support import check_support
     from ..errors import ConvergenceWarning
     from ..report import Provenance, json_safe, output_path, write_csv
     from ..report.posterior_pdf import write_report
 
     models = args.model.split("+")
+    _check_prior_names(args, models)
+    _check_simulator(args, models)
     campaign = prepared_campaign(args)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     out = Path(args.out)
-    names = ["posterior.nc", "draws.csv", "summary.csv", "report.pdf"]
+    names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]
-    names += [f"{args.simulator}.csv"] if args.simulator else []
+    names += [f"{args.simulator}.csv", f"{args.simulator}.json"] if args.simulator else []
     for name in names:  # refuse before sampling, not after minutes of work
         output_path(out, name, overwrite=args.overwrite)
+    widths = _contact_widths(args, campaign)
+    pooled_warnings = pooling_warnings(campaign, args.soil, models)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
         results = [_run(campaign, m, args) for m in models]
-    for i, res in enumerate(results):
-        name = "posterior.nc" if i == 0 else f"posterior_{res.model_name}.nc"
-        # netCDF attributes take no None: the provenance travels as one JSON string.
-        res.idata.posterior.attrs["soilstats_provenance"] = json.dumps(provenance.to_dict())
-        res.idata.to_netcdf(str(output_path(out, name, overwrite=True)))
     n = min(len(r.draws()) for r in results)
     draws = (
         joint_draws(results[0], results[1], n, seed=args.seed)
         if len(results) == 2
         else results[0].draws()
     )
-    write_csv(out / "draws.csv", draws, provenance, overwrite=True, float_format="%.10g")
+    support = check_support(draws, widths)
     table = pd.concat([r.diagnostics.assign(model=r.model_name, kind=r.kind) for r in results])
     table.index.name = "quantity"
+    converged = all(r.converged for r in results)
+    failures = [
+        f"{r.model_name} {r.kind}: not converged ({'; '.join(r.problems)})"
+        for r in results
+        if not r.converged
+    ]
+    if not support.passed:
+        failures.append(support.describe())
+    from ..errors import SoilstatsWarning
+
+    ours = [str(w.message) for w in caught if issubclass(w.category, SoilstatsWarning)]
+    numeric = len(caught) - len(ours)
+    if numeric:  # numpy overflow/invalid while sampling: one line, not hundreds
+        ours.append(
+            f"{numeric} numerical warnings (overflow, invalid values) while sampling: the "
+            "sampler reached extreme parameter values (an improper or very wide posterior)"
+        )
+    for text in ours:
+        print(f"WARNING: {text}", file=sys.stderr)
+    for text in pooled_warnings:
+        print(f"WARNING: {text}", file=sys.stderr)
+    if failures and not args.force:
+        for text in failures:
+            print(f"error: {text}", file=sys.stderr)
+        print(
+            f"error: nothing written to {out}: these draws are not fit for a rover Monte Carlo. "
+            "Select fewer conditions, window the data (--z-max), state narrower --prior ranges, "
+            "or pass --force to write them anyway (marked FORCED; unphysical draws are left out)",
+            file=sys.stderr,
+        )
+        return 2
+    forced = bool(failures)
+    kept = draws[support.inside].reset_index(drop=True)
+    record = json_safe(
+        {
+            "soil": args.soil,
+            "models": models,
+            "kind": [r.kind for r in results],
+            "converged": converged,
+            "forced": forced,
+            "failures": failures,
+            "support": support.to_dict(),
+            "draws_written": len(kept),
+            "priors": {r.model_name: r.idata.posterior.attrs.get("priors", "") for r in results},
+            "pooling_warnings": pooled_warnings,
+            "warnings": ours,
+            "selection": list(args.select or []),
+            "provenance": provenance.to_dict(),
+        }
+    )
+    prov = provenance.to_dict() | {"forced": forced}
+    for i, res in enumerate(results):
+        name = "posterior.nc" if i == 0 else f"posterior_{res.model_name}.nc"
+        # netCDF attributes take no None: the record travels as JSON strings.
+        res.idata.posterior.attrs["soilstats_provenance"] = json.dumps(json_safe(prov))
+        res.idata.posterior.attrs["soilstats_record"] = json.dumps(record)
+        res.idata.to_netcdf(str(output_path(out, name, overwrite=True)))
+    write_csv(out / "draws.csv", kept, provenance, overwrite=True, float_format="%.10g")
     write_csv(out / "summary.csv", table.reset_index(), provenance, overwrite=True)
+    (out / "posterior.json").write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
     write_report(results, out / "report.pdf", provenance=provenance)
     if args.simulator:
-        from ..bayes import simulator_parameters
-
-        sim = simulator_parameters(draws, args.simulator)
+        stated = {"elastic_K": args.scm_elastic_K, "damping_R": args.scm_damping_R}
+        sim = simulator_parameters(kept, args.simulator, **stated)
         write_csv(
             out / f"{args.simulator}.csv", sim, provenance, overwrite=True, float_format="%.10g"
         )
-    converged = all(r.converged for r in results)
+        context = {k: record[k] for k in ("soil", "models", "kind", "forced", "selection")}
+        context |= {"seed": args.seed, "version": provenance.to_dict().get("soilstats_version")}
+        sim_record = simulator_record(
+            kept, args.simulator, support=support, context=context, **stated
+        )
+        (out / f"{args.simulator}.json").write_text(
+            json.dumps(json_safe(sim_record), indent=2) + "\n", encoding="utf-8"
+        )
+        for note in sim_record["notes"]:
+            print(f"note: {note}", file=sys.stderr)
     if args.json:
         print(
             json.dumps(
                 json_safe(
-                    {
-                        "out": str(out),
-                        "converged": converged,
-                        "summary": table.reset_index().to_dict("records"),
-                        "warnings": [str(w.message) for w in caught],
-                        "provenance": provenance.to_dict(),
-                    }
+                    record | {"out": str(out), "summary": table.reset_index().to_dict("records")}
                 ),
                 indent=2,
             )
@@ -126,16 +320,15 @@ def run(args: argparse.Namespace) -> int:
     else:
         for res in results:
             print(res.summary())
+        print(f"Physical support: {support.describe()}")
     if args.population and any(m not in ("bekker", "bernstein") for m in models):
         print(
             "note: the population model covers sinkage models only; the shear block is the "
             "pooled posterior",
             file=sys.stderr,
         )
-    for w in caught:
-        print(f"WARNING: {w.message}", file=sys.stderr)
-    if not converged:
-        print("WARNING: NOT CONVERGED — see summary.csv and the notes above", file=sys.stderr)
+    if forced:
+        print("WARNING: FORCED — written although: " + "; ".join(failures), file=sys.stderr)
         return 1
     return 0
 

@@ -1,0 +1,133 @@
+"""Physical support of parameter draws: what a rover Monte Carlo may be handed.
+
+A draw is physical when every value is finite and
+
+* n > 0 (sinkage grows with depth; Eq. 7, Eq. 8);
+* the plate modulus is positive over the contact widths the draws will be used at: Bekker
+  kc/b + kφ > 0, Reece k1 + k2·b > 0, Bernstein k > 0, for every b in [b_min, b_max] (both
+  moduli are monotone in b, so the two ends decide);
+* c >= 0, 0 < φ < 90°, K > 0 (shear, Eqs. 13, 15).
+
+The pooled posterior already has this support through its priors (at the tested plate
+sizes); a population's *new preparation* is drawn from a fitted scatter distribution and can
+leave it, and a posterior that is not proper (data that do not pin the parameters) can wander
+to any value. Draws outside are never written: the kept draws are the posterior conditioned on
+physics (rejection), and the share left out is a diagnostic — above :data:`MAX_OUTSIDE` the
+model does not describe the soil and the CLI writes nothing unless forced.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["MAX_OUTSIDE", "SupportCheck", "check_support", "negative_modulus_width"]
+
+#: Largest share of draws outside the physical support for a posterior to be usable.
+MAX_OUTSIDE = 0.01
+
+
+@dataclass(frozen=True)
+class SupportCheck:
+    """Which draws are physical, and why the others are not.
+
+    Attributes
+    ----------
+    inside : ndarray of bool
+        One entry per draw.
+    reasons : dict
+        Rule -> number of draws breaking it (a draw can break several).
+    contact_widths : tuple of float
+        (b_min, b_max) [m] the moduli were checked over.
+    """
+
+    inside: np.ndarray
+    reasons: dict
+    contact_widths: tuple[float, float]
+
+    @property
+    def n_outside(self) -> int:
+        return int((~self.inside).sum())
+
+    @property
+    def share_outside(self) -> float:
+        return self.n_outside / max(len(self.inside), 1)
+
+    @property
+    def passed(self) -> bool:
+        return self.share_outside <= MAX_OUTSIDE
+
+    def describe(self) -> str:
+        lo, hi = self.contact_widths
+        if not self.n_outside:
+            return f"all {len(self.inside)} draws physical (contact widths {lo:g}–{hi:g} m)"
+        why = ", ".join(f"{rule}: {count}" for rule, count in self.reasons.items() if count)
+        return (
+            f"{self.n_outside} of {len(self.inside)} draws ({self.share_outside:.1%}) outside "
+            f"the physical support at contact widths {lo:g}–{hi:g} m ({why})"
+        )
+
+    def to_dict(self) -> dict:
+        return {
+            "draws": len(self.inside),
+            "outside": self.n_outside,
+            "share_outside": self.share_outside,
+            "max_share": MAX_OUTSIDE,
+            "passed": self.passed,
+            "reasons": {k: int(v) for k, v in self.reasons.items()},
+            "contact_widths_m": list(self.contact_widths),
+        }
+
+
+def check_support(draws: pd.DataFrame, contact_widths: tuple[float, float]) -> SupportCheck:
+    """Judge each row of ``draws`` (columns named as the models' parameters, φ in degrees).
+
+    ``contact_widths``: (b_min, b_max) [m], the plate or wheel contact widths of the draws' use.
+    """
+    lo, hi = (float(b) for b in contact_widths)
+    if not 0 < lo <= hi:
+        raise ValueError(f"contact widths must satisfy 0 < b_min <= b_max, got {contact_widths}")
+    values = {c: draws[c].to_numpy(float) for c in draws.columns}
+    rules = {"non-finite": ~np.all(np.isfinite(draws.to_numpy(float)), axis=1)}
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        if "n" in values:
+            rules["n <= 0"] = ~(values["n"] > 0)
+        if {"kc", "kphi"} <= set(values):
+            kc, kphi = values["kc"], values["kphi"]
+            rules["kc/b + kphi <= 0"] = ~((kc / lo + kphi > 0) & (kc / hi + kphi > 0))
+        if {"k1", "k2"} <= set(values):
+            k1, k2 = values["k1"], values["k2"]
+            rules["k1 + k2 b <= 0"] = ~((k1 + k2 * lo > 0) & (k1 + k2 * hi > 0))
+        if "k" in values:
+            rules["k <= 0"] = ~(values["k"] > 0)
+        if "c" in values:
+            rules["c < 0"] = ~(values["c"] >= 0)
+        if "phi" in values:
+            rules["phi outside (0, 90) deg"] = ~((values["phi"] > 0) & (values["phi"] < 90))
+        if "K" in values:
+            rules["K <= 0"] = ~(values["K"] > 0)
+    outside = np.zeros(len(draws), bool)
+    for broken in rules.values():
+        outside |= broken
+    return SupportCheck(~outside, {k: int(v.sum()) for k, v in rules.items()}, (lo, hi))
+
+
+def negative_modulus_width(draws: pd.DataFrame, quantile: float = 0.99) -> float | None:
+    """The contact width [m] below which Bekker's modulus kc/b + kφ turns negative.
+
+    A draw with kc < 0 (and kφ > 0) has a negative modulus for b < −kc/kφ; a draw with
+    kc >= 0 never does (width 0). Returns the ``quantile`` of that width over all draws: at
+    contact widths above it, all but 1 − ``quantile`` of the draws give a positive modulus.
+    None when no draw has kc < 0.
+    """
+    if not {"kc", "kphi"} <= set(draws.columns):
+        return None
+    kc, kphi = draws["kc"].to_numpy(float), draws["kphi"].to_numpy(float)
+    negative = (kc < 0) & (kphi > 0)
+    if not negative.any():
+        return None
+    width = np.zeros(kc.size)
+    width[negative] = -kc[negative] / kphi[negative]
+    return float(np.quantile(width, quantile))
