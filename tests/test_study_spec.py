@@ -63,3 +63,26 @@ def test_unknown_response_and_missing_factor(tmp_path):
     path.write_text(VALID.replace('factor = "grousers"\n', ""))
     with pytest.raises(SpecError, match="'factor': is required"):
         load_spec(path)
+
+
+def test_a_window_in_the_spec_reaches_every_fit(tmp_path):
+    from soilstats.campaign import load_campaign
+    from soilstats.study import run_study
+
+    text = (studies_dir() / "velocity.toml").read_text()
+    path = tmp_path / "windowed.toml"
+    path.write_text(
+        text.replace('name = "velocity"', 'name = "windowed"')
+        + '\n[window]\nz_max = ["radius_m=0.05:0.027"]\n'
+    )
+    spec = load_spec(path)
+    assert spec.window.describe() == "radius_m = 0.05: z <= 0.027 m"
+    campaign = load_campaign("simulated-paper").select(soil="soil01")
+    result = run_study(spec, campaign)
+    assert any("radius_m = 0.05: z <= 0.027 m" in note for note in result.notes)
+    plain = run_study(load_spec("velocity"), campaign)
+    # The 50 mm plate's pooled fits see less data: their parameters move, the others' do not.
+    assert not result.parameters.equals(plain.parameters)
+    path.write_text(text + '\n[window]\nz_max = ["radius_m=0.05"]\n')
+    with pytest.raises(SpecError, match="window"):
+        load_spec(path)

@@ -15,6 +15,7 @@ from .result import PosteriorResult
 
 __all__ = ["joint_draws"]
 
+
 def joint_draws(
     sinkage: PosteriorResult, shear: PosteriorResult, n: int, seed: int | None = None
 ) -> pd.DataFrame:

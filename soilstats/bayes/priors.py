@@ -203,7 +203,7 @@ def priors_from_toml(path, model_name: str) -> dict[str, Prior]:
         raise ValueError(f"cannot read the priors file {str(path)!r}: {err}") from None
     section = table.get(model_name, {})
     if not isinstance(section, dict):
-        raise ValueError(f"{path}: [{model_name}] must be a table of NAME = \"SPEC\" entries")
+        raise ValueError(f'{path}: [{model_name}] must be a table of NAME = "SPEC" entries')
     try:
         return {name: parse_prior(spec) for name, spec in section.items()}
     except ValueError as err:

@@ -12,6 +12,7 @@ import time
 import pandas as pd
 
 from ..identification.conditions import fit_conditions
+from ..identification.window import windowed
 from ..report import Provenance, source_date
 from .data import StudyDataError, select_tests, soils_with_levels
 from .effects import factor_effects
@@ -75,9 +76,15 @@ def run_study(
         The campaign lacks what the study needs.
     """
     start = time.perf_counter()
+    window_notes = []
+    if spec.window:  # the spec's own window: every per-test and pooled fit sees it
+        campaign = windowed(campaign, spec.window)
+        cache = PerTestCache(campaign, progress=progress)
+        window_notes.append(f"Fitting window of this study: {spec.window.describe()}")
     cache = cache or PerTestCache(campaign, progress=progress)
     tests = select_tests(campaign, spec)
     soils, notes = soils_with_levels(tests, spec)
+    notes = window_notes + notes
     tests = tests[tests["soil"].astype(str).isin(soils)]
     ids = tests["test_id"].astype(str).tolist()
     n_warn = len(cache.warnings)

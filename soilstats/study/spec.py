@@ -68,6 +68,7 @@ _TOP_KEYS = {
     "curves",
     "paper_finding",
     "criteria",
+    "window",
 }
 
 
@@ -138,6 +139,7 @@ class StudySpec:
     curves_where: dict
     paper_finding: str
     criteria: Criteria | None
+    window: object = None  # FitWindow: sinkage/pressure window of every fit (empty: none)
     path: Path | None = field(default=None, compare=False)
 
     @property
@@ -295,6 +297,23 @@ def _criteria(raw, path) -> Criteria:
     )
 
 
+def _window(raw, path):
+    """``[window]``: ``z_max`` [m] / ``p_max`` [Pa], a number or a list of
+    ``"COLUMN=VALUE:LIMIT"`` items (as the CLI's --z-max/--p-max)."""
+    from ..identification.window import FitWindow
+
+    table = _get(raw, "window", dict, path, default={})
+    _check_keys(table, {"z_max", "p_max"}, path, "window.")
+    items = {}
+    for key in ("z_max", "p_max"):
+        value = table.get(key, [])
+        items[key] = [value] if isinstance(value, (int, float, str)) else list(value)
+    try:
+        return FitWindow.parse(items["z_max"], items["p_max"])
+    except ValueError as err:
+        raise _fail(path, "window", str(err)) from None
+
+
 def load_spec(source: str | Path) -> StudySpec:
     """Read and validate a study specification (a shipped name or a .toml path)."""
     path = find_spec(str(source))
@@ -343,6 +362,7 @@ def load_spec(source: str | Path) -> StudySpec:
         responses=_responses(raw, study_type, path),
         figures=figures,
         curves_where=dict(_get(curves, "where", dict, path, default={})),
+        window=_window(raw, path),
         paper_finding=_get(raw, "paper_finding", str, path, default="").strip(),
         criteria=_criteria(raw, path) if study_type == "preparation" else None,
         path=path,
