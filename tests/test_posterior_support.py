@@ -78,3 +78,22 @@ def test_pooling_conditions_is_said():
     assert any("velocity_m_s" in w for w in said)
     one = campaign.select(velocity_m_s=4.8e-3, preparation="1")
     assert not [w for w in pooling_warnings(one, "soil01", ["bekker"]) if "sinkage" in w]
+
+
+def test_each_prior_reaches_its_model_or_is_refused(tmp_path):
+    from argparse import Namespace
+
+    from soilstats.cli.posterior import priors_by_model
+
+    path = tmp_path / "priors.toml"
+    path.write_text('[bekker]\nn = "0.5:1.5"\n[janosi]\nK = "0:0.1"\n')
+    args = Namespace(prior=["n=0.6:1.2", "phi=20:40"], priors=str(path))
+    chosen = priors_by_model(args, ["bekker", "janosi"])
+    assert chosen["bekker"] == {"n": Uniform(0.6, 1.2)}  # the command line wins
+    assert chosen["janosi"] == {"K": Uniform(0.0, 0.1), "phi": Uniform(20.0, 40.0)}
+    # kc is a parameter of bekker, not of janosi: a [janosi] kc must not vanish silently.
+    path.write_text('[janosi]\nkc = "0:1"\n')
+    with pytest.raises(ValueError, match=r"\[janosi\]: \['kc'\]"):
+        priors_by_model(Namespace(prior=[], priors=str(path)), ["bekker", "janosi"])
+    with pytest.raises(ValueError, match="--prior names"):
+        priors_by_model(Namespace(prior=["nn=0:1"], priors=None), ["bekker"])

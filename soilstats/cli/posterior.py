@@ -96,42 +96,46 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _priors(args, model: str) -> dict:
+def priors_by_model(args, models) -> dict[str, dict]:
+    """Each model's priors, read once: its ``[MODEL]`` table of ``--priors``, then the
+    ``--prior`` items naming its parameters (they win). A name that belongs to no model — or,
+    in a file, not to its table's model — is an error before any sampling."""
     from ..bayes.priors import priors_from_items, priors_from_toml
-
-    chosen = priors_from_toml(args.priors, model) if args.priors else {}
-    items = priors_from_items(args.prior)
-    return chosen | items
-
-
-def _run(campaign, model, args):
-    from ..bayes import sample_population, sample_posterior
     from ..models import get_model
+
+    items = priors_from_items(args.prior)
+    params = {m: get_model(m).param_names for m in models}
+    known = {n for names in params.values() for n in names}
+    unknown = sorted(set(items) - known)
+    if unknown:
+        raise ValueError(
+            f"--prior names {unknown}, not parameters of {'+'.join(models)} "
+            f"(parameters: {sorted(known)})"
+        )
+    out = {}
+    for model, names in params.items():
+        table = priors_from_toml(args.priors, model) if args.priors else {}
+        stray = sorted(set(table) - set(names))
+        if stray:
+            raise ValueError(
+                f"{args.priors}, [{model}]: {stray} are not parameters of {model} "
+                f"(parameters: {list(names)})"
+            )
+        out[model] = table | {k: v for k, v in items.items() if k in names}
+    return out
+
+
+def _run(campaign, model, priors, args):
+    from ..bayes import sample_population, sample_posterior
 
     kw = {"seed": args.seed, "progress": progress_enabled(args.progress), "soil": args.soil}
     if args.draws is not None:
         kw["draws"] = args.draws
-    names = get_model(model).param_names
-    priors = {k: v for k, v in _priors(args, model).items() if k in names}
     if priors:
         kw["priors"] = priors
     if args.population and model in ("bekker", "bernstein"):
         return sample_population(campaign, model, **kw)
     return sample_posterior(campaign, model, **kw)
-
-
-def _check_prior_names(args, models) -> None:
-    """Every --prior names a parameter of one of the models (a typo must not pass silently)."""
-    from ..models import get_model
-
-    known = {n for m in models for n in get_model(m).param_names}
-    given = set(_priors(args, models[0])) | {k for m in models[1:] for k in _priors(args, m)}
-    unknown = sorted(given - known)
-    if unknown:
-        raise ValueError(
-            f"--prior/--priors name {unknown}, not parameters of {'+'.join(models)} "
-            f"(parameters: {sorted(known)})"
-        )
 
 
 def _check_simulator(args, models) -> None:
@@ -207,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
     from ..report.posterior_pdf import write_report
 
     models = args.model.split("+")
-    _check_prior_names(args, models)
+    priors = priors_by_model(args, models)
     _check_simulator(args, models)
     campaign = prepared_campaign(args)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
@@ -221,7 +225,7 @@ def run(args: argparse.Namespace) -> int:
     pooled_warnings = pooling_warnings(campaign, args.soil, models)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
-        results = [_run(campaign, m, args) for m in models]
+        results = [_run(campaign, m, priors[m], args) for m in models]
     n = min(len(r.draws()) for r in results)
     draws = (
         joint_draws(results[0], results[1], n, seed=args.seed)
