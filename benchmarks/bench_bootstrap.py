@@ -4,7 +4,8 @@
    tests × 100 points; ``bench_identify.paper_size_campaign``), beside the loop a user would
    write instead (resample tests, ``scipy.optimize.curve_fit`` from the same start).
 2. Coverage: over many simulated campaigns with preparation scatter (stiffness cv 0.15,
-   n sd 0.04; 3 plates × 10 tests × 60 points), the share of campaigns whose estimate lies
+   n sd 0.04; 3 plates × 10 tests × 60 points: ``tests/posterior_calibration.population_spec``,
+   as the slow test), the share of campaigns whose estimate lies
    within ±1σ of the centre, for Eq. 4's σ and for ``stderr_tests`` (200 resamples). The
    centre is the mean estimate over the campaigns (the σ's job is the estimator's spread);
    the share around the simulation's truth is printed beside it.
@@ -17,8 +18,10 @@ Ratios and shares from one run on this machine; not a unit test.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 from bench_identify import paper_size_campaign
@@ -28,8 +31,9 @@ from soilstats import BEKKER, fit_sinkage
 from soilstats.identification import pool_sinkage
 from soilstats.simulation import simulate
 
-PLATES = (0.05, 0.075, 0.10)
-SOIL = {"kc": -9.8e3, "kphi": 1.2e6, "n": 0.8, "c": 0.0, "phi": 30.0, "K": 0.01}
+# The campaigns of the slow calibration test (tests/test_bootstrap.py), from one home.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from posterior_calibration import PLATES, SOIL, population_spec
 
 
 def _curve_fit_loop(campaign, resamples: int, seed: int, start) -> float:
@@ -77,33 +81,14 @@ def cost(resamples: int = 1000) -> None:
     print(f"  {with_bs.bootstrap.n_failed} resamples not converged")
 
 
-def _spec(seed_points: int = 60) -> dict:
-    return {
-        "name": "bootstrap-coverage",
-        "scatter": {"stiffness_cv": 0.15, "n_sd": 0.04},
-        "noise": {"force_N": 0.2, "force_offset_N": 0.0},
-        "soils": {"sand": dict(SOIL)},
-        "series": [
-            {
-                "name": "plates",
-                "kind": "sinkage",
-                "soils": ["sand"],
-                "plates": [{"shape": "circle", "radius_m": b} for b in PLATES],
-                "repetitions": 10,
-                "points": seed_points,
-                "sinkage_m": 0.03,
-            }
-        ],
-    }
-
-
 def coverage(campaigns: int) -> None:
     from tqdm import tqdm
 
     names = ("kc", "kphi", "n")
     est, eq4, tests = [], [], []
     for seed in tqdm(range(campaigns), desc="campaigns", leave=False):
-        camp = simulate(_spec(), seed=1000 + seed).campaign
+        spec = population_spec(10, stiffness_cv=0.15, n_sd=0.04, points=60)
+        camp = simulate(spec, seed=1000 + seed).campaign
         fit = fit_sinkage(camp, "bekker", quality="off", test_resamples=200, seed=seed)
         est.append(fit.params[list(names)].to_numpy())
         eq4.append(fit.stderr[list(names)].to_numpy())
@@ -113,7 +98,7 @@ def coverage(campaigns: int) -> None:
     truth = np.array([SOIL[n] for n in names])
     print(
         f"\n1-sigma coverage over {campaigns} simulated campaigns "
-        "(stiffness cv 0.15, n sd 0.04; 3 plates x 10 tests x 60 points):"
+        f"(stiffness cv 0.15, n sd 0.04; plates b = {PLATES} m x 10 tests x 60 points):"
     )
     print(
         f"  {'param':>6} {'Eq. 4':>8} {'stderr_tests':>13} {'(around truth)':>15}"
