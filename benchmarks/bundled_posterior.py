@@ -2,8 +2,8 @@
 
 For every soil and model the data has (simulated-paper soil01/soil02/soil08 and the real
 cullinan-sand; all series of a soil pooled, as ``--soil`` alone does), runs
-``sample_posterior`` and, for sinkage models, ``sample_population``, and prints the worst
-R-hat, the smallest bulk and tail ESS over the checked quantities and the wall time.
+``sample_posterior`` and, for Bekker, Bernstein and Janosi, ``sample_population``, and prints
+the worst R-hat, the smallest bulk and tail ESS over the checked quantities and the wall time.
 
     python benchmarks/bundled_posterior.py [--seeds 0 1 2]
 """
@@ -16,6 +16,7 @@ import warnings
 
 import soilstats
 from soilstats.bayes import sample_population, sample_posterior
+from soilstats.bayes.population import POPULATION_MODELS
 from soilstats.errors import ConvergenceWarning
 
 CASES = [
@@ -37,7 +38,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     for seed in args.seeds:
         for name, soil, model in CASES:
-            kinds = ("pooled", "population") if model in ("bekker", "bernstein") else ("pooled",)
+            kinds = ("pooled", "population") if model in POPULATION_MODELS else ("pooled",)
             for kind in kinds:
                 fn = sample_posterior if kind == "pooled" else sample_population
                 t0 = time.perf_counter()

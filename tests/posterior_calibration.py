@@ -24,8 +24,8 @@ from posterior_sim import BEKKER_TRUTH, sinkage_campaign
 
 from soilstats.bayes import sample_population, sample_posterior
 from soilstats.errors import ConvergenceWarning
-from soilstats.identification import fit_sinkage
-from soilstats.models import BEKKER
+from soilstats.identification import fit_shear, fit_sinkage
+from soilstats.models import BEKKER, JANOSI
 from soilstats.simulation import simulate
 
 #: Soil of the population check (Table 5, soil01, 4.8e-3 m/s).
@@ -158,3 +158,82 @@ def population_coverage(
                 ls_hits += int(np.sum((bands[1][0] <= curve) & (curve <= bands[1][1])))
                 trials += z.size
     return Coverage(pop_hits, trials, failed), Coverage(ls_hits, trials, 0)
+
+
+#: Soil and normal pressures of the shear population check (sand-like; no side walls planted).
+SHEAR_SOIL = {"c": 800.0, "phi": 30.0, "K": 0.012}
+NORMAL_PRESSURES = (3e3, 6e3, 10e3, 15e3, 20e3)
+
+
+def shear_population_spec(repetitions: int, *, c_cv=0.1, phi_sd=1.0, K_cv=0.15, points=80):
+    """A shear-ring SPEC: one ring, 5 normal pressures, preparation scatter of c, φ and K."""
+    return {
+        "name": "shear-population-calibration",
+        "scatter": {"c_cv": c_cv, "phi_sd_deg": phi_sd, "K_cv": K_cv},
+        "soils": {"sand": dict(SHEAR_SOIL)},
+        "series": [
+            {
+                "name": "ring",
+                "kind": "shear",
+                "soils": ["sand"],
+                "rings": [{"r_inner_m": 0.1, "r_outer_m": 0.15, "tool": "ring"}],
+                "grousers": [12],
+                "grouser_height_m": [0.005],
+                "omega_rpm": [0.1],
+                "normal_pressure_Pa": list(NORMAL_PRESSURES),
+                "repetitions": repetitions,
+                "points": points,
+                "shear_deformation_m": 0.1,
+            }
+        ],
+    }
+
+
+def shear_population_coverage(
+    n_sets: int,
+    *,
+    train: int = 4,
+    held_out: int = 10,
+    seed: int = 0,
+    draws: int = 6000,
+    prob: float = 0.9,
+    grid: int = 10,
+) -> tuple[Coverage, Coverage, list]:
+    """Coverage of held-out shear tests' true curves by the population and pooled-σ bands.
+
+    As :func:`population_coverage` for Janosi (Eq. 13): each campaign has ``train +
+    held_out`` repetitions per normal pressure; for every held-out test the true curve
+    τ = (c_t + σ_t tan φ_t)(1 − e^(−j/K_t)) is evaluated at ``grid`` deformations j of
+    2–80 mm.  Also returns each campaign's population result (for checks of its scatter).
+    """
+    q = [(1 - prob) / 2, (1 + prob) / 2]
+    j = np.linspace(0.002, 0.08, grid)
+    pop_hits = ls_hits = trials = failed = 0
+    results = []
+    for i in range(n_sets):
+        sim = simulate(shear_population_spec(train + held_out), seed=seed * 1000 + i)
+        reps = list(range(1, train + 1))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ConvergenceWarning)
+            pop = sample_population(sim.campaign, "janosi", seed=i, draws=draws, repetition=reps)
+        failed += any(issubclass(w.category, ConvergenceWarning) for w in caught)
+        results.append(pop)
+        fit = fit_shear(sim.campaign, "janosi", repetition=reps)
+        rng = np.random.default_rng([seed, i])
+        new = pop.draws(4000, seed=i).to_numpy()
+        ls = rng.multivariate_normal(fit.params.to_numpy(), fit.cov.to_numpy(), size=4000)
+        truth = sim.test_truth.set_index("test_id")
+        tests = sim.campaign.tests.set_index("test_id")
+        for tid in tests.index[tests["repetition"].astype(int) > train]:
+            row = truth.loc[tid]
+            x = (np.full(j.size, row["normal_pressure_Pa"]), j)
+            curve = JANOSI.func(x, row["c"], row["phi"], row["K"])
+            for d, counter in ((new, "pop"), (ls, "ls")):
+                lo, hi = np.quantile(JANOSI.func(x, d[:, :1], d[:, 1:2], d[:, 2:3]), q, axis=0)
+                hits = int(np.sum((lo <= curve) & (curve <= hi)))
+                if counter == "pop":
+                    pop_hits += hits
+                else:
+                    ls_hits += hits
+            trials += j.size
+    return Coverage(pop_hits, trials, failed), Coverage(ls_hits, trials, 0), results

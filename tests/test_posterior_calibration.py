@@ -11,7 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from posterior_calibration import pooled_coverage, population_coverage
+from posterior_calibration import (
+    SHEAR_SOIL,
+    pooled_coverage,
+    population_coverage,
+    shear_population_coverage,
+)
 
 import soilstats
 from soilstats.bayes import sample_population, sample_posterior
@@ -40,6 +45,57 @@ def test_population_band_covers_held_out_curves_where_pooled_sigma_does_not():
     assert abs(population.rate - 0.90) <= 0.05, population
     assert pooled_sigma.rate < 0.5, pooled_sigma  # the paper's σ: fit error, not scatter
     assert population.not_converged == 0
+
+
+@pytest.mark.slow
+def test_shear_population_band_covers_held_out_curves_where_pooled_sigma_does_not():
+    # 4 simulated shear campaigns (c cv 10 %, phi sd 1 deg, K cv 15 % between preparations),
+    # 4 training and 10 held-out repetitions at each of 5 normal pressures: 200 held-out curves.
+    population, pooled_sigma, results = shear_population_coverage(4, train=4, held_out=10)
+    assert abs(population.rate - 0.90) <= 0.05, population
+    assert pooled_sigma.rate < 0.3, pooled_sigma
+    assert population.not_converged == 0
+    sd_lnk = [float(r.idata.posterior["sd_lnK"].mean()) for r in results]
+    assert 0.10 < np.mean(sd_lnk) < 0.20, sd_lnk  # simulated: K_cv = 0.15
+
+
+def test_shear_population_recovers_the_soil_and_its_scatter():
+    # One small campaign: 4 repetitions at 5 normal pressures to learn from, 4 held out.
+    population, pooled_sigma, (pop,) = shear_population_coverage(1, train=4, held_out=4, seed=3)
+    assert pop.converged, pop.problems
+    post = pop.idata.posterior
+    assert abs(float(post["mu_phi"].mean()) - SHEAR_SOIL["phi"]) < 1.5
+    assert abs(float(post["mu_K"].mean()) / SHEAR_SOIL["K"] - 1) < 0.15
+    assert 0.07 < float(post["sd_lnK"].mean()) < 0.3  # simulated K_cv = 0.15
+    assert population.rate > 0.75 and pooled_sigma.rate < 0.3, (population, pooled_sigma)
+    draws = pop.draws()
+    assert list(draws.columns) == ["c", "phi", "K"]
+    assert (draws["c"] >= 0).all() and draws["phi"].between(0, 90).all() and (draws["K"] > 0).all()
+
+
+def test_cli_shear_population_writes_new_preparation_draws(tmp_path):
+    from soilstats.cli.posterior import main
+
+    out = tmp_path / "out"
+    code = main(
+        [
+            *("--data", "simulated-paper", "--soil", "soil01", "--model", "janosi"),
+            *("--population", "--select", "shear:series=grousers", "--out", str(out)),
+        ]
+    )
+    assert code == 0
+    summary = pd.read_csv(out / "summary.csv", comment="#", index_col="quantity")
+    assert {"mu_c", "mu_phi", "mu_K", "sd_strength", "sd_lnK", "corr_strength_K"} <= set(
+        summary.index
+    )
+    assert summary["r_hat"].max() <= 1.01
+
+
+def test_population_model_list_of_the_cli_follows_the_bayes_package():
+    from soilstats.bayes.population import POPULATION_MODELS
+    from soilstats.cli.posterior import POPULATION_MODELS as CLI_MODELS
+
+    assert CLI_MODELS == POPULATION_MODELS
 
 
 def test_sampling_coordinates_round_trip_and_exact_jacobian():

@@ -1,34 +1,50 @@
 """The population (hierarchical) model: every preparation draws its own soil parameters.
 
-Model.  Test t (one preparation) has its own sinkage curve p = k_t(b)·z^(n_t) with
+Sinkage model.  Test t (one preparation) has its own sinkage curve p = k_t(b)·z^(n_t) with
 
     k_t(b) = (kc/b + kφ)·exp(ε_t)   (Bekker, Eq. 7;  Bernstein, Eq. 8: k_t = k·exp(ε_t)),
     n_t    = n + δ_t,               (ε_t, δ_t) ~ N(0, Σ),   Σ = [[s_ε², ρ s_ε s_δ], [·, s_δ²]],
 
 i.e. a preparation scales kc and kφ by one common log-normal stiffness factor and shifts the
 exponent n (the simulator's preparation scatter, docs/simulator.md).  Moduli stay positive for
-every preparation.  A rover Monte Carlo needs the posterior predictive of a *new* preparation:
-(kc, kφ, n)_new = (kc·e^ε, kφ·e^ε, n + δ), (ε, δ) ~ N(0, Σ), with (kc, kφ, n, Σ) drawn from
+every preparation.
+
+Shear model (Janosi–Hanamoto, Eq. 13).  Test t runs at one normal pressure σ_t, so it
+identifies only its own strength τ_max,t and modulus K_t (Eq. 13 at one σ):
+
+    τ_max,t = (c + σ_t·tan φ)·exp(ε_t),   K_t = K·exp(δ_t),   (ε_t, δ_t) ~ N(0, Σ),
+
+i.e. a preparation scales the whole Mohr–Coulomb envelope (c and tan φ) by one common
+log-normal strength factor and K by its own; a single test cannot tell a change of c from a
+change of φ, so the model does not pretend to.  c, tan φ and K stay positive for every
+preparation.
+
+A rover Monte Carlo needs the posterior predictive of a *new* preparation: (kc·e^ε, kφ·e^ε,
+n + δ), or (c·e^ε, atan(tan φ·e^ε), K·e^δ), with the soil-level parameters and Σ drawn from
 their posterior.
 
 Marginalisation (why it is fast and low-dimensional).  Each test is first reduced to its own
-weighted least-squares Bernstein fit (Eq. 8, weights 1/max p as Eq. 9), written in the
-coordinates η_t = (ln k_t + n_t·ln z_ref, n_t) in which that fit is close to normal
-(:mod:`soilstats.bayes.transforms`), with covariance C_t from Eq. 4 by the delta method.
-With the Laplace approximation η̂_t | (ε_t, δ_t) ~ N(h_t + B·(ε_t, δ_t), C_t), where
-h_t = (ln(kc/b_t + kφ) + n·ln z_ref, n) and B = [[1, ln z_ref], [0, 1]], the test-level
-effects integrate out in closed form:
+weighted least-squares fit — Bernstein (Eq. 8, weights 1/max p as Eq. 9) or Eq. 13 at one σ
+(weights 1/max τ) — written in coordinates η_t in which that fit is close to normal:
+(ln k_t + n_t·ln z_ref, n_t) for sinkage (:mod:`soilstats.bayes.transforms`), (ln τ_max,t,
+ln K_t) for shear; its covariance C_t comes from Eq. 4 by the delta method.  With the Laplace
+approximation η̂_t | (ε_t, δ_t) ~ N(h_t + B·(ε_t, δ_t), C_t), where h_t = (ln(a_tᵀm) +
+g·ln z_ref, g) with the linear moduli m = (kc, kφ), (k) or (c, tan φ), their design row
+a_t = (1/b_t, 1), (1) or (1, σ_t), g = n or ln K, and B = [[1, ln z_ref], [0, 1]] (z_ref = 1
+for shear), the test-level effects integrate out in closed form:
 
-    η̂_t ~ N(h_t(kc, kφ, n), B Σ Bᵀ + C_t),
+    η̂_t ~ N(h_t, B Σ Bᵀ + C_t),
 
-so the sampler sees only the soil-level parameters and Σ — 6 dimensions for Bekker
-(kc, kφ, n, ln s_ε, ln s_δ, atanh ρ), 5 for Bernstein — however many tests there are, and one
-log-density costs one 2×2 determinant per test and walker.  The soil-level parameters are
-sampled in the log-modulus coordinates of :mod:`soilstats.bayes.transforms` (exact Jacobian).
+so the sampler sees only the soil-level parameters and Σ — 6 dimensions for Bekker and
+Janosi (ln s_ε, ln s_δ, atanh ρ besides the three soil parameters), 5 for Bernstein — however
+many tests there are, and one log-density costs one 2×2 determinant per test and walker.
+Bekker and Bernstein moduli are sampled in the log-modulus coordinates of
+:mod:`soilstats.bayes.transforms` (exact Jacobian); Janosi's (c, φ, K) as they are.
 
-Priors.  (kc, kφ, n): the pooled model's physics priors (:mod:`soilstats.bayes.priors`).
-s_ε, s_δ: half-Cauchy with scale 1 (a factor e between preparations) and |n̂| (weak).  ρ: a
-symmetric Beta(2, 2) on (−1, 1), i.e. LKJ(η = 2) for a 2×2 correlation matrix.
+Priors.  Soil-level parameters: the pooled model's physics priors
+(:mod:`soilstats.bayes.priors`).  s_ε, s_δ: half-Cauchy with scale 1 (a factor e between
+preparations), for sinkage s_δ with scale |n̂| (weak).  ρ: a symmetric Beta(2, 2) on (−1, 1),
+i.e. LKJ(η = 2) for a 2×2 correlation matrix.
 
 What it assumes: scatter between tests is preparation scatter; a test's own curve is well
 described by the model (the per-test fit's ε of Eq. 2 is its check); tests whose per-test fit
@@ -37,7 +53,8 @@ fails are left out and named in the notes.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -45,9 +62,11 @@ import xarray as xr
 from scipy import optimize
 
 from ..identification import fit_sinkage, pool_sinkage
-from ..identification.per_test import TEST_FIT_ERRORS, fit_bernstein_test
-from ..models import BEKKER, BERNSTEIN, get_model
+from ..identification.per_test import TEST_FIT_ERRORS, fit_bernstein_test, fit_shear_test
+from ..models import BEKKER, JANOSI, get_model
+from ..models.shear import RAD_PER_DEG
 from ._arviz import az
+from .data import pooled_problem
 from .likelihood import PooledProblem
 from .posterior import _attrs, finish
 from .priors import resolve_priors
@@ -55,38 +74,127 @@ from .result import PosteriorResult, draws_converge
 from .sampler import run_ensemble
 from .transforms import Coordinates, sampling_coordinates
 
-__all__ = ["POPULATION_DRAWS", "sample_population"]
+__all__ = ["POPULATION_DRAWS", "POPULATION_MODELS", "sample_population"]
 
 #: Default kept draws: the sds are skewed, so their tail ESS needs more draws than the pooled.
 POPULATION_DRAWS = 12000
-#: Scatter quantities of the population model, in the order of the sampled vector.
-SCATTER = ("sd_stiffness", "sd_n", "corr_stiffness_n")
 
 
-def _per_test_fits(pooled) -> tuple[np.ndarray, np.ndarray, np.ndarray, list, list]:
-    """Bernstein fit (Eq. 8) of every test on its own.
+@dataclass(frozen=True)
+class _Layout:
+    """How one soil model maps onto the population model (see the module docstring).
 
-    Returns (k̂_t, n̂_t) (T, 2), their covariances (T, 2, 2), plate sizes b_t (T,), the ids
-    of the tests used and the ids of tests whose fit failed (left out).
+    ``linear(θ)`` → the moduli m that enter a test's first per-test parameter linearly
+    (a_tᵀm); ``second(θ)`` → g, the soil-level value of the second per-test coordinate;
+    ``assemble(m, g)`` → θ back.  ``log_second``: the per-test fit's second parameter enters
+    η as its logarithm (K) rather than as it is (n).
     """
-    etas, covs, sizes, kept, failed = [], [], [], [], []
+
+    per_test: tuple[str, str]  # names of the per-test fit's two parameters
+    scatter: tuple[str, str, str]  # names of s_ε, s_δ, ρ in the posterior
+    covariate: str  # per-test quantity of the design row: b_m or sigma_Pa
+    log_second: bool
+    linear: Callable[[np.ndarray], np.ndarray]
+    second: Callable[[np.ndarray], np.ndarray]
+    assemble: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    scatter_note: str
+
+
+_SINKAGE = dict(
+    per_test=("k", "n"),
+    scatter=("sd_stiffness", "sd_n", "corr_stiffness_n"),
+    covariate="b_m",
+    log_second=False,
+    linear=lambda theta: theta[:, :-1],
+    second=lambda theta: theta[:, -1],
+    assemble=lambda m, g: np.column_stack([m, g]),
+)
+_LAYOUTS = {
+    "bekker": _Layout(
+        **_SINKAGE,
+        scatter_note="k_t(b) = (kc/b + kphi) exp(eps_t), n_t = n + delta_t",
+    ),
+    "bernstein": _Layout(**_SINKAGE, scatter_note="k_t = k exp(eps_t), n_t = n + delta_t"),
+    "janosi": _Layout(
+        per_test=("tau_max", "K"),
+        scatter=("sd_strength", "sd_lnK", "corr_strength_K"),
+        covariate="sigma_Pa",
+        log_second=True,
+        linear=lambda theta: np.column_stack([theta[:, 0], np.tan(theta[:, 1] * RAD_PER_DEG)]),
+        second=lambda theta: np.log(theta[:, 2]),
+        assemble=lambda m, g: np.column_stack(
+            [m[:, 0], np.arctan(m[:, 1]) / RAD_PER_DEG, np.exp(g)]
+        ),
+        scatter_note="tau_max,t = (c + sigma_t tan phi) exp(eps_t), K_t = K exp(delta_t)",
+    ),
+}
+#: Soil models with a population model.
+POPULATION_MODELS = tuple(_LAYOUTS)
+
+
+@dataclass(frozen=True)
+class _TestFits:
+    """Every usable test reduced to its own two-parameter fit (the population model's data)."""
+
+    params: np.ndarray  # (T, 2) per-test fit: (k, n) or (tau_max, K)
+    cov: np.ndarray  # (T, 2, 2) their Eq. 4 covariances
+    design: np.ndarray  # (T, m) a_t, the row multiplying the linear moduli
+    covariate: np.ndarray  # (T,) b_t [m] or σ_t [Pa]
+    test_ids: list
+    failed: list
+
+
+def _usable(fit) -> tuple[np.ndarray, np.ndarray] | None:
+    values, cov = fit.params.to_numpy(), fit.cov.to_numpy()
+    return (values, cov) if np.all(values > 0) and np.all(np.isfinite(cov)) else None
+
+
+def _sinkage_tests(pooled, spec) -> _TestFits:
+    """Bernstein fit (Eq. 8) of every test on its own (tests whose fit fails: left out)."""
+    params, covs, sizes, kept, failed = [], [], [], [], []
     for t, tid in enumerate(pooled.tests["test_id"].astype(str)):
         m = pooled.test_index == t
         z, p, w = pooled.x["z_m"][m], pooled.y[m], pooled.weights[m]
         try:
-            fit = fit_bernstein_test(z, p, w, name=f"bernstein {tid}")
+            usable = _usable(fit_bernstein_test(z, p, w, name=f"bernstein {tid}"))
         except TEST_FIT_ERRORS:  # reported below as left out, as fit_per_test reports it
+            usable = None
+        if usable is None:
             failed.append(tid)
             continue
-        cov = fit.cov.to_numpy()
-        if not (fit.params["k"] > 0 and np.all(np.isfinite(cov))):
-            failed.append(tid)
-            continue
-        etas.append(fit.params.to_numpy())
-        covs.append(cov)
+        params.append(usable[0])
+        covs.append(usable[1])
         sizes.append(pooled.x["b_m"][m][0])
         kept.append(tid)
-    return np.array(etas), np.array(covs), np.array(sizes), kept, failed
+    sizes = np.array(sizes)
+    design = (
+        np.column_stack([1.0 / sizes, np.ones_like(sizes)])
+        if spec is BEKKER
+        else np.ones((sizes.size, 1))
+    )
+    return _TestFits(np.array(params), np.array(covs), design, sizes, kept, failed)
+
+
+def _shear_tests(problem: PooledProblem) -> _TestFits:
+    """Eq. 13 at one normal pressure fitted to every test on its own (failures left out)."""
+    sigma, j = problem.x
+    params, covs, sigmas, kept, failed = [], [], [], [], []
+    for t, tid in enumerate(problem.tests["test_id"].astype(str)):
+        m = problem.test_index == t
+        try:
+            usable = _usable(fit_shear_test(j[m], problem.y[m], problem.w[m], name=f"shear {tid}"))
+        except TEST_FIT_ERRORS:
+            usable = None
+        if usable is None:
+            failed.append(tid)
+            continue
+        params.append(usable[0])
+        covs.append(usable[1])
+        sigmas.append(float(np.mean(sigma[m])))
+        kept.append(tid)
+    sigmas = np.array(sigmas)
+    design = np.column_stack([np.ones_like(sigmas), sigmas])
+    return _TestFits(np.array(params), np.array(covs), design, sigmas, kept, failed)
 
 
 def _reference_sinkage(kn: np.ndarray, cov: np.ndarray) -> float:
@@ -94,42 +202,35 @@ def _reference_sinkage(kn: np.ndarray, cov: np.ndarray) -> float:
     return float(np.median(-cov[:, 0, 1] / kn[:, 0] / cov[:, 1, 1]))
 
 
-def _to_eta(kn: np.ndarray, cov: np.ndarray, ln_zref: float):
-    """(k, n) fits and covariances → η = (ln k + n ln z_ref, n) and delta-method covariances."""
-    eta = np.column_stack([np.log(kn[:, 0]) + kn[:, 1] * ln_zref, kn[:, 1]])
+def _to_eta(params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: bool):
+    """Per-test fits and covariances → η = (ln a + g·ln z_ref, g), g = b or ln b, and the
+    delta-method covariances of η."""
+    g = np.log(params[:, 1]) if log_second else params[:, 1]
+    dg = 1.0 / params[:, 1] if log_second else np.ones(len(params))
+    eta = np.column_stack([np.log(params[:, 0]) + g * ln_zref, g])
     jac = np.zeros_like(cov)
-    jac[:, 0, 0] = 1.0 / kn[:, 0]
-    jac[:, 0, 1] = ln_zref
-    jac[:, 1, 1] = 1.0
+    jac[:, 0, 0] = 1.0 / params[:, 0]
+    jac[:, 0, 1] = ln_zref * dg
+    jac[:, 1, 1] = dg
     return eta, jac @ cov @ np.swapaxes(jac, 1, 2)
 
 
 class _Population:
-    """Walker-vectorised log-posterior of v = (u(kc, kφ, n), ln s_ε, ln s_δ, atanh ρ)."""
+    """Walker-vectorised log-posterior of v = (u(θ), ln s_ε, ln s_δ, atanh ρ)."""
 
-    def __init__(self, model, eta, cov, sizes, ln_zref, priors, coords: Coordinates, n_scale):
-        self.model, self.eta, self.cov, self.priors = model, eta, cov, priors
-        self.coords, self.ln_zref = coords, ln_zref
+    def __init__(
+        self, model, layout: _Layout, eta, cov, design, ln_zref, priors, coords: Coordinates
+    ):
+        self.model, self.layout, self.eta, self.cov, self.priors = model, layout, eta, cov, priors
+        self.coords, self.ln_zref, self.design = coords, ln_zref, design
         self.p = model.n_params
-        self.m = self.p - 1  # moduli (kc, kφ) or (k)
-        # Plate modulus of test t is design[t] · moduli.
-        self.design = (
-            np.column_stack([1.0 / sizes, np.ones_like(sizes)])
-            if model is BEKKER
-            else (np.ones((sizes.size, 1)))
-        )
         self.b = np.array([[1.0, ln_zref], [0.0, 1.0]])
-        self.scales = np.array([1.0, max(abs(n_scale), 0.1)])
-        x = np.ones((2, 1)) if model is BEKKER else np.ones(1)  # the prior needs no data
+        # Half-Cauchy scales: a factor e for a modulus; |n̂| for an exponent.
+        g_hat = float(np.median(eta[:, 1]))
+        self.scales = np.array([1.0, 1.0 if layout.log_second else max(abs(g_hat), 0.1)])
+        x = np.ones((2, 1)) if model in (BEKKER, JANOSI) else np.ones(1)  # the prior needs no data
         self.prior_only = PooledProblem(
-            model,
-            x,
-            np.ones(1),
-            np.ones(1),
-            np.zeros(1, int),
-            pd.DataFrame(),
-            priors,
-            np.unique(sizes),
+            model, x, np.ones(1), np.ones(1), np.zeros(1, int), pd.DataFrame(), priors
         )
 
     @property
@@ -137,7 +238,7 @@ class _Population:
         return self.p + 3
 
     def theta(self, v: np.ndarray) -> np.ndarray:
-        """Soil-level (kc, kφ, n) or (k, n) for each row of ``v``."""
+        """Soil-level parameters for each row of ``v``."""
         return self.coords.to_theta(v[:, : self.p])
 
     def scatter(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -169,11 +270,11 @@ class _Population:
         lp = lp + np.sum(log_s - np.log1p((s / self.scales) ** 2), axis=1)  # half-Cauchy
         lp = lp + 2.0 * np.log(np.clip(1.0 - np.tanh(v[:, self.p + 2]) ** 2, 1e-300, None))
         # h_t (W, T, 2) and M_t = B Σ Bᵀ + C_t (W, T, 2, 2); closed-form 2×2 algebra.
-        kb = theta[:, : self.m] @ self.design.T  # (W, T)
-        n = theta[:, self.m]
-        h0 = np.log(np.where(kb > 0, kb, np.nan)) + n[:, None] * self.ln_zref
+        kb = self.layout.linear(theta) @ self.design.T  # (W, T)
+        g = self.layout.second(theta)
+        h0 = np.log(np.where(kb > 0, kb, np.nan)) + g[:, None] * self.ln_zref
         r0 = self.eta[None, :, 0] - h0
-        r1 = self.eta[None, :, 1] - n[:, None]
+        r1 = self.eta[None, :, 1] - g[:, None]
         bsb = self.b @ self.sigma(v) @ self.b.T  # (W, 2, 2)
         m = bsb[:, None] + self.cov[None]
         det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
@@ -186,21 +287,28 @@ class _Population:
         """Soil-level parameters and scatter of a chain (walkers, draws, dim), by name."""
         flat = chain.reshape(-1, self.dim)
         theta = self.theta(flat)
-        se, sd, rho = self.scatter(flat)
+        scatter = self.scatter(flat)
         shape = chain.shape[:2]
         names = [f"mu_{n}" for n in self.model.param_names]
         out = {n: theta[:, i].reshape(shape) for i, n in enumerate(names)}
-        return out | dict(zip(SCATTER, (x.reshape(shape) for x in (se, sd, rho)), strict=True))
+        return out | {
+            n: x.reshape(shape) for n, x in zip(self.layout.scatter, scatter, strict=True)
+        }
 
     def new_preparation(self, v: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """θ of a new preparation, one per row of ``v``: moduli·e^ε, n + δ."""
+        """θ of a new preparation, one per row of ``v``: moduli·e^ε, g + δ."""
         theta = self.theta(v)
         chol = np.linalg.cholesky(self.sigma(v))
         e = np.einsum("wij,wj->wi", chol, rng.standard_normal((v.shape[0], 2)))
-        out = theta.copy()
-        out[:, : self.m] *= np.exp(e[:, :1])
-        out[:, self.m] += e[:, 1]
-        return out
+        linear = self.layout.linear(theta) * np.exp(e[:, :1])
+        return self.layout.assemble(linear, self.layout.second(theta) + e[:, 1])
+
+    def per_test(self, theta: np.ndarray) -> np.ndarray:
+        """The per-test fit's two parameters that ``theta`` predicts at every test → (W, T, 2)."""
+        kb = self.layout.linear(theta) @ self.design.T
+        g = self.layout.second(theta)
+        second = np.exp(g) if self.layout.log_second else g
+        return np.stack([kb, np.broadcast_to(second[:, None], kb.shape)], axis=-1)
 
 
 def _laplace(log_prob, x0: np.ndarray, n_mu: int) -> tuple[np.ndarray, np.ndarray]:
@@ -257,60 +365,75 @@ def sample_population(
     points_per_test: int | None = 100,
     **selection,
 ) -> PosteriorResult:
-    """Sample the population model (see the module docstring) of a sinkage soil model.
+    """Sample the population model (see the module docstring) of a soil model.
 
     Parameters are as for :func:`soilstats.bayes.sample_posterior`.  ``model`` is
-    ``"bekker"`` or ``"bernstein"``; the shear models have no population model yet.
+    ``"bekker"``, ``"bernstein"`` or ``"janosi"`` (:data:`POPULATION_MODELS`); Mohr–Coulomb
+    alone has no per-test curve to scatter and stays a pooled question.
 
     Returns
     -------
     PosteriorResult
         ``kind="population"``.  Its posterior holds ``mu_<name>`` (the soil-level parameters:
-        a median preparation), ``sd_stiffness`` (sd of the log stiffness factor e^ε, ≈ the
-        coefficient of variation of kc and kφ between preparations), ``sd_n``,
-        ``corr_stiffness_n``, and the parameters of a *new* preparation under the plain names
-        (``kc``, ``kphi``, ``n``), which :meth:`~PosteriorResult.draws` returns.
+        a median preparation), the scatter between preparations — ``sd_stiffness`` (sd of the
+        log stiffness factor e^ε, ≈ the coefficient of variation of kc and kφ), ``sd_n`` and
+        ``corr_stiffness_n`` for sinkage; ``sd_strength`` (≈ the CV of c + σ tan φ), ``sd_lnK``
+        (≈ the CV of K) and ``corr_strength_K`` for shear — and the parameters of a *new*
+        preparation under the plain names (``kc``, ``kphi``, ``n`` / ``c``, ``phi``, ``K``),
+        which :meth:`~PosteriorResult.draws` returns.
     """
     spec = get_model(model)
-    if spec not in (BEKKER, BERNSTEIN):
+    if spec.name not in _LAYOUTS:
         raise ValueError(
-            f"the population model is implemented for 'bekker' and 'bernstein' "
+            f"the population model is implemented for {list(POPULATION_MODELS)} "
             f"(got {spec.name!r}); use sample_posterior for the pooled model"
         )
-    pooled = pool_sinkage(campaign, points_per_test=points_per_test, **selection)
-    lsq = fit_sinkage(campaign, spec.name, points_per_test=points_per_test, **selection)
-    kn, kn_cov, sizes, test_ids, failed = _per_test_fits(pooled)
-    t = kn.shape[0]
+    layout = _LAYOUTS[spec.name]
+    if spec is JANOSI:
+        problem, lsq = pooled_problem(campaign, spec.name, **selection)
+        fits = _shear_tests(problem)
+    else:
+        pooled = pool_sinkage(campaign, points_per_test=points_per_test, **selection)
+        lsq = fit_sinkage(campaign, spec.name, points_per_test=points_per_test, **selection)
+        fits = _sinkage_tests(pooled, spec)
+    t = len(fits.test_ids)
     if t < 3:
         raise ValueError(
             f"the population model needs at least 3 tests with a usable per-test fit; the "
-            f"selection has {t} (failed: {failed or 'none'})"
+            f"selection has {t} (failed: {fits.failed or 'none'})"
         )
-    ln_zref = _reference_sinkage(kn, kn_cov)
-    eta, cov = _to_eta(kn, kn_cov, ln_zref)
     theta0 = lsq.params.to_numpy()
-    base = sampling_coordinates(spec, theta0, lsq.cov.to_numpy(), np.unique(sizes))
-    coords = base if base.identity else Coordinates(moduli=base.moduli, ln_zref=ln_zref)
+    if spec is JANOSI:
+        ln_zref, coords = 0.0, Coordinates()
+    else:
+        ln_zref = _reference_sinkage(fits.params, fits.cov)
+        base = sampling_coordinates(spec, theta0, lsq.cov.to_numpy(), np.unique(fits.covariate))
+        coords = base if base.identity else Coordinates(moduli=base.moduli, ln_zref=ln_zref)
+    eta, cov = _to_eta(fits.params, fits.cov, ln_zref, layout.log_second)
     pops = _Population(
         spec,
+        layout,
         eta,
         cov,
-        sizes,
+        fits.design,
         ln_zref,
         resolve_priors(spec.name, spec.param_names, priors),
         coords,
-        theta0[-1],
     )
     # Start: the pooled LS estimate and the spread of the per-test fits around it.
-    kb0 = pops.design @ theta0[: pops.m]
-    r1 = eta[:, 1] - theta0[-1]
-    r0 = eta[:, 0] - (np.log(np.abs(kb0)) + theta0[-1] * ln_zref) - ln_zref * r1
-    spread = np.log(np.maximum([np.std(r0, ddof=1), np.std(r1, ddof=1)], 1e-3))
-    x0 = np.concatenate([coords.to_u(theta0)[0], spread, [0.0]])
-    if not np.all(np.isfinite(x0)):
+    with np.errstate(all="ignore"):
+        theta_row = theta0[None]
+        kb0 = (layout.linear(theta_row) @ fits.design.T)[0]
+        g0 = layout.second(theta_row)[0]
+        r1 = eta[:, 1] - g0
+        r0 = eta[:, 0] - (np.log(np.abs(kb0)) + g0 * ln_zref) - ln_zref * r1
+        spread = np.log(np.maximum([np.std(r0, ddof=1), np.std(r1, ddof=1)], 1e-3))
+        x0 = np.concatenate([coords.to_u(theta0)[0], spread, [0.0]])
+    if not (np.all(np.isfinite(x0)) and np.all(kb0 > 0)):
         raise ValueError(
             f"the pooled least-squares estimate {dict(zip(spec.param_names, theta0, strict=True))}"
-            " gives a non-positive plate modulus; the population model cannot start there"
+            f" gives a non-positive {layout.per_test[0]} or {layout.per_test[1]} for some test; "
+            "the population model cannot start there"
         )
     centre, cov_v = _laplace(pops.log_prob, x0, pops.p)
     run = run_ensemble(
@@ -327,72 +450,81 @@ def sample_population(
         accept=lambda chain: draws_converge(pops.summaries(chain)),
     )
     rng = np.random.default_rng(None if seed is None else [seed, 2])
-    idata = _population_idata(pops, run, rng, spec, pooled, kn, sizes, test_ids)
+    idata = _population_idata(pops, run, rng, fits)
     names = spec.param_names
-    var_names = [f"mu_{n}" for n in names] + list(SCATTER)
-    notes = [
-        f"Population model: {t} tests (preparations), each reduced to its own Bernstein fit "
-        "(k_t, n_t) with its Eq. 4 covariance, in coordinates (ln k_t + n_t ln z_ref, n_t) "
-        f"with z_ref = {np.exp(ln_zref) * 1e3:.3g} mm; test-level effects marginalised: "
-        "k_t(b) = (kc/b + kphi) exp(eps_t), n_t = n + delta_t, (eps, delta) ~ N(0, Sigma).",
-        "Priors: (kc, kphi, n) as the pooled model; sd_stiffness ~ half-Cauchy(1), "
-        f"sd_n ~ half-Cauchy({pops.scales[1]:.3g}); corr ~ Beta(2, 2) on (-1, 1).",
-        f"Draws of {', '.join(names)} are a NEW preparation: moduli x exp(eps), n + delta, "
-        "one per posterior draw — parameter uncertainty and test-to-test scatter together.",
-    ]
-    if failed:
-        notes.append(f"Left out (per-test fit failed): {', '.join(failed)}.")
+    var_names = [f"mu_{n}" for n in names] + list(layout.scatter)
+    notes = _population_notes(pops, fits, ln_zref)
     units = dict(zip(names, spec.units, strict=True))
     return finish(
         idata, spec.name, "population", names, units, (*var_names, *names), run, notes, lsq
     )
 
 
-def _population_idata(pops: _Population, run, rng, spec, pooled, kn, sizes, test_ids):
+def _population_notes(pops: _Population, fits: _TestFits, ln_zref: float) -> list[str]:
+    layout, names = pops.layout, pops.model.param_names
+    a, b = layout.per_test
+    if layout.log_second:
+        reduced = f"Eq. 13 fit at its own normal pressure ({a}_t, {b}_t)"
+        coords = f"coordinates (ln {a}_t, ln {b}_t)"
+    else:
+        reduced = f"Bernstein fit ({a}_t, {b}_t)"
+        coords = (
+            f"coordinates (ln {a}_t + {b}_t ln z_ref, {b}_t) with "
+            f"z_ref = {np.exp(ln_zref) * 1e3:.3g} mm"
+        )
+    s_e, s_d, rho = layout.scatter
+    notes = [
+        f"Population model: {len(fits.test_ids)} tests (preparations), each reduced to its own "
+        f"{reduced} with its Eq. 4 covariance, in {coords}; test-level effects marginalised: "
+        f"{layout.scatter_note}, (eps, delta) ~ N(0, Sigma).",
+        f"Priors: ({', '.join(names)}) as the pooled model; {s_e} ~ half-Cauchy(1), "
+        f"{s_d} ~ half-Cauchy({pops.scales[1]:.3g}); {rho} ~ Beta(2, 2) on (-1, 1).",
+        f"Draws of {', '.join(names)} are a NEW preparation (the scatter above applied to one "
+        "posterior draw of the soil-level parameters each) — parameter uncertainty and "
+        "test-to-test scatter together.",
+    ]
+    if fits.failed:
+        notes.append(f"Left out (per-test fit failed): {', '.join(fits.failed)}.")
+    return notes
+
+
+def _population_idata(pops: _Population, run, rng, fits: _TestFits):
     chains, draws, dim = run.chain.shape
     flat = run.chain.reshape(-1, dim)
     mu = pops.theta(flat)
-    se, sd, rho = pops.scatter(flat)
+    scatter = pops.scatter(flat)
     new = pops.new_preparation(flat, rng)
-    names = spec.param_names
+    names = pops.model.param_names
     shape = (chains, draws)
     data = {f"mu_{n}": mu[:, i].reshape(shape) for i, n in enumerate(names)}
-    data |= {
-        "sd_stiffness": se.reshape(shape),
-        "sd_n": sd.reshape(shape),
-        "corr_stiffness_n": rho.reshape(shape),
-    }
+    data |= {n: x.reshape(shape) for n, x in zip(pops.layout.scatter, scatter, strict=True)}
     data |= {n: new[:, i].reshape(shape) for i, n in enumerate(names)}
     coords = {"chain": np.arange(chains), "draw": np.arange(draws)}
-    problem = PooledProblem(
-        spec,
-        np.vstack([pooled.x["b_m"], pooled.x["z_m"]]) if spec is BEKKER else pooled.x["z_m"],
-        pooled.y,
-        pooled.weights,
-        pooled.test_index,
-        pooled.tests,
-        pops.priors,
-    )
     posterior = xr.Dataset(
         {k: (("chain", "draw"), v) for k, v in data.items()},
         coords=coords,
-        attrs=_attrs(problem) | {"kind": "population", "ln_zref": pops.ln_zref},
+        attrs=_attrs(pops.prior_only) | {"kind": "population", "ln_zref": pops.ln_zref},
     )
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
-    test_ids = np.asarray(test_ids, dtype=str)
+    test_ids = np.asarray(fits.test_ids, dtype=str)
+    per_test = list(pops.layout.per_test)
     observed = xr.Dataset(
-        {"eta_hat": (("test", "eta"), kn)},
-        coords={"test": test_ids, "eta": ["k", "n"], "b_m": ("test", sizes)},
+        {"eta_hat": (("test", "eta"), fits.params)},
+        coords={"test": test_ids, "eta": per_test, pops.layout.covariate: ("test", fits.covariate)},
     )
-    # Posterior predictive: a new preparation's (k_b, n) at each test's plate, no fit error.
+    # Posterior predictive: a new preparation's per-test parameters at each test's plate
+    # size or normal pressure, without fit error.
     k = min(8, draws)
     sub = np.linspace(0, draws - 1, k).astype(int)
     pick = new.reshape(chains, draws, -1)[:, sub].reshape(-1, pops.p)
-    kb = pick[:, : pops.m] @ pops.design.T  # (W', T)
-    eta_new = np.stack([kb, np.broadcast_to(pick[:, -1:], kb.shape)], axis=-1)
     ppc = xr.Dataset(
-        {"eta_hat": (("chain", "draw", "test", "eta"), eta_new.reshape(chains, k, -1, 2))},
-        coords={"chain": np.arange(chains), "draw": sub, "test": test_ids, "eta": ["k", "n"]},
+        {
+            "eta_hat": (
+                ("chain", "draw", "test", "eta"),
+                pops.per_test(pick).reshape(chains, k, -1, 2),
+            )
+        },
+        coords={"chain": np.arange(chains), "draw": sub, "test": test_ids, "eta": per_test},
     )
     return az.InferenceData(
         posterior=posterior, sample_stats=stats, observed_data=observed, posterior_predictive=ppc

@@ -30,6 +30,8 @@ from .common import add_common_options, add_data_options, prepared_campaign, pro
 #: Simulators whose parameter sets --simulator writes (soilstats.bayes.SIMULATOR_FORMATS; a
 #: test keeps the two in step, the bayes package being too heavy to import for --help).
 SIMULATORS = ("chrono-scm",)
+#: Models with a population model (soilstats.bayes.POPULATION_MODELS; kept in step by a test).
+POPULATION_MODELS = ("bekker", "bernstein", "janosi")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -48,7 +50,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--population",
         action="store_true",
-        help="population model: draws for a NEW preparation (sinkage models)",
+        help="population model: draws for a NEW preparation (bekker, bernstein, janosi; "
+        "mohr-coulomb stays pooled)",
     )
     parser.add_argument("--draws", type=int, default=None, help="kept draws (default per model)")
     parser.add_argument(
@@ -133,7 +136,7 @@ def _run(campaign, model, priors, args):
         kw["draws"] = args.draws
     if priors:
         kw["priors"] = priors
-    if args.population and model in ("bekker", "bernstein"):
+    if args.population and model in POPULATION_MODELS:
         return sample_population(campaign, model, **kw)
     return sample_posterior(campaign, model, **kw)
 
@@ -325,10 +328,11 @@ def run(args: argparse.Namespace) -> int:
         for res in results:
             print(res.summary())
         print(f"Physical support: {support.describe()}")
-    if args.population and any(m not in ("bekker", "bernstein") for m in models):
+    pooled_only = [m for m in models if m not in POPULATION_MODELS]
+    if args.population and pooled_only:
         print(
-            "note: the population model covers sinkage models only; the shear block is the "
-            "pooled posterior",
+            f"note: {', '.join(pooled_only)} has no population model (no per-test curve to "
+            "scatter); its block is the pooled posterior",
             file=sys.stderr,
         )
     if forced:

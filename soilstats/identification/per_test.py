@@ -131,6 +131,19 @@ def fit_bernstein_test(z, p, weights, *, name: str = "bernstein"):
     return centred(identify(BERNSTEIN, z, p, p0, weights=weights, name=name), z)
 
 
+def fit_shear_test(j, tau, weights, *, name: str = "shear"):
+    """Eq. 13 at one normal pressure, τ = τ_max·(1 − e^(−j/K)), on one test's samples.
+
+    j [m], τ [Pa], per-sample weights.  The one per-test shear fit of soilstats (per-test
+    responses, the population posterior).  Raises one of :data:`TEST_FIT_ERRORS`.
+    """
+    # Start: plateau from the top decile, K from where τ first reaches 63 % of it (1 − 1/e).
+    tau_top = float(np.median(np.sort(tau)[-max(3, tau.size // 10) :]))
+    reach = np.flatnonzero(tau >= 0.632 * tau_top)
+    k0 = float(j[reach[0]]) if reach.size and j[reach[0]] > 0 else float(np.ptp(j)) / 20 or 1e-3
+    return identify(SHEAR_CURVE, j, tau, [tau_top, k0], weights=weights, name=name)
+
+
 def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
     j, tau, sigma = data["z"], data["y"], data["sigma"]
     row = {
@@ -147,13 +160,8 @@ def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
     row["nobs"] = int(j.size)
     if kept.problem is not None:
         return _failed(row, ("tau_max", "K"), kept.problem)
-    weights = np.full(j.size, kept.weight)
-    # Start: plateau from the top decile, K from where τ first reaches 63 % of it (1 − 1/e).
-    tau_top = float(np.median(np.sort(tau)[-max(3, tau.size // 10) :]))
-    reach = np.flatnonzero(tau >= 0.632 * tau_top)
-    k0 = float(j[reach[0]]) if reach.size and j[reach[0]] > 0 else float(np.ptp(j)) / 20 or 1e-3
     try:
-        fit = identify(SHEAR_CURVE, j, tau, [tau_top, k0], weights=weights, name=f"shear {tid}")
+        fit = fit_shear_test(j, tau, np.full(j.size, kept.weight), name=f"shear {tid}")
     except TEST_FIT_ERRORS as exc:
         return _failed(row, ("tau_max", "K"), str(exc))
     return _fitted(row, fit)
