@@ -44,3 +44,35 @@ def test_identify_result_is_unchanged_by_the_shortcut():
     np.testing.assert_allclose(fast.values, slow.values, rtol=1e-8)
     np.testing.assert_allclose(fast.stderr_values, slow.stderr_values, rtol=1e-6)
     assert fast.epsilon == pytest.approx(slow.epsilon, rel=1e-10)
+
+
+def test_batch_reaches_each_rows_own_optimum_and_leaves_singular_rows_unconverged():
+    from soilstats.fitting import separable
+    from soilstats.fitting.separable import fit_separable_batch
+
+    x, p = bekker_data(seed=7)
+    rng = np.random.default_rng(1)
+    weights = rng.uniform(0.2, 2.0, (6, p.size))
+    weights[3, 60:] = 0.0  # one plate only: kc and kphi cannot be separated
+    basis, log_z = BEKKER.separable(x, np.ones(p.size))
+    theta, ok = fit_separable_batch(basis(0.0), log_z, p, weights, 0.6)
+    assert ok.tolist() == [True, True, True, False, True, True]
+    assert np.isnan(theta[3]).all()
+    for i in np.flatnonzero(ok):  # each row against its own weighted fit by the generic LM
+        generic = identify(
+            lambda x, kc, kphi, n: BEKKER.func(x, kc, kphi, n),
+            x,
+            p,
+            [-9e3, 1.1e6, 0.8],
+            weights=weights[i],
+        )
+        np.testing.assert_allclose(theta[i], generic.values, rtol=1e-6)
+    # Chunked passes (bounded memory) give the same rows.
+    small = separable.BATCH_ELEMENTS
+    try:
+        separable.BATCH_ELEMENTS = 2 * p.size
+        chunked, ok2 = fit_separable_batch(basis(0.0), log_z, p, weights, 0.6)
+    finally:
+        separable.BATCH_ELEMENTS = small
+    assert np.array_equal(ok, ok2)
+    np.testing.assert_allclose(chunked[ok], theta[ok], rtol=1e-12)

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from ..fitting.levenberg_marquardt import levenberg_marquardt
-from ..fitting.separable import refine_exponent
+from ..fitting.separable import BATCH_ELEMENTS, fit_separable_batch, refine_exponent
 
 __all__ = ["TestBootstrap", "bootstrap_tests", "test_bootstrap"]
 
@@ -96,14 +96,32 @@ def bootstrap_tests(
     n_tests = int(test_index.max()) + 1 if test_index.size else 0
     rng = np.random.default_rng(seed)
     w = np.asarray(weights, float)
-    draws = []
     y = np.asarray(y, float)
     start = np.asarray(estimate, float)
-    for _ in range(n_resamples):
-        counts = np.bincount(rng.integers(0, n_tests, n_tests), minlength=n_tests)
-        theta = _refit(model, x, y, w * np.sqrt(counts[test_index]), start)
-        if theta is not None:
-            draws.append(theta)
+    picks = rng.integers(0, n_tests, (n_resamples, n_tests))  # row b: the tests drawn
+    counts = np.zeros((n_resamples, n_tests), int)
+    np.add.at(counts, (np.arange(n_resamples)[:, None], picks), 1)
+    theta = np.full((n_resamples, len(model.param_names)), np.nan)
+    done = np.zeros(n_resamples, bool)
+
+    def resample_weights(rows) -> np.ndarray:  # w·√(times drawn) of each sample, (rows, N)
+        return w * np.sqrt(counts[rows][:, test_index])
+
+    if model.separable is not None:
+        # Power laws: every resample's exact optimum at once (variable projection, batched),
+        # in blocks so that memory stays bounded whatever the campaign's size.
+        basis, log_z = model.separable(x, np.ones_like(w))
+        block = max(1, BATCH_ELEMENTS // max(w.size, 1))
+        for first in range(0, n_resamples, block):
+            rows = slice(first, min(first + block, n_resamples))
+            theta[rows], done[rows] = fit_separable_batch(
+                basis(0.0), log_z, y, resample_weights(rows), start[-1]
+            )
+    for i in np.flatnonzero(~done):  # other models, and the rare resample the batch left
+        refit = _refit(model, x, y, resample_weights([i])[0], start)
+        if refit is not None:
+            theta[i], done[i] = refit, True
+    draws = theta[done]
     p = len(model.param_names)
     return TestBootstrap(
         param_names=tuple(model.param_names),
