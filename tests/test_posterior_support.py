@@ -76,6 +76,9 @@ def test_pooling_conditions_is_said():
     campaign = load_campaign("simulated-paper")
     said = pooling_warnings(campaign, "soil01", ["bekker"])
     assert any("velocity_m_s" in w for w in said)
+    # shear rings of two sizes (tool04, tool07) and three grouser counts are pooled too
+    assert any("shear posterior pools 2 values of tool" in w for w in said)
+    assert any("shear posterior pools 3 values of grousers" in w for w in said)
     one = campaign.select(velocity_m_s=4.8e-3, preparation="1")
     assert not [w for w in pooling_warnings(one, "soil01", ["bekker"]) if "sinkage" in w]
 

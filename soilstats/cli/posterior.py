@@ -176,7 +176,17 @@ def _contact_widths(args, campaign) -> tuple[float, float]:
 
 
 #: Test-log columns whose several values in one posterior mean several conditions pooled.
-_CONDITION_COLUMNS = ("shape", "b_m", "velocity_m_s", "preparation", "series", "grousers")
+def _pooled_columns(kind: str, models) -> tuple[str, ...]:
+    """Test-log columns whose different values a posterior should not silently mix: the
+    identification's condition columns (one home: identification.conditions) and the setup
+    columns of the paper's studies; plate size only where the model has no size term."""
+    from ..identification.conditions import DEFAULT_CONDITION_COLUMNS
+
+    setup = {
+        "sinkage": ("shape", "series") + (("b_m",) if "bernstein" in models else ()),
+        "shear": ("grousers", "grouser_height_m", "omega_rpm", "series"),
+    }
+    return DEFAULT_CONDITION_COLUMNS[kind] + setup[kind]
 
 
 def pooling_warnings(campaign, soil: str, models) -> list[str]:
@@ -187,8 +197,8 @@ def pooling_warnings(campaign, soil: str, models) -> list[str]:
         chosen = tests[tests["kind"] == kind]
         if chosen.empty:
             continue
-        for column in _CONDITION_COLUMNS:
-            if column not in chosen or (column == "b_m" and "bernstein" not in models):
+        for column in _pooled_columns(kind, models):
+            if column not in chosen:
                 continue
             values = chosen[column].dropna().unique()
             if len(values) > 1:
