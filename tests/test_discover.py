@@ -241,7 +241,9 @@ def test_candidates_and_aliasing_on_simulated_paper_shear():
     cands, _ = enumerate_candidates(t, "shear")
     names = {x.name for x in cands}
     assert {"tool", "r_inner_m", "grouser_height_m", "grousers", "omega_rpm"} <= names
-    assert "repetition" not in names and "test_id" not in names
+    assert "test_id" not in names and "n_samples" not in names  # bookkeeping, outcome
+    (rep,) = [x for x in cands if x.name == "repetition"]
+    assert rep.role == "time/order" and not rep.categorical  # a trend over the series
     rel = {(r.kind, frozenset((r.finer, r.coarser))) for r in relations(t, cands)}
     assert ("aliased", frozenset({"tool", "r_inner_m"})) in rel
 
@@ -291,3 +293,76 @@ def test_simulated_paper_names_the_papers_effects():
     codes = {(fl["soil"], fl["code"]) for fl in result.flags}
     assert ("soil01", "implausible-kc") in codes  # frictional sand: negative kc (Table 5)
     assert ("soil02", "kc-kphi-collinear") in codes
+
+
+# ------------------------------------------------------------- issue #13: real-data situations
+def _with_columns(campaign, tmp_path, edit):
+    """The campaign saved, its tests.csv edited by ``edit(tests)``, and loaded back."""
+    import pandas as pd
+
+    folder = campaign.save(tmp_path / "camp")
+    tests = pd.read_csv(folder / "tests.csv", comment="#")
+    edit(tests).to_csv(folder / "tests.csv", index=False)
+    return soilstats.load_campaign(folder)
+
+
+def test_drift_over_logged_time_is_a_trend_candidate(tmp_path):
+    # The soil stiffens 4 % per hour over the day; tests are logged with ISO start times.
+    spec = _spec(
+        [_sink(covariates={"hours": list(range(8))}, repetitions=2)],
+        [{"kind": "covariate", "column": "hours", "parameters": ["kc", "kphi"], "slope": 0.04}],
+    )
+    rng = np.random.default_rng(0)
+
+    def stamp(t):
+        import pandas as pd
+
+        start = pd.Timestamp("2026-05-04T08:00")
+        minutes = rng.integers(0, 50, len(t))
+        t["start_time"] = [
+            (start + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
+            for h, m in zip(t["hours"], minutes, strict=True)
+        ]
+        return t.drop(columns=["hours"])
+
+    campaign = _with_columns(simulate(spec, seed=3).campaign, tmp_path, stamp)
+    result = discover(campaign, seed=0)
+    top = result.findings[0]
+    assert top.cause == "start_time" and top.extension == "start_time (linear)", result.summary()
+    assert top.gain.real and top.gain.relative > 0.1
+    roles = {c["column"]: c["role"] for c in result.columns}
+    assert roles["start_time"] == "time/order" and roles["repetition"] == "time/order"
+
+
+def test_depth_of_load_terminated_tests_is_an_outcome_never_a_cause(tmp_path):
+    # Every test stops at the same force (as on real rigs): softer preparations run deeper,
+    # so z_max is the test's own stiffness. Nothing was planted: nothing may be named.
+    spec = _spec([_sink(repetitions=8)])
+    spec["scatter"] = {**SCATTER, "stiffness_cv": 0.2}
+    folder = simulate(spec, seed=5).campaign.save(tmp_path / "camp")
+    import pandas as pd
+
+    sinkage = pd.read_csv(folder / "sinkage.csv", comment="#")
+    sinkage = sinkage[sinkage["force_N"] <= 60.0]
+    sinkage.to_csv(folder / "sinkage.csv", index=False)
+    result = discover(soilstats.load_campaign(folder), seed=0)
+    depths = [c for c in result.columns if c["column"] == "z_max_m"]
+    assert depths and depths[0]["role"] == "outcome" and not depths[0]["tested"]
+    assert all(f.cause != "z_max_m" for f in result.findings), result.summary()
+    assert "z_max_m" not in set(result.tests["candidate"])
+
+
+def test_grc1_size_changes_exponent_and_stiffness_and_a_plausible_model_gains():
+    result = discover("grc1-oravec2009", seed=0)
+    top = result.findings[0]
+    assert top.cause in ("b_m", "area_m2") and {"level", "shape"} <= set(top.responses)
+    assert top.extension == f"k and n per {top.cause}", result.summary()
+    assert top.gain.real and top.gain.relative > 0.3
+    reece = [t for t in top.tried if t["extension"] == "reece"]
+    assert reece and reece[0]["implausible"]  # k2 < 0: tried, reported, never kept
+
+
+def test_cullinan_designed_factor_leads_its_confounded_partner():
+    result = discover("cullinan-sand", seed=0)
+    top = result.findings[0]
+    assert top.cause == "preparation" and "session" in top.confounded_with, result.summary()

@@ -12,6 +12,23 @@ test).  Two candidates are **confounded** in a campaign when their effects canno
 apart from its design: *aliased* (the same partition of the tests, e.g. ``tool`` and ``b_m``)
 or *nested* (one determines the other, e.g. ``preparation`` determines ``session`` in the
 Cullinan campaign).  Confounding is reported, never resolved by a guess.
+
+**Roles** (:func:`classify_columns`; every column of the table gets one, with its reason):
+
+* ``design`` — a setup the experimenter chose (plate, velocity, preparation, ring, grousers,
+  operator …: the campaign format's test-log columns and the geometry derived from them);
+* ``covariate`` — anything else recorded before or beside the test (a lab's extra columns:
+  ``bin``, ``moisture_pct`` …);
+* ``time/order`` — when the test ran: ``repetition``, a sequence number (``sequence``,
+  ``order``, ``run``, ``test_order``, ``test_number``) or a column whose values parse as dates
+  or times (converted to hours since the first test).  Always tested as a linear *trend*: a
+  drift over the day or over the series;
+* ``outcome`` — a quantity the test's own result determines: the depth reached ``z_max_m``, the
+  maximum pressure ``p_max_Pa``, the number of samples ``n_samples`` / ``nobs``, the fitted
+  parameters.  A load-terminated test stops deeper in softer soil, so its depth *is* its
+  stiffness: "explaining" the curve by it predicts a test from its own result.  **Outcomes
+  never enter**;
+* ``bookkeeping`` — identifiers (``test_id``, ``kind``, ``soil``).
 """
 
 from __future__ import annotations
@@ -22,21 +39,46 @@ import numpy as np
 import pandas as pd
 
 __all__ = [
+    "ROLES",
     "Candidate",
+    "ColumnRole",
     "Relation",
     "candidate_values",
+    "classify_columns",
     "enumerate_candidates",
     "level_codes",
     "relations",
     "spans_log",
+    "time_hours",
 ]
 
-# Identifiers and bookkeeping, not causes.  ``repetition`` numbers repeats within a condition
-# (and in simulated designs assigns operators in turn), so it would alias with ``operator``.
-_NOT_CAUSES = frozenset({"test_id", "kind", "soil", "repetition", "n_samples"})
+#: The roles a column can play (module docstring).
+ROLES = ("design", "covariate", "time/order", "outcome", "bookkeeping")
+_BOOKKEEPING = frozenset({"test_id", "kind", "soil"})
+# Quantities the test's own result determines (module docstring: outcomes never enter).
+_OUTCOMES = {
+    "z_max_m": "the depth the test reached: a load-terminated test stops deeper in softer soil",
+    "p_max_Pa": "the largest pressure the test reached: set by where the test stopped",
+    "n_samples": "the number of samples: set by how long the test ran, i.e. by its result",
+    "nobs": "the number of samples used: set by the record's length",
+}
+_FIT_COLUMNS = frozenset(
+    {"k", "k_stderr", "n", "n_stderr", "epsilon", "converged", "message"}
+    | {"tau_max", "tau_max_stderr", "K", "K_stderr", "tau_ss_Pa", "steady"}
+)
+#: Column names read as test order (besides ``repetition`` and date/time columns).
+ORDER_NAMES = frozenset({"sequence", "seq", "order", "run", "test_order", "test_number"})
+# Test-log columns of the campaign format that describe the setup (design factors).
+_DESIGN = frozenset(
+    {"preparation", "operator", "shape", "radius_m", "width_m", "length_m", "velocity_m_s"}
+    | {"r_inner_m", "r_outer_m", "grousers", "grouser_height_m", "omega_rpm", "series", "tool"}
+    | {"loosening_tool", "levelling_tool", "loosening_pattern", "loosening_movement"}
+    | {"loosening_depth_cm", "b_m", "area_m2", "aspect_ratio", "ring_area_m2", "sigma_mean_Pa"}
+)
 # Raw geometry summarised by the derived b, area and aspect ratio (Eq. 7's b): keeping both
 # would only add aliased pairs.
 _SUMMARISED = {"sinkage": frozenset({"radius_m", "width_m", "length_m"}), "shear": frozenset()}
+# Columns of the other kind's set-up (empty for this kind's tests).
 _OTHER_KIND = {
     "sinkage": frozenset(
         {"r_inner_m", "r_outer_m", "grousers", "grouser_height_m", "omega_rpm", "ring_area_m2"}
@@ -47,7 +89,7 @@ _OTHER_KIND = {
     ),
 }
 _DERIVED = {
-    "sinkage": ("b_m", "area_m2", "aspect_ratio", "z_max_m"),
+    "sinkage": ("b_m", "area_m2", "aspect_ratio"),
     "shear": ("ring_area_m2", "sigma_mean_Pa"),
 }
 #: Numeric columns with at most this many distinct, replicated values are tested as levels.
@@ -73,6 +115,9 @@ class Candidate:
         Tests in which it is recorded (not NaN).
     levels : int
         Distinct recorded values.
+    role : str
+        ``design``, ``covariate`` or ``time/order`` (:data:`ROLES`; outcomes never become
+        candidates).
     """
 
     name: str
@@ -81,6 +126,16 @@ class Candidate:
     derived: bool
     n_recorded: int
     levels: int
+    role: str = "design"
+
+
+@dataclass(frozen=True)
+class ColumnRole:
+    """The role of one column of a per-test table and why (shown in every report)."""
+
+    column: str
+    role: str
+    reason: str
 
 
 @dataclass(frozen=True)
@@ -102,12 +157,72 @@ def _rounded(values: pd.Series) -> pd.Series:
     return pd.Series(np.round(x * scale) / scale, index=values.index)
 
 
+_TIME_TEXT = r"\d{4}-\d{2}-\d{2}|\d{1,2}:\d{2}"
+
+
+def time_hours(col: pd.Series) -> pd.Series | None:
+    """A column of dates/times as hours since its earliest value, or None if it is not one.
+
+    Text counts as a time when at least 90 % of the recorded values look like an ISO date or
+    a clock time and parse (``2024-05-02T09:15``, ``2024-05-02 09:15:00+02:00``, ``09:15``).
+    """
+    if pd.api.types.is_datetime64_any_dtype(col):
+        stamps = pd.to_datetime(col, utc=True)
+    elif pd.api.types.is_object_dtype(col) or pd.api.types.is_string_dtype(col):
+        text = col.dropna().astype(str)
+        if text.empty or text.str.contains(_TIME_TEXT, regex=True).mean() < 0.9:
+            return None
+        stamps = pd.to_datetime(col, errors="coerce", utc=True, format="mixed")
+        if stamps.notna().sum() < 0.9 * col.notna().sum():
+            return None
+    else:
+        return None
+    hours = (stamps - stamps.min()).dt.total_seconds() / 3600.0
+    return hours.astype(float)
+
+
 def candidate_values(table: pd.DataFrame, name: str) -> pd.Series:
-    """The column as the tests use it: numbers rounded to 9 digits, text unchanged."""
+    """The column as the tests use it: numbers rounded to 9 digits, dates and times as hours
+    since the first test, other text unchanged."""
     col = table[name]
     if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
         return _rounded(col)
+    hours = time_hours(col)
+    if hours is not None:
+        return _rounded(hours)
     return col.astype(object).where(col.notna(), np.nan)
+
+
+def classify_columns(table: pd.DataFrame, kind: str) -> list[ColumnRole]:
+    """The role of every column of a per-test table (module docstring), with its reason."""
+    out = []
+    for name in table.columns:
+        name = str(name)
+        if name.startswith("_"):
+            continue
+        if name in _BOOKKEEPING:
+            out.append(ColumnRole(name, "bookkeeping", "an identifier, not a property of the test"))
+        elif name in _OUTCOMES:
+            out.append(ColumnRole(name, "outcome", _OUTCOMES[name] + "; never a cause"))
+        elif name in _FIT_COLUMNS:
+            out.append(ColumnRole(name, "outcome", "a result of the per-test fit; never a cause"))
+        elif name == "repetition" or name.lower() in ORDER_NAMES:
+            out.append(
+                ColumnRole(name, "time/order", "numbers the tests in order: tested as a trend")
+            )
+        elif time_hours(table[name]) is not None:
+            out.append(
+                ColumnRole(
+                    name,
+                    "time/order",
+                    "dates/times: tested as a trend in hours since the first test",
+                )
+            )
+        elif name in _DESIGN:
+            out.append(ColumnRole(name, "design", "a setup of the test chosen by the experimenter"))
+        else:
+            out.append(ColumnRole(name, "covariate", "recorded beside the test (not a set-up)"))
+    return out
 
 
 def enumerate_candidates(
@@ -126,26 +241,13 @@ def enumerate_candidates(
     Returns
     -------
     (list of Candidate, list of str)
+        Outcomes and bookkeeping never become candidates (:func:`classify_columns` says why).
     """
-    fit_columns = {
-        "k",
-        "k_stderr",
-        "n",
-        "n_stderr",
-        "epsilon",
-        "nobs",
-        "converged",
-        "message",
-        "p_max_Pa",
-        "tau_max",
-        "tau_max_stderr",
-        "K",
-        "K_stderr",
-        "tau_ss_Pa",
-        "steady",
-    }
-    skip = _NOT_CAUSES | _SUMMARISED[kind] | _OTHER_KIND[kind] | fit_columns
-    names = [c for c in table.columns if c not in skip and not str(c).startswith("_")]
+    roles = {r.column: r.role for r in classify_columns(table, kind)}
+    skip = _SUMMARISED[kind] | _OTHER_KIND[kind]
+    names = [
+        c for c, role in roles.items() if role not in ("outcome", "bookkeeping") and c not in skip
+    ]
     out: list[Candidate] = []
     notes: list[str] = []
     for name in names:
@@ -166,7 +268,8 @@ def enumerate_candidates(
         numeric = pd.api.types.is_numeric_dtype(values.dtype)
         counts = values[recorded].value_counts()
         replicated = bool((counts >= 2).mean() >= 0.5)
-        categorical = (not numeric) or (distinct <= MAX_LEVELS and replicated)
+        trend = roles[name] == "time/order" and numeric
+        categorical = not trend and ((not numeric) or (distinct <= MAX_LEVELS and replicated))
         if not numeric and not (counts >= 2).any():
             notes.append(
                 f"{kind}: {name!r} has a different value in every test ({distinct} values); "
@@ -181,6 +284,7 @@ def enumerate_candidates(
                 derived=name in _DERIVED[kind],
                 n_recorded=n_rec,
                 levels=int(distinct),
+                role=roles[name],
             )
         )
     return out, notes

@@ -32,8 +32,10 @@ from ..statistics import verdicts
 from .candidates import (
     MISSING,
     Candidate,
+    ColumnRole,
     Relation,
     candidate_values,
+    classify_columns,
     enumerate_candidates,
     level_codes,
     spans_log,
@@ -55,6 +57,7 @@ class Diagnosis:
     candidates: tuple[Candidate, ...]
     relations: tuple[Relation, ...]
     notes: tuple[str, ...]
+    roles: tuple[ColumnRole, ...] = ()
 
 
 def _sinkage_deviations(table: pd.DataFrame, idx, log_k_model, n_model) -> None:
@@ -253,6 +256,7 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     effect_size=res["effect_size"],
                     categorical=cand.categorical,
                     numeric=cand.numeric,
+                    role=cand.role,
                     n_tests=int(used.size),
                     blocks=", ".join(blocks),
                     confounded_with=", ".join(sorted(related[cand.name])),
@@ -261,7 +265,12 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     rows=used,
                 )
             )
-    diag = Diagnosis(group, base, tuple(cands), tuple(rels), tuple(notes))
+    roles = tuple(
+        r
+        for r in classify_columns(sub, group.kind)
+        if sub[r.column].nunique() > 1 and not r.reason.startswith("a result of the per-test fit")
+    )
+    diag = Diagnosis(group, base, tuple(cands), tuple(rels), tuple(notes), roles)
     return diag, rows_out
 
 

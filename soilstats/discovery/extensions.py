@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..fitting.identify import identify
@@ -196,7 +197,7 @@ class SinkageExtension(Extension):
             state["features"] = self.features.prepare(group.tests, rows)
         mask = group.samples_of(rows)
         y, w = group.y[mask], group.w[mask]
-        if base is not None:
+        if base is not None and getattr(base.extension, "bekker", None) == self.bekker:
             start = list(base.result.values)
         else:
             model = "bekker" if self.bekker else "bernstein"
@@ -400,21 +401,38 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
             )
         if names & _SIZE and bekker:
             out.append(ReeceExtension("reece", True, "Reece p = (k1 + k2·b)(z/b)^n"))
+        if names & _SIZE:
+            # The plate size's own curve: Bernstein k and n per size (each plate its own
+            # power law) — what a size effect on the exponent asks for, and always positive.
+            out.append(
+                SinkageExtension(
+                    f"k and n per {cause}",
+                    False,
+                    f"Bernstein k and n per level of {cause} (Eq. 8 per plate size)",
+                    bekker=False,
+                    features=Features(cause, "levels"),
+                    stiffness=True,
+                    exponent=True,
+                )
+            )
         stiffness = "level" in responses or not responses
         exponent = "shape" in responses or not responses
-        how = "linear" if numeric else "levels"
-        out.append(
-            SinkageExtension(
-                f"{cause} ({how})",
-                False,
-                f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
-                f"{'n' if exponent else ''} depend on {cause} ({how})",
-                bekker=bekker,
-                features=Features(cause, how),
-                stiffness=stiffness,
-                exponent=exponent,
-            )
+        what = (
+            f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
+            f"{'n' if exponent else ''}"
         )
+        for how in _generic_forms(tests, cause, numeric):
+            out.append(
+                SinkageExtension(
+                    f"{cause} ({how})",
+                    False,
+                    f"{what} depend on {cause} ({how})",
+                    bekker=bekker,
+                    features=Features(cause, how),
+                    stiffness=stiffness,
+                    exponent=exponent,
+                )
+            )
         return out
     a = shear_inputs_a(group, rows)
     if names & (_RING | {"tool"}) and np.unique(np.round(a, 9)).size >= 2:
@@ -429,14 +447,20 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
     targets = (("c", "tan_phi") if "level" in responses or not responses else ()) + (
         ("K",) if "K" in responses else ()
     )
-    how = "linear" if numeric else "levels"
-    out.append(
-        ShearExtension(
-            f"{cause} ({how})",
-            False,
-            f"{', '.join(targets)} depend on {cause} ({how})",
-            features=Features(cause, how),
-            targets=targets,
+    for how in _generic_forms(tests, cause, numeric):
+        out.append(
+            ShearExtension(
+                f"{cause} ({how})",
+                False,
+                f"{', '.join(targets)} depend on {cause} ({how})",
+                features=Features(cause, how),
+                targets=targets,
+            )
         )
-    )
     return out
+
+
+def _generic_forms(tests: pd.DataFrame, cause: str, numeric: bool) -> tuple[str, ...]:
+    """Labels: one factor per level; numbers: a linear trend (per-level k and n of a plate
+    size are the separate "k and n per" extension)."""
+    return ("linear",) if numeric else ("levels",)

@@ -3,8 +3,10 @@
 1. Split the campaign by kind and soil; fit every test on its own and the base model on all.
 2. Test every candidate cause on every per-test response (Holm over the whole campaign).
 3. Group significant candidates that the design confounds; the lead of a group is its
-   coarsest member with the smallest p (``aspect_ratio`` rather than the plate ``tool`` that
-   determines it), the rest are named as confounded.
+   designed factor (role ``design``: the preparation rather than the test day that travelled
+   with it), among those the coarsest member with the smallest p (``aspect_ratio`` rather than
+   the plate ``tool`` that determines it); the rest are named as confounded.  Outcomes (the
+   depth a test reached, its sample count) never enter (:mod:`.candidates`).
 4. For each lead, strongest first: try the library's extensions (physical first, then the
    generic one), keep one only where its cross-validated gain is real, then re-test the
    remaining leads against the kept extension — a pattern it explains is no finding.
@@ -38,6 +40,7 @@ def _leads(rows: pd.DataFrame, relations) -> list[tuple[str, list[str]]]:
         return []
     best = sig.sort_values(["p_adjusted", "p_value", "statistic"], ascending=[True, True, False])
     order = list(dict.fromkeys(best["candidate"]))
+    role = dict(zip(best["candidate"], best["role"], strict=True)) if "role" in best else {}
     members = set(order)
     adj: dict[str, set[str]] = {m: set() for m in members}
     finer: set[str] = set()
@@ -64,9 +67,12 @@ def _leads(rows: pd.DataFrame, relations) -> list[tuple[str, list[str]]]:
                 comp.add(m)
                 stack.extend(adj[m] - comp)
         seen |= comp
-        eligible = [m for m in order if m in comp and m not in finer] or [
-            m for m in order if m in comp
-        ]
+        # The designed factor leads a confounded group (the experimenter set it; a covariate
+        # or the test day merely travelled with it), then the coarsest member, then p.
+        in_comp = [m for m in order if m in comp]
+        design = [m for m in in_comp if role.get(m) == "design"]
+        pool = design or in_comp
+        eligible = [m for m in pool if m not in finer] or pool
         lead = eligible[0]
         others = [m for m in order if m in comp and m != lead]
         others += sorted(aliased[lead] - set(others) - {lead})
@@ -119,6 +125,26 @@ def _implausible(fit, base_fit) -> list[str]:
     ]
 
 
+def _non_positive(ext, fitted, group, rows) -> list[str]:
+    """A model that predicts zero or negative pressure (stress) for a test it describes is
+    not physical, whatever its gain (e.g. a per-size trend that drives kc/b + kφ below 0)."""
+    with np.errstate(all="ignore"):
+        y_hat = np.asarray(ext.predict(fitted, group, rows), float)
+    # Sinkage samples all lie at z > 0 (p must be > 0); a shear record starts at j = 0, τ = 0.
+    bad = ~(y_hat > 0) if group.kind == "sinkage" else ~(y_hat >= 0)
+    if not bad.any():
+        return []
+    owners = np.unique(group.owner[group.samples_of(rows)][bad])
+    return [
+        f"predicts non-positive {'pressure' if group.kind == 'sinkage' else 'shear stress'} "
+        f"in {owners.size} of {len(rows)} tests"
+    ]
+
+
+def _entry_of(tried: list, ext) -> dict:
+    return next(e for e in tried if e["extension"] == ext.name)
+
+
 def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
@@ -143,6 +169,7 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
             tried.append(entry)
             continue
         implausible = _implausible(fitted.result, base_fitted.result)
+        implausible += _non_positive(ext, fitted, group, rows)
         entry.update(
             relative=gain.relative,
             real=gain.real,
@@ -151,7 +178,9 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
             implausible=implausible,
         )
         tried.append(entry)
-        rank = (gain.real, gain.real and ext.physical and not implausible, gain.relative)
+        # An implausible extension is never kept, however much it gains.
+        plausible = gain.real and not implausible
+        rank = (plausible, plausible and ext.physical, gain.relative)
         options.append((rank, ext, gain, fitted))
     if not options:
         return base_ext, base_fitted, None, tried
@@ -244,6 +273,7 @@ def discover(
         tests=table.drop(columns=["rows"]) if "rows" in table else table,
         confounded=tuple(confounded),
         explained=tuple(explained),
+        columns=tuple(_column_records(diags)),
         notes=tuple(notes),
         alpha=alpha,
         seed=seed,
@@ -254,6 +284,25 @@ def discover(
 
 
 # ----------------------------------------------------------------------------- the steps
+def _column_records(diags) -> list[dict]:
+    """The role of every varying column per (kind, soil), and whether it was tested."""
+    out = []
+    for d in diags:
+        tested = {c.name for c in d.candidates}
+        for r in d.roles:
+            out.append(
+                {
+                    "kind": d.group.kind,
+                    "soil": d.group.soil,
+                    "column": r.column,
+                    "role": r.role,
+                    "reason": r.reason,
+                    "tested": r.column in tested,
+                }
+            )
+    return out
+
+
 def _confounding_records(diag) -> list[dict]:
     """What the design cannot tell apart in one (kind, soil), as JSON-ready records."""
     g = diag.group
@@ -337,7 +386,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng) -> F
             caveats.append(f"cross-validation on the tests in scope failed: {exc}")
     else:
         caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
-    kept = chosen is not None and chosen[1].real
+    kept = chosen is not None and chosen[1].real and not _entry_of(tried, chosen[0])["implausible"]
     if kept and chosen[0].physical:
         lead = _physical_name(lead, chosen[0].name, relations)
         confounded_with = [m for m in [top["candidate"], *confounded_with] if m != lead]

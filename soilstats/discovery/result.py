@@ -177,6 +177,9 @@ class DiscoveryResult:
         was fitted (e.g. the plate-size pattern left by a velocity effect).
     notes : tuple of str
         What was excluded or could not be tested, and why.
+    columns : tuple of dict
+        Every varying column per (kind, soil): ``role`` (design, covariate, time/order,
+        outcome, bookkeeping), the ``reason`` and whether it was ``tested``; outcomes never are.
     alpha, seed, runtime_s, source
     """
 
@@ -186,6 +189,7 @@ class DiscoveryResult:
     confounded: tuple[dict, ...] = ()
     explained: tuple[dict, ...] = ()
     notes: tuple[str, ...] = ()
+    columns: tuple[dict, ...] = ()
     alpha: float = 0.05
     seed: int = 0
     runtime_s: float = float("nan")
@@ -199,6 +203,7 @@ class DiscoveryResult:
             "flags": list(self.flags),
             "confounded": list(self.confounded),
             "explained": list(self.explained),
+            "columns": list(self.columns),
             "notes": list(self.notes),
             "alpha": self.alpha,
             "seed": self.seed,
@@ -239,6 +244,7 @@ class DiscoveryResult:
             lines.append(
                 f"  ! {fl['kind']} / {fl['soil']} [{fl['scope']}] {fl['code']}: {fl['message']}"
             )
+        lines.extend(self._column_lines(width))
         if self.confounded:
             lines.append("-" * width)
             lines.append("Confounded candidates (effects this design cannot separate):")
@@ -259,6 +265,24 @@ class DiscoveryResult:
         lines.extend(notes_block(notes))
         lines.append("=" * width)
         return "\n".join(lines)
+
+    def _column_lines(self, width: int) -> list[str]:
+        """Candidates by role per (kind, soil); outcomes listed with why they never enter."""
+        if not self.columns:
+            return []
+        lines = ["-" * width, "Columns and their roles (outcomes never enter as causes):"]
+        groups: dict[tuple, list[dict]] = {}
+        for c in self.columns:
+            groups.setdefault((c["kind"], c["soil"]), []).append(c)
+        for (kind, soil), cols in groups.items():
+            for role in ("design", "covariate", "time/order"):
+                names = [c["column"] for c in cols if c["role"] == role]
+                if names:
+                    lines.append(f"  {kind} / {soil}: {role}: {', '.join(names)}")
+            for c in cols:
+                if c["role"] == "outcome":
+                    lines.append(f"  {kind} / {soil}: outcome {c['column']}: {c['reason']}")
+        return lines
 
     def __str__(self) -> str:
         return self.summary()
