@@ -104,6 +104,22 @@ def population_spec(repetitions: int, *, stiffness_cv=0.1, n_sd=0.03, points=60)
     }
 
 
+def _population_run(spec, model: str, fit_lsq, *, seed: int, i: int, train: int, draws: int):
+    """One calibration campaign: the population posterior and the pooled LS fit on the first
+    ``train`` repetitions, draws of each (4000), and whether the sampler warned."""
+    sim = simulate(spec, seed=seed * 1000 + i)
+    reps = list(range(1, train + 1))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ConvergenceWarning)
+        pop = sample_population(sim.campaign, model, seed=i, draws=draws, repetition=reps)
+    failed = any(issubclass(w.category, ConvergenceWarning) for w in caught)
+    fit = fit_lsq(sim.campaign, model, repetition=reps)
+    rng = np.random.default_rng([seed, i])
+    new = pop.draws(4000, seed=i).to_numpy()
+    ls = rng.multivariate_normal(fit.params.to_numpy(), fit.cov.to_numpy(), size=4000)
+    return sim, pop, failed, new, ls
+
+
 def population_coverage(
     n_sets: int,
     *,
@@ -132,16 +148,16 @@ def population_coverage(
     z = np.linspace(0.003, 0.03, grid)
     pop_hits = ls_hits = trials = failed = 0
     for i in range(n_sets):
-        sim = simulate(population_spec(train + held_out), seed=seed * 1000 + i)
-        reps = list(range(1, train + 1))
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ConvergenceWarning)
-            pop = sample_population(sim.campaign, "bekker", seed=i, draws=draws, repetition=reps)
-        failed += any(issubclass(w.category, ConvergenceWarning) for w in caught)
-        fit = fit_sinkage(sim.campaign, "bekker", repetition=reps)
-        rng = np.random.default_rng([seed, i])
-        new = pop.draws(4000, seed=i).to_numpy()
-        ls = rng.multivariate_normal(fit.params.to_numpy(), fit.cov.to_numpy(), size=4000)
+        sim, _, warned, new, ls = _population_run(
+            population_spec(train + held_out),
+            "bekker",
+            fit_sinkage,
+            seed=seed,
+            i=i,
+            train=train,
+            draws=draws,
+        )
+        failed += warned
         truth = sim.test_truth
         tests = sim.campaign.tests.set_index("test_id")
         for b in PLATES:
@@ -211,17 +227,17 @@ def shear_population_coverage(
     pop_hits = ls_hits = trials = failed = 0
     results = []
     for i in range(n_sets):
-        sim = simulate(shear_population_spec(train + held_out), seed=seed * 1000 + i)
-        reps = list(range(1, train + 1))
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ConvergenceWarning)
-            pop = sample_population(sim.campaign, "janosi", seed=i, draws=draws, repetition=reps)
-        failed += any(issubclass(w.category, ConvergenceWarning) for w in caught)
+        sim, pop, warned, new, ls = _population_run(
+            shear_population_spec(train + held_out),
+            "janosi",
+            fit_shear,
+            seed=seed,
+            i=i,
+            train=train,
+            draws=draws,
+        )
+        failed += warned
         results.append(pop)
-        fit = fit_shear(sim.campaign, "janosi", repetition=reps)
-        rng = np.random.default_rng([seed, i])
-        new = pop.draws(4000, seed=i).to_numpy()
-        ls = rng.multivariate_normal(fit.params.to_numpy(), fit.cov.to_numpy(), size=4000)
         truth = sim.test_truth.set_index("test_id")
         tests = sim.campaign.tests.set_index("test_id")
         for tid in tests.index[tests["repetition"].astype(int) > train]:
