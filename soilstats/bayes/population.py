@@ -144,57 +144,57 @@ class _TestFits:
     failed: list
 
 
-def _usable(fit) -> tuple[np.ndarray, np.ndarray] | None:
-    values, cov = fit.params.to_numpy(), fit.cov.to_numpy()
-    return (values, cov) if np.all(values > 0) and np.all(np.isfinite(cov)) else None
+def _reduce_tests(test_ids, test_index, fit_one, covariate_of):
+    """Every test reduced to its own two-parameter fit: ``fit_one(mask, tid)`` fits the
+    samples of one test, ``covariate_of(mask)`` gives its b or σ.  A test whose fit fails, or
+    gives a non-positive parameter or a non-finite covariance, is left out and named."""
+    params, covs, covariate, kept, failed = [], [], [], [], []
+    for t, tid in enumerate(test_ids.astype(str)):
+        m = test_index == t
+        try:
+            fit = fit_one(m, tid)
+        except TEST_FIT_ERRORS:  # reported as left out, as fit_per_test reports it
+            failed.append(tid)
+            continue
+        values, cov = fit.params.to_numpy(), fit.cov.to_numpy()
+        if not (np.all(values > 0) and np.all(np.isfinite(cov))):
+            failed.append(tid)
+            continue
+        params.append(values)
+        covs.append(cov)
+        covariate.append(covariate_of(m))
+        kept.append(tid)
+    return np.array(params), np.array(covs), np.array(covariate, float), kept, failed
 
 
 def _sinkage_tests(pooled, spec) -> _TestFits:
     """Bernstein fit (Eq. 8) of every test on its own (tests whose fit fails: left out)."""
-    params, covs, sizes, kept, failed = [], [], [], [], []
-    for t, tid in enumerate(pooled.tests["test_id"].astype(str)):
-        m = pooled.test_index == t
-        z, p, w = pooled.x["z_m"][m], pooled.y[m], pooled.weights[m]
-        try:
-            usable = _usable(fit_bernstein_test(z, p, w, name=f"bernstein {tid}"))
-        except TEST_FIT_ERRORS:  # reported below as left out, as fit_per_test reports it
-            usable = None
-        if usable is None:
-            failed.append(tid)
-            continue
-        params.append(usable[0])
-        covs.append(usable[1])
-        sizes.append(pooled.x["b_m"][m][0])
-        kept.append(tid)
-    sizes = np.array(sizes)
+    z, b, p, w = pooled.x["z_m"], pooled.x["b_m"], pooled.y, pooled.weights
+    params, covs, sizes, kept, failed = _reduce_tests(
+        pooled.tests["test_id"],
+        pooled.test_index,
+        lambda m, tid: fit_bernstein_test(z[m], p[m], w[m], name=f"bernstein {tid}"),
+        lambda m: b[m][0],
+    )
     design = (
         np.column_stack([1.0 / sizes, np.ones_like(sizes)])
         if spec is BEKKER
         else np.ones((sizes.size, 1))
     )
-    return _TestFits(np.array(params), np.array(covs), design, sizes, kept, failed)
+    return _TestFits(params, covs, design, sizes, kept, failed)
 
 
 def _shear_tests(problem: PooledProblem) -> _TestFits:
     """Eq. 13 at one normal pressure fitted to every test on its own (failures left out)."""
     sigma, j = problem.x
-    params, covs, sigmas, kept, failed = [], [], [], [], []
-    for t, tid in enumerate(problem.tests["test_id"].astype(str)):
-        m = problem.test_index == t
-        try:
-            usable = _usable(fit_shear_test(j[m], problem.y[m], problem.w[m], name=f"shear {tid}"))
-        except TEST_FIT_ERRORS:
-            usable = None
-        if usable is None:
-            failed.append(tid)
-            continue
-        params.append(usable[0])
-        covs.append(usable[1])
-        sigmas.append(float(np.mean(sigma[m])))
-        kept.append(tid)
-    sigmas = np.array(sigmas)
+    params, covs, sigmas, kept, failed = _reduce_tests(
+        problem.tests["test_id"],
+        problem.test_index,
+        lambda m, tid: fit_shear_test(j[m], problem.y[m], problem.w[m], name=f"shear {tid}"),
+        lambda m: float(np.mean(sigma[m])),
+    )
     design = np.column_stack([np.ones_like(sigmas), sigmas])
-    return _TestFits(np.array(params), np.array(covs), design, sigmas, kept, failed)
+    return _TestFits(params, covs, design, sigmas, kept, failed)
 
 
 def _reference_sinkage(kn: np.ndarray, cov: np.ndarray) -> float:
