@@ -47,7 +47,6 @@ def test_identify_result_is_unchanged_by_the_shortcut():
 
 
 def test_batch_reaches_each_rows_own_optimum_and_leaves_singular_rows_unconverged():
-    from soilstats.fitting import separable
     from soilstats.fitting.separable import fit_separable_batch
 
     x, p = bekker_data(seed=7)
@@ -67,12 +66,18 @@ def test_batch_reaches_each_rows_own_optimum_and_leaves_singular_rows_unconverge
             weights=weights[i],
         )
         np.testing.assert_allclose(theta[i], generic.values, rtol=1e-6)
-    # Chunked passes (bounded memory) give the same rows.
-    small = separable.BATCH_ELEMENTS
-    try:
-        separable.BATCH_ELEMENTS = 2 * p.size
-        chunked, ok2 = fit_separable_batch(basis(0.0), log_z, p, weights, 0.6)
-    finally:
-        separable.BATCH_ELEMENTS = small
-    assert np.array_equal(ok, ok2)
-    np.testing.assert_allclose(chunked[ok], theta[ok], rtol=1e-12)
+
+
+def test_bootstrap_blocks_of_resamples_give_the_same_draws(monkeypatch):
+    # The bootstrap hands the batch solver blocks of resamples (bounded memory): any block
+    # size gives the same estimates.
+    from soilstats.identification import bootstrap
+
+    x, p = bekker_data(seed=7)
+    test_index = np.repeat(np.arange(18), 10)
+    args = (BEKKER, x, p, np.ones(p.size), test_index, np.array([-9.8e3, 1.2e6, 0.8]))
+    whole = bootstrap.bootstrap_tests(*args, n_resamples=40, seed=2)
+    monkeypatch.setattr(bootstrap, "BATCH_ELEMENTS", 2 * p.size)  # blocks of 2 resamples
+    blocks = bootstrap.bootstrap_tests(*args, n_resamples=40, seed=2)
+    assert whole.n_failed == blocks.n_failed == 0
+    np.testing.assert_allclose(blocks.draws, whole.draws, rtol=1e-12)

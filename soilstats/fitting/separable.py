@@ -131,8 +131,8 @@ def _solve_rows(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.linalg.solve(gram, rhs[..., None])[..., 0]
 
 
-#: Rows × samples handled per pass of :func:`fit_separable_batch`: bounds its memory (a few
-#: MB whatever the campaign's size) and keeps the arrays in cache (100k beat 1M by 20 %).
+#: Rows × samples a caller should hand :func:`fit_separable_batch` per call: bounds its memory
+#: (a few MB whatever the campaign's size) and keeps the arrays in cache (100k beat 1M by 20 %).
 BATCH_ELEMENTS = 100_000
 
 
@@ -175,15 +175,6 @@ def fit_separable_batch(
         met a singular basis) hold NaN and are the caller's to refit another way.
     """
     weights = np.asarray(weights, float)
-    chunk = max(1, BATCH_ELEMENTS // max(weights.shape[1], 1))
-    if weights.shape[0] > chunk:
-        parts = [
-            fit_separable_batch(
-                basis0, log_z, y, weights[i : i + chunk], n0, ftol=ftol, max_iter=max_iter
-            )
-            for i in range(0, weights.shape[0], chunk)
-        ]
-        return np.vstack([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     rows_b, q = weights.shape[0], basis0.shape[0]
     n = np.full(rows_b, float(n0))
     theta = np.full((rows_b, q + 1), np.nan)
