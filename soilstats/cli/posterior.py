@@ -175,7 +175,6 @@ def _contact_widths(args, campaign) -> tuple[float, float]:
     return (float(b.min()), float(b.max())) if len(b) else (1.0, 1.0)
 
 
-#: Test-log columns whose several values in one posterior mean several conditions pooled.
 def _pooled_columns(kind: str, models) -> tuple[str, ...]:
     """Test-log columns whose different values a posterior should not silently mix: the
     identification's condition columns (one home: identification.conditions) and the setup

@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = [
+    "FIT_COLUMNS",
     "ROLES",
     "Candidate",
     "ColumnRole",
@@ -50,6 +51,7 @@ __all__ = [
     "relations",
     "spans_log",
     "time_hours",
+    "with_time_hours",
 ]
 
 #: The roles a column can play (module docstring).
@@ -62,7 +64,8 @@ _OUTCOMES = {
     "n_samples": "the number of samples: set by how long the test ran, i.e. by its result",
     "nobs": "the number of samples used: set by the record's length",
 }
-_FIT_COLUMNS = frozenset(
+#: Columns the per-test fit adds (its results: outcomes, not shown among a table's columns).
+FIT_COLUMNS = frozenset(
     {"k", "k_stderr", "n", "n_stderr", "epsilon", "converged", "message"}
     | {"tau_max", "tau_max_stderr", "K", "K_stderr", "tau_ss_Pa", "steady"}
 )
@@ -181,20 +184,36 @@ def time_hours(col: pd.Series) -> pd.Series | None:
     return hours.astype(float)
 
 
+def with_time_hours(table: pd.DataFrame) -> tuple[pd.DataFrame, tuple[str, ...]]:
+    """``table`` with every date/time column (:func:`time_hours`) replaced by hours since its
+    earliest value, and the names of those columns.  Done once per per-test table, so that
+    nothing downstream parses times again."""
+    hours = {}
+    for name in table.columns:
+        col = table[name]
+        if pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col):
+            continue
+        converted = time_hours(col)
+        if converted is not None:
+            hours[name] = converted
+    return (table.assign(**hours) if hours else table), tuple(hours)
+
+
 def candidate_values(table: pd.DataFrame, name: str) -> pd.Series:
-    """The column as the tests use it: numbers rounded to 9 digits, dates and times as hours
-    since the first test, other text unchanged."""
+    """The column as the tests use it: numbers rounded to 9 digits, text unchanged."""
     col = table[name]
     if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
         return _rounded(col)
-    hours = time_hours(col)
-    if hours is not None:
-        return _rounded(hours)
     return col.astype(object).where(col.notna(), np.nan)
 
 
-def classify_columns(table: pd.DataFrame, kind: str) -> list[ColumnRole]:
-    """The role of every column of a per-test table (module docstring), with its reason."""
+def classify_columns(
+    table: pd.DataFrame, kind: str, time_columns: tuple[str, ...] = ()
+) -> list[ColumnRole]:
+    """The role of every column of a per-test table (module docstring), with its reason.
+
+    ``time_columns``: the columns :func:`with_time_hours` converted from dates/times.
+    """
     out = []
     for name in table.columns:
         name = str(name)
@@ -204,13 +223,13 @@ def classify_columns(table: pd.DataFrame, kind: str) -> list[ColumnRole]:
             out.append(ColumnRole(name, "bookkeeping", "an identifier, not a property of the test"))
         elif name in _OUTCOMES:
             out.append(ColumnRole(name, "outcome", _OUTCOMES[name] + "; never a cause"))
-        elif name in _FIT_COLUMNS:
+        elif name in FIT_COLUMNS:
             out.append(ColumnRole(name, "outcome", "a result of the per-test fit; never a cause"))
         elif name == "repetition" or name.lower() in ORDER_NAMES:
             out.append(
                 ColumnRole(name, "time/order", "numbers the tests in order: tested as a trend")
             )
-        elif time_hours(table[name]) is not None:
+        elif name in time_columns:
             out.append(
                 ColumnRole(
                     name,
@@ -226,7 +245,11 @@ def classify_columns(table: pd.DataFrame, kind: str) -> list[ColumnRole]:
 
 
 def enumerate_candidates(
-    table: pd.DataFrame, kind: str, *, min_recorded: int = 4
+    table: pd.DataFrame,
+    kind: str,
+    *,
+    min_recorded: int = 4,
+    roles: list[ColumnRole] | None = None,
 ) -> tuple[list[Candidate], list[str]]:
     """Candidates of one (kind, soil) per-test table, and notes on the columns left out.
 
@@ -237,13 +260,15 @@ def enumerate_candidates(
     kind : {"sinkage", "shear"}
     min_recorded : int
         A column recorded in fewer tests is not tested (and a note says so).
+    roles : list of ColumnRole, optional
+        The table's :func:`classify_columns`, when the caller has it already.
 
     Returns
     -------
     (list of Candidate, list of str)
         Outcomes and bookkeeping never become candidates (:func:`classify_columns` says why).
     """
-    roles = {r.column: r.role for r in classify_columns(table, kind)}
+    roles = {r.column: r.role for r in (roles or classify_columns(table, kind))}
     skip = _SUMMARISED[kind] | _OTHER_KIND[kind]
     names = [
         c for c, role in roles.items() if role not in ("outcome", "bookkeeping") and c not in skip

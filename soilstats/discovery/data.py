@@ -19,6 +19,7 @@ import pandas as pd
 from ..errors import ConvergenceWarning
 from ..identification import fit_per_test
 from ..identification.pooling import MIN_SAMPLES, pool_shear, pool_sinkage
+from .candidates import with_time_hours
 
 __all__ = ["Group", "build_groups"]
 
@@ -43,6 +44,8 @@ class Group:
         Row position in ``tests`` of each sample.
     notes : tuple of str
         What was excluded on the way, and why.
+    time_columns : tuple of str
+        Columns of ``tests`` converted from dates/times to hours since the first test.
     """
 
     kind: str
@@ -53,6 +56,7 @@ class Group:
     w: np.ndarray = field(repr=False)
     owner: np.ndarray = field(repr=False)
     notes: tuple[str, ...] = ()
+    time_columns: tuple[str, ...] = ()
 
     @property
     def label(self) -> str:
@@ -126,6 +130,9 @@ def build_groups(
             if not usable.any():
                 notes.extend(group_notes)
                 continue
-            groups.append(Group(kind, soil, table, x, y, w, owner, notes=tuple(group_notes)))
+            table, times = with_time_hours(table)
+            groups.append(
+                Group(kind, soil, table, x, y, w, owner, tuple(group_notes), time_columns=times)
+            )
             notes.extend(group_notes)
     return groups, notes

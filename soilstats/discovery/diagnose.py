@@ -30,6 +30,7 @@ from scipy import stats
 from ..errors import ConvergenceError
 from ..statistics import verdicts
 from .candidates import (
+    FIT_COLUMNS,
     MISSING,
     Candidate,
     ColumnRole,
@@ -216,7 +217,8 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
     table = group.tests
     have = table[[f"_dev_{r}" for r in RESPONSES[group.kind]]].notna().any(axis=1).to_numpy()
     sub = table.loc[have]
-    cands, cand_notes = enumerate_candidates(sub, group.kind)
+    all_roles = classify_columns(sub, group.kind, group.time_columns)
+    cands, cand_notes = enumerate_candidates(sub, group.kind, roles=all_roles)
     notes = [*notes, *(f"{group.soil}: {n}" for n in cand_notes)]
     rels = find_relations(sub, cands)
     related: dict[str, set[str]] = {c.name: set() for c in cands}
@@ -266,9 +268,7 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                 )
             )
     roles = tuple(
-        r
-        for r in classify_columns(sub, group.kind)
-        if sub[r.column].nunique() > 1 and not r.reason.startswith("a result of the per-test fit")
+        r for r in all_roles if r.column not in FIT_COLUMNS and sub[r.column].nunique() > 1
     )
     diag = Diagnosis(group, base, tuple(cands), tuple(rels), tuple(notes), roles)
     return diag, rows_out

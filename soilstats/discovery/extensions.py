@@ -26,7 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import pandas as pd
 
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..fitting.identify import identify
@@ -417,22 +416,19 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
             )
         stiffness = "level" in responses or not responses
         exponent = "shape" in responses or not responses
-        what = (
-            f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
-            f"{'n' if exponent else ''}"
-        )
-        for how in _generic_forms(tests, cause, numeric):
-            out.append(
-                SinkageExtension(
-                    f"{cause} ({how})",
-                    False,
-                    f"{what} depend on {cause} ({how})",
-                    bekker=bekker,
-                    features=Features(cause, how),
-                    stiffness=stiffness,
-                    exponent=exponent,
-                )
+        how = "linear" if numeric else "levels"
+        out.append(
+            SinkageExtension(
+                f"{cause} ({how})",
+                False,
+                f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
+                f"{'n' if exponent else ''} depend on {cause} ({how})",
+                bekker=bekker,
+                features=Features(cause, how),
+                stiffness=stiffness,
+                exponent=exponent,
             )
+        )
         return out
     a = shear_inputs_a(group, rows)
     if names & (_RING | {"tool"}) and np.unique(np.round(a, 9)).size >= 2:
@@ -447,20 +443,14 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
     targets = (("c", "tan_phi") if "level" in responses or not responses else ()) + (
         ("K",) if "K" in responses else ()
     )
-    for how in _generic_forms(tests, cause, numeric):
-        out.append(
-            ShearExtension(
-                f"{cause} ({how})",
-                False,
-                f"{', '.join(targets)} depend on {cause} ({how})",
-                features=Features(cause, how),
-                targets=targets,
-            )
+    how = "linear" if numeric else "levels"
+    out.append(
+        ShearExtension(
+            f"{cause} ({how})",
+            False,
+            f"{', '.join(targets)} depend on {cause} ({how})",
+            features=Features(cause, how),
+            targets=targets,
         )
+    )
     return out
-
-
-def _generic_forms(tests: pd.DataFrame, cause: str, numeric: bool) -> tuple[str, ...]:
-    """Labels: one factor per level; numbers: a linear trend (per-level k and n of a plate
-    size are the separate "k and n per" extension)."""
-    return ("linear",) if numeric else ("levels",)

@@ -40,7 +40,7 @@ def _leads(rows: pd.DataFrame, relations) -> list[tuple[str, list[str]]]:
         return []
     best = sig.sort_values(["p_adjusted", "p_value", "statistic"], ascending=[True, True, False])
     order = list(dict.fromkeys(best["candidate"]))
-    role = dict(zip(best["candidate"], best["role"], strict=True)) if "role" in best else {}
+    role = dict(zip(best["candidate"], best["role"], strict=True))
     members = set(order)
     adj: dict[str, set[str]] = {m: set() for m in members}
     finer: set[str] = set()
@@ -141,10 +141,6 @@ def _non_positive(ext, fitted, group, rows) -> list[str]:
     ]
 
 
-def _entry_of(tried: list, ext) -> dict:
-    return next(e for e in tried if e["extension"] == ext.name)
-
-
 def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
@@ -152,7 +148,8 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
     Preference: a physical extension with a real gain and physically plausible parameters
     (no value outside its range, e.g. K0 > 1), else the generic one with a real gain, else the
     best gain (not kept).  Returns ``(base, base fitted, chosen, tried)``, chosen being
-    ``(extension, gain, fitted)`` or None.
+    ``(extension, gain, fitted, implausible)`` (the reasons it is not physical, empty when it
+    is) or None.
     """
     base_ext = base_model(group, rows)
     folds = make_folds(levels, "tests", rng)
@@ -181,11 +178,10 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
         # An implausible extension is never kept, however much it gains.
         plausible = gain.real and not implausible
         rank = (plausible, plausible and ext.physical, gain.relative)
-        options.append((rank, ext, gain, fitted))
+        options.append((rank, ext, gain, fitted, implausible))
     if not options:
         return base_ext, base_fitted, None, tried
-    _, ext, gain, fitted = max(options, key=lambda o: o[0])
-    return base_ext, base_fitted, (ext, gain, fitted), tried
+    return base_ext, base_fitted, max(options, key=lambda o: o[0])[1:], tried
 
 
 def _as_campaign(campaign) -> tuple[Campaign, str]:
@@ -386,7 +382,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng) -> F
             caveats.append(f"cross-validation on the tests in scope failed: {exc}")
     else:
         caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
-    kept = chosen is not None and chosen[1].real and not _entry_of(tried, chosen[0])["implausible"]
+    kept = chosen is not None and chosen[1].real and not chosen[3]
     if kept and chosen[0].physical:
         lead = _physical_name(lead, chosen[0].name, relations)
         confounded_with = [m for m in [top["candidate"], *confounded_with] if m != lead]
@@ -396,13 +392,14 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng) -> F
     info, gain_cond = {}, None
     if chosen is not None:
         info = _information(base_fit, fit)
-        implausible = _implausible(fit, base_fit)
-        if implausible:
-            caveats.append(
-                f"{chosen[0].name}: physically implausible parameter(s): " + "; ".join(implausible)
-            )
+        if chosen[3]:  # the reasons decided in _try_extensions, not recomputed
+            caveats.append(f"{chosen[0].name}: physically implausible: " + "; ".join(chosen[3]))
         if kept:
             gain_cond = _condition_gain(g, scope, base_ext, chosen[0], levels, rng, caveats)
+        elif chosen[1].real:
+            caveats.append(
+                "no plausible extension gives a real out-of-sample gain; the base model is kept"
+            )
         else:
             caveats.append("no extension gives a real out-of-sample gain; the base model is kept")
     return Finding(
