@@ -43,7 +43,9 @@ __all__ = [
     "ReeceExtension",
     "ShearExtension",
     "SinkageExtension",
+    "Term",
     "base_model",
+    "combine",
     "library",
 ]
 
@@ -100,6 +102,46 @@ class Features:
         return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)[:, None]
 
 
+@dataclass(frozen=True)
+class Term:
+    """One covariate effect of an extended model: the features and the parameters they move.
+
+    ``targets``: sinkage ``"k"`` (stiffness factor exp(θ·F)) and/or ``"n"`` (exponent offset
+    θ·F); shear any of ``"c"``, ``"tan_phi"``, ``"K"`` (factors exp(θ·F)).  Terms of several
+    causes add up in one model (:func:`combine`).
+    """
+
+    features: Features
+    targets: tuple[str, ...]
+
+    @property
+    def cause(self) -> str:
+        return self.features.column
+
+
+def _prepare_terms(terms, tests, rows) -> list[dict]:
+    return [t.features.prepare(tests, rows) for t in terms]
+
+
+def _stack(terms, states, tests, owner, target) -> np.ndarray | None:
+    """Per-sample features of every term that moves ``target``, side by side (or None)."""
+    blocks = [
+        t.features.matrix(tests, st)[owner]
+        for t, st in zip(terms, states, strict=True)
+        if target in t.targets
+    ]
+    return np.hstack(blocks) if blocks else None
+
+
+def _term_names(terms, states, target, label) -> list[str]:
+    return [
+        label.format(n)
+        for t, st in zip(terms, states, strict=True)
+        if target in t.targets
+        for n in t.features.names(st)
+    ]
+
+
 @dataclass(frozen=True, eq=False)
 class Fitted:
     """An extension fitted on some tests: the identification result and its fitted state."""
@@ -142,30 +184,24 @@ def _identify(f, jac, y, w, p0, names, units, bounds, label) -> FitResult:
 # --------------------------------------------------------------------------- sinkage models
 @dataclass(frozen=True)
 class SinkageExtension(Extension):
-    """Bekker (Eq. 7) or Bernstein (Eq. 8) with optional covariate features and softening."""
+    """Bekker (Eq. 7) or Bernstein (Eq. 8) with covariate terms and/or softening."""
 
     bekker: bool = True
-    features: Features | None = None
-    stiffness: bool = True
-    exponent: bool = True
+    terms: tuple[Term, ...] = ()
     soften: bool = False
 
     def _inputs(self, group, rows, state):
         mask = group.samples_of(rows)
         owner = group.owner[mask]
-        fs = gd = None
-        n_s = n_d = 0
-        if self.features is not None:
-            per_test = self.features.matrix(group.tests, state["features"])
-            ff = per_test[owner]
-            if self.stiffness:
-                fs, n_s = ff, ff.shape[1]
-            if self.exponent:
-                gd, n_d = ff, ff.shape[1]
+        states = state.get("terms", [])
+        fs = _stack(self.terms, states, group.tests, owner, "k")
+        gd = _stack(self.terms, states, group.tests, owner, "n")
         soft = None
         if self.soften:
             aspect = group.tests["aspect_ratio"].to_numpy(float)[owner]
             soft = aspect >= state["min_aspect"] - 1e-9
+        n_s = 0 if fs is None else fs.shape[1]
+        n_d = 0 if gd is None else gd.shape[1]
         layout = SinkageLayout(self.bekker, n_s, n_d, self.soften)
         return (
             mask,
@@ -176,14 +212,11 @@ class SinkageExtension(Extension):
     def _names(self, state):
         names = ["kc", "kphi", "n"] if self.bekker else ["k", "n"]
         units = [_SINK_UNITS[n] for n in names]
-        if self.features is not None:
-            fn = self.features.names(state["features"])
-            if self.stiffness:
-                names += [f"ln k-factor[{n}]" for n in fn]
-                units += ["-"] * len(fn)
-            if self.exponent:
-                names += [f"n-offset[{n}]" for n in fn]
-                units += ["-"] * len(fn)
+        states = state.get("terms", [])
+        for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
+            extra = _term_names(self.terms, states, target, label)
+            names += extra
+            units += ["-"] * len(extra)
         if self.soften:
             names += ["z_c", "f_soft"]
             units += ["m", "-"]
@@ -191,13 +224,11 @@ class SinkageExtension(Extension):
 
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
-        state: dict = {}
-        if self.features is not None:
-            state["features"] = self.features.prepare(group.tests, rows)
+        state: dict = {"terms": _prepare_terms(self.terms, group.tests, rows)}
         mask = group.samples_of(rows)
         y, w = group.y[mask], group.w[mask]
         if base is not None and getattr(base.extension, "bekker", None) == self.bekker:
-            start = list(base.result.values)
+            start = list(base.result.values[: 3 if self.bekker else 2])
         else:
             model = "bekker" if self.bekker else "bernstein"
             start = list(sinkage_start(model, group.x["b"][mask], group.x["z"][mask], y))
@@ -267,37 +298,34 @@ class ReeceExtension(Extension):
 # ----------------------------------------------------------------------------- shear models
 @dataclass(frozen=True)
 class ShearExtension(Extension):
-    """Janosi–Hanamoto (Eq. 13) with covariate factors on c, tan φ, K, or side walls."""
+    """Janosi–Hanamoto (Eq. 13) with covariate terms on c, tan φ, K and/or side walls."""
 
-    features: Features | None = None
-    targets: tuple[str, ...] = ("c", "tan_phi")
+    terms: tuple[Term, ...] = ()
     side_walls: bool = False
 
     def _inputs(self, group, rows, state):
         mask = group.samples_of(rows)
         owner = group.owner[mask]
-        kw: dict = {}
-        counts = dict.fromkeys(("c", "tan_phi", "K"), 0)
-        if self.features is not None:
-            ff = self.features.matrix(group.tests, state["features"])[owner]
-            for t, key in (("c", "fc"), ("tan_phi", "ft"), ("K", "fk")):
-                if t in self.targets:
-                    kw[key], counts[t] = ff, ff.shape[1]
+        states = state.get("terms", [])
+        kw = {
+            key: _stack(self.terms, states, group.tests, owner, target)
+            for target, key in (("c", "fc"), ("tan_phi", "ft"), ("K", "fk"))
+        }
+        counts = [0 if kw[k] is None else kw[k].shape[1] for k in ("fc", "ft", "fk")]
         if self.side_walls:
             t = group.tests
             a = side_wall_ratio(t["r_inner_m"], t["r_outer_m"], t["grouser_height_m"])
             kw["a"] = np.asarray(a, float)[owner]
-        layout = ShearLayout(counts["c"], counts["tan_phi"], counts["K"], self.side_walls)
+        layout = ShearLayout(*counts, self.side_walls)
         return mask, layout, shear_family(layout, group.x["sigma"][mask], group.x["j"][mask], **kw)
 
     def _names(self, state):
         names, units = list(JANOSI.param_names), list(JANOSI.units)
-        if self.features is not None:
-            fn = self.features.names(state["features"])
-            for t in ("c", "tan_phi", "K"):
-                if t in self.targets:
-                    names += [f"ln {t}-factor[{n}]" for n in fn]
-                    units += ["-"] * len(fn)
+        states = state.get("terms", [])
+        for target in ("c", "tan_phi", "K"):
+            extra = _term_names(self.terms, states, target, f"ln {target}-factor[{{}}]")
+            names += extra
+            units += ["-"] * len(extra)
         if self.side_walls:
             names.append("K0")
             units.append("-")
@@ -305,9 +333,7 @@ class ShearExtension(Extension):
 
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
-        state: dict = {}
-        if self.features is not None:
-            state["features"] = self.features.prepare(group.tests, rows)
+        state: dict = {"terms": _prepare_terms(self.terms, group.tests, rows)}
         mask, layout, (f, jac) = self._inputs(group, rows, state)
         y, w = group.y[mask], group.w[mask]
         if base is not None:
@@ -317,8 +343,9 @@ class ShearExtension(Extension):
         if self.side_walls:
             # Start from intrinsic values: divide out the mean apparent-area factor.
             a_mean = float(np.mean(shear_inputs_a(group, rows)))
-            start = [start[0] / (1 + a_mean), start[1], start[2], 0.4]
-        p0 = start + [0.0] * (layout.size - len(start))
+            start = [start[0] / (1 + a_mean), start[1], start[2]]
+        p0 = start + [0.0] * (layout.size - len(start) - self.side_walls)
+        p0 += [0.4] if self.side_walls else []
         names, units = self._names(state)
         bounds = {**JANOSI.bounds_of, "K0": (0, 1)}
         result = _identify(f, jac, y, w, p0, names, units, bounds, self.name)
@@ -384,7 +411,7 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
                     True,
                     "k·(v/v_ref)^a and n + m·ln(v/v_ref) (Section 3.1.2)",
                     bekker=bekker,
-                    features=Features("velocity_m_s", "velocity"),
+                    terms=(Term(Features("velocity_m_s", "velocity"), ("k", "n")),),
                 )
             )
         aspect = tests["aspect_ratio"].to_numpy(float)
@@ -409,9 +436,7 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
                     False,
                     f"Bernstein k and n per level of {cause} (Eq. 8 per plate size)",
                     bekker=False,
-                    features=Features(cause, "levels"),
-                    stiffness=True,
-                    exponent=True,
+                    terms=(Term(Features(cause, "levels"), ("k", "n")),),
                 )
             )
         stiffness = "level" in responses or not responses
@@ -424,9 +449,7 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
                 f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
                 f"{'n' if exponent else ''} depend on {cause} ({how})",
                 bekker=bekker,
-                features=Features(cause, how),
-                stiffness=stiffness,
-                exponent=exponent,
+                terms=(Term(Features(cause, how), ("k",) * stiffness + ("n",) * exponent),),
             )
         )
         return out
@@ -449,8 +472,45 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
             f"{cause} ({how})",
             False,
             f"{', '.join(targets)} depend on {cause} ({how})",
-            features=Features(cause, how),
-            targets=targets,
+            terms=(Term(Features(cause, how), targets),),
         )
     )
     return out
+
+
+def combine(extensions) -> Extension | None:
+    """One model that carries the effects of every extension given (of one kind), or None
+    when one of them cannot be combined: Reece replaces Eq. 7 rather than extending it.
+
+    Terms on the same column merge their targets; softening and side walls switch on when
+    any part has them; the base is Bekker only if every part keeps Bekker (a per-plate-size
+    Bernstein term makes kc/b + kφ redundant).
+    """
+    extensions = list(extensions)
+    if len(extensions) == 1:
+        return extensions[0]
+    if not extensions or any(
+        not isinstance(e, SinkageExtension | ShearExtension) for e in extensions
+    ):
+        return None
+    merged: dict[tuple[str, str], tuple[str, ...]] = {}
+    for e in extensions:
+        for t in e.terms:
+            key = (t.features.column, t.features.how)
+            merged[key] = tuple(dict.fromkeys((*merged.get(key, ()), *t.targets)))
+    terms = tuple(Term(Features(col, how), targets) for (col, how), targets in merged.items())
+    name = " + ".join(e.name for e in extensions)
+    description = "; ".join(e.description for e in extensions)
+    physical = all(e.physical for e in extensions)
+    if isinstance(extensions[0], SinkageExtension):
+        return SinkageExtension(
+            name,
+            physical,
+            description,
+            bekker=all(e.bekker for e in extensions),
+            terms=terms,
+            soften=any(e.soften for e in extensions),
+        )
+    return ShearExtension(
+        name, physical, description, terms=terms, side_walls=any(e.side_walls for e in extensions)
+    )

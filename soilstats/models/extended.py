@@ -133,23 +133,27 @@ class ShearLayout:
 
 
 def shear_family(layout: ShearLayout, sigma, j, fc=None, ft=None, fk=None, a=None):
-    """(f(θ), J(θ)) of the extended Janosi–Hanamoto family; σ, τ in Pa, j and K in m."""
+    """(f(θ), J(θ)) of the extended Janosi–Hanamoto family; σ, τ in Pa, j and K in m.
+
+    Covariate factors and side walls combine: τ = (c·S_c·(1 + a) + σ·tan φ·S_t·(1 + a·K0))·
+    (1 − exp(−j/(K·S_K))), with the wall terms only when ``layout.side_walls``.
+    """
     sigma = np.asarray(sigma, float)
     j = np.asarray(j, float)
     i_c, i_t, i_k = 3, 3 + layout.n_c, 3 + layout.n_c + layout.n_t
     i_end = i_k + layout.n_k
+    ones = np.ones(j.size)
 
     def parts(theta):
         theta = np.asarray(theta, float)
         c, phi, k = theta[0], theta[1], theta[2]
         t = np.tan(phi * RAD_PER_DEG)
+        s_c = np.exp(fc @ theta[i_c:i_t]) if layout.n_c else ones
+        s_t = np.exp(ft @ theta[i_t:i_k]) if layout.n_t else ones
         if layout.side_walls:
-            s_c = 1.0 + a
-            s_t = 1.0 + a * theta[-1]
-        else:
-            s_c = np.exp(fc @ theta[i_c:i_t]) if layout.n_c else np.ones(j.size)
-            s_t = np.exp(ft @ theta[i_t:i_k]) if layout.n_t else np.ones(j.size)
-        s_k = np.exp(fk @ theta[i_k:i_end]) if layout.n_k else np.ones(j.size)
+            s_c = s_c * (1.0 + a)
+            s_t = s_t * (1.0 + a * theta[-1])
+        s_k = np.exp(fk @ theta[i_k:i_end]) if layout.n_k else ones
         k_eff = k * s_k
         decay = np.exp(-j / k_eff)
         return c, t, phi, s_c, s_t, k_eff, decay
@@ -168,12 +172,12 @@ def shear_family(layout: ShearLayout, sigma, j, fc=None, ft=None, fk=None, a=Non
             sigma * s_t * RAD_PER_DEG / np.cos(phi * RAD_PER_DEG) ** 2 * g,
             dk_eff * k_eff / theta[2],
         ]
-        if layout.side_walls:
-            cols.append(sigma * t * a * g)
-            return np.column_stack(cols)
         cols += [c * s_c * fc[:, i] * g for i in range(layout.n_c)]
         cols += [sigma * t * s_t * ft[:, i] * g for i in range(layout.n_t)]
         cols += [dk_eff * k_eff * fk[:, i] for i in range(layout.n_k)]
+        if layout.side_walls:
+            # ∂/∂K0 of σ·tan φ·S_t·(1 + a·K0): S_t without its wall factor, times a.
+            cols.append(sigma * t * s_t / (1.0 + a * theta[-1]) * a * g)
         return np.column_stack(cols)
 
     return f, jac
