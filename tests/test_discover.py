@@ -366,3 +366,163 @@ def test_cullinan_designed_factor_leads_its_confounded_partner():
     result = discover("cullinan-sand", seed=0)
     top = result.findings[0]
     assert top.cause == "preparation" and "session" in top.confounded_with, result.summary()
+
+
+# ------------------------------------------- issue #13: interactions, combined model, power, DQ
+#: An operator who leaves the soil 50 % stiffer only with preparation p1 (an interaction).
+INTERACTION = _spec(
+    [
+        _sink(name="p1", preparations=["p1"], operators=["A", "B"], repetitions=8),
+        _sink(name="p2", preparations=["p2"], operators=["A", "B"], repetitions=8),
+    ],
+    [
+        {
+            "kind": "covariate",
+            "column": "operator",
+            "parameters": ["kc", "kphi"],
+            "levels": {"B": 1.5},
+            "series": ["p1"],
+        }
+    ],
+    preparations={"p1": {}, "p2": {}},
+)
+#: Two causes at once in one soil: velocity stiffening and a stiffer bin.
+TWO_CAUSES = _spec(
+    [
+        _sink(
+            velocity_m_s=[4.8e-4, 2.4e-3, 4.8e-3],
+            covariates={"bin": ["north", "south"]},
+            repetitions=4,
+        )
+    ],
+    [
+        {"kind": "velocity", "exponent": -0.12, "reference_m_s": 4.8e-3},
+        {
+            "kind": "covariate",
+            "column": "bin",
+            "parameters": ["kc", "kphi"],
+            "levels": {"south": 1.2},
+        },
+    ],
+)
+
+
+def test_interaction_is_named_and_its_cell_model_kept():
+    result = discover(simulate(INTERACTION, seed=0).campaign, seed=0)
+    names = [f.cause for f in result.findings]
+    assert "preparation × operator" in names, result.summary()
+    inter = result.findings[names.index("preparation × operator")]
+    assert inter.extension == "preparation × operator (levels)" and inter.gain.real
+    # the planted cell (p1, B) is the stiff one: its factor is the largest, about ln 1.5
+    params = dict(zip(inter.fit.param_names, inter.fit.values, strict=True))
+    cells = {k: v for k, v in params.items() if k.startswith("ln k-factor")}
+    assert max(cells, key=cells.get).endswith("p1 × B]")
+    assert max(cells.values()) == pytest.approx(np.log(1.5), abs=0.1)
+    assert result.model()["causes"] == ["sinkage / s: preparation × operator"]
+
+
+def test_two_causes_are_combined_into_one_model_that_gains_more():
+    result = discover(simulate(TWO_CAUSES, seed=0).campaign, seed=0)
+    assert {f.cause for f in result.findings} == {"velocity_m_s", "bin"}, result.summary()
+    doc = json.loads(result.to_json())["model"]
+    assert set(doc["extensions"]) == {"sinkage / s: velocity", "sinkage / s: bin (levels)"}
+    assert {"extensions", "causes", "gain", "groups"} <= set(doc)
+    combined = doc["gain"]
+    assert combined["real"]
+    # the combined model predicts held-out tests better than either extension alone
+    assert combined["relative"] > max(f.gain.relative for f in result.findings) + 0.1
+    (group,) = doc["groups"]
+    params = group["parameters"]
+    assert params["ln k-factor[ln(v/v_ref)]"]["value"] == pytest.approx(-0.12, abs=0.04)
+    assert params["ln k-factor[bin=south]"]["value"] == pytest.approx(np.log(1.2), abs=0.06)
+    assert all(np.isfinite(p["stderr"]) and p["stderr"] > 0 for p in params.values())
+    assert "Combined model" in result.summary()
+
+
+def test_minimum_detectable_effect_has_the_stated_power():
+    """Independent check of the noncentral-F power statement by simulation: data with one
+    level shifted by exactly the stated MDE must be detected in ~80 % of 600 replicates."""
+    from soilstats.discovery.power import minimum_detectable
+
+    rng = np.random.default_rng(11)
+    x = np.repeat([0, 1, 2], 6)
+    strata = np.tile([0, 1], 9)
+    alpha = 0.01
+    ref = strata_test(rng.normal(size=x.size), x, categorical=True, strata=strata)
+    delta = minimum_detectable(1.0, ref["mde_norm2"], ref["df1"], ref["df2"], alpha)
+    counts = np.bincount(x)
+    hardest = int(np.argmin(counts))
+    hits = 0
+    for _ in range(600):
+        y = rng.normal(size=x.size) + delta * (x == hardest)
+        hits += strata_test(y, x, categorical=True, strata=strata)["p_value"] < alpha
+    assert hits / 600 == pytest.approx(0.8, abs=0.05)
+    # a trend: the stated change across the observed range
+    t = np.linspace(0.0, 3.0, 16)
+    ref = strata_test(rng.normal(size=16), t, categorical=False, strata=np.zeros(16, int))
+    delta = minimum_detectable(1.0, ref["mde_norm2"], ref["df1"], ref["df2"], alpha)
+    hits = sum(
+        strata_test(
+            rng.normal(size=16) + delta * t / 3.0,
+            t,
+            categorical=False,
+            strata=np.zeros(16, int),
+        )["p_value"]
+        < alpha
+        for _ in range(600)
+    )
+    assert hits / 600 == pytest.approx(0.8, abs=0.05)
+
+
+def test_undetectable_plate_size_gets_a_power_statement_not_silence():
+    # Plates 12 % apart and no effect: nothing is found, and discover says how large a size
+    # effect the design could have detected.
+    plates = [{"shape": "circle", "radius_m": 0.05}, {"shape": "circle", "radius_m": 0.056}]
+    result = discover(simulate(_spec([_sink(plates=plates)]), seed=1).campaign, seed=0)
+    assert not result.findings, result.summary()
+    power = {(p["candidate"]): p for p in json.loads(result.to_json())["power"]}
+    size = power.get("b_m") or power["area_m2"]
+    level = size["responses"]["level"]
+    assert level["mde"] > 0 and "% in pressure" in level["statement"]
+    assert size["power"] == 0.8 and size["alpha_level"] < 0.05
+    assert "Not found" in result.summary()
+
+
+def test_spikes_and_seating_offsets_are_data_problems_never_causes():
+    """Artefacts planted in the tests of one operator only (so that, fitted raw, they would
+    line up with a column): screening removes them, discover names nothing and lists them as
+    data-quality findings."""
+    import pandas as pd
+
+    from soilstats.campaign import Campaign
+    from soilstats.campaign.schema import DERIVED_COLUMNS
+
+    spec = _spec([_sink(operators=["A", "B"], repetitions=6, points=120)])
+    clean = simulate(spec, seed=4).campaign
+    tests = clean.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
+    sinkage = clean.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
+    sinkage = sinkage.reset_index(drop=True)
+    rng = np.random.default_rng(3)
+    offset, parts = 1.5e-3, []
+    spiky = set(tests.loc[tests["operator"] == "A", "test_id"])
+    for tid, group in sinkage.groupby("test_id", sort=False):
+        group = group.copy()
+        if tid in spiky:  # operator A: one spike per test
+            group.iloc[int(rng.integers(20, len(group) - 20)), group.columns.get_loc("z_m")] *= 10
+        else:  # operator B: every test seated 1.5 mm late
+            free = pd.DataFrame(
+                {
+                    "test_id": tid,
+                    "z_m": np.linspace(0.0, offset, 12, endpoint=False),
+                    "force_N": rng.normal(0.0, 0.2, 12),
+                }
+            )
+            moved = group.assign(z_m=group["z_m"].clip(lower=0.0) + offset)
+            group = pd.concat([free, moved[moved["z_m"] > offset]])
+        parts.append(group)
+    dirty = Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
+    result = discover(dirty, seed=0)
+    assert not result.findings, result.summary()
+    assert {"spike", "pre-contact"} <= set(result.quality["counts"])
+    assert len(result.quality["tests"]) >= 0.75 * len(tests)  # most artefacts are found
+    assert "Data quality" in result.summary()

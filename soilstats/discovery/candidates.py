@@ -46,6 +46,7 @@ __all__ = [
     "Relation",
     "candidate_values",
     "classify_columns",
+    "determines",
     "enumerate_candidates",
     "level_codes",
     "relations",
@@ -325,7 +326,7 @@ def level_codes(values: pd.Series) -> np.ndarray:
     return pd.factorize(values.astype(object).where(values.notna(), MISSING))[0]
 
 
-def _determines(a: np.ndarray, b: np.ndarray) -> bool:
+def determines(a: np.ndarray, b: np.ndarray) -> bool:
     """True when every level of ``a`` holds a single level of ``b`` (b is a function of a)."""
     pairs = np.unique(np.column_stack([a, b]), axis=0)
     return pairs.shape[0] == np.unique(a).size
@@ -345,8 +346,8 @@ def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation
     for i, a in enumerate(candidates):
         for b in candidates[i + 1 :]:
             if a.categorical and b.categorical:
-                ab = _determines(codes[a.name], codes[b.name])
-                ba = _determines(codes[b.name], codes[a.name])
+                ab = determines(codes[a.name], codes[b.name])
+                ba = determines(codes[b.name], codes[a.name])
                 if ab and ba:
                     out.append(Relation("aliased", a.name, b.name))
                 elif ab:

@@ -27,7 +27,15 @@ import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
 
-__all__ = ["Gain", "cross_validate", "information_criteria", "make_folds"]
+__all__ = [
+    "Gain",
+    "base_fold_fits",
+    "compare",
+    "cross_validate",
+    "held_out_errors",
+    "information_criteria",
+    "make_folds",
+]
 
 METRIC = "rms of max-normalised prediction error, held-out tests"
 Z_KEEP = 2.0
@@ -114,6 +122,71 @@ def _per_test_error(group, rows, y_hat) -> np.ndarray:
     return sums[rows] / np.maximum(counts[rows], 1)
 
 
+def held_out_errors(group, rows, ext, folds, *, scheme, starts=None) -> np.ndarray:
+    """Each test's error (module docstring) when ``ext`` is fitted without its fold.
+
+    ``starts`` maps a fold to a fitted model whose parameters start the fold's fit (the
+    base model's fit of the same fold).  Raises :class:`ConvergenceError` or
+    :class:`IdentifiabilityError` naming the fold: an error is never computed from a failed
+    fit.
+    """
+    rows = np.asarray(rows, int)
+    folds = np.asarray(folds)
+    errors = np.empty(rows.size)
+    for fold in np.unique(folds):
+        train, test = rows[folds != fold], rows[folds == fold]
+        if train.size < 2:
+            raise IdentifiabilityError(
+                f"cross-validation fold {fold} ({scheme}): fewer than two training tests"
+            )
+        try:
+            fitted = ext.fit(group, train, base=None if starts is None else starts[int(fold)])
+        except (ConvergenceError, IdentifiabilityError) as exc:
+            raise type(exc)(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
+        errors[folds == fold] = _per_test_error(group, test, ext.predict(fitted, group, test))
+    return errors
+
+
+def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
+    """The gain of the per-test errors ``e_ext`` over ``e_base`` (the same held-out tests)."""
+    d = np.asarray(e_base) - np.asarray(e_ext)
+    stderr = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else np.inf
+    base, extended = float(np.sqrt(np.mean(e_base))), float(np.sqrt(np.mean(e_ext)))
+    relative = 1.0 - extended / base if base > 0 else np.nan
+    return Gain(
+        metric=METRIC,
+        scheme=scheme,
+        folds=int(np.unique(folds).size),
+        n_tests=int(d.size),
+        base=base,
+        extended=extended,
+        relative=float(relative),
+        difference=float(d.mean()),
+        stderr=stderr,
+        real=bool(d.mean() > Z_KEEP * stderr and relative > 0),
+    )
+
+
+def base_fold_fits(group, rows, base_ext, folds, *, scheme) -> tuple[dict, np.ndarray]:
+    """The base model fitted without each fold, and each test's held-out error under it."""
+    rows = np.asarray(rows, int)
+    folds = np.asarray(folds)
+    fits, errors = {}, np.empty(rows.size)
+    for fold in np.unique(folds):
+        train, test = rows[folds != fold], rows[folds == fold]
+        if train.size < 2:
+            raise IdentifiabilityError(
+                f"cross-validation fold {fold} ({scheme}): fewer than two training tests"
+            )
+        try:
+            fits[int(fold)] = base_ext.fit(group, train)
+        except (ConvergenceError, IdentifiabilityError) as exc:
+            raise type(exc)(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
+        pred = base_ext.predict(fits[int(fold)], group, test)
+        errors[folds == fold] = _per_test_error(group, test, pred)
+    return fits, errors
+
+
 def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> Gain:
     """Held-out prediction error of ``base_ext`` and ``ext`` on the tests ``rows``.
 
@@ -124,44 +197,12 @@ def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> 
     little to fit (the fold, the model and the reason are in the message): a gain is never
     computed from a failed fit.
     """
-    rows = np.asarray(rows, int)
-    folds = np.asarray(folds)
     cache = {} if cache is None else cache
-    e_base = np.empty(rows.size)
-    e_ext = np.empty(rows.size)
-    for fold in np.unique(folds):
-        train, test = rows[folds != fold], rows[folds == fold]
-        if train.size < 2:
-            raise IdentifiabilityError(
-                f"cross-validation fold {fold} ({scheme}): fewer than two training tests"
-            )
-        try:
-            key = (scheme, int(fold))
-            if key not in cache:
-                fb = base_ext.fit(group, train)
-                cache[key] = (fb, _per_test_error(group, test, base_ext.predict(fb, group, test)))
-            fb, err = cache[key]
-            fe = ext.fit(group, train, base=fb)
-        except (ConvergenceError, IdentifiabilityError) as exc:
-            raise type(exc)(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
-        e_base[folds == fold] = err
-        e_ext[folds == fold] = _per_test_error(group, test, ext.predict(fe, group, test))
-    d = e_base - e_ext
-    stderr = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else np.inf
-    base, extended = float(np.sqrt(e_base.mean())), float(np.sqrt(e_ext.mean()))
-    relative = 1.0 - extended / base if base > 0 else np.nan
-    return Gain(
-        metric=METRIC,
-        scheme=scheme,
-        folds=int(np.unique(folds).size),
-        n_tests=int(rows.size),
-        base=base,
-        extended=extended,
-        relative=float(relative),
-        difference=float(d.mean()),
-        stderr=stderr,
-        real=bool(d.mean() > Z_KEEP * stderr and relative > 0),
-    )
+    if scheme not in cache:
+        cache[scheme] = base_fold_fits(group, rows, base_ext, folds, scheme=scheme)
+    starts, e_base = cache[scheme]
+    e_ext = held_out_errors(group, rows, ext, folds, scheme=scheme, starts=starts)
+    return compare(e_base, e_ext, scheme=scheme, folds=folds)
 
 
 def information_criteria(result) -> dict:

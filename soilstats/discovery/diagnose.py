@@ -37,14 +37,24 @@ from .candidates import (
     Relation,
     candidate_values,
     classify_columns,
+    determines,
     enumerate_candidates,
     level_codes,
     spans_log,
 )
 from .candidates import relations as find_relations
 from .extensions import SinkageExtension, base_model
+from .power import minimum_detectable
 
-__all__ = ["RESPONSES", "Diagnosis", "add_responses", "diagnose_groups", "strata_test"]
+__all__ = [
+    "INTERACTION",
+    "RESPONSES",
+    "Diagnosis",
+    "add_responses",
+    "diagnose_groups",
+    "interaction_test",
+    "strata_test",
+]
 
 RESPONSES = {"sinkage": ("level", "shape"), "shear": ("level", "K")}
 
@@ -135,54 +145,43 @@ def _strata(columns: list[np.ndarray], n: int) -> np.ndarray:
     return np.unique(np.column_stack(columns), axis=0, return_inverse=True)[1].ravel()
 
 
-def strata_test(y, x, *, categorical: bool, strata) -> dict:
-    """F-test of X after stratum effects, on the strata in which X varies.
+def _nested_f(y, design, strata, nuisance=None) -> dict:
+    """F-test of ``design`` after stratum effects (and ``nuisance`` columns), by
+    within-stratum centring (Frisch–Waugh–Lovell).
 
-    Parameters
-    ----------
-    y : array (n,)
-        Response, finite.
-    x : array (n,)
-        Candidate values: integer level codes (categorical) or numbers (continuous).
-    categorical : bool
-    strata : array (n,) of int
-        Stratum code of each row (a single stratum when there is no block).
-
-    Returns
-    -------
-    dict
-        ``statistic`` (F), ``df1``, ``df2``, ``p_value``, ``effect_size`` (partial η²),
-        ``used`` (boolean mask of the rows tested), ``singletons`` (levels with one test), or
-        ``reason`` when the test cannot be made (then ``p_value`` is NaN).
+    Returns ``statistic``, ``df1``, ``df2``, ``p_value``, ``effect_size`` (partial η²),
+    ``sigma`` (residual standard deviation of the full model) and ``norm2`` (the squared
+    length of each design column after the strata and nuisance are taken out: the pattern
+    an effect of one unit leaves, for :mod:`.power`), or ``reason`` when it cannot be made.
     """
-    y = np.asarray(y, float)
-    x = np.asarray(x)
-    strata = np.asarray(strata)
-    varies = pd.Series(x).groupby(strata).transform("nunique").to_numpy() >= 2
-    out = {"used": varies, "singletons": [], "p_value": np.nan, "statistic": np.nan}
-    out.update(df1=0, df2=0, effect_size=np.nan, reason="")
-    n = int(varies.sum())
-    if n < 4:
-        out["reason"] = "the candidate varies within no stratum of the other candidates"
-        return out
-    y, x, s = y[varies], x[varies], pd.factorize(strata[varies])[0]
-    if categorical:
-        levels, counts = np.unique(x, return_counts=True)
-        out["singletons"] = levels[counts == 1].tolist()
-        design = (x[:, None] == levels[None, :]).astype(float)
-    else:
-        design = _trend(x.astype(float))[:, None]
+    n = y.size
+    s = pd.factorize(strata)[0]
     n_strata = s.max() + 1
+    counts = np.bincount(s, minlength=n_strata)
 
     def centre(a):
         sums = np.zeros((n_strata, *a.shape[1:]))
         np.add.at(sums, s, a)
-        return a - (sums / np.bincount(s, minlength=n_strata).reshape(-1, *[1] * (a.ndim - 1)))[s]
+        return a - (sums / counts.reshape(-1, *[1] * (a.ndim - 1)))[s]
 
+    def rank_of(a):
+        if a.shape[1] == 0:
+            return 0
+        sv = np.linalg.svd(a, compute_uv=False)
+        return int(np.sum(sv > sv[0] * 1e-9)) if sv.size and sv[0] > 0 else 0
+
+    out = {"p_value": np.nan, "statistic": np.nan, "df1": 0, "df2": 0, "reason": ""}
+    out.update(effect_size=np.nan, sigma=np.nan, norm2=np.full(design.shape[1], np.nan))
     yc, dc = centre(y), centre(design)
-    sv = np.linalg.svd(dc, compute_uv=False)
-    rank = int(np.sum(sv > sv[0] * 1e-9)) if sv.size and sv[0] > 0 else 0
-    df2 = n - n_strata - rank
+    r0 = 0
+    if nuisance is not None and nuisance.shape[1]:
+        nc = centre(nuisance)
+        r0 = rank_of(nc)
+        q = np.linalg.svd(nc, full_matrices=False)[0][:, :r0]
+        yc = yc - q @ (q.T @ yc)
+        dc = dc - q @ (q.T @ dc)
+    rank = rank_of(dc)
+    df2 = n - n_strata - r0 - rank
     if rank < 1 or df2 < 2:
         out["reason"] = f"no degrees of freedom left (n = {n}, strata = {n_strata}, rank = {rank})"
         return out
@@ -200,7 +199,84 @@ def strata_test(y, x, *, categorical: bool, strata) -> dict:
         df2=int(df2),
         p_value=p,
         effect_size=(rss0 - rss1) / rss0 if rss0 > 0 else np.nan,
+        sigma=float(np.sqrt(rss1 / df2)),
+        norm2=np.sum(dc**2, axis=0),
     )
+    return out
+
+
+def strata_test(y, x, *, categorical: bool, strata) -> dict:
+    """F-test of X after stratum effects, on the strata in which X varies.
+
+    Parameters
+    ----------
+    y : array (n,)
+        Response, finite.
+    x : array (n,)
+        Candidate values: integer level codes (categorical) or numbers (continuous).
+    categorical : bool
+    strata : array (n,) of int
+        Stratum code of each row (a single stratum when there is no block).
+
+    Returns
+    -------
+    dict
+        ``statistic`` (F), ``df1``, ``df2``, ``p_value``, ``effect_size`` (partial η²),
+        ``sigma`` (residual standard deviation), ``mde_norm2`` (‖r‖² of the hardest
+        pattern to detect, :mod:`.power`: one level shifted, or a change across the range of
+        the trend), ``used`` (boolean mask of the rows tested), ``singletons`` (levels with
+        one test), or ``reason`` when the test cannot be made (then ``p_value`` is NaN).
+    """
+    y = np.asarray(y, float)
+    x = np.asarray(x)
+    strata = np.asarray(strata)
+    varies = pd.Series(x).groupby(strata).transform("nunique").to_numpy() >= 2
+    out = {"used": varies, "singletons": [], "p_value": np.nan, "statistic": np.nan}
+    out.update(df1=0, df2=0, effect_size=np.nan, sigma=np.nan, mde_norm2=np.nan, reason="")
+    if int(varies.sum()) < 4:
+        out["reason"] = "the candidate varies within no stratum of the other candidates"
+        return out
+    y, x, s = y[varies], x[varies], strata[varies]
+    if categorical:
+        levels, counts = np.unique(x, return_counts=True)
+        out["singletons"] = levels[counts == 1].tolist()
+        design = (x[:, None] == levels[None, :]).astype(float)
+    else:
+        design = _trend(x.astype(float))[:, None]
+    res = _nested_f(y, design, s)
+    norm2 = res.pop("norm2")
+    if res["df1"] and not categorical:
+        norm2 = norm2 / np.ptp(design) ** 2  # per change across the observed range
+    if res["df1"]:
+        res["mde_norm2"] = float(np.nanmin(norm2)) if np.isfinite(norm2).any() else np.nan
+    out.update(res)
+    return out
+
+
+def interaction_test(y, a, b, *, strata) -> dict:
+    """F-test of the A × B interaction of two categorical candidates after both main effects
+    (and the strata): the full cell model against the additive one.
+
+    ``a`` and ``b`` are level codes.  Returns the keys of :func:`strata_test`; ``used`` marks
+    every row (a cell of one test still informs the main effects).
+    """
+    y = np.asarray(y, float)
+    a, b, strata = np.asarray(a), np.asarray(b), np.asarray(strata)
+    out = {"used": np.ones(y.size, bool), "singletons": [], "p_value": np.nan}
+    out.update(statistic=np.nan, df1=0, df2=0, effect_size=np.nan, sigma=np.nan)
+    out.update(mde_norm2=np.nan, reason="")
+    cells = pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
+    if y.size < 6 or np.unique(cells).size < 4:
+        out["reason"] = "fewer than four cells: no interaction to test"
+        return out
+    dummies = [(codes[:, None] == np.unique(codes)[None, 1:]).astype(float) for codes in (a, b)]
+    design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
+    res = _nested_f(y, design, strata, nuisance=np.hstack(dummies))
+    norm2 = res.pop("norm2")
+    ok = np.isfinite(norm2) & (norm2 > 1e-12)
+    if res["df1"] and ok.any():
+        res["mde_norm2"] = float(norm2[ok].min())
+    out.update(res)
     return out
 
 
@@ -211,6 +287,43 @@ def _block_eligible(table: pd.DataFrame, cand: Candidate) -> bool:
         return False
     counts = candidate_values(table, cand.name).astype(object).fillna(MISSING).value_counts()
     return float(counts.median()) >= 3
+
+
+#: Joins the two columns of an interaction candidate's name and of its cell labels.
+INTERACTION = " × "
+
+
+def _interaction_pairs(cands, related, eligible, partition_of) -> list[tuple[str, str]]:
+    """Pairs of crossed, design-like categorical candidates (design or covariate role, ≥ 3
+    tests per level on median) whose interaction can be tested.  Of aliased candidates (the
+    same partition: ``tool`` and ``b_m``) only the first enters, so no pair is tested twice."""
+    pool, seen = [], set()
+    for c in cands:
+        if not (c.categorical and c.role in ("design", "covariate") and c.name in eligible):
+            continue
+        if partition_of[c.name] in seen:
+            continue
+        seen.add(partition_of[c.name])
+        pool.append(c.name)
+    return [(a, b) for i, a in enumerate(pool) for b in pool[i + 1 :] if b not in related[a]]
+
+
+def _row(group, name, response, res, **kw) -> dict:
+    return dict(
+        kind=group.kind,
+        soil=group.soil,
+        candidate=name,
+        response=response,
+        statistic=res["statistic"],
+        df1=res["df1"],
+        df2=res["df2"],
+        p_value=res["p_value"],
+        effect_size=res["effect_size"],
+        sigma=res["sigma"],
+        mde_norm2=res["mde_norm2"],
+        reason=res["reason"],
+        **kw,
+    )
 
 
 def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
@@ -246,16 +359,11 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                 cx = x_all[ok][res["used"]]
                 singles = sorted({str(lv[cx == s][0]) for s in res["singletons"]})
             rows_out.append(
-                dict(
-                    kind=group.kind,
-                    soil=group.soil,
-                    candidate=cand.name,
-                    response=response,
-                    statistic=res["statistic"],
-                    df1=res["df1"],
-                    df2=res["df2"],
-                    p_value=res["p_value"],
-                    effect_size=res["effect_size"],
+                _row(
+                    group,
+                    cand.name,
+                    response,
+                    res,
                     categorical=cand.categorical,
                     numeric=cand.numeric,
                     role=cand.role,
@@ -263,15 +371,90 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     blocks=", ".join(blocks),
                     confounded_with=", ".join(sorted(related[cand.name])),
                     singleton_levels=", ".join(singles),
-                    reason=res["reason"],
+                    pair="",
+                    span=_span(x_all[ok][res["used"]], cand.categorical),
                     rows=used,
                 )
             )
+    table, inter_rows, inter_rels = _interactions(group, table, cands, related, eligible, codes)
+    rows_out += inter_rows
     roles = tuple(
         r for r in all_roles if r.column not in FIT_COLUMNS and sub[r.column].nunique() > 1
     )
-    diag = Diagnosis(group, base, tuple(cands), tuple(rels), tuple(notes), roles)
+    group = replace(group, tests=table)
+    diag = Diagnosis(group, base, tuple(cands), (*rels, *inter_rels), tuple(notes), roles)
     return diag, rows_out
+
+
+def _span(x: np.ndarray, categorical: bool) -> str:
+    """The observed range of a trend candidate, for the power statement ("" for levels)."""
+    if categorical or x.size == 0:
+        return ""
+    x = np.asarray(x, float)
+    return f"{np.nanmin(x):.4g} to {np.nanmax(x):.4g}"
+
+
+def _labels(values: pd.Series) -> pd.Series:
+    """Level labels as a reader writes them (0.00196 rather than 0.00196349541)."""
+    if pd.api.types.is_numeric_dtype(values):
+        return values.map(lambda v: f"{v:.4g}")
+    return values.astype(str)
+
+
+def _interactions(group, table, cands, related, eligible, codes):
+    """Two-way interactions of crossed design-like factors (:func:`interaction_test`): the
+    per-test rows of the family, the table with one cell-label column per pair (``A × B``,
+    for the per-cell extension), and the main candidates each pair is aliased with."""
+    partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
+    pairs = _interaction_pairs(cands, related, eligible, partition_of)
+    rows_out, rels, columns = [], [], {}
+    for a, b in pairs:
+        name = f"{a}{INTERACTION}{b}"
+        va, vb = candidate_values(table, a), candidate_values(table, b)
+        label = _labels(va) + INTERACTION + _labels(vb)
+        columns[name] = label.where(va.notna() & vb.notna(), np.nan)
+        cell = tuple(pd.factorize(columns[name].fillna(""))[0])
+        aliased = sorted(n for n, part in partition_of.items() if part == cell)
+        rels += [Relation("aliased", name, n) for n in aliased]
+        blocks = [
+            k for k in sorted(eligible) if k not in (a, b) and not ({k} & (related[a] | related[b]))
+        ]
+        strata = _strata([codes[k] for k in blocks], len(table))
+        recorded = (va.notna() & vb.notna()).to_numpy()
+        for response in RESPONSES[group.kind]:
+            y_all = table[f"_dev_{response}"].to_numpy(float)
+            ok = np.isfinite(y_all) & recorded
+            res = interaction_test(y_all[ok], codes[a][ok], codes[b][ok], strata=strata[ok])
+            rows_out.append(
+                _row(
+                    group,
+                    name,
+                    response,
+                    res,
+                    categorical=True,
+                    numeric=False,
+                    role="interaction",
+                    n_tests=int(ok.sum()),
+                    blocks=", ".join(blocks),
+                    confounded_with=", ".join(aliased),
+                    singleton_levels="",
+                    pair=f"{a}|{b}",
+                    span="",
+                    rows=np.flatnonzero(ok),
+                )
+            )
+    # Interactions of nested factors nest in turn (velocity × tool determines velocity ×
+    # area when tool determines area): related, so that one leads and the other is named.
+    cells = {n: level_codes(c) for n, c in columns.items()}
+    names = list(cells)
+    for i, m in enumerate(names):
+        for n in names[i + 1 :]:
+            mn, nm = determines(cells[m], cells[n]), determines(cells[n], cells[m])
+            if mn and nm:
+                rels.append(Relation("aliased", m, n))
+            elif mn or nm:
+                rels.append(Relation("nested", *((m, n) if mn else (n, m))))
+    return (table.assign(**columns) if columns else table), rows_out, rels
 
 
 def diagnose_groups(groups, *, alpha: float = 0.05) -> tuple[list[Diagnosis], pd.DataFrame]:
@@ -305,6 +488,14 @@ def diagnose_groups(groups, *, alpha: float = 0.05) -> tuple[list[Diagnosis], pd
         )
         table.loc[testable, "p_adjusted"] = v["p_adjusted"].to_numpy()
         table.loc[testable, "significant"] = v["significant"].to_numpy()
+    # Silence is not evidence: the effect each test would have found (80 % power) at the
+    # strictest Holm level α/m, in the response's units (:mod:`.power`).
+    level = alpha / max(int(testable.sum()), 1)
+    table["alpha_level"] = level
+    table["mde"] = [
+        minimum_detectable(r.sigma, r.mde_norm2, r.df1, r.df2, level) if ok else np.nan
+        for r, ok in zip(table.itertuples(), testable, strict=True)
+    ]
     return diags, table
 
 
@@ -362,13 +553,26 @@ def conditional_responses(group, fitted) -> pd.DataFrame:
     return table
 
 
-def retest(group, table, candidate: str, categorical: bool, blocks: str) -> dict[str, float]:
-    """Raw p-value per response of one candidate against the responses in ``table``."""
-    blocks_list = [b for b in blocks.split(", ") if b]
+def retest(group, table, row) -> dict[str, float]:
+    """Raw p-value per response of one candidate (a row of the diagnosis table, main effect
+    or interaction) against the responses in ``table``."""
+    blocks_list = [b for b in row["blocks"].split(", ") if b]
     strata = _strata([level_codes(candidate_values(table, b)) for b in blocks_list], len(table))
-    values = candidate_values(table, candidate)
-    x_all = level_codes(values) if categorical else values.to_numpy(float)
     out = {}
+    if row["pair"]:
+        a, b = row["pair"].split("|")
+        va, vb = candidate_values(table, a), candidate_values(table, b)
+        recorded = (va.notna() & vb.notna()).to_numpy()
+        ca, cb = level_codes(va), level_codes(vb)
+        for response in RESPONSES[group.kind]:
+            y_all = table[f"_dev_{response}"].to_numpy(float)
+            ok = np.isfinite(y_all) & recorded
+            res = interaction_test(y_all[ok], ca[ok], cb[ok], strata=strata[ok])
+            out[response] = res["p_value"]
+        return out
+    categorical = bool(row["categorical"])
+    values = candidate_values(table, row["candidate"])
+    x_all = level_codes(values) if categorical else values.to_numpy(float)
     for response in RESPONSES[group.kind]:
         y_all = table[f"_dev_{response}"].to_numpy(float)
         ok = np.isfinite(y_all) & values.notna().to_numpy()

@@ -15,12 +15,14 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError, IdentifiabilityError
+from ..quality import screened
 from ..report import Provenance
 from .candidates import candidate_values
 from .crossval import cross_validate, information_criteria, make_folds
@@ -28,7 +30,10 @@ from .data import build_groups
 from .diagnose import conditional_responses, diagnose_groups, retest
 from .extensions import base_model, library
 from .flags import physical_flags
+from .plausibility import implausible
+from .power import power_records
 from .result import DiscoveryResult, Finding
+from .selection import CombinedModel, select_model
 
 __all__ = ["discover"]
 
@@ -114,33 +119,6 @@ def _physical_name(lead: str, extension: str, relations) -> str:
     return lead
 
 
-def _implausible(fit, base_fit) -> list[str]:
-    """Out-of-range values of the parameters an extension adds (K0 > 1, f outside 0..1);
-    the base parameters' own red flags (a negative kc) are reported among the flags."""
-    own = set(fit.param_names) - set(base_fit.param_names)
-    return [
-        f.message
-        for f in fit.flags
-        if f.code == "outside-bounds" and f.message.split(" ", 1)[0] in own
-    ]
-
-
-def _non_positive(ext, fitted, group, rows) -> list[str]:
-    """A model that predicts zero or negative pressure (stress) for a test it describes is
-    not physical, whatever its gain (e.g. a per-size trend that drives kc/b + kφ below 0)."""
-    with np.errstate(all="ignore"):
-        y_hat = np.asarray(ext.predict(fitted, group, rows), float)
-    # Sinkage samples all lie at z > 0 (p must be > 0); a shear record starts at j = 0, τ = 0.
-    bad = ~(y_hat > 0) if group.kind == "sinkage" else ~(y_hat >= 0)
-    if not bad.any():
-        return []
-    owners = np.unique(group.owner[group.samples_of(rows)][bad])
-    return [
-        f"predicts non-positive {'pressure' if group.kind == 'sinkage' else 'shear stress'} "
-        f"in {owners.size} of {len(rows)} tests"
-    ]
-
-
 def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
@@ -165,20 +143,19 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
             entry["error"] = str(exc)[:400]
             tried.append(entry)
             continue
-        implausible = _implausible(fitted.result, base_fitted.result)
-        implausible += _non_positive(ext, fitted, group, rows)
+        reasons = implausible(fitted, base_fitted, group, rows)
         entry.update(
             relative=gain.relative,
             real=gain.real,
             base=gain.base,
             extended=gain.extended,
-            implausible=implausible,
+            implausible=reasons,
         )
         tried.append(entry)
         # An implausible extension is never kept, however much it gains.
-        plausible = gain.real and not implausible
+        plausible = gain.real and not reasons
         rank = (plausible, plausible and ext.physical, gain.relative)
-        options.append((rank, ext, gain, fitted, implausible))
+        options.append((rank, ext, gain, fitted, reasons))
     if not options:
         return base_ext, base_fitted, None, tried
     return base_ext, base_fitted, max(options, key=lambda o: o[0])[1:], tried
@@ -235,6 +212,8 @@ def discover(
         raise ValueError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
     start = time.perf_counter()
     campaign, source = _as_campaign(campaign)
+    campaign = screened(campaign)  # once; every fit below uses the screened records
+    quality = _quality_record(campaign)
     rng = np.random.default_rng(seed)
     groups, notes = build_groups(campaign, points_per_test=points_per_test, progress=progress)
     diags, table = diagnose_groups(groups, alpha=alpha)
@@ -251,10 +230,21 @@ def discover(
         work = tqdm(work, desc="extensions", unit="group")
     findings: list[Finding] = []
     explained: list[dict] = []
+    models: list[CombinedModel] = []
     for d, rows, leads in work:
         found, why_not = _discover_group(d, rows, leads, alpha=alpha, rng=rng, max_leads=max_leads)
         findings += found
         explained += why_not
+        kept = [(f.cause, f.fitted.extension) for f in found if f.extension is not None]
+        try:
+            model = select_model(d.group, kept, rng)
+        except (ConvergenceError, IdentifiabilityError) as exc:
+            notes.append(
+                f"{d.group.label}: no combined model — the base model fails on all tests: {exc}"
+            )
+            model = None
+        if model is not None:
+            models.append(model)
         if len(leads) > max_leads:
             notes.append(
                 f"{d.group.label}: {len(leads) - max_leads} further significant cause(s) not "
@@ -262,6 +252,7 @@ def discover(
                 + ", ".join(lv for lv, _ in leads[max_leads:])
             )
     findings.sort(key=lambda f: (f.p_adjusted, f.p_value, -f.statistic))
+    findings = [_with_quality_caveat(f, quality) for f in findings]
     notes += _untestable_note(table)
     return DiscoveryResult(
         findings=tuple(findings),
@@ -269,6 +260,9 @@ def discover(
         tests=table.drop(columns=["rows"]) if "rows" in table else table,
         confounded=tuple(confounded),
         explained=tuple(explained),
+        models=tuple(models),
+        power=tuple(power_records(table, alpha)),
+        quality=quality,
         columns=tuple(_column_records(diags)),
         notes=tuple(notes),
         alpha=alpha,
@@ -280,6 +274,55 @@ def discover(
 
 
 # ----------------------------------------------------------------------------- the steps
+def _quality_record(campaign) -> dict | None:
+    """What screening found in the tests discovery analyses (JSON-ready), or None."""
+    report = getattr(campaign, "quality", None)
+    if report is None:
+        return None
+    report = report.for_tests(campaign.tests["test_id"].astype(str))
+    codes: dict[str, list[str]] = {}
+    for f in report.flags:
+        codes.setdefault(f.test_id, [])
+        if f.code not in codes[f.test_id]:
+            codes[f.test_id].append(f.code)
+    kinds = dict(zip(report.tests["test_id"].astype(str), report.tests["kind"], strict=True))
+    return {
+        "mode": report.mode,
+        "counts": dict(report.counts),
+        "excluded_samples": len(report.excluded),
+        "tests": [{"test_id": t, "kind": kinds.get(t), "codes": c} for t, c in codes.items()],
+    }
+
+
+#: Screening codes that describe how a test stopped, not a corrupted record: a load-capped
+#: test is sound, its depth is an outcome (never a cause, :mod:`.candidates`).
+_STOP_CODES = frozenset({"load-capped"})
+
+
+def _with_quality_caveat(finding: Finding, quality: dict | None) -> Finding:
+    """A finding whose tests carry data-quality flags says how many and which codes: a
+    reader judges whether the data problem, not the cause, drives it."""
+    if not quality or not quality["tests"] or finding.group is None:
+        return finding
+    flagged = {
+        t["test_id"]: [c for c in t["codes"] if c not in _STOP_CODES]
+        for t in quality["tests"]
+        if t["kind"] == finding.kind
+    }
+    flagged = {t: c for t, c in flagged.items() if c}
+    scope = finding.group.tests["test_id"].astype(str).to_numpy()[finding.scope_rows]
+    hit = [t for t in scope if t in flagged]
+    if not hit:
+        return finding
+    codes = sorted({c for t in hit for c in flagged[t]})
+    text = (
+        f"{len(hit)} of {len(scope)} tests in scope carry data-quality flags "
+        f"({', '.join(codes)}; soilstats check); flagged samples were left out where the "
+        "screening excludes them, the rest fitted as recorded"
+    )
+    return replace(finding, caveats=(*finding.caveats, text))
+
+
 def _column_records(diags) -> list[dict]:
     """The role of every varying column per (kind, soil), and whether it was tested."""
     out = []
@@ -351,7 +394,7 @@ def _explained_by(g, accepted, lead, top, *, n_leads, alpha) -> dict | None:
     """The record of ``lead`` explained by the accepted extension (no response stays
     significant, Bonferroni over the leads), or None when it still shows."""
     cond_table = conditional_responses(g, accepted[1])
-    p_after = retest(g, cond_table, lead, bool(top["categorical"]), top["blocks"])
+    p_after = retest(g, cond_table, top)
     if any(p * n_leads < alpha for p in p_after.values() if np.isfinite(p)):
         return None
     return {

@@ -180,6 +180,15 @@ class DiscoveryResult:
     columns : tuple of dict
         Every varying column per (kind, soil): ``role`` (design, covariate, time/order,
         outcome, bookkeeping), the ``reason`` and whether it was ``tested``; outcomes never are.
+    models : tuple of CombinedModel
+        Per (kind, soil) with a kept extension, the one model carrying every real cause
+        (forward selection, :mod:`.selection`), its parameters ± σ and its gain.
+    power : tuple of dict
+        Per candidate tested and not found: the smallest effect the design would have found
+        (80 % power at Holm's strictest level, :mod:`.power`).
+    quality : dict or None
+        The data-quality screening the fits used (:mod:`soilstats.quality`): data problems,
+        never causes.
     alpha, seed, runtime_s, source
     """
 
@@ -190,20 +199,42 @@ class DiscoveryResult:
     explained: tuple[dict, ...] = ()
     notes: tuple[str, ...] = ()
     columns: tuple[dict, ...] = ()
+    models: tuple = ()
+    power: tuple[dict, ...] = ()
+    quality: dict | None = None
     alpha: float = 0.05
     seed: int = 0
     runtime_s: float = float("nan")
     source: str = ""
     provenance: Provenance | None = field(default=None, repr=False)
 
+    def model(self) -> dict:
+        """The combined model of the campaign: ``{"extensions", "causes", "gain", "groups"}``
+        — every selected extension and its cause as ``"kind / soil: name"``, the gain over the
+        base models on all held-out tests of the extended groups together, and per (kind,
+        soil) the model with its parameters ± σ and its selection steps."""
+        from .selection import campaign_gain
+
+        extended = [m for m in self.models if m.extensions]
+        gain = campaign_gain(extended)
+        return {
+            "extensions": [f"{m.kind} / {m.soil}: {e}" for m in extended for e in m.extensions],
+            "causes": [f"{m.kind} / {m.soil}: {c}" for m in extended for c in m.causes],
+            "gain": None if gain is None else json_safe(gain.to_dict()),
+            "groups": [m.to_dict() for m in self.models],
+        }
+
     def to_dict(self) -> dict:
         """JSON-ready content (no run time: outputs are byte-identical between runs)."""
         return {
+            "model": self.model(),
             "findings": [f.to_dict() for f in self.findings],
             "flags": list(self.flags),
             "confounded": list(self.confounded),
             "explained": list(self.explained),
             "columns": list(self.columns),
+            "power": list(self.power),
+            "quality": self.quality,
             "notes": list(self.notes),
             "alpha": self.alpha,
             "seed": self.seed,
@@ -230,6 +261,7 @@ class DiscoveryResult:
             first, *rest = f.summary_lines()
             lines.append(f"[{i}] {first}")
             lines.extend(rest)
+        lines.extend(self._model_lines(width))
         if self.explained:
             lines.append("-" * width)
             lines.append("Significant at first, explained by a stronger finding's extension:")
@@ -244,6 +276,8 @@ class DiscoveryResult:
             lines.append(
                 f"  ! {fl['kind']} / {fl['soil']} [{fl['scope']}] {fl['code']}: {fl['message']}"
             )
+        lines.extend(self._power_lines(width))
+        lines.extend(self._quality_lines(width))
         lines.extend(self._column_lines(width))
         if self.confounded:
             lines.append("-" * width)
@@ -256,8 +290,9 @@ class DiscoveryResult:
             "over the base model's; shape = its n minus the base n; K = ln K over the base K.",
             "Each candidate is tested within strata of the other design candidates not "
             "confounded with it (F-test); Holm's method controls the chance of any false cause.",
-            "Gain: cross-validation leaving out whole tests; each extension is measured against "
-            "the base model alone (extensions are not combined).",
+            "Gain: cross-validation leaving out whole tests; each finding's extension is "
+            "measured against the base model alone, the combined model by forward selection "
+            "on all tests of its kind and soil.",
             "AIC/BIC treat samples as independent; samples of one test are not, so they "
             "overstate the evidence — the cross-validated gain decides.",
             *self.notes,
@@ -265,6 +300,54 @@ class DiscoveryResult:
         lines.extend(notes_block(notes))
         lines.append("=" * width)
         return "\n".join(lines)
+
+    def _model_lines(self, width: int) -> list[str]:
+        """The combined model per (kind, soil) and its gain over the base."""
+        if not self.models:
+            return []
+        lines = ["-" * width, "Combined model (forward selection of the kept extensions):"]
+        for m in self.models:
+            lines.extend("  " + line for line in m.summary_lines())
+        doc = self.model()
+        if doc["gain"] is not None and sum(bool(m.extensions) for m in self.models) > 1:
+            g = doc["gain"]
+            lines.append(
+                f"  all extended groups together: {g['base']:.4f} -> {g['extended']:.4f} "
+                f"({g['relative']:+.1%}, {g['n_tests']} held-out tests)"
+            )
+        return lines
+
+    def _power_lines(self, width: int) -> list[str]:
+        """Candidates not found, with the smallest effect the design could have found."""
+        if not self.power:
+            return []
+        level = self.power[0]["alpha_level"]
+        lines = [
+            "-" * width,
+            f"Not found — the smallest effect each test would have found (power "
+            f"{self.power[0]['power']:.0%} at Holm's strictest level alpha/m = {level:.2g}):",
+        ]
+        for p in self.power:
+            parts = [f"{r}: {v['statement']}" for r, v in p["responses"].items()]
+            lines.append(
+                f"  {p['kind']} / {p['soil']}: {p['candidate']} ({p['role']}, "
+                f"{p['n_tests']} tests) — " + "; ".join(parts)
+            )
+        return lines
+
+    def _quality_lines(self, width: int) -> list[str]:
+        """The screening the fits used: data problems, never causes."""
+        q = self.quality
+        if not q:
+            return []
+        lines = ["-" * width, f"Data quality ({q['mode']} mode; data problems, never causes):"]
+        if q["mode"] == "off":
+            return [*lines, "  screening was off: nothing was checked"]
+        counts = ", ".join(f"{c} in {n} tests" for c, n in q["counts"].items()) or "no findings"
+        lines.append(f"  {counts}; {q['excluded_samples']} samples left out of every fit")
+        for t in q["tests"]:
+            lines.append(f"  {t['kind']} {t['test_id']}: {', '.join(t['codes'])}")
+        return lines
 
     def _column_lines(self, width: int) -> list[str]:
         """Candidates by role per (kind, soil); outcomes listed with why they never enter."""

@@ -1,0 +1,130 @@
+"""Silence is not evidence: the smallest effect each test could have found.
+
+For a candidate that was *not* found, discovery states the minimum detectable effect (MDE)
+at the campaign's design: the effect that the F-test of :mod:`.diagnose` would detect with
+probability ``power`` (default 0.8) at the strictest level Holm's method applies, α/m (m =
+tests in the family — a lone true effect among nulls must beat α/m to be named).
+
+Under an effect δ the F statistic follows a noncentral F(df1, df2, λ) with
+λ = δ²·‖r‖²/σ², where r is the effect's pattern over the tests after the strata (and any
+main effects) are taken out and σ the residual standard deviation of the response.  The
+MDE solves P(F(df1, df2, λ) > F_crit) = power for λ and returns δ = σ·√(λ/‖r‖²).  The
+patterns (:func:`soilstats.discovery.diagnose.strata_test`):
+
+* levels — one level (or, for an interaction, one cell) shifted by δ against the others;
+  the hardest level to detect (fewest tests), so that *any* level shifted by δ or more
+  would have been found;
+* trend — a change of δ across the observed range of the candidate (on ln x when x spans
+  more than a factor four).
+
+δ is in the response's units: ln of pressure (sinkage ``level``) or plateau stress (shear
+``level``), the exponent n (``shape``), ln K (``K``).  :func:`describe` turns it into a
+sentence with physical units.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import optimize, stats
+
+__all__ = [
+    "POWER",
+    "describe",
+    "minimum_detectable",
+    "noncentrality_for_power",
+    "power_records",
+]
+
+#: Power at which the minimum detectable effect is stated.
+POWER = 0.8
+
+
+def noncentrality_for_power(df1: int, df2: int, alpha: float, power: float = POWER) -> float:
+    """λ with P(F'(df1, df2, λ) > F_{1−α}(df1, df2)) = ``power`` (noncentral F)."""
+    if df1 < 1 or df2 < 1 or not 0 < alpha < 1 or not 0 < power < 1:
+        return float("nan")
+    f_crit = stats.f.isf(alpha, df1, df2)
+
+    def gap(lam: float) -> float:
+        return float(stats.ncf.sf(f_crit, df1, df2, lam)) - power
+
+    hi = 10.0
+    while gap(hi) < 0:
+        hi *= 4.0
+        if hi > 1e8:
+            return float("inf")
+    return float(optimize.brentq(gap, 1e-9, hi, xtol=1e-8, rtol=1e-10))
+
+
+def minimum_detectable(
+    sigma: float, norm2: float, df1: int, df2: int, alpha: float, power: float = POWER
+) -> float:
+    """δ = σ·√(λ/‖r‖²): the effect the test detects with probability ``power`` at level α.
+
+    ``norm2`` is ‖r‖², the squared length of the effect's pattern per unit δ (see the
+    module docstring); ``sigma`` the residual standard deviation of the response.
+    """
+    if not (np.isfinite(sigma) and np.isfinite(norm2) and norm2 > 0 and sigma >= 0):
+        return float("nan")
+    lam = noncentrality_for_power(int(df1), int(df2), alpha, power)
+    return float(sigma * np.sqrt(lam / norm2))
+
+
+_RESPONSE_TEXT = {
+    ("sinkage", "level"): ("pressure", True),
+    ("sinkage", "shape"): ("the exponent n", False),
+    ("shear", "level"): ("shear strength (c + σ tan φ)", True),
+    ("shear", "K"): ("the shear modulus K", True),
+}
+
+
+def describe(kind: str, response: str, delta: float, pattern: str) -> str:
+    """The MDE as a sentence fragment with physical units, e.g. ``"±9.4 % in pressure for
+    one level against the others"``; ``pattern`` says what δ shifts."""
+    if not np.isfinite(delta):
+        return "not computable (no residual degrees of freedom)"
+    what, relative = _RESPONSE_TEXT[(kind, response)]
+    size = f"±{100 * np.expm1(delta):.3g} %" if relative else f"±{delta:.3g}"
+    return f"{size} in {what} {pattern}"
+
+
+def power_records(table, alpha: float) -> list[dict]:
+    """One record per candidate of the diagnosis table that was tested and not found in any
+    response: its minimum detectable effect per response, as a number and a sentence."""
+    if table.empty or "mde" not in table:
+        return []
+    out = []
+    keys = ["kind", "soil", "candidate"]
+    for (kind, soil, candidate), rows in table.groupby(keys, sort=False):
+        if rows["significant"].any() or rows["p_value"].isna().all():
+            continue
+        first = rows.iloc[0]
+        if first["role"] == "interaction":
+            pattern = "for one cell against the additive model"
+        elif first["categorical"]:
+            pattern = "for one level against the others"
+        else:
+            pattern = f"across the observed range ({first['span']})"
+        responses = {}
+        for r in rows.itertuples():
+            if not np.isfinite(r.p_value):
+                continue
+            responses[r.response] = {
+                "mde": float(r.mde) if np.isfinite(r.mde) else None,
+                "p_value": float(r.p_value),
+                "statement": describe(kind, r.response, r.mde, pattern),
+            }
+        out.append(
+            {
+                "kind": kind,
+                "soil": soil,
+                "candidate": candidate,
+                "role": first["role"],
+                "n_tests": int(rows["n_tests"].max()),
+                "power": POWER,
+                "alpha_level": float(first["alpha_level"]),
+                "alpha": alpha,
+                "responses": responses,
+            }
+        )
+    return out

@@ -1,0 +1,221 @@
+"""One extended model per (kind, soil) that carries every real cause: forward selection.
+
+Each finding's extension was measured alone against the base model, with every other effect
+left in the noise.  A lab wants the one model that carries them all, and what it gains.
+Forward selection builds it on all tests of the group, by the same cross-validation (whole
+tests held out, :mod:`.crossval`, one set of folds for every step):
+
+1. start from the base model (Eq. 7/8 or Eq. 13);
+2. add, of the extensions the findings kept, the one whose addition gives the largest real
+   gain over the current model (mean paired difference > 2 SE) **and** leaves the combined
+   fit physically plausible (:mod:`.plausibility`) and determined (it converges, no rank
+   deficiency: an interaction's cells already carry its main effect, say);
+3. repeat until no remaining extension adds a real gain; report the final model's
+   parameters ± σ (Eq. 3) fitted to all tests and its gain over the base model.
+
+Extensions combine by :func:`.extensions.combine`; Reece's model replaces Eq. 7 and does not
+combine with another extension (the step says so).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ConvergenceError, IdentifiabilityError
+from ..report import json_safe
+from .candidates import candidate_values
+from .crossval import base_fold_fits, compare, held_out_errors, make_folds
+from .extensions import base_model, combine
+from .plausibility import implausible
+
+__all__ = ["CombinedModel", "campaign_gain", "select_model"]
+
+_FIT_ERRORS = (ConvergenceError, IdentifiabilityError, np.linalg.LinAlgError, ValueError)
+
+
+@dataclass(frozen=True, eq=False)
+class CombinedModel:
+    """The extended model of one (kind, soil) built by forward selection.
+
+    Attributes
+    ----------
+    kind, soil : str
+    extensions : tuple of str
+        The extensions selected, in the order they were added (empty: none adds a real gain
+        on all tests; the base model stands).
+    causes : tuple of str
+        The finding (cause) each selected extension came from, in the same order.
+    fit : FitResult or None
+        The combined model fitted to all tests of the group: parameters ± σ (Eq. 3).
+    gain : Gain or None
+        Cross-validated gain of the combined model over the base model (same folds).
+    steps : tuple of dict
+        Every step: the extension tried, its cause, its gain over the model before it, and
+        whether it was added or why not.
+    n_tests : int
+        Tests the model was fitted to (every usable test of the group).
+    """
+
+    kind: str
+    soil: str
+    extensions: tuple[str, ...]
+    causes: tuple[str, ...]
+    fit: object | None = field(default=None, repr=False)
+    gain: object | None = None
+    steps: tuple[dict, ...] = ()
+    n_tests: int = 0
+    fitted: object | None = field(default=None, repr=False)
+    #: Per-test held-out errors (base, combined), for a campaign-wide gain.
+    held_out: tuple | None = field(default=None, repr=False)
+
+    def parameters(self) -> dict | None:
+        """``{name: {"value", "stderr", "unit"}}`` of the combined fit, or None."""
+        if self.fit is None:
+            return None
+        return {
+            name: {"value": json_safe(v), "stderr": json_safe(s), "unit": self.fit.units.get(name)}
+            for name, v, s in zip(
+                self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
+            )
+        }
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": self.kind,
+            "soil": self.soil,
+            "extensions": list(self.extensions),
+            "causes": list(self.causes),
+            "gain": None if self.gain is None else json_safe(self.gain.to_dict()),
+            "parameters": self.parameters(),
+            "steps": [json_safe(s) for s in self.steps],
+            "n_tests": self.n_tests,
+        }
+
+    def summary_lines(self) -> list[str]:
+        head = f"{self.kind} / {self.soil}: "
+        if not self.extensions:
+            return [head + "base model (no extension adds a real gain on all tests)"]
+        g = self.gain
+        lines = [
+            head + " + ".join(self.extensions) + f"  (causes: {', '.join(self.causes)})",
+            f"  gain over the base model, {self.n_tests} tests, {g.scheme} CV ({g.folds} folds): "
+            f"{g.base:.4f} -> {g.extended:.4f} ({g.relative:+.1%}, paired difference "
+            f"{g.difference:.3g} +/- {g.stderr:.2g})",
+        ]
+        if self.fit is not None:
+            for name, v, s in zip(
+                self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
+            ):
+                lines.append(
+                    f"    {name:>34} = {v:>12.5g} +/- {s:<10.3g} {self.fit.units.get(name, '')}"
+                )
+        for st in self.steps:
+            if st["added"]:
+                continue
+            gain = f"gain {st['relative']:+.1%}; " if st.get("relative") is not None else ""
+            lines.append(f"  not added: {st['extension']} ({gain}{st['reason']})")
+        return lines
+
+
+def _failure(exc: Exception) -> str:
+    """Why a combination could not be fitted, in one short clause."""
+    text = str(exc)
+    if "rank-deficient" in text or "not determined" in text:
+        return (
+            "adds nothing the model does not already carry (the combined fit is "
+            "rank-deficient: its parameters are not determined)"
+        )
+    return f"the combined fit fails: {text[:240]}"
+
+
+def _fold_labels(group, rows, causes) -> np.ndarray:
+    """Stratify the folds by the joint level of the categorical causes (trends: none)."""
+    labels = np.full(rows.size, "", dtype=object)
+    for cause in causes:
+        values = candidate_values(group.tests, cause).iloc[rows]
+        if values.nunique() <= max(8, rows.size // 4):
+            labels = labels + "|" + values.astype(str).to_numpy()
+    return labels.astype(str)
+
+
+def select_model(group, kept, rng: np.random.Generator) -> CombinedModel | None:
+    """Forward selection (module docstring) over ``kept``: ``(cause, Extension)`` pairs of
+    one (kind, soil), strongest finding first.  None when ``kept`` is empty."""
+    first: dict[str, tuple] = {}
+    for cause, ext in kept:  # one extension kept by several findings: the strongest names it
+        first.setdefault(ext.name, (cause, ext))
+    kept = list(first.values())
+    if not kept:
+        return None
+    rows = np.unique(group.owner)
+    base_ext = base_model(group, rows)
+    folds = make_folds(_fold_labels(group, rows, [c for c, _ in kept]), "tests", rng)
+    starts, e_current = base_fold_fits(group, rows, base_ext, folds, scheme="tests")
+    e_base = e_current
+    base_full = base_ext.fit(group, rows)
+    chosen: list[tuple[str, object]] = []
+    steps: list[dict] = []
+    remaining = list(kept)
+    current = None  # (Extension, Fitted, errors) of the model so far
+    while remaining:
+        options, failed = [], []
+        for cause, ext in remaining:
+            step = {"extension": ext.name, "cause": cause, "added": False}
+            model = combine([e for _, e in chosen] + [ext])
+            if model is None:
+                failed.append({**step, "reason": "does not combine with " + chosen[0][1].name})
+                continue
+            try:
+                errors = held_out_errors(group, rows, model, folds, scheme="tests", starts=starts)
+                fitted = model.fit(group, rows, base=base_full)
+            except _FIT_ERRORS as exc:
+                failed.append({**step, "reason": _failure(exc)})
+                continue
+            gain = compare(e_current, errors, scheme="tests", folds=folds)
+            reasons = implausible(fitted, base_full, group, rows)
+            step.update(relative=gain.relative, gain=gain.to_dict())
+            if reasons:
+                step["reason"] = "physically implausible: " + "; ".join(reasons)
+            elif not gain.real:
+                step["reason"] = "no real gain over the model before it"
+            options.append((not reasons and gain.real, gain.relative, cause, ext, step, fitted))
+            options[-1] += (errors, model)
+        steps += failed  # a model that fails or does not combine now will not later
+        good = [o for o in options if o[0]]
+        if not good:
+            steps += [o[4] for o in options]
+            break
+        _, _, cause, ext, step, fitted, errors, model = max(good, key=lambda o: o[1])
+        steps.append({**step, "added": True, "reason": "real gain, plausible"})
+        chosen.append((cause, ext))
+        current = (model, fitted, errors)
+        e_current = errors
+        remaining = [(o[2], o[3]) for o in options if o[3].name != ext.name]
+    if current is None:
+        return CombinedModel(group.kind, group.soil, (), (), steps=tuple(steps), n_tests=rows.size)
+    return CombinedModel(
+        kind=group.kind,
+        soil=group.soil,
+        extensions=tuple(e.name for _, e in chosen),
+        causes=tuple(c for c, _ in chosen),
+        fit=current[1].result,
+        gain=compare(e_base, current[2], scheme="tests", folds=folds),
+        steps=tuple(steps),
+        n_tests=int(rows.size),
+        fitted=current[1],
+        held_out=(e_base, current[2]),
+    )
+
+
+def campaign_gain(models) -> object | None:
+    """The gain of the combined models over the base models, every extended (kind, soil)
+    together: the same paired per-test comparison over all their held-out tests."""
+    pairs = [m.held_out for m in models if m.held_out is not None]
+    if not pairs:
+        return None
+    e_base = np.concatenate([p[0] for p in pairs])
+    e_ext = np.concatenate([p[1] for p in pairs])
+    folds = max(m.gain.folds for m in models if m.gain is not None)
+    return compare(e_base, e_ext, scheme="tests", folds=np.arange(folds))
