@@ -12,6 +12,17 @@ import json
 
 import numpy as np
 import pytest
+from discover_situations import (
+    INTERACTION,
+    SITUATIONS,
+    SOIL,
+    TWO_CAUSES,
+    artefact_campaign,
+    drift_campaign,
+    load_terminated_campaign,
+    sink,
+    spec,
+)
 
 import soilstats
 from soilstats.discovery import discover
@@ -21,14 +32,7 @@ from soilstats.models.extended import SinkageLayout, shear_family, sinkage_famil
 from soilstats.simulation import simulate
 from soilstats.statistics import anova_twoway
 
-SOIL = {"kc": 7.0e3, "kphi": 5.0e5, "n": 1.2, "c": 800.0, "phi": 30.0, "K": 0.01}
-SCATTER = {"stiffness_cv": 0.06, "n_sd": 0.015, "c_cv": 0.04, "phi_sd_deg": 0.2, "K_cv": 0.05}
-PLATES = [{"shape": "circle", "radius_m": 0.025}, {"shape": "circle", "radius_m": 0.05}]
-
-
-def _sink(**kw):
-    s = {"name": "s", "kind": "sinkage", "soils": ["s"], "plates": PLATES, "points": 60}
-    return {**s, "repetitions": 4, **kw}
+_sink, _spec = sink, spec
 
 
 def _shear(**kw):
@@ -36,14 +40,6 @@ def _shear(**kw):
     ring = [{"r_inner_m": 0.1, "r_outer_m": 0.15}]
     s.update(rings=ring, grouser_height_m=[0.0], normal_pressure_Pa=[3e3, 8e3, 14e3])
     return {**s, **kw}
-
-
-def _spec(series, effects=(), preparations=None):
-    spec = {"name": "t", "scatter": SCATTER, "soils": {"s": dict(SOIL)}}
-    spec.update(series=list(series), effects=list(effects))
-    if preparations:
-        spec["preparations"] = preparations
-    return spec
 
 
 PLANTED = {
@@ -296,37 +292,9 @@ def test_simulated_paper_names_the_papers_effects():
 
 
 # ------------------------------------------------------------- issue #13: real-data situations
-def _with_columns(campaign, tmp_path, edit):
-    """The campaign saved, its tests.csv edited by ``edit(tests)``, and loaded back."""
-    import pandas as pd
-
-    folder = campaign.save(tmp_path / "camp")
-    tests = pd.read_csv(folder / "tests.csv", comment="#")
-    edit(tests).to_csv(folder / "tests.csv", index=False)
-    return soilstats.load_campaign(folder)
-
-
-def test_drift_over_logged_time_is_a_trend_candidate(tmp_path):
+def test_drift_over_logged_time_is_a_trend_candidate():
     # The soil stiffens 4 % per hour over the day; tests are logged with ISO start times.
-    spec = _spec(
-        [_sink(covariates={"hours": list(range(8))}, repetitions=2)],
-        [{"kind": "covariate", "column": "hours", "parameters": ["kc", "kphi"], "slope": 0.04}],
-    )
-    rng = np.random.default_rng(0)
-
-    def stamp(t):
-        import pandas as pd
-
-        start = pd.Timestamp("2026-05-04T08:00")
-        minutes = rng.integers(0, 50, len(t))
-        t["start_time"] = [
-            (start + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
-            for h, m in zip(t["hours"], minutes, strict=True)
-        ]
-        return t.drop(columns=["hours"])
-
-    campaign = _with_columns(simulate(spec, seed=3).campaign, tmp_path, stamp)
-    result = discover(campaign, seed=0)
+    result = discover(drift_campaign(3), seed=0)
     top = result.findings[0]
     assert top.cause == "start_time" and top.extension == "start_time (linear)", result.summary()
     assert top.gain.real and top.gain.relative > 0.1
@@ -334,18 +302,10 @@ def test_drift_over_logged_time_is_a_trend_candidate(tmp_path):
     assert roles["start_time"] == "time/order" and roles["repetition"] == "time/order"
 
 
-def test_depth_of_load_terminated_tests_is_an_outcome_never_a_cause(tmp_path):
+def test_depth_of_load_terminated_tests_is_an_outcome_never_a_cause():
     # Every test stops at the same force (as on real rigs): softer preparations run deeper,
     # so z_max is the test's own stiffness. Nothing was planted: nothing may be named.
-    spec = _spec([_sink(repetitions=8)])
-    spec["scatter"] = {**SCATTER, "stiffness_cv": 0.2}
-    folder = simulate(spec, seed=5).campaign.save(tmp_path / "camp")
-    import pandas as pd
-
-    sinkage = pd.read_csv(folder / "sinkage.csv", comment="#")
-    sinkage = sinkage[sinkage["force_N"] <= 60.0]
-    sinkage.to_csv(folder / "sinkage.csv", index=False)
-    result = discover(soilstats.load_campaign(folder), seed=0)
+    result = discover(load_terminated_campaign(5), seed=0)
     depths = [c for c in result.columns if c["column"] == "z_max_m"]
     assert depths and depths[0]["role"] == "outcome" and not depths[0]["tested"]
     assert all(f.cause != "z_max_m" for f in result.findings), result.summary()
@@ -369,44 +329,6 @@ def test_cullinan_designed_factor_leads_its_confounded_partner():
 
 
 # ------------------------------------------- issue #13: interactions, combined model, power, DQ
-#: An operator who leaves the soil 50 % stiffer only with preparation p1 (an interaction).
-INTERACTION = _spec(
-    [
-        _sink(name="p1", preparations=["p1"], operators=["A", "B"], repetitions=8),
-        _sink(name="p2", preparations=["p2"], operators=["A", "B"], repetitions=8),
-    ],
-    [
-        {
-            "kind": "covariate",
-            "column": "operator",
-            "parameters": ["kc", "kphi"],
-            "levels": {"B": 1.5},
-            "series": ["p1"],
-        }
-    ],
-    preparations={"p1": {}, "p2": {}},
-)
-#: Two causes at once in one soil: velocity stiffening and a stiffer bin.
-TWO_CAUSES = _spec(
-    [
-        _sink(
-            velocity_m_s=[4.8e-4, 2.4e-3, 4.8e-3],
-            covariates={"bin": ["north", "south"]},
-            repetitions=4,
-        )
-    ],
-    [
-        {"kind": "velocity", "exponent": -0.12, "reference_m_s": 4.8e-3},
-        {
-            "kind": "covariate",
-            "column": "bin",
-            "parameters": ["kc", "kphi"],
-            "levels": {"south": 1.2},
-        },
-    ],
-)
-
-
 def test_interaction_is_named_and_its_cell_model_kept():
     result = discover(simulate(INTERACTION, seed=0).campaign, seed=0)
     names = [f.cause for f in result.findings]
@@ -489,40 +411,44 @@ def test_undetectable_plate_size_gets_a_power_statement_not_silence():
 
 
 def test_spikes_and_seating_offsets_are_data_problems_never_causes():
-    """Artefacts planted in the tests of one operator only (so that, fitted raw, they would
+    """Artefacts planted in the tests of one operator each (so that, fitted raw, they would
     line up with a column): screening removes them, discover names nothing and lists them as
     data-quality findings."""
-    import pandas as pd
-
-    from soilstats.campaign import Campaign
-    from soilstats.campaign.schema import DERIVED_COLUMNS
-
-    spec = _spec([_sink(operators=["A", "B"], repetitions=6, points=120)])
-    clean = simulate(spec, seed=4).campaign
-    tests = clean.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
-    sinkage = clean.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
-    sinkage = sinkage.reset_index(drop=True)
-    rng = np.random.default_rng(3)
-    offset, parts = 1.5e-3, []
-    spiky = set(tests.loc[tests["operator"] == "A", "test_id"])
-    for tid, group in sinkage.groupby("test_id", sort=False):
-        group = group.copy()
-        if tid in spiky:  # operator A: one spike per test
-            group.iloc[int(rng.integers(20, len(group) - 20)), group.columns.get_loc("z_m")] *= 10
-        else:  # operator B: every test seated 1.5 mm late
-            free = pd.DataFrame(
-                {
-                    "test_id": tid,
-                    "z_m": np.linspace(0.0, offset, 12, endpoint=False),
-                    "force_N": rng.normal(0.0, 0.2, 12),
-                }
-            )
-            moved = group.assign(z_m=group["z_m"].clip(lower=0.0) + offset)
-            group = pd.concat([free, moved[moved["z_m"] > offset]])
-        parts.append(group)
-    dirty = Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
-    result = discover(dirty, seed=0)
+    campaign = artefact_campaign(4)
+    result = discover(campaign, seed=0)
     assert not result.findings, result.summary()
     assert {"spike", "pre-contact"} <= set(result.quality["counts"])
-    assert len(result.quality["tests"]) >= 0.75 * len(tests)  # most artefacts are found
+    assert len(result.quality["tests"]) >= 0.75 * len(campaign.tests)  # most are found
     assert "Data quality" in result.summary()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(SITUATIONS))
+def test_situations_over_many_seeds(name):
+    """Power of each planted situation and false findings of each artefact over 20 seeds
+    (docs/discover.md, table from benchmarks/discover_power.py): ≥ 18 of 20 successes."""
+    situation = SITUATIONS[name]
+    good = sum(bool(situation.judge(discover(situation.build(seed), seed=0))) for seed in range(20))
+    assert good >= 18, f"{name}: {good} of 20"
+
+
+def test_combined_shear_family_jacobian_with_side_walls_and_covariates():
+    """Side walls and covariate factors in one model (forward selection combines them): the
+    analytic Jacobian against central differences, and the walls-only limit of the family."""
+    from soilstats.models.extended import ShearLayout
+
+    rng = np.random.default_rng(4)
+    n = 50
+    sigma, j = rng.uniform(3e3, 2e4, n), rng.uniform(0, 0.1, n)
+    f, a = rng.normal(size=(n, 1)), rng.uniform(0.05, 0.3, n)
+    fun, jac = shear_family(ShearLayout(1, 1, 1, True), sigma, j, f, f, f, a)
+    theta = np.array([800.0, 30.0, 0.01, 0.1, -0.05, 0.2, 0.4])
+    h = np.abs(theta) * 1e-6
+    num = np.column_stack(
+        [(fun(theta + e) - fun(theta - e)) / (2 * e[i]) for i, e in enumerate(np.diag(h))]
+    )
+    assert np.allclose(jac(theta), num, rtol=1e-5, atol=1e-6 * np.abs(num).max())
+    walls, _ = shear_family(ShearLayout(0, 0, 0, True), sigma, j, a=a)
+    assert np.allclose(
+        fun(np.array([800.0, 30.0, 0.01, 0, 0, 0, 0.4])), walls([800, 30, 0.01, 0.4])
+    )

@@ -27,7 +27,7 @@ from ..report import Provenance
 from .candidates import candidate_values
 from .crossval import cross_validate, information_criteria, make_folds
 from .data import build_groups
-from .diagnose import conditional_responses, diagnose_groups, retest
+from .diagnose import INTERACTION, conditional_responses, diagnose_groups, retest
 from .extensions import base_model, library
 from .flags import physical_flags
 from .plausibility import implausible
@@ -231,11 +231,16 @@ def discover(
     findings: list[Finding] = []
     explained: list[dict] = []
     models: list[CombinedModel] = []
+    artefacts: list[dict] = []
     for d, rows, leads in work:
         found, why_not = _discover_group(d, rows, leads, alpha=alpha, rng=rng, max_leads=max_leads)
+        found, residues = _split_artefacts(d.group, found, quality)
         findings += found
+        artefacts += residues
         explained += why_not
-        kept = [(f.cause, f.fitted.extension) for f in found if f.extension is not None]
+        # Every finding's best plausible extension is offered, kept alone or not: measured
+        # alone, each gain had the other effects in its noise (two causes in one soil).
+        kept = [(f.cause, f.fitted.extension) for f in found if _offered(f)]
         try:
             model = select_model(d.group, kept, rng)
         except (ConvergenceError, IdentifiabilityError) as exc:
@@ -261,6 +266,7 @@ def discover(
         confounded=tuple(confounded),
         explained=tuple(explained),
         models=tuple(models),
+        artefacts=tuple(artefacts),
         power=tuple(power_records(table, alpha)),
         quality=quality,
         columns=tuple(_column_records(diags)),
@@ -292,6 +298,85 @@ def _quality_record(campaign) -> dict | None:
         "excluded_samples": len(report.excluded),
         "tests": [{"test_id": t, "kind": kinds.get(t), "codes": c} for t, c in codes.items()],
     }
+
+
+def _offered(finding: Finding) -> bool:
+    """Whether a finding's best extension may enter the combined model: fitted and plausible
+    (its gain alone need not be real; forward selection measures it with the others in)."""
+    if finding.fitted is None:
+        return False
+    name = finding.fitted.extension.name
+    return not any(t.get("implausible") for t in finding.tried if t["extension"] == name)
+
+
+#: Screening codes of a corrupted record (sensor or seating artefacts), as opposed to the
+#: soil's own behaviour (bearing failure) or the stop criterion (load cap).
+_ARTEFACT_CODES = ("spike", "pre-contact", "units", "saturation", "non-monotone")
+
+
+def _artefact_labels(group, quality) -> pd.Series | None:
+    """Per test of the group, its artefact codes ("clean" when none), or None if no test of
+    the group has any."""
+    if not quality:
+        return None
+    codes = {
+        t["test_id"]: "+".join(c for c in t["codes"] if c in _ARTEFACT_CODES)
+        for t in quality["tests"]
+        if t["kind"] == group.kind
+    }
+    ids = group.tests["test_id"].astype(str)
+    labels = pd.Series([codes.get(t) or "clean" for t in ids], index=group.tests.index)
+    return None if (labels == "clean").all() else labels
+
+
+def _aligned(values: pd.Series, labels: pd.Series) -> str | None:
+    """How the levels of a candidate line up with artefact codes, or None: a code flags at
+    least half the tests of one level and none of another's."""
+    out = []
+    for code in _ARTEFACT_CODES:
+        flagged = labels.str.contains(code, regex=False)
+        share = flagged.groupby(values).mean()
+        if share.max() >= 0.5 and share.min() == 0.0:
+            out += [f"{code} in {share[lv]:.0%} of {lv}" for lv in share.index if share[lv] > 0]
+    return "; ".join(out) or None
+
+
+def _split_artefacts(group, found, quality) -> tuple[list, list[dict]]:
+    """Findings whose cause lines up with the data-quality artefacts of the tests
+    (:func:`_aligned`) are data problems, not causes: screening removes what it finds of an
+    artefact, but what remains (an offset it did not find, a spike's neighbours) can still
+    follow the tests it sits in."""
+    labels = _artefact_labels(group, quality)
+    if labels is None:
+        return found, []
+    kept, residues = [], []
+    for f in found:
+        rows = f.scope_rows if f.scope_rows is not None else np.arange(len(labels))
+        why = None
+        for column in f.cause.split(INTERACTION):
+            values = candidate_values(group.tests, column).astype(str).iloc[rows]
+            pattern = _aligned(values, labels.iloc[rows])
+            if pattern is not None:
+                why = (
+                    f"the levels of {column} line up with data-quality flags ({pattern}): the "
+                    "pattern may be what is left of the artefacts after screening, not a "
+                    "cause; inspect the flagged records (soilstats check) and re-test"
+                )
+                break
+        if why is None:
+            kept.append(f)
+            continue
+        residues.append(
+            {
+                "kind": f.kind,
+                "soil": f.soil,
+                "candidate": f.cause,
+                "p_adjusted": f.p_adjusted,
+                "p_value": f.p_value,
+                "reason": why,
+            }
+        )
+    return kept, residues
 
 
 #: Screening codes that describe how a test stopped, not a corrupted record: a load-capped

@@ -183,6 +183,9 @@ class DiscoveryResult:
     models : tuple of CombinedModel
         Per (kind, soil) with a kept extension, the one model carrying every real cause
         (forward selection, :mod:`.selection`), its parameters ± σ and its gain.
+    artefacts : tuple of dict
+        Significant candidates that line up with data-quality artefacts (each level with its
+        own flags): reported as data problems, never as causes.
     power : tuple of dict
         Per candidate tested and not found: the smallest effect the design would have found
         (80 % power at Holm's strictest level, :mod:`.power`).
@@ -200,6 +203,7 @@ class DiscoveryResult:
     notes: tuple[str, ...] = ()
     columns: tuple[dict, ...] = ()
     models: tuple = ()
+    artefacts: tuple[dict, ...] = ()
     power: tuple[dict, ...] = ()
     quality: dict | None = None
     alpha: float = 0.05
@@ -233,6 +237,7 @@ class DiscoveryResult:
             "confounded": list(self.confounded),
             "explained": list(self.explained),
             "columns": list(self.columns),
+            "artefacts": list(self.artefacts),
             "power": list(self.power),
             "quality": self.quality,
             "notes": list(self.notes),
@@ -276,6 +281,14 @@ class DiscoveryResult:
             lines.append(
                 f"  ! {fl['kind']} / {fl['soil']} [{fl['scope']}] {fl['code']}: {fl['message']}"
             )
+        if self.artefacts:
+            lines.append("-" * width)
+            lines.append("Significant, but lined up with data-quality artefacts (not causes):")
+            for a in self.artefacts:
+                lines.append(
+                    f"  {a['kind']} / {a['soil']}: {a['candidate']} (Holm p = "
+                    f"{a['p_adjusted']:.3g}): {a['reason']}"
+                )
         lines.extend(self._power_lines(width))
         lines.extend(self._quality_lines(width))
         lines.extend(self._column_lines(width))

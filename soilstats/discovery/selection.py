@@ -136,7 +136,7 @@ def _fold_labels(group, rows, causes) -> np.ndarray:
     for cause in causes:
         values = candidate_values(group.tests, cause).iloc[rows]
         if values.nunique() <= max(8, rows.size // 4):
-            labels = labels + "|" + values.astype(str).to_numpy()
+            labels = labels + "|" + np.array([str(v) for v in values], dtype=object)
     return labels.astype(str)
 
 

@@ -1,0 +1,222 @@
+"""Situations of real Bevameter campaigns planted in simulated ones, for discovery (issue #13).
+
+Each situation builds a campaign from a seed and judges a :class:`DiscoveryResult`: for a
+planted effect, whether it was found as it should be (power); for an artefact or an outcome,
+whether anything was named (false findings).  Used by ``tests/test_discover.py`` (the fast
+single-seed checks and the slow many-seed one) and by ``benchmarks/discover_power.py``
+(the table in docs/discover.md).  Truth comes from the simulator's spec, never from the
+code under test.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from soilstats.campaign import Campaign
+from soilstats.campaign.schema import DERIVED_COLUMNS
+from soilstats.simulation import simulate
+
+SOIL = {"kc": 7.0e3, "kphi": 5.0e5, "n": 1.2, "c": 800.0, "phi": 30.0, "K": 0.01}
+SCATTER = {"stiffness_cv": 0.06, "n_sd": 0.015, "c_cv": 0.04, "phi_sd_deg": 0.2, "K_cv": 0.05}
+PLATES = [{"shape": "circle", "radius_m": 0.025}, {"shape": "circle", "radius_m": 0.05}]
+
+
+def sink(**kw) -> dict:
+    """A sinkage series of the situations: two circular plates, four repetitions."""
+    s = {"name": "s", "kind": "sinkage", "soils": ["s"], "plates": PLATES, "points": 60}
+    return {**s, "repetitions": 4, **kw}
+
+
+def spec(series, effects=(), preparations=None) -> dict:
+    out = {"name": "t", "scatter": SCATTER, "soils": {"s": dict(SOIL)}}
+    out.update(series=list(series), effects=list(effects))
+    if preparations:
+        out["preparations"] = preparations
+    return out
+
+
+#: An operator who leaves the soil 50 % stiffer only with preparation p1 (an interaction).
+INTERACTION = spec(
+    [
+        sink(name="p1", preparations=["p1"], operators=["A", "B"], repetitions=8),
+        sink(name="p2", preparations=["p2"], operators=["A", "B"], repetitions=8),
+    ],
+    [
+        {
+            "kind": "covariate",
+            "column": "operator",
+            "parameters": ["kc", "kphi"],
+            "levels": {"B": 1.5},
+            "series": ["p1"],
+        }
+    ],
+    preparations={"p1": {}, "p2": {}},
+)
+#: Two causes at once in one soil: velocity stiffening and a stiffer bin.
+TWO_CAUSES = spec(
+    [
+        sink(
+            velocity_m_s=[4.8e-4, 2.4e-3, 4.8e-3],
+            covariates={"bin": ["north", "south"]},
+            repetitions=4,
+        )
+    ],
+    [
+        {"kind": "velocity", "exponent": -0.12, "reference_m_s": 4.8e-3},
+        {
+            "kind": "covariate",
+            "column": "bin",
+            "parameters": ["kc", "kphi"],
+            "levels": {"south": 1.2},
+        },
+    ],
+)
+#: The compaction method (designed) stiffens the soil; each method ran on its own day.
+CONFOUNDED = spec(
+    [
+        sink(name="a", preparations=["loose"], repetitions=6, covariates={"session": ["mon"]}),
+        sink(name="b", preparations=["dense"], repetitions=6, covariates={"session": ["tue"]}),
+    ],
+    [
+        {
+            "kind": "covariate",
+            "column": "preparation",
+            "parameters": ["kc", "kphi"],
+            "levels": {"dense": 1.3},
+        }
+    ],
+    preparations={"loose": {}, "dense": {}},
+)
+#: The soil stiffens 6 % per hour over the test day (logged as ISO start times).
+DRIFT = spec(
+    [sink(covariates={"hours": list(range(8))}, repetitions=2)],
+    [{"kind": "covariate", "column": "hours", "parameters": ["kc", "kphi"], "slope": 0.06}],
+)
+#: Nothing planted; two operators (artefacts are planted in their tests).
+PLAIN = spec([sink(operators=["A", "B"], repetitions=6, points=120)])
+#: Nothing planted; large preparation scatter, so that load-terminated depths vary a lot.
+SCATTERED = {**spec([sink(repetitions=8)]), "scatter": {**SCATTER, "stiffness_cv": 0.2}}
+
+
+def raw_frames(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The campaign's test log and sinkage records as a lab would hand them in."""
+    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
+    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
+    return tests, sinkage.reset_index(drop=True)
+
+
+def drift_campaign(seed: int) -> Campaign:
+    """:data:`DRIFT` with the hour replaced by an ISO start time (minutes at random)."""
+    tests, sinkage = raw_frames(simulate(DRIFT, seed=seed).campaign)
+    rng = np.random.default_rng(seed)
+    start = pd.Timestamp("2026-05-04T08:00")
+    minutes = rng.integers(0, 50, len(tests))
+    tests["start_time"] = [
+        (start + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
+        for h, m in zip(tests["hours"], minutes, strict=True)
+    ]
+    return Campaign.from_frames(tests.drop(columns=["hours"]), sinkage)
+
+
+def artefact_campaign(seed: int) -> Campaign:
+    """:data:`PLAIN` with a one-sample spike (10× the sinkage) in every test of operator A and
+    a 1.5 mm seating offset in every test of operator B: fitted raw, the artefacts would line
+    up with the operator column."""
+    tests, sinkage = raw_frames(simulate(PLAIN, seed=seed).campaign)
+    rng = np.random.default_rng(seed)
+    offset, parts = 1.5e-3, []
+    spiky = set(tests.loc[tests["operator"] == "A", "test_id"])
+    for tid, group in sinkage.groupby("test_id", sort=False):
+        group = group.copy()
+        if tid in spiky:
+            row = int(rng.integers(20, len(group) - 20))
+            group.iloc[row, group.columns.get_loc("z_m")] *= 10.0
+        else:
+            free = pd.DataFrame(
+                {
+                    "test_id": tid,
+                    "z_m": np.linspace(0.0, offset, 12, endpoint=False),
+                    "force_N": rng.normal(0.0, 0.2, 12),
+                }
+            )
+            moved = group.assign(z_m=group["z_m"].clip(lower=0.0) + offset)
+            group = pd.concat([free, moved[moved["z_m"] > offset]])
+        parts.append(group)
+    return Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
+
+
+def load_terminated_campaign(seed: int) -> Campaign:
+    """:data:`SCATTERED` with every test stopped at 60 N, as real rigs stop: softer
+    preparations run deeper, so the depth reached is the test's own stiffness."""
+    tests, sinkage = raw_frames(simulate(SCATTERED, seed=seed).campaign)
+    return Campaign.from_frames(tests, sinkage[sinkage["force_N"] <= 60.0])
+
+
+@dataclass(frozen=True)
+class Situation:
+    """A campaign builder and the judgement of a discovery on it."""
+
+    name: str
+    build: Callable[[int], Campaign]
+    judge: Callable  # DiscoveryResult -> bool
+    planted: bool  # True: judge() is a success (power); False: any finding is false
+
+
+def _names(result) -> set[str]:
+    return {f.cause for f in result.findings}
+
+
+SITUATIONS = {
+    s.name: s
+    for s in (
+        Situation(
+            "interaction (operator x preparation)",
+            lambda seed: simulate(INTERACTION, seed=seed).campaign,
+            lambda r: (
+                "preparation × operator" in _names(r)
+                and "preparation × operator" in " ".join(r.model()["causes"])
+            ),
+            True,
+        ),
+        Situation(
+            "two causes (velocity, bin)",
+            lambda seed: simulate(TWO_CAUSES, seed=seed).campaign,
+            lambda r: (
+                {"velocity_m_s", "bin"} <= _names(r)
+                and len(r.model()["extensions"]) == 2
+                and r.model()["gain"]["real"]
+            ),
+            True,
+        ),
+        Situation(
+            "confounded (method with its day)",
+            lambda seed: simulate(CONFOUNDED, seed=seed).campaign,
+            lambda r: (
+                bool(r.findings)
+                and r.findings[0].cause == "preparation"
+                and "session" in r.findings[0].confounded_with
+            ),
+            True,
+        ),
+        Situation(
+            "drift over logged time",
+            drift_campaign,
+            lambda r: (
+                "start_time" in _names(r)
+                and any(f.extension == "start_time (linear)" for f in r.findings)
+            ),
+            True,
+        ),
+        Situation("spikes and seating offsets", artefact_campaign, lambda r: not r.findings, False),
+        Situation(
+            "load-terminated tests",
+            load_terminated_campaign,
+            lambda r: not r.findings and "z_max_m" not in set(r.tests["candidate"]),
+            False,
+        ),
+    )
+}
