@@ -17,9 +17,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from discover_situations import SITUATIONS  # noqa: E402
+from discover_situations import SITUATIONS
 
-from soilstats.discovery import discover  # noqa: E402
+from soilstats.discovery import discover
 
 
 def main() -> None:

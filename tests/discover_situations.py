@@ -122,6 +122,20 @@ def drift_campaign(seed: int) -> Campaign:
     return Campaign.from_frames(tests.drop(columns=["hours"]), sinkage)
 
 
+def seated_late(tid: str, record: pd.DataFrame, offset: float, rng) -> pd.DataFrame:
+    """A sinkage record whose plate touched the soil ``offset`` m late: twelve samples of
+    free travel at zero force (noise 0.2 N), then the record shifted by the offset."""
+    free = pd.DataFrame(
+        {
+            "test_id": tid,
+            "z_m": np.linspace(0.0, offset, 12, endpoint=False),
+            "force_N": rng.normal(0.0, 0.2, 12),
+        }
+    )
+    moved = record.assign(z_m=record["z_m"].clip(lower=0.0) + offset)
+    return pd.concat([free, moved[moved["z_m"] > offset]])
+
+
 def artefact_campaign(seed: int) -> Campaign:
     """:data:`PLAIN` with a one-sample spike (10× the sinkage) in every test of operator A and
     a 1.5 mm seating offset in every test of operator B: fitted raw, the artefacts would line
@@ -136,15 +150,7 @@ def artefact_campaign(seed: int) -> Campaign:
             row = int(rng.integers(20, len(group) - 20))
             group.iloc[row, group.columns.get_loc("z_m")] *= 10.0
         else:
-            free = pd.DataFrame(
-                {
-                    "test_id": tid,
-                    "z_m": np.linspace(0.0, offset, 12, endpoint=False),
-                    "force_N": rng.normal(0.0, 0.2, 12),
-                }
-            )
-            moved = group.assign(z_m=group["z_m"].clip(lower=0.0) + offset)
-            group = pd.concat([free, moved[moved["z_m"] > offset]])
+            group = seated_late(tid, group, offset, rng)
         parts.append(group)
     return Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
 

@@ -258,7 +258,12 @@ def test_cli_json_and_pdf(tmp_path, capsys):
     assert pdf.stat().st_size > 10_000
     from pypdf import PdfReader
 
-    assert "side-walls" in "".join(p.extract_text() for p in PdfReader(pdf).pages)
+    text = "".join(p.extract_text() for p in PdfReader(pdf).pages)
+    assert "side-walls" in text
+    # the combined model, the power statements and the data-quality section are in the PDF
+    assert doc["model"]["extensions"] == ["shear / s: side-walls"]
+    assert "Combined model" in text and "Data quality" in text
+    assert all(p["candidate"] in text for p in doc["power"])
 
 
 def test_cli_null_prints_empty_findings(tmp_path, capsys):

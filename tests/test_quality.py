@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from discover_situations import seated_late
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
@@ -114,15 +115,7 @@ def test_planted_seating_offsets_are_found_rezeroed_and_the_fit_recovers():
     rng = np.random.default_rng(9)
     for tid, group in sinkage.groupby("test_id", sort=False):
         if tid in chosen:
-            free = pd.DataFrame(
-                {
-                    "test_id": tid,
-                    "z_m": np.linspace(0.0, offset, 12, endpoint=False),
-                    "force_N": rng.normal(0.0, 0.2, 12),
-                }
-            )
-            moved = group.assign(z_m=group["z_m"].clip(lower=0.0) + offset)
-            group = pd.concat([free, moved[moved["z_m"] > offset]])
+            group = seated_late(tid, group, offset, rng)
         parts.append(group)
     seated = Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
     report = screen(seated)

@@ -122,29 +122,34 @@ def _per_test_error(group, rows, y_hat) -> np.ndarray:
     return sums[rows] / np.maximum(counts[rows], 1)
 
 
-def held_out_errors(group, rows, ext, folds, *, scheme, starts=None) -> np.ndarray:
-    """Each test's error (module docstring) when ``ext`` is fitted without its fold.
-
-    ``starts`` maps a fold to a fitted model whose parameters start the fold's fit (the
-    base model's fit of the same fold).  Raises :class:`ConvergenceError` or
-    :class:`IdentifiabilityError` naming the fold: an error is never computed from a failed
-    fit.
-    """
+def _fold_fits(group, rows, ext, folds, *, scheme, starts=None) -> tuple[dict, np.ndarray]:
+    """``ext`` fitted without each fold (started from ``starts[fold]`` when given), and each
+    test's error (module docstring) under the fit that did not see it.  Raises
+    :class:`ConvergenceError` or :class:`IdentifiabilityError` naming the fold: an error is
+    never computed from a failed fit."""
     rows = np.asarray(rows, int)
     folds = np.asarray(folds)
-    errors = np.empty(rows.size)
+    fits, errors = {}, np.empty(rows.size)
     for fold in np.unique(folds):
         train, test = rows[folds != fold], rows[folds == fold]
         if train.size < 2:
             raise IdentifiabilityError(
                 f"cross-validation fold {fold} ({scheme}): fewer than two training tests"
             )
+        start = None if starts is None else starts[int(fold)]
         try:
-            fitted = ext.fit(group, train, base=None if starts is None else starts[int(fold)])
+            fits[int(fold)] = ext.fit(group, train, base=start)
         except (ConvergenceError, IdentifiabilityError) as exc:
             raise type(exc)(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
-        errors[folds == fold] = _per_test_error(group, test, ext.predict(fitted, group, test))
-    return errors
+        pred = ext.predict(fits[int(fold)], group, test)
+        errors[folds == fold] = _per_test_error(group, test, pred)
+    return fits, errors
+
+
+def held_out_errors(group, rows, ext, folds, *, scheme, starts=None) -> np.ndarray:
+    """Each test's error when ``ext`` is fitted without its fold; ``starts`` maps a fold to
+    a fitted model whose parameters start the fold's fit (the base model's fit of the fold)."""
+    return _fold_fits(group, rows, ext, folds, scheme=scheme, starts=starts)[1]
 
 
 def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
@@ -169,22 +174,7 @@ def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
 
 def base_fold_fits(group, rows, base_ext, folds, *, scheme) -> tuple[dict, np.ndarray]:
     """The base model fitted without each fold, and each test's held-out error under it."""
-    rows = np.asarray(rows, int)
-    folds = np.asarray(folds)
-    fits, errors = {}, np.empty(rows.size)
-    for fold in np.unique(folds):
-        train, test = rows[folds != fold], rows[folds == fold]
-        if train.size < 2:
-            raise IdentifiabilityError(
-                f"cross-validation fold {fold} ({scheme}): fewer than two training tests"
-            )
-        try:
-            fits[int(fold)] = base_ext.fit(group, train)
-        except (ConvergenceError, IdentifiabilityError) as exc:
-            raise type(exc)(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
-        pred = base_ext.predict(fits[int(fold)], group, test)
-        errors[folds == fold] = _per_test_error(group, test, pred)
-    return fits, errors
+    return _fold_fits(group, rows, base_ext, folds, scheme=scheme)
 
 
 def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> Gain:

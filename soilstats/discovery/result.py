@@ -11,7 +11,27 @@ import pandas as pd
 from ..report import Provenance, json_safe
 from ..report.text import notes_block
 
-__all__ = ["DiscoveryResult", "Finding"]
+__all__ = ["DiscoveryResult", "Finding", "parameter_lines", "parameter_table"]
+
+
+def parameter_table(fit) -> dict | None:
+    """``{name: {"value", "stderr", "unit"}}`` of a fit (JSON-ready), or None."""
+    if fit is None:
+        return None
+    return {
+        name: {"value": json_safe(v), "stderr": json_safe(s), "unit": fit.units.get(name, "")}
+        for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
+    }
+
+
+def parameter_lines(fit, indent: str = "    ") -> list[str]:
+    """A fit's parameters as aligned ``name = value +/- stderr unit`` lines."""
+    if fit is None:
+        return []
+    return [
+        f"{indent}{name:>34} = {v:>12.5g} +/- {s:<10.3g} {fit.units.get(name, '')}"
+        for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
+    ]
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,17 +117,7 @@ class Finding:
         }
         if self.gain_conditions is not None:
             out["gain_conditions"] = json_safe(self.gain_conditions.to_dict())
-        if self.fit is not None:
-            out["parameters"] = {
-                name: {
-                    "value": json_safe(v),
-                    "stderr": json_safe(s),
-                    "unit": self.fit.units.get(name, ""),
-                }
-                for name, v, s in zip(
-                    self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
-                )
-            }
+        out["parameters"] = parameter_table(self.fit)
         return out
 
     def summary_lines(self) -> list[str]:
@@ -136,13 +146,7 @@ class Finding:
                 f"  leave-one-condition-out ({g.folds} conditions): base {g.base:.4f} -> "
                 f"extended {g.extended:.4f} (gain {g.relative:+.1%}, real: {g.real})"
             )
-        if self.fit is not None:
-            for name, v, s in zip(
-                self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
-            ):
-                lines.append(
-                    f"    {name:>34} = {v:>12.5g} +/- {s:<10.3g} {self.fit.units.get(name, '')}"
-                )
+        lines += parameter_lines(self.fit)
         for t in self.tried:
             if t.get("error"):
                 lines.append(f"  tried {t['extension']}: failed — {t['error']}")
@@ -156,6 +160,14 @@ class Finding:
     def summary(self) -> str:
         """The finding in a few readable lines (as in :meth:`DiscoveryResult.summary`)."""
         return "\n".join(self.summary_lines())
+
+
+def _section(width: int, title: str, texts: list[str], records) -> list[str]:
+    """A titled block of ``kind / soil: text`` lines (nothing when there are none)."""
+    if not texts:
+        return []
+    body = [f"  {r['kind']} / {r['soil']}: {t}" for r, t in zip(records, texts, strict=True)]
+    return ["-" * width, title, *body]
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,28 +279,30 @@ class DiscoveryResult:
             lines.append(f"[{i}] {first}")
             lines.extend(rest)
         lines.extend(self._model_lines(width))
-        if self.explained:
-            lines.append("-" * width)
-            lines.append("Significant at first, explained by a stronger finding's extension:")
-            for e in self.explained:
-                lines.append(
-                    f"  {e['kind']} / {e['soil']}: {e['candidate']} (by {e['by']}; p after = "
-                    f"{e['p_after']:.3g})"
-                )
+        lines += _section(
+            width,
+            "Significant at first, explained by a stronger finding's extension:",
+            [
+                f"{e['candidate']} (by {e['by']}; p after = {e['p_after']:.3g})"
+                for e in self.explained
+            ],
+            self.explained,
+        )
         lines.append("-" * width)
         lines.append(f"Physical red flags ({len(self.flags)}):" if self.flags else "No red flags.")
         for fl in self.flags:
             lines.append(
                 f"  ! {fl['kind']} / {fl['soil']} [{fl['scope']}] {fl['code']}: {fl['message']}"
             )
-        if self.artefacts:
-            lines.append("-" * width)
-            lines.append("Significant, but lined up with data-quality artefacts (not causes):")
-            for a in self.artefacts:
-                lines.append(
-                    f"  {a['kind']} / {a['soil']}: {a['candidate']} (Holm p = "
-                    f"{a['p_adjusted']:.3g}): {a['reason']}"
-                )
+        lines += _section(
+            width,
+            "Significant, but lined up with data-quality artefacts (not causes):",
+            [
+                f"{a['candidate']} (Holm p = {a['p_adjusted']:.3g}): {a['reason']}"
+                for a in self.artefacts
+            ],
+            self.artefacts,
+        )
         lines.extend(self._power_lines(width))
         lines.extend(self._quality_lines(width))
         lines.extend(self._column_lines(width))

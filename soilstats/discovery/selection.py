@@ -29,6 +29,7 @@ from .candidates import candidate_values
 from .crossval import base_fold_fits, compare, held_out_errors, make_folds
 from .extensions import base_model, combine
 from .plausibility import implausible
+from .result import parameter_lines, parameter_table
 
 __all__ = ["CombinedModel", "campaign_gain", "select_model"]
 
@@ -70,17 +71,6 @@ class CombinedModel:
     #: Per-test held-out errors (base, combined), for a campaign-wide gain.
     held_out: tuple | None = field(default=None, repr=False)
 
-    def parameters(self) -> dict | None:
-        """``{name: {"value", "stderr", "unit"}}`` of the combined fit, or None."""
-        if self.fit is None:
-            return None
-        return {
-            name: {"value": json_safe(v), "stderr": json_safe(s), "unit": self.fit.units.get(name)}
-            for name, v, s in zip(
-                self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
-            )
-        }
-
     def to_dict(self) -> dict:
         return {
             "kind": self.kind,
@@ -88,10 +78,14 @@ class CombinedModel:
             "extensions": list(self.extensions),
             "causes": list(self.causes),
             "gain": None if self.gain is None else json_safe(self.gain.to_dict()),
-            "parameters": self.parameters(),
+            "parameters": parameter_table(self.fit),
             "steps": [json_safe(s) for s in self.steps],
             "n_tests": self.n_tests,
         }
+
+    def summary(self) -> str:
+        """The combined model in a few readable lines: extensions, gain, parameters ± σ."""
+        return "\n".join(self.summary_lines())
 
     def summary_lines(self) -> list[str]:
         head = f"{self.kind} / {self.soil}: "
@@ -104,13 +98,7 @@ class CombinedModel:
             f"{g.base:.4f} -> {g.extended:.4f} ({g.relative:+.1%}, paired difference "
             f"{g.difference:.3g} +/- {g.stderr:.2g})",
         ]
-        if self.fit is not None:
-            for name, v, s in zip(
-                self.fit.param_names, self.fit.values, self.fit.stderr_values, strict=True
-            ):
-                lines.append(
-                    f"    {name:>34} = {v:>12.5g} +/- {s:<10.3g} {self.fit.units.get(name, '')}"
-                )
+        lines += parameter_lines(self.fit)
         for st in self.steps:
             if st["added"]:
                 continue
