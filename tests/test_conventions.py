@@ -11,6 +11,7 @@ import pytest
 from soilstats.bayes.result import PosteriorResult
 from soilstats.discovery.crossval import Gain
 from soilstats.discovery.result import DiscoveryResult, Finding
+from soilstats.discovery.selection import CombinedModel
 from soilstats.fitting.linear import LinearFit, linear_least_squares
 from soilstats.fitting.result import FitResult
 from soilstats.identification.conditions import ConditionFits
@@ -22,6 +23,7 @@ from soilstats.study.result import StudyResult
 RESULTS = (
     AncovaResult,
     CampaignFit,
+    CombinedModel,
     ConditionFits,
     DiscoveryResult,
     Finding,
