@@ -22,7 +22,7 @@ import pandas as pd
 
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError, IdentifiabilityError
-from ..quality import screened
+from ..quality import ARTEFACT_CODES, CODES, STOP_CODES, screened
 from ..report import Provenance
 from .candidates import candidate_values
 from .crossval import cross_validate, information_criteria, make_folds
@@ -242,7 +242,7 @@ def discover(
         # alone, each gain had the other effects in its noise (two causes in one soil).
         kept = [(f.cause, f.fitted.extension) for f in found if _offered(f)]
         try:
-            model = select_model(d.group, kept, rng)
+            model = select_model(d.group, kept, rng, base=d.base)
         except (ConvergenceError, IdentifiabilityError) as exc:
             notes.append(
                 f"{d.group.label}: no combined model — the base model fails on all tests: {exc}"
@@ -309,9 +309,15 @@ def _offered(finding: Finding) -> bool:
     return not any(t.get("implausible") for t in finding.tried if t["extension"] == name)
 
 
-#: Screening codes of a corrupted record (sensor or seating artefacts), as opposed to the
-#: soil's own behaviour (bearing failure) or the stop criterion (load cap).
-_ARTEFACT_CODES = ("spike", "pre-contact", "units", "saturation", "non-monotone")
+def _codes_by_test(quality, kind: str, keep) -> dict[str, list[str]]:
+    """The screening codes in ``keep`` of every flagged test of one kind (tests with none
+    left out)."""
+    out = {
+        t["test_id"]: [c for c in t["codes"] if c in keep]
+        for t in quality["tests"]
+        if t["kind"] == kind
+    }
+    return {t: c for t, c in out.items() if c}
 
 
 def _artefact_labels(group, quality) -> pd.Series | None:
@@ -319,13 +325,9 @@ def _artefact_labels(group, quality) -> pd.Series | None:
     the group has any."""
     if not quality:
         return None
-    codes = {
-        t["test_id"]: "+".join(c for c in t["codes"] if c in _ARTEFACT_CODES)
-        for t in quality["tests"]
-        if t["kind"] == group.kind
-    }
+    codes = _codes_by_test(quality, group.kind, ARTEFACT_CODES)
     ids = group.tests["test_id"].astype(str)
-    labels = pd.Series([codes.get(t) or "clean" for t in ids], index=group.tests.index)
+    labels = pd.Series(["+".join(codes.get(t, ["clean"])) for t in ids], index=group.tests.index)
     return None if (labels == "clean").all() else labels
 
 
@@ -333,7 +335,7 @@ def _aligned(values: pd.Series, labels: pd.Series) -> str | None:
     """How the levels of a candidate line up with artefact codes, or None: a code flags at
     least half the tests of one level and none of another's."""
     out = []
-    for code in _ARTEFACT_CODES:
+    for code in ARTEFACT_CODES:
         flagged = labels.str.contains(code, regex=False)
         share = flagged.groupby(values).mean()
         if share.max() >= 0.5 and share.min() == 0.0:
@@ -379,22 +381,13 @@ def _split_artefacts(group, found, quality) -> tuple[list, list[dict]]:
     return kept, residues
 
 
-#: Screening codes that describe how a test stopped, not a corrupted record: a load-capped
-#: test is sound, its depth is an outcome (never a cause, :mod:`.candidates`).
-_STOP_CODES = frozenset({"load-capped"})
-
-
 def _with_quality_caveat(finding: Finding, quality: dict | None) -> Finding:
     """A finding whose tests carry data-quality flags says how many and which codes: a
     reader judges whether the data problem, not the cause, drives it."""
     if not quality or not quality["tests"] or finding.group is None:
         return finding
-    flagged = {
-        t["test_id"]: [c for c in t["codes"] if c not in _STOP_CODES]
-        for t in quality["tests"]
-        if t["kind"] == finding.kind
-    }
-    flagged = {t: c for t, c in flagged.items() if c}
+    # A load-capped test is sound (its depth is an outcome, never a cause: .candidates).
+    flagged = _codes_by_test(quality, finding.kind, set(CODES) - STOP_CODES)
     scope = finding.group.tests["test_id"].astype(str).to_numpy()[finding.scope_rows]
     hit = [t for t in scope if t in flagged]
     if not hit:

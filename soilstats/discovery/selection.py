@@ -128,9 +128,11 @@ def _fold_labels(group, rows, causes) -> np.ndarray:
     return labels.astype(str)
 
 
-def select_model(group, kept, rng: np.random.Generator) -> CombinedModel | None:
+def select_model(group, kept, rng: np.random.Generator, base=None) -> CombinedModel | None:
     """Forward selection (module docstring) over ``kept``: ``(cause, Extension)`` pairs of
-    one (kind, soil), strongest finding first.  None when ``kept`` is empty."""
+    one (kind, soil), strongest finding first.  ``base``: the base model already fitted to
+    all tests (the diagnosis' fit, Bernstein where Bekker failed); fitted here if None.
+    None when ``kept`` is empty."""
     first: dict[str, tuple] = {}
     for cause, ext in kept:  # one extension kept by several findings: the strongest names it
         first.setdefault(ext.name, (cause, ext))
@@ -138,11 +140,10 @@ def select_model(group, kept, rng: np.random.Generator) -> CombinedModel | None:
     if not kept:
         return None
     rows = np.unique(group.owner)
-    base_ext = base_model(group, rows)
+    base_full = base if base is not None else base_model(group, rows).fit(group, rows)
     folds = make_folds(_fold_labels(group, rows, [c for c, _ in kept]), "tests", rng)
-    starts, e_current = base_fold_fits(group, rows, base_ext, folds, scheme="tests")
-    e_base = e_current
-    base_full = base_ext.fit(group, rows)
+    starts, e_base = base_fold_fits(group, rows, base_full.extension, folds, scheme="tests")
+    e_current = e_base
     chosen: list[tuple[str, object]] = []
     steps: list[dict] = []
     remaining = list(kept)
@@ -168,8 +169,8 @@ def select_model(group, kept, rng: np.random.Generator) -> CombinedModel | None:
                 step["reason"] = "physically implausible: " + "; ".join(reasons)
             elif not gain.real:
                 step["reason"] = "no real gain over the model before it"
-            options.append((not reasons and gain.real, gain.relative, cause, ext, step, fitted))
-            options[-1] += (errors, model)
+            good = not reasons and gain.real
+            options.append((good, gain.relative, cause, ext, step, fitted, errors, model))
         steps += failed  # a model that fails or does not combine now will not later
         good = [o for o in options if o[0]]
         if not good:

@@ -5,7 +5,17 @@ findings and the cleaned campaign every analysis uses; :func:`screened` is the g
 fitting functions call.  The detectors on one record are in :mod:`.records`.
 """
 
-from .codes import CODES, MODES, QualityCode
+from .codes import ARTEFACT_CODES, CODES, MODES, STOP_CODES, QualityCode
 from .screen import QualityFlag, QualityReport, screen, screened
 
-__all__ = ["CODES", "MODES", "QualityCode", "QualityFlag", "QualityReport", "screen", "screened"]
+__all__ = [
+    "ARTEFACT_CODES",
+    "CODES",
+    "MODES",
+    "STOP_CODES",
+    "QualityCode",
+    "QualityFlag",
+    "QualityReport",
+    "screen",
+    "screened",
+]

@@ -2,14 +2,17 @@
 
 ``docs/quality.md`` repeats this wording (a test checks every code is there). ``excluded``
 says whether the samples a code names are left out of every fit in the default mode
-(``quality="clean"``); the other codes only flag.
+(``quality="clean"``); the other codes only flag.  ``nature`` says what a code is evidence
+of: ``artefact`` (a corrupted record: sensor, wiring, seating), ``soil`` (the soil's own
+behaviour beyond the model: bearing failure) or ``stop`` (how the test was ended: a load
+cap); discovery never names a cause that lines up with artefacts.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["CODES", "MODES", "QualityCode"]
+__all__ = ["ARTEFACT_CODES", "CODES", "MODES", "STOP_CODES", "QualityCode"]
 
 #: ``off``: no screening; ``flag``: screen and report, exclude nothing; ``clean`` (default):
 #: also leave spikes and pre-contact samples out of every fit (and re-zero the sinkage at the
@@ -26,6 +29,7 @@ class QualityCode:
     why: str
     action: str
     excluded: bool = False
+    nature: str = "artefact"  # "artefact" | "soil" | "stop" (module docstring)
 
 
 CODES: dict[str, QualityCode] = {
@@ -74,6 +78,7 @@ CODES: dict[str, QualityCode] = {
             "every test's n). z_max must never be read as a cause.",
             "Fit within a common sinkage window (z_max) that every test reached, and compare "
             "per-test exponents with the pooled one (aggregation-bias flag of the fit).",
+            nature="stop",
         ),
         QualityCode(
             "bearing-failure",
@@ -84,6 +89,7 @@ CODES: dict[str, QualityCode] = {
             "the loading before failure. Samples past the onset drag n toward 0.",
             "Fit within the proposed window (z_max = the onset, per plate; listed), e.g. "
             "soilstats identify --z-max <value>.",
+            nature="soil",
         ),
         QualityCode(
             "non-monotone",
@@ -102,3 +108,8 @@ CODES: dict[str, QualityCode] = {
         ),
     )
 }
+
+#: Codes of a corrupted record (sensor or seating artefacts).
+ARTEFACT_CODES = tuple(c for c, q in CODES.items() if q.nature == "artefact")
+#: Codes that describe how a test was ended, not a fault of its record.
+STOP_CODES = frozenset(c for c, q in CODES.items() if q.nature == "stop")
