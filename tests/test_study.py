@@ -145,9 +145,10 @@ def test_pdf_opens_has_its_pages_and_the_identified_values(reports, tmp_path):
     for name in ("velocity", "shear-ring"):
         assert main([name, "--out", str(out), "--progress", "off"]) == 0
     reader = PdfReader(out / "velocity.pdf")
-    assert len(reader.pages) >= 8  # title, methods, tables, ANOVA, verdicts, 3 figures
+    assert len(reader.pages) >= 6  # conclusion, methods, tables, ANOVA, figures, provenance
     text = "\n".join(page.extract_text() for page in reader.pages)
-    assert "velocity_m_s" in text and "bundled:simulated-paper" in text
+    assert "penetration velocity (m/s)" in text and "bundled:simulated-paper" in text
+    assert "velocity_m_s" not in text  # human labels, not variable names
     assert "Eq. 8" in text and "ANOVA" in text
     n = next(
         p
@@ -157,7 +158,7 @@ def test_pdf_opens_has_its_pages_and_the_identified_values(reports, tmp_path):
     assert format_value(n["value"], n["stderr"]) in text  # as the parameter table prints it
     reader = PdfReader(out / "shear-ring.pdf")
     text = "\n".join(page.extract_text() for page in reader.pages)
-    assert "Mohr" in text and "EFFECT" in text
+    assert "Mohr" in text and "changes with" in text
 
 
 def test_csv_tables_are_written(reports):

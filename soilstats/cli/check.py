@@ -22,7 +22,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "folder", nargs="?", default=None, metavar="DIR", help="campaign folder (or --data)"
     )
-    add_common_options(parser, select=False, out_help="also write check.json into DIR")
+    add_common_options(
+        parser, select=False, out_help="also write check.json and check.pdf into DIR"
+    )
     parser.add_argument(
         "--quality",
         choices=("flag", "clean"),
@@ -43,8 +45,14 @@ def run(args: argparse.Namespace) -> int:
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     document = report.to_dict()
     if args.out:
-        write_json(Path(args.out) / "check.json", document, provenance, overwrite=args.overwrite)
-        print(f"wrote {Path(args.out) / 'check.json'}", file=sys.stderr)
+        from ..report.check_pdf import write_report
+
+        folder = Path(args.out)
+        write_json(folder / "check.json", document, provenance, overwrite=args.overwrite)
+        write_report(
+            report, campaign, folder / "check.pdf", provenance=provenance, overwrite=args.overwrite
+        )
+        print(f"wrote {folder / 'check.json'} and check.pdf", file=sys.stderr)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))

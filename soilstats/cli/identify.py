@@ -21,7 +21,8 @@ from .common import add_common_options, add_data_options, prepared_campaign
 def configure(parser: argparse.ArgumentParser) -> None:
     """The identify subcommand's options."""
     add_common_options(
-        parser, out_help="also write identify.json and identify.csv (every fit) into DIR"
+        parser,
+        out_help="also write identify.json, identify.csv (every fit) and identify.pdf into DIR",
     )
     add_data_options(parser)
     parser.add_argument(
@@ -137,7 +138,16 @@ def run(args: argparse.Namespace) -> int:
         write_json(folder / "identify.json", document, provenance, overwrite=args.overwrite)
         table = pd.concat([r.table() for r in results], ignore_index=True)
         write_csv(folder / "identify.csv", table, provenance, overwrite=args.overwrite)
-        print(f"wrote {folder / 'identify.json'} and identify.csv", file=sys.stderr)
+        from ..report.identify_pdf import write_report
+
+        write_report(
+            results,
+            campaign,
+            folder / "identify.pdf",
+            provenance=provenance,
+            overwrite=args.overwrite,
+        )
+        print(f"wrote {folder / 'identify.json'}, identify.csv and identify.pdf", file=sys.stderr)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))

@@ -17,10 +17,11 @@ import seaborn as sns
 
 from ..campaign.campaign import match_values
 from ..identification.conditions import condition_label
+from .labels import column_label, natural_key, natural_sorted
 
 __all__ = ["FIGURES", "make_figures"]
 
-_SIZE = (8.27, 5.2)  # A4 width, readable when printed
+_SIZE = (6.5, 4.2)  # the text width of an A4 page, so fonts print at their size
 
 
 def _panels(n: int):
@@ -48,16 +49,16 @@ def curves(result, campaign) -> plt.Figure:
         grid = np.linspace(0, sub["z_m"].max(), 40)
         sub = sub.assign(z_bin=grid[np.clip(np.searchsorted(grid, sub["z_m"]), 0, 39)])
         stats = sub.groupby([spec.factor, "z_bin"])["pressure_Pa"].agg(["mean", "std"])
-        palette = sns.color_palette("viridis", stats.index.get_level_values(0).nunique())
-        for colour, (level, g) in zip(palette, stats.groupby(level=0), strict=True):
+        levels = natural_sorted(stats.index.get_level_values(0).unique())
+        palette = sns.color_palette("viridis", len(levels))
+        for colour, level in zip(palette, levels, strict=True):
+            g = stats.xs(level, level=0, drop_level=False)
             z = g.index.get_level_values(1) * 1e3
             m, s = g["mean"] / 1e3, g["std"].fillna(0) / 1e3
             ax.plot(z, m, color=colour, label=condition_label(level))
             ax.fill_between(z, m - s, m + s, color=colour, alpha=0.2)
-        ax.set(title=soil, xlabel="sinkage z [mm]", ylabel="pressure p [kPa]")
-        ax.legend(title=spec.factor, fontsize=7, title_fontsize=7)
-    where = ", ".join(f"{k} = {v}" for k, v in spec.curves_where.items()) or "all plates"
-    fig.suptitle(f"Pressure–sinkage curves by {spec.factor} ({where}); band: ± 1 sd of tests")
+        ax.set(title=soil, xlabel="sinkage z (mm)", ylabel="pressure p (kPa)")
+        ax.legend(title=column_label(spec.factor), fontsize=7, title_fontsize=7)
     fig.tight_layout()
     return fig
 
@@ -79,7 +80,10 @@ def responses(result, campaign=None) -> plt.Figure:
     names = [r.name for r in spec.responses if r.name in result.per_test.columns]
     fig, axes = plt.subplots(len(names), 1, figsize=(_SIZE[0], 2.6 * len(names)), squeeze=False)
     data = result.per_test.assign(level=result.per_test[spec.factor].map(condition_label))
-    order = [condition_label(v) for v in sorted(result.per_test[spec.factor].dropna().unique())]
+    order = [
+        condition_label(v) for v in natural_sorted(result.per_test[spec.factor].dropna().unique())
+    ]
+    labels = {r.name: r.label for r in spec.responses}
     for ax, name in zip(axes[:, 0], names, strict=True):
         with _fixed_global_seed(0):  # seaborn jitters with numpy's global RNG
             sns.stripplot(
@@ -93,25 +97,31 @@ def responses(result, campaign=None) -> plt.Figure:
                 ax=ax,
                 jitter=0.2,
             )
-        ax.set(xlabel=spec.factor, ylabel=name)
+        ax.set(xlabel=column_label(spec.factor), ylabel=labels.get(name, column_label(name)))
         ax.legend(fontsize=7)
-    fig.suptitle("Per-test responses (one point per test)")
     fig.tight_layout()
     return fig
 
 
 def relative(result, campaign=None) -> plt.Figure:
-    """Pooled parameters relative to the reference condition, ± σ (Figs. 15, 16)."""
+    """Pooled parameters relative to the reference condition, ± σ (Figs. 15, 16).
+
+    A ratio means something only between values of one sign: a parameter that is zero or
+    changes sign across the conditions (kc often does) is drawn as its value ± σ instead.
+    """
     params = result.parameters
     spec = result.spec
     fig, axes = _panels(max(1, params["parameter"].nunique()))
     ref = condition_label(spec.reference) if spec.reference is not None else None
     for ax, (name, g) in zip(axes, params.groupby("parameter", sort=False), strict=False):
+        ratio = bool((g["value"] > 0).all() or (g["value"] < 0).all())
+        unit = g["unit"].iloc[0]
         for soil, gs in g.groupby("soil"):
+            gs = gs.iloc[sorted(range(len(gs)), key=lambda i: natural_key(gs["condition"].iloc[i]))]
             base = gs[gs["condition"] == ref] if ref else gs.iloc[:1]
             if base.empty:
                 base = gs.iloc[:1]
-            v0 = float(base["value"].iloc[0])
+            v0 = float(base["value"].iloc[0]) if ratio else 1.0
             ax.errorbar(
                 gs["condition"],
                 gs["value"] / v0,
@@ -120,11 +130,15 @@ def relative(result, campaign=None) -> plt.Figure:
                 capsize=3,
                 label=soil,
             )
-        ax.axhline(1.0, color="grey", lw=0.8)
-        ax.set(title=f"{name} relative to {ref or 'first condition'}", xlabel=spec.factor)
+        if ratio:
+            ax.axhline(1.0, color="grey", lw=0.8)
+            ax.set(title=f"{name} / {name}({ref or 'first'})", ylabel="ratio")
+        else:
+            ax.axhline(0.0, color="grey", lw=0.8)
+            ax.set(title=f"{name} (changes sign)", ylabel=f"{name} ({unit})")
+        ax.set(xlabel=column_label(spec.factor))
         ax.tick_params(axis="x", rotation=45, labelsize=7)
         ax.legend(fontsize=7)
-    fig.suptitle("Pooled identification per condition, relative (error bars ± σ, Eq. 3)")
     fig.tight_layout()
     return fig
 
@@ -148,9 +162,8 @@ def mohr_coulomb(result, campaign=None) -> plt.Figure:
                 color=colour,
                 label=f"{line['level']}: c={line['intercept']:.0f} Pa, φ={line['phi_deg']:.1f}°",
             )
-        ax.set(title=soil, xlabel="normal pressure σ [kPa]", ylabel="shear stress τ_ss [kPa]")
-        ax.legend(title=spec.factor, fontsize=6, title_fontsize=7)
-    fig.suptitle("Mohr–Coulomb lines (Eq. 15) per level, one point per test")
+        ax.set(title=soil, xlabel="normal pressure σ (kPa)", ylabel="shear stress τ_ss (kPa)")
+        ax.legend(title=column_label(spec.factor), fontsize=6, title_fontsize=7)
     fig.tight_layout()
     return fig
 
@@ -158,9 +171,7 @@ def mohr_coulomb(result, campaign=None) -> plt.Figure:
 def epsilon(result, campaign=None) -> plt.Figure:
     """Fit quality ε (Eq. 2) per preparation method and soil (Fig. 6)."""
     eps = result.parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
-    order = sorted(
-        eps["condition"].unique(), key=lambda s: (not s.isdigit(), int(s) if s.isdigit() else 0, s)
-    )
+    order = natural_sorted(eps["condition"].unique())
     fig, ax = plt.subplots(figsize=_SIZE)
     sns.barplot(data=eps, x="condition", y="epsilon", hue="soil", order=order, ax=ax)
     ax.set(
@@ -168,7 +179,6 @@ def epsilon(result, campaign=None) -> plt.Figure:
         ylabel="ε (Eq. 2)",
         ylim=(max(0, eps["epsilon"].min() - 0.1), 1),
     )
-    ax.set_title("Fit quality of the pooled identification per method (criterion 3, Fig. 6)")
     fig.tight_layout()
     return fig
 
@@ -182,11 +192,40 @@ FIGURES = {
 }
 
 
-def make_figures(result, campaign) -> list[tuple[str, plt.Figure]]:
-    """The spec's figures, in its order (``relative`` is skipped without pooled parameters)."""
+def caption(name: str, result) -> str:
+    """The caption of figure ``name``: what is shown, with units and the paper's figure."""
+    spec = result.spec
+    factor = column_label(spec.factor)
+    where = ", ".join(f"{column_label(k)} = {v}" for k, v in spec.curves_where.items())
+    return {
+        "curves": f"Pressure–sinkage curves by {factor}"
+        + (f" ({where})" if where else "")
+        + ": mean over the tests of each level, band ± 1 standard deviation of the tests "
+        "(cf. the paper's Figs. 7 and 8).",
+        "responses": f"Per-test responses by {factor}, one point per test and colour per soil: "
+        "the data of the ANOVA.",
+        "relative": f"Pooled parameters per {factor}, relative to the "
+        + (
+            f"reference {condition_label(spec.reference)}"
+            if spec.reference is not None
+            else "first level"
+        )
+        + " with ± σ error bars (Eq. 3; cf. Figs. 15 and 16). Parameters that change sign are "
+        "drawn as values in their unit, since their ratios mean nothing.",
+        "mohr-coulomb": f"Steady-state shear stress τ_ss (kPa) against normal pressure σ (kPa), "
+        f"one point per test, with the Mohr–Coulomb line (Eq. 15) of each {factor} level "
+        "(cf. Figs. 11–14).",
+        "epsilon": "Fit quality ε (Eq. 2) of the pooled identification per preparation method "
+        "and soil: criterion 3 of Table 1 (cf. Fig. 6).",
+    }[name]
+
+
+def make_figures(result, campaign) -> list[tuple[str, plt.Figure, str]]:
+    """The spec's figures in its order, as (name, figure, caption); ``relative`` is skipped
+    without pooled parameters."""
     out = []
     for name in result.spec.figures:
         if name == "relative" and result.parameters.empty:
             continue
-        out.append((name, FIGURES[name](result, campaign)))
+        out.append((name, FIGURES[name](result, campaign), caption(name, result)))
     return out

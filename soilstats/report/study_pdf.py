@@ -1,173 +1,337 @@
-"""The PDF report of a study: title, methods, tables, verdicts, figures (matplotlib PdfPages).
+"""The PDF report of a study, typeset: the answer on page 1, then how it was reached.
 
-Text pages are monospace so that tables line up on paper; figures come from
-:mod:`.figures`.  Page order: title page, methods, parameter tables (value ± σ, ε),
-ANOVA/ANCOVA tables, verdicts (with criteria and notes), then the figures.
+Order: question, data and conclusion (page 1); methods with the paper's equations; the
+verdict of every soil and response; the pooled parameters per condition (value ± σ, ε,
+health); the ANOVA/ANCOVA tables; pairs against the reference; the preparation criteria;
+notes; figures with captions; provenance. Every row of the study's JSON is in the PDF.
 """
 
 from __future__ import annotations
 
-import textwrap
+import math
 from pathlib import Path
 
-import matplotlib.pyplot as plt
 import pandas as pd
-from matplotlib.backends.backend_pdf import PdfPages
 
 from ..identification.table import format_value
 from ..study.result import CRITERIA_COLUMNS
+from .document import Document, Markup, strong
 from .files import output_path
-from .pages import A4, frame_lines, provenance_page, text_pages, wrap_paragraphs
+from .front import data_origin, front_page
+from .labels import column_label, natural_key, natural_sorted, parameter_label
+from .methods import write_equations
 from .provenance import Provenance
 from .study_figures import make_figures
 
 __all__ = ["write_report"]
 
-
-_EQUATIONS = {
-    "sinkage": [
-        "p = F / A                                  (Eq. 6)  measured pressure",
-        "p = (kc/b + kphi) z^n                      (Eq. 7)  Bekker, pooled per condition",
-        "p = k z^n                                  (Eq. 8)  Bernstein, per test and pooled",
-        "min 1/2 || w (p_m - p(X, theta)) ||^2      (Eq. 9)  w = 1/max(p) per test",
-        "eps = 1 - sqrt(sum e^2/(N-2)) / (sum|y|/N) (Eq. 2)  fit quality",
-        "stderr = sqrt(diag Cov), Cov = s^2 (J'J)^-1 (Eqs. 3-5)",
-    ],
-    "shear": [
-        "tau = 3 T / (2 pi (ro^3 - ri^3))           (Eq. 12) shear stress",
-        "j = (ro + ri)/2 * alpha                    (Eq. 14) shear deformation",
-        "tau = (c + sigma tan phi)(1 - exp(-j/K))   (Eq. 13) per-test curve",
-        "tau = c + sigma tan phi                    (Eq. 15) steady state, Mohr-Coulomb",
-        "stderr(c), stderr(phi) by linear least squares (paper ref. [9])",
-    ],
+_VERDICT_WORDS = {
+    "effect": "changes with",
+    "no relevant effect": "does not change relevantly with",
+    "no effect detected": "shows no detectable change with",
+    "inconclusive": "is inconclusive about",
 }
 
 
-def _parameter_lines(result) -> list[str]:
-    params = result.parameters
-    if params.empty:
-        return ["(no pooled identification)"]
-    lines = []
-    for soil, g in params.groupby("soil", sort=False):
-        conds = list(dict.fromkeys(g["condition"]))
-        lines.append(
-            f"{soil}   model: {', '.join(sorted(set(g['model'])))}   "
-            f"conditions by {result.spec.factor}"
-        )
-        for chunk in [conds[i : i + 5] for i in range(0, len(conds), 5)]:
-            rows = [["parameter", *chunk]]
-            for name, gp in g.groupby("parameter", sort=False):
-                unit = gp["unit"].iloc[0]
-                vals = gp.set_index("condition")
-                rows.append(
-                    [
-                        f"{name} [{unit}]",
-                        *(format_value(vals.loc[c, "value"], vals.loc[c, "stderr"]) for c in chunk),
-                    ]
-                )
-            first = g.drop_duplicates("condition").set_index("condition")
-            rows.append(["epsilon (Eq. 2)", *(f"{first.loc[c, 'epsilon']:.3f}" for c in chunk)])
-            rows.append(["tests", *(f"{first.loc[c, 'tests']:.0f}" for c in chunk)])
-            rows.append(["health", *((first.loc[c, "flags"] or "ok")[:22] for c in chunk)])
-            widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-            for r in rows:
-                lines.append("  ".join(cell.ljust(w) for cell, w in zip(r, widths, strict=True)))
-            lines.append("")
-    return lines
+def _response_label(spec, name: str) -> str:
+    for r in spec.responses:
+        if r.name == name:
+            return r.label
+    return {"phi": "friction angle φ", "c": "cohesion c", "line": "Mohr–Coulomb line"}.get(
+        name, column_label(name)
+    )
 
 
-def _verdict_lines(result) -> list[str]:
+def _responses_text(spec) -> str:
+    return ", ".join(r.label for r in spec.responses) or "the Mohr–Coulomb line: c and φ"
+
+
+def _margin_text(spec, name: str) -> str:
+    for r in spec.responses:
+        if r.name == name and r.margin is not None:
+            if r.margin_kind == "relative":
+                return f"±{r.margin * 100:g} %"
+            return f"±{r.margin:g}"
+    return ""
+
+
+def _size_text(row, spec) -> str:
+    """The largest difference between two levels in physical words."""
+    d = row.get("largest_difference")
+    if d is None or not isinstance(d, int | float) or not math.isfinite(d):
+        return ""
+    name = row["response"]
+    if name.startswith("log10_"):
+        size = f"by a factor {10 ** abs(d):.2f} ({(10 ** abs(d) - 1) * 100:.0f} %)"
+    elif name == "phi":
+        size = f"by {abs(d):.2f}°"
+    elif name == "c":
+        size = f"by {abs(d):.0f} Pa"
+    else:
+        size = f"by {abs(d):.3g}"
+    pair = row.get("largest_pair")
+    if isinstance(pair, str) and pair:
+        size += f" between {column_label(spec.factor)} {pair.replace(' vs ', ' and ')}"
+    return size
+
+
+def _conclusion(result) -> list[list]:
     spec = result.spec
-    lines = []
+    out: list[list] = []
     eff = result.effects
-    if not eff.empty:
-        lines.append(
-            f"alpha = {spec.alpha:g}; p-values Holm-adjusted "
-            + (
-                f"across all {len(eff)} tests of the study"
-                if spec.family is None
-                else f"within each {spec.family}"
+    if eff.empty:
+        out.append(["No effect could be tested (see the notes)."])
+    for soil in natural_sorted(eff["soil"].unique()) if not eff.empty else []:
+        rows = eff[eff["soil"] == soil]
+        parts: list = [strong(f"{soil}: ")]
+        for i, (_, r) in enumerate(rows.iterrows()):
+            words = _VERDICT_WORDS.get(r["verdict"], r["verdict"])
+            label = _response_label(spec, r["response"])
+            size = _size_text(r, spec)
+            margin = _margin_text(spec, r["response"])
+            text = (
+                f"the {label} {words} {column_label(spec.factor)}"
+                + (f" — largest difference {size}" if size else "")
+                + (f", relevance margin {margin}" if margin else "")
+                + f" (F = {r['statistic']:.3g}, Holm-adjusted p = {r['p_adjusted']:.2g}, "
+                f"{int(r['n_tests'])} tests)"
             )
+            parts.append(("; " if i else "") + text)
+        parts.append(".")
+        out.append(parts)
+    if result.best is not None:
+        out.append(
+            [
+                strong("Best preparation method: "),
+                f"{result.best.get('best')}. ",
+                result.best["reason"],
+            ]
         )
-        for _, r in eff.iterrows():
-            margin = ""
-            if pd.notna(r.get("margin")):
-                margin = f"  largest diff {r['largest_difference']:.3g} (margin {r['margin']:.3g})"
-            lines.append(
-                f"  {r['soil']:<14}{r['response']:<13}F = {r['statistic']:<9.4g}"
-                f"p = {r['p_value']:<10.3g}p_Holm = {r['p_adjusted']:<10.3g}"
-                f"-> {r['verdict'].upper()}{margin}"
+    out.append(["The paper found (", spec.paper, "): ", " ".join(spec.paper_finding.split())])
+    return out
+
+
+def _methods(doc: Document, result) -> None:
+    spec = result.spec
+    doc.heading("Methods")
+    doc.paragraph(" ".join(spec.description.split()))
+    write_equations(doc, (spec.kind,))
+    if spec.kind == "shear":
+        doc.paragraph(
+            "Statistics: one point per test (mean σ, steady-state τ). ANCOVA (statsmodels OLS) "
+            "compares one line, parallel lines and separate lines per level: φ by the slope test, "
+            "c by a Wald test of equal intercepts in the separate-lines model, the whole line by "
+            f"common against separate lines. Verdicts: Holm-adjusted p < {spec.alpha:g}."
+        )
+        return
+    margins = "; ".join(
+        f"{r.label}: {_margin_text(spec, r.name)}" for r in spec.responses if r.margin is not None
+    )
+    doc.paragraph(
+        "Statistics: per-test responses (the Bernstein fit of each test, Eq. 8, and the pressure "
+        f"at z_ref = {spec.z_ref_m * 1e3:g} mm). Type II two-way ANOVA (statsmodels) of each "
+        f"response by {column_label(spec.factor)} with the blocks "
+        f"{', '.join(column_label(b) for b in spec.blocks) or 'none'} where they vary (one-way "
+        "if confounded), Tukey HSD pairs on the block-adjusted response, Holm-adjusted verdicts "
+        f"at α = {spec.alpha:g}. Relevance margins: {margins or 'none declared'}. Verdicts: "
+        "effect (significant and beyond the margin), no relevant effect (all simultaneous "
+        "intervals within the margin), inconclusive, no effect detected."
+    )
+
+
+def _effects_table(doc: Document, result) -> None:
+    spec = result.spec
+    eff = result.effects
+    doc.heading("Verdicts")
+    if eff.empty:
+        doc.paragraph("No test of the factor could be made.")
+        return
+    cols = [
+        c
+        for c in (
+            "soil",
+            "response",
+            "statistic",
+            "p_value",
+            "p_adjusted",
+            "effect_size",
+            "n_tests",
+            "largest_difference",
+            "largest_pair",
+            "margin",
+            "verdict",
+        )
+        if c in eff.columns
+    ]
+    table = eff[cols].copy()
+    table["response"] = [_response_label(spec, r) for r in table["response"]]
+    doc.table(
+        table,
+        caption=f"Effect of {column_label(spec.factor)} per soil and response (Holm family: "
+        + ("the whole study" if spec.family is None else f"each {spec.family}")
+        + "). Largest difference and margin on the response's scale (log₁₀ for pressures).",
+        labels={
+            "statistic": "F",
+            "effect_size": "η² (partial)",
+            "largest_difference": "largest difference",
+            "largest_pair": "between",
+            "margin": "margin",
+        },
+        formats={"p_value": ".3g", "p_adjusted": ".3g", "effect_size": ".3f"},
+    )
+    tests = sorted(
+        {
+            f"{t} (blocks: {b or 'none'})"
+            for t, b in zip(
+                eff["test"], eff.get("blocks", pd.Series([""] * len(eff))).fillna(""), strict=True
             )
-        lines.append("")
+        }
+    )
+    doc.note("Tests: ", "; ".join(tests), ".")
+
+
+def _parameter_tables(doc: Document, result) -> None:
+    params = result.parameters
+    doc.heading("Identified parameters per condition")
+    if params.empty:
+        doc.paragraph("No pooled identification (the study needs per-test responses only).")
+        return
+    doc.paragraph(
+        "Pooled weighted least-squares identification per soil and condition (Eq. 9); value ± σ "
+        "from the covariance (Eqs. 3–5), fit quality ε (Eq. 2), and the fit's health codes "
+        "(docs/health.md: what each means and what to do)."
+    )
+    for soil in natural_sorted(params["soil"].unique()):
+        g = params[params["soil"] == soil]
+        names = list(dict.fromkeys(g["parameter"]))
+        units = dict(zip(g["parameter"], g["unit"], strict=False))
+        rows = []
+        for cond in sorted(dict.fromkeys(g["condition"]), key=natural_key):
+            gc = g[g["condition"] == cond].set_index("parameter")
+            row = {"condition": cond, "model": ", ".join(sorted(set(gc["model"])))}
+            for name in names:
+                row[name] = (
+                    format_value(gc.loc[name, "value"], gc.loc[name, "stderr"])
+                    if name in gc.index
+                    else "–"
+                )
+            first = gc.iloc[0]
+            row["epsilon"] = first["epsilon"]
+            row["tests"] = first["tests"]
+            row["health"] = first["flags"] or "ok"
+            rows.append(row)
+        labels: dict[str, str | Markup] = {n: parameter_label(n, units.get(n, "")) for n in names}
+        labels.update(condition=column_label(result.spec.factor), epsilon=Markup("$epsilon$"))
+        doc.table(
+            pd.DataFrame(rows),
+            caption=f"{soil}: parameters per {column_label(result.spec.factor)}.",
+            labels=labels,
+            formats={"epsilon": ".3f", "tests": ".0f"},
+            align_numbers=False,
+        )
+
+
+def _anova_tables(doc: Document, result) -> None:
+    spec = result.spec
+    doc.heading("ANCOVA model comparisons" if spec.kind == "shear" else "ANOVA tables")
+    if result.anova.empty:
+        doc.paragraph("None.")
+    else:
+        table = result.anova.drop(columns=[c for c in ("test",) if c in result.anova.columns])
+        if "response" in table.columns:
+            table["response"] = [_response_label(spec, r) for r in table["response"]]
+        if "term" in table.columns:
+            table["term"] = [column_label(t) if t != "Residual" else t for t in table["term"]]
+        doc.table(
+            table,
+            caption="Analysis-of-variance tables (statsmodels) behind the verdicts.",
+            labels={
+                "PR(>F)": "p",
+                "sum_sq": "sum of squares",
+                "mean_sq": "mean square",
+                "df_resid": "residual df",
+                "ssr": "residual SS",
+                "df_diff": "Δdf",
+                "ss_diff": "ΔSS",
+            },
+            formats={"PR(>F)": ".3g"},
+        )
+    if not result.lines.empty:
+        doc.table(
+            result.lines,
+            caption="Mohr–Coulomb line per level (separate-lines model, Eq. 15): intercept c "
+            "(Pa), slope tan φ, friction angle φ (°), each with its standard error.",
+            labels={
+                "intercept": "c (Pa)",
+                "intercept_stderr": "σ c (Pa)",
+                "slope": "tan φ",
+                "slope_stderr": "σ tan φ",
+                "phi_deg": "φ (°)",
+                "phi_stderr_deg": "σ φ (°)",
+                "n": "tests",
+            },
+        )
+
+
+def _pairs_and_criteria(doc: Document, result) -> None:
+    spec = result.spec
     pairs = result.reference_pairs()
     if not pairs.empty:
-        lines.append(
-            f"Each level against the reference {pairs['reference'].iloc[0]} "
-            "(Tukey HSD, simultaneous intervals):"
+        table = pairs.drop(columns=["reference"]).copy()
+        table["response"] = [_response_label(spec, r) for r in table["response"]]
+        doc.table(
+            table,
+            caption=f"Each level against the reference {pairs['reference'].iloc[0]} (Tukey HSD, "
+            "simultaneous 95 % intervals, on the block-adjusted response).",
+            labels={"relative_change": "relative change", "p_adj": "p (Tukey)"},
+            formats={"p_adj": ".3g", "relative_change": "+.1%"},
         )
-        lines += frame_lines(pairs.drop(columns=["reference"]))
-        lines.append("")
-    if result.criteria is not None:
-        crit = result.criteria
-        lines.append("Criteria of Table 1 per method (as the paper's Table 3):")
-        lines += frame_lines(crit[CRITERIA_COLUMNS])
-        lines.append("")
-        lines.append(f"Best method: {result.best.get('best')}")
-        lines += wrap_paragraphs(result.best["reason"])
-        lines.append("Reasons:")
-        for _, r in crit.iterrows():
-            lines += textwrap.wrap(
-                f"{r['soil']} method {r['method']}: [1] {r['crit1_reason']} [2] "
-                f"{r['crit2_reason']} [3] {r['crit3_reason']}",
-                110,
-                subsequent_indent="    ",
+    if result.criteria is not None and not result.criteria.empty:
+        doc.heading("Criteria of the preparation methods (Table 1)")
+        crit = result.criteria.copy()
+        crit = crit.iloc[
+            sorted(
+                range(len(crit)),
+                key=lambda i: (
+                    natural_key(crit["soil"].iloc[i]),
+                    natural_key(crit["method"].iloc[i]),
+                ),
             )
-        lines.append("")
-    if result.notes:
-        lines.append("Notes:")
-        for i, note in enumerate(result.notes, 1):
-            lines += textwrap.wrap(f"[{i}] {note}", 110, subsequent_indent="    ")
-    return lines
-
-
-def _methods_lines(result) -> list[str]:
-    spec = result.spec
-    lines = wrap_paragraphs(spec.description)
-    lines.append("Equations used:")
-    lines += ["  " + e for e in _EQUATIONS[spec.kind]]
-    lines.append("")
-    if spec.kind == "shear":
-        stats = (
-            "Statistics: one point per test (mean sigma, steady-state tau). ANCOVA "
-            "(statsmodels OLS) compares one line, parallel lines and separate lines per level: "
-            "phi by the slope test, c by a Wald test of equal intercepts in the separate-lines "
-            "model, the whole line by common vs separate lines. Verdicts: Holm-adjusted "
-            f"p < {spec.alpha:g}."
+        ]
+        doc.table(
+            crit[CRITERIA_COLUMNS],
+            caption="Criteria per method as the paper's Table 3 (+1 met, −1 not met; Σ the "
+            "sum), with the pooled fit quality ε and the test-to-test scatter.",
+            labels={
+                "crit1": "crit. 1",
+                "crit2": "crit. 2",
+                "crit3": "crit. 3",
+                "score": "Σ",
+                "epsilon": Markup("$epsilon$"),
+                "scatter_cv": "scatter CV",
+                "operator_p_holm": "operator p (Holm)",
+            },
+            formats={"epsilon": ".3f", "scatter_cv": ".3f", "operator_p_holm": ".3g"},
         )
-    else:
-        margins = (
-            "; ".join(
-                f"{r.name}: ±{r.margin:g}{' relative' if r.margin_kind == 'relative' else ''}"
-                for r in spec.responses
-                if r.margin is not None
+        doc.paragraph("Reasons per soil and method:")
+        doc.bullets(
+            [
+                strong(f"{r['soil']}, method {r['method']}: "),
+                f"[1] {r['crit1_reason']} [2] {r['crit2_reason']} [3] {r['crit3_reason']}",
+            ]
+            for _, r in crit.iterrows()
+        )
+        if result.best is not None:
+            doc.paragraph(
+                strong(f"Best method: {result.best.get('best')}. "),
+                result.best["reason"],
+                ". Ranking: " if result.best.get("ranking") else "",
+                ", ".join(map(str, result.best.get("ranking") or [])),
             )
-            or "none declared"
-        )
-        stats = (
-            "Statistics: per-test responses (Bernstein fit of each test; pressure at "
-            f"z_ref = {spec.z_ref_m * 1e3:g} mm). Type II two-way ANOVA (statsmodels) of each "
-            f"response by {spec.factor} with blocks {', '.join(spec.blocks) or 'none'} where they "
-            "vary (one-way if confounded), Tukey HSD pairs on the block-adjusted response, "
-            f"Holm-adjusted verdicts at alpha = {spec.alpha:g}. Relevance margins: {margins}. "
-            "Verdicts: effect (significant and beyond the margin), no relevant effect (all "
-            "simultaneous intervals within the margin), inconclusive, no effect detected."
-        )
-    lines += wrap_paragraphs(stats)
-    return lines
 
 
 def write_report(result, campaign, path: Path, *, overwrite: bool = False) -> int:
-    """Write the PDF report of ``result`` to ``path``; return the number of pages.
+    """Write the typeset PDF report of ``result`` to ``path``; return the number of pages.
 
     The last page and the PDF metadata carry the result's provenance; an existing file is
     an error unless ``overwrite``.
@@ -175,54 +339,44 @@ def write_report(result, campaign, path: Path, *, overwrite: bool = False) -> in
     spec = result.spec
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     provenance = result.provenance or Provenance.of(campaign, seed=result.seed)
-    pages = 0
-    with PdfPages(path, metadata=provenance.pdf_metadata(spec.title)) as pdf:
-        fig = plt.figure(figsize=A4)
-        fig.text(0.5, 0.80, spec.title, ha="center", fontsize=15, weight="bold", wrap=True)
-        info = [
-            f"soilstats study '{spec.name}'",
-            f"Paper: {spec.paper}",
-            f"Data source: {result.source}",
-            f"Factor: {spec.factor}    soils: {', '.join(result.soils)}",
-            f"Seed: {result.seed}",
-        ]
-        if result.date is not None:
-            info.append(f"Date: {result.date}")
-        fig.text(0.5, 0.70, "\n".join(info), ha="center", va="top", fontsize=10)
-        summary = (
-            [f"{r['soil']} / {r['response']}: {r['verdict']}" for _, r in result.effects.iterrows()]
-            if not result.effects.empty
-            else []
-        )
-        if result.best is not None:
-            summary.append(f"best preparation method: {result.best.get('best')}")
-        text = "\n".join(
-            [
-                *wrap_paragraphs("The paper found: " + spec.paper_finding, 90),
-                "Verdicts here:",
-                *summary,
-            ]
-        )
-        fig.text(0.08, 0.52, text, va="top", fontsize=9, family="monospace")
-        pdf.savefig(fig)
-        plt.close(fig)
-        pages += 1
-        pages += text_pages(pdf, "Methods", _methods_lines(result))
-        pages += text_pages(
-            pdf,
-            "Identified parameters per condition (value ± σ, Eqs. 3-5)",
-            _parameter_lines(result),
-        )
-        title = "ANCOVA model comparisons" if spec.kind == "shear" else "ANOVA tables"
-        tables = frame_lines(result.anova) if not result.anova.empty else ["(none)"]
-        if not result.lines.empty:
-            tables += ["", "Lines per level (separate-lines model):"]
-            tables += frame_lines(result.lines)
-        pages += text_pages(pdf, title, tables)
-        pages += text_pages(pdf, "Verdicts", _verdict_lines(result))
-        for _name, fig in make_figures(result, campaign):
-            pdf.savefig(fig)
-            plt.close(fig)
-            pages += 1
-        pages += provenance_page(pdf, provenance)
-    return pages
+    doc = Document(
+        spec.title,
+        subtitle=f"soilstats study {spec.name} — after Apfelbeck et al. (2011), {spec.paper}",
+        provenance=provenance,
+    )
+    n_tests = len(result.per_test)
+    front_page(
+        doc,
+        question=[
+            f"Does the {column_label(spec.factor)} change the identified soil behaviour "
+            f"({_responses_text(spec)})"
+            f" of {', '.join(natural_sorted(result.soils))}?"
+        ],
+        data=[
+            data_origin(result.source),
+            f": {n_tests} {spec.kind} tests of {len(result.soils)} soil(s)",
+            f", recorded {result.date}" if result.date else "",
+            ". Levels of the factor: ",
+            ", ".join(map(str, natural_sorted(result.per_test[spec.factor].dropna().unique())))
+            if spec.factor in result.per_test.columns
+            else "–",
+            ".",
+        ],
+        conclusion=_conclusion(result),
+    )
+    if result.notes:
+        doc.heading("Notes", level=2)
+        doc.numbered(result.notes)
+    doc.page_break()
+    _methods(doc, result)
+    _effects_table(doc, result)
+    _parameter_tables(doc, result)
+    _anova_tables(doc, result)
+    _pairs_and_criteria(doc, result)
+    figures = make_figures(result, campaign)
+    if figures:
+        doc.heading("Figures")
+        for _name, fig, caption in figures:
+            doc.figure(fig, caption)
+    doc.provenance_section()
+    return doc.render(path)

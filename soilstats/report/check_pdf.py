@@ -1,0 +1,131 @@
+"""The PDF report of ``soilstats check``: which records are fit to identify soil from.
+
+Page 1: the question, the data, and the answer (how many tests carry which screening code,
+what the analyses leave out). Then every code found with what it is, why it matters and what
+to do (from :mod:`soilstats.quality.codes`, the one home of that documentation), and every
+flag of every test with its message. Everything in check.json is in the PDF.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from ..quality.codes import CODES
+from .document import Document, strong
+from .files import output_path
+from .front import data_origin, front_page
+from .labels import natural_key
+
+__all__ = ["write_report"]
+
+
+def _conclusion(doc_dict: dict, n_tests: int) -> list:
+    tests = doc_dict["tests"]
+    flagged = [t for t in tests if t["flags"]]
+    if doc_dict["mode"] == "off":
+        return ["Screening was off: nothing was checked."]
+    if not flagged:
+        return [[strong("Clean. "), f"None of the {n_tests} tests carries a screening code."]]
+    out: list = [
+        [
+            strong(f"{len(flagged)} of {n_tests} tests carry screening codes: "),
+            "; ".join(f"{code} in {n} tests" for code, n in doc_dict["counts"].items()),
+            ".",
+        ]
+    ]
+    left_out = doc_dict["excluded_samples"]
+    out.append(
+        f"{left_out} samples are left out of every fit ({doc_dict['mode']} mode: spike and "
+        "pre-contact samples; every other code flags the fits that use the test)."
+        if doc_dict["mode"] == "clean"
+        else "Flag mode: nothing is left out; the codes become health flags of the fits."
+    )
+    for code in doc_dict["counts"]:
+        q = CODES.get(code)
+        if q is not None:
+            out.append([strong(f"{code}: "), q.action])
+    return out
+
+
+def write_report(report, campaign, path: Path, *, provenance=None, overwrite: bool = False) -> int:
+    """Write the typeset screening report of ``report`` (a QualityReport) to ``path``.
+
+    Returns the number of pages; an existing file is an error unless ``overwrite``.
+    """
+    path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
+    record = report.to_dict()
+    n_tests = len(campaign.tests)
+    doc = Document(
+        "Data quality of a Bevameter campaign",
+        subtitle="soilstats check — screening before identification",
+        provenance=provenance,
+    )
+    front_page(
+        doc,
+        question=[
+            "Are the measured records fit to identify soil parameters from? Which tests carry "
+            "sensor spikes, seating offsets, load-terminated stops, bearing failure, drift or "
+            "other artefacts, and what do the analyses leave out?"
+        ],
+        data=[data_origin(campaign.source), f": {n_tests} tests in the log."],
+        conclusion=_conclusion(record, n_tests),
+    )
+    doc.page_break()
+    doc.heading("Codes found")
+    if not record["counts"]:
+        doc.paragraph("No code was found.")
+    for code, count in record["counts"].items():
+        q = CODES.get(code)
+        doc.heading(f"{code} ({count} tests)", level=2)
+        if q is None:
+            doc.paragraph("No documentation for this code.")
+            continue
+        doc.key_values([("what", q.what), ("why it matters", q.why), ("what to do", q.action)])
+    doc.heading("Every flag of every test")
+    rows = [
+        {
+            "kind": t["kind"],
+            "test": t["test_id"],
+            "code": fl["code"],
+            "samples": "whole test" if not fl.get("rows") else f"{len(fl['rows'])} rows",
+            "left out": fl.get("excluded", False),
+            "message": fl["message"],
+        }
+        for t in sorted(record["tests"], key=lambda t: natural_key(t["test_id"]))
+        for fl in t["flags"]
+    ]
+    if rows:
+        doc.table(
+            pd.DataFrame(rows),
+            caption="Screening flags per test (rows: samples concerned).",
+            align_numbers=False,
+        )
+    else:
+        doc.paragraph("No test carries a flag.")
+    if record.get("proposed_windows"):
+        doc.heading("Proposed fitting windows")
+        doc.paragraph(
+            "A common sinkage window per soil and plate that keeps the flagged tests to their "
+            "valid part (soilstats identify --z-max VALUE):"
+        )
+        windows = pd.DataFrame(record["proposed_windows"])
+        doc.table(
+            windows,
+            caption="Proposed windows: the sinkage z_max (m) every flagged test reached.",
+            labels={"b_m": "plate width b (m)", "z_max_m": "z_max (m)", "tests": "tests"},
+        )
+    doc.heading("Every screening rule")
+    doc.table(
+        pd.DataFrame(
+            [
+                {"code": c, "what": d["what"], "what to do": d["action"]}
+                for c, d in record["codes"].items()
+            ]
+        ),
+        caption="The screening rules soilstats runs (docs/quality.md).",
+        align_numbers=False,
+    )
+    doc.provenance_section()
+    return doc.render(path)

@@ -1,0 +1,371 @@
+"""The report engine: a typeset PDF document built from prose, tables, equations and figures.
+
+Every PDF soilstats writes is a :class:`Document` rendered by Typst (the ``typst`` Python
+package: a typesetting compiler that ships as one offline wheel, with its own fonts). Typst
+gives what hand-laid matplotlib pages could not: text that wraps and never runs off the page,
+tables that continue on the next page with their header repeated, typeset mathematics for the
+paper's equations, numbered pages, one page size, embedded (subset TrueType/OpenType) fonts
+and searchable text. matplotlib/seaborn still draw the figures; they enter as SVG (vector,
+text as paths) so what is plotted is exactly what is printed.
+
+Text from results (test names, notes, messages) always enters as Typst *string literals*, so
+no character in data can be read as markup; only this package writes markup.
+
+Outputs are reproducible byte for byte: no system fonts are read (the fonts embedded in the
+compiler are used on every machine), no clock is read (``SOURCE_DATE_EPOCH`` sets the
+document date, as for every other output), and figure ids are salted with a constant.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import io
+import re
+import tempfile
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from .provenance import Provenance
+
+__all__ = ["Document", "Markup", "esc", "math", "strong"]
+
+PAGE = "a4"
+BODY_PT = 10
+TABLE_PT = 8
+# Long unbroken tokens (test ids, file paths, column names) get break opportunities after
+# these characters, so that a narrow table cell wraps them instead of overflowing the page.
+_BREAK_AFTER = re.compile(r"([_/.:=,;|\\-])(?=\S)")
+_LONG_TOKEN = 18
+
+
+@dataclass(frozen=True)
+class Markup:
+    """Typst markup written by this package (never built from data without :func:`esc`)."""
+
+    text: str
+
+    def __add__(self, other: Markup | str) -> Markup:
+        return Markup(self.text + _markup(other).text)
+
+    def __radd__(self, other: str) -> Markup:
+        return Markup(_markup(other).text + self.text)
+
+
+def _breakable(text: str) -> str:
+    """``text`` with zero-width break opportunities inside tokens longer than 18 characters."""
+    if len(text) <= _LONG_TOKEN:
+        return text
+    return " ".join(
+        _BREAK_AFTER.sub("\\1\u200b", word) if len(word) > _LONG_TOKEN else word
+        for word in text.split(" ")
+    )
+
+
+def esc(text: object, *, breakable: bool = False) -> Markup:
+    """Any value as literal text in a Typst document (a string literal: no markup applies).
+
+    ``breakable`` adds break opportunities inside long tokens (for narrow table cells).
+    """
+    s = _breakable(str(text)) if breakable else str(text)
+    s = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\r", "")
+    return Markup(f'#"{s}"')
+
+
+def strong(text: object) -> Markup:
+    """Bold literal text."""
+    return Markup(f"#strong({esc(text).text[1:]})")
+
+
+def math(expression: str) -> Markup:
+    """Inline Typst mathematics, e.g. ``math("k_c")`` (written by this package only)."""
+    return Markup(f"${expression}$")
+
+
+def _markup(part: Markup | str | object) -> Markup:
+    return part if isinstance(part, Markup) else esc(part)
+
+
+def _join(parts: Iterable[Markup | str | object]) -> str:
+    return "".join(_markup(p).text for p in parts)
+
+
+def _typst_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
+
+
+class Document:
+    """A report under construction: add blocks in reading order, then :meth:`render`.
+
+    Parameters
+    ----------
+    title : str
+        Title on page 1 and in the PDF metadata.
+    subtitle : str, optional
+        One line under the title (e.g. the command and the data set).
+    provenance : Provenance, optional
+        Written to the PDF metadata and, by :meth:`provenance_section`, on the last page.
+
+    Examples
+    --------
+    >>> doc = Document("Velocity study")
+    >>> doc.heading("Conclusion")
+    >>> doc.paragraph("soil02 is ", strong("stiffer"), " at 5 mm/s than at 50 mm/s.")
+    >>> doc.render("velocity.pdf")  # doctest: +SKIP
+    """
+
+    def __init__(self, title: str, *, subtitle: str = "", provenance: Provenance | None = None):
+        self.title = title
+        self.provenance = provenance
+        self._blocks: list[str] = []
+        self._images: dict[str, bytes] = {}
+        self._block(f'#align(center, text(17pt, weight: "bold", {_typst_string(title)}))')
+        if subtitle:
+            self._block(f"#align(center, text(10pt, {_typst_string(subtitle)}))")
+
+    # -- blocks -----------------------------------------------------------------------------
+    def _block(self, markup: str) -> None:
+        self._blocks.append(markup)
+
+    def heading(self, text: str, level: int = 1) -> None:
+        """A section heading (level 1) or subsection (level 2, 3)."""
+        self._block(f"#heading(level: {int(level)}, {_typst_string(text)})")
+
+    def paragraph(self, *parts: Markup | str | object) -> None:
+        """One paragraph of literal text and :class:`Markup` pieces."""
+        if parts:
+            self._block(_join(parts))
+
+    def note(self, *parts: Markup | str | object) -> None:
+        """A small-print paragraph (caveats, definitions)."""
+        self._block(f"#text(size: 8.5pt)[{_join(parts)}]")
+
+    def bullets(self, items: Iterable[Markup | str | Sequence[Markup | str]]) -> None:
+        """A bulleted list; an item is text, markup, or a sequence of both."""
+        lines = []
+        for item in items:
+            parts = item if isinstance(item, list | tuple) else (item,)
+            lines.append(f"- {_join(parts)}")
+        if lines:
+            self._block("\n".join(lines))
+
+    def numbered(self, items: Iterable[Markup | str | Sequence[Markup | str]]) -> None:
+        """A numbered list ([1], [2], … as in the summaries)."""
+        lines = []
+        for item in items:
+            parts = item if isinstance(item, list | tuple) else (item,)
+            lines.append(f"+ {_join(parts)}")
+        if lines:
+            self._block('#[#set enum(numbering: "[1]")\n' + "\n".join(lines) + "\n]")
+
+    def equation(self, expression: str, tag: str = "") -> None:
+        """A displayed equation in Typst math, with a tag such as ``"Eq. 7"`` at the right."""
+        body = f"$ {expression} $"
+        if tag:
+            body = (
+                f"#grid(columns: (1fr, auto), align: (center + horizon, right + horizon), "
+                f"[{body}], [({tag})])"
+            )
+        self._block(body)
+
+    def key_values(self, rows: Iterable[tuple[str, object]]) -> None:
+        """A two-column list of labels and values (no rules), e.g. the provenance."""
+        cells = []
+        for key, value in rows:
+            cells.append(f"[{strong(key).text}]")
+            cells.append(f"[{esc('' if value is None else value).text}]")
+        if cells:
+            self._block(
+                "#table(columns: (auto, 1fr), stroke: none, inset: 3pt, " + ", ".join(cells) + ")"
+            )
+
+    def table(
+        self,
+        frame: pd.DataFrame,
+        *,
+        caption: str = "",
+        labels: dict[str, str | Markup] | None = None,
+        formats: dict[str, str] | None = None,
+        align_numbers: bool = True,
+    ) -> None:
+        """A table of ``frame``: every row, every column, never clipped.
+
+        Long tables continue on the next page with the header repeated; wide ones wrap their
+        cells. ``labels`` renames columns for the reader (human names with units); ``formats``
+        gives a format spec per column (default: 4 significant digits for floats); missing
+        values print as an en dash.
+        """
+        import pandas as pd
+
+        labels = labels or {}
+        formats = formats or {}
+        columns = list(frame.columns)
+        if not columns:
+            return
+        numeric = {c: pd.api.types.is_numeric_dtype(frame[c]) for c in columns}
+        head = ", ".join(f"[#strong[{_markup(labels.get(c, c)).text}]]" for c in columns)
+        body = []
+        for row in frame.itertuples(index=False, name=None):
+            for c, value in zip(columns, row, strict=True):
+                cell = esc(format_cell(value, formats.get(c)), breakable=True)
+                body.append(f"[{cell.text}]")
+        align = ", ".join("right" if numeric[c] and align_numbers else "left" for c in columns)
+        table = (
+            f"#table(columns: {len(columns)}, align: ({align},), inset: 3pt, "
+            "stroke: (x, y) => if y == 0 { (bottom: 0.6pt) } "
+            "else { (bottom: 0.2pt + luma(200)) }, "
+            f"table.header({head}), " + ", ".join(body) + ")"
+        )
+        table = f"#[#set text(size: {TABLE_PT}pt)\n{table}]"
+        if caption:
+            table = (
+                f"#figure(kind: table, supplement: [Table], caption: {_typst_caption(caption)}, "
+                f"{table[1:]})"
+            )
+        self._block(table)
+
+    def figure(self, fig: Figure, caption: str, *, width: str = "100%") -> None:
+        """A matplotlib figure (closed afterwards) as vector graphics with a numbered caption."""
+        import matplotlib as mpl
+
+        name = f"figure-{len(self._images) + 1}.svg"
+        buffer = io.BytesIO()
+        with mpl.rc_context({"svg.hashsalt": "soilstats", "svg.fonttype": "path"}):
+            fig.savefig(buffer, format="svg", metadata={"Date": None})
+        self._images[name] = buffer.getvalue()
+        _close(fig)
+        self._block(f'#figure(image("{name}", width: {width}), caption: {_typst_caption(caption)})')
+
+    def page_break(self) -> None:
+        """Start the next block on a new page."""
+        self._block("#pagebreak(weak: true)")
+
+    def provenance_section(self) -> None:
+        """The last page: soilstats version, input hash, command, seed, method citation."""
+        if self.provenance is None:
+            return
+        self.page_break()
+        self.heading("Provenance")
+        self.paragraph(
+            "Everything in this report follows from the input below with the command and seed "
+            "shown; the same inputs give a byte-identical file."
+        )
+        self.key_values(
+            (key.replace("_", " "), value) for key, value in self.provenance.to_dict().items()
+        )
+
+    # -- output -----------------------------------------------------------------------------
+    def source(self) -> str:
+        """The complete Typst source (for debugging a layout)."""
+        return _preamble(self.title, self.provenance) + "\n\n".join(self._blocks) + "\n"
+
+    def render(self, path: str | Path) -> int:
+        """Typeset the document into the PDF ``path``; return its number of pages.
+
+        Raises
+        ------
+        RuntimeError
+            If Typst rejects the document (a bug in the report, never the user's data:
+            data enters only as string literals); the message carries Typst's diagnostic.
+        """
+        import typst
+
+        path = Path(path)
+        with tempfile.TemporaryDirectory(prefix="soilstats-report-") as tmp:
+            root = Path(tmp)
+            for name, data in self._images.items():
+                (root / name).write_bytes(data)
+            main = root / "report.typ"
+            main.write_text(self.source(), encoding="utf-8")
+            try:
+                pdf = typst.compile(str(main), root=str(root), ignore_system_fonts=True)
+            except Exception as exc:  # typst raises its own TypstError type
+                raise RuntimeError(f"the report {path.name} could not be typeset: {exc}") from exc
+        path.write_bytes(pdf)
+        return page_count(pdf)
+
+
+def format_cell(value: object, spec: str | None = None) -> str:
+    """One table cell as text: ``spec`` if given, floats to 4 significant digits, NaN as –."""
+    import math as _m
+
+    import numpy as np
+
+    if value is None:
+        return "–"
+    if isinstance(value, float | np.floating):
+        if not _m.isfinite(value):
+            return "–" if _m.isnan(value) else str(value)
+        return format(value, spec or ".4g")
+    if isinstance(value, bool | np.bool_):
+        return "yes" if value else "no"
+    if spec and isinstance(value, int | np.integer):
+        return format(value, spec)
+    try:
+        import pandas as pd
+
+        if pd.isna(value):
+            return "–"
+    except (TypeError, ValueError):
+        pass
+    return str(value)
+
+
+def page_count(pdf: bytes) -> int:
+    """Pages of a PDF Typst wrote (its page objects are uncompressed: ``/Type /Page``)."""
+    return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", pdf))
+
+
+def _close(fig) -> None:
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def _typst_caption(caption: str) -> str:
+    return f"[{esc(caption).text}]"
+
+
+def _document_date(provenance: Provenance | None) -> str:
+    if provenance is None or provenance.created is None:
+        return "none"
+    d = _dt.datetime.fromisoformat(provenance.created)
+    return (
+        f"datetime(year: {d.year}, month: {d.month}, day: {d.day}, hour: {d.hour}, "
+        f"minute: {d.minute}, second: {d.second})"
+    )
+
+
+def _preamble(title: str, provenance: Provenance | None) -> str:
+    keywords = ""
+    if provenance is not None:  # the same fields as Provenance.pdf_metadata
+        info = provenance.pdf_metadata(title)
+        keywords = (
+            f", description: {_typst_string(info['Subject'])}"
+            f", keywords: ({_typst_string(info['Keywords'])},)"
+        )
+    short = title if len(title) <= 70 else title[:67] + "..."
+    meta = f'title: {_typst_string(title)}, author: "soilstats", date: {_document_date(provenance)}'
+    return f"""#set document({meta}{keywords})
+#set page(paper: "{PAGE}", margin: (x: 2.2cm, top: 2.4cm, bottom: 2.4cm),
+  header: context {{ if counter(page).get().first() > 1 [
+    #set text(size: 8pt, fill: luma(90))
+    #{_typst_string(short)} #h(1fr) soilstats ] }},
+  footer: context [
+    #set text(size: 8pt, fill: luma(90))
+    #h(1fr) Page #counter(page).display("1 of 1", both: true) #h(1fr)])
+#set text(size: {BODY_PT}pt, lang: "en")
+#set par(justify: false, leading: 0.6em)
+#set heading(numbering: "1.1")
+#show heading.where(level: 1): set text(size: 13pt)
+#show heading.where(level: 2): set text(size: 11pt)
+#show figure.caption: set text(size: 8.5pt)
+#show figure.where(kind: table): set block(breakable: true)
+#show table.cell.where(y: 0): set text(weight: "bold")
+
+"""

@@ -1,0 +1,49 @@
+"""Page 1 of every report: the question, the data (measured or simulated, said plainly), and
+the conclusion in sentences — so a reader who stops after one page has the answer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from .document import Document, Markup
+
+__all__ = ["data_origin", "front_page"]
+
+
+def data_origin(source: str) -> str:
+    """Whether the campaign ``source`` is measured or simulated, in words for page 1.
+
+    A campaign written by ``soilstats simulate`` carries ``truth.json`` next to its tables
+    (the planted parameters); every other campaign is treated as measured data.
+    """
+    if not source or source == "<memory>":
+        return "data passed in memory (origin not recorded)"
+    try:
+        from ..campaign.io import resolve
+
+        folder, _ = resolve(source.removeprefix("bundled:"))
+    except Exception:  # a source that no longer exists: say so rather than guess
+        return f"{source} (origin not checked: the folder is no longer there)"
+    if (Path(folder) / "truth.json").is_file():
+        return f"SIMULATED data with known truth ({source}), not measurements"
+    return f"measured data ({source})"
+
+
+def front_page(
+    doc: Document,
+    *,
+    question: Sequence[Markup | str],
+    data: Sequence[Markup | str],
+    conclusion: Sequence[Sequence[Markup | str] | Markup | str],
+) -> None:
+    """Question, data and conclusion sections; each conclusion item is one paragraph."""
+    doc.heading("Question")
+    doc.paragraph(*question)
+    doc.heading("Data")
+    doc.paragraph(*data)
+    doc.heading("Conclusion")
+    for item in conclusion:
+        parts = item if isinstance(item, list | tuple) else (item,)
+        doc.paragraph(*parts)
