@@ -34,6 +34,16 @@ _RESPONSES = {
 }
 
 
+def _shows_in(f) -> str:
+    """The responses in physical words: level → stiffness (or shear strength), shape → n."""
+    words = {
+        "level": "the stiffness (pressure level)" if f.kind == "sinkage" else "the shear strength",
+        "shape": "the exponent n",
+        "K": "the shear modulus K",
+    }
+    return " and ".join(words.get(r, r) for r in f.responses)
+
+
 def _gain_words(g) -> str:
     return (
         f"{g.relative:+.1%} in held-out error ({g.base:.4f} → {g.extended:.4f}, "
@@ -58,8 +68,9 @@ def _conclusion(result) -> list:
         conf = f" (confounded with {', '.join(f.confounded_with)})" if f.confounded_with else ""
         parts: list = [
             strong(f"[{i}] {f.kind} / {f.soil}: "),
-            f"the misfit follows {column_label(f.cause)}{conf}; it shows in "
-            f"{' and '.join(f.responses)} (F = {f.statistic:.3g}, Holm-adjusted p = "
+            f"{_shows_in(f)} change{'' if len(f.responses) > 1 else 's'} with "
+            f"{column_label(f.cause)}{conf}"
+            f" (F = {f.statistic:.3g}, Holm-adjusted p = "
             f"{f.p_adjusted:.2g}, {f.n_tests} tests). ",
         ]
         if f.extension and f.gain is not None:
