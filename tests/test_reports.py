@@ -7,14 +7,13 @@ import json
 import os
 import re
 import shutil
-import subprocess
 
 import pdfplumber
 import pytest
 from pypdf import PdfReader
 
 from soilstats.cli.main import main
-from soilstats.report.document import Document, esc, strong
+from soilstats.report.document import Document, esc, render_page, strong
 from soilstats.report.labels import column_label, natural_sorted
 
 A4 = (595.28, 841.89)  # points
@@ -38,12 +37,27 @@ def reports(tmp_path_factory):
         "discover": (["discover", "--data", "grc1-oravec2009"], "discover"),
         "check": (["check", "--data", "grc1-oravec2009"], "check"),
         "identify": (["identify", "--data", "grc1-oravec2009"], "identify"),
+        "posterior": (
+            [
+                "posterior",
+                "--data",
+                "grc1-oravec2009",
+                "--soil",
+                "GRC-1",
+                "--model",
+                "bernstein",
+                "--select",
+                "sinkage:b_m=0.095",
+            ],
+            "report",
+        ),
     }
     made = {}
     for name, (argv, stem) in runs.items():
         folder = out / name
         assert main([*argv, "--out", str(folder), "--progress", "off"]) == 0, name
-        made[name] = (folder / f"{stem}.pdf", json.loads((folder / f"{stem}.json").read_text()))
+        record = "posterior.json" if name == "posterior" else f"{stem}.json"
+        made[name] = (folder / f"{stem}.pdf", json.loads((folder / record).read_text()))
     return made
 
 
@@ -149,6 +163,17 @@ def test_identify_pdf_holds_every_health_flag_and_note(reports):
     assert expected
 
 
+def test_posterior_pdf_holds_every_check_prior_and_warning(reports):
+    pdf, doc = reports["posterior"]
+    text = pdf_text(pdf)
+    expected = [*doc["priors"].values(), *doc["warnings"], *doc["pooling_warnings"]]
+    expected += [*doc["failures"], *doc["selection"], str(doc["draws_written"])]
+    expected += list(doc["support"]["reasons"])
+    missing = [e for e in expected if _squeeze(e) not in text]
+    assert not missing, missing[:3]
+    assert "sinkagez(mm)" in text or "Measuredpressure" in text  # the predictive check
+
+
 def test_study_pdf_holds_every_verdict_criterion_and_note(reports):
     pdf, doc = reports["study"]
     text = pdf_text(pdf)
@@ -170,25 +195,7 @@ def test_pdftoppm_renders_page_one(reports, tmp_path):
     from matplotlib.image import imread
 
     for name, (pdf, _) in reports.items():
-        stem = tmp_path / name
-        subprocess.run(
-            [
-                "pdftoppm",
-                "-r",
-                "40",
-                "-png",
-                "-f",
-                "1",
-                "-l",
-                "1",
-                "-singlefile",
-                str(pdf),
-                str(stem),
-            ],
-            check=True,
-            capture_output=True,
-        )
-        image = imread(f"{stem}.png")
+        image = imread(render_page(pdf, tmp_path / name, dpi=40))
         assert image.shape[0] > 400 and image.shape[1] > 300, name
         ink = (image[..., :3].mean(axis=2) < 0.5).mean()
         assert 0.002 < ink < 0.5, (name, ink)  # text on a white page

@@ -8,12 +8,12 @@ pdftoppm (Debian: poppler-utils) into docs/figures/report-<name>.png.
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 from soilstats.cli.main import main
+from soilstats.report.document import render_page
 
 HERE = Path(__file__).parent
 COMMANDS = {
@@ -33,24 +33,7 @@ def render(name: str, argv: list[str], pdf: str, tmp: Path) -> Path:
     code = main([*argv, "--out", str(out), "--progress", "off"])
     if code != 0:
         raise SystemExit(f"{name}: soilstats {' '.join(argv)} exited with {code}")
-    target = HERE / f"report-{name}"
-    subprocess.run(
-        [
-            "pdftoppm",
-            "-r",
-            "70",
-            "-png",
-            "-f",
-            "1",
-            "-l",
-            "1",
-            "-singlefile",
-            str(out / pdf),
-            str(target),
-        ],
-        check=True,
-    )
-    return target.with_suffix(".png")
+    return render_page(out / pdf, HERE / f"report-{name}")
 
 
 if __name__ == "__main__":

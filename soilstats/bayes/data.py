@@ -53,6 +53,7 @@ def pooled_problem(
             tests=pooled.tests,
             priors=resolve_priors(spec.name, spec.param_names, priors),
             plate_sizes=np.unique(b),
+            inputs={k: np.asarray(v, float) for k, v in pooled.x.items()},
         )
         return problem, fit
     if spec.name in SHEAR_MODELS:
@@ -74,6 +75,7 @@ def pooled_problem(
             test_index=owner,
             tests=pooled.tests[used].reset_index(drop=True),
             priors=resolve_priors(spec.name, spec.param_names, priors),
+            inputs={k: np.asarray(v, float) for k, v in pooled.x.items()},
         )
         return problem, fit
     raise ValueError(

@@ -14,6 +14,13 @@ Jeffreys prior p(σ_w) ∝ 1/σ_w:
 so the sampler works in the model's own dimension, and its posterior reproduces the
 Student-t intervals of least squares for a linear model.  Draws of σ_w are then taken from
 their exact conditional σ_w² | θ, y ~ Inv-Gamma(N/2, S(θ)/2), so (θ, σ_w) is a joint draw.
+
+Pointwise, the same model gives each observation the density
+
+    p(y_i | θ, σ_w) = N(y_i; f(x_i, θ), (σ_w / w_i)²),
+
+which is what :meth:`PooledProblem.log_likelihood` evaluates (per joint draw (θ, σ_w), for
+PSIS-LOO and WAIC) and :meth:`PooledProblem.replicate` samples (posterior-predictive data).
 """
 
 from __future__ import annotations
@@ -49,6 +56,10 @@ class PooledProblem:
         One per parameter.
     plate_sizes : ndarray
         Distinct plate sizes b [m] (sinkage models; used for the kc/b + kφ > 0 constraint).
+    inputs : dict
+        Every per-sample input of the pooled data by name with its SI unit (``b_m``, ``z_m``
+        or ``sigma_Pa``, ``j_m``), including those the model does not take (Mohr–Coulomb's
+        shear displacement): coordinates of the stored data and of the figures.
     """
 
     model: Model
@@ -59,6 +70,7 @@ class PooledProblem:
     tests: pd.DataFrame
     priors: tuple[Prior, ...]
     plate_sizes: np.ndarray = field(default_factory=lambda: np.empty(0))
+    inputs: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         # Precomputed pieces of the residual: w·y, and for power-law models ln z (the
@@ -156,3 +168,31 @@ class PooledProblem:
         """σ_w drawn from Inv-Gamma(N/2, S/2) for given values S(θ) (W,) → (W,)."""
         s = np.asarray(s, float)
         return np.sqrt(s / (2.0 * rng.gamma(0.5 * self.n_obs, 1.0, size=s.shape)))
+
+    def log_likelihood(
+        self, theta: np.ndarray, sigma: np.ndarray, *, block: int = 256
+    ) -> np.ndarray:
+        """Pointwise log N(y_i; f(x_i, θ), (σ_w/w_i)²) for joint draws → (S, N).
+
+        ``theta`` (S, p) and ``sigma`` (S,) are joint posterior draws of the parameters and
+        of σ_w; draws are evaluated ``block`` at a time to bound the working memory.
+        """
+        theta = np.atleast_2d(np.asarray(theta, float))
+        sigma = np.asarray(sigma, float).reshape(-1)
+        out = np.empty((theta.shape[0], self.n_obs))
+        log_w = np.log(self.w)
+        for start in range(0, theta.shape[0], block):
+            stop = start + block
+            s = sigma[start:stop, None]
+            r = (self._wy - self.weighted_prediction(theta[start:stop])) / s
+            out[start:stop] = log_w - np.log(s) - 0.5 * np.log(2.0 * np.pi) - 0.5 * r * r
+        return out
+
+    def replicate(
+        self, theta: np.ndarray, sigma: np.ndarray, rng: np.random.Generator
+    ) -> np.ndarray:
+        """Replicated data y_rep ~ N(f(x, θ), (σ_w/w)²), one row per joint draw → (S, N)."""
+        theta = np.atleast_2d(np.asarray(theta, float))
+        sigma = np.asarray(sigma, float).reshape(-1, 1)
+        mean = self.prediction(theta)
+        return mean + sigma / self.w * rng.standard_normal(mean.shape)

@@ -69,6 +69,7 @@ from ._arviz import az
 from .data import pooled_problem
 from .likelihood import PooledProblem
 from .posterior import _attrs, finish
+from .predictive import PREDICTIVE_DRAWS, measured_dataset, response_dataset, spread_draws
 from .priors import resolve_priors
 from .result import PosteriorResult, draws_converge
 from .sampler import run_ensemble
@@ -269,19 +270,57 @@ class _Population:
         s = np.exp(log_s)
         lp = lp + np.sum(log_s - np.log1p((s / self.scales) ** 2), axis=1)  # half-Cauchy
         lp = lp + 2.0 * np.log(np.clip(1.0 - np.tanh(v[:, self.p + 2]) ** 2, 1e-300, None))
-        # h_t (W, T, 2) and M_t = B Σ Bᵀ + C_t (W, T, 2, 2); closed-form 2×2 algebra.
-        kb = self.layout.linear(theta) @ self.design.T  # (W, T)
-        g = self.layout.second(theta)
-        h0 = np.log(np.where(kb > 0, kb, np.nan)) + g[:, None] * self.ln_zref
-        r0 = self.eta[None, :, 0] - h0
-        r1 = self.eta[None, :, 1] - g[:, None]
-        bsb = self.b @ self.sigma(v) @ self.b.T  # (W, 2, 2)
-        m = bsb[:, None] + self.cov[None]
-        det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
-        quad = (m[..., 1, 1] * r0**2 - 2 * m[..., 0, 1] * r0 * r1 + m[..., 0, 0] * r1**2) / det
+        det, quad = self._marginal(v, theta)
         ll = -0.5 * np.sum(np.log(det) + quad, axis=1)
         out[ok] = np.where(np.isfinite(ll) & np.isfinite(lp), lp + ll, -np.inf)
         return out
+
+    def _mean_cov(self, v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """h_t (W, T, 2) and M_t = B Σ Bᵀ + C_t (W, T, 2, 2) of the marginal likelihood."""
+        kb = self.layout.linear(theta) @ self.design.T  # (W, T)
+        g = self.layout.second(theta)
+        h0 = np.log(np.where(kb > 0, kb, np.nan)) + g[:, None] * self.ln_zref
+        h = np.stack([h0, np.broadcast_to(g[:, None], h0.shape)], axis=-1)
+        bsb = self.b @ self.sigma(v) @ self.b.T  # (W, 2, 2)
+        return h, bsb[:, None] + self.cov[None]
+
+    def _marginal(self, v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """det M_t and the quadratic form (η̂_t − h_t)ᵀ M_t⁻¹ (η̂_t − h_t) → (W, T) each;
+        closed-form 2×2 algebra."""
+        h, m = self._mean_cov(v, theta)
+        r0 = self.eta[None, :, 0] - h[..., 0]
+        r1 = self.eta[None, :, 1] - h[..., 1]
+        det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
+        quad = (m[..., 1, 1] * r0**2 - 2 * m[..., 0, 1] * r0 * r1 + m[..., 0, 0] * r1**2) / det
+        return det, quad
+
+    def _from_eta(self, eta: np.ndarray) -> np.ndarray:
+        """η (..., 2) → the per-test fit's parameters (first, second), as in ``params``."""
+        g = eta[..., 1]
+        second = np.exp(g) if self.layout.log_second else g
+        return np.stack([np.exp(eta[..., 0] - g * self.ln_zref), second], axis=-1)
+
+    def log_likelihood(self, v: np.ndarray, params: np.ndarray) -> np.ndarray:
+        """Pointwise log-likelihood of each test's fit ``params`` (T, 2) → (W, T).
+
+        The bivariate normal density of η̂_t under the marginal likelihood, carried over to
+        the per-test fit's own parameters (k̂_t, n̂_t) or (τ̂_max,t, K̂_t) by the Jacobian
+        |∂η/∂params| = 1/k̂_t (1/(τ̂_max,t K̂_t) for shear), so it is a density of what
+        ``observed_data`` stores.
+        """
+        with np.errstate(all="ignore"):
+            det, quad = self._marginal(v, self.theta(v))
+        log_jac = -np.log(params[:, 0])
+        if self.layout.log_second:
+            log_jac = log_jac - np.log(params[:, 1])
+        return -np.log(2.0 * np.pi) - 0.5 * (np.log(det) + quad) + log_jac[None]
+
+    def replicate(self, v: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Replicated per-test fits, η̂_t ~ N(h_t, B Σ Bᵀ + C_t), as parameters → (W, T, 2)."""
+        h, m = self._mean_cov(v, self.theta(v))
+        chol = np.linalg.cholesky(m)
+        eta = h + np.einsum("wtij,wtj->wti", chol, rng.standard_normal(h.shape))
+        return self._from_eta(eta)
 
     def summaries(self, chain: np.ndarray) -> dict[str, np.ndarray]:
         """Soil-level parameters and scatter of a chain (walkers, draws, dim), by name."""
@@ -302,13 +341,6 @@ class _Population:
         e = np.einsum("wij,wj->wi", chol, rng.standard_normal((v.shape[0], 2)))
         linear = self.layout.linear(theta) * np.exp(e[:, :1])
         return self.layout.assemble(linear, self.layout.second(theta) + e[:, 1])
-
-    def per_test(self, theta: np.ndarray) -> np.ndarray:
-        """The per-test fit's two parameters that ``theta`` predicts at every test → (W, T, 2)."""
-        kb = self.layout.linear(theta) @ self.design.T
-        g = self.layout.second(theta)
-        second = np.exp(g) if self.layout.log_second else g
-        return np.stack([kb, np.broadcast_to(second[:, None], kb.shape)], axis=-1)
 
 
 def _laplace(log_prob, x0: np.ndarray, n_mu: int) -> tuple[np.ndarray, np.ndarray]:
@@ -380,7 +412,10 @@ def sample_population(
         ``corr_stiffness_n`` for sinkage; ``sd_strength`` (≈ the CV of c + σ tan φ), ``sd_lnK``
         (≈ the CV of K) and ``corr_strength_K`` for shear — and the parameters of a *new*
         preparation under the plain names (``kc``, ``kphi``, ``n`` / ``c``, ``phi``, ``K``),
-        which :meth:`~PosteriorResult.draws` returns.
+        which :meth:`~PosteriorResult.draws` returns.  ``observed_data``,
+        ``posterior_predictive`` and ``log_likelihood`` hold ``eta_hat``, each test's own fit
+        (one log-likelihood term per test), ``constant_data`` the measured curves
+        (:mod:`soilstats.bayes.predictive`).
     """
     spec = get_model(model)
     if spec.name not in _LAYOUTS:
@@ -450,7 +485,22 @@ def sample_population(
         accept=lambda chain: draws_converge(pops.summaries(chain)),
     )
     rng = np.random.default_rng(None if seed is None else [seed, 2])
-    idata = _population_idata(pops, run, rng, fits)
+    if spec is JANOSI:
+        curves = response_dataset(problem)
+    else:
+        curves = measured_dataset(
+            y=pooled.y,
+            weight=pooled.weights,
+            test_index=pooled.test_index,
+            test_ids=pooled.tests["test_id"],
+            inputs=pooled.x,
+            kind="sinkage",
+        )
+    # The measured curves of the tests the model uses (for plots; the likelihood sees
+    # each test through its own fit, observed_data).
+    curves = curves.isel(obs=np.isin(curves["test"].to_numpy(), fits.test_ids))
+    curves = curves.assign_coords(obs=np.arange(curves.sizes["obs"]))
+    idata = _population_idata(pops, run, rng, fits, curves)
     names = spec.param_names
     var_names = [f"mu_{n}" for n in names] + list(layout.scatter)
     notes = _population_notes(pops, fits, ln_zref)
@@ -488,7 +538,7 @@ def _population_notes(pops: _Population, fits: _TestFits, ln_zref: float) -> lis
     return notes
 
 
-def _population_idata(pops: _Population, run, rng, fits: _TestFits):
+def _population_idata(pops: _Population, run, rng, fits: _TestFits, curves=None):
     chains, draws, dim = run.chain.shape
     flat = run.chain.reshape(-1, dim)
     mu = pops.theta(flat)
@@ -508,24 +558,33 @@ def _population_idata(pops: _Population, run, rng, fits: _TestFits):
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
     test_ids = np.asarray(fits.test_ids, dtype=str)
     per_test = list(pops.layout.per_test)
+    test_coords = {"test": test_ids, pops.layout.covariate: ("test", fits.covariate)}
     observed = xr.Dataset(
-        {"eta_hat": (("test", "eta"), fits.params)},
-        coords={"test": test_ids, "eta": per_test, pops.layout.covariate: ("test", fits.covariate)},
+        {"eta_hat": (("test", "eta"), fits.params)}, coords=test_coords | {"eta": per_test}
     )
-    # Posterior predictive: a new preparation's per-test parameters at each test's plate
-    # size or normal pressure, without fit error.
-    k = min(8, draws)
-    sub = np.linspace(0, draws - 1, k).astype(int)
-    pick = new.reshape(chains, draws, -1)[:, sub].reshape(-1, pops.p)
+    # Posterior predictive: replicated per-test fits from the marginal likelihood (a new
+    # preparation at each test's plate size or normal pressure, plus that test's fit error),
+    # thinned to PREDICTIVE_DRAWS; drawn after the new preparations, so those do not change.
+    sub = spread_draws(draws, chains, PREDICTIVE_DRAWS)
+    pick = run.chain[:, sub].reshape(-1, dim)
+    with np.errstate(all="ignore"):
+        rep = pops.replicate(pick, rng)
     ppc = xr.Dataset(
+        {"eta_hat": (("chain", "draw", "test", "eta"), rep.reshape(chains, sub.size, -1, 2))},
+        coords={"chain": np.arange(chains), "draw": sub, "eta": per_test} | test_coords,
+        attrs={"draws_of_posterior": draws, "model": "eta_hat_t ~ N(h_t, B Sigma B' + C_t)"},
+    )
+    log_lik = xr.Dataset(
         {
             "eta_hat": (
-                ("chain", "draw", "test", "eta"),
-                pops.per_test(pick).reshape(chains, k, -1, 2),
+                ("chain", "draw", "test"),
+                pops.log_likelihood(flat, fits.params).reshape(chains, draws, -1),
             )
         },
-        coords={"chain": np.arange(chains), "draw": sub, "test": test_ids, "eta": per_test},
+        coords=coords | test_coords,
+        attrs={"model": "one term per test (leave-one-test-out)", "thinned": 0},
     )
-    return az.InferenceData(
-        posterior=posterior, sample_stats=stats, observed_data=observed, posterior_predictive=ppc
-    )
+    groups = {"observed_data": observed, "posterior_predictive": ppc, "log_likelihood": log_lik}
+    if curves is not None:
+        groups["constant_data"] = curves
+    return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)

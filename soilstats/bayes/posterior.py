@@ -15,6 +15,7 @@ from ..models import get_model
 from ._arviz import az
 from .data import pooled_problem
 from .likelihood import PooledProblem
+from .predictive import PREDICTIVE_DRAWS, pooled_groups
 from .result import PosteriorResult, diagnose, draws_converge
 from .sampler import EnsembleRun, run_ensemble
 from .transforms import Coordinates, sampling_coordinates
@@ -24,8 +25,6 @@ __all__ = ["DEFAULT_DRAWS", "sample_posterior"]
 #: Kept draws over all walkers at the default settings: ESS ≈ draws/τ with τ ≈ 2 steps, and
 #: 16 walkers × 375 steps keep the split-R-hat bias (τ − 1)/(2·steps) near 0.003.
 DEFAULT_DRAWS = 6000
-#: Posterior-predictive replicates stored per walker (the full set would be draws × N).
-PPC_PER_CHAIN = 8
 
 
 def sample_posterior(
@@ -38,6 +37,8 @@ def sample_posterior(
     priors: Mapping[str, object] | None = None,
     walkers: int = 16,
     points_per_test: int | None = 100,
+    predictive_draws: int | None = PREDICTIVE_DRAWS,
+    log_likelihood_draws: int | None = None,
     **selection,
 ) -> PosteriorResult:
     """Sample the posterior of ``model``'s parameters given a campaign's tests (pooled model).
@@ -68,14 +69,23 @@ def sample_posterior(
         emcee walkers (≥ 2 × parameters); each is one ArviZ chain.
     points_per_test : int or None
         Sinkage samples per test (Section 2.1), as for the least-squares fit.
+    predictive_draws : int or None
+        Most posterior-predictive draws stored, over all walkers (default 200; None: all).
+    log_likelihood_draws : int or None
+        Pointwise log-likelihood draws stored, over all walkers (default: every draw up to
+        4·10⁶ values, at least 1000 draws; see :mod:`soilstats.bayes.predictive`).
     **selection
         Test-log filters (``soil="soil01"`` …); must leave one soil.
 
     Returns
     -------
     PosteriorResult
-        With ``idata`` (posterior, sample_stats, observed_data, posterior_predictive),
-        ``summary()`` and ``draws()``.  If R-hat > 1.01 or ESS < 400 for any parameter a
+        With ``idata`` (posterior, sample_stats, observed_data, posterior_predictive,
+        log_likelihood — see :mod:`soilstats.bayes.predictive`), ``summary()`` and
+        ``draws()``.  The replicated data (seeded from ``seed``) and the pointwise
+        log-likelihood are those of the weighted Gaussian likelihood, at the joint draws
+        (θ, σ_w), so ``az.plot_ppc``, ``az.loo`` and ``az.compare`` apply directly.  If
+        R-hat > 1.01 or ESS < 400 for any parameter a
         :class:`~soilstats.errors.ConvergenceWarning` is emitted and ``converged`` is False.
     """
     spec = get_model(model)
@@ -109,7 +119,14 @@ def sample_posterior(
     )
     run, rss = _back_to_theta(problem, coords, run)
     rng = np.random.default_rng(None if seed is None else [seed, 1])
-    idata = _inference_data(problem, run, rss, rng)
+    idata = _inference_data(
+        problem,
+        run,
+        rss,
+        rng,
+        predictive_draws=predictive_draws,
+        log_likelihood_draws=log_likelihood_draws,
+    )
     return finish(
         idata,
         problem.model.name,
@@ -229,9 +246,19 @@ def _back_to_theta(
     return run, np.exp(ln_s).reshape(chains, draws)
 
 
-def _inference_data(problem: PooledProblem, run: EnsembleRun, rss: np.ndarray, rng) -> object:
+def _inference_data(
+    problem: PooledProblem,
+    run: EnsembleRun,
+    rss: np.ndarray,
+    rng,
+    *,
+    predictive_draws: int | None = PREDICTIVE_DRAWS,
+    log_likelihood_draws: int | None = None,
+) -> object:
     names = problem.model.param_names
     chains, draws, _ = run.chain.shape
+    # σ_w first, from the same generator as before: the posterior does not depend on what
+    # the model-checking groups draw afterwards.
     sigma = problem.draw_sigma_from_rss(rss.reshape(-1), rng).reshape(chains, draws)
     coords = {"chain": np.arange(chains), "draw": np.arange(draws)}
     posterior = xr.Dataset(
@@ -241,28 +268,15 @@ def _inference_data(problem: PooledProblem, run: EnsembleRun, rss: np.ndarray, r
         attrs=_attrs(problem),
     )
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
-    obs_coords = {
-        "obs": np.arange(problem.n_obs),
-        "test_id": ("obs", problem.tests["test_id"].astype(str).to_numpy()[problem.test_index]),
-    }
-    x = np.atleast_2d(problem.x)
-    for label, row in zip(problem.model.inputs, x, strict=True):
-        obs_coords[label.split(" ")[0]] = ("obs", row)
-    observed = xr.Dataset(
-        {"y": ("obs", problem.y), "weight": ("obs", problem.w)}, coords=obs_coords
+    groups = pooled_groups(
+        problem,
+        run.chain,
+        sigma,
+        rng,
+        predictive_draws=predictive_draws,
+        log_likelihood_draws=log_likelihood_draws,
     )
-    k = min(PPC_PER_CHAIN, draws)
-    sub = np.linspace(0, draws - 1, k).astype(int)
-    theta = run.chain[:, sub].reshape(-1, len(names))
-    mean = problem.prediction(theta)
-    noise = sigma[:, sub].reshape(-1, 1) / problem.w * rng.standard_normal(mean.shape)
-    ppc = xr.Dataset(
-        {"y": (("chain", "draw", "obs"), (mean + noise).reshape(chains, k, -1))},
-        coords={"chain": np.arange(chains), "draw": sub} | obs_coords,
-    )
-    return az.InferenceData(
-        posterior=posterior, sample_stats=stats, observed_data=observed, posterior_predictive=ppc
-    )
+    return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)
 
 
 def _attrs(problem: PooledProblem) -> dict:

@@ -56,7 +56,10 @@ class PosteriorResult:
     ----------
     idata : arviz.InferenceData
         Groups ``posterior`` (parameters, SI units, φ in degrees; walkers as chains),
-        ``sample_stats`` (``lp``), ``observed_data`` and ``posterior_predictive``.
+        ``sample_stats`` (``lp``), ``observed_data``, ``posterior_predictive`` and
+        ``log_likelihood`` (so ``az.plot_ppc``, ``az.loo`` and ``az.compare`` apply), and for
+        the population model ``constant_data`` (the measured curves); see
+        :mod:`soilstats.bayes.predictive`.
     model_name : str
         Soil model (``"bekker"`` …), with ``kind`` ``"pooled"`` or ``"population"``.
     param_names : tuple of str

@@ -307,7 +307,7 @@ def run(args: argparse.Namespace) -> int:
     write_csv(out / "draws.csv", kept, provenance, overwrite=True, float_format="%.10g")
     write_csv(out / "summary.csv", table.reset_index(), provenance, overwrite=True)
     (out / "posterior.json").write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
-    write_report(results, out / "report.pdf", provenance=provenance)
+    write_report(results, out / "report.pdf", record=record, provenance=provenance)
     if args.simulator:
         stated = {"elastic_K": args.scm_elastic_K, "damping_R": args.scm_damping_R}
         sim = simulator_parameters(kept, args.simulator, **stated)

@@ -1,4 +1,4 @@
-"""Everything that turns results into files: provenance, JSON/CSV writers, PDF pages.
+"""Everything that turns results into files: provenance, JSON/CSV writers, typeset PDFs.
 
 Analysis packages compute results; this package writes them. Importing it is cheap: the
 writers import pandas or matplotlib only when called, and the PDF modules are imported only
@@ -7,10 +7,17 @@ by whoever writes a PDF.
 ==================  =====================================================================
 ``provenance``      version, campaign format and hash, command, seed, date
 ``files``           safe output paths, JSON (no NaN) and CSV with a provenance header
-``pages``           the text pages every PDF shares (paginated, wrapped, provenance page)
+``document``        the report engine: a typeset (Typst) document of prose, tables,
+                    equations and figures, rendered to PDF
+``front``           page 1 of every report: question, data (measured/simulated), conclusion
+``methods``         the paper's equations, typeset and cited
+``labels``          human names with units, parameter symbols, natural level order
 ``study_pdf``       a study's report; its figures in ``study_figures``
 ``discovery_pdf``   the discovery report
-``posterior_pdf``   trace, pair and posterior-predictive pages of a posterior
+``check_pdf``       the data-quality screening report
+``identify_pdf``    the identification report (parameters per soil and condition)
+``posterior_pdf``   the posterior report; its figures in ``posterior_figures``
+``text``            plain-text pieces every ``summary()`` shares
 ==================  =====================================================================
 """
 

@@ -161,12 +161,15 @@ def _finding_figure(f) -> Figure | None:
     return fig
 
 
-def _parameter_frame(fit) -> pd.DataFrame:
+def _parameter_table(doc: Document, fit, caption: str) -> None:
+    """A fit's parameters as value ± σ with units (nothing without a fit)."""
+    if fit is None:
+        return
     rows = [
         {"parameter": name, "value ± σ": format_value(v, s), "unit": fit.units.get(name, "") or "–"}
         for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
     ]
-    return pd.DataFrame(rows)
+    doc.table(pd.DataFrame(rows), caption=caption, align_numbers=False)
 
 
 def _finding_section(doc: Document, i: int, f) -> None:
@@ -207,12 +210,7 @@ def _finding_section(doc: Document, i: int, f) -> None:
             "(at most eight): measured samples (dots), base model (dashed) and "
             f"{f.extension or 'extension'} (solid).",
         )
-    if f.fit is not None:
-        doc.table(
-            _parameter_frame(f.fit),
-            caption=f"Parameters of {f.extension} ± σ (Eqs. 3–5).",
-            align_numbers=False,
-        )
+    _parameter_table(doc, f.fit, f"Parameters of {f.extension} ± σ (Eqs. 3–5).")
     if f.tried:
         tried = pd.DataFrame(
             [
@@ -264,12 +262,7 @@ def _model_section(doc: Document, result) -> None:
                 _gain_words(m.gain) if m.gain is not None else "not measured",
                 ".",
             )
-        if m.fit is not None:
-            doc.table(
-                _parameter_frame(m.fit),
-                caption=f"{m.kind} / {m.soil}: combined model parameters ± σ.",
-                align_numbers=False,
-            )
+        _parameter_table(doc, m.fit, f"{m.kind} / {m.soil}: combined model parameters ± σ.")
         if m.steps:
             steps = pd.DataFrame(
                 [

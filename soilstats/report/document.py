@@ -147,21 +147,19 @@ class Document:
 
     def bullets(self, items: Iterable[Markup | str | Sequence[Markup | str]]) -> None:
         """A bulleted list; an item is text, markup, or a sequence of both."""
-        lines = []
-        for item in items:
-            parts = item if isinstance(item, list | tuple) else (item,)
-            lines.append(f"- {_join(parts)}")
-        if lines:
-            self._block("\n".join(lines))
+        self._list(items, "-", "")
 
     def numbered(self, items: Iterable[Markup | str | Sequence[Markup | str]]) -> None:
         """A numbered list ([1], [2], … as in the summaries)."""
+        self._list(items, "+", '#set enum(numbering: "[1]")\n')
+
+    def _list(self, items, marker: str, setup: str) -> None:
         lines = []
         for item in items:
             parts = item if isinstance(item, list | tuple) else (item,)
-            lines.append(f"+ {_join(parts)}")
+            lines.append(f"{marker} {_join(parts)}")
         if lines:
-            self._block('#[#set enum(numbering: "[1]")\n' + "\n".join(lines) + "\n]")
+            self._block(f"#[{setup}" + "\n".join(lines) + "\n]")
 
     def equation(self, expression: str, tag: str = "") -> None:
         """A displayed equation in Typst math, with a tag such as ``"Eq. 7"`` at the right."""
@@ -314,6 +312,19 @@ def format_cell(value: object, spec: str | None = None) -> str:
     except (TypeError, ValueError):
         pass
     return str(value)
+
+
+def render_page(pdf: str | Path, stem: str | Path, *, page: int = 1, dpi: int = 70) -> Path:
+    """Render one page of ``pdf`` to ``stem``.png with poppler's ``pdftoppm``; return the path.
+
+    Raises FileNotFoundError when pdftoppm (Debian: poppler-utils) is not installed and
+    subprocess.CalledProcessError when it cannot render the page.
+    """
+    import subprocess
+
+    command = ["pdftoppm", "-r", str(dpi), "-png", "-f", str(page), "-l", str(page)]
+    subprocess.run([*command, "-singlefile", str(pdf), str(stem)], check=True, capture_output=True)
+    return Path(f"{stem}.png")
 
 
 def page_count(pdf: bytes) -> int:

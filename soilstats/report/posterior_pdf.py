@@ -1,122 +1,183 @@
-"""A short PDF report of a posterior: trace, pair (corner) and posterior-predictive plots."""
+"""The PDF report of a posterior, typeset: can these draws feed a rover Monte Carlo?
+
+Page 1: the question, the data, and the answer — the posterior mean ± sd and interval of
+each physical parameter in its unit, convergence, the physical-support check and every
+warning. Then the methods (the paper's equations, the likelihood, the sampler), the full
+diagnostics table, and per model the trace, pair and posterior-predictive figures
+(:mod:`.posterior_figures`, physical units). Everything in ``posterior.json`` is in the PDF.
+"""
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
-import matplotlib.pyplot as plt
-import numpy as np
-from matplotlib.backends.backend_pdf import PdfPages
-
+from ..bayes.data import SHEAR_MODELS
 from ..bayes.result import PosteriorResult
+from ..identification.table import format_value
+from .document import Document, strong
 from .files import output_path
-from .pages import provenance_page
+from .front import data_origin, front_page
+from .labels import parameter_symbol
+from .methods import write_equations
+from .posterior_figures import pair_figure, predictive_figure, trace_figure
 from .provenance import Provenance
 
 __all__ = ["write_report"]
 
 
-def _trace(res: PosteriorResult):
-    names = res.param_names
-    fig, axes = plt.subplots(len(names), 2, figsize=(8.3, 2.0 * len(names)), squeeze=False)
-    post = res.idata.posterior
-    for i, n in enumerate(names):
-        v = post[n].to_numpy()
-        for chain in v:
-            axes[i, 0].plot(chain, lw=0.4, alpha=0.5)
-        axes[i, 0].set_ylabel(f"{n} [{res.units[n]}]")
-        axes[i, 1].hist(v.ravel(), bins=60, color="0.4")
-    axes[0, 0].set_title("trace (one line per walker)")
-    axes[0, 1].set_title("marginal posterior")
-    status = "converged" if res.converged else "NOT CONVERGED: " + "; ".join(res.problems[:3])
-    fig.suptitle(f"{res.model_name} ({res.kind}) — {status}", fontsize=9)
-    fig.tight_layout()
-    return fig
+def _estimates(res: PosteriorResult, prob: float) -> list:
+    table = res.summary_table(prob)
+    lo, hi = table.columns[2], table.columns[3]
+    parts: list = []
+    for name in res.param_names:
+        row = table.loc[name]
+        unit = res.units.get(name, "")
+        unit = "" if unit in ("", "-") else f" {unit}"
+        parts += [
+            parameter_symbol(name),
+            f" = {format_value(row['mean'], row['sd'])}{unit} "
+            f"({prob:.0%} interval {row[lo]:.4g} to {row[hi]:.4g}); ",
+        ]
+    return parts
 
 
-def _pair(res: PosteriorResult):
-    d = res.draws(min(2000, len(res.draws())), seed=0)
-    names = res.param_names
-    k = len(names)
-    fig, axes = plt.subplots(k, k, figsize=(8.3, 8.3), squeeze=False)
-    for i in range(k):
-        for j in range(k):
-            ax = axes[i, j]
-            if j > i:
-                ax.axis("off")
-            elif i == j:
-                ax.hist(d[names[i]], bins=40, color="0.4")
-            else:
-                ax.plot(d[names[j]], d[names[i]], ".", ms=1, alpha=0.3, color="C0")
-            if i == k - 1:
-                ax.set_xlabel(names[j])
-            if j == 0 and i > 0:
-                ax.set_ylabel(names[i])
-    fig.suptitle("pair plot (joint draws)", fontsize=9)
-    fig.tight_layout()
-    return fig
-
-
-def _ppc(res: PosteriorResult):
-    fig, ax = plt.subplots(figsize=(8.3, 5))
-    obs = res.idata.observed_data
-    pp = res.idata.posterior_predictive
-    if "y" in obs:
-        y = obs["y"].to_numpy()
-        order = np.arange(y.size)
-        rep = pp["y"].to_numpy().reshape(-1, y.size)
-        lo, hi = np.quantile(rep, [0.05, 0.95], axis=0)
-        ax.fill_between(
-            order, lo, hi, color="C1", alpha=0.4, step="mid", label="90 % posterior-predictive band"
+def _conclusion(results, record: dict, prob: float) -> list:
+    out: list = []
+    for res in results:
+        status = (
+            "converged (R-hat and effective sample sizes pass)"
+            if res.converged
+            else "NOT CONVERGED: " + "; ".join(res.problems)
         )
-        ax.plot(order, y, ".", ms=1.5, color="k", label="measured")
-        ax.set_xlabel("sample (tests in campaign order)")
-        ax.set_ylabel("measured quantity [Pa]")
-    else:
-        eta = obs["eta_hat"].to_numpy()
-        rep = pp["eta_hat"].to_numpy().reshape(-1, *eta.shape)
-        lo, hi = np.quantile(rep[..., 1], [0.05, 0.95], axis=0)
-        t = np.arange(eta.shape[0])
-        ax.fill_between(
-            t,
-            lo,
-            hi,
-            color="C1",
-            alpha=0.4,
-            step="mid",
-            label="90 % band of n for a new preparation",
+        out.append(
+            [strong(f"{res.model_name} ({res.kind}): "), *_estimates(res, prob), f"{status}."]
         )
-        ax.plot(t, eta[:, 1], "o", color="k", label="per-test fit of n")
-        ax.set_xlabel("test")
-        ax.set_ylabel("n [-]")
-    ax.legend()
-    ax.set_title("posterior predictive (equal-tailed 90 %)")
-    fig.tight_layout()
-    return fig
+    if record:
+        support = record.get("support") or {}
+        if record.get("forced"):
+            out.append(
+                [
+                    strong("FORCED: "),
+                    "these draws failed a check and were written only because --force was "
+                    "given: " + "; ".join(record.get("failures", [])),
+                ]
+            )
+        elif record.get("failures"):
+            out.append([strong("Not fit for use: "), "; ".join(record["failures"])])
+        else:
+            out.append(
+                f"The draws pass every check: {record.get('draws_written')} joint draws written "
+                "for a rover Monte Carlo (draws.csv), correlations kept."
+            )
+        if support:
+            lo, hi = (support.get("contact_widths_m") or [float("nan")] * 2)[:2]
+            out.append(
+                f"Physical support at contact widths {lo:g}–{hi:g} m: {support['outside']} of "
+                f"{support['draws']} draws outside ({support['share_outside']:.1%}, at most "
+                f"{support['max_share']:.0%} allowed) — "
+                + ("passed." if support["passed"] else "FAILED.")
+            )
+        for w in [*record.get("warnings", []), *record.get("pooling_warnings", [])]:
+            out.append([strong("Warning: "), w])
+    return out
+
+
+def _diagnostics_table(doc: Document, res: PosteriorResult, prob: float) -> None:
+    table = res.summary_table(prob).reset_index(names="quantity")
+    doc.table(
+        table,
+        caption=f"{res.model_name}: posterior mean, sd, {prob:.0%} interval, Monte Carlo "
+        "standard error, bulk and tail effective sample size and R-hat of every sampled "
+        "quantity (SI units as in the campaign format).",
+        labels={
+            "mcse_mean": "MCSE",
+            "ess_bulk": "ESS bulk",
+            "ess_tail": "ESS tail",
+            "r_hat": "R-hat",
+        },
+    )
 
 
 def write_report(
     results: list[PosteriorResult],
     path: str | Path,
     *,
+    record: dict | None = None,
     provenance: Provenance | None = None,
+    prob: float = 0.9,
     overwrite: bool = True,
-) -> Path:
-    """Write trace, pair and posterior-predictive pages for each result to one PDF.
+) -> int:
+    """Write the typeset posterior report for ``results`` to ``path``; return its pages.
 
-    ``provenance`` goes into the PDF metadata and onto a last page.
+    ``record`` is the content of ``posterior.json`` (checks, warnings, priors); everything
+    in it is printed. ``provenance`` goes into the PDF metadata and onto the last page.
     """
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
-    title = "soilstats posterior: " + ", ".join(r.model_name for r in results)
-    metadata = None if provenance is None else provenance.pdf_metadata(title)
-    with PdfPages(path, metadata=metadata) as pdf, warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=".*tight_layout.*", category=UserWarning)
-        for res in results:
-            for make in (_trace, _pair, _ppc):
-                fig = make(res)
-                pdf.savefig(fig)
-                plt.close(fig)
-        if provenance is not None:
-            provenance_page(pdf, provenance)
-    return path
+    record = record or {}
+    soil = record.get("soil", "")
+    doc = Document(
+        f"Posterior of the soil parameters{f' of {soil}' if soil else ''}",
+        subtitle="soilstats posterior — emcee sampling, ArviZ diagnostics, after "
+        "Apfelbeck et al. (2011)",
+        provenance=provenance,
+    )
+    source = provenance.campaign if provenance is not None else ""
+    kinds = tuple(
+        dict.fromkeys("shear" if r.model_name in SHEAR_MODELS else "sinkage" for r in results)
+    )
+    front_page(
+        doc,
+        question=[
+            "What values of the soil parameters ("
+            + ", ".join(r.model_name for r in results)
+            + ") are consistent with the measured tests, with what joint uncertainty, and can "
+            "the draws feed a rover Monte Carlo?"
+        ],
+        data=[
+            data_origin(source) if source else "data passed in memory",
+            f"; soil {soil}" if soil else "",
+            f"; selection {', '.join(record['selection'])}" if record.get("selection") else "",
+            ".",
+        ],
+        conclusion=_conclusion(results, record, prob),
+    )
+    doc.page_break()
+    doc.heading("Methods")
+    write_equations(doc, kinds)
+    doc.paragraph(
+        "The likelihood is the paper's weighted least-squares criterion (Eq. 9) read as a "
+        "Gaussian with an unknown weighted noise scale; emcee's affine-invariant ensemble "
+        "samples it; ArviZ computes R-hat and the effective sample sizes. The draws are "
+        "checked for convergence and physical support before anything is written."
+    )
+    if record.get("priors"):
+        doc.paragraph(strong("Priors:"))
+        doc.bullets(f"{model}: {prior}" for model, prior in record["priors"].items())
+    for res in results:
+        doc.heading(f"{res.model_name} ({res.kind})")
+        s = res.sampler
+        doc.paragraph(
+            f"Sampler: emcee, {s.get('walkers')} walkers, {s.get('steps')} steps, burn-in "
+            f"{s.get('burn')}, thin {s.get('thin')}, {s.get('kept')} draws kept; "
+            f"autocorrelation time {s.get('tau_max', float('nan')):.3g} steps; acceptance "
+            f"{s.get('acceptance', float('nan')):.2f}."
+        )
+        _diagnostics_table(doc, res, prob)
+        if res.problems:
+            doc.paragraph(strong("Convergence problems:"))
+            doc.bullets(res.problems)
+        if res.notes:
+            doc.paragraph(strong("Notes:"))
+            doc.numbered(res.notes)
+        for make in (trace_figure, pair_figure, predictive_figure):
+            fig, caption = make(res)
+            doc.figure(fig, caption)
+    if record.get("support"):
+        doc.heading("Physical support of the draws")
+        support = record["support"]
+        doc.key_values((str(k).replace("_", " "), v) for k, v in support.items())
+    if record.get("failures"):
+        doc.heading("Failed checks")
+        doc.numbered(record["failures"])
+    doc.provenance_section()
+    return doc.render(path)

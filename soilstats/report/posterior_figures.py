@@ -1,0 +1,555 @@
+"""Publication figures of a posterior: trace, pair and posterior-predictive.
+
+Each function takes a :class:`~soilstats.bayes.PosteriorResult` — or its ``idata``, or a
+``posterior.nc`` read back with ``az.from_netcdf`` — and returns ``(Figure, caption)``: a
+:class:`matplotlib.figure.Figure` built with the object API (no pyplot state, no backend
+change), 6.3 × 4 in by default (an A4 page with 2.5 cm margins), constrained layout, fonts of
+8 pt and more, and a caption of full sentences naming what is shown and its units.
+
+Parameters are shown as physical quantities with human labels and display units —
+k_c [kN/m^(n+1)], k_φ [kN/m^(n+2)], n [–], c [kPa], φ [°], K [mm] — never as the sampler's
+variable names.  For a population posterior the parameters are those of a *new
+preparation* (what :meth:`~soilstats.bayes.PosteriorResult.draws` returns).
+
+==========================  ===============================================================
+:func:`trace_figure`        chains over kept iterations and the marginal density, per
+                            parameter
+:func:`pair_figure`         pairwise joint draws with the correlation coefficient, marginals
+                            on the diagonal
+:func:`predictive_figure`   measured curves against the posterior-predictive band, pressure
+                            against sinkage or shear stress against shear displacement, one
+                            line per test, one panel per plate size or normal pressure
+==========================  ===============================================================
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from matplotlib import rc_context
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+from matplotlib.ticker import MaxNLocator
+
+from ..bayes._arviz import az
+from ..models import Model, get_model
+
+__all__ = [
+    "FIGSIZE",
+    "PARAMETERS",
+    "pair_figure",
+    "parameter_label",
+    "predictive_figure",
+    "trace_figure",
+]
+
+#: Default figure size [in]: the text width of an A4 page with 2.5 cm margins, by 4 in.
+FIGSIZE = (6.3, 4.0)
+
+#: Display of each parameter: axis label (mathtext), caption name, display unit, and the
+#: factor from the SI value stored in the posterior to the display unit.
+PARAMETERS = {
+    "kc": (r"$k_c$", "k_c", "kN/m$^{n+1}$", "kN/m^(n+1)", 1e-3),
+    "kphi": (r"$k_\varphi$", "k_φ", "kN/m$^{n+2}$", "kN/m^(n+2)", 1e-3),
+    "k": (r"$k$", "k", "kN/m$^{n+2}$", "kN/m^(n+2)", 1e-3),
+    "k1": (r"$k_1$", "k_1", "kPa", "kPa", 1e-3),
+    "k2": (r"$k_2$", "k_2", "kPa/m", "kPa/m", 1e-3),
+    "n": (r"$n$", "n", "–", "dimensionless", 1.0),
+    "c": (r"$c$", "c", "kPa", "kPa", 1e-3),
+    "phi": (r"$\varphi$", "φ", "°", "degrees", 1.0),
+    "K": (r"$K$", "K", "mm", "mm", 1e3),
+}
+
+_STYLE = {
+    "font.size": 9,
+    "axes.titlesize": 9,
+    "axes.labelsize": 9,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
+    "legend.fontsize": 8,
+    "figure.titlesize": 9,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+}
+
+
+def parameter_label(name: str, unit: str | None = None) -> str:
+    """Axis label of a parameter with its display unit, e.g. ``$k_c$ (kN/m$^{n+1}$)``.
+
+    A parameter without a display entry keeps its name and ``unit`` (SI) as given.
+    """
+    if name in PARAMETERS:
+        symbol, _, shown, _, _ = PARAMETERS[name]
+        return f"{symbol} ({shown})"
+    return f"{name} ({unit})" if unit else name
+
+
+def _caption_name(name: str) -> str:
+    return PARAMETERS[name][1] if name in PARAMETERS else name
+
+
+def _units_sentence(names, units: dict) -> str:
+    parts = []
+    for n in names:
+        unit = PARAMETERS[n][3] if n in PARAMETERS else units.get(n, "")
+        if unit in ("", "-", "dimensionless"):
+            parts.append(f"{_caption_name(n)} dimensionless")
+        else:
+            parts.append(f"{_caption_name(n)} in {unit}")
+    return "Units: " + ", ".join(parts) + "."
+
+
+def _scale(name: str) -> float:
+    return PARAMETERS[name][4] if name in PARAMETERS else 1.0
+
+
+@dataclass(frozen=True)
+class _Posterior:
+    """What the figures need from a result or an InferenceData."""
+
+    idata: object
+    model: Model
+    kind: str
+    names: tuple[str, ...]
+    units: dict
+
+    @property
+    def title(self) -> str:
+        return f"{self.model.name} {self.kind} posterior"
+
+    @property
+    def shear(self) -> bool:
+        return self.model.output.startswith("tau")
+
+
+def _posterior(obj) -> _Posterior:
+    idata = getattr(obj, "idata", obj)
+    attrs = idata.posterior.attrs
+    model = get_model(getattr(obj, "model_name", None) or attrs["model"])
+    kind = getattr(obj, "kind", None) or attrs.get("kind", "pooled")
+    names = tuple(getattr(obj, "param_names", None) or model.param_names)
+    units = dict(getattr(obj, "units", None) or model.unit_of)
+    return _Posterior(idata, model, kind, names, units)
+
+
+def _capped(names, most: int) -> tuple[tuple[str, ...], str]:
+    names = tuple(names)
+    if most < 1:
+        raise ValueError(f"the most parameters to show must be at least 1, got {most}")
+    if len(names) <= most:
+        return names, ""
+    return names[:most], f" Only the first {most} of the {len(names)} parameters are shown."
+
+
+def _new_preparation_note(post: _Posterior) -> str:
+    if post.kind != "population":
+        return ""
+    return (
+        " The values are those of a new preparation of the soil: the soil-level parameters "
+        "with the between-preparation scatter applied, one per posterior draw."
+    )
+
+
+def trace_figure(
+    posterior, *, max_params: int = 4, figsize: tuple[float, float] = FIGSIZE
+) -> tuple[Figure, str]:
+    """Trace of every chain over the kept iterations, and the marginal density, per parameter.
+
+    Parameters
+    ----------
+    posterior : PosteriorResult or arviz.InferenceData
+        A result of :func:`~soilstats.bayes.sample_posterior` or
+        :func:`~soilstats.bayes.sample_population`, or its ``idata``.
+    max_params : int
+        Most parameters shown (one row each); the caption says when some are left out.
+    figsize : (width, height) in inches
+
+    Returns
+    -------
+    (Figure, str)
+        The figure and its caption.
+    """
+    post = _posterior(posterior)
+    names, capped = _capped(post.names, max_params)
+    data = post.idata.posterior
+    with rc_context(_STYLE):
+        fig = Figure(figsize=figsize, layout="constrained")
+        grid = fig.add_gridspec(len(names), 2, width_ratios=(3.2, 1.0))
+        for row, name in enumerate(names):
+            values = data[name].to_numpy() * _scale(name)
+            chains, draws = values.shape
+            trace = fig.add_subplot(grid[row, 0])
+            dens = fig.add_subplot(grid[row, 1], sharey=trace)
+            colours = [_chain_colour(i, chains) for i in range(chains)]
+            steps = np.arange(draws)
+            for i in range(chains):
+                trace.plot(steps, values[i], lw=0.4, alpha=0.6, color=colours[i], rasterized=True)
+                grid_i, pdf_i = az.kde(values[i])
+                dens.plot(pdf_i, grid_i, lw=0.4, alpha=0.5, color=colours[i])
+            grid_all, pdf_all = az.kde(values.ravel())
+            dens.plot(pdf_all, grid_all, lw=1.2, color="k")
+            trace.set_ylabel(parameter_label(name, post.units.get(name)))
+            trace.set_xlim(0, max(draws - 1, 1))
+            trace.yaxis.set_major_locator(MaxNLocator(4))
+            dens.tick_params(labelleft=False)
+            dens.set_xticks([])
+            if row == len(names) - 1:
+                trace.set_xlabel("kept draw (after burn-in and thinning)")
+                dens.set_xlabel("density")
+            else:
+                trace.tick_params(labelbottom=False)
+        diag = _diagnostics(data, names)
+    chains, draws = data.sizes["chain"], data.sizes["draw"]
+    listed = ", ".join(_caption_name(n) for n in names)
+    caption = (
+        f"Trace of the {post.title} ({post.model.equation.split(':')[0]}) for {listed}: left, "
+        f"the value of each of the {chains} emcee walkers (one line per walker) over its "
+        f"{draws} kept draws after burn-in and thinning; right, the marginal posterior "
+        f"density of all {chains * draws} draws (black) and of each walker (thin lines). "
+        f"{_units_sentence(names, post.units)} {diag}"
+        f"{_new_preparation_note(post)}{capped}"
+    )
+    return fig, caption
+
+
+def _signed(value: float) -> str:
+    """``+0.94`` / ``−0.23`` with a typographic minus."""
+    return f"{value:+.2f}".replace("-", "\u2212")
+
+
+def _chain_colour(i: int, n: int):
+    from matplotlib import colormaps
+
+    return colormaps["viridis"](0.1 + 0.8 * i / max(n - 1, 1))
+
+
+def _diagnostics(data, names) -> str:
+    ds = data[list(names)]
+    rhat = az.rhat(ds)
+    ess = az.ess(ds, method="bulk")
+    worst = max(float(rhat[n]) for n in names)
+    fewest = min(float(ess[n]) for n in names)
+    return (
+        f"Largest rank-normalised split R-hat {worst:.3f}, smallest bulk effective sample "
+        f"size {fewest:.0f}."
+    )
+
+
+def pair_figure(
+    posterior,
+    *,
+    max_params: int = 4,
+    max_points: int = 1500,
+    figsize: tuple[float, float] = FIGSIZE,
+) -> tuple[Figure, str]:
+    """Pairwise joint posterior of the physical parameters, with correlation coefficients.
+
+    Lower triangle: joint draws as points (at most ``max_points``, evenly spaced over the
+    stored draws — no random subsampling), with Pearson's r of *all* draws printed in the
+    panel; diagonal: marginal densities.  Parameters as :func:`trace_figure`.
+
+    Returns
+    -------
+    (Figure, str)
+        The figure and its caption.
+    """
+    post = _posterior(posterior)
+    names, capped = _capped(post.names, max_params)
+    data = post.idata.posterior
+    values = {n: data[n].to_numpy().ravel() * _scale(n) for n in names}
+    total = next(iter(values.values())).size
+    step = max(1, math.ceil(total / max_points))
+    shown = np.arange(0, total, step)
+    k = len(names)
+    corr = np.corrcoef(np.vstack([values[n] for n in names])) if k > 1 else np.ones((1, 1))
+    with rc_context(_STYLE):
+        fig = Figure(figsize=figsize, layout="constrained")
+        axes = fig.subplots(k, k, squeeze=False)
+        for i in range(k):
+            for j in range(k):
+                ax = axes[i, j]
+                if j > i:
+                    ax.set_axis_off()
+                    continue
+                x = values[names[j]]
+                if i == j:
+                    grid, pdf = az.kde(x)
+                    ax.plot(grid, pdf, color="k", lw=1.0)
+                    ax.fill_between(grid, pdf, color="0.8", lw=0)
+                    ax.set_yticks([])
+                    ax.spines["left"].set_visible(False)
+                else:
+                    y = values[names[i]]
+                    ax.scatter(
+                        x[shown], y[shown], s=1.5, alpha=0.35, color="C0", lw=0, rasterized=True
+                    )
+                    ax.text(
+                        0.04,
+                        0.96,
+                        f"r = {_signed(corr[i, j])}",
+                        transform=ax.transAxes,
+                        va="top",
+                        ha="left",
+                        fontsize=8,
+                        bbox={
+                            "boxstyle": "round,pad=0.2",
+                            "fc": "white",
+                            "ec": "none",
+                            "alpha": 0.8,
+                        },
+                    )
+                    ax.yaxis.set_major_locator(MaxNLocator(3))
+                    if j == 0:
+                        ax.set_ylabel(parameter_label(names[i], post.units.get(names[i])))
+                    else:
+                        ax.tick_params(labelleft=False)
+                ax.xaxis.set_major_locator(MaxNLocator(3))
+                if i == k - 1:
+                    ax.set_xlabel(parameter_label(names[j], post.units.get(names[j])))
+                else:
+                    ax.tick_params(labelbottom=False)
+                if i != j and j > 0:
+                    ax.sharey(axes[i, 0])
+                if i != j:
+                    ax.sharex(axes[j, j])
+    listed = ", ".join(_caption_name(n) for n in names)
+    every = "all of them" if step == 1 else f"one in every {step}, evenly spaced"
+    pairs = "; ".join(
+        f"{_caption_name(names[i])}–{_caption_name(names[j])} {_signed(corr[i, j])}"
+        for i in range(k)
+        for j in range(i)
+    )
+    caption = (
+        f"Joint posterior of {listed} ({post.title}). Below the diagonal each panel shows "
+        f"{shown.size} of the {total} posterior draws ({every}) of one pair of "
+        f"parameters, with Pearson's correlation coefficient r of all draws printed in the "
+        f"panel{f' ({pairs})' if pairs else ''}; the diagonal shows each parameter's marginal "
+        f"posterior density. {_units_sentence(names, post.units)}"
+        f"{_new_preparation_note(post)}{capped}"
+    )
+    return fig, caption
+
+
+#: Display of the measured quantities: (x coordinate, x label, y label, x and y factors).
+_CURVES = {
+    False: ("z_m", "sinkage $z$ (mm)", "pressure $p$ (kPa)", 1e3, 1e-3),
+    True: ("j_m", "shear displacement $j$ (mm)", "shear stress $\\tau$ (kPa)", 1e3, 1e-3),
+}
+#: Test-level quantity the panels are split by: (coordinate, caption words, title format).
+_PANELS = {
+    False: ("b_m", "plate size b", "plate $b$ = {:.3g} mm", 1e3),
+    True: ("sigma_Pa", "normal pressure σ", "$\\sigma$ = {:.3g} kPa", 1e-3),
+}
+
+
+def predictive_figure(
+    posterior,
+    *,
+    prob: float = 0.9,
+    max_panels: int = 6,
+    max_tests: int = 4,
+    draws: int = 200,
+    figsize: tuple[float, float] = FIGSIZE,
+) -> tuple[Figure, str]:
+    """Measured curves against the posterior-predictive band, per test.
+
+    Pressure p (kPa) against sinkage z (mm) for a sinkage model, shear stress τ (kPa) against
+    shear displacement j (mm) for a shear model: every test is its own line (never
+    concatenated over sample index), with its ``prob`` equal-tailed band in the same colour.
+    One panel per plate size (sinkage) or normal pressure (shear).
+
+    Pooled posterior: the band is that of the replicated data in ``posterior_predictive``
+    (the weighted Gaussian likelihood, measurement noise included).  Population posterior:
+    the band is that of the curve a new preparation gives at the test's plate size or
+    normal pressure (``draws`` posterior draws, evenly spaced; no measurement noise), and the
+    measured curves come from ``constant_data``.
+
+    Parameters
+    ----------
+    posterior : PosteriorResult or arviz.InferenceData
+    prob : float
+        Probability of the band (equal-tailed).
+    max_panels : int
+        Most panels (plate sizes or normal pressures); evenly spread over the sorted levels
+        when there are more.  The caption says how many are shown.
+    max_tests : int
+        Most tests drawn per panel (the first in test order); the caption says so.
+    draws : int
+        Population posterior: most posterior draws the band is computed from.
+    figsize : (width, height) in inches
+
+    Returns
+    -------
+    (Figure, str)
+        The figure and its caption.
+    """
+    if not 0 < prob < 1:
+        raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+    if max_panels < 1 or max_tests < 1:
+        raise ValueError("max_panels and max_tests must be at least 1")
+    post = _posterior(posterior)
+    measured, lo, hi, band_words = _band(post, prob, draws)
+    xname, xlabel, ylabel, xs, ys = _CURVES[post.shear]
+    gname, gwords, gtitle, gs = _PANELS[post.shear]
+    tests = measured["test"].to_numpy().astype(str)
+    order = list(dict.fromkeys(tests))  # test order as stored
+    if gname in measured.coords:
+        values = measured[gname].to_numpy()
+        level_of = {t: _round(np.mean(values[tests == t])) for t in order}
+        levels = sorted(set(level_of.values()))
+    else:
+        level_of, levels = dict.fromkeys(order, np.nan), [np.nan]
+    if len(levels) > max_panels:
+        pick = np.unique(np.linspace(0, len(levels) - 1, max_panels).round().astype(int))
+        panels = [levels[i] for i in pick]
+    else:
+        panels = levels
+    x_all = measured[xname].to_numpy() if xname in measured.coords else None
+    if x_all is None:
+        raise ValueError(
+            f"the data carry no {xname} coordinate; re-run the posterior with this soilstats "
+            "version to plot curves against the physical input"
+        )
+    y_all = measured["y"].to_numpy()
+    drawn, skipped = 0, 0
+    ncols = len(panels) if len(panels) <= 3 else (2 if len(panels) == 4 else 3)
+    nrows = math.ceil(len(panels) / ncols)
+    with rc_context(_STYLE):
+        fig = Figure(figsize=figsize, layout="constrained")
+        axes = fig.subplots(nrows, ncols, squeeze=False)
+        for ax in axes.ravel()[len(panels) :]:
+            ax.set_axis_off()
+        for p, level in enumerate(panels):
+            ax = axes.ravel()[p]
+            members = [t for t in order if _same(level_of[t], level)]
+            skipped += max(0, len(members) - max_tests)
+            for c, t in enumerate(members[:max_tests]):
+                colour = f"C{c % 10}"
+                where = np.flatnonzero(tests == t)
+                sort = where[np.argsort(x_all[where], kind="stable")]
+                ax.fill_between(
+                    x_all[sort] * xs,
+                    lo[sort] * ys,
+                    hi[sort] * ys,
+                    color=colour,
+                    alpha=0.25,
+                    lw=0,
+                )
+                ax.plot(x_all[where] * xs, y_all[where] * ys, color=colour, lw=0.9)
+                drawn += 1
+            if np.isfinite(level):
+                ax.set_title(gtitle.format(level * gs))
+            ax.xaxis.set_major_locator(MaxNLocator(4))
+            ax.yaxis.set_major_locator(MaxNLocator(5))
+            row, col = divmod(p, ncols)
+            if row == nrows - 1 or p + ncols >= len(panels):
+                ax.set_xlabel(xlabel)
+            if col == 0:
+                ax.set_ylabel(ylabel)
+        fig.legend(
+            handles=[
+                Line2D([], [], color="0.2", lw=0.9, label="measured (one line per test)"),
+                Patch(color="0.2", alpha=0.25, lw=0, label=f"{prob:.0%} predictive band"),
+            ],
+            loc="outside upper center",
+            ncols=2,
+            frameon=False,
+        )
+    caption = _predictive_caption(
+        post,
+        prob,
+        band_words,
+        (len(order), drawn, skipped, max_tests),
+        len(levels),
+        len(panels),
+        gwords,
+    )
+    return fig, caption
+
+
+def _round(value: float) -> float:
+    """A level rounded to 4 significant digits, so repeated tests share a panel."""
+    value = float(value)
+    return float(f"{value:.4g}") if np.isfinite(value) else value
+
+
+def _same(a: float, b: float) -> bool:
+    return (np.isnan(a) and np.isnan(b)) or a == b
+
+
+def _band(post: _Posterior, prob: float, draws: int):
+    """Measured data, lower and upper band per sample, and how the band was made."""
+    q = [(1 - prob) / 2, (1 + prob) / 2]
+    idata = post.idata
+    if post.kind == "population":
+        if "constant_data" not in idata.groups() or "y" not in idata.constant_data:
+            raise ValueError(
+                "this population posterior carries no measured curves (constant_data); "
+                "re-run it with this soilstats version"
+            )
+        measured = idata.constant_data
+        names = post.model.param_names
+        theta = np.column_stack([idata.posterior[n].to_numpy().ravel() for n in names])
+        step = max(1, math.ceil(len(theta) / max(draws, 1)))
+        theta = theta[::step]
+        inputs = [_input_name(label) for label in post.model.inputs]
+        x = [measured[name].to_numpy() for name in inputs]
+        x = x[0] if len(x) == 1 else np.vstack(x)
+        cols = [theta[:, i : i + 1] for i in range(theta.shape[1])]
+        with np.errstate(all="ignore"):
+            curves = np.asarray(post.model.func(x, *cols), float)
+        lo, hi = np.nanquantile(curves, q, axis=0)
+        where = "normal pressure" if post.shear else "plate size"
+        words = (
+            f"the curve a new preparation of the soil gives at that test's {where} "
+            f"({len(theta)} posterior draws; the band contains no measurement noise)"
+        )
+        return measured, lo, hi, words
+    if "posterior_predictive" not in idata.groups() or "y" not in idata.posterior_predictive:
+        raise ValueError(
+            "this posterior carries no posterior-predictive data 'y'; re-run it with this "
+            "soilstats version"
+        )
+    measured = idata.observed_data
+    rep = idata.posterior_predictive["y"]
+    flat = rep.to_numpy().reshape(-1, rep.sizes["obs"])
+    lo, hi = np.quantile(flat, q, axis=0)
+    words = (
+        f"the replicated data ({flat.shape[0]} data sets drawn from the weighted Gaussian "
+        f"likelihood at joint posterior draws of the parameters and the noise scale σ_w, "
+        f"so measurement noise is included)"
+    )
+    return measured, lo, hi, words
+
+
+def _input_name(label: str) -> str:
+    name, _, unit = label.partition(" ")
+    return f"{name}_{unit.strip('[]')}" if unit else name
+
+
+def _predictive_caption(post, prob, band_words, counts, n_levels, n_panels, gwords) -> str:
+    n_tests, drawn, skipped, max_tests = counts
+    if post.shear:
+        what = "Measured shear stress τ (kPa) against shear displacement j (mm)"
+        if post.model.name == "mohr-coulomb":
+            what += " over each test's steady-state part (the samples Mohr–Coulomb uses)"
+    else:
+        what = "Measured pressure p (kPa) against sinkage z (mm)"
+    text = (
+        f"{what} of the {post.title}: each test is one line in its own colour, with the "
+        f"{prob:.0%} equal-tailed posterior-predictive band of {band_words} shaded in the "
+        f"same colour. One panel per {gwords}."
+    )
+    if n_panels < n_levels:
+        text += f" {n_panels} of the {n_levels} levels of {gwords} are shown, evenly spread."
+    if skipped:
+        text += (
+            f" At most the first {max_tests} tests of a panel are drawn: {drawn} of the "
+            f"{n_tests} tests are shown."
+        )
+    elif drawn < n_tests:
+        text += f" {drawn} of {n_tests} tests are shown."
+    return text
