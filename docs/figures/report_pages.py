@@ -22,7 +22,17 @@ COMMANDS = {
     "check": (["check", "--data", "grc1-oravec2009"], "check.pdf"),
     "identify": (["identify", "--data", "grc1-oravec2009"], "identify.pdf"),
     "posterior": (
-        ["posterior", "--data", "grc1-oravec2009", "--soil", "GRC-1"],
+        [
+            "posterior",
+            "--data",
+            "grc1-oravec2009",
+            "--soil",
+            "GRC-1",
+            "--model",
+            "bernstein",
+            "--select",
+            "sinkage:b_m=0.095",
+        ],
         "report.pdf",
     ),
 }
