@@ -1,4 +1,4 @@
-"""ArviZ conventions of the posteriors (observed data, replicates, pointwise log-likelihood)
+"""ArviZ conventions of the posteriors (observed data, replicates, per-test log-likelihood)
 and the publication figures of soilstats.report.posterior_figures."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 from matplotlib.text import Text
-from posterior_sim import BEKKER_TRUTH, joint_campaign
+from posterior_sim import BEKKER_TRUTH, joint_campaign, sinkage_campaign
 
-from soilstats.bayes import sample_population, sample_posterior
+from soilstats.bayes import predictive, sample_population, sample_posterior
 from soilstats.bayes._arviz import az
 from soilstats.bayes.data import pooled_problem
 from soilstats.bayes.predictive import PREDICTIVE_DRAWS, spread_draws
@@ -24,6 +24,9 @@ matplotlib.use("Agg")
 # Deprecations raised inside ArviZ 0.23 by newer matplotlib and pandas, not by soilstats.
 MPL_ALIAS = "ignore:Passing a dict or None as alias_mapping"
 PANDAS_INPLACE = "ignore:The inplace keyword in DataFrame.sort_values"
+# ArviZ's WAIC warning when a log-likelihood term varies by more than 0.4 over draws: usual
+# for one term per test (a whole curve), which is why LOO (with Pareto k) is the check.
+WAIC_VARIANCE = "ignore:For one or more samples the posterior variance"
 
 # Sampler variable names that must never reach a reader.
 RAW = ("kphi", "kc", "sigma_w", "mu_", "sd_", "eta", "log10", "p_ref", "z_m", "j_m", "b_m")
@@ -63,11 +66,13 @@ def test_pooled_groups_have_matching_dims(campaign, bekker):
     obs, pp, ll = idata.observed_data, idata.posterior_predictive, idata.log_likelihood
     assert list(obs.data_vars) == list(pp.data_vars) == list(ll.data_vars) == ["y"]
     assert obs["y"].dims == ("obs",)
-    assert pp["y"].dims == ll["y"].dims == ("chain", "draw", "obs")
-    assert pp.sizes["obs"] == ll.sizes["obs"] == obs.sizes["obs"]
+    assert pp["y"].dims == ("chain", "draw", "obs")
+    assert ll["y"].dims == ("chain", "draw", "test")  # one term per test
+    assert pp.sizes["obs"] == obs.sizes["obs"]
     assert pp.sizes["chain"] == ll.sizes["chain"] == idata.posterior.sizes["chain"]
     assert pp.sizes["chain"] * pp.sizes["draw"] <= PREDICTIVE_DRAWS
-    assert ll.sizes["draw"] == idata.posterior.sizes["draw"]  # small problem: not thinned
+    assert ll.sizes["draw"] == idata.posterior.sizes["draw"]  # every draw kept
+    assert np.array_equal(ll["draw"], idata.posterior["draw"]) and ll.attrs["thinned"] == 0
     assert obs["y"].attrs == {"long_name": "pressure", "units": "Pa"}
     # The data are exactly the likelihood's, with test, sample-in-test and inputs.
     problem, _ = pooled_problem(campaign, "bekker", points_per_test=100)
@@ -78,6 +83,9 @@ def test_pooled_groups_have_matching_dims(campaign, bekker):
     assert len(set(tests)) == 12
     for t in set(tests):
         assert np.array_equal(obs["sample"].to_numpy()[tests == t], np.arange(60))
+    # The log-likelihood's tests are the observed tests, in order, with their sample counts.
+    assert list(ll["test"].to_numpy()) == list(dict.fromkeys(tests))
+    assert list(ll["samples"].to_numpy()) == [60] * 12
 
 
 def test_shear_groups_name_the_shear_stress(janosi):
@@ -101,26 +109,36 @@ def test_population_groups_have_matching_dims(population):
     assert np.all(np.isfinite(pp["eta_hat"].to_numpy())) and np.all(np.isfinite(ll["eta_hat"]))
 
 
+@pytest.mark.filterwarnings(WAIC_VARIANCE)
 def test_loo_and_waic_are_finite(bekker, janosi, population):
     for res in (bekker, janosi, population):
-        loo = az.loo(res.idata, pointwise=True)
+        loo = az.loo(res.idata, pointwise=True)  # no warning: filterwarnings = error
         assert np.isfinite(loo["elpd_loo"]) and np.isfinite(loo["se"])
         assert float(loo.pareto_k.max()) < 0.7
-    # The population has one term per test, varying too much over draws for WAIC (ArviZ
-    # warns); its check is LOO's Pareto k above.
+        assert loo.loo_i.dims == ("test",)  # leave-one-test-out
+    # WAIC runs on the pooled posteriors and agrees with LOO; its variance warning (one term
+    # per test) is why LOO's Pareto k above is the check.
     for res in (bekker, janosi):
-        assert np.isfinite(az.waic(res.idata)["elpd_waic"])
+        waic, loo = az.waic(res.idata), az.loo(res.idata)
+        assert np.isfinite(waic["elpd_waic"])
+        assert abs(waic["elpd_waic"] - loo["elpd_loo"]) < 0.1 * loo["se"]
     # The effective number of parameters: kc, kphi, n and sigma_w.
     assert 2.5 < az.loo(bekker.idata)["p_loo"] < 6.0
 
 
 @pytest.mark.filterwarnings(PANDAS_INPLACE)
-def test_compare_ranks_the_true_model_first(campaign, bekker):
+def test_compare_ranks_the_true_model_first():
     # Bekker data on three plate sizes: Bernstein (one k for every plate) is the wrong model.
-    bernstein = sample_posterior(campaign, "bernstein", seed=1, draws=2000)
-    table = az.compare({"bernstein": bernstein.idata, "bekker": bekker.idata})
+    # LOO is leave-one-test-out, so the standard error of the difference comes from the
+    # spread of the per-test differences: 30 tests (10 per plate) make it a usable estimate.
+    camp = sinkage_campaign(np.random.default_rng(12), repetitions=10, points=60)
+    fits = {m: sample_posterior(camp, m, seed=1, draws=2000) for m in ("bernstein", "bekker")}
+    for res in fits.values():
+        loo = az.loo(res.idata, pointwise=True)
+        assert loo.loo_i.sizes["test"] == 30 and float(loo.pareto_k.max()) < 0.7
+    table = az.compare({m: r.idata for m, r in fits.items()})
     assert table.index[0] == "bekker"
-    assert table.loc["bernstein", "elpd_diff"] > 2 * table.loc["bernstein", "dse"]
+    assert table.loc["bernstein", "elpd_diff"] > 3 * table.loc["bernstein", "dse"]
 
 
 @pytest.mark.filterwarnings(MPL_ALIAS)
@@ -156,18 +174,22 @@ def test_replicates_follow_the_likelihood(campaign, bekker):
     assert np.max(np.abs(fitted.mean(axis=0) - truth) * w) < 0.01
 
 
-def test_log_likelihood_is_the_weighted_gaussian(bekker):
+def test_log_likelihood_is_the_weighted_gaussian_summed_per_test(bekker):
     from scipy import stats
 
     idata = bekker.idata
     obs = idata.observed_data
-    post = idata.posterior.isel(chain=3, draw=17)
-    x = (obs["b_m"].to_numpy(), obs["z_m"].to_numpy())
-    f = BEKKER.func(x, *(float(post[n]) for n in BEKKER.param_names))
-    scale = float(post["sigma_w"]) / obs["weight"].to_numpy()
-    expect = stats.norm.logpdf(obs["y"].to_numpy(), f, scale)
-    got = idata.log_likelihood["y"].isel(chain=3, draw=17).to_numpy()
-    np.testing.assert_allclose(got, expect, rtol=1e-10)
+    tests = obs["test"].to_numpy()
+    for chain, draw in ((3, 17), (0, 0), (-1, -1)):
+        post = idata.posterior.isel(chain=chain, draw=draw)
+        x = (obs["b_m"].to_numpy(), obs["z_m"].to_numpy())
+        f = BEKKER.func(x, *(float(post[n]) for n in BEKKER.param_names))
+        scale = float(post["sigma_w"]) / obs["weight"].to_numpy()
+        pointwise = stats.norm.logpdf(obs["y"].to_numpy(), f, scale)
+        got = idata.log_likelihood["y"].isel(chain=chain, draw=draw)
+        for t in set(tests):
+            expect = pointwise[tests == t].sum()
+            assert float(got.sel(test=t)) == pytest.approx(expect, rel=1e-10), t
 
 
 def test_same_seed_same_groups(campaign, population):
@@ -184,21 +206,21 @@ def test_same_seed_same_groups(campaign, population):
     assert again.idata.posterior.equals(population.idata.posterior)  # attrs: a time stamp
 
 
-def test_thinning_keeps_draws_of_the_posterior(campaign, bekker):
-    res = sample_posterior(
-        campaign, "bekker", seed=1, draws=2000, predictive_draws=50, log_likelihood_draws=300
-    )
+def test_thinning_keeps_draws_of_the_posterior(campaign, bekker, monkeypatch):
+    # A log-likelihood budget of 12 tests x 320 draws (the default allows 4e6 values).
+    monkeypatch.setattr(predictive, "LOG_LIKELIHOOD_VALUES", 12 * 320)
+    res = sample_posterior(campaign, "bekker", seed=1, draws=2000, predictive_draws=50)
     ll = res.idata.log_likelihood
     chains = ll.sizes["chain"]
     assert res.idata.posterior_predictive.sizes["draw"] * chains <= 50
-    assert 300 <= ll.sizes["draw"] * chains < 300 + chains
+    assert ll.sizes["draw"] * chains == 320 and ll.attrs["thinned"] == 1
     # The same posterior (seeded alike) and, at the kept draws, the same log-likelihood.
     assert res.idata.posterior.equals(bekker.idata.posterior)
     full = bekker.idata.log_likelihood["y"].sel(draw=ll["draw"])
     np.testing.assert_array_equal(full.to_numpy(), ll["y"].to_numpy())
     assert list(spread_draws(10, 4, None)) == list(range(10))
     assert list(spread_draws(10, 4, 8)) == [0, 9]
-    assert list(spread_draws(10, 4, 9, at_least=True)) == [0, 4, 9]
+    assert list(spread_draws(10, 4, 3)) == [0]
 
 
 def test_netcdf_round_trip_keeps_loo_and_figures(bekker, tmp_path):

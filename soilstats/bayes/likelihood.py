@@ -19,8 +19,9 @@ Pointwise, the same model gives each observation the density
 
     p(y_i | θ, σ_w) = N(y_i; f(x_i, θ), (σ_w / w_i)²),
 
-which is what :meth:`PooledProblem.log_likelihood` evaluates (per joint draw (θ, σ_w), for
-PSIS-LOO and WAIC) and :meth:`PooledProblem.replicate` samples (posterior-predictive data).
+which :meth:`PooledProblem.replicate` samples (posterior-predictive data) and
+:meth:`PooledProblem.log_likelihood` sums over the samples of each test (per joint draw
+(θ, σ_w): one term per test for PSIS-LOO and WAIC, see :mod:`soilstats.bayes.predictive`).
 """
 
 from __future__ import annotations
@@ -169,23 +170,34 @@ class PooledProblem:
         s = np.asarray(s, float)
         return np.sqrt(s / (2.0 * rng.gamma(0.5 * self.n_obs, 1.0, size=s.shape)))
 
-    def log_likelihood(
-        self, theta: np.ndarray, sigma: np.ndarray, *, block: int = 256
-    ) -> np.ndarray:
-        """Pointwise log N(y_i; f(x_i, θ), (σ_w/w_i)²) for joint draws → (S, N).
+    @property
+    def test_rows(self) -> np.ndarray:
+        """Rows of ``tests`` that have samples, in order: the columns of :meth:`log_likelihood`."""
+        return np.unique(self.test_index)
+
+    def log_likelihood(self, theta: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+        """Log-likelihood of each test, Σ_{i in test} log N(y_i; f(x_i, θ), (σ_w/w_i)²) → (S, T).
 
         ``theta`` (S, p) and ``sigma`` (S,) are joint posterior draws of the parameters and
-        of σ_w; draws are evaluated ``block`` at a time to bound the working memory.
+        of σ_w; columns are the tests of :attr:`test_rows`.  Draws are evaluated a few at a
+        time (about 2¹⁸ values), which bounds the working memory and keeps it in cache.
         """
         theta = np.atleast_2d(np.asarray(theta, float))
-        sigma = np.asarray(sigma, float).reshape(-1)
-        out = np.empty((theta.shape[0], self.n_obs))
-        log_w = np.log(self.w)
+        sigma = np.asarray(sigma, float).reshape(-1, 1)
+        order = np.argsort(self.test_index, kind="stable")
+        _, starts = np.unique(self.test_index[order], return_index=True)
+        counts = np.diff(np.append(starts, self.n_obs))
+        const = np.add.reduceat(np.log(self.w[order]), starts) - 0.5 * np.log(2 * np.pi) * counts
+        if np.array_equal(order, np.arange(self.n_obs)):
+            order = slice(None)  # samples already grouped by test (the usual case): no copy
+        out = np.empty((theta.shape[0], starts.size))
+        block = max(1, 2**18 // self.n_obs)
         for start in range(0, theta.shape[0], block):
             stop = start + block
-            s = sigma[start:stop, None]
-            r = (self._wy - self.weighted_prediction(theta[start:stop])) / s
-            out[start:stop] = log_w - np.log(s) - 0.5 * np.log(2.0 * np.pi) - 0.5 * r * r
+            r = self._wy - self.weighted_prediction(theta[start:stop])
+            rss = np.add.reduceat((r * r)[:, order], starts, axis=1)  # S_t(θ), (block, T)
+            s = sigma[start:stop]
+            out[start:stop] = const - counts * np.log(s) - 0.5 * rss / (s * s)
         return out
 
     def replicate(

@@ -38,7 +38,6 @@ def sample_posterior(
     walkers: int = 16,
     points_per_test: int | None = 100,
     predictive_draws: int | None = PREDICTIVE_DRAWS,
-    log_likelihood_draws: int | None = None,
     **selection,
 ) -> PosteriorResult:
     """Sample the posterior of ``model``'s parameters given a campaign's tests (pooled model).
@@ -71,9 +70,6 @@ def sample_posterior(
         Sinkage samples per test (Section 2.1), as for the least-squares fit.
     predictive_draws : int or None
         Most posterior-predictive draws stored, over all walkers (default 200; None: all).
-    log_likelihood_draws : int or None
-        Pointwise log-likelihood draws stored, over all walkers (default: every draw up to
-        4·10⁶ values, at least 1000 draws; see :mod:`soilstats.bayes.predictive`).
     **selection
         Test-log filters (``soil="soil01"`` …); must leave one soil.
 
@@ -82,9 +78,10 @@ def sample_posterior(
     PosteriorResult
         With ``idata`` (posterior, sample_stats, observed_data, posterior_predictive,
         log_likelihood — see :mod:`soilstats.bayes.predictive`), ``summary()`` and
-        ``draws()``.  The replicated data (seeded from ``seed``) and the pointwise
-        log-likelihood are those of the weighted Gaussian likelihood, at the joint draws
-        (θ, σ_w), so ``az.plot_ppc``, ``az.loo`` and ``az.compare`` apply directly.  If
+        ``draws()``.  The replicated data (per sample, seeded from ``seed``) and the
+        log-likelihood (per test: ``az.loo`` is leave-one-test-out) are those of the weighted
+        Gaussian likelihood, at the joint draws (θ, σ_w), so ``az.plot_ppc``, ``az.loo`` and
+        ``az.compare`` apply directly.  If
         R-hat > 1.01 or ESS < 400 for any parameter a
         :class:`~soilstats.errors.ConvergenceWarning` is emitted and ``converged`` is False.
     """
@@ -119,14 +116,7 @@ def sample_posterior(
     )
     run, rss = _back_to_theta(problem, coords, run)
     rng = np.random.default_rng(None if seed is None else [seed, 1])
-    idata = _inference_data(
-        problem,
-        run,
-        rss,
-        rng,
-        predictive_draws=predictive_draws,
-        log_likelihood_draws=log_likelihood_draws,
-    )
+    idata = _inference_data(problem, run, rss, rng, predictive_draws=predictive_draws)
     return finish(
         idata,
         problem.model.name,
@@ -253,7 +243,6 @@ def _inference_data(
     rng,
     *,
     predictive_draws: int | None = PREDICTIVE_DRAWS,
-    log_likelihood_draws: int | None = None,
 ) -> object:
     names = problem.model.param_names
     chains, draws, _ = run.chain.shape
@@ -268,14 +257,7 @@ def _inference_data(
         attrs=_attrs(problem),
     )
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
-    groups = pooled_groups(
-        problem,
-        run.chain,
-        sigma,
-        rng,
-        predictive_draws=predictive_draws,
-        log_likelihood_draws=log_likelihood_draws,
-    )
+    groups = pooled_groups(problem, run.chain, sigma, rng, predictive_draws=predictive_draws)
     return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)
 
 

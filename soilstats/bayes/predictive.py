@@ -10,23 +10,33 @@ name in all three groups:
   tests, shear stress [Pa] of the shear tests), along ``obs`` with the coordinates ``test``
   (test id), ``sample`` (index of the sample within its test), the inputs in SI units
   (``b_m``, ``z_m`` or ``sigma_Pa``, ``j_m``) and ``weight`` (w of Eq. 1).  Replicated data
-  and pointwise log-likelihood are those of the likelihood actually sampled
-  (:mod:`soilstats.bayes.likelihood`): y_rep ~ N(f(x, θ), (σ_w/w)²) and
-  log N(y_i; f(x_i, θ), (σ_w/w_i)²) at joint posterior draws (θ, σ_w).
+  are those of the likelihood actually sampled (:mod:`soilstats.bayes.likelihood`),
+  y_rep ~ N(f(x, θ), (σ_w/w)²) per sample, at joint posterior draws (θ, σ_w).  The
+  log-likelihood is **per test**, dims (``chain``, ``draw``, ``test``): at each draw the sum
+  Σ_{i in t} log N(y_i; f(x_i, θ), (σ_w/w_i)²) over the samples of test t.
 * **population** — ``eta_hat``: each test's own two-parameter fit (its data in the population
   likelihood), dims (``test``, ``eta``); replicates come from the marginal likelihood
   η̂_t ~ N(h_t, BΣBᵀ + C_t) (fit error included), and the log-likelihood is one term per
-  test (leave-one-test-out).  The measured curves are kept in ``constant_data`` (``y``, as
-  above) for plotting.
+  test.  The measured curves are kept in ``constant_data`` (``y``, as above) for plotting.
+
+Why per test.  The samples of one plate or shear test are one measured curve: their
+residuals are strongly dependent (preparation, offsets, the curve's own shape), so
+leaving out one sample while its neighbours stay tells nothing about a new measurement, and
+sample-wise PSIS-LOO would be optimistic with a standard error that counts a curve as
+hundreds of independent points.  The unit of exchangeability is the test, so ``az.loo`` here
+is leave-one-TEST-out — the same unit as the population model and as soilstats discover's
+cross-validation — and ``az.compare`` weighs models by how well they predict a new test.
+It is also small: tests × draws values (e.g. 36 × 6000) instead of samples × draws.
 
 Memory.  ``posterior_predictive`` holds at most :data:`PREDICTIVE_DRAWS` draws over all chains
 (evenly spaced within each chain; its ``draw`` coordinate gives the posterior draw each came
-from).  ``log_likelihood`` holds every posterior draw unless draws × observations would exceed
-:data:`LOG_LIKELIHOOD_VALUES`; then it is thinned evenly within each chain, but keeps at least
-:data:`LOG_LIKELIHOOD_MIN_DRAWS` draws (PSIS needs about that many for a reliable Pareto k).
-When thinned, ArviZ's default relative efficiency (posterior ESS / stored draws) exceeds 1;
-``az.loo(idata, reff=1.0)`` is then the cautious choice.  The groups' attributes say which.
-Because the two groups keep different draws, ``az.loo_pit`` (which pairs them) does not apply.
+from).  ``log_likelihood`` holds every posterior draw unless draws × tests would exceed
+:data:`LOG_LIKELIHOOD_VALUES` (then it is thinned evenly within each chain, its attribute
+``thinned`` is 1, and ``az.loo(idata, reff=1.0)`` is the cautious choice).  Observed data and
+replicates are per sample and the log-likelihood per test, so ``az.loo_pit`` (which pairs
+them) does not apply; ``az.plot_ppc``, ``az.loo``, ``az.waic`` and ``az.compare`` do
+(``az.waic`` usually warns: a whole test's term varies more over draws than WAIC tolerates;
+LOO with its Pareto k per test is the check).
 
 The pooled variable keeps its name ``y`` (its ``long_name`` attribute says pressure or shear
 stress): readers of earlier results and the PDF report look it up by that name.
@@ -34,15 +44,12 @@ stress): readers of earlier results and the PDF report look it up by that name.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import xarray as xr
 
 from .likelihood import PooledProblem
 
 __all__ = [
-    "LOG_LIKELIHOOD_MIN_DRAWS",
     "LOG_LIKELIHOOD_VALUES",
     "PREDICTIVE_DRAWS",
     "measured_dataset",
@@ -53,24 +60,21 @@ __all__ = [
 
 #: Most posterior-predictive draws stored (over all chains).
 PREDICTIVE_DRAWS = 200
-#: Most pointwise log-likelihood values (draws × observations) stored before thinning:
-#: 32 MB in float64, e.g. ~1100 of 6000 draws for 36 tests of 100 samples.
+#: Most per-test log-likelihood values (draws × tests) stored before thinning: 32 MB in
+#: float64, e.g. every one of 90 000 draws for 44 tests.
 LOG_LIKELIHOOD_VALUES = 4_000_000
-#: Fewest log-likelihood draws kept when thinning (over all chains).
-LOG_LIKELIHOOD_MIN_DRAWS = 1000
 
 #: Measured response of each kind of test: long name and unit of ``y``.
 RESPONSES = {"sinkage": ("pressure", "Pa"), "shear": ("shear stress", "Pa")}
 
 
-def spread_draws(draws: int, chains: int, total: int | None, *, at_least: bool = False):
+def spread_draws(draws: int, chains: int, total: int | None):
     """Indices of the draws to keep in every chain: about ``total`` over all chains, evenly
     spaced within each chain (at least one per chain; all when ``total`` is None or not
-    smaller).  ``at_least`` rounds the per-chain count up instead of down."""
+    smaller)."""
     if total is None or total >= draws * chains:
         return np.arange(draws)
-    per = math.ceil(total / chains) if at_least else total // chains
-    per = min(draws, max(1, per))
+    per = min(draws, max(1, total // chains))
     return np.unique(np.linspace(0, draws - 1, per).round().astype(int))
 
 
@@ -133,7 +137,6 @@ def pooled_groups(
     rng: np.random.Generator,
     *,
     predictive_draws: int | None = PREDICTIVE_DRAWS,
-    log_likelihood_draws: int | None = None,
 ) -> dict[str, xr.Dataset]:
     """``observed_data``, ``posterior_predictive`` and ``log_likelihood`` of a pooled posterior.
 
@@ -149,8 +152,6 @@ def pooled_groups(
         Source of the replicated data's noise (the only random step).
     predictive_draws : int or None
         Most replicated draws over all chains (None: every draw).
-    log_likelihood_draws : int or None
-        Log-likelihood draws over all chains (None: the memory rule of the module docstring).
     """
     chains, draws, p = theta.shape
     observed = response_dataset(problem)
@@ -166,19 +167,20 @@ def pooled_groups(
         attrs={"draws_of_posterior": draws, "model": "y ~ N(f(x, theta), (sigma_w / w)^2)"},
     )
 
-    if log_likelihood_draws is None:
-        budget = max(LOG_LIKELIHOOD_MIN_DRAWS, LOG_LIKELIHOOD_VALUES // max(problem.n_obs, 1))
-    else:
-        budget = log_likelihood_draws
-    keep = spread_draws(draws, chains, budget, at_least=True)
+    rows = problem.test_rows
+    keep = spread_draws(draws, chains, LOG_LIKELIHOOD_VALUES // rows.size)
     ll = problem.log_likelihood(theta[:, keep].reshape(-1, p), sigma[:, keep].reshape(-1))
+    test_ids = np.asarray(problem.tests["test_id"]).astype(str)[rows]
+    samples = np.bincount(problem.test_index)[rows]
     log_lik = xr.Dataset(
-        {"y": (("chain", "draw", "obs"), ll.reshape(chains, keep.size, -1))},
-        coords={"chain": np.arange(chains), "draw": keep} | obs_coords,
+        {"y": (("chain", "draw", "test"), ll.reshape(chains, keep.size, -1))},
+        coords={"chain": np.arange(chains), "draw": keep, "test": test_ids}
+        | {"samples": ("test", samples)},
         attrs={
             "draws_of_posterior": draws,
             "thinned": int(keep.size < draws),
-            "model": "log N(y_i; f(x_i, theta), (sigma_w / w_i)^2) at joint draws",
+            "model": "sum over each test's samples of log N(y_i; f(x_i, theta), "
+            "(sigma_w / w_i)^2) at joint draws (leave-one-test-out)",
         },
     )
     return {"observed_data": observed, "posterior_predictive": ppc, "log_likelihood": log_lik}
