@@ -31,6 +31,14 @@ def sink(**kw) -> dict:
     return {**s, "repetitions": 4, **kw}
 
 
+def shear(**kw) -> dict:
+    """A shear series: one ring, three normal pressures, two repetitions."""
+    s = {"name": "r", "kind": "shear", "soils": ["s"], "points": 60, "repetitions": 2}
+    ring = [{"r_inner_m": 0.1, "r_outer_m": 0.15}]
+    s.update(rings=ring, grouser_height_m=[0.0], normal_pressure_Pa=[3e3, 8e3, 14e3])
+    return {**s, **kw}
+
+
 def spec(series, effects=(), preparations=None) -> dict:
     out = {"name": "t", "scatter": SCATTER, "soils": {"s": dict(SOIL)}}
     out.update(series=list(series), effects=list(effects))
@@ -39,6 +47,19 @@ def spec(series, effects=(), preparations=None) -> dict:
     return out
 
 
+#: Nothing planted: velocity, operator, bin (sinkage), moisture, grouser height (shear)
+#: crossed — any finding is false (the null campaigns of tests/test_discover.py).
+NULL = spec(
+    [
+        sink(
+            velocity_m_s=[4.8e-4, 4.8e-3],
+            operators=["A", "B"],
+            covariates={"bin": ["n", "s"]},
+            repetitions=2,
+        ),
+        shear(covariates={"moisture_pct": [1.0, 3.0]}, grouser_height_m=[0.0, 0.005]),
+    ]
+)
 #: An operator who leaves the soil 50 % stiffer only with preparation p1 (an interaction).
 INTERACTION = spec(
     [

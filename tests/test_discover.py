@@ -14,12 +14,14 @@ import numpy as np
 import pytest
 from discover_situations import (
     INTERACTION,
+    NULL,
     SITUATIONS,
     SOIL,
     TWO_CAUSES,
     artefact_campaign,
     drift_campaign,
     load_terminated_campaign,
+    shear,
     sink,
     spec,
 )
@@ -32,14 +34,7 @@ from soilstats.models.extended import SinkageLayout, shear_family, sinkage_famil
 from soilstats.simulation import simulate
 from soilstats.statistics import anova_twoway
 
-_sink, _spec = sink, spec
-
-
-def _shear(**kw):
-    s = {"name": "r", "kind": "shear", "soils": ["s"], "points": 60, "repetitions": 2}
-    ring = [{"r_inner_m": 0.1, "r_outer_m": 0.15}]
-    s.update(rings=ring, grouser_height_m=[0.0], normal_pressure_Pa=[3e3, 8e3, 14e3])
-    return {**s, **kw}
+_sink, _spec, _shear = sink, spec, shear
 
 
 PLANTED = {
@@ -118,18 +113,6 @@ PLANTED = {
     ),
 }
 
-NULL = _spec(
-    [
-        _sink(
-            velocity_m_s=[4.8e-4, 4.8e-3],
-            operators=["A", "B"],
-            covariates={"bin": ["n", "s"]},
-            repetitions=2,
-        ),
-        _shear(covariates={"moisture_pct": [1.0, 3.0]}, grouser_height_m=[0.0, 0.005]),
-    ]
-)
-
 
 @pytest.mark.parametrize("effect", list(PLANTED))
 def test_planted_effect_is_named_extended_and_gains(effect):
@@ -166,7 +149,9 @@ def test_planted_effect_is_named_extended_and_gains(effect):
 @pytest.mark.slow
 def test_null_campaigns_false_positive_rate():
     """No effect planted: any finding is false.  Holm keeps the family-wise rate ≤ 5 %; over
-    100 seeds more than 9 false campaigns would be evidence against that (binomial, p < 3 %)."""
+    100 seeds more than 9 false campaigns would be evidence against that (binomial, p < 3 %).
+    Measured: 7 of seeds 0–99, 40 of 1000 over seeds 0–999 (4.0 %, 95 % CI 2.9–5.4 %;
+    ``python benchmarks/discover_power.py --null 1000``)."""
     false = 0
     for seed in range(100):
         result = discover(simulate(NULL, seed=seed).campaign, seed=0)
