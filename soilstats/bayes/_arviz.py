@@ -10,6 +10,39 @@ from __future__ import annotations
 
 import warnings
 
+
+def _stamp_daily_notice() -> None:
+    """Write ArviZ's once-a-day stamp (today's date) atomically, before ArviZ does.
+
+    ArviZ 0.23 writes that stamp through one fixed temporary name, so several processes that
+    import it at once on a new day (pytest-xdist workers, joblib workers) race: one renames
+    the file away under the other, and ``import arviz`` fails with FileNotFoundError. With
+    today's date already there ArviZ writes nothing; a unique temporary name per process
+    makes our own write race-free.
+    """
+    import datetime
+    import os
+    import tempfile
+    from pathlib import Path
+
+    try:
+        from platformdirs import user_cache_dir
+
+        folder = Path(user_cache_dir("arviz", "arviz"))
+        stamp = folder / "daily_warning"
+        today = datetime.date.today().isoformat()
+        if stamp.is_file() and stamp.read_text().strip() == today:
+            return
+        folder.mkdir(parents=True, exist_ok=True)
+        handle, tmp = tempfile.mkstemp(dir=folder, prefix="daily_warning.", suffix=".tmp")
+        with os.fdopen(handle, "w") as out:
+            out.write(today)
+        os.replace(tmp, stamp)
+    except (ImportError, OSError):  # no platformdirs or a read-only cache: ArviZ's own path
+        return
+
+
+_stamp_daily_notice()
 with warnings.catch_warnings():
     warnings.filterwarnings(
         "ignore", message=r"\s*ArviZ is undergoing a major refactor", category=FutureWarning
