@@ -11,7 +11,20 @@ import pandas as pd
 from ..report import Provenance, json_safe
 from ..report.text import notes_block
 
-__all__ = ["DiscoveryResult", "Finding", "parameter_lines", "parameter_table"]
+__all__ = ["METHOD_NOTES", "DiscoveryResult", "Finding", "parameter_lines", "parameter_table"]
+
+#: How discovery reaches its findings, in four sentences (the summary's and the PDF's notes).
+METHOD_NOTES = (
+    "Per-test responses: level = ln of the test's own pressure (shear: plateau stress) over "
+    "the base model's; shape = its n minus the base n; K = ln K over the base K.",
+    "Each candidate is tested within strata of the other design candidates not confounded with "
+    "it (F-test); Holm's method controls the chance of any false cause.",
+    "Gain: cross-validation leaving out whole tests; each finding's extension is measured "
+    "against the base model alone, the combined model by forward selection on all tests of its "
+    "kind and soil.",
+    "AIC/BIC treat samples as independent; samples of one test are not, so they overstate the "
+    "evidence — the cross-validated gain decides.",
+)
 
 
 def parameter_table(fit) -> dict | None:
@@ -240,6 +253,14 @@ class DiscoveryResult:
             "groups": [m.to_dict() for m in self.models],
         }
 
+    def all_groups_gain(self):
+        """The combined models' gain on the held-out tests of all extended groups together,
+        or None unless two or more groups are extended (one group's gain is its own)."""
+        from .selection import campaign_gain
+
+        extended = [m for m in self.models if m.extensions]
+        return campaign_gain(extended) if len(extended) > 1 else None
+
     def to_dict(self) -> dict:
         """JSON-ready content (no run time: outputs are byte-identical between runs)."""
         return {
@@ -312,19 +333,7 @@ class DiscoveryResult:
             for c in self.confounded:
                 lines.append(f"  {c['kind']} / {c['soil']}: {c['text']}")
         lines.append("-" * width)
-        notes = [
-            "Per-test responses: level = ln of the test's own pressure (shear: plateau stress) "
-            "over the base model's; shape = its n minus the base n; K = ln K over the base K.",
-            "Each candidate is tested within strata of the other design candidates not "
-            "confounded with it (F-test); Holm's method controls the chance of any false cause.",
-            "Gain: cross-validation leaving out whole tests; each finding's extension is "
-            "measured against the base model alone, the combined model by forward selection "
-            "on all tests of its kind and soil.",
-            "AIC/BIC treat samples as independent; samples of one test are not, so they "
-            "overstate the evidence — the cross-validated gain decides.",
-            *self.notes,
-        ]
-        lines.extend(notes_block(notes))
+        lines.extend(notes_block([*METHOD_NOTES, *self.notes]))
         lines.append("=" * width)
         return "\n".join(lines)
 
@@ -335,12 +344,11 @@ class DiscoveryResult:
         lines = ["-" * width, "Combined model (forward selection of the kept extensions):"]
         for m in self.models:
             lines.extend("  " + line for line in m.summary_lines())
-        doc = self.model()
-        if doc["gain"] is not None and sum(bool(m.extensions) for m in self.models) > 1:
-            g = doc["gain"]
+        g = self.all_groups_gain()
+        if g is not None:
             lines.append(
-                f"  all extended groups together: {g['base']:.4f} -> {g['extended']:.4f} "
-                f"({g['relative']:+.1%}, {g['n_tests']} held-out tests)"
+                f"  all extended groups together: {g.base:.4f} -> {g.extended:.4f} "
+                f"({g.relative:+.1%}, {g.n_tests} held-out tests)"
             )
         return lines
 

@@ -18,12 +18,13 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from ..discovery.candidates import candidate_values
-from ..identification.table import format_value
+from ..discovery.result import METHOD_NOTES
 from .document import Document, strong
 from .files import output_path
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
+from .parameters import fit_table
 
 __all__ = ["write_report"]
 
@@ -51,7 +52,14 @@ def _gain_words(g) -> str:
     )
 
 
-def _conclusion(result) -> list:
+def _all_groups_words(g) -> str:
+    return (
+        f"All extended groups together: {g.base:.4f} → {g.extended:.4f} "
+        f"({g.relative:+.1%}, {g.n_tests} held-out tests)."
+    )
+
+
+def _conclusion(result, all_groups) -> list:
     out: list = []
     n_tests = int(result.tests["p_value"].notna().sum()) if len(result.tests) else 0
     if not result.findings:
@@ -80,7 +88,6 @@ def _conclusion(result) -> list:
         if f.caveats:
             parts.append(f" {len(f.caveats)} caveat(s) below.")
         out.append(parts)
-    doc = result.model()
     for m in result.models:
         if m.extensions and m.gain is not None:
             out.append(
@@ -90,12 +97,8 @@ def _conclusion(result) -> list:
                     f", gain {_gain_words(m.gain)}.",
                 ]
             )
-    if doc["gain"] is not None and sum(bool(m.extensions) for m in result.models) > 1:
-        g = doc["gain"]
-        out.append(
-            f"All extended groups together: {g['base']:.4f} → {g['extended']:.4f} "
-            f"({g['relative']:+.1%}, {g['n_tests']} held-out tests)."
-        )
+    if all_groups is not None:
+        out.append(_all_groups_words(all_groups))
     if result.artefacts:
         out.append(
             f"{len(result.artefacts)} significant candidate(s) line up with data-quality "
@@ -161,17 +164,6 @@ def _finding_figure(f) -> Figure | None:
     return fig
 
 
-def _parameter_table(doc: Document, fit, caption: str) -> None:
-    """A fit's parameters as value ± σ with units (nothing without a fit)."""
-    if fit is None:
-        return
-    rows = [
-        {"parameter": name, "value ± σ": format_value(v, s), "unit": fit.units.get(name, "") or "–"}
-        for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
-    ]
-    doc.table(pd.DataFrame(rows), caption=caption, align_numbers=False)
-
-
 def _finding_section(doc: Document, i: int, f) -> None:
     doc.heading(f"[{i}] {f.kind} / {f.soil}: {f.cause}", level=2)
     rows = [
@@ -210,7 +202,7 @@ def _finding_section(doc: Document, i: int, f) -> None:
             "(at most eight): measured samples (dots), base model (dashed) and "
             f"{f.extension or 'extension'} (solid).",
         )
-    _parameter_table(doc, f.fit, f"Parameters of {f.extension} ± σ (Eqs. 3–5).")
+    fit_table(doc, f.fit, f"Parameters of {f.extension} ± σ (Eqs. 3–5).")
     if f.tried:
         tried = pd.DataFrame(
             [
@@ -240,7 +232,16 @@ def _record_table(doc: Document, records, columns, caption, labels=None) -> None
         doc.table(frame, caption=caption, labels=labels, align_numbers=False)
 
 
-def _model_section(doc: Document, result) -> None:
+def _record_section(doc: Document, title, records, columns, caption, *, empty, labels=None):
+    """A section of records as a table, or the sentence ``empty`` when there are none."""
+    doc.heading(title)
+    if records:
+        _record_table(doc, records, columns, caption, labels)
+    else:
+        doc.paragraph(empty)
+
+
+def _model_section(doc: Document, result, all_groups) -> None:
     doc.heading("Combined model")
     if not result.models:
         doc.paragraph("No kept extension, so no combined model: the base models stand.")
@@ -262,7 +263,7 @@ def _model_section(doc: Document, result) -> None:
                 _gain_words(m.gain) if m.gain is not None else "not measured",
                 ".",
             )
-        _parameter_table(doc, m.fit, f"{m.kind} / {m.soil}: combined model parameters ± σ.")
+        fit_table(doc, m.fit, f"{m.kind} / {m.soil}: combined model parameters ± σ.")
         if m.steps:
             steps = pd.DataFrame(
                 [
@@ -277,12 +278,8 @@ def _model_section(doc: Document, result) -> None:
                 ]
             )
             doc.table(steps, caption="Selection steps, in order.", formats={"gain": "+.1%"})
-    g = result.model()["gain"]
-    if g is not None and sum(bool(m.extensions) for m in result.models) > 1:
-        doc.paragraph(
-            f"All extended groups together: {g['base']:.4f} → {g['extended']:.4f} "
-            f"({g['relative']:+.1%}, {g['n_tests']} held-out tests)."
-        )
+    if all_groups is not None:
+        doc.paragraph(_all_groups_words(all_groups))
 
 
 def _power_section(doc: Document, result) -> None:
@@ -379,6 +376,7 @@ def write_report(
         provenance=result.provenance,
     )
     groups = natural_sorted({f"{c['kind']} / {c['soil']}" for c in result.columns})
+    all_groups = result.all_groups_gain()  # page 1 and the model section share it
     front_page(
         doc,
         question=[
@@ -392,25 +390,14 @@ def write_report(
             f"; groups analysed: {', '.join(groups) or 'none'}; "
             f"α = {result.alpha:g}, seed {result.seed}.",
         ],
-        conclusion=_conclusion(result),
+        conclusion=_conclusion(result, all_groups),
     )
     doc.page_break()
     doc.heading("Methods")
     write_equations(
         doc, tuple(natural_sorted({c["kind"] for c in result.columns})) or ("sinkage", "shear")
     )
-    notes = [
-        "Per-test responses: level = ln of the test's own pressure (shear: plateau stress) over "
-        "the base model's; shape = its n minus the base n; K = ln K over the base K.",
-        "Each candidate is tested within strata of the other design candidates not confounded "
-        "with it (F-test); Holm's method controls the chance of any false cause.",
-        "Gain: cross-validation leaving out whole tests; each finding's extension is measured "
-        "against the base model alone, the combined model by forward selection on all tests of "
-        "its kind and soil.",
-        "AIC/BIC treat samples as independent; samples of one test are not, so they overstate "
-        "the evidence — the cross-validated gain decides.",
-    ]
-    doc.bullets(notes)
+    doc.bullets(METHOD_NOTES)
     doc.heading("Findings")
     if not result.findings:
         doc.paragraph("No finding: no candidate cause passes the test.")
@@ -423,29 +410,25 @@ def write_report(
             f"{e['p_after']:.3g})"
             for e in result.explained
         )
-    _model_section(doc, result)
-    doc.heading("Physical red flags")
-    if result.flags:
-        _record_table(
-            doc,
-            result.flags,
-            ("kind", "soil", "scope", "code", "message"),
-            "Red flags on the fits (docs/identification.md, health flags).",
-        )
-    else:
-        doc.paragraph("No red flags.")
-    doc.heading("Lined up with data-quality artefacts")
-    if result.artefacts:
-        _record_table(
-            doc,
-            result.artefacts,
-            ("kind", "soil", "candidate", "p_adjusted", "reason"),
-            "Significant candidates whose levels line up with artefact flags: data "
-            "problems, not causes.",
-            labels={"p_adjusted": "p (Holm)"},
-        )
-    else:
-        doc.paragraph("No significant candidate lines up with data-quality artefacts.")
+    _model_section(doc, result, all_groups)
+    _record_section(
+        doc,
+        "Physical red flags",
+        result.flags,
+        ("kind", "soil", "scope", "code", "message"),
+        "Red flags on the fits (docs/identification.md, health flags).",
+        empty="No red flags.",
+    )
+    _record_section(
+        doc,
+        "Lined up with data-quality artefacts",
+        result.artefacts,
+        ("kind", "soil", "candidate", "p_adjusted", "reason"),
+        "Significant candidates whose levels line up with artefact flags: data problems, "
+        "not causes.",
+        empty="No significant candidate lines up with data-quality artefacts.",
+        labels={"p_adjusted": "p (Holm)"},
+    )
     _power_section(doc, result)
     _quality_section(doc, result)
     _columns_section(doc, result)

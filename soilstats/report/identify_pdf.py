@@ -12,14 +12,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pandas as pd
-
 from ..identification.table import format_value
 from .document import Document, strong
 from .files import output_path
 from .front import data_origin, front_page
-from .labels import natural_key, parameter_label, parameter_symbol
+from .labels import natural_key, parameter_symbol
 from .methods import write_equations
+from .parameters import condition_table
 
 __all__ = ["write_report"]
 
@@ -93,28 +92,19 @@ def write_report(results, campaign, path: Path, *, provenance=None, overwrite: b
     write_equations(doc, kinds)
     doc.heading("Parameters per soil and condition")
     for (kind, soil), group in _groups(records).items():
-        names = list(dict.fromkeys(n for d in group for n in d["params"]))
-        units = {n: d["units"].get(n, "") for d in group for n in d["params"]}
-        rows = []
-        for d in group:
-            row = {"condition": d["condition"] or "all", "model": d["model"]}
-            for n in names:
-                row[n] = format_value(d["params"][n], d["stderr"][n]) if n in d["params"] else "–"
-            row |= {
-                "epsilon": d["epsilon"],
-                "tests": d["tests"],
-                "converged": d["converged"],
-                "health": ", ".join(h["code"] for h in d["health"]) or "ok",
-            }
-            rows.append(row)
-        labels = {n: parameter_label(n, units[n]) for n in names}
-        labels["epsilon"] = parameter_symbol("epsilon")
-        doc.table(
-            pd.DataFrame(rows),
+        condition_table(
+            doc,
+            (
+                {
+                    "condition": d["condition"] or "all",
+                    "model": d["model"],
+                    **{k: d[k] for k in ("params", "stderr", "units", "epsilon", "tests")},
+                    "converged": d["converged"],
+                    "health": ", ".join(h["code"] for h in d["health"]) or "ok",
+                }
+                for d in group
+            ),
             caption=f"{kind} / {soil}: value ± σ (Eqs. 3–5), fit quality ε (Eq. 2).",
-            labels=labels,
-            formats={"epsilon": ".3f"},
-            align_numbers=False,
         )
     doc.heading("Health flags and notes per fit")
     for d in records:

@@ -80,9 +80,7 @@ _UNITS = (
 
 def natural_key(value: object) -> tuple:
     """Sort key that orders numbers by value and text by its digit runs as numbers."""
-    if isinstance(value, bool):
-        return (0, float(value), "")
-    if isinstance(value, int | float):
+    if isinstance(value, int | float):  # bool included
         return (0, float(value), "")
     text = str(value)
     try:
@@ -108,7 +106,7 @@ def parameter_symbol(name: str) -> Markup:
 
 def unit_text(unit: str) -> str:
     """A unit string as printed (``Pa/m^(n-1)`` stays; empty stays empty)."""
-    return unit.replace("deg", "°") if unit == "deg" else unit
+    return "°" if unit == "deg" else unit
 
 
 def parameter_label(name: str, unit: str = "") -> Markup:

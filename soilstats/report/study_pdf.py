@@ -13,13 +13,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..identification.table import format_value
 from ..study.result import CRITERIA_COLUMNS
 from .document import Document, Markup, strong
 from .files import output_path
 from .front import data_origin, front_page
-from .labels import column_label, natural_key, natural_sorted, parameter_label
+from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
+from .parameters import condition_table
 from .provenance import Provenance
 from .study_figures import make_figures
 
@@ -199,35 +199,29 @@ def _parameter_tables(doc: Document, result) -> None:
     doc.paragraph(
         "Pooled weighted least-squares identification per soil and condition (Eq. 9); value ± σ "
         "from the covariance (Eqs. 3–5), fit quality ε (Eq. 2), and the fit's health codes "
-        "(docs/health.md: what each means and what to do)."
+        "(docs/identification.md, health flags: what each means and what to do)."
     )
+    factor = column_label(result.spec.factor)
     for soil in natural_sorted(params["soil"].unique()):
         g = params[params["soil"] == soil]
-        names = list(dict.fromkeys(g["parameter"]))
-        units = dict(zip(g["parameter"], g["unit"], strict=False))
-        rows = []
-        for cond in sorted(dict.fromkeys(g["condition"]), key=natural_key):
-            gc = g[g["condition"] == cond].set_index("parameter")
-            row = {"condition": cond, "model": ", ".join(sorted(set(gc["model"])))}
-            for name in names:
-                row[name] = (
-                    format_value(gc.loc[name, "value"], gc.loc[name, "stderr"])
-                    if name in gc.index
-                    else "–"
-                )
+        conditions = []
+        for cond, gc in g.groupby("condition", sort=False):
+            gc = gc.set_index("parameter")
             first = gc.iloc[0]
-            row["epsilon"] = first["epsilon"]
-            row["tests"] = first["tests"]
-            row["health"] = first["flags"] or "ok"
-            rows.append(row)
-        labels: dict[str, str | Markup] = {n: parameter_label(n, units.get(n, "")) for n in names}
-        labels.update(condition=column_label(result.spec.factor), epsilon=Markup("$epsilon$"))
-        doc.table(
-            pd.DataFrame(rows),
-            caption=f"{soil}: parameters per {column_label(result.spec.factor)}.",
-            labels=labels,
-            formats={"epsilon": ".3f", "tests": ".0f"},
-            align_numbers=False,
+            conditions.append(
+                {
+                    "condition": cond,
+                    "model": ", ".join(sorted(set(gc["model"]))),
+                    "params": gc["value"].to_dict(),
+                    "stderr": gc["stderr"].to_dict(),
+                    "units": gc["unit"].to_dict(),
+                    "epsilon": first["epsilon"],
+                    "tests": first["tests"],
+                    "health": first["flags"] or "ok",
+                }
+            )
+        condition_table(
+            doc, conditions, caption=f"{soil}: parameters per {factor}.", condition_label=factor
         )
 
 
