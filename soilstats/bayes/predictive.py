@@ -52,6 +52,7 @@ from .likelihood import PooledProblem
 __all__ = [
     "LOG_LIKELIHOOD_VALUES",
     "PREDICTIVE_DRAWS",
+    "input_name",
     "measured_dataset",
     "pooled_groups",
     "response_dataset",
@@ -78,7 +79,7 @@ def spread_draws(draws: int, chains: int, total: int | None):
     return np.unique(np.linspace(0, draws - 1, per).round().astype(int))
 
 
-def _input_name(label: str) -> str:
+def input_name(label: str) -> str:
     """``"b [m]"`` → ``"b_m"`` (the pooled data's own naming)."""
     name, _, unit = label.partition(" ")
     return f"{name}_{unit.strip('[]')}" if unit else name
@@ -117,7 +118,7 @@ def measured_dataset(*, y, weight, test_index, test_ids, inputs: dict, kind: str
 def response_dataset(problem: PooledProblem) -> xr.Dataset:
     """The samples a pooled likelihood uses, as :func:`measured_dataset`."""
     inputs = problem.inputs or {
-        _input_name(label): row
+        input_name(label): row
         for label, row in zip(problem.model.inputs, np.atleast_2d(problem.x), strict=True)
     }
     return measured_dataset(

@@ -12,6 +12,7 @@ by whoever writes a PDF.
 ``front``           page 1 of every report: question, data (measured/simulated), conclusion
 ``methods``         the paper's equations, typeset and cited
 ``labels``          human names with units, parameter symbols, natural level order
+``parameters``      parameter tables (Table 5 per condition, one fit) as value ± σ
 ``study_pdf``       a study's report; its figures in ``study_figures``
 ``discovery_pdf``   the discovery report
 ``check_pdf``       the data-quality screening report

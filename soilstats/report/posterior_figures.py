@@ -35,6 +35,7 @@ from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
 
 from ..bayes._arviz import az
+from ..bayes.predictive import input_name
 from ..models import Model, get_model
 
 __all__ = [
@@ -495,7 +496,7 @@ def _band(post: _Posterior, prob: float, draws: int):
         theta = np.column_stack([idata.posterior[n].to_numpy().ravel() for n in names])
         step = max(1, math.ceil(len(theta) / max(draws, 1)))
         theta = theta[::step]
-        inputs = [_input_name(label) for label in post.model.inputs]
+        inputs = [input_name(label) for label in post.model.inputs]
         x = [measured[name].to_numpy() for name in inputs]
         x = x[0] if len(x) == 1 else np.vstack(x)
         cols = [theta[:, i : i + 1] for i in range(theta.shape[1])]
@@ -523,11 +524,6 @@ def _band(post: _Posterior, prob: float, draws: int):
         f"so measurement noise is included)"
     )
     return measured, lo, hi, words
-
-
-def _input_name(label: str) -> str:
-    name, _, unit = label.partition(" ")
-    return f"{name}_{unit.strip('[]')}" if unit else name
 
 
 def _predictive_caption(post, prob, band_words, counts, n_levels, n_panels, gwords) -> str:
