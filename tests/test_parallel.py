@@ -1,0 +1,31 @@
+"""parallel_map: input order kept, the same results for any number of jobs, clear errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from soilstats.parallel import effective_jobs, parallel_map
+
+
+def _seeded_mean(seed: int) -> float:
+    # Each task draws from its own seed: the promise that makes any --jobs give one answer.
+    return float(np.random.default_rng(seed).normal(size=1000).mean())
+
+
+def test_results_keep_input_order_and_match_serial():
+    seeds = list(range(7, 0, -1))  # an order a worker pool would not finish in by accident
+    serial = parallel_map(_seeded_mean, seeds, jobs=1)
+    assert serial == [_seeded_mean(s) for s in seeds]
+    assert parallel_map(_seeded_mean, seeds, jobs=2) == serial
+
+
+def test_effective_jobs_follows_joblib_convention():
+    import os
+
+    cores = os.cpu_count() or 1
+    assert effective_jobs(None) == effective_jobs(0) == 1
+    assert effective_jobs(3) == 3
+    assert effective_jobs(-1) == cores
+    with pytest.raises(ValueError, match="fewer than one worker"):
+        effective_jobs(-(cores + 1))
