@@ -9,8 +9,10 @@ With no test-to-test scatter it agrees with Eq. 4's σ; with scatter it is large
 factor of several on real data.
 
 A resample draws T tests (with replacement) out of the T tests used; it is fitted by the same
-weighted LM, started from the full-data estimate, with each test's weights multiplied by the
-square root of how often it was drawn (the same normal equations as repeating its samples).
+weighted least squares, started from the full-data estimate, with each test's weights
+multiplied by the square root of how often it was drawn (the same normal equations as
+repeating its samples).  For the power laws all resamples are solved at once from per-test
+sums (:mod:`soilstats.fitting.clustered`); a resample that kernel leaves is refitted exactly.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ..fitting.clustered import fit_clustered_resamples
 from ..fitting.levenberg_marquardt import levenberg_marquardt
 from ..fitting.separable import BATCH_ELEMENTS, fit_separable_batch, refine_exponent
 
@@ -108,14 +111,21 @@ def bootstrap_tests(
         return w * np.sqrt(counts[rows][:, test_index])
 
     if model.separable is not None:
-        # Power laws: every resample's exact optimum at once (variable projection, batched),
-        # in blocks so that memory stays bounded whatever the campaign's size.
+        # Power laws: every resample's exact optimum at once (variable projection, batched).
         basis, log_z = model.separable(x, np.ones_like(w))
+        g = basis(0.0)  # (q, N) the basis without z^n
+        g_test = g[:, np.unique(test_index, return_index=True)[1]]  # each test's first sample
+        if np.array_equal(g, g_test[:, test_index]):
+            # The basis is constant within each test (1/b and 1): per-test sums suffice.
+            theta, done = fit_clustered_resamples(
+                g_test.T, log_z, y, w, test_index, counts, start[-1]
+            )
+        rest = np.flatnonzero(~done)  # the basis varies within a test, or a row strayed
         block = max(1, BATCH_ELEMENTS // max(w.size, 1))
-        for first in range(0, n_resamples, block):
-            rows = slice(first, min(first + block, n_resamples))
+        for first in range(0, rest.size, block):
+            rows = rest[first : first + block]
             theta[rows], done[rows] = fit_separable_batch(
-                basis(0.0), log_z, y, resample_weights(rows), start[-1]
+                g, log_z, y, resample_weights(rows), start[-1]
             )
     for i in np.flatnonzero(~done):  # other models, and the rare resample the batch left
         refit = _refit(model, x, y, resample_weights([i])[0], start)

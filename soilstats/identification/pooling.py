@@ -55,15 +55,62 @@ def equidistant_indices(z: np.ndarray, count: int | None) -> np.ndarray:
     removed, so a short record may give fewer than ``count`` points.  Returned in record order.
     """
     z = np.asarray(z, float)
-    if count is None or z.size <= count:
-        return np.arange(z.size)
-    order = np.argsort(z, kind="stable")
-    zs = z[order]
-    grid = np.linspace(zs[0], zs[-1], count)
-    pos = np.clip(np.searchsorted(zs, grid), 1, zs.size - 1)
-    nearer_left = (grid - zs[pos - 1]) <= (zs[pos] - grid)
-    chosen = order[np.where(nearer_left, pos - 1, pos)]
-    return np.unique(chosen)
+    return np.flatnonzero(_equidistant_by_test(z, np.zeros(z.size, np.intp), 1, count))
+
+
+def _equidistant_by_test(
+    axis: np.ndarray, test: np.ndarray, n_tests: int, count: int | None
+) -> np.ndarray:
+    """Mask of the samples :func:`equidistant_indices` keeps, for every test at once.
+
+    ``test`` (N,) holds each sample's test 0 … n_tests−1.  Per test, the grid of ``count``
+    values over [min, max] of ``axis`` is ``np.linspace``'s (same arithmetic, exact end
+    point), and each grid value takes the nearer of its two neighbours, the lower on a tie.
+    """
+    keep = np.ones(axis.size, bool)
+    if count is None or axis.size == 0:
+        return keep
+    sizes = np.bincount(test, minlength=n_tests)
+    thin = np.flatnonzero(sizes > count)
+    if not thin.size:
+        return keep
+    order = np.lexsort((axis, test))  # by test, then value; ties keep record order
+    values = axis[order]
+    starts = np.cumsum(sizes) - sizes
+    lo, hi = values[starts[thin]], values[starts[thin] + sizes[thin] - 1]
+    k = np.arange(count, dtype=float)
+    if count > 1:
+        grid = lo[:, None] + k * ((hi - lo) / (count - 1))[:, None]
+        grid[:, -1] = hi
+    else:
+        grid = lo[:, None].copy()
+    # Locate each grid value among its test's sorted samples with one global search: the
+    # key 2t + (v − lo_t)/(hi_t − lo_t) is non-decreasing in v within a test and keeps
+    # tests apart.  Rounding can merge a sample just below a grid value with it, so the
+    # position is then advanced to the first sample truly >= the value (exact comparisons).
+    span = np.where(hi > lo, hi - lo, 1.0)
+    sample_test = test[order]
+    t_lo = np.zeros(n_tests)
+    t_span = np.ones(n_tests)
+    t_lo[thin], t_span[thin] = lo, span
+    sample_key = 2.0 * sample_test + (values - t_lo[sample_test]) / t_span[sample_test]
+    grid_key = 2.0 * thin[:, None] + (grid - lo[:, None]) / span[:, None]
+    pos = np.searchsorted(sample_key, grid_key.ravel()).reshape(grid.shape)
+    first = starts[thin][:, None]
+    last = (starts[thin] + sizes[thin] - 1)[:, None]
+    while True:
+        behind = (pos <= last) & (values[np.minimum(pos, last)] < grid)
+        if not behind.any():
+            break
+        pos += behind
+    pos = np.clip(pos, first + 1, last)
+    nearer_left = (grid - values[pos - 1]) <= (values[pos] - grid)
+    chosen = np.where(nearer_left, pos - 1, pos)
+    in_thin = np.zeros(n_tests, bool)
+    in_thin[thin] = True
+    keep[order[in_thin[sample_test]]] = False
+    keep[order[chosen.ravel()]] = True
+    return keep
 
 
 @dataclass(frozen=True)
@@ -86,6 +133,71 @@ class KeptSamples:
     excluded: int
     weight: float
     problem: str | None = None
+
+
+@dataclass(frozen=True)
+class KeptByTest:
+    """Section 2.1's rule applied to many tests at once (arrays over tests, T)."""
+
+    used: np.ndarray  # (N,) bool: the sample is used
+    excluded: np.ndarray  # (T,) samples out of contact
+    counts: np.ndarray  # (T,) samples used
+    y_max: np.ndarray  # (T,) max response over the samples used (NaN: none)
+    weight: np.ndarray  # (T,) 1/max(y) or 1; NaN when unusable
+    problems: list  # (T,) str or None
+
+
+def kept_by_test(
+    axis: np.ndarray,
+    y: np.ndarray,
+    test: np.ndarray,
+    n_tests: int,
+    kind: str,
+    *,
+    points_per_test: int | None,
+    weighting: str = "max",
+) -> KeptByTest:
+    """Apply Section 2.1's rule to every test of a table at once (see :func:`kept_samples`).
+
+    ``test`` (N,) holds each sample's test 0 … T−1 (−1: not selected, never used).
+    """
+    axis = np.asarray(axis, float)
+    y = np.asarray(y, float)
+    test = np.asarray(test, np.intp)
+    member = test >= 0
+    contact = member & ((axis > 0) if kind == "sinkage" else (axis >= 0))
+    excluded = np.bincount(test[member & ~contact], minlength=n_tests)
+    candidates = np.flatnonzero(contact)
+    used = np.zeros(axis.size, bool)
+    used[
+        candidates[
+            _equidistant_by_test(axis[candidates], test[candidates], n_tests, points_per_test)
+        ]
+    ] = True
+    used_test = test[used]
+    counts = np.bincount(used_test, minlength=n_tests)
+    y_max = np.full(n_tests, -np.inf)
+    np.maximum.at(y_max, used_test, y[used])
+    y_max[counts == 0] = np.nan
+    problems: list = [None] * n_tests
+    for t in np.flatnonzero(counts < MIN_SAMPLES):
+        problems[t] = (
+            f"only {counts[t]} samples with {_CONTACT[kind]}; a fit needs at least "
+            f"{MIN_SAMPLES} per test"
+        )
+    if weighting == "max":
+        for t in np.flatnonzero((counts >= MIN_SAMPLES) & ~(y_max > 0)):
+            problems[t] = (
+                f"max response is {y_max[t]:g} Pa <= 0, so the weight 1/max of Section 2.1 is "
+                "undefined; check the sign of the force or torque, or exclude the test"
+            )
+        with np.errstate(divide="ignore"):
+            weight = 1.0 / y_max
+    else:
+        weight = np.ones(n_tests)
+    bad = np.array([pr is not None for pr in problems], bool)
+    weight[bad] = np.nan
+    return KeptByTest(used, excluded, counts, y_max, weight, problems)
 
 
 def kept_samples(
@@ -112,25 +224,18 @@ def kept_samples(
         Weight 1/max(y) per test (Section 2.1) or 1.
     """
     axis = np.asarray(axis, float)
-    y = np.asarray(y, float)
-    contact = axis > 0 if kind == "sinkage" else axis >= 0
-    inside = np.flatnonzero(contact)
-    index = inside[equidistant_indices(axis[inside], points_per_test)]
-    excluded = int(axis.size - inside.size)
-    if index.size < MIN_SAMPLES:
-        problem = (
-            f"only {index.size} samples with {_CONTACT[kind]}; a fit needs at least "
-            f"{MIN_SAMPLES} per test"
-        )
-        return KeptSamples(index, excluded, np.nan, problem)
-    y_max = float(y[index].max())
-    if weighting == "max" and y_max <= 0:
-        problem = (
-            f"max response is {y_max:g} Pa <= 0, so the weight 1/max of Section 2.1 is "
-            "undefined; check the sign of the force or torque, or exclude the test"
-        )
-        return KeptSamples(index, excluded, np.nan, problem)
-    return KeptSamples(index, excluded, 1.0 / y_max if weighting == "max" else 1.0)
+    rule = kept_by_test(
+        axis,
+        y,
+        np.zeros(axis.size, np.intp),
+        1,
+        kind,
+        points_per_test=points_per_test,
+        weighting=weighting,
+    )
+    return KeptSamples(
+        np.flatnonzero(rule.used), int(rule.excluded[0]), float(rule.weight[0]), rule.problems[0]
+    )
 
 
 def _unusable(kind: str, tid, problem: str) -> CampaignError:
@@ -162,61 +267,66 @@ def pool_sinkage(
         raise ValueError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
     chosen, tests = select_one_soil(screened(campaign), "sinkage", selection)
     samples = chosen.sinkage
-    by_test = samples.groupby("test_id", sort=False).indices
-    z_all = samples["z_m"].to_numpy(float)
-    p_all = samples["pressure_Pa"].to_numpy(float)
-    empty = np.array([], int)
-    zs, ps, rows = [], [], []
-    for tid, b in zip(tests["test_id"], tests["b_m"].to_numpy(float), strict=True):
-        idx = by_test.get(tid, empty)
-        kept = kept_samples(
-            z_all[idx],
-            p_all[idx],
-            "sinkage",
-            points_per_test=points_per_test,
-            weighting="max" if weighting == "max-pressure" else "none",
-        )
-        if kept.problem is not None and on_unusable == "raise":
-            raise _unusable("sinkage", tid, kept.problem)
-        use = idx[kept.index] if kept.problem is None else empty
-        z, p = z_all[use], p_all[use]
-        zs.append(z)
-        ps.append(p)
-        rows.append(
-            (
-                tid,
-                b,
-                idx.size,
-                kept.excluded,
-                z.size,
-                float(z.max()) if z.size else np.nan,
-                float(p.max()) if p.size else np.nan,
-                kept.weight,
-                kept.problem,
-            )
-        )
-    groups = pd.DataFrame(
-        rows,
-        columns=[
-            "test_id",
-            "b_m",
-            "samples",
-            "excluded_z_nonpositive",
-            "used",
-            "z_max_m",
-            "p_max_Pa",
-            "weight",
-            "problem",
-        ],
+    test_ids = tests["test_id"]
+    test = pd.Index(test_ids).get_indexer(samples["test_id"])
+    rule = kept_by_test(
+        samples["z_m"].to_numpy(float),
+        samples["pressure_Pa"].to_numpy(float),
+        test,
+        len(tests),
+        "sinkage",
+        points_per_test=points_per_test,
+        weighting="max" if weighting == "max-pressure" else "none",
     )
-    used = groups["used"].to_numpy()
+    if on_unusable == "raise":
+        _raise_first_problem("sinkage", test_ids, rule.problems)
+    usable = np.array([problem is None for problem in rule.problems], bool)
+    use, test_of = _used_in_test_order(rule.used & usable[np.maximum(test, 0)], test)
+    z, p = samples["z_m"].to_numpy(float)[use], samples["pressure_Pa"].to_numpy(float)[use]
+    used = np.bincount(test_of, minlength=len(tests))
+    b = tests["b_m"].to_numpy(float)
+    groups = pd.DataFrame(
+        {
+            "test_id": test_ids.to_numpy(),
+            "b_m": b,
+            "samples": np.bincount(test[test >= 0], minlength=len(tests)),
+            "excluded_z_nonpositive": rule.excluded,
+            "used": used,
+            "z_max_m": _max_by_test(z, test_of, len(tests)),
+            "p_max_Pa": _max_by_test(p, test_of, len(tests)),
+            "weight": rule.weight,
+            "problem": rule.problems,
+        }
+    )
     return PooledData(
-        x={"b_m": np.repeat(groups["b_m"].to_numpy(), used), "z_m": np.concatenate(zs)},
-        y=np.concatenate(ps),
-        weights=np.repeat(groups["weight"].to_numpy(), used),
-        test_index=np.repeat(np.arange(len(groups)), used),
+        x={"b_m": b[test_of], "z_m": z},
+        y=p,
+        weights=rule.weight[test_of],
+        test_index=test_of,
         tests=groups,
     )
+
+
+def _used_in_test_order(used: np.ndarray, test: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of the used samples ordered by test, record order within a test, and
+    each one's test."""
+    index = np.flatnonzero(used)
+    order = np.argsort(test[index], kind="stable")
+    return index[order], test[index[order]]
+
+
+def _max_by_test(values: np.ndarray, test: np.ndarray, n_tests: int) -> np.ndarray:
+    """Max of ``values`` per test; NaN for a test without samples."""
+    out = np.full(n_tests, -np.inf)
+    np.maximum.at(out, test, values)
+    out[np.isneginf(out)] = np.nan
+    return out
+
+
+def _raise_first_problem(kind: str, test_ids: pd.Series, problems: list) -> None:
+    for tid, problem in zip(test_ids, problems, strict=True):
+        if problem is not None:
+            raise _unusable(kind, tid, problem)
 
 
 def pool_shear(
@@ -236,57 +346,45 @@ def pool_shear(
     ``"none"`` or ``"max-stress"`` (1/max τ per test). Every test keeps a row in ``tests``;
     one that contributes no sample has ``used`` 0 and the reason.
     """
-    from .steady_state import steady_state
 
     if weighting not in ("none", "max-stress"):
         raise ValueError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
     chosen, tests = select_one_soil(screened(campaign), "shear", selection)
     samples = chosen.shear
-    by_test = samples.groupby("test_id", sort=False).indices
+    test_ids = tests["test_id"]
+    test = pd.Index(test_ids).get_indexer(samples["test_id"])
     sig_all = samples["sigma_Pa"].to_numpy(float)
     tau_all = samples["tau_Pa"].to_numpy(float)
     j_all = samples["j_m"].to_numpy(float)
-    empty = np.array([], int)
-    used_rows, rows = [], []
-    for tid in tests["test_id"]:
-        idx = by_test.get(tid, empty)
-        j, t = j_all[idx], tau_all[idx]
-        row = {
-            "test_id": tid,
-            "samples": int(idx.size),
-            "sigma_mean_Pa": float(np.mean(sig_all[idx])) if idx.size else np.nan,
-        }
-        if steady_only:
-            ss = steady_state(j, t)
-            row.update(
-                steady=ss.steady,
-                steady_from_j_m=float(j[ss.indices].min()) if ss.indices.size else np.nan,
-                tau_ss_Pa=ss.tau_level,
-                reason=ss.reason,
-            )
-            keep = ss.indices if ss.steady else empty
-            t_max = float(np.max(t[keep])) if keep.size else np.nan
-            if weighting == "max-stress" and keep.size and t_max <= 0:
-                raise _unusable("shear", tid, f"max shear stress {t_max:g} Pa <= 0")
-            weight = (1.0 / t_max if weighting == "max-stress" else 1.0) if keep.size else np.nan
-        else:
-            kept = kept_samples(
-                j,
-                t,
-                "shear",
-                points_per_test=points_per_test,
-                weighting="max" if weighting == "max-stress" else "none",
-            )
-            if kept.problem is not None and on_unusable == "raise":
-                raise _unusable("shear", tid, kept.problem)
-            keep = kept.index if kept.problem is None else empty
-            weight = kept.weight
-            row.update(excluded_j_negative=kept.excluded, problem=kept.problem)
-        row.update(used=int(keep.size), weight=weight)
-        used_rows.append(idx[keep])
-        rows.append(row)
-    groups = pd.DataFrame(rows)
-    if not groups["used"].any():
+    member = test >= 0
+    present = np.bincount(test[member], minlength=len(tests))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sigma_mean = np.bincount(test[member], sig_all[member], len(tests)) / present
+    groups = {"test_id": test_ids.to_numpy(), "samples": present, "sigma_mean_Pa": sigma_mean}
+    if steady_only:
+        used, weight, steady_columns = _steady_parts(test, j_all, tau_all, test_ids, weighting)
+        groups.update(steady_columns)
+    else:
+        rule = kept_by_test(
+            j_all,
+            tau_all,
+            test,
+            len(tests),
+            "shear",
+            points_per_test=points_per_test,
+            weighting="max" if weighting == "max-stress" else "none",
+        )
+        if on_unusable == "raise":
+            _raise_first_problem("shear", test_ids, rule.problems)
+        usable = np.array([problem is None for problem in rule.problems], bool)
+        used = rule.used & usable[np.maximum(test, 0)]
+        weight = rule.weight
+        groups.update(excluded_j_negative=rule.excluded, problem=rule.problems)
+    use, test_of = _used_in_test_order(used, test)
+    counts = np.bincount(test_of, minlength=len(tests))
+    groups.update(used=counts, weight=weight)
+    groups = pd.DataFrame(groups)
+    if not counts.any():
         why = (
             "no selected shear test reaches a steady state, so Mohr–Coulomb (Eq. 15) has no "
             "data; see the steady-state rule in soilstats.identification.steady_state"
@@ -294,15 +392,55 @@ def pool_shear(
             else "no selected shear test has a usable record (see the fit's tests['problem'])"
         )
         raise CampaignError(why, file="shear.csv", column="torque_Nm")
-    use = np.concatenate(used_rows)
-    counts = groups["used"].to_numpy(int)
     return PooledData(
         x={"sigma_Pa": sig_all[use], "j_m": j_all[use]},
         y=tau_all[use],
-        weights=np.repeat(groups["weight"].to_numpy(float), counts),
-        test_index=np.repeat(np.arange(len(groups)), counts),
+        weights=weight[test_of],
+        test_index=test_of,
         tests=groups,
     )
+
+
+def _steady_parts(test, j_all, tau_all, test_ids, weighting):
+    """The steady-state samples of every shear test (rule in :mod:`.steady_state`), their
+    weights and the bookkeeping columns; one test at a time, as the rule reads a record."""
+    from .steady_state import steady_state
+
+    n_tests = len(test_ids)
+    used = np.zeros(test.size, bool)
+    weight = np.full(n_tests, np.nan)
+    columns = {
+        "steady": np.zeros(n_tests, bool),
+        "steady_from_j_m": np.full(n_tests, np.nan),
+        "tau_ss_Pa": np.full(n_tests, np.nan),
+        "reason": [None] * n_tests,
+    }
+    index_of = _indices_by_test(test, n_tests)
+    for t, tid in enumerate(test_ids):
+        idx = index_of[t]
+        j, tau = j_all[idx], tau_all[idx]
+        ss = steady_state(j, tau)
+        columns["steady"][t] = ss.steady
+        columns["steady_from_j_m"][t] = float(j[ss.indices].min()) if ss.indices.size else np.nan
+        columns["tau_ss_Pa"][t] = ss.tau_level
+        columns["reason"][t] = ss.reason
+        keep = ss.indices if ss.steady else np.array([], int)
+        if not keep.size:
+            continue
+        t_max = float(np.max(tau[keep]))
+        if weighting == "max-stress" and t_max <= 0:
+            raise _unusable("shear", tid, f"max shear stress {t_max:g} Pa <= 0")
+        weight[t] = 1.0 / t_max if weighting == "max-stress" else 1.0
+        used[idx[keep]] = True
+    return used, weight, columns
+
+
+def _indices_by_test(test: np.ndarray, n_tests: int) -> list[np.ndarray]:
+    """Sample positions of each test (record order); empty for a test without samples."""
+    member = np.flatnonzero(test >= 0)
+    order = member[np.argsort(test[member], kind="stable")]
+    bounds = np.cumsum(np.bincount(test[member], minlength=n_tests))
+    return np.split(order, bounds[:-1])
 
 
 def select_one_soil(campaign, kind: str, selection: dict):
