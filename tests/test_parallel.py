@@ -29,3 +29,21 @@ def test_effective_jobs_follows_joblib_convention():
     assert effective_jobs(-1) == cores
     with pytest.raises(ValueError, match="fewer than one worker"):
         effective_jobs(-(cores + 1))
+
+
+def test_condition_fits_are_the_same_for_any_number_of_jobs():
+    import soilstats
+    from soilstats.identification.conditions import fit_conditions
+
+    campaign = soilstats.load_campaign("simulated-paper").select(series="velocity")
+    runs = [
+        fit_conditions(campaign, "sinkage", test_resamples=40, seed=3, jobs=jobs)
+        for jobs in (1, 2)
+    ]
+    one, two = ([f.fit for f in run.fits] for run in runs)
+    assert len(one) == len(two) > 1
+    for a, b in zip(one, two, strict=True):
+        assert np.array_equal(a.values, b.values)
+        assert np.array_equal(a.bootstrap.draws, b.bootstrap.draws)
+        assert [f.code for f in a.flags] == [f.code for f in b.flags]
+    assert runs[0].summary() == runs[1].summary()

@@ -124,6 +124,18 @@ def add_common_options(
     )
 
 
+def add_jobs_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--jobs N``: worker processes over ``what`` (soilstats.parallel, joblib)."""
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        metavar="N",
+        help=f"worker processes over {what} (joblib; -1: every core; default 1); the results "
+        "are identical for any N",
+    )
+
+
 def add_data_options(parser: argparse.ArgumentParser, *, window: bool = True) -> None:
     """``--quality`` (data screening) and, for sinkage fits, the window ``--z-max``/``--p-max``."""
     parser.add_argument(

@@ -15,7 +15,13 @@ import json
 import sys
 from pathlib import Path
 
-from .common import add_common_options, add_data_options, prepared_campaign
+from .common import (
+    add_common_options,
+    add_data_options,
+    add_jobs_option,
+    prepared_campaign,
+    progress_enabled,
+)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -70,6 +76,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "default 200, seeded by --seed)",
     )
     parser.add_argument("--verbose", action="store_true", help="print every fit's summary()")
+    add_jobs_option(parser, "the soils and conditions")
 
 
 def _check_series(campaign, series: str | None) -> None:
@@ -117,7 +124,16 @@ def run(args: argparse.Namespace) -> int:
         if kind == "sinkage":
             options |= {"method": args.method, "points_per_test": args.points_per_test}
         model = args.model if kind == "sinkage" else "mohr-coulomb"
-        result = fit_conditions(campaign, kind, by=by, model=model, soils=args.soil, **options)
+        result = fit_conditions(
+            campaign,
+            kind,
+            by=by,
+            model=model,
+            soils=args.soil,
+            jobs=args.jobs,
+            progress=progress_enabled(args.progress),
+            **options,
+        )
         print("\n" + result.summary(), file=out)
         if args.verbose:
             for condition in result.fits:

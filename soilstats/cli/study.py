@@ -23,7 +23,13 @@ import sys
 import time
 from pathlib import Path
 
-from .common import add_common_options, add_data_options, prepared_campaign, progress_enabled
+from .common import (
+    add_common_options,
+    add_data_options,
+    add_jobs_option,
+    prepared_campaign,
+    progress_enabled,
+)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -32,12 +38,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_common_options(parser, default_out="reports")
     add_data_options(parser, window=False)
     parser.add_argument("--no-pdf", action="store_true", help="write JSON and CSV only")
+    add_jobs_option(parser, "the studies and the per-test fits they share")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the studies; readable summaries (or one JSON object) on stdout."""
+    from ..parallel import effective_jobs, parallel_map
     from ..report import Provenance
-    from ..study import available_studies, load_spec, run_study, write_outputs, write_report
+    from ..study import available_studies, load_spec
     from ..study.outputs import to_json_dict
     from ..study.responses import PerTestCache
 
@@ -50,22 +58,21 @@ def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out)
     log = sys.stderr if args.json else sys.stdout
     print(f"Campaign: {campaign.source}   output: {out_dir}/", file=log)
-    if progress:
-        from tqdm.auto import tqdm
+    parallel = effective_jobs(args.jobs) > 1 and len(specs) > 1
+    if parallel:
+        cache.fill(jobs=args.jobs)  # the per-test fits every study shares, across workers
+        cache.progress = False
+    tasks = [(spec, campaign, cache, args, provenance) for spec in specs]
+    if parallel:
+        outcomes = parallel_map(_run_one, tasks, jobs=args.jobs, progress=progress, desc="studies")
+    else:  # one study after the other, each printed as soon as it is done
+        outcomes = (_run_one(task) for task in tasks)
+        if progress:
+            from tqdm.auto import tqdm
 
-        specs = tqdm(specs, desc="studies", unit="study")
+            outcomes = tqdm(outcomes, total=len(tasks), desc="studies", unit="study")
     documents, timings = [], []
-    for spec in specs:
-        start = time.perf_counter()
-        result = run_study(
-            spec, campaign, cache=cache, progress=progress, seed=args.seed, provenance=provenance
-        )
-        written = write_outputs(result, out_dir, overwrite=args.overwrite)
-        if not args.no_pdf:
-            pdf = out_dir / f"{spec.name}.pdf"
-            pages = write_report(result, campaign, pdf, overwrite=args.overwrite)
-            written.append(pdf)
-        seconds = time.perf_counter() - start
+    for spec, (result, written, pages, seconds) in zip(specs, outcomes, strict=True):
         timings.append((spec.name, seconds))
         documents.append(to_json_dict(result) | {"files": [str(p) for p in written]})
         if not args.json:
@@ -82,6 +89,25 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"studies": documents, "provenance": provenance.to_dict()}, indent=2))
     return 0
+
+
+def _run_one(task):
+    """One study: run, write its JSON/CSV (and PDF); (result, files, pages, seconds)."""
+    from ..study import run_study, write_outputs, write_report
+
+    spec, campaign, cache, args, provenance = task
+    start = time.perf_counter()
+    result = run_study(
+        spec, campaign, cache=cache, progress=cache.progress, seed=args.seed, provenance=provenance
+    )
+    out_dir = Path(args.out)
+    written = write_outputs(result, out_dir, overwrite=args.overwrite)
+    pages = None
+    if not args.no_pdf:
+        pdf = out_dir / f"{spec.name}.pdf"
+        pages = write_report(result, campaign, pdf, overwrite=args.overwrite)
+        written.append(pdf)
+    return result, written, pages, time.perf_counter() - start
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
+from ..parallel import effective_jobs, parallel_map
 from ..quality import screened
 from .result import CampaignFit
 from .shear import fit_shear
@@ -168,6 +169,8 @@ def fit_conditions(
     fallback_model: str | None = None,
     soils: Sequence[str] | None = None,
     test_ids: Sequence[str] | None = None,
+    jobs: int | None = 1,
+    progress: bool = False,
     **options,
 ) -> ConditionFits:
     """Fit every soil × series × condition of ``kind`` in ``campaign`` separately.
@@ -186,6 +189,12 @@ def fit_conditions(
         condition is reported as not identified).
     soils, test_ids : sequence of str, optional
         Restrict to these soils / tests.
+    jobs : int, default 1
+        Worker processes over the conditions (:func:`soilstats.parallel.parallel_map`;
+        −1: every core).  The result is the same for any number: each condition's fit,
+        bootstrap seed included, depends on its own tests only.
+    progress : bool
+        A tqdm bar over the conditions.
     **options
         Passed to :func:`fit_sinkage` or :func:`fit_shear` (``method``, ``points_per_test`` …).
     """
@@ -198,8 +207,9 @@ def fit_conditions(
         tests = tests[tests["soil"].astype(str).isin(set(map(str, soils)))]
     if kind == "shear" and model == "auto":
         model = "mohr-coulomb"
-    fits, failures = [], []
+    failures: list[str] = []
     fallbacks: dict[tuple, list[str]] = {}
+    tasks = []  # (where, soil, series, column, label, model, test ids), in table order
     if "series" in tests.columns:
         by_series = [(str(k), g) for k, g in tests.groupby("series", sort=True, dropna=False)]
     else:
@@ -215,18 +225,48 @@ def fit_conditions(
             chosen, why = _model_for(kind, model, fallback_model, group)
             if why:
                 fallbacks.setdefault((why, chosen), []).append(where)
-            if chosen is None:
-                continue
-            fitter = fit_sinkage if kind == "sinkage" else fit_shear
-            ids = list(group["test_id"].astype(str))
-            try:
-                fit = fitter(campaign, chosen, test_id=ids, **options)
-            except (ConvergenceError, IdentifiabilityError, CampaignError) as err:
-                failures.append(f"{where}: {chosen} — {err}")
-                continue
-            fits.append(ConditionFit(kind, soil, series, column, label, chosen, fit))
+            if chosen is not None:
+                ids = list(group["test_id"].astype(str))
+                tasks.append((where, soil, series, column, label, chosen, ids))
+    # Workers get only their condition's tests (a small pickle); in-process the campaign is
+    # used as it is. Both fit the same samples: fit_* selects test_id=ids either way.
+    one_process = effective_jobs(jobs) == 1 or len(tasks) < 2
+    outcomes = parallel_map(
+        _fit_condition,
+        [
+            (
+                campaign if one_process else campaign.select(test_id=t[-1]),
+                kind,
+                t[-2],
+                t[-1],
+                options,
+            )
+            for t in tasks
+        ],
+        jobs=jobs,
+        progress=progress,
+        desc=f"{kind} conditions",
+    )
+    fits = []
+    for (where, soil, series, column, label, chosen, _), outcome in zip(
+        tasks, outcomes, strict=True
+    ):
+        if isinstance(outcome, str):
+            failures.append(f"{where}: {chosen} — {outcome}")
+        else:
+            fits.append(ConditionFit(kind, soil, series, column, label, chosen, outcome))
     notes = [
         f"{why}; {chosen + ' used' if chosen else 'not identified'}: {'; '.join(where)}"
         for (why, chosen), where in fallbacks.items()
     ]
     return ConditionFits(tuple(fits), tuple(failures), tuple(notes))
+
+
+def _fit_condition(task) -> CampaignFit | str:
+    """One condition's pooled fit, or the reason it failed (a task of :func:`parallel_map`)."""
+    campaign, kind, model, ids, options = task
+    fitter = fit_sinkage if kind == "sinkage" else fit_shear
+    try:
+        return fitter(campaign, model, test_id=ids, **options)
+    except (ConvergenceError, IdentifiabilityError, CampaignError) as err:
+        return str(err)

@@ -67,6 +67,31 @@ class PerTestCache:
         table = done.set_index("test_id").loc[ids].reset_index()
         return table
 
+    def fill(self, *, jobs: int | None = 1, chunks_per_job: int = 4) -> None:
+        """Fit every test of the campaign now, spread over ``jobs`` workers in chunks of
+        tests (each test's fit depends on its own samples only, so the rows are the ones
+        :meth:`fits` would compute one study at a time)."""
+        from ..parallel import effective_jobs, parallel_map
+
+        tests = self.campaign.tests
+        chunks = []
+        for kind in ("sinkage", "shear"):
+            ids = [str(t) for t in tests.loc[tests["kind"] == kind, "test_id"]]
+            have = set() if self._fits.get(kind) is None else set(self._fits[kind]["test_id"])
+            ids = [t for t in ids if t not in have]
+            parts = min(len(ids), max(1, effective_jobs(jobs) * chunks_per_job))
+            chunks += [
+                (self.campaign.select(test_id=list(part)), kind, list(part))
+                for part in np.array_split(np.array(ids, dtype=object), parts)
+                if len(part)
+            ]
+        for kind, fitted, caught in parallel_map(_fit_chunk, chunks, jobs=jobs):
+            self.warnings += caught
+            done = self._fits.get(kind)
+            self._fits[kind] = (
+                fitted if done is None else pd.concat([done, fitted], ignore_index=True)
+            )
+
     def sinkage(self, test_ids, z_ref_m: float, z_window_m: float) -> pd.DataFrame:
         """Per-test sinkage responses: Bernstein k, n, log10_k, p_ref_Pa, log10_p_ref."""
         table = self.fits("sinkage", test_ids)
@@ -82,3 +107,12 @@ class PerTestCache:
     def shear(self, test_ids) -> pd.DataFrame:
         """Per-test shear responses: sigma_mean_Pa, tau_ss_Pa (NaN if never steady), steady."""
         return self.fits("shear", test_ids)
+
+
+def _fit_chunk(task) -> tuple[str, pd.DataFrame, list[str]]:
+    """Per-test fits of one chunk of tests, with the warnings they raised (a worker task)."""
+    campaign, kind, ids = task
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fitted = fit_per_test(campaign, kind, test_id=ids)
+    return kind, fitted, [str(w.message) for w in caught]

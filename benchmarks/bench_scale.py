@@ -1,0 +1,189 @@
+"""How soilstats scales: 100 → 1,000 → 10,000 tests (issue #15, item 3; item 4's --jobs).
+
+A campaign of ~10,000 tests is simulated once from the bundled design (the paper's
+``simulated-paper`` SPEC with every series' repetitions × 10: 9,620 tests, ~1.15 M samples;
+about 120 samples per test as a 100 Hz rig logs a 1.2 s plate test), and seeded random
+subsets of 100 and 1,000 of its tests are saved beside it, so every size has the same mix of
+series.  Each size then runs in a *fresh process* (so peak memory is that size's own) through
+the steps a user's commands take:
+
+* load      — ``soilstats.load_campaign(folder)`` (CSV parsing and every format rule);
+* screen    — ``soilstats.quality.screen`` (spikes, contact, load caps, drift …);
+* identify  — ``fit_conditions`` for sinkage and shear, every soil × series × condition,
+  with the 200-resample test bootstrap the ``identify`` command runs by default;
+* discover  — ``soilstats.discovery.discover`` on the screened campaign.
+
+identify and discover run with ``jobs=1`` and ``jobs=2`` (worker processes; results are
+checked equal).  Peak memory is the process's maximum resident set (ru_maxrss).
+
+    python benchmarks/bench_scale.py                 # all three sizes (~5 min on 2 cores)
+    python benchmarks/bench_scale.py --sizes 100 1000
+
+Targets at 10,000 tests: load ≤ 3 s, screen + identify ≤ 10 s, discover ≤ 60 s, peak
+memory ≤ 2 GB, ≥ 1.7× speed-up with 2 jobs; each cost should grow linearly (×10 per ×10).
+One run on this machine; the numbers are what it printed, not a unit test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEC = ROOT / "soilstats" / "data" / "simulated-paper" / "spec.toml"
+TARGETS = {"load": 3.0, "screen + identify": 10.0, "discover": 60.0}
+
+
+def build_campaigns(folder: Path, sizes: list[int], seed: int = 1) -> dict[int, Path]:
+    """The ×10 campaign and seeded subsets of it, saved as campaign folders."""
+    import numpy as np
+
+    from soilstats.simulation import load_spec, simulate
+
+    text = re.sub(
+        r"^repetitions = (\d+)",
+        lambda m: f"repetitions = {int(m.group(1)) * 10}",
+        SPEC.read_text(),
+        flags=re.M,
+    )
+    spec_file = folder / "spec-x10.toml"
+    spec_file.write_text(text)
+    full = simulate(load_spec(spec_file), seed=seed).campaign
+    paths = {}
+    rng = np.random.default_rng(seed)
+    ids = full.tests["test_id"].to_numpy()
+    for size in sizes:
+        chosen = (
+            full
+            if size >= len(ids)
+            else full.select(test_id=list(rng.choice(ids, size, replace=False)))
+        )
+        paths[size] = chosen.save(folder / f"tests-{size}", overwrite=True)
+    return paths
+
+
+def measure(folder: str) -> dict:
+    """Run in a fresh process: the timings and peak memory of one campaign folder."""
+    import soilstats
+    from soilstats.discovery import discover
+    from soilstats.identification.conditions import fit_conditions
+    from soilstats.quality import screen
+
+    out: dict = {}
+    t0 = time.perf_counter()
+    campaign = soilstats.load_campaign(folder)
+    out["load"] = time.perf_counter() - t0
+    out["tests"] = len(campaign.tests)
+    out["samples"] = len(campaign.sinkage) + len(campaign.shear)
+    t0 = time.perf_counter()
+    cleaned = screen(campaign).campaign
+    out["screen"] = time.perf_counter() - t0
+    summaries = {}
+    for jobs in (1, 2):
+        t0 = time.perf_counter()
+        fits = [
+            fit_conditions(cleaned, kind, test_resamples=200, seed=0, jobs=jobs)
+            for kind in ("sinkage", "shear")
+            if (cleaned.tests["kind"] == kind).any()
+        ]
+        out[f"identify jobs={jobs}"] = time.perf_counter() - t0
+        summaries[jobs] = [
+            (f.fit.values.tolist(), f.fit.bootstrap and f.fit.bootstrap.draws.sum())
+            for r in fits
+            for f in r.fits
+        ]
+    out["identify equal for jobs 1, 2"] = summaries[1] == summaries[2]
+    found = {}
+    for jobs in (1, 2):
+        t0 = time.perf_counter()
+        kwargs = {"jobs": jobs} if jobs > 1 else {}
+        result = discover(cleaned, seed=0, **kwargs)
+        out[f"discover jobs={jobs}"] = time.perf_counter() - t0
+        found[jobs] = result.summary()
+    out["discover equal for jobs 1, 2"] = found[1] == found[2]
+    out["peak memory MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[100, 1000, 10000])
+    parser.add_argument("--measure", help=argparse.SUPPRESS)  # internal: one fresh process
+    args = parser.parse_args()
+    if args.measure:
+        print(json.dumps(measure(args.measure)))
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        paths = build_campaigns(Path(tmp), args.sizes)
+        print(f"simulated and saved the campaigns in {time.perf_counter() - t0:.1f} s")
+        rows = {}
+        for size, path in paths.items():
+            run = subprocess.run(
+                [sys.executable, __file__, "--measure", str(path)],
+                capture_output=True,
+                text=True,
+                check=True,
+            )
+            rows[size] = json.loads(run.stdout.strip().splitlines()[-1])
+            print(f"{size:>6} tests done", flush=True)
+    report(rows)
+
+
+def report(rows: dict[int, dict]) -> None:
+    import pandas as pd
+
+    table = pd.DataFrame(rows).T
+    for jobs in (1, 2):
+        table[f"screen + identify jobs={jobs}"] = table["screen"] + table[f"identify jobs={jobs}"]
+    steps = [
+        "load",
+        "screen",
+        "identify jobs=1",
+        "identify jobs=2",
+        "screen + identify jobs=1",
+        "screen + identify jobs=2",
+        "discover jobs=1",
+        "discover jobs=2",
+        "peak memory MB",
+    ]
+    print("\nSeconds per step (one run each; fresh process per size):")
+    print(table[["tests", "samples", *steps]].to_string(float_format=lambda v: f"{v:.2f}"))
+    sizes = sorted(rows)
+    print("\nGrowth per step (cost ratio between consecutive sizes; linear = the test ratio):")
+    for a, b in itertools.pairwise(sizes):
+        ratio = rows[b]["tests"] / rows[a]["tests"]
+        growth = ", ".join(f"{s} x{rows[b][s] / rows[a][s]:.1f}" for s in steps[:3] + steps[6:7])
+        print(f"  {rows[a]['tests']} -> {rows[b]['tests']} tests (x{ratio:.0f}): {growth}")
+    big = rows[sizes[-1]]
+    print(f"\nAt {big['tests']} tests ({big['samples']} samples):")
+    best_identify = min(big["identify jobs=1"], big["identify jobs=2"])
+    checks = [
+        ("load", big["load"], TARGETS["load"]),
+        ("screen + identify (best)", big["screen"] + best_identify, TARGETS["screen + identify"]),
+        ("discover (best)", min(big["discover jobs=1"], big["discover jobs=2"]), 60.0),
+        ("peak memory GB", big["peak memory MB"] / 1024, 2.0),
+    ]
+    for name, value, target in checks:
+        verdict = "PASS" if value <= target else "FAIL"
+        print(f"  {name:<28}{value:8.2f}  target <= {target:g}  {verdict}")
+    for step in ("identify", "discover"):
+        speedup = big[f"{step} jobs=1"] / big[f"{step} jobs=2"]
+        verdict = "PASS" if speedup >= 1.7 else "FAIL"
+        same = big[f"{step} equal for jobs 1, 2"]
+        print(
+            f"  {step} speed-up, 2 jobs     {speedup:8.2f}  target >= 1.7  {verdict}"
+            f"  (results equal: {same})"
+        )
+
+
+if __name__ == "__main__":
+    main()
