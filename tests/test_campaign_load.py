@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 from soilstats.campaign import Campaign, bundled_campaigns, load_campaign
+from soilstats.campaign._cells import _parse_decimals
 from soilstats.data import DATA_DIR
 from soilstats.errors import CampaignError
 
@@ -197,3 +198,35 @@ def test_byte_order_mark_is_ignored(write_campaign, campaign_frames):
     path = Path(folder) / "tests.csv"
     path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
     assert list(load_campaign(folder).tests["test_id"]) == ["c1", "r1", "s1"]
+
+
+def test_numbers_read_in_bulk_are_those_of_float_bit_for_bit(write_campaign):
+    """A column of plain decimal numbers is parsed in Arrow (a large campaign loads in a
+    second); every value must be float()'s, to the last bit, whatever the digits."""
+    rng = np.random.default_rng(0)
+    values = rng.normal(size=300) * 10.0 ** rng.integers(-300, 300, 300)
+    cells = [repr(float(v)) for v in values] + [f"{v:.17g}" for v in values]
+    cells += ["1", "-0", "+1.5", "1.", ".5", "-.5", "1E5", "1e-400", "4.9e-324"]
+    cells += ["0.1000000000000000055511151231257827021181583404541015625", "9007199254740993"]
+    cells += ["123456789012345678901234567890e-5", "2.4703282292062328e-324"]
+    sinkage = "test_id,z_m,force_N\n" + "".join(f"a,{i * 1e-4},{c}\n" for i, c in enumerate(cells))
+    tests = "test_id,kind,soil,shape,radius_m\na,sinkage,s,circle,0.05\n"
+    got = load_campaign(write_campaign(tests=tests, sinkage=sinkage), check_units=False)
+    want = np.array([float(c) for c in cells]).view(np.int64)
+    np.testing.assert_array_equal(got.sinkage["force_N"].to_numpy().view(np.int64), want)
+    bulk = _parse_decimals(pd.Series(cells, dtype="str"))  # the bulk path, not float()
+    assert bulk is not None and np.array_equal(bulk.view(np.int64), want)
+    assert _parse_decimals(pd.Series([*cells, " 1"], dtype="str")) is None
+
+
+def test_numbers_outside_the_plain_grammar_are_read_by_float(write_campaign):
+    """Cells Arrow would refuse or read differently (blanks around, underscores) keep the
+    meaning float() gives them; 'NaN' and 'inf' are still not finite samples."""
+    tests = "test_id,kind,soil,shape,radius_m\na,sinkage,s,circle,0.05\n"
+    sinkage = "test_id,z_m,force_N\na,0.001, 1.5\na,0.002,1_000\na,0.003,2.5 \n"
+    got = load_campaign(write_campaign(tests=tests, sinkage=sinkage), check_units=False)
+    assert list(got.sinkage["force_N"]) == [1.5, 1000.0, 2.5]
+    for cell in ("NaN", "inf"):
+        bad = sinkage.replace("2.5 ", cell)
+        with pytest.raises(CampaignError, match=f"value '{cell}' is not a finite number"):
+            load_campaign(write_campaign(name=cell, tests=tests, sinkage=bad))

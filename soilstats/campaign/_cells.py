@@ -78,6 +78,32 @@ def as_text(cells: ObjArray, index: pd.Index) -> pd.Series:
     return pd.Series(values, index=index, dtype=TEXT_DTYPE)
 
 
+#: A plain decimal number: the cells Arrow's parser and Python's float() both read, and
+#: read alike (both are correctly rounded). Anything else (blanks around the number,
+#: underscores, "NaN", "inf", non-ASCII digits) goes through float() cell by cell.
+_DECIMAL = r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$"
+
+
+def _parse_decimals(series: pd.Series) -> np.ndarray | None:
+    """The cells of a text column as float64 when every one is a plain decimal number and
+    pandas holds them in Arrow (a CSV read as text), else None.
+
+    Parsing a million cells in Arrow takes milliseconds; through Python objects, a second.
+    The values are those of ``float(cell)`` bit for bit (both parsers round correctly;
+    ``tests/test_campaign_load.py`` checks them against float() on edge cases).
+    """
+    dtype = series.dtype
+    if not (isinstance(dtype, pd.StringDtype) and dtype.storage == "pyarrow") or not len(series):
+        return None
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    cells = pa.array(series.array)  # via __arrow_array__: the cells pandas holds
+    if cells.null_count or not pc.all(pc.match_substring_regex(cells, _DECIMAL)).as_py():
+        return None
+    return np.array(pc.cast(cells, pa.float64()).to_numpy(), dtype=np.float64)
+
+
 class Numbers:
     """A column parsed as numbers.
 
@@ -96,13 +122,19 @@ class Numbers:
     def __init__(self, series: pd.Series) -> None:
         n = len(series)
         self.bad = np.zeros(n, dtype=bool)
-        self.cells: ObjArray | None = None
+        self._series = series
+        self._cells: ObjArray | None = None
+        self._finite: np.ndarray | None = None
         if is_numeric_dtype(series.dtype) and not is_bool_dtype(series.dtype):
             self.values = series.to_numpy(dtype=np.float64, na_value=np.nan)
             self.missing = np.isnan(self.values)
             return
-        cells = texts(series)
-        self.cells = cells
+        decimal = _parse_decimals(series)
+        if decimal is not None:  # every cell a plain decimal number (the common case)
+            self.values = decimal
+            self.missing = np.zeros(n, dtype=bool)
+            return
+        cells = self.cells
         try:  # fast path: every cell parses (float() is correctly rounded: repr round-trips)
             self.values = np.asarray(cells, dtype=np.float64) if n else np.empty(0)
             self.missing = np.isnan(self.values)
@@ -119,14 +151,27 @@ class Numbers:
             except ValueError:
                 self.bad[i] = True
 
+    @property
+    def cells(self) -> ObjArray | None:
+        """Cell texts (None when the column was typed numeric); made when first needed,
+        since a clean column of a million samples never needs them."""
+        if self._cells is None and not (
+            is_numeric_dtype(self._series.dtype) and not is_bool_dtype(self._series.dtype)
+        ):
+            self._cells = texts(self._series)
+        return self._cells
+
     def cell(self, i: int) -> str:
         """Text of cell ``i`` for a message."""
-        return str(self.cells[i]) if self.cells is not None else repr(float(self.values[i]))
+        cells = self.cells
+        return str(cells[i]) if cells is not None else repr(float(self.values[i]))
 
     @property
     def finite(self) -> BoolArray:
         """True where the value is a finite number."""
-        return np.isfinite(self.values)
+        if self._finite is None:  # asked once per cell of the log: computed once
+            self._finite = np.isfinite(self.values)
+        return self._finite
 
 
 def typed_extra(series: pd.Series, index: pd.Index) -> pd.Series:
@@ -159,17 +204,25 @@ def typed(raw: pd.DataFrame, stem: str, parsed: dict[str, Numbers] | None = None
         s = spec(stem, col)
         if s is None:
             cols[col] = typed_extra(raw[col], index)
+        elif s.dtype == "text" and col == "test_id":
+            # test_id stays as written (a blank one is reported and never kept).
+            cols[col] = _as_written(raw[col], index)
         elif s.dtype == "text":
             cells = texts(raw[col])
-            # test_id stays as written (a blank one is reported and never kept).
-            if col == "test_id":
-                cols[col] = pd.Series(cells, index=index, dtype=TEXT_DTYPE)
-            else:
-                cols[col] = as_text(cells, index)
+            cols[col] = as_text(cells, index)
         else:
             num = (parsed or {}).get(col) or Numbers(raw[col])
             cols[col] = pd.Series(num.values, index=index, dtype=np.float64)
     return pd.DataFrame(cols, index=index)
+
+
+def _as_written(series: pd.Series, index: pd.Index) -> pd.Series:
+    """A text column exactly as written (missing → ``""``), with ``index``."""
+    if series.dtype == TEXT_DTYPE and not series.hasnans:
+        # Already text with nothing missing (a CSV read as text): the same cells, no copy
+        # through a million Python strings.
+        return pd.Series(series.array, index=index)
+    return pd.Series(texts(series), index=index, dtype=TEXT_DTYPE)
 
 
 def first_per_key(keys: np.ndarray, mask: np.ndarray) -> list[tuple[int, str, int]]:

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError
-from ._cells import Numbers, blank, empty_samples, first_per_key, texts, typed
+from ._cells import TEXT_DTYPE, Numbers, blank, empty_samples, first_per_key, texts, typed
 from .schema import KINDS, SHAPES, SPECS, spec
 
 __all__ = ["SKIP_HINT", "Issue", "Tables", "validate"]
@@ -247,10 +247,14 @@ def _check_samples(
     """Check one sample table (vectorised: one issue per test and problem, at its first row)."""
     specs = SPECS[stem]
     _require(raw, stem, name, [s.name for s in specs])
-    ids = texts(raw["test_id"])
+    # Judge each distinct test_id once (a few per test), then spread to the rows.
+    codes, uniq = _distinct_ids(raw["test_id"])
     found: list[tuple[int, int, Issue]] = []  # (row position, column order, issue)
 
     def add(mask: np.ndarray, col: int, message: Callable[[int, str], str]) -> None:
+        if not mask.any():
+            return
+        ids = uniq[codes]
         for pos, key, count in first_per_key(ids, mask):
             more = f" ({count} rows of this test have this problem)" if count > 1 else ""
             issue = Issue(key, name, specs[col].name, pos + 1, message(pos, key) + more)
@@ -271,8 +275,6 @@ def _check_samples(
             f"in the {kind} file, not {name} — fix the test's kind or move the rows"
         )
 
-    # Judge each distinct test_id once (a few per test), then spread to the rows.
-    codes, uniq = pd.factorize(ids)
     u_blank = blank(uniq)
     u_orphan = ~u_blank & np.array([u not in log for u in uniq], dtype=bool)
     other_kinds = set(KINDS) - {stem}
@@ -294,6 +296,18 @@ def _check_samples(
         add(~num.finite & ~empty & ~orphan, j, bad_msg)
     found.sort(key=lambda t: (t[0], t[1]))
     return typed(raw, stem, nums), [f[2] for f in found]
+
+
+def _distinct_ids(series: pd.Series) -> tuple[np.ndarray, np.ndarray]:
+    """(code of every row, the distinct test_id texts as an object array): the test_ids as
+    written (:func:`texts`, missing → ``""``), factorized."""
+    if series.dtype == TEXT_DTYPE and not series.hasnans:
+        # Text with nothing missing (a CSV read as text): factorize the cells where pandas
+        # holds them, not through a million Python strings.
+        codes, uniq = pd.factorize(series)
+        return codes, np.asarray(uniq, dtype=object)
+    codes, uniq = pd.factorize(texts(series))
+    return codes, np.asarray(uniq, dtype=object)
 
 
 def validate(frames: Frames) -> Tables:

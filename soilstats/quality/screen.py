@@ -22,7 +22,9 @@ from ..campaign.units import implausible_units
 from ..errors import CampaignError
 from ..report.files import json_safe
 from ..report.text import notes_block
+from . import blocks as blocks_mod
 from . import records
+from .blocks import Blocks
 from .codes import CODES, MODES
 
 __all__ = ["QualityFlag", "QualityReport", "screen", "screened"]
@@ -174,38 +176,112 @@ class QualityReport:
         )
 
 
-def _rows(labels: np.ndarray, positions) -> tuple[int, ...]:
-    return tuple(int(labels[i]) + 1 for i in np.asarray(positions, int))
+def _rows(labels: np.ndarray) -> tuple[int, ...]:
+    """1-based data rows of the sample file from its 0-based labels."""
+    return tuple(int(label) + 1 for label in labels.tolist())
 
 
-def _sinkage_flags(tid: str, labels, z, force, mode) -> tuple[list[QualityFlag], float]:
-    """Findings of one sinkage record, and its contact offset (0 if none)."""
-    out: list[QualityFlag] = []
+@dataclass
+class _Records:
+    """The records of one sample table, test by test, laid end to end (see :mod:`.blocks`).
+
+    Tests are in the order of their first sample (``groupby(sort=False)``), each record in
+    file order; ``labels`` are the 0-based data rows of the file.
+    """
+
+    ids: list[str]
+    blocks: Blocks
+    labels: np.ndarray
+    columns: dict[str, np.ndarray]
+
+    @classmethod
+    def of(cls, table: pd.DataFrame, columns: tuple[str, ...]) -> _Records:
+        codes, uniques = pd.factorize(table["test_id"], sort=False)
+        # A stable sort by test keeps every record in file order (rows need not be
+        # contiguous); rows without a test_id (code -1) are left out, as groupby does.
+        order = np.argsort(codes, kind="stable")
+        order = order[codes[order] >= 0]
+        codes = codes[codes >= 0]
+        blocks = Blocks.of_sizes(np.bincount(codes, minlength=len(uniques)))
+        labels = table.index.to_numpy()[order]
+        values = {c: table[c].to_numpy(float)[order] for c in columns}
+        return cls([str(t) for t in uniques], blocks, labels, values)
+
+
+def _split(blocks: Blocks, mask: np.ndarray) -> dict[int, np.ndarray]:
+    """Block number → local positions where ``mask`` holds (only blocks with any)."""
+    hits = np.flatnonzero(mask)
+    if not hits.size:
+        return {}
+    block = np.searchsorted(blocks.starts, hits, side="right") - 1
+    cut = np.flatnonzero(np.diff(block)) + 1
+    return {
+        int(b[0]): h - blocks.starts[b[0]]
+        for b, h in zip(np.split(block, cut), np.split(hits, cut), strict=True)
+    }
+
+
+def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
+    """Findings of every sinkage record: (flags per test in test order, labels to drop,
+    contact offsets by test, each test's end force and depth without its spikes).
+
+    The rules of :mod:`.records` run across all tests at once (:mod:`.blocks`); the two
+    power-law detectors run per record on the tests the batch code could not clear.
+    """
     clean = mode == "clean"
-    spikes = np.union1d(records.find_spikes(z), records.find_spikes(force))
-    if spikes.size:
-        out.append(
+    rec = _Records.of(sink, ("z_m", "force_N"))
+    blocks, z, force = rec.blocks, rec.columns["z_m"], rec.columns["force_N"]
+    out: list[list[QualityFlag]] = [[] for _ in rec.ids]
+    drop: list[np.ndarray] = []
+    spiked = blocks_mod.spikes(blocks, z) | blocks_mod.spikes(blocks, force)
+    for k, pos in _split(rec.blocks, spiked).items():
+        rows = rec.labels[blocks.starts[k] + pos]
+        out[k].append(
             QualityFlag(
-                tid,
+                rec.ids[k],
                 "sinkage",
                 "spike",
-                _rows(labels, spikes),
-                f"{spikes.size} isolated spiked sample(s) in z_m or force_N",
+                _rows(rows),
+                f"{pos.size} isolated spiked sample(s) in z_m or force_N",
                 excluded=clean,
             )
         )
-    good = np.setdiff1d(np.arange(z.size), spikes)
-    zg, fg = z[good], force[good]
-    offset = 0.0
-    contact = records.find_contact(zg, fg)
-    if contact is not None:
-        offset = contact.z_contact if clean else 0.0
-        out.append(
+        if clean:
+            drop.append(rows)
+    # The good (unspiked) records, on which every other rule runs.
+    good, kept = blocks.keep(~spiked)
+    zg, fg, labels = z[kept], force[kept], rec.labels[kept]
+
+    def record(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        at = slice(good.starts[k], good.starts[k] + good.sizes[k])
+        return zg[at].copy(), fg[at].copy(), labels[at]
+
+    offsets: dict[str, float] = {}
+    candidates = blocks_mod.contact_candidates(good, zg, fg)
+    runaway = blocks_mod.runaway_candidates(good, zg, fg)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(candidates) + len(runaway), desc="screening records", unit="test")
+    offset_of = np.zeros(good.count)
+    for k in candidates:
+        zk, fk, lk = record(k)
+        contact = records.find_contact(zk, fk)
+        if bar is not None:
+            bar.update()
+        if contact is None:
+            continue
+        offset_of[k] = contact.z_contact if clean else 0.0
+        if offset_of[k]:
+            offsets[rec.ids[k]] = float(offset_of[k])
+        rows = lk[contact.before]
+        out[k].append(
             QualityFlag(
-                tid,
+                rec.ids[k],
                 "sinkage",
                 "pre-contact",
-                _rows(labels, good[contact.before]),
+                _rows(rows),
                 f"force at its noise floor over the first {contact.z_contact * 1e3:.3g} mm; "
                 f"contact found at z = {contact.z_contact:.4g} m (a power law from there "
                 f"leaves {contact.residual_ratio:.0%} of the residual)"
@@ -214,63 +290,80 @@ def _sinkage_flags(tid: str, labels, z, force, mode) -> tuple[list[QualityFlag],
                 value=contact.z_contact,
             )
         )
-    runaway = records.find_runaway(zg, fg)
-    if runaway is not None:
-        out.append(
+        if clean:
+            drop.append(rows)
+    for k in runaway:
+        zk, fk, lk = record(k)
+        found = records.find_runaway(zk, fk)
+        if bar is not None:
+            bar.update()
+        if found is None:
+            continue
+        offset = float(offset_of[k])
+        out[k].append(
             QualityFlag(
-                tid,
+                rec.ids[k],
                 "sinkage",
                 "bearing-failure",
-                _rows(labels, good[runaway.after]),
-                f"sinkage runs on from z = {runaway.z_onset:.4g} m to {zg.max():.4g} m, ending "
-                f"{runaway.excess:.3g}x deeper than the test's early power law at the same "
-                f"force; window proposed: z_max = {runaway.z_onset - offset:.4g} m",
-                value=runaway.z_onset - offset,
+                _rows(lk[found.after]),
+                f"sinkage runs on from z = {found.z_onset:.4g} m to {zk.max():.4g} m, ending "
+                f"{found.excess:.3g}x deeper than the test's early power law at the same "
+                f"force; window proposed: z_max = {found.z_onset - offset:.4g} m",
+                value=found.z_onset - offset,
             )
         )
-    fallen = records.find_non_monotone(zg)
-    if fallen.size:
-        out.append(
+    if bar is not None:
+        bar.close()
+    for k, pos in _split(good, blocks_mod.non_monotone(good, zg)).items():
+        out[k].append(
             QualityFlag(
-                tid,
+                rec.ids[k],
                 "sinkage",
                 "non-monotone",
-                _rows(labels, good[fallen]),
-                f"z falls back below its running maximum in {fallen.size} samples",
+                _rows(labels[good.starts[k] + pos]),
+                f"z falls back below its running maximum in {pos.size} samples",
             )
         )
+    peaks = {"force_N": good.max(fg), "z_m": good.max(zg)}
     for values, other, column in ((fg, zg, "force_N"), (zg, fg, "z_m")):
-        clipped = records.find_saturation(values, other)
-        if clipped.size:
-            out.append(
+        clipped = blocks_mod.saturation(good, values, other)
+        for k, pos in _split(good, clipped).items():
+            out[k].append(
                 QualityFlag(
-                    tid,
+                    rec.ids[k],
                     "sinkage",
                     "saturation",
-                    _rows(labels, good[clipped]),
-                    f"{clipped.size} samples of {column} sit exactly at its maximum "
-                    f"{values.max():.6g} while the other channel changes",
+                    _rows(labels[good.starts[k] + pos]),
+                    f"{pos.size} samples of {column} sit exactly at its maximum "
+                    f"{peaks[column][k]:.6g} while the other channel changes",
                 )
             )
-    return out, offset
+    ends = pd.DataFrame({"test_id": rec.ids, "force_end": peaks["force_N"], "z_end": peaks["z_m"]})
+    return out, drop, offsets, ends
 
 
-def _shear_flags(tid: str, labels, table: dict[str, np.ndarray], mode) -> list[QualityFlag]:
-    spikes = np.unique(
-        np.concatenate([records.find_spikes(table[c]) for c in ("torque_Nm", "normal_force_N")])
-    ).astype(int)
-    if not spikes.size:
-        return []
-    return [
-        QualityFlag(
-            tid,
-            "shear",
-            "spike",
-            _rows(labels, spikes),
-            f"{spikes.size} isolated spiked sample(s) in torque_Nm or normal_force_N",
-            excluded=mode == "clean",
+def _shear_findings(shear: pd.DataFrame, mode: str) -> tuple[list[QualityFlag], list]:
+    """Spike findings of every shear record, and the labels they drop."""
+    rec = _Records.of(shear, ("torque_Nm", "normal_force_N"))
+    spiked = blocks_mod.spikes(rec.blocks, rec.columns["torque_Nm"]) | blocks_mod.spikes(
+        rec.blocks, rec.columns["normal_force_N"]
+    )
+    flags, drop = [], []
+    for k, pos in _split(rec.blocks, spiked).items():
+        rows = rec.labels[rec.blocks.starts[k] + pos]
+        flags.append(
+            QualityFlag(
+                rec.ids[k],
+                "shear",
+                "spike",
+                _rows(rows),
+                f"{pos.size} isolated spiked sample(s) in torque_Nm or normal_force_N",
+                excluded=mode == "clean",
+            )
         )
-    ]
+        if mode == "clean":
+            drop.append(rows)
+    return flags, drop
 
 
 def _load_capped(tests: pd.DataFrame, ends: pd.DataFrame) -> list[QualityFlag]:
@@ -324,36 +417,16 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
     sink = campaign.sinkage
     drop: list[np.ndarray] = []
     offsets: dict[str, float] = {}
-    ends = []
-    groups = sink.groupby("test_id", sort=False).indices
-    ids = list(groups)
-    if progress:
-        from tqdm.auto import tqdm
-
-        ids = tqdm(ids, desc="screening sinkage tests", unit="test")
-    labels_all = sink.index.to_numpy()
-    z_all, f_all = sink["z_m"].to_numpy(float), sink["force_N"].to_numpy(float)
-    for tid in ids:
-        idx = groups[tid]
-        found, offset = _sinkage_flags(str(tid), labels_all[idx], z_all[idx], f_all[idx], mode)
+    if len(sink):
+        per_test, drop, offsets, ends = _sinkage_findings(sink, mode, progress)
+        flags += [f for found in per_test for f in found]
+    else:
+        ends = pd.DataFrame([], columns=["test_id", "force_end", "z_end"])
+    flags += _load_capped(tests, ends)
+    if len(campaign.shear):
+        found, dropped = _shear_findings(campaign.shear, mode)
         flags += found
-        if offset:
-            offsets[str(tid)] = offset
-        spiked = [r - 1 for f in found if f.code == "spike" for r in f.rows]
-        keep = ~np.isin(labels_all[idx], spiked)
-        ends.append((str(tid), f_all[idx][keep].max(), z_all[idx][keep].max()))
-        drop += [np.asarray(f.rows, int) - 1 for f in found if f.excluded]
-    flags += _load_capped(tests, pd.DataFrame(ends, columns=["test_id", "force_end", "z_end"]))
-    shear = campaign.shear
-    if len(shear):
-        cols = {c: shear[c].to_numpy(float) for c in ("torque_Nm", "normal_force_N")}
-        labels_sh = shear.index.to_numpy()
-        for tid, idx in shear.groupby("test_id", sort=False).indices.items():
-            found = _shear_flags(
-                str(tid), labels_sh[idx], {c: v[idx] for c, v in cols.items()}, mode
-            )
-            flags += found
-            drop += [np.asarray(f.rows, int) - 1 for f in found if f.excluded]
+        drop += dropped
     return flags, drop, offsets
 
 
