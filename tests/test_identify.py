@@ -104,3 +104,124 @@ def test_unidentifiable_parameter_raises_convergence_error():
     x = np.linspace(0, 1, 20)
     with pytest.raises(ConvergenceError, match="rank-deficient"):
         identify(lambda x, a, b: (a + b) * x, x, 2 * x, [1.0, 0.5])
+
+
+# -- linear algebra of the LM and of Eq. 4 -----------------------------------------------------
+
+
+def collinear_rows(n_obs, n_par, gap, seed=0):
+    """(p, N) rows of Jᵀ with columns of very different scale and two nearly equal ones:
+    cond(J D⁻¹) ~ 1/gap."""
+    rng = np.random.default_rng(seed)
+    rows = rng.standard_normal((n_par, n_obs)) * np.logspace(-3, 4, n_par)[:, None]
+    rows[-1] = rows[-2] * 7.0 + gap * np.abs(rows[-2]).max() * rng.standard_normal(n_obs)
+    return rows
+
+
+@pytest.mark.parametrize("shape", [(5000, 8), (300, 3), (6, 8)])
+def test_qr_then_svd_gives_the_svd_of_the_scaled_jacobian(shape):
+    from soilstats.fitting.levenberg_marquardt import scaled_svd
+
+    n_obs, n_par = shape
+    rows = collinear_rows(n_obs, n_par, 1e-7)
+    scale = np.sqrt((rows * rows).sum(axis=1))
+    _, sv_ref, vt_ref = np.linalg.svd(rows.T / scale, full_matrices=False)
+    for layout in (rows, np.asfortranarray(rows)):  # rows of a C or an F array
+        sv, vt = scaled_svd(layout, scale)
+        assert sv.shape == sv_ref.shape and vt.shape == vt_ref.shape
+        # Backward stable both: each singular value to rounding of the largest one.
+        np.testing.assert_allclose(sv, sv_ref, rtol=0, atol=1e-13 * sv_ref[0])
+        # Right singular vectors up to sign (the singular values here are distinct).
+        for k in range(sv.size):
+            sign = np.sign(vt[k] @ vt_ref[k])
+            np.testing.assert_allclose(sign * vt[k], vt_ref[k], atol=1e-10 * sv_ref[0] / sv_ref[k])
+
+
+def test_covariance_of_an_ill_conditioned_jacobian_matches_the_plain_svd():
+    from soilstats.fitting.identify import _covariance
+
+    rows = collinear_rows(4000, 6, 1e-6)  # cond ~1e7: the SVD branch of Eq. 4
+    scale = np.sqrt((rows * rows).sum(axis=1))
+    cond, cov = _covariance(rows.T, rss=3.0, dof=4000 - 6)
+    _, sv, vt = np.linalg.svd(rows.T / scale, full_matrices=False)
+    reference = (vt.T / sv**2) @ vt / np.outer(scale, scale) * 3.0 / (4000 - 6)
+    assert cond == pytest.approx(sv[0] / sv[-1], rel=1e-8) and cond > 1e6
+    # Two backward-stable computations: they differ by ~cond·ε, relative to each σᵢσⱼ.
+    sd = np.sqrt(np.diag(reference))
+    assert np.abs((cov - reference) / np.outer(sd, sd)).max() < 1e-7
+    # The eigen branch (well conditioned) against the explicit inverse.
+    rows = collinear_rows(4000, 3, 0.5)
+    cond, cov = _covariance(rows.T, rss=3.0, dof=4000 - 3)
+    reference = np.linalg.inv(rows @ rows.T) * 3.0 / (4000 - 3)
+    assert cond < 1e4
+    np.testing.assert_allclose(cov, reference, rtol=1e-10)
+
+
+def test_gram_and_gradient_agree_on_every_path():
+    from soilstats.fitting.levenberg_marquardt import _gram_and_gradient
+
+    for n_obs, n_par in ((3000, 3), (40_000, 3), (3000, 6)):
+        rows = collinear_rows(n_obs, n_par, 0.3)
+        r = np.random.default_rng(1).standard_normal(n_obs)
+        gram_ref, g_ref = rows @ rows.T, rows @ r
+        block = np.vstack([rows, np.zeros(n_obs)])
+        for gram, g in (
+            _gram_and_gradient(rows, r),  # one gemm (small) or dot products (large)
+            _gram_and_gradient(np.asfortranarray(rows), r),
+            _gram_and_gradient(block[:n_par], r, block),  # the residuals in a spare row
+        ):
+            np.testing.assert_allclose(gram, gram_ref, rtol=1e-12)
+            np.testing.assert_allclose(g, g_ref, rtol=1e-10, atol=1e-12 * np.abs(g_ref).max())
+        np.testing.assert_array_equal(block[n_par], r)
+
+
+def test_spare_row_jacobian_gives_the_same_fit():
+    from soilstats.fitting.levenberg_marquardt import levenberg_marquardt
+
+    rng = np.random.default_rng(2)
+    b = np.repeat([0.03, 0.06], 200)
+    z = np.tile(np.linspace(1e-3, 0.05, 200), 2)
+    y = BEKKER.func((b, z), -9e3, 1.2e6, 0.8) * (1 + 0.02 * rng.standard_normal(b.size))
+    terms = BEKKER.power_terms(np.vstack([b, z]), np.ones(b.size))
+    start = np.array([-5e3, 1e6, 1.0])
+    plain = levenberg_marquardt(lambda t: y - terms.f(t), terms.jac, start)
+    spare = levenberg_marquardt(
+        lambda t: y - terms.f(t), terms.jacobian_block, start, spare_row=True
+    )
+    assert plain.converged and spare.converged and plain.niter == spare.niter > 3
+    np.testing.assert_allclose(spare.params, plain.params, rtol=1e-13)
+    assert spare.jacobian.shape == plain.jacobian.shape == (b.size, 3)
+
+
+def test_eigh_without_numpys_wrapper_matches_numpy():
+    from soilstats.fitting.levenberg_marquardt import _eigh
+
+    a = np.random.default_rng(3).standard_normal((5, 5))
+    a = a @ a.T
+    eig, vecs = _eigh(a)
+    eig_ref, vecs_ref = np.linalg.eigh(a)
+    np.testing.assert_allclose(eig, eig_ref, rtol=1e-13)
+    np.testing.assert_allclose(np.abs(vecs), np.abs(vecs_ref), atol=1e-12)
+
+
+def test_bad_weights_are_refused_clearly():
+    x = np.linspace(0.1, 1, 10)
+    y = 2 * x
+
+    def line(x, a):
+        return a * x
+
+    for weights in (np.r_[np.nan, np.ones(9)], np.r_[np.inf, np.ones(9)], np.r_[-1.0, np.ones(9)]):
+        with pytest.raises(ValueError, match="weights must be finite and non-negative"):
+            identify(line, x, y, [1.0], weights=weights)
+    # A NaN measurement is refused even where its weight is zero.
+    with pytest.raises(ValueError, match="non-finite"):
+        identify(line, x, np.r_[np.nan, y[1:]], [1.0], weights=np.r_[0.0, np.ones(9)])
+    # A scalar weight is broadcast.
+    assert identify(line, x, y + 0.01 * np.sin(40 * x), [1.0], weights=2.0).converged
+
+
+def test_epsilon_from_a_known_rss_is_the_same_number():
+    e = np.array([0.1, -0.1, 0.2, 0.0])
+    y = np.array([1.0, -2.0, 3.0, 4.0])
+    assert epsilon(e, y, rss=float(e @ e)) == epsilon(e, y)

@@ -2,11 +2,14 @@
 
 A compact, dependency-free implementation of Moré's scaled trust-region form of LM
 (Moré 1978, "The Levenberg–Marquardt algorithm: implementation and theory"), with Nielsen's
-damping update.  Each step solves (JᵀJ + λDᵀD)δ = Jᵀr through the SVD of J D⁻¹, which is
-stable where the normal equations are not (κ(JᵀJ) = κ(J)², and the NIST 'higher difficulty'
-problems have κ(J) ~ 1e8).  D holds the running maximum column norms of J, MINPACK's
-scale-invariant choice, so parameters of very different magnitude (kc ~ 1e4, n ~ 1) are
-treated alike.
+damping update.  Each step solves (JᵀJ + λDᵀD)δ = Jᵀr in the eigenbasis of the scaled normal
+equations while that is accurate, and otherwise through the SVD of J D⁻¹, which is stable
+where the normal equations are not (κ(JᵀJ) = κ(J)², and the NIST 'higher difficulty'
+problems have κ(J) ~ 1e8).  That SVD is taken of the p×p triangle R of a QR factorisation
+of J D⁻¹ (same singular values and right vectors, backward stable, and ~4× cheaper than an
+SVD of the N×p matrix for the 100k-sample fits of model discovery).  D holds the running
+maximum column norms of J, MINPACK's scale-invariant choice, so parameters of very different
+magnitude (kc ~ 1e4, n ~ 1) are treated alike.
 
 We own the loop rather than wrap MINPACK so that the stopping reason, the iteration count and
 the damping history are explicit in the result, and so one iteration costs one model and one
@@ -17,13 +20,16 @@ most of the budget of a 3 000-point Bekker fit).
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dsyevd
+from scipy.linalg.lapack import dgeqrf, dsyevd
 
-__all__ = ["LMOutcome", "levenberg_marquardt"]
+__all__ = ["LMOutcome", "levenberg_marquardt", "scaled_svd"]
+
+_TINY = np.finfo(float).tiny
 
 
 @dataclass(frozen=True)
@@ -34,6 +40,10 @@ class LMOutcome:
     residuals: np.ndarray  # r = w·(y − f) at params
     jacobian: np.ndarray  # ∂(w·f)/∂θ at params, (N, p) (a transposed view of the rows)
     gram: np.ndarray | None  # JᵀJ at params when the loop formed it there, else None
+    # (eigenvalues, eigenvectors, (σ, Vᵀ) or None) of D⁻¹JᵀJD⁻¹ and J D⁻¹ at params with
+    # D = the column norms of J, when the loop decomposed exactly that matrix there (the
+    # covariance of Eq. 4 reuses them rather than decompose it again).
+    scaled: tuple | None
     cost: float  # ½‖r‖²
     nfev: int
     njev: int
@@ -42,29 +52,89 @@ class LMOutcome:
     reason: str
 
 
-def _norm(v: np.ndarray) -> float:
-    return math.sqrt(float(v @ v))
-
-
 def gram_matrix(rows: np.ndarray) -> np.ndarray:
     """JᵀJ from the (p, N) rows of Jᵀ.
 
     For the few parameters of a soil model, p(p+1)/2 vector dot products beat one BLAS
-    ``gemm`` call (~1.5 µs each against ~20 µs of call overhead at N = 3 000).
+    ``gemm`` call (~1.2 µs each against ~15 µs for a 3×3 product at N = 3 000: OpenBLAS's
+    small-matrix path is slow for a long inner dimension).
     """
     p = rows.shape[0]
     if p > 4:
         return rows @ rows.T
-    gram = np.empty((p, p))
+    r = list(rows)
+    gram = [[0.0] * p for _ in range(p)]
     for i in range(p):
         for j in range(i + 1):
-            gram[i, j] = gram[j, i] = rows[i] @ rows[j]
-    return gram
+            gram[i][j] = gram[j][i] = float(r[i] @ r[j])
+    return np.array(gram)
+
+
+# Up to this many elements in Jᵀ, JᵀJ and Jᵀr come from one gemm [Jᵀ; r]·J, copying Jᵀ
+# (2.5 µs against 9 µs for dot products at N = 3 000, p = 3); beyond, the copy costs more
+# than it saves (N = 100 000: 0.7 ms against 0.15 ms).
+_GEMM_ELEMENTS = 60_000
+
+
+def _gram_and_gradient(
+    rows: np.ndarray, r: np.ndarray, block: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(JᵀJ, Jᵀr) from the (p, N) rows of Jᵀ and the residuals r (N,).
+
+    ``block``: a C-ordered (p + 1, N) array whose first p rows are ``rows`` and whose last
+    row may be overwritten; r goes there and one product gives both, without a copy.
+    """
+    p, n = rows.shape
+    if block is not None:
+        block[p] = r
+        both = block @ rows.T
+        return both[:p], both[p]
+    if p * n <= _GEMM_ELEMENTS and rows.flags.c_contiguous:
+        # Two distinct operands: numpy calls gemm, not the syrk it uses for x @ x.T, which
+        # OpenBLAS is slow at for a long inner dimension.
+        both = np.concatenate((rows, r[None])) @ rows.T
+        return both[:p], both[p]
+    return gram_matrix(rows), rows @ r
+
+
+def scaled_svd(rows: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(σ, Vᵀ) of the SVD J D⁻¹ = U·diag(σ)·Vᵀ, from the (p, N) rows of Jᵀ and D = ``scale``.
+
+    Householder QR of the N×p matrix J D⁻¹ keeping only R (LAPACK dgeqrf, no Q formed), then
+    the SVD of the p×p triangle: R has the singular values and right singular vectors of
+    J D⁻¹, and both steps are backward stable, so the small singular values come out as
+    accurately as from an SVD of J D⁻¹ itself (LAPACK's dgesdd reduces a tall matrix the same
+    way) — without forming U, which is most of that SVD's cost (N = 100 000, p = 8: ~3 ms
+    against ~13 ms, one BLAS thread as in the workers of ``soilstats.parallel``).
+    """
+    p, n = rows.shape
+    # A C-ordered (p, N) quotient is an F-ordered N×p matrix: LAPACK works on it in place.
+    scaled = np.divide(rows, scale[:, None], order="C")
+    qr, _, _, info = dgeqrf(scaled.T, overwrite_a=1)
+    if info != 0:  # an invalid argument; not reachable with a finite 2-D array
+        _, sv, vt = np.linalg.svd(rows.T / scale, full_matrices=False)
+        return sv, vt
+    _, sv, vt = np.linalg.svd(np.triu(qr[: min(p, n)]), full_matrices=False)
+    return sv, vt
+
+
+try:
+    # The LAPACK gufunc behind np.linalg.eigh, without its Python wrapper (~4 µs at p = 3).
+    # It is numpy's own LAPACK, the library its BLAS calls have just warmed; scipy's
+    # dsyevd is a second copy of that code, cold in cache (~8 µs more in an interleaved
+    # benchmark).  Private to numpy, hence the fallback.
+    from numpy.linalg._umath_linalg import eigh_lo as _eigh_lo
+except (ImportError, AttributeError):  # pragma: no cover - a numpy without it
+    _eigh_lo = None
 
 
 def _eigh(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Eigen-decomposition of a small symmetric matrix (LAPACK dsyevd without numpy's
-    ~6 µs of wrapper overhead, which is most of the cost at p = 3)."""
+    """Eigen-decomposition (ascending eigenvalues, eigenvectors as columns) of a small
+    symmetric matrix, reading its lower triangle, without np.linalg.eigh's wrapper."""
+    if _eigh_lo is not None:
+        eig, vecs = _eigh_lo(a, signature="d->dd")
+        if math.isfinite(float(np.add.reduce(eig))):  # NaN throughout when LAPACK fails
+            return eig, vecs
     eig, vecs, info = dsyevd(a)
     if info != 0:
         return np.linalg.eigh(a)  # raises LinAlgError with numpy's message
@@ -72,8 +142,10 @@ def _eigh(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 # Below this cond(J D⁻¹) the step is solved from the scaled normal equations (a p×p eigen-
-# problem, cheap); above it the squared condition number would spoil the step, so the SVD of
-# J D⁻¹ is used.  The covariance is always formed from the SVD (see identify.py).
+# problem, cheap): forming JᵀJ costs its smallest eigenvalue a relative error ~cond²·ε, 1e-4
+# here, which only perturbs a step that the exact residuals then correct.  Above it the
+# squared condition number would spoil the step, so the SVD of J D⁻¹ is used (see
+# scaled_svd).  The covariance has its own, stricter limit (see identify.py).
 _NORMAL_EQUATIONS_COND = 1e6
 
 
@@ -86,6 +158,7 @@ def levenberg_marquardt(
     ftol: float = 1e-14,
     gtol: float = 1e-14,
     max_iter: int = 1000,
+    spare_row: bool = False,
 ) -> LMOutcome:
     """Minimise ½‖r(θ)‖² from ``p0``.
 
@@ -101,16 +174,22 @@ def levenberg_marquardt(
         meanings).  Converged when any one holds.
     max_iter : int
         Iterations before giving up; ``converged=False`` is then returned, never a silent value.
+    spare_row : bool
+        ``jacobian`` returns a C-ordered (p + 1, N) array: the p rows of Jᵀ and one more that
+        the optimiser may overwrite (with r, so that JᵀJ and Jᵀr come from one product
+        without copying J; see :meth:`soilstats.models.base.PowerLawTerms.jacobian_block`).
     """
-    tiny = np.finfo(float).tiny
+    tiny = _TINY
     theta = np.array(p0, dtype=float)
     r = residual(theta)
     nfev = 1
-    if not np.all(np.isfinite(r)):
+    cost = 0.5 * float(r @ r)  # finite exactly when r is (barring overflow of the square)
+    if not math.isfinite(cost) and not np.all(np.isfinite(r)):
         return LMOutcome(
             theta,
             r,
             np.full((r.size, theta.size), np.nan),
+            None,
             None,
             np.inf,
             nfev,
@@ -119,10 +198,12 @@ def levenberg_marquardt(
             False,
             "the model is not finite at the starting values",
         )
-    Jt = jacobian(theta)
+    n_par = theta.size
+    block = jacobian(theta) if spare_row else None
+    Jt = jacobian(theta) if block is None else block[:n_par]
     njev = 1
-    cost = 0.5 * float(r @ r)
-    diag = np.full(theta.size, tiny)
+    diag = None
+    scaled = None
     lam = None
     nu = 2.0
     reason = f"iteration limit ({max_iter}) reached"
@@ -132,55 +213,76 @@ def levenberg_marquardt(
     for niter in range(1, max_iter + 1):  # noqa: B007 (niter is reported after the loop)
         # Everything below works on the p×p Gram matrix G = JᵀJ; J itself (N×p) is touched
         # only by these two products, which is what keeps an iteration cheap for large N.
-        gram = gram_matrix(Jt)
-        g = Jt @ r
-        # One scalar test first (a sum of finite numbers is finite unless it overflows);
-        # the elementwise check runs only when that fails.
-        if not math.isfinite(float(gram.sum()) + float(g.sum())) and not (
+        gram, g = _gram_and_gradient(Jt, r, block)
+        # Scalars on p numbers in Python floats: each numpy call on them costs ~0.5 µs.
+        g_list, col_sq = g.tolist(), gram.diagonal().tolist()
+        # One scalar test first: a NaN or inf in J reaches the diagonal of JᵀJ (and, as
+        # |Gᵢⱼ| ≤ √(GᵢᵢGⱼⱼ), nothing off it overflows while that is finite), and a sum of
+        # finite numbers is finite unless it overflows; the elementwise check runs only
+        # when that fails.
+        if not math.isfinite(sum(col_sq) + sum(g_list)) and not (
             np.isfinite(gram).all() and np.isfinite(g).all()
         ):
             reason = "the Jacobian is not finite"
             break
-        col_norm = np.sqrt(gram.diagonal())
-        diag = np.maximum(diag, col_norm)
+        # The p×p algebra below is on Python floats: p is a handful, and each numpy call
+        # on p numbers costs ~0.5 µs (several when the caches are cold), more than the
+        # arithmetic.  Only the eigen/singular decompositions go to LAPACK.
+        col_norm = [math.sqrt(c) for c in col_sq]
+        if diag is None:
+            diag = [max(c, tiny) for c in col_norm]
+        else:
+            diag = [max(d, c) for d, c in zip(diag, col_norm, strict=True)]
         rnorm = math.sqrt(2 * cost)
         if rnorm == 0.0:
             converged, reason = True, "zero residual"
             break
         # Scaled gradient: cosine of the angle between r and each column of J (MINPACK gtol).
-        if float(np.max(np.abs(g) / (col_norm * rnorm + tiny))) <= gtol:
+        cosine = max(abs(gk) / (ck * rnorm + tiny) for gk, ck in zip(g_list, col_norm, strict=True))
+        if cosine <= gtol:
             converged, reason = True, f"gradient below gtol={gtol:g}"
             break
-        gs = g / diag
-        eig, vecs = _eigh(gram / np.outer(diag, diag))
+        gs = [gk / dk for gk, dk in zip(g_list, diag, strict=True)]
+        d = np.array(diag)
+        eig, vecs = _eigh(gram / (d[:, None] * d))
+        svd = None
         if eig[0] > eig[-1] / _NORMAL_EQUATIONS_COND**2:
-            s2, proj, basis = eig, vecs.T @ gs, vecs  # (JᵀJ + λD²)⁻¹Jᵀr in the eigenbasis
+            # (JᵀJ + λD²)⁻¹Jᵀr in the eigenbasis; ``directions`` are the eigenvectors.
+            s2, directions = eig.tolist(), vecs.T.tolist()
         else:
-            _, s, vt = np.linalg.svd(Jt.T / diag, full_matrices=False)
-            s2, proj, basis = s**2, vt @ gs, vt.T
+            svd = sv, vt = scaled_svd(Jt, d)
+            s2, directions = [x * x for x in sv.tolist()], vt.tolist()
+        proj = [sum(map(operator.mul, v, gs)) for v in directions]
         if lam is None:
-            lam = 1e-3 * float(s2.max())
+            lam = 1e-3 * max(s2)
         step_accepted = False
         step_small = False
-        theta_norm = _norm(diag * theta)
+        theta_list = theta.tolist()
+        theta_norm = math.sqrt(sum((dk * tk) ** 2 for dk, tk in zip(diag, theta_list, strict=True)))
         while True:
-            coef = proj / (s2 + lam)  # the step in the scaled eigen/singular basis
-            step = (basis @ coef) / diag
+            # The step in the scaled eigen/singular basis.
+            coef = [pk / (sk + lam) for pk, sk in zip(proj, s2, strict=True)]
             # Predicted reduction of the linear model, ½(‖r‖² − ‖r − Jδ‖²), in that basis:
             # Σ c²(½s² + λ) — a sum of non-negative terms, free of the cancellation of the
             # direct form near the optimum, and no N-length product.  When it or the step is
             # already below tolerance, the trial evaluation could only measure rounding
             # noise: stop here rather than spend evaluations on it.
-            predicted = float(coef @ (coef * (0.5 * s2 + lam)))
-            step_small = _norm(diag * step) <= xtol * (theta_norm + xtol)
+            predicted = sum(c * c * (0.5 * sk + lam) for c, sk in zip(coef, s2, strict=True))
+            # ‖Dδ‖ = ‖basis·c‖ = ‖c‖: the basis is orthonormal.
+            step_small = math.sqrt(sum(c * c for c in coef)) <= xtol * (theta_norm + xtol)
             if step_small or predicted <= ftol * cost:
                 break
-            trial = theta + step
+            scaled_step = [0.0] * len(diag)
+            for c, v in zip(coef, directions, strict=True):
+                scaled_step = [x + c * vk for x, vk in zip(scaled_step, v, strict=True)]
+            trial = np.array(
+                [t + x / dk for t, x, dk in zip(theta_list, scaled_step, diag, strict=True)]
+            )
             r_trial = residual(trial)
             nfev += 1
             cost_trial = 0.5 * float(r_trial @ r_trial)
             if not math.isfinite(cost_trial):  # NaN or overflow: outside the model's domain
-                cost_trial = np.inf
+                cost_trial = math.inf
             actual = cost - cost_trial
             rho = actual / predicted if predicted > 0 else -1.0
             if rho > 1e-4:
@@ -191,9 +293,11 @@ def levenberg_marquardt(
                 break
             lam *= nu
             nu *= 2.0
-            if not np.isfinite(lam) or lam > 1e300:
+            if not math.isfinite(lam) or lam > 1e300:
                 break
         if not step_accepted:
+            if diag == col_norm:  # D⁻¹GD⁻¹ at params is what was decomposed
+                scaled = (eig, vecs, svd)
             if step_small:
                 converged, reason = True, f"step below xtol={xtol:g}"
             elif predicted <= ftol * cost:
@@ -201,7 +305,11 @@ def levenberg_marquardt(
             else:
                 reason = "no step reduces the cost (damping exhausted)"
             break
-        Jt = jacobian(theta)
+        if spare_row:
+            block = jacobian(theta)
+            Jt = block[:n_par]
+        else:
+            Jt = jacobian(theta)
         njev += 1
         gram = None
         if step_small:
@@ -211,4 +319,4 @@ def levenberg_marquardt(
         if (old_cost - cost) / scale <= ftol and predicted / scale <= ftol:
             converged, reason = True, f"relative cost reduction below ftol={ftol:g}"
             break
-    return LMOutcome(theta, r, Jt.T, gram, cost, nfev, njev, niter, converged, reason)
+    return LMOutcome(theta, r, Jt.T, gram, scaled, cost, nfev, njev, niter, converged, reason)

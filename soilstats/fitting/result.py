@@ -17,14 +17,20 @@ __all__ = ["FitResult", "HealthFlag", "epsilon"]
 CORRELATION_LIMIT = 0.95
 
 
-def epsilon(residuals: np.ndarray, y: np.ndarray) -> float:
-    """Fit quality ε = 1 − √(Σe²/(N−2)) / (Σ|y|/N) (Eq. 2); 1 is a perfect fit."""
-    residuals = np.asarray(residuals, float)
+def epsilon(residuals: np.ndarray, y: np.ndarray, *, rss: float | None = None) -> float:
+    """Fit quality ε = 1 − √(Σe²/(N−2)) / (Σ|y|/N) (Eq. 2); 1 is a perfect fit.
+
+    ``rss`` = Σe² when the caller has it already (the optimiser does), else computed.
+    """
     y = np.asarray(y, float)
     n = y.size
     if n <= 2:
         return np.nan
-    return float(1.0 - np.sqrt(residuals @ residuals / (n - 2)) / (np.abs(y).sum() / n))
+    if rss is None:
+        residuals = np.asarray(residuals, float)
+        rss = residuals @ residuals
+    # np.add.reduce: ndarray.sum goes through a Python wrapper.
+    return float(1.0 - np.sqrt(rss / (n - 2)) / (np.add.reduce(np.abs(y), axis=None) / n))
 
 
 @dataclass(frozen=True)

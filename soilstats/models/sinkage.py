@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Model
+from .base import Model, separable_from_power_law
 
 __all__ = ["BEKKER", "BERNSTEIN", "REECE"]
 
@@ -64,90 +64,26 @@ def reece_jac(x, k1, k2, n):
     return np.column_stack([zbn, b * zbn, (k1 + k2 * b) * zbn * ln_zb])
 
 
-class _PowerCache:
-    """z^n for fixed z, with ln z precomputed and the last z^n kept (f and J share it)."""
-
-    def __init__(self, z) -> None:
-        z = np.asarray(z, dtype=float)
-        self.contact = z > 0
-        self.all_contact = bool(self.contact.all())
-        self.lnz = np.log(np.where(self.contact, z, 1.0))
-        self._n = None
-        self._zn = None
-
-    def __call__(self, n: float) -> np.ndarray:
-        if n != self._n:
-            zn = np.exp(n * self.lnz)
-            if not self.all_contact:
-                zn[~self.contact] = 0.0
-            self._n, self._zn = n, zn
-        return self._zn
-
-
-def _prepare_bekker(x, w):
+def _bekker_terms(x):
+    """Bekker as a power law (see :class:`~soilstats.models.base.PowerLawTerms`):
+    p = kc·(1/b)·z^n + kφ·1·z^n."""
     b, z = x
-    w_over_b = w / np.asarray(b, dtype=float)
-    power = _PowerCache(z)
-    last = {"theta": None, "f": None}
-
-    def f(theta):
-        kc, kphi, n = theta
-        value = (kc * w_over_b + kphi * w) * power(n)
-        last["theta"], last["f"] = (kc, kphi, n), value
-        return value
-
-    def jac(theta):
-        kc, kphi, n = theta
-        zn = power(n)
-        # w·f is the third column's common factor; the optimiser asks for J at the point it
-        # has just evaluated, so reuse it rather than recompute.
-        wf = last["f"] if last["theta"] == (kc, kphi, n) else f(theta)
-        rows = np.empty((3, zn.size))
-        np.multiply(zn, w_over_b, out=rows[0])
-        np.multiply(zn, w, out=rows[1])
-        np.multiply(wf, power.lnz, out=rows[2])
-        return rows
-
-    return f, jac
+    return (1.0 / np.asarray(b, dtype=float), 1.0), z
 
 
-def _prepare_bernstein(z, w):
-    power = _PowerCache(z)
-
-    def f(theta):
-        k, n = theta
-        return (k * w) * power(n)
-
-    def jac(theta):
-        k, n = theta
-        zn = power(n)
-        rows = np.empty((2, zn.size))
-        np.multiply(zn, w, out=rows[0])
-        np.multiply(rows[0], k * power.lnz, out=rows[1])
-        return rows
-
-    return f, jac
+def _bernstein_terms(z):
+    """Bernstein as a power law: p = k·1·z^n."""
+    return (1.0,), z
 
 
+# Module-level functions (not partials) so that a model pickled to a worker process compares
+# equal to the original.
 def _separable_bekker(x, w):
-    b, z = x
-    w_over_b = w / np.asarray(b, dtype=float)
-    power = _PowerCache(z)
-
-    def basis(n):
-        zn = power(n)
-        return np.vstack([w_over_b * zn, w * zn])
-
-    return basis, power.lnz
+    return separable_from_power_law(_bekker_terms, x, w)
 
 
 def _separable_bernstein(z, w):
-    power = _PowerCache(z)
-
-    def basis(n):
-        return (w * power(n))[None, :]
-
-    return basis, power.lnz
+    return separable_from_power_law(_bernstein_terms, z, w)
 
 
 _N_RANGE = (0.0, 5.0)  # measured n of dry granular soils and clays lie well inside (paper: 0.8–3.6)
@@ -162,8 +98,8 @@ BEKKER = Model(
     bounds=((0.0, np.inf), (0.0, np.inf), _N_RANGE),
     func=bekker,
     jac=bekker_jac,
-    prepare=_prepare_bekker,
     separable=_separable_bekker,
+    power_law=_bekker_terms,
 )
 
 BERNSTEIN = Model(
@@ -176,8 +112,8 @@ BERNSTEIN = Model(
     bounds=((0.0, np.inf), _N_RANGE),
     func=bernstein,
     jac=bernstein_jac,
-    prepare=_prepare_bernstein,
     separable=_separable_bernstein,
+    power_law=_bernstein_terms,
 )
 
 REECE = Model(
