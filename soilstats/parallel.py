@@ -19,6 +19,7 @@ Progress, when asked for, is a tqdm bar over completed tasks on stderr.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
@@ -40,6 +41,16 @@ def effective_jobs(jobs: int | None) -> int:
             raise ValueError(f"jobs={jobs} asks for fewer than one worker on {cores} cores")
         return cores + 1 + jobs
     return int(jobs)
+
+
+def _blas_threads() -> int:
+    """The BLAS thread count of this process: OpenBLAS's default (every usable core) unless
+    the environment sets one."""
+    for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        value = os.environ.get(name, "").strip()
+        if value.isdigit() and int(value) > 0:
+            return int(value)
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 def parallel_map(
@@ -80,12 +91,26 @@ def parallel_map(
 
         return [function(item) for item in tqdm(items, desc=desc, leave=False)]
 
-    from joblib import Parallel, delayed  # only when workers are asked for: joblib imports slowly
+    # Imported only when workers start: joblib takes a while to import.
+    from joblib import Parallel, delayed, parallel_config
+    from joblib.parallel import get_active_backend
 
     # return_as="generator" streams results in input order, so the bar advances as they land.
-    # A negative jobs goes to joblib as given: on a Dask backend it means every cluster worker.
-    runner = Parallel(n_jobs=jobs if jobs < 0 else n_jobs, return_as="generator")
-    results = runner(delayed(function)(item) for item in items)
+    # loky caps each worker's BLAS at cores/jobs threads; but OpenBLAS sums a long dot
+    # product in per-thread pieces, so its last bit depends on the thread count. Workers get
+    # this process's count instead: the same answer for any --jobs, at the price of some
+    # oversubscription in the (small) matrix products.
+    # (Only for loky, joblib's default: another backend, e.g. Dask's, keeps its own settings.)
+    backend, _ = get_active_backend()
+    same_threads = (
+        parallel_config(backend="loky", inner_max_num_threads=_blas_threads())
+        if type(backend).__name__ == "LokyBackend"
+        else contextlib.nullcontext()
+    )
+    with same_threads:
+        # A negative jobs goes to joblib as given: on Dask it means every cluster worker.
+        runner = Parallel(n_jobs=jobs if jobs < 0 else n_jobs, return_as="generator")
+        results = runner(delayed(function)(item) for item in items)
     if progress:
         from tqdm.auto import tqdm
 
