@@ -28,6 +28,8 @@ from math import factorial
 
 import numpy as np
 
+from .separable import _solve_rows
+
 __all__ = ["fit_clustered_resamples"]
 
 #: Taylor terms of e^{δu}; with |2δu| ≤ _REACH the remainder is below 2^31/31! ≈ 3e-25.
@@ -82,20 +84,6 @@ class _TestMoments:
 
     def within_reach(self, n: np.ndarray) -> np.ndarray:
         return np.abs(2.0 * (n - self.n0)) * self.half_range.max() <= _REACH
-
-
-def _solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """gram_b⁻¹·rhs_b per row for q = 1 or 2 in closed form; NaN where singular."""
-    if gram.shape[-1] == 1:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return rhs / gram[:, 0]
-    g00, g01, g11 = gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1]
-    det = g00 * g11 - g01 * g01
-    det = np.where(det > 1e-13 * g00 * g11, det, np.nan)
-    return (
-        np.column_stack([g11 * rhs[:, 0] - g01 * rhs[:, 1], g00 * rhs[:, 1] - g01 * rhs[:, 0]])
-        / det[:, None]
-    )
 
 
 def fit_clustered_resamples(
@@ -177,7 +165,7 @@ def _fit_rows(moments, g, counts, n0, rtol, max_iter):
         for col, (i, j) in enumerate(pairs):
             gram[:, i, j] = gram[:, j, i] = flat[:, col]
         rhs = (c * b0) @ g
-        coef = _solve(gram, rhs)
+        coef = _solve_rows(gram, rhs)
         cost = 0.5 * (c @ moments.c - np.einsum("bq,bq->b", rhs, coef))
         phi = coef @ g.T  # aᵀg_i, (B, T)
         slope = -np.einsum("bt,bt->b", c * phi, b1 - phi * a1)
@@ -185,7 +173,7 @@ def _fit_rows(moments, g, counts, n0, rtol, max_iter):
         slope_noise = 1e-13 * np.einsum("bt,bt->b", c, np.abs(phi * b1))
         uv = (c * phi * a1) @ g  # U·v
         curvature = np.einsum("bt,bt->b", c * phi * phi, a2) - np.einsum(
-            "bq,bq->b", uv, _solve(gram, uv)
+            "bq,bq->b", uv, _solve_rows(gram, uv)
         )
         return coef, cost, slope, curvature, slope_noise
 
