@@ -442,3 +442,157 @@ def test_combined_shear_family_jacobian_with_side_walls_and_covariates():
     assert np.allclose(
         fun(np.array([800.0, 30.0, 0.01, 0, 0, 0, 0.4])), walls([800, 30, 0.01, 0.4])
     )
+
+
+# --------------------------------------------- issue #15: speed, and --jobs with identical results
+#: Two kinds, effects in both: several groups, findings, forward selection in each.
+_TWO_KINDS = _spec(
+    [
+        _sink(velocity_m_s=[4.8e-4, 2.4e-3, 4.8e-3]),
+        _shear(grouser_height_m=[0.002, 0.005, 0.01]),
+    ],
+    [
+        {"kind": "velocity", "exponent": -0.12, "reference_m_s": 4.8e-3},
+        {"kind": "side-walls", "K0": 0.4},
+    ],
+)
+
+
+def test_jobs_give_identical_results(tmp_path, capsys):
+    """The fits of cross-validation and forward selection spread over workers, the folds drawn
+    in one place: ``--jobs 2`` prints exactly what ``--jobs 1`` prints (JSON and summary)."""
+    from soilstats.cli.main import main
+
+    folder = simulate(_TWO_KINDS, seed=5).campaign.save(tmp_path / "camp")
+    out = {}
+    for jobs in (1, 2):
+        for fmt in ("--json", None):
+            args = ["discover", "--data", str(folder), "--progress", "off", "--jobs", str(jobs)]
+            assert main(args + ([fmt] if fmt else [])) == 0
+            out[jobs, fmt] = capsys.readouterr().out
+    one = json.loads(out[1, "--json"])
+    two = json.loads(out[2, "--json"])
+    assert one["provenance"].pop("command") != two["provenance"].pop("command")
+    assert one == two
+    assert {f["cause"] for f in one["findings"]} >= {"velocity_m_s", "grouser_height_m"}
+    strip = [line for line in out[1, None].splitlines() if "runtime" not in line]
+    assert strip == [line for line in out[2, None].splitlines() if "runtime" not in line]
+
+
+def test_weighted_family_evaluators_match_the_plain_ones():
+    """The optimiser's fast path (weights folded in, rows preallocated, softened samples
+    only) gives w·f and the rows of w·J, as the plain family does, for every layout."""
+    from soilstats.models.extended import ShearLayout
+
+    rng = np.random.default_rng(5)
+    n = 300
+    b, z = rng.choice([0.025, 0.05, 0.1], n), rng.uniform(0.001, 0.03, n)
+    w = rng.uniform(0.5, 2.0, n)
+    for bekker in (True, False):
+        for n_s, n_d, soften in ((0, 0, False), (2, 1, False), (1, 2, True), (0, 0, True)):
+            fs = (rng.random((n, n_s)) < 0.4).astype(float) if n_s else None
+            gd = rng.normal(size=(n, n_d)) if n_d else None
+            family = sinkage_family(
+                SinkageLayout(bekker, n_s, n_d, soften), b, z, fs, gd, rng.random(n) < 0.5
+            )
+            theta = [7e3, 5e5, 1.1][3 - (2 + bekker) :] + list(rng.normal(0, 0.2, n_s + n_d))
+            theta = np.array(theta + ([0.01, 0.6] if soften else []))
+            f_w, jac_w = family.weighted(w)
+            for th in (theta, theta * 1.01, theta):  # the cached parts follow θ
+                assert np.allclose(f_w(th), w * family.f(th), rtol=1e-13, atol=0)
+                assert np.allclose(jac_w(th), (w[:, None] * family.jac(th)).T, rtol=1e-13)
+                assert np.array_equal(family.rows(th, w), jac_w(th))
+    fc = rng.normal(size=(n, 1))
+    shear = shear_family(ShearLayout(1, 0, 1, True), rng.uniform(3e3, 2e4, n), z, fc, None, fc, z)
+    f_w, jac_w = shear.weighted(w)
+    theta = np.array([800.0, 30.0, 0.01, 0.1, 0.2, 0.4])
+    assert np.allclose(f_w(theta), w * shear.f(theta), rtol=1e-13, atol=0)
+    assert np.allclose(jac_w(theta), (w[:, None] * shear.jac(theta)).T, rtol=1e-13, atol=0)
+
+
+def test_fast_partitions_match_the_sorting_ones():
+    """determines, the strata and the cell codes of the diagnosis (integer arithmetic on
+    level codes) against the row-wise ``np.unique`` they replace."""
+    import pandas as pd
+
+    from soilstats.discovery.candidates import determines
+    from soilstats.discovery.diagnose import _cell_codes, _strata
+
+    rng = np.random.default_rng(6)
+    for _ in range(300):
+        n = int(rng.integers(1, 60))
+        a = rng.integers(0, rng.integers(1, 7), n)
+        b = (a * 2) % int(rng.integers(1, 5)) if rng.random() < 0.5 else rng.integers(0, 4, n)
+        pairs = np.unique(np.column_stack([a, b]), axis=0)
+        assert determines(a, b) == (pairs.shape[0] == np.unique(a).size)
+        assert determines(a.astype(float) + 0.5, b) == determines(a, b)
+        c = rng.integers(0, 3, n)
+        sorted_rows = np.unique(np.column_stack([a, b, c]), axis=0, return_inverse=True)[1]
+        assert np.array_equal(_strata([a, b, c], n), sorted_rows.ravel())
+        text = pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
+        assert np.array_equal(_cell_codes(a, b), text)
+
+
+def test_cell_means_f_test_is_the_full_one():
+    """The F-test on cell means weighted by their counts (the diagnosis' fast path) gives the
+    sums of squares, ranks and p of the one on every row; a design the strata and main
+    effects already carry falls back to the full rows (noise decides its rank)."""
+    from soilstats.discovery.diagnose import _cell_codes, _nested_f
+
+    rng = np.random.default_rng(7)
+    for _ in range(100):
+        n = int(rng.integers(12, 200))
+        a, b = rng.integers(0, 3, n), rng.integers(0, 3, n)
+        strata = rng.integers(0, 2, n)
+        y = rng.normal(size=n) + 0.5 * (a == 1) * (b == 2)
+        cells = _cell_codes(a, b)
+        design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
+        nuisance = np.hstack([(c[:, None] == np.unique(c)[None, 1:]).astype(float) for c in (a, b)])
+        full = _nested_f(y, design, strata, nuisance)
+        fast = _nested_f(y, design, strata, nuisance, cells=_cell_codes(strata, cells))
+        assert (fast["df1"], fast["df2"]) == (full["df1"], full["df2"])
+        for key in ("statistic", "p_value", "effect_size", "sigma"):
+            assert fast[key] == pytest.approx(full[key], rel=1e-9, nan_ok=True)
+    # one cell per (a, b) level pair and b a function of a: the interaction is carried
+    a = np.repeat([0, 1, 2], 10)
+    b = a % 2
+    y = rng.normal(size=a.size)
+    cells = _cell_codes(a, b)
+    design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
+    nuisance = np.hstack([(c[:, None] == np.unique(c)[None, 1:]).astype(float) for c in (a, b)])
+    zeros = np.zeros(a.size, int)
+    full = _nested_f(y, design, zeros, nuisance)
+    fast = _nested_f(y, design, zeros, nuisance, cells=_cell_codes(zeros, cells))
+    assert (fast["reason"], fast["df1"], fast["df2"]) == (full["reason"], full["df1"], full["df2"])
+    assert fast["p_value"] == pytest.approx(full["p_value"], nan_ok=True)
+
+
+def test_failed_chain_is_not_fitted_further():
+    """A model whose first fit fails is not fitted further in its chain (as the one-at-a-time
+    loop stopped at the first failed fold), in this process and over workers (where the
+    first task of each chain runs first); the other chains' outcomes are the same."""
+    from soilstats.discovery.data import build_groups
+    from soilstats.discovery.extensions import SinkageExtension, base_model
+    from soilstats.discovery.work import FitTask, Runner
+    from soilstats.errors import IdentifiabilityError
+
+    campaign = simulate(_TWO_KINDS, seed=5).campaign
+    (group,) = [g for g in build_groups(campaign)[0] if g.kind == "sinkage"]
+    rows = np.unique(group.owner)
+    # Round plates only: softening of narrow plates cannot be fitted (IdentifiabilityError).
+    soften = SinkageExtension("softening", True, "Fig. 9", soften=True)
+    base = base_model(group, rows)
+    tasks = [
+        FitTask(soften, rows[1:], held_out=rows[:1], chain="soft"),
+        FitTask(soften, rows, chain="soft"),
+        FitTask(base, rows[1:], held_out=rows[:1], chain="base"),
+        FitTask(base, rows, chain="base"),
+    ]
+    serial = Runner(group, 1)(tasks, probe=True)
+    parallel = Runner(group, 2)(tasks, probe=True)
+    for outcomes in (serial, parallel):
+        assert isinstance(outcomes[0].error, IdentifiabilityError)
+        assert outcomes[1].skipped and outcomes[1].fitted is None
+        assert outcomes[2].error is None and outcomes[3].error is None
+    assert np.array_equal(serial[2].errors, parallel[2].errors)
+    assert np.array_equal(serial[3].fitted.result.values, parallel[3].fitted.result.values)

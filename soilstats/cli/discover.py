@@ -5,7 +5,8 @@ test-log column and derived quantity for structure in what the model leaves (Hol
 across all candidates), extends the model for the leading causes and measures the gain by
 cross-validation over whole tests. Prints a readable summary, or with --json one JSON object
 {"findings": [...], "flags": [...], ..., "provenance": {...}}; with --out, discover.json and
-the PDF report discover.pdf in that folder.
+the PDF report discover.pdf in that folder. --jobs N spreads the per-test fits and the
+cross-validation fits over N worker processes, with identical results.
 """
 
 from __future__ import annotations
@@ -24,6 +25,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--alpha", type=float, default=0.05, help="family-wise error rate (default 0.05)"
     )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="worker processes (joblib; -1 = every core); results are identical for any N",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -39,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress=progress_enabled(args.progress),
         provenance=provenance,
+        jobs=args.jobs,
     )
     if args.out:
         from ..report.discovery_pdf import write_report

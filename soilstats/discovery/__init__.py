@@ -12,6 +12,8 @@
 ``flags``          physical red flags (negative kc/kφ, implausible n, kc–kφ collinear)
 ``extensions``     the library: velocity, softening, Reece, side walls, generic covariate
 ``crossval``       leave-whole-tests / conditions-out gain with its uncertainty, AIC/BIC
+``selection``      forward selection of one combined model per (kind, soil)
+``work``           the fits in waves over ``jobs`` workers; identical results for any jobs
 ``result``         :class:`DiscoveryResult`, :class:`Finding`
 =================  ========================================================================
 

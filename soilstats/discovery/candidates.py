@@ -326,10 +326,29 @@ def level_codes(values: pd.Series) -> np.ndarray:
     return pd.factorize(values.astype(object).where(values.notna(), MISSING))[0]
 
 
+def _as_codes(values) -> np.ndarray:
+    """Non-negative integer codes of an array (unchanged when it already is one)."""
+    values = np.asarray(values)
+    if values.dtype.kind in "iu" and (values.size == 0 or values.min() >= 0):
+        return values
+    return pd.factorize(values, use_na_sentinel=False)[0]
+
+
 def determines(a: np.ndarray, b: np.ndarray) -> bool:
-    """True when every level of ``a`` holds a single level of ``b`` (b is a function of a)."""
-    pairs = np.unique(np.column_stack([a, b]), axis=0)
-    return pairs.shape[0] == np.unique(a).size
+    """True when every level of ``a`` holds a single level of ``b`` (b is a function of a).
+
+    ``a`` and ``b`` are best given as level codes (:func:`level_codes`): then the test is one
+    scatter and one comparison, O(n) without sorting — discovery asks it for every pair of
+    candidates and of interaction cells, thousands of times in a large campaign.  Each level
+    of ``a`` records one ``b`` it holds (whichever write lands last); b is a function of a
+    exactly when every row's ``b`` equals the one recorded for its level.
+    """
+    a, b = _as_codes(a), _as_codes(b)
+    if a.size == 0:
+        return True
+    held = np.empty(int(a.max()) + 1, dtype=b.dtype)
+    held[a] = b
+    return bool(np.array_equal(held[a], b))
 
 
 def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation]:

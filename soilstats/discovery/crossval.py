@@ -26,15 +26,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
+from .work import FitTask, Runner, Wave
 
 __all__ = [
+    "FoldFits",
     "Gain",
     "base_fold_fits",
     "compare",
     "cross_validate",
+    "cross_validation",
     "held_out_errors",
     "information_criteria",
     "make_folds",
+    "per_test_error",
 ]
 
 METRIC = "rms of max-normalised prediction error, held-out tests"
@@ -113,7 +117,9 @@ def make_folds(levels: np.ndarray, scheme: str, rng: np.random.Generator, k: int
     return folds
 
 
-def _per_test_error(group, rows, y_hat) -> np.ndarray:
+def per_test_error(group, rows, y_hat) -> np.ndarray:
+    """Each test's mean squared weighted prediction error (module docstring) over its
+    samples, for the tests ``rows`` predicted as ``y_hat`` (their samples, in order)."""
     mask = group.samples_of(rows)
     owner = group.owner[mask]
     e2 = (group.w[mask] * (group.y[mask] - y_hat)) ** 2
@@ -122,34 +128,65 @@ def _per_test_error(group, rows, y_hat) -> np.ndarray:
     return sums[rows] / np.maximum(counts[rows], 1)
 
 
-def _fold_fits(group, rows, ext, folds, *, scheme, starts=None) -> tuple[dict, np.ndarray]:
-    """``ext`` fitted without each fold (started from ``starts[fold]`` when given), and each
-    test's error (module docstring) under the fit that did not see it.  Raises
-    :class:`ConvergenceError` or :class:`IdentifiabilityError` naming the fold: an error is
-    never computed from a failed fit."""
-    rows = np.asarray(rows, int)
-    folds = np.asarray(folds)
-    fits, errors = {}, np.empty(rows.size)
-    for fold in np.unique(folds):
-        train, test = rows[folds != fold], rows[folds == fold]
-        if train.size < 2:
-            raise IdentifiabilityError(
-                f"cross-validation fold {fold} ({scheme}): fewer than two training tests"
-            )
-        start = None if starts is None else starts[int(fold)]
-        try:
-            fits[int(fold)] = ext.fit(group, train, base=start)
-        except (ConvergenceError, IdentifiabilityError) as exc:
-            raise type(exc)(f"cross-validation fold {fold} ({scheme}): {exc}") from exc
-        pred = ext.predict(fits[int(fold)], group, test)
-        errors[folds == fold] = _per_test_error(group, test, pred)
-    return fits, errors
+class FoldFits:
+    """The fold fits of one model, as :class:`~.work.FitTask` to run (``tasks``), then
+    :meth:`collect`-ed into the fits and each test's held-out error.
+
+    ``ext`` is fitted without each fold (started from ``starts[fold]`` when given: the base
+    model's fit of that fold) and predicts the fold's tests.  Planning and collecting are
+    apart so that the fold fits of several models can run in one wave (:mod:`.work`); the
+    tasks form one ``chain``: after a fold that fails, the rest need not run.
+    """
+
+    def __init__(
+        self, rows, ext, folds, *, scheme: str, starts: dict | None = None, chain=0
+    ) -> None:
+        self.rows = np.asarray(rows, int)
+        self.folds = np.asarray(folds)
+        self.scheme = scheme
+        self.plan: list[tuple[int, FitTask | None]] = []
+        for fold in np.unique(self.folds):
+            train = self.rows[self.folds != fold]
+            test = self.rows[self.folds == fold]
+            start = None if starts is None else starts[int(fold)]
+            task = FitTask(ext, train, start, test, chain) if train.size >= 2 else None
+            self.plan.append((int(fold), task))
+        self.tasks = [task for _, task in self.plan if task is not None]
+
+    def collect(self, outcomes) -> tuple[dict, np.ndarray]:
+        """(fits by fold, each test's held-out error) from the outcomes of ``tasks``.
+
+        Raises :class:`ConvergenceError` or :class:`IdentifiabilityError` naming the first
+        fold (in fold order) whose fit failed or had fewer than two training tests: an error
+        is never computed from a failed fit.
+        """
+        outcomes = iter(outcomes)
+        fits, errors = {}, np.empty(self.rows.size)
+        for fold, task in self.plan:
+            if task is None:
+                raise IdentifiabilityError(
+                    f"cross-validation fold {fold} ({self.scheme}): fewer than two training tests"
+                )
+            outcome = next(outcomes)
+            exc = outcome.error
+            if isinstance(exc, ConvergenceError | IdentifiabilityError):
+                raise type(exc)(f"cross-validation fold {fold} ({self.scheme}): {exc}") from exc
+            outcome.raise_error()
+            fits[fold] = outcome.fitted
+            errors[self.folds == fold] = outcome.errors
+        return fits, errors
 
 
-def held_out_errors(group, rows, ext, folds, *, scheme, starts=None) -> np.ndarray:
+def _fold_fits(group, rows, ext, folds, *, scheme, starts=None, run=None):
+    plan = FoldFits(rows, ext, folds, scheme=scheme, starts=starts)
+    return plan.collect((run or Runner(group))(plan.tasks))
+
+
+def held_out_errors(group, rows, ext, folds, *, scheme, starts=None, run=None) -> np.ndarray:
     """Each test's error when ``ext`` is fitted without its fold; ``starts`` maps a fold to
-    a fitted model whose parameters start the fold's fit (the base model's fit of the fold)."""
-    return _fold_fits(group, rows, ext, folds, scheme=scheme, starts=starts)[1]
+    a fitted model whose parameters start the fold's fit (the base model's fit of the fold).
+    ``run``: the :class:`~.work.Runner` that fits (default: in this process)."""
+    return _fold_fits(group, rows, ext, folds, scheme=scheme, starts=starts, run=run)[1]
 
 
 def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
@@ -172,26 +209,38 @@ def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
     )
 
 
-def base_fold_fits(group, rows, base_ext, folds, *, scheme) -> tuple[dict, np.ndarray]:
+def base_fold_fits(group, rows, base_ext, folds, *, scheme, run=None) -> tuple[dict, np.ndarray]:
     """The base model fitted without each fold, and each test's held-out error under it."""
-    return _fold_fits(group, rows, base_ext, folds, scheme=scheme)
+    return _fold_fits(group, rows, base_ext, folds, scheme=scheme, run=run)
 
 
-def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None) -> Gain:
+def cross_validation(group, rows, base_ext, ext, folds, *, scheme):
+    """Process (:mod:`.work`) of :func:`cross_validate`: the base model's fold fits, then
+    the extension's, each one wave; returns the :class:`Gain`."""
+    base_plan = FoldFits(rows, base_ext, folds, scheme=scheme, chain="base")
+    starts, e_base = base_plan.collect((yield Wave(group, base_plan.tasks)))
+    plan = FoldFits(rows, ext, folds, scheme=scheme, starts=starts, chain="extension")
+    e_ext = plan.collect((yield Wave(group, plan.tasks)))[1]
+    return compare(e_base, e_ext, scheme=scheme, folds=folds)
+
+
+def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None, run=None) -> Gain:
     """Held-out prediction error of ``base_ext`` and ``ext`` on the tests ``rows``.
 
     ``folds`` (one fold number per row, from :func:`make_folds`) is shared by every extension
     compared for one finding, so their gains differ by the model only.  ``cache`` (a dict)
-    keeps the base model's fold fits between calls.  Raises :class:`ConvergenceError` when a
+    keeps the base model's fold fits between calls; ``run`` (a :class:`~.work.Runner`) fits
+    each wave of fold fits, over its workers.  Raises :class:`ConvergenceError` when a
     fold's fit does not converge and :class:`IdentifiabilityError` when a fold leaves too
     little to fit (the fold, the model and the reason are in the message): a gain is never
     computed from a failed fit.
     """
     cache = {} if cache is None else cache
+    run = run or Runner(group)
     if scheme not in cache:
-        cache[scheme] = base_fold_fits(group, rows, base_ext, folds, scheme=scheme)
+        cache[scheme] = base_fold_fits(group, rows, base_ext, folds, scheme=scheme, run=run)
     starts, e_base = cache[scheme]
-    e_ext = held_out_errors(group, rows, ext, folds, scheme=scheme, starts=starts)
+    e_ext = held_out_errors(group, rows, ext, folds, scheme=scheme, starts=starts, run=run)
     return compare(e_base, e_ext, scheme=scheme, folds=folds)
 
 

@@ -19,7 +19,7 @@ import pandas as pd
 from ..errors import ConvergenceWarning
 from ..identification import fit_per_test
 from ..identification.pooling import MIN_SAMPLES, pool_shear, pool_sinkage
-from .candidates import with_time_hours
+from .candidates import candidate_values, with_time_hours
 
 __all__ = ["Group", "build_groups"]
 
@@ -57,10 +57,28 @@ class Group:
     owner: np.ndarray = field(repr=False)
     notes: tuple[str, ...] = ()
     time_columns: tuple[str, ...] = ()
+    # What is computed once per group from its fixed tests (see :meth:`memo`); a new group
+    # (``dataclasses.replace``) starts with an empty one.
+    _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def label(self) -> str:
         return f"{self.kind} / {self.soil}"
+
+    def memo(self, key, compute):
+        """``compute()``, once per group and ``key``: cross-validation refits the same
+        extensions on the same tests hundreds of times, and the per-test features (a
+        column's values as :func:`~.candidates.candidate_values` reads them) never change
+        within a group."""
+        try:
+            return self._memo[key]
+        except KeyError:
+            value = self._memo[key] = compute()
+            return value
+
+    def values(self, column: str) -> pd.Series:
+        """:func:`~.candidates.candidate_values` of a column of ``tests`` (memoised)."""
+        return self.memo(("values", column), lambda: candidate_values(self.tests, column))
 
     def samples_of(self, rows: np.ndarray) -> np.ndarray:
         """Boolean mask of the samples belonging to the table rows ``rows``."""
@@ -92,14 +110,15 @@ def _pool(campaign, kind: str, soil: str, table: pd.DataFrame, points: int):
 
 
 def build_groups(
-    campaign, *, points_per_test: int = 60, progress: bool = False
+    campaign, *, points_per_test: int = 60, progress: bool = False, jobs: int | None = 1
 ) -> tuple[list[Group], list[str]]:
     """Split a campaign into (kind, soil) groups with per-test fits and pooled samples.
 
     Tests whose record is unusable (fewer than :data:`MIN_SAMPLES` samples in contact, no
     positive response; the rule of :mod:`soilstats.identification.pooling`)
     are dropped from the pooled samples, and per-test fits that fail keep NaN parameters;
-    both are counted in the notes — nothing is dropped silently.
+    both are counted in the notes — nothing is dropped silently.  ``jobs``: worker processes
+    for the per-test fits (:func:`soilstats.fit_per_test`; the same rows for any number).
     """
     groups: list[Group] = []
     notes: list[str] = []
@@ -112,7 +131,12 @@ def build_groups(
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", ConvergenceWarning)
                 table = fit_per_test(
-                    campaign, kind, soil=soil, points_per_test=points_per_test, progress=progress
+                    campaign,
+                    kind,
+                    soil=soil,
+                    points_per_test=points_per_test,
+                    progress=progress,
+                    jobs=jobs,
                 )
             for w in caught:
                 if issubclass(w.category, ConvergenceWarning):

@@ -139,13 +139,26 @@ def _trend(x: np.ndarray) -> np.ndarray:
 
 
 def _strata(columns: list[np.ndarray], n: int) -> np.ndarray:
-    """Stratum code of each of ``n`` rows: one per combination of the block codes given."""
+    """Stratum code of each of ``n`` rows: one per combination of the block codes given,
+    numbered in the lexicographic order of the combinations."""
     if not columns:
         return np.zeros(n, int)
+    columns = [np.asarray(c) for c in columns]
+    radix = [int(c.max()) + 1 if c.size else 1 for c in columns]
+    if all(c.dtype.kind in "iu" and (not c.size or c.min() >= 0) for c in columns) and (
+        float(np.prod(radix, dtype=float)) < 2.0**62
+    ):
+        # Level codes: one mixed-radix integer per row orders as the rows do
+        # lexicographically, so a 1-D unique numbers the strata exactly as the row-wise
+        # unique below (which sorts rows of a structured view, far slower).
+        combined = np.zeros(n, np.int64)
+        for c, k in zip(columns, radix, strict=True):
+            combined = combined * k + c
+        return np.unique(combined, return_inverse=True)[1].ravel()
     return np.unique(np.column_stack(columns), axis=0, return_inverse=True)[1].ravel()
 
 
-def _nested_f(y, design, strata, nuisance=None) -> dict:
+def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
     """F-test of ``design`` after stratum effects (and ``nuisance`` columns), by
     within-stratum centring (Frisch–Waugh–Lovell).
 
@@ -153,16 +166,47 @@ def _nested_f(y, design, strata, nuisance=None) -> dict:
     ``sigma`` (residual standard deviation of the full model) and ``norm2`` (the squared
     length of each design column after the strata and nuisance are taken out: the pattern
     an effect of one unit leaves, for :mod:`.power`), or ``reason`` when it cannot be made.
+
+    ``cells`` (optional codes) marks rows that share their stratum, design row and nuisance
+    row.  Every column of every model is then constant within a cell, so the within-cell sum
+    of squares W is left by all of them alike, and the rest is the regression of the cell
+    means weighted by the cell counts m: rows scaled by √m, centred with m-weighted stratum
+    means.  The same sums of squares, ranks (the scaled matrix has the same Gram matrix as
+    the full one) and F, on a few hundred cells instead of thousands of tests.  Where the
+    strata and nuisance leave nothing of the design but rounding noise (an interaction the
+    main effects already carry), which columns the rank test counts is decided by that
+    noise: then the test is made on the full rows, so that the answer is the one it always
+    was.
     """
+    full = (y, design, strata, nuisance)
     n = y.size
     s = pd.factorize(strata)[0]
     n_strata = s.max() + 1
-    counts = np.bincount(s, minlength=n_strata)
+    within, root = 0.0, None
+    if cells is not None:
+        codes = pd.factorize(cells)[0]
+        m = np.bincount(codes).astype(float)
+        if m.size < n:
+            first = np.empty(m.size, int)
+            first[codes] = np.arange(n)  # a row of each cell (all alike)
+            mean = np.bincount(codes, weights=y) / m
+            within = float(np.sum((y - mean[codes]) ** 2))
+            y, design, s = mean, design[first], s[first]
+            nuisance = None if nuisance is None else nuisance[first]
+            root = np.sqrt(m)
+    weight = np.ones(s.size) if root is None else root**2
+    counts = np.bincount(s, weights=weight, minlength=n_strata)
 
     def centre(a):
+        if root is None:
+            sums = np.zeros((n_strata, *a.shape[1:]))
+            np.add.at(sums, s, a)
+            return a - (sums / counts.reshape(-1, *[1] * (a.ndim - 1)))[s]
+        wa = a * weight.reshape(-1, *[1] * (a.ndim - 1))
         sums = np.zeros((n_strata, *a.shape[1:]))
-        np.add.at(sums, s, a)
-        return a - (sums / counts.reshape(-1, *[1] * (a.ndim - 1)))[s]
+        np.add.at(sums, s, wa)
+        centred = a - (sums / counts.reshape(-1, *[1] * (a.ndim - 1)))[s]
+        return centred * root.reshape(-1, *[1] * (a.ndim - 1))
 
     def rank_of(a):
         if a.shape[1] == 0:
@@ -178,16 +222,20 @@ def _nested_f(y, design, strata, nuisance=None) -> dict:
         nc = centre(nuisance)
         r0 = rank_of(nc)
         q = np.linalg.svd(nc, full_matrices=False)[0][:, :r0]
+        before = float(np.max(np.sum(dc**2, axis=0), initial=0.0))
         yc = yc - q @ (q.T @ yc)
         dc = dc - q @ (q.T @ dc)
+        left = float(np.max(np.sum(dc**2, axis=0), initial=0.0))
+        if root is not None and not left > 1e-12 * before:  # (norms squared: 1e-6 in norm)
+            return _nested_f(*full)
     rank = rank_of(dc)
     df2 = n - n_strata - r0 - rank
     if rank < 1 or df2 < 2:
         out["reason"] = f"no degrees of freedom left (n = {n}, strata = {n_strata}, rank = {rank})"
         return out
     beta = np.linalg.lstsq(dc, yc, rcond=1e-9)[0]
-    rss1 = float(np.sum((yc - dc @ beta) ** 2))
-    rss0 = float(np.sum(yc**2))
+    rss1 = within + float(np.sum((yc - dc @ beta) ** 2))
+    rss0 = within + float(np.sum(yc**2))
     if rss1 <= 0:
         f_stat, p = (np.inf, 0.0) if rss0 > 0 else (np.nan, np.nan)
     else:
@@ -237,13 +285,15 @@ def strata_test(y, x, *, categorical: bool, strata) -> dict:
         out["reason"] = "the candidate varies within no stratum of the other candidates"
         return out
     y, x, s = y[varies], x[varies], strata[varies]
+    cells = None
     if categorical:
         levels, counts = np.unique(x, return_counts=True)
         out["singletons"] = levels[counts == 1].tolist()
         design = (x[:, None] == levels[None, :]).astype(float)
+        cells = _cell_codes(np.asarray(s), np.unique(x, return_inverse=True)[1].ravel())
     else:
         design = _trend(x.astype(float))[:, None]
-    res = _nested_f(y, design, s)
+    res = _nested_f(y, design, s, cells=cells)
     norm2 = res.pop("norm2")
     if res["df1"] and not categorical:
         norm2 = norm2 / np.ptp(design) ** 2  # per change across the observed range
@@ -265,19 +315,32 @@ def interaction_test(y, a, b, *, strata) -> dict:
     out = {"used": np.ones(y.size, bool), "singletons": [], "p_value": np.nan}
     out.update(statistic=np.nan, df1=0, df2=0, effect_size=np.nan, sigma=np.nan)
     out.update(mde_norm2=np.nan, reason="")
-    cells = pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
+    cells = _cell_codes(a, b)
     if y.size < 6 or np.unique(cells).size < 4:
         out["reason"] = "fewer than four cells: no interaction to test"
         return out
     dummies = [(codes[:, None] == np.unique(codes)[None, 1:]).astype(float) for codes in (a, b)]
     design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
-    res = _nested_f(y, design, strata, nuisance=np.hstack(dummies))
+    res = _nested_f(
+        y, design, strata, nuisance=np.hstack(dummies), cells=_cell_codes(strata, cells)
+    )
     norm2 = res.pop("norm2")
     ok = np.isfinite(norm2) & (norm2 > 1e-12)
     if res["df1"] and ok.any():
         res["mde_norm2"] = float(norm2[ok].min())
     out.update(res)
     return out
+
+
+def _cell_codes(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Codes of the A × B cells, numbered in order of first appearance.
+
+    For level codes one integer a·(max b + 1) + b per row names the cell (the same numbering
+    as factorising the text "a|b", without building the text); other values take that path.
+    """
+    if a.dtype.kind in "iu" and b.dtype.kind in "iu" and a.size and min(a.min(), b.min()) >= 0:
+        return pd.factorize(a.astype(np.int64) * (int(b.max()) + 1) + b)[0]
+    return pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
 
 
 def _block_eligible(table: pd.DataFrame, cand: Candidate) -> bool:
@@ -376,7 +439,9 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     rows=used,
                 )
             )
-    table, inter_rows, inter_rels = _interactions(group, table, cands, related, eligible, codes)
+    table, inter_rows, inter_rels = _interactions(
+        group, table, cands, related, eligible, codes, values_of
+    )
     rows_out += inter_rows
     roles = tuple(
         r for r in all_roles if r.column not in FIT_COLUMNS and sub[r.column].nunique() > 1
@@ -401,26 +466,45 @@ def _labels(values: pd.Series) -> pd.Series:
     return values.astype(str)
 
 
-def _interactions(group, table, cands, related, eligible, codes):
+def _interactions(group, table, cands, related, eligible, codes, values_of):
     """Two-way interactions of crossed design-like factors (:func:`interaction_test`): the
     per-test rows of the family, the table with one cell-label column per pair (``A × B``,
-    for the per-cell extension), and the main candidates each pair is aliased with."""
+    for the per-cell extension), and the main candidates each pair is aliased with.
+
+    ``values_of`` holds :func:`candidate_values` of every candidate; labels, their codes and
+    the strata of a block set are computed once per candidate or set, not once per pair.
+    """
     partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
     pairs = _interaction_pairs(cands, related, eligible, partition_of)
-    rows_out, rels, columns = [], [], {}
+    rows_out, rels, columns, cells = [], [], {}, {}
+    labels: dict[str, pd.Series] = {}
+    label_codes: dict[str, np.ndarray] = {}
+    strata_of: dict[tuple, np.ndarray] = {}
+    for name in dict.fromkeys(x for pair in pairs for x in pair):
+        labels[name] = _labels(values_of[name])
+        label_codes[name] = pd.factorize(labels[name])[0]
     for a, b in pairs:
         name = f"{a}{INTERACTION}{b}"
-        va, vb = candidate_values(table, a), candidate_values(table, b)
-        label = _labels(va) + INTERACTION + _labels(vb)
-        columns[name] = label.where(va.notna() & vb.notna(), np.nan)
-        cell = tuple(pd.factorize(columns[name].fillna(""))[0])
+        va, vb = values_of[a], values_of[b]
+        recorded = (va.notna() & vb.notna()).to_numpy()
+        label = labels[a] + INTERACTION + labels[b]
+        columns[name] = label.where(recorded, np.nan)
+        # The cells' partition as codes in order of first appearance (tests without both
+        # values form one cell): the numbering of factorising the label column, from the
+        # labels' codes.
+        la, lb = label_codes[a], label_codes[b]
+        combined = np.where(recorded, la.astype(np.int64) * (int(lb.max()) + 1) + lb, -1)
+        cells[name] = pd.factorize(combined)[0]
+        cell = tuple(cells[name])
         aliased = sorted(n for n, part in partition_of.items() if part == cell)
         rels += [Relation("aliased", name, n) for n in aliased]
         blocks = [
             k for k in sorted(eligible) if k not in (a, b) and not ({k} & (related[a] | related[b]))
         ]
-        strata = _strata([codes[k] for k in blocks], len(table))
-        recorded = (va.notna() & vb.notna()).to_numpy()
+        key = tuple(blocks)
+        if key not in strata_of:
+            strata_of[key] = _strata([codes[k] for k in blocks], len(table))
+        strata = strata_of[key]
         for response in RESPONSES[group.kind]:
             y_all = table[f"_dev_{response}"].to_numpy(float)
             ok = np.isfinite(y_all) & recorded
@@ -445,7 +529,6 @@ def _interactions(group, table, cands, related, eligible, codes):
             )
     # Interactions of nested factors nest in turn (velocity × tool determines velocity ×
     # area when tool determines area): related, so that one leads and the other is named.
-    cells = {n: level_codes(c) for n, c in columns.items()}
     names = list(cells)
     for i, m in enumerate(names):
         for n in names[i + 1 :]:
@@ -538,12 +621,7 @@ def conditional_responses(group, fitted) -> pd.DataFrame:
             lz = np.log(x["z"]).reshape(-1, m)
             lp = np.log(y_hat).reshape(-1, m)
             wt = np.nan_to_num(y_hat.reshape(-1, m))
-            n_hat = np.full(rows.size, np.nan)
-            lk_hat = np.full(rows.size, np.nan)
-            for i in range(rows.size):
-                ok = np.isfinite(lp[i]) & (wt[i] > 0)
-                if ok.sum() >= 3:
-                    n_hat[i], lk_hat[i] = np.polyfit(lz[i, ok], lp[i, ok], 1, w=wt[i, ok])
+            n_hat, lk_hat = _weighted_lines(lz, lp, wt)
             _sinkage_deviations(table, idx, lk_hat, n_hat)
         else:
             t1, t2 = y_hat[0::2], y_hat[1::2]
@@ -551,6 +629,25 @@ def conditional_responses(group, fitted) -> pd.DataFrame:
             k_hat = -x["j"][0] / np.log(r)
             _shear_deviations(table, idx, t1 / (1.0 - r), k_hat)
     return table
+
+
+def _weighted_lines(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(slope, intercept) of the line through each row of ``y`` against ``x`` minimising
+    Σ (w·(y − a·x − b))² over the points with finite y and w > 0, as ``np.polyfit(x, y, 1,
+    w=w)`` per row, for all rows at once (centred normal equations); NaN for a row with
+    fewer than three such points."""
+    ok = np.isfinite(y) & (w > 0)
+    w2 = np.where(ok, w, 0.0) ** 2
+    x, y = np.where(ok, x, 0.0), np.where(ok, y, 0.0)
+    total = w2.sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mx = (w2 * x).sum(axis=1) / total
+        my = (w2 * y).sum(axis=1) / total
+        dx = np.where(ok, x - mx[:, None], 0.0)
+        slope = (w2 * dx * (y - my[:, None])).sum(axis=1) / (w2 * dx * dx).sum(axis=1)
+    enough = ok.sum(axis=1) >= 3
+    slope = np.where(enough, slope, np.nan)
+    return slope, np.where(enough, my - slope * mx, np.nan)
 
 
 def retest(group, table, row) -> dict[str, float]:

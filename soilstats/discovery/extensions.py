@@ -34,7 +34,7 @@ from ..identification.starting_values import janosi_start, reece_from_bekker, si
 from ..identification.wong import wong_start
 from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
 from ..models.extended import ShearLayout, SinkageLayout, shear_family, sinkage_family
-from .candidates import MISSING, candidate_values, spans_log
+from .candidates import MISSING, spans_log
 
 __all__ = [
     "Extension",
@@ -62,9 +62,9 @@ class Features:
     column: str
     how: str  # "velocity" | "linear" | "levels"
 
-    def prepare(self, tests, rows) -> dict:
+    def prepare(self, group, rows) -> dict:
         """Reference values from the training tests only (no peeking at held-out tests)."""
-        values = candidate_values(tests, self.column).iloc[rows]
+        values = group.values(self.column).iloc[rows]
         if self.how == "levels":
             counts = values.astype(object).fillna(MISSING).value_counts(sort=False)
             levels = list(counts.index)
@@ -85,13 +85,17 @@ class Features:
             return ["ln(v/v_ref)"]
         return [f"{'ln ' if state['log'] else ''}{self.column} (standardised)"]
 
-    def matrix(self, tests, state) -> np.ndarray:
-        """(n_tests, m) features of every row of the table (unseen levels → reference)."""
-        values = candidate_values(tests, self.column)
+    def matrix(self, group, state) -> np.ndarray:
+        """(n_tests, m) features of every test of the group (unseen levels → reference)."""
         if self.how == "levels":
-            v = values.astype(object).fillna(MISSING).to_numpy()
+            v = group.memo(
+                ("levels", self.column),
+                lambda: group.values(self.column).astype(object).fillna(MISSING).to_numpy(),
+            )
             return np.column_stack([v == lv for lv in state["levels"]]).astype(float)
-        x = values.astype(float).to_numpy()
+        x = group.memo(
+            ("float", self.column), lambda: group.values(self.column).astype(float).to_numpy()
+        )
         if self.how == "velocity":
             with np.errstate(divide="ignore", invalid="ignore"):
                 out = np.log(x / state["v_ref"])
@@ -119,18 +123,21 @@ class Term:
         return self.features.column
 
 
-def _prepare_terms(terms, tests, rows) -> list[dict]:
-    return [t.features.prepare(tests, rows) for t in terms]
+def _prepare_terms(terms, group, rows) -> list[dict]:
+    return [t.features.prepare(group, rows) for t in terms]
 
 
-def _stack(terms, states, tests, owner, target) -> np.ndarray | None:
-    """Per-sample features of every term that moves ``target``, side by side (or None)."""
+def _stack(terms, states, group, owner, target) -> np.ndarray | None:
+    """Per-sample features of every term that moves ``target``, side by side (or None).
+
+    Built as contiguous (m, N) rows, the layout of the family's Jacobian rows, and handed
+    over as their (N, m) transpose (which the family takes without a copy)."""
     blocks = [
-        t.features.matrix(tests, st)[owner]
+        t.features.matrix(group, st).T[:, owner]
         for t, st in zip(terms, states, strict=True)
         if target in t.targets
     ]
-    return np.hstack(blocks) if blocks else None
+    return np.vstack(blocks).T if blocks else None
 
 
 def _term_names(terms, states, target, label) -> list[str]:
@@ -166,14 +173,15 @@ class Extension:
         raise NotImplementedError
 
 
-def _identify(f, jac, y, w, p0, names, units, bounds, label) -> FitResult:
+def _identify(family, y, w, p0, names, units, bounds, label) -> FitResult:
+    """Weighted LM (Eq. 1) of an extended family, through its :class:`Model` so that
+    :func:`identify` takes the fast path (weights folded in, f and J sharing their parts)."""
     return identify(
-        lambda _x, *th: f(np.asarray(th)),
+        family.model(names, units, bounds, label),
         np.arange(y.size),
         y,
         p0,
         weights=w,
-        jac=lambda _x, *th: jac(np.asarray(th)),
         param_names=names,
         units=dict(zip(names, units, strict=True)),
         bounds=bounds,
@@ -194,8 +202,8 @@ class SinkageExtension(Extension):
         mask = group.samples_of(rows)
         owner = group.owner[mask]
         states = state.get("terms", [])
-        fs = _stack(self.terms, states, group.tests, owner, "k")
-        gd = _stack(self.terms, states, group.tests, owner, "n")
+        fs = _stack(self.terms, states, group, owner, "k")
+        gd = _stack(self.terms, states, group, owner, "n")
         soft = None
         if self.soften:
             aspect = group.tests["aspect_ratio"].to_numpy(float)[owner]
@@ -224,7 +232,7 @@ class SinkageExtension(Extension):
 
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
-        state: dict = {"terms": _prepare_terms(self.terms, group.tests, rows)}
+        state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
         mask = group.samples_of(rows)
         y, w = group.y[mask], group.w[mask]
         if base is not None and getattr(base.extension, "bekker", None) == self.bekker:
@@ -233,10 +241,10 @@ class SinkageExtension(Extension):
             model = "bekker" if self.bekker else "bernstein"
             start = list(sinkage_start(model, group.x["b"][mask], group.x["z"][mask], y))
         if not self.soften:
-            mask, layout, (f, jac) = self._inputs(group, rows, state)
+            mask, layout, family = self._inputs(group, rows, state)
             p0 = start + [0.0] * (layout.size - len(start))
             names, units = self._names(state)
-            result = _identify(f, jac, y, w, p0, names, units, _SINK_BOUNDS, self.name)
+            result = _identify(family, y, w, p0, names, units, _SINK_BOUNDS, self.name)
             return Fitted(self, result, state)
         return self._fit_softening(group, rows, state, start)
 
@@ -254,14 +262,14 @@ class SinkageExtension(Extension):
         bounds = {**_SINK_BOUNDS, "z_c": (0, np.inf), "f_soft": (0, 1)}
         for thr in thresholds:
             st = {**state, "min_aspect": float(thr)}
-            mask, layout, (f, jac) = self._inputs(group, rows, st)
+            mask, layout, family = self._inputs(group, rows, st)
             y, w = group.y[mask], group.w[mask]
             names, units = self._names(st)
             base_p0 = start + [0.0] * (layout.size - 2 - len(start))
-            rss = [np.sum((w * (y - f(np.array([*base_p0, zc, 0.6])))) ** 2) for zc in grid]
+            rss = [np.sum((w * (y - family.f(np.array([*base_p0, zc, 0.6])))) ** 2) for zc in grid]
             p0 = [*base_p0, float(grid[int(np.argmin(rss))]), 0.6]
             try:
-                result = _identify(f, jac, y, w, p0, names, units, bounds, self.name)
+                result = _identify(family, y, w, p0, names, units, bounds, self.name)
             except ConvergenceError as exc:
                 errors.append(f"aspect ≥ {thr:g}: {exc}")
                 continue
@@ -272,8 +280,8 @@ class SinkageExtension(Extension):
         return best
 
     def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
-        _, _, (f, _) = self._inputs(group, np.asarray(rows, int), fitted.state)
-        return f(fitted.result.values)
+        _, _, family = self._inputs(group, np.asarray(rows, int), fitted.state)
+        return family.f(fitted.result.values)
 
 
 @dataclass(frozen=True)
@@ -308,7 +316,7 @@ class ShearExtension(Extension):
         owner = group.owner[mask]
         states = state.get("terms", [])
         kw = {
-            key: _stack(self.terms, states, group.tests, owner, target)
+            key: _stack(self.terms, states, group, owner, target)
             for target, key in (("c", "fc"), ("tan_phi", "ft"), ("K", "fk"))
         }
         counts = [0 if kw[k] is None else kw[k].shape[1] for k in ("fc", "ft", "fk")]
@@ -333,8 +341,8 @@ class ShearExtension(Extension):
 
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
-        state: dict = {"terms": _prepare_terms(self.terms, group.tests, rows)}
-        mask, layout, (f, jac) = self._inputs(group, rows, state)
+        state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
+        mask, layout, family = self._inputs(group, rows, state)
         y, w = group.y[mask], group.w[mask]
         if base is not None:
             start = list(base.result.values[:3])
@@ -348,12 +356,12 @@ class ShearExtension(Extension):
         p0 += [0.4] if self.side_walls else []
         names, units = self._names(state)
         bounds = {**JANOSI.bounds_of, "K0": (0, 1)}
-        result = _identify(f, jac, y, w, p0, names, units, bounds, self.name)
+        result = _identify(family, y, w, p0, names, units, bounds, self.name)
         return Fitted(self, result, state)
 
     def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
-        _, _, (f, _) = self._inputs(group, np.asarray(rows, int), fitted.state)
-        return f(fitted.result.values)
+        _, _, family = self._inputs(group, np.asarray(rows, int), fitted.state)
+        return family.f(fitted.result.values)
 
 
 def shear_inputs_a(group, rows) -> np.ndarray:

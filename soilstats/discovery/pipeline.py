@@ -10,10 +10,17 @@
 4. For each lead, strongest first: try the library's extensions (physical first, then the
    generic one), keep one only where its cross-validated gain is real, then re-test the
    remaining leads against the kept extension — a pattern it explains is no finding.
+5. Per (kind, soil), forward selection of one model that carries every kept extension.
+
+Steps 4–5 are written as *processes* that yield the fits they need in waves
+(:mod:`.work`), so that ``discover(..., jobs=N)`` can fit them over N workers; the folds
+are drawn in this process in the order of the one-at-a-time loop, so the results are
+identical for any N.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import replace
 
@@ -25,7 +32,7 @@ from ..errors import ConvergenceError, IdentifiabilityError
 from ..quality import ARTEFACT_CODES, CODES, STOP_CODES, screened
 from ..report import Provenance
 from .candidates import candidate_values
-from .crossval import cross_validate, information_criteria, make_folds
+from .crossval import FoldFits, compare, cross_validation, information_criteria, make_folds
 from .data import build_groups
 from .diagnose import INTERACTION, conditional_responses, diagnose_groups, retest
 from .extensions import base_model, library
@@ -33,7 +40,8 @@ from .flags import physical_flags
 from .plausibility import implausible
 from .power import power_records
 from .result import DiscoveryResult, Finding
-from .selection import CombinedModel, select_model
+from .selection import CombinedModel, prepare_selection, selection_steps
+from .work import FitTask, Pool, Wave, one_blas_thread, run_process, warm_workers
 
 __all__ = ["discover"]
 
@@ -128,17 +136,45 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
     best gain (not kept).  Returns ``(base, base fitted, chosen, tried)``, chosen being
     ``(extension, gain, fitted, implausible)`` (the reasons it is not physical, empty when it
     is) or None.
+
+    A process (:mod:`.work`): the fits go out in two waves, the base model on all tests and
+    without each fold, then every extension without each fold (started from the base
+    model's fit of that fold) and on all tests (started from the base fit).  Errors are
+    recorded where the one-at-a-time loop met them: a base fit that fails raises, a failed
+    fold or full fit of an extension is that extension's ``error``.
     """
     base_ext = base_model(group, rows)
     folds = make_folds(levels, "tests", rng)
-    cache: dict = {}
-    base_fitted = base_ext.fit(group, rows)
+    extensions = library(group, rows, lead, confounded, numeric=numeric, responses=responses)
+    # One chain, in the order the base model is read: its fit on all tests, then the folds.
+    base_plan = FoldFits(rows, base_ext, folds, scheme="tests", chain="base")
+    first = yield Wave(group, [FitTask(base_ext, rows, chain="base"), *base_plan.tasks])
+    first[0].raise_error()
+    base_fitted = first[0].fitted
+    base_failure = None
+    try:
+        starts, e_base = base_plan.collect(first[1:])
+    except (ConvergenceError, np.linalg.LinAlgError, ValueError) as exc:
+        base_failure = exc  # every extension's cross-validation fails with it
+    plans, tasks = [], []
+    if base_failure is None:
+        for i, ext in enumerate(extensions):  # chain i: the folds, then all tests
+            plan = FoldFits(rows, ext, folds, scheme="tests", starts=starts, chain=i)
+            plans.append(plan)
+            tasks += [*plan.tasks, FitTask(ext, rows, base_fitted, chain=i)]
+    outcomes = iter((yield Wave(group, tasks, probe=True)))
     tried, options = [], []
-    for ext in library(group, rows, lead, confounded, numeric=numeric, responses=responses):
+    for i, ext in enumerate(extensions):
         entry = {"extension": ext.name, "physical": ext.physical, "description": ext.description}
         try:
-            gain = cross_validate(group, rows, base_ext, ext, folds, scheme="tests", cache=cache)
-            fitted = ext.fit(group, rows, base=base_fitted)
+            if base_failure is not None:
+                raise base_failure
+            plan = plans[i]
+            folds_out = [next(outcomes) for _ in plan.tasks]
+            full = next(outcomes)
+            gain = compare(e_base, plan.collect(folds_out)[1], scheme="tests", folds=folds)
+            full.raise_error()
+            fitted = full.fitted
         except (ConvergenceError, np.linalg.LinAlgError, ValueError) as exc:
             entry["error"] = str(exc)[:400]
             tried.append(entry)
@@ -176,6 +212,7 @@ def discover(
     points_per_test: int = 60,
     progress: bool = False,
     provenance: Provenance | None = None,
+    jobs: int = 1,
 ) -> DiscoveryResult:
     """Find what the soil model gets wrong in a campaign, extend it, and measure the gain.
 
@@ -196,6 +233,11 @@ def discover(
         tqdm progress bars for the per-test fits and the extensions.
     provenance : Provenance, optional
         Recorded in the outputs (default: a library call on the campaign with ``seed``).
+    jobs : int, default 1
+        Worker processes (joblib; −1 every core) for the per-test fits and for the fits of
+        cross-validation and forward selection (:mod:`.work`).  The results are identical
+        for any ``jobs``: the folds are drawn here, in one order, and every fit is a
+        deterministic function of its data and start.
 
     Returns
     -------
@@ -210,12 +252,34 @@ def discover(
     """
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
+    # BLAS on one thread in this process, as in the workers: the same last bits for any
+    # jobs (and faster: see .work).
+    with one_blas_thread():
+        return _discover(
+            campaign,
+            alpha=alpha,
+            seed=seed,
+            max_leads=max_leads,
+            points_per_test=points_per_test,
+            progress=progress,
+            provenance=provenance,
+            jobs=jobs,
+        )
+
+
+def _discover(
+    campaign, *, alpha, seed, max_leads, points_per_test, progress, provenance, jobs
+) -> DiscoveryResult:
+    """:func:`discover` after its argument checks."""
     start = time.perf_counter()
+    warm_workers(jobs)  # the workers start while the campaign loads and is screened
     campaign, source = _as_campaign(campaign)
     campaign = screened(campaign)  # once; every fit below uses the screened records
     quality = _quality_record(campaign)
     rng = np.random.default_rng(seed)
-    groups, notes = build_groups(campaign, points_per_test=points_per_test, progress=progress)
+    groups, notes = build_groups(
+        campaign, points_per_test=points_per_test, progress=progress, jobs=jobs
+    )
     diags, table = diagnose_groups(groups, alpha=alpha)
     notes = list(dict.fromkeys([*notes, *(n for d in diags for n in d.notes)]))
     confounded = [rec for d in diags for rec in _confounding_records(d)]
@@ -224,30 +288,19 @@ def discover(
         for d in diags:
             rows = table[(table["kind"] == d.group.kind) & (table["soil"] == d.group.soil)]
             work.append((d, rows, _leads(rows, d.relations)))
-    if progress:
-        from tqdm.auto import tqdm
-
-        work = tqdm(work, desc="extensions", unit="group")
+    done = _extend_groups(
+        work, quality, alpha=alpha, rng=rng, max_leads=max_leads, jobs=jobs, progress=progress
+    )
     findings: list[Finding] = []
     explained: list[dict] = []
     models: list[CombinedModel] = []
     artefacts: list[dict] = []
-    for d, rows, leads in work:
-        found, why_not = _discover_group(d, rows, leads, alpha=alpha, rng=rng, max_leads=max_leads)
-        found, residues = _split_artefacts(d.group, found, quality)
+    for (d, _, leads), (found, residues, why_not, model, note) in zip(work, done, strict=True):
         findings += found
         artefacts += residues
         explained += why_not
-        # Every finding's best plausible extension is offered, kept alone or not: measured
-        # alone, each gain had the other effects in its noise (two causes in one soil).
-        kept = [(f.cause, f.fitted.extension) for f in found if _offered(f)]
-        try:
-            model = select_model(d.group, kept, rng, base=d.base)
-        except (ConvergenceError, IdentifiabilityError) as exc:
-            notes.append(
-                f"{d.group.label}: no combined model — the base model fails on all tests: {exc}"
-            )
-            model = None
+        if note is not None:
+            notes.append(note)
         if model is not None:
             models.append(model)
         if len(leads) > max_leads:
@@ -277,6 +330,90 @@ def discover(
         source=source,
         provenance=provenance or Provenance.of(campaign, seed=seed),
     )
+
+
+def _extend_groups(work, quality, *, alpha, rng, max_leads, jobs, progress) -> list[tuple]:
+    """Extensions, cross-validated gains and the combined model of every (kind, soil):
+    ``(findings, artefacts, explained, model, note)`` per entry of ``work``, in its order.
+
+    Each group is two processes of waves of fits (:func:`.work.run_process`): its leads
+    (:func:`_group_leads`), then its forward selection (:func:`_group_model`).  The leads
+    run one group after the other, as they draw the folds from ``rng`` in the order the
+    one-at-a-time loop did (a group's leads, its selection's folds, then the next group's
+    leads); with workers, a group's forward selection — its folds drawn — runs in a thread
+    of its own beside the next groups' leads, so that the workers stay busy through a long
+    fit one process waits for.  The results are those of the loop, whatever ran together.
+    """
+    pool = Pool(jobs)
+    done: list = [None] * len(work)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(work), desc="extensions", unit="group")
+    failures: list[BaseException] = []
+
+    def model(k, prepared):
+        try:
+            done[k][3], note = run_process(_group_model(work[k][0].group, prepared), pool)
+            done[k][4] = done[k][4] or note
+        except BaseException as exc:  # re-raised in the caller's thread below
+            failures.append(exc)
+        if bar is not None:
+            bar.update()
+
+    threads = []
+    for k, (d, rows, leads) in enumerate(work):
+        process = _group_leads(d, rows, leads, quality, alpha=alpha, rng=rng, max_leads=max_leads)
+        found, residues, why_not, prepared, note = run_process(process, pool)
+        done[k] = [found, residues, why_not, None, note]
+        if prepared is None:
+            if bar is not None:
+                bar.update()
+        elif not pool.parallel:
+            model(k, prepared)
+        else:
+            threads.append(threading.Thread(target=model, args=(k, prepared), daemon=True))
+            threads[-1].start()
+        if failures:
+            break
+    for thread in threads:
+        thread.join()
+    if bar is not None:
+        bar.close()
+    if failures:
+        raise failures[0]
+    return [tuple(entry) for entry in done]
+
+
+def _group_leads(d, rows, leads, quality, *, alpha, rng, max_leads):
+    """Process of one group's leads (:func:`_discover_group`), then the folds of its
+    forward selection drawn (:func:`.selection.prepare_selection`).  Returns ``(findings,
+    artefacts, explained, prepared selection or None, note or None)``."""
+    found, why_not = yield from _discover_group(
+        d, rows, leads, alpha=alpha, rng=rng, max_leads=max_leads
+    )
+    found, residues = _split_artefacts(d.group, found, quality)
+    # Every finding's best plausible extension is offered, kept alone or not: measured
+    # alone, each gain had the other effects in its noise (two causes in one soil).
+    kept = [(f.cause, f.fitted.extension) for f in found if _offered(f)]
+    try:
+        prepared, note = prepare_selection(d.group, kept, rng, base=d.base), None
+    except (ConvergenceError, IdentifiabilityError) as exc:
+        prepared, note = None, _no_model_note(d.group, exc)
+    return found, residues, why_not, prepared, note
+
+
+def _group_model(group, prepared):
+    """Process of one group's forward selection: ``(CombinedModel or None, note or None)``."""
+    try:
+        return (yield from selection_steps(group, prepared)), None
+    except (ConvergenceError, IdentifiabilityError) as exc:
+        return None, _no_model_note(group, exc)
+
+
+def _no_model_note(group, exc) -> str:
+    return f"{group.label}: no combined model — the base model fails on all tests: {exc}"
 
 
 # ----------------------------------------------------------------------------- the steps
@@ -442,9 +579,10 @@ def _confounding_records(diag) -> list[dict]:
     return out
 
 
-def _discover_group(diag, rows, leads, *, alpha, rng, max_leads) -> tuple[list, list]:
-    """Findings of one (kind, soil), leads strongest first, and the leads that an extension
-    kept before them already explains."""
+def _discover_group(diag, rows, leads, *, alpha, rng, max_leads):
+    """Process (:mod:`.work`) of the findings of one (kind, soil), leads strongest first, and
+    the leads that an extension kept before them already explains: ``(findings,
+    explained)``."""
     g = diag.group
     findings, explained = [], []
     accepted = None  # (name, fitted) of the latest kept extension in this group
@@ -456,15 +594,19 @@ def _discover_group(diag, rows, leads, *, alpha, rng, max_leads) -> tuple[list, 
             if why is not None:
                 explained.append(why)
                 continue
-        finding = _examine_lead(g, diag.relations, lead_rows, top, lead, confounded_with, rng)
+        finding = yield from _examine_lead(
+            g, diag.relations, lead_rows, top, lead, confounded_with, rng
+        )
         findings.append(finding)
         if finding.extension is not None:
             # Re-test later leads against this extension fitted on the whole group.
             ext = finding.fitted.extension
-            try:
-                accepted = (ext.name, ext.fit(g, np.unique(g.owner)))
-            except (ConvergenceError, IdentifiabilityError):
+            whole = (yield Wave(g, [FitTask(ext, np.unique(g.owner))]))[0]
+            if isinstance(whole.error, ConvergenceError | IdentifiabilityError):
                 accepted = (ext.name, finding.fitted)
+            else:
+                whole.raise_error()
+                accepted = (ext.name, whole.fitted)
     return findings, explained
 
 
@@ -484,9 +626,9 @@ def _explained_by(g, accepted, lead, top, *, n_leads, alpha) -> dict | None:
     }
 
 
-def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng) -> Finding:
-    """One finding: try the library's extensions on the tests in scope, keep one only where
-    its cross-validated gain is real, and state every caveat."""
+def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng):
+    """Process (:mod:`.work`) of one finding: try the library's extensions on the tests in
+    scope, keep one only where its cross-validated gain is real, and state every caveat."""
     scope = np.asarray(top["rows"], int)
     levels = candidate_values(g.tests, lead).astype(str).to_numpy()[scope]
     responses = tuple(lead_rows["response"])
@@ -496,7 +638,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng) -> F
     if scope.size >= 6:
         numeric = bool(top["numeric"])
         try:
-            base_ext, base_fitted, chosen, tried = _try_extensions(
+            base_ext, base_fitted, chosen, tried = yield from _try_extensions(
                 g, scope, lead, confounded_with, numeric, set(responses), levels, rng
             )
         except (ConvergenceError, IdentifiabilityError) as exc:
@@ -516,7 +658,9 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng) -> F
         if chosen[3]:  # the reasons decided in _try_extensions, not recomputed
             caveats.append(f"{chosen[0].name}: physically implausible: " + "; ".join(chosen[3]))
         if kept:
-            gain_cond = _condition_gain(g, scope, base_ext, chosen[0], levels, rng, caveats)
+            gain_cond = yield from _condition_gain(
+                g, scope, base_ext, chosen[0], levels, rng, caveats
+            )
         elif chosen[1].real:
             caveats.append(
                 "no plausible extension gives a real out-of-sample gain; the base model is kept"
@@ -571,9 +715,8 @@ def _condition_gain(g, scope, base_ext, ext, levels, rng, caveats: list):
     if not (ext.physical or "linear" in ext.name):
         return None
     try:
-        return cross_validate(
-            g, scope, base_ext, ext, make_folds(levels, "conditions", rng), scheme="conditions"
-        )
+        folds = make_folds(levels, "conditions", rng)
+        return (yield from cross_validation(g, scope, base_ext, ext, folds, scheme="conditions"))
     except (ConvergenceError, IdentifiabilityError) as exc:
         caveats.append(f"leave-one-condition-out failed: {exc}")
         return None

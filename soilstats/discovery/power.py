@@ -93,12 +93,19 @@ def power_records(table, alpha: float) -> list[dict]:
     response: its minimum detectable effect per response, as a number and a sentence."""
     if table.empty or "mde" not in table:
         return []
+    columns = ["kind", "soil", "candidate", "response", "significant", "p_value", "mde"]
+    columns += ["role", "categorical", "span", "n_tests", "alpha_level"]
+    # Plain records, grouped in order of first appearance (the table's per-test arrays stay
+    # behind: iterating the frame itself costs more than all that follows).
+    by_candidate: dict[tuple, list[dict]] = {}
+    for record in table[columns].to_dict("records"):
+        key = (record["kind"], record["soil"], record["candidate"])
+        by_candidate.setdefault(key, []).append(record)
     out = []
-    keys = ["kind", "soil", "candidate"]
-    for (kind, soil, candidate), rows in table.groupby(keys, sort=False):
-        if rows["significant"].any() or rows["p_value"].isna().all():
+    for (kind, soil, candidate), rows in by_candidate.items():
+        if any(r["significant"] for r in rows) or all(np.isnan(r["p_value"]) for r in rows):
             continue
-        first = rows.iloc[0]
+        first = rows[0]
         if first["role"] == "interaction":
             pattern = "for one cell against the additive model"
         elif first["categorical"]:
@@ -106,13 +113,13 @@ def power_records(table, alpha: float) -> list[dict]:
         else:
             pattern = f"across the observed range ({first['span']})"
         responses = {}
-        for r in rows.itertuples():
-            if not np.isfinite(r.p_value):
+        for r in rows:
+            if not np.isfinite(r["p_value"]):
                 continue
-            responses[r.response] = {
-                "mde": float(r.mde) if np.isfinite(r.mde) else None,
-                "p_value": float(r.p_value),
-                "statement": describe(kind, r.response, r.mde, pattern),
+            responses[r["response"]] = {
+                "mde": float(r["mde"]) if np.isfinite(r["mde"]) else None,
+                "p_value": float(r["p_value"]),
+                "statement": describe(kind, r["response"], r["mde"], pattern),
             }
         out.append(
             {
@@ -120,7 +127,7 @@ def power_records(table, alpha: float) -> list[dict]:
                 "soil": soil,
                 "candidate": candidate,
                 "role": first["role"],
-                "n_tests": int(rows["n_tests"].max()),
+                "n_tests": int(max(r["n_tests"] for r in rows)),
                 "power": POWER,
                 "alpha_level": float(first["alpha_level"]),
                 "alpha": alpha,

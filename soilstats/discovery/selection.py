@@ -26,12 +26,20 @@ import numpy as np
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..report import json_safe
 from .candidates import candidate_values
-from .crossval import base_fold_fits, compare, held_out_errors, make_folds
+from .crossval import FoldFits, compare, make_folds
 from .extensions import base_model, combine
 from .plausibility import implausible
 from .result import parameter_lines, parameter_table
+from .work import FitTask, Runner, Wave, run_process
 
-__all__ = ["CombinedModel", "campaign_gain", "select_model"]
+__all__ = [
+    "CombinedModel",
+    "PreparedSelection",
+    "campaign_gain",
+    "prepare_selection",
+    "select_model",
+    "selection_steps",
+]
 
 _FIT_ERRORS = (ConvergenceError, IdentifiabilityError, np.linalg.LinAlgError, ValueError)
 
@@ -128,11 +136,22 @@ def _fold_labels(group, rows, causes) -> np.ndarray:
     return labels.astype(str)
 
 
-def select_model(group, kept, rng: np.random.Generator, base=None) -> CombinedModel | None:
-    """Forward selection (module docstring) over ``kept``: ``(cause, Extension)`` pairs of
-    one (kind, soil), strongest finding first.  ``base``: the base model already fitted to
-    all tests (the diagnosis' fit, Bernstein where Bekker failed); fitted here if None.
-    None when ``kept`` is empty."""
+@dataclass(frozen=True, eq=False)
+class PreparedSelection:
+    """What forward selection starts from: the candidates, the tests, the base model fitted
+    to all of them, and the folds (drawn)."""
+
+    kept: list
+    rows: np.ndarray
+    base_full: object
+    folds: np.ndarray
+
+
+def prepare_selection(group, kept, rng: np.random.Generator, base=None) -> PreparedSelection | None:
+    """Forward selection up to its random step: ``kept`` reduced to one ``(cause,
+    Extension)`` per extension (the strongest finding names it), the base model fitted to
+    all tests if ``base`` is None, and the folds drawn from ``rng``.  None when ``kept`` is
+    empty (nothing drawn)."""
     first: dict[str, tuple] = {}
     for cause, ext in kept:  # one extension kept by several findings: the strongest names it
         first.setdefault(ext.name, (cause, ext))
@@ -142,23 +161,58 @@ def select_model(group, kept, rng: np.random.Generator, base=None) -> CombinedMo
     rows = np.unique(group.owner)
     base_full = base if base is not None else base_model(group, rows).fit(group, rows)
     folds = make_folds(_fold_labels(group, rows, [c for c, _ in kept]), "tests", rng)
-    starts, e_base = base_fold_fits(group, rows, base_full.extension, folds, scheme="tests")
+    return PreparedSelection(kept, rows, base_full, folds)
+
+
+def select_model(
+    group, kept, rng: np.random.Generator, base=None, run: Runner | None = None
+) -> CombinedModel | None:
+    """Forward selection (module docstring) over ``kept``: ``(cause, Extension)`` pairs of
+    one (kind, soil), strongest finding first.  ``base``: the base model already fitted to
+    all tests (the diagnosis' fit, Bernstein where Bekker failed); fitted here if None.
+    ``run``: the :class:`~.work.Runner` that fits (default: in this process).  None when
+    ``kept`` is empty."""
+    prepared = prepare_selection(group, kept, rng, base=base)
+    if prepared is None:
+        return None
+    return run_process(selection_steps(group, prepared), (run or Runner(group)).pool)
+
+
+def selection_steps(group, prepared: PreparedSelection):
+    """Process (:mod:`.work`) of forward selection after :func:`prepare_selection`: the
+    base model's fold fits, then one wave per step with every candidate's fold fits and its
+    fit on all tests.  Returns the :class:`CombinedModel`."""
+    rows, base_full, folds = prepared.rows, prepared.base_full, prepared.folds
+    base_plan = FoldFits(rows, base_full.extension, folds, scheme="tests", chain="base")
+    starts, e_base = base_plan.collect((yield Wave(group, base_plan.tasks)))
     e_current = e_base
     chosen: list[tuple[str, object]] = []
     steps: list[dict] = []
-    remaining = list(kept)
+    remaining = list(prepared.kept)
     current = None  # (Extension, Fitted, errors) of the model so far
     while remaining:
         options, failed = [], []
-        for cause, ext in remaining:
-            step = {"extension": ext.name, "cause": cause, "added": False}
+        # Every candidate of this step: its fold fits and its fit on all tests, one wave.
+        planned, tasks = [], []
+        for i, (cause, ext) in enumerate(remaining):  # chain i: the folds, then all tests
             model = combine([e for _, e in chosen] + [ext])
+            plan = None
+            if model is not None:
+                plan = FoldFits(rows, model, folds, scheme="tests", starts=starts, chain=i)
+                tasks += [*plan.tasks, FitTask(model, rows, base_full, chain=i)]
+            planned.append((cause, ext, model, plan))
+        outcomes = iter((yield Wave(group, tasks, probe=True)))
+        for cause, ext, model, plan in planned:
+            step = {"extension": ext.name, "cause": cause, "added": False}
             if model is None:
                 failed.append({**step, "reason": "does not combine with " + chosen[0][1].name})
                 continue
+            folds_out = [next(outcomes) for _ in plan.tasks]
+            full = next(outcomes)
             try:
-                errors = held_out_errors(group, rows, model, folds, scheme="tests", starts=starts)
-                fitted = model.fit(group, rows, base=base_full)
+                errors = plan.collect(folds_out)[1]
+                full.raise_error()
+                fitted = full.fitted
             except _FIT_ERRORS as exc:
                 failed.append({**step, "reason": _failure(exc)})
                 continue

@@ -17,6 +17,7 @@ NaN parameters and the reason in ``message`` — and a warning counts them.  Not
 from __future__ import annotations
 
 import warnings
+from itertools import pairwise
 from typing import Literal
 
 import numpy as np
@@ -25,6 +26,7 @@ import pandas as pd
 from ..errors import CampaignError, ConvergenceError, ConvergenceWarning
 from ..fitting.identify import identify
 from ..models import BERNSTEIN, SHEAR_CURVE
+from ..parallel import effective_jobs, parallel_map
 from ..quality import screened
 from .centring import centred
 from .pooling import kept_samples
@@ -40,6 +42,7 @@ def fit_per_test(
     *,
     points_per_test: int | None = 100,
     progress: bool = False,
+    jobs: int | None = 1,
     **selection,
 ) -> pd.DataFrame:
     """Fit every selected test on its own; one row per test with its test-log columns.
@@ -53,6 +56,10 @@ def fit_per_test(
         :func:`soilstats.fit_sinkage`.
     progress : bool
         Show a tqdm progress bar.
+    jobs : int, default 1
+        Worker processes over the tests (:func:`soilstats.parallel.parallel_map`; −1 every
+        core).  Each test's fit depends on its own samples only, so the rows are identical
+        for any ``jobs``.
     **selection
         Test-log filters (any number of soils may remain: nothing is pooled).
 
@@ -81,15 +88,24 @@ def fit_per_test(
         columns = {"z": samples["j_m"], "y": samples["tau_Pa"], "sigma": samples["sigma_Pa"]}
     columns = {key: col.to_numpy(float) for key, col in columns.items()}
     ids = tests["test_id"].astype(str).to_numpy()
-    iterator = ids
-    if progress:
-        from tqdm.auto import tqdm
+    empty = np.array([], int)
+    items = [(tid, {k: v[by_test.get(tid, empty)] for k, v in columns.items()}) for tid in ids]
+    if effective_jobs(jobs) > 1 and len(items) > 1:
+        # Workers take contiguous chunks of tests (a few per worker, so that uneven fits even
+        # out), each with its own samples only; the rows come back in the tests' order.
+        n_chunks = min(len(items), 4 * effective_jobs(jobs))
+        bounds = np.linspace(0, len(items), n_chunks + 1).astype(int)
+        chunks = [(kind, items[a:b], points_per_test) for a, b in pairwise(bounds)]
+        done = parallel_map(
+            _fit_chunk, chunks, jobs=jobs, progress=progress, desc=f"per-test {kind} fits"
+        )
+        rows = [row for chunk in done for row in chunk]
+    else:
+        if progress:
+            from tqdm.auto import tqdm
 
-        iterator = tqdm(ids, desc=f"per-test {kind} fits", unit="test")
-    rows = []
-    for tid in iterator:
-        idx = by_test.get(tid, np.array([], int))
-        rows.append(fit_one(tid, {k: v[idx] for k, v in columns.items()}, points_per_test))
+            items = tqdm(items, desc=f"per-test {kind} fits", unit="test")
+        rows = [fit_one(tid, data, points_per_test) for tid, data in items]
     fits = pd.DataFrame(rows)
     failed = fits.loc[~fits["converged"], "test_id"].tolist()
     if failed:
@@ -101,6 +117,14 @@ def fit_per_test(
             stacklevel=2,
         )
     return tests.merge(fits, on="test_id", how="left", validate="one_to_one")
+
+
+def _fit_chunk(item) -> list[dict]:
+    """The rows of a chunk of tests, ``(kind, [(test_id, samples)], points_per_test)``, in
+    a worker."""
+    kind, tests, points_per_test = item
+    fit_one = _fit_sinkage_test if kind == "sinkage" else _fit_shear_test
+    return [fit_one(tid, data, points_per_test) for tid, data in tests]
 
 
 def _fit_sinkage_test(tid: str, data: dict, points_per_test) -> dict:
