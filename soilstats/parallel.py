@@ -24,7 +24,7 @@ import os
 from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
 
-__all__ = ["effective_jobs", "parallel_map"]
+__all__ = ["effective_jobs", "one_blas_thread", "parallel_map"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -43,14 +43,25 @@ def effective_jobs(jobs: int | None) -> int:
     return int(jobs)
 
 
-def _blas_threads() -> int:
-    """The BLAS thread count of this process: OpenBLAS's default (every usable core) unless
-    the environment sets one."""
-    for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        value = os.environ.get(name, "").strip()
-        if value.isdigit() and int(value) > 0:
-            return int(value)
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+@contextlib.contextmanager
+def one_blas_thread():
+    """Run the block with BLAS on one thread, then restore the previous setting.
+
+    OpenBLAS sums a long dot product in per-thread pieces, so a product's last bit depends
+    on its thread count; worker processes and this one must therefore use the same count for
+    ``--jobs`` to change nothing. One thread is also what N workers on N cores want.
+    (threadpoolctl, the joblib/scikit-learn project's library for exactly this.)
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
+def _on_one_blas_thread(function, item):
+    """``function(item)`` in a worker, with BLAS on one thread (see :func:`one_blas_thread`)."""
+    with one_blas_thread():
+        return function(item)
 
 
 def parallel_map(
@@ -85,32 +96,19 @@ def parallel_map(
     items = list(items) if not isinstance(items, Sequence) else items
     n_jobs = min(effective_jobs(jobs), max(len(items), 1))
     if n_jobs == 1:
-        if not progress:
+        if progress:
+            from tqdm.auto import tqdm
+
+            items = tqdm(items, desc=desc, leave=False)
+        with one_blas_thread():
             return [function(item) for item in items]
-        from tqdm.auto import tqdm
 
-        return [function(item) for item in tqdm(items, desc=desc, leave=False)]
-
-    # Imported only when workers start: joblib takes a while to import.
-    from joblib import Parallel, delayed, parallel_config
-    from joblib.parallel import get_active_backend
+    from joblib import Parallel, delayed  # imported only when workers start: it is slow
 
     # return_as="generator" streams results in input order, so the bar advances as they land.
-    # loky caps each worker's BLAS at cores/jobs threads; but OpenBLAS sums a long dot
-    # product in per-thread pieces, so its last bit depends on the thread count. Workers get
-    # this process's count instead: the same answer for any --jobs, at the price of some
-    # oversubscription in the (small) matrix products.
-    # (Only for loky, joblib's default: another backend, e.g. Dask's, keeps its own settings.)
-    backend, _ = get_active_backend()
-    same_threads = (
-        parallel_config(backend="loky", inner_max_num_threads=_blas_threads())
-        if type(backend).__name__ == "LokyBackend"
-        else contextlib.nullcontext()
-    )
-    with same_threads:
-        # A negative jobs goes to joblib as given: on Dask it means every cluster worker.
-        runner = Parallel(n_jobs=jobs if jobs < 0 else n_jobs, return_as="generator")
-        results = runner(delayed(function)(item) for item in items)
+    # A negative jobs goes to joblib as given: on Dask it means every cluster worker.
+    runner = Parallel(n_jobs=jobs if jobs < 0 else n_jobs, return_as="generator")
+    results = runner(delayed(_on_one_blas_thread)(function, item) for item in items)
     if progress:
         from tqdm.auto import tqdm
 

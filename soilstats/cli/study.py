@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     if parallel:
         outcomes = parallel_map(_run_one, tasks, jobs=args.jobs, progress=progress, desc="studies")
     else:  # one study after the other, each printed as soon as it is done
-        outcomes = (_run_one(task) for task in tasks)
+        outcomes = _one_after_another(tasks)
         if progress:
             from tqdm.auto import tqdm
 
@@ -89,6 +89,15 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"studies": documents, "provenance": provenance.to_dict()}, indent=2))
     return 0
+
+
+def _one_after_another(tasks):
+    """The studies in this process, BLAS on one thread as in workers (same bits for any N)."""
+    from ..parallel import one_blas_thread
+
+    for task in tasks:
+        with one_blas_thread():
+            yield _run_one(task)
 
 
 def _run_one(task):

@@ -37,7 +37,6 @@ busy cores slowed a 10 000-test discovery several-fold.
 
 from __future__ import annotations
 
-import ctypes
 import os
 import pickle
 import tempfile
@@ -45,14 +44,12 @@ import threading
 import time
 import uuid
 import weakref
-from contextlib import contextmanager
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
-from ..parallel import effective_jobs, parallel_map
+from ..parallel import effective_jobs, one_blas_thread, parallel_map
 
 __all__ = [
     "FIT_ERRORS",
@@ -121,80 +118,6 @@ class Outcome:
         """Raise the fit's error, if it failed."""
         if self.error is not None:
             raise self.error
-
-
-# OpenBLAS's thread setters under the names its builds export (numpy's and scipy's wheels
-# prefix them); threadpoolctl, where installed, knows these and other BLAS libraries.
-_OPENBLAS_CALLS = (
-    ("openblas_get_num_threads", "openblas_set_num_threads"),
-    ("scipy_openblas_get_num_threads64_", "scipy_openblas_set_num_threads64_"),
-    ("scipy_openblas_get_num_threads", "scipy_openblas_set_num_threads"),
-    ("openblas_get_num_threads64_", "openblas_set_num_threads64_"),
-)
-_blas_controls: list | None = None
-
-
-def _openblas_controls() -> list:
-    """(get, set) thread functions of every OpenBLAS numpy and scipy use (found once)."""
-    global _blas_controls
-    if _blas_controls is not None:
-        return _blas_controls
-    import scipy
-
-    paths: set[str] = set()
-    try:  # Linux: the libraries this process has loaded
-        with open("/proc/self/maps") as fh:
-            for line in fh:
-                path = line.split()[-1] if line.count(" ") >= 5 else ""
-                if "openblas" in os.path.basename(path).lower():
-                    paths.add(path)
-    except OSError:
-        pass
-    for module in (np, scipy):  # the wheels' own folders (any platform)
-        root = Path(module.__file__).parent
-        for folder in (root.parent / f"{root.name}.libs", root / ".dylibs"):
-            if folder.is_dir():
-                paths.update(str(p) for p in folder.iterdir() if "openblas" in p.name.lower())
-    controls = []
-    for path in sorted(paths):
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for get_name, set_name in _OPENBLAS_CALLS:
-            getter, setter = getattr(lib, get_name, None), getattr(lib, set_name, None)
-            if getter is not None and setter is not None:
-                getter.restype = ctypes.c_int
-                controls.append((getter, setter))
-                break
-    _blas_controls = controls
-    return controls
-
-
-@contextmanager
-def one_blas_thread():
-    """Run the block with BLAS on one thread, then restore the previous setting.
-
-    Through threadpoolctl where it is installed, else through OpenBLAS's own setter (the
-    BLAS of numpy's and scipy's wheels); with neither, the block runs as it is.
-    """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        threadpool_limits = None
-    if threadpool_limits is not None:
-        with threadpool_limits(limits=1, user_api="blas"):
-            yield
-        return
-    controls = _openblas_controls()
-    before = [int(getter()) for getter, _ in controls]
-    for _, setter in controls:
-        setter(1)
-    try:
-        yield
-    finally:
-        for (_, setter), n in zip(controls, before, strict=True):
-            setter(n)
 
 
 def _run(item) -> tuple:
