@@ -23,14 +23,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConvergenceError, IdentifiabilityError
 from ..report import json_safe
 from .candidates import candidate_values
 from .crossval import FoldFits, compare, make_folds
 from .extensions import base_model, combine
 from .plausibility import implausible
 from .result import parameter_lines, parameter_table
-from .work import FitTask, Runner, Wave, run_process
+from .work import FIT_ERRORS, FitTask, Runner, Wave, run_process
 
 __all__ = [
     "CombinedModel",
@@ -40,8 +39,6 @@ __all__ = [
     "select_model",
     "selection_steps",
 ]
-
-_FIT_ERRORS = (ConvergenceError, IdentifiabilityError, np.linalg.LinAlgError, ValueError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,7 +210,7 @@ def selection_steps(group, prepared: PreparedSelection):
                 errors = plan.collect(folds_out)[1]
                 full.raise_error()
                 fitted = full.fitted
-            except _FIT_ERRORS as exc:
+            except FIT_ERRORS as exc:
                 failed.append({**step, "reason": _failure(exc)})
                 continue
             gain = compare(e_current, errors, scheme="tests", folds=folds)

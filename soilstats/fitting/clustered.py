@@ -59,12 +59,13 @@ class _TestMoments:
         # (j, test, k): Σ_s base·(ln z)^j·u^k; ln z = m + u is expanded on the fly.
         self.a = np.empty((3, n_tests, _TERMS))
         self.b = np.empty((2, n_tests, _TERMS))
+        log_z_powers = [log_z**j for j in range(3)]  # (ln z)^j, the same every k
         power = np.ones_like(u)
         for k in range(_TERMS):
             for j in range(3):
-                self.a[j, :, k] = np.add.reduceat(base_a * power * log_z**j, starts)
+                self.a[j, :, k] = np.add.reduceat(base_a * power * log_z_powers[j], starts)
             for j in range(2):
-                self.b[j, :, k] = np.add.reduceat(base_b * power * log_z**j, starts)
+                self.b[j, :, k] = np.add.reduceat(base_b * power * log_z_powers[j], starts)
             power = power * u
         self.c = np.add.reduceat(w2 * y * y, starts)
         self.a *= _INV_FACTORIAL  # fold 1/k! in once

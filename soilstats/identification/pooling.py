@@ -146,6 +146,12 @@ class KeptByTest:
     weight: np.ndarray  # (T,) 1/max(y) or 1; NaN when unusable
     problems: list  # (T,) str or None
 
+    def fitted(self, test: np.ndarray) -> np.ndarray:
+        """(N,) bool: used samples of the tests without a problem (``test`` as given to
+        :func:`kept_by_test`) — what a pooled fit takes."""
+        usable = np.array([problem is None for problem in self.problems], bool)
+        return self.used & usable[np.maximum(test, 0)]
+
 
 def kept_by_test(
     axis: np.ndarray,
@@ -269,9 +275,11 @@ def pool_sinkage(
     samples = chosen.sinkage
     test_ids = tests["test_id"]
     test = _test_positions(samples["test_id"], test_ids)
+    z_all = samples["z_m"].to_numpy(float)
+    p_all = samples["pressure_Pa"].to_numpy(float)
     rule = kept_by_test(
-        samples["z_m"].to_numpy(float),
-        samples["pressure_Pa"].to_numpy(float),
+        z_all,
+        p_all,
         test,
         len(tests),
         "sinkage",
@@ -280,9 +288,8 @@ def pool_sinkage(
     )
     if on_unusable == "raise":
         _raise_first_problem("sinkage", test_ids, rule.problems)
-    usable = np.array([problem is None for problem in rule.problems], bool)
-    use, test_of = _used_in_test_order(rule.used & usable[np.maximum(test, 0)], test)
-    z, p = samples["z_m"].to_numpy(float)[use], samples["pressure_Pa"].to_numpy(float)[use]
+    use, test_of = _used_in_test_order(rule.fitted(test), test)
+    z, p = z_all[use], p_all[use]
     used = np.bincount(test_of, minlength=len(tests))
     b = tests["b_m"].to_numpy(float)
     groups = pd.DataFrame(
@@ -384,8 +391,7 @@ def pool_shear(
         )
         if on_unusable == "raise":
             _raise_first_problem("shear", test_ids, rule.problems)
-        usable = np.array([problem is None for problem in rule.problems], bool)
-        used = rule.used & usable[np.maximum(test, 0)]
+        used = rule.fitted(test)
         weight = rule.weight
         groups.update(excluded_j_negative=rule.excluded, problem=rule.problems)
     use, test_of = _used_in_test_order(used, test)
