@@ -48,6 +48,33 @@ def test_select_keeps_sample_order(small):
     assert sel.shear.empty
 
 
+def test_partition_equals_one_select_per_part():
+    campaign = load_campaign("simulated-paper")
+    ids = list(campaign.tests["test_id"].astype(str))
+    rng = np.random.default_rng(3)
+    shuffled = list(rng.permutation(ids))
+    parts = [shuffled[:5], shuffled[5:40], [ids[-1], ids[0]], shuffled[40:41]]
+    parts[1] = [t for t in parts[1] if t not in parts[2]]
+    pieces = campaign.partition(parts)
+    assert len(pieces) == len(parts)
+    for piece, part in zip(pieces, parts, strict=True):
+        selected = campaign.select(test_id=part)
+        _assert_same(piece, selected)  # log order and file rows (index) as select's
+        assert piece.quality is selected.quality and piece.source == selected.source
+
+
+def test_partition_interleaved_samples_keep_file_order(small):
+    first, second = small.partition([["r1"], ["c1"]])
+    assert list(first.sinkage.index) == list(small.sinkage.index[small.sinkage["test_id"] == "r1"])
+    assert list(second.sinkage["test_id"]) == ["c1", "c1", "c1"]
+
+
+def test_partition_part_without_tests_is_an_error(cullinan):
+    with pytest.raises(CampaignError, match="part 1 names no test") as info:
+        cullinan.partition([["method5-test1"], ["no-such-test"]])
+    assert info.value.column == "test_id"
+
+
 def test_select_unknown_column(cullinan):
     with pytest.raises(CampaignError, match="unknown column") as info:
         cullinan.select(moisture=3)

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -17,6 +18,7 @@ from ..errors import CampaignError, SoilstatsWarning
 from . import io
 from ._cells import TEXT_DTYPE
 from .derived import add_sample_columns, add_test_columns
+from .index import campaign_index
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
 from .units import check_plausible_units, convert_columns
@@ -348,6 +350,18 @@ class Campaign:
         CampaignError
             For an unknown column, or if no test meets all criteria.
         """
+        mask = self.matches(**criteria)
+        keep = self.tests["test_id"][mask]
+        return replace(
+            self,
+            tests=self.tests[mask].reset_index(drop=True),
+            sinkage=self._rows_of(self.sinkage, keep),
+            shear=self._rows_of(self.shear, keep),
+        )
+
+    def matches(self, **criteria: Any) -> np.ndarray:
+        """Boolean mask over :attr:`tests` of the tests :meth:`select` keeps (same criteria,
+        same errors), for analyses that need the rows without a new campaign."""
         cols = list(self.tests.columns)
         for col in criteria:
             if col not in cols:
@@ -372,19 +386,54 @@ class Campaign:
                 "compare as text: '5', not 5)",
                 column=(empty or list(criteria))[0],
             )
-        keep = self.tests["test_id"][mask]
-        return replace(
-            self,
-            tests=self.tests[mask].reset_index(drop=True),
-            sinkage=self._rows_of(self.sinkage, keep),
-            shear=self._rows_of(self.shear, keep),
-        )
+        return mask
 
     @staticmethod
     def _rows_of(table: pd.DataFrame, ids: pd.Series) -> pd.DataFrame:
         # The index stays the 0-based data row of the file, so that every sample a
         # screening rule names (soilstats.quality) is named by its row in the file.
         return table[table["test_id"].isin(list(ids))]
+
+    def partition(self, parts: Sequence[Sequence[str]]) -> list[Campaign]:
+        """One campaign per entry of ``parts`` (lists of test ids), each what
+        ``select(test_id=part)`` returns, built in one pass over the samples.
+
+        ``select`` scans every sample once per call; cutting a large campaign into many
+        pieces (one per condition, to send to workers) that way costs pieces × samples.
+        Tests keep their log order and samples their file rows, as with ``select``.
+
+        Raises
+        ------
+        CampaignError
+            For a part that names no test of this campaign.
+        """
+        log_ids = pd.Index(self.tests["test_id"].astype(str))
+        part_of = np.full(len(log_ids) + 1, -1)  # last entry: a sample of no logged test
+        for k, part in enumerate(parts):
+            known = log_ids.isin(list(map(str, part)))
+            if not known.any():
+                raise CampaignError(
+                    f"partition(): part {k} names no test of this campaign "
+                    f"({list(part)[:5]}) — use ids from campaign.tests['test_id']",
+                    column="test_id",
+                )
+            part_of[:-1][known] = k  # parts are meant to be disjoint; a repeat goes last
+
+        def split(table: pd.DataFrame, position: np.ndarray) -> list[pd.DataFrame]:
+            codes = part_of[position]
+            rows = np.flatnonzero(codes >= 0)  # only rows of some part need ordering
+            order = rows[np.argsort(codes[rows], kind="stable")]  # log / file order kept
+            bounds = np.searchsorted(codes[order], np.arange(len(parts) + 1))
+            return [table.iloc[order[a:b]] for a, b in itertools.pairwise(bounds)]
+
+        tests = split(self.tests, np.arange(len(log_ids)))
+        index = campaign_index(self)  # each sample's log row (−1 → the last entry)
+        sinkage = split(self.sinkage, index.test_of("sinkage"))
+        shear = split(self.shear, index.test_of("shear"))
+        return [
+            replace(self, tests=t.reset_index(drop=True), sinkage=s, shear=h)
+            for t, s, h in zip(tests, sinkage, shear, strict=True)
+        ]
 
     def samples(self, test_id: str) -> pd.DataFrame:
         """The samples of one test (from the sinkage or shear table), in file order."""

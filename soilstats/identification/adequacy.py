@@ -72,6 +72,35 @@ def _group_sum(values: np.ndarray, group: np.ndarray, n_groups: int) -> np.ndarr
     return np.bincount(group, weights=values, minlength=n_groups)
 
 
+def _dense_codes(test_index: np.ndarray) -> np.ndarray:
+    """``np.unique(test_index, return_inverse=True)[1]``: tests renumbered 0 … T−1.
+
+    Pooled arrays already number their tests 0 … T−1, every one present; then the codes
+    are their own inverse and the sort inside ``np.unique`` is skipped.
+    """
+    if (
+        test_index.size
+        and test_index.dtype.kind in "iu"
+        and test_index.min() >= 0
+        and test_index.max() < test_index.size  # else some code is missing (and no bincount)
+        and np.bincount(test_index).all()
+    ):
+        return test_index.astype(np.intp, copy=False)
+    return np.unique(test_index, return_inverse=True)[1]
+
+
+def _by_group_then_value(group: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``np.lexsort((values, group))``: positions by group, then value, ties in input order.
+
+    Pooled records come ordered by test and, as a rule, by depth within a test; then the
+    stable order is the input order itself, found with one comparison instead of a sort.
+    """
+    step, rise = np.diff(group), np.diff(values)
+    if ((step > 0) | ((step == 0) & (rise >= 0))).all():
+        return np.arange(group.size)
+    return np.lexsort((values, group))
+
+
 def test_forms(z: np.ndarray, p: np.ndarray, test_index: np.ndarray) -> TestForms:
     """Fit every test of pooled arrays (z [m], p [Pa], test position) on its own.
 
@@ -83,7 +112,7 @@ def test_forms(z: np.ndarray, p: np.ndarray, test_index: np.ndarray) -> TestForm
     gets NaN.
     """
     z, p = np.asarray(z, float), np.asarray(p, float)
-    _, group = np.unique(np.asarray(test_index), return_inverse=True)
+    group = _dense_codes(np.asarray(test_index))
     n_tests = int(group.max()) + 1 if group.size else 0
     use = (z > 0) & (p > 0)
     lz = np.log(np.where(use, z, 1.0))
@@ -109,15 +138,14 @@ def test_forms(z: np.ndarray, p: np.ndarray, test_index: np.ndarray) -> TestForm
     usable = (np.bincount(group, weights=use, minlength=n_tests) >= max(PROFILE_BINS, 4)) & (
         lz_max > lz_min
     )
-    # Depth bins: rank within the test by z (stable), bin sizes as numpy.array_split's.
-    order = np.lexsort((z, group))
-    rank = np.empty_like(group)
-    starts = np.concatenate([[0], np.cumsum(count)[:-1]])
-    rank[order] = np.arange(group.size) - starts[group[order]]
-    size, extra = count[group] // PROFILE_BINS, count[group] % PROFILE_BINS
-    big = extra * (size + 1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        bin_ = np.where(rank < big, rank // (size + 1), extra + (rank - big) // np.maximum(size, 1))
+    # Depth bins: samples ranked within the test by z (stable) fill the bins in turn, bin
+    # sizes as numpy.array_split's (the first count % BINS bins hold one sample more).
+    order = _by_group_then_value(group, z)
+    bin_sizes = (count // PROFILE_BINS)[:, None] + (
+        np.arange(PROFILE_BINS) < (count % PROFILE_BINS)[:, None]
+    )
+    bin_ = np.empty_like(group)
+    bin_[order] = np.repeat(np.tile(np.arange(PROFILE_BINS), n_tests), bin_sizes.ravel())
     p_max = np.zeros(n_tests)
     np.maximum.at(p_max, group, np.abs(p))
     cell = group * PROFILE_BINS + bin_

@@ -10,11 +10,12 @@ response, is unusable. Everything excluded on the way is counted per test and re
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
+from ..campaign.index import campaign_index
 from ..errors import CampaignError
 from ..quality import screened
 
@@ -45,6 +46,14 @@ class PooledData:
     weights: np.ndarray  # (N,)
     test_index: np.ndarray  # (N,) position of each sample's test in ``tests``
     tests: pd.DataFrame  # one row per test: bookkeeping of what was used and excluded
+    #: The columns of ``tests`` as the arrays it was built from, for code that reads them on
+    #: every fit (a fresh frame's first column lookup costs more than a whole reduction).
+    by_test: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def of(cls, x, y, weights, test_index, by_test: dict) -> PooledData:
+        """The pooled arrays and the per-test columns, ``tests`` built from them."""
+        return cls(x, y, weights, test_index, pd.DataFrame(by_test), by_test)
 
 
 def equidistant_indices(z: np.ndarray, count: int | None) -> np.ndarray:
@@ -271,17 +280,15 @@ def pool_sinkage(
     """
     if weighting not in ("max-pressure", "none"):
         raise ValueError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
-    chosen, tests = select_one_soil(screened(campaign), "sinkage", selection)
-    samples = chosen.sinkage
-    test_ids = tests["test_id"]
-    test = _test_positions(samples["test_id"], test_ids)
-    z_all = samples["z_m"].to_numpy(float)
-    p_all = samples["pressure_Pa"].to_numpy(float)
+    index, chosen, test, (z_all, p_all) = _selected_samples(
+        campaign, "sinkage", selection, ("z_m", "pressure_Pa")
+    )
+    test_ids, n_tests = index.test_id[chosen], chosen.size
     rule = kept_by_test(
         z_all,
         p_all,
         test,
-        len(tests),
+        n_tests,
         "sinkage",
         points_per_test=points_per_test,
         weighting="max" if weighting == "max-pressure" else "none",
@@ -290,36 +297,20 @@ def pool_sinkage(
         _raise_first_problem("sinkage", test_ids, rule.problems)
     use, test_of = _used_in_test_order(rule.fitted(test), test)
     z, p = z_all[use], p_all[use]
-    used = np.bincount(test_of, minlength=len(tests))
-    b = tests["b_m"].to_numpy(float)
-    groups = pd.DataFrame(
-        {
-            "test_id": test_ids.to_numpy(),
-            "b_m": b,
-            "samples": np.bincount(test[test >= 0], minlength=len(tests)),
-            "excluded_z_nonpositive": rule.excluded,
-            "used": used,
-            "z_max_m": _max_by_test(z, test_of, len(tests)),
-            "p_max_Pa": _max_by_test(p, test_of, len(tests)),
-            "weight": rule.weight,
-            "problem": rule.problems,
-        }
-    )
-    return PooledData(
-        x={"b_m": b[test_of], "z_m": z},
-        y=p,
-        weights=rule.weight[test_of],
-        test_index=test_of,
-        tests=groups,
-    )
-
-
-def _test_positions(sample_ids: pd.Series, test_ids: pd.Series) -> np.ndarray:
-    """Each sample's position in ``test_ids`` (−1: not a selected test).  Factorising the
-    samples first leaves one short lookup per distinct test instead of one per sample."""
-    codes, distinct = pd.factorize(sample_ids.array)
-    position = pd.Index(test_ids).get_indexer(distinct)
-    return np.where(codes >= 0, position[codes], -1)
+    used = np.bincount(test_of, minlength=n_tests)
+    b = index.b_m[chosen]
+    by_test = {
+        "test_id": test_ids,
+        "b_m": b,
+        "samples": np.bincount(test, minlength=n_tests),
+        "excluded_z_nonpositive": rule.excluded,
+        "used": used,
+        "z_max_m": _max_by_test(z, test_of, n_tests),
+        "p_max_Pa": _max_by_test(p, test_of, n_tests),
+        "weight": rule.weight,
+        "problem": rule.problems,
+    }
+    return PooledData.of({"b_m": b[test_of], "z_m": z}, p, rule.weight[test_of], test_of, by_test)
 
 
 def _used_in_test_order(used: np.ndarray, test: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -338,7 +329,7 @@ def _max_by_test(values: np.ndarray, test: np.ndarray, n_tests: int) -> np.ndarr
     return out
 
 
-def _raise_first_problem(kind: str, test_ids: pd.Series, problems: list) -> None:
+def _raise_first_problem(kind: str, test_ids: np.ndarray, problems: list) -> None:
     for tid, problem in zip(test_ids, problems, strict=True):
         if problem is not None:
             raise _unusable(kind, tid, problem)
@@ -364,18 +355,14 @@ def pool_shear(
 
     if weighting not in ("none", "max-stress"):
         raise ValueError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
-    chosen, tests = select_one_soil(screened(campaign), "shear", selection)
-    samples = chosen.shear
-    test_ids = tests["test_id"]
-    test = _test_positions(samples["test_id"], test_ids)
-    sig_all = samples["sigma_Pa"].to_numpy(float)
-    tau_all = samples["tau_Pa"].to_numpy(float)
-    j_all = samples["j_m"].to_numpy(float)
-    member = test >= 0
-    present = np.bincount(test[member], minlength=len(tests))
+    index, chosen, test, (sig_all, tau_all, j_all) = _selected_samples(
+        campaign, "shear", selection, ("sigma_Pa", "tau_Pa", "j_m")
+    )
+    test_ids, n_tests = index.test_id[chosen], chosen.size
+    present = np.bincount(test, minlength=n_tests)
     with np.errstate(invalid="ignore", divide="ignore"):
-        sigma_mean = np.bincount(test[member], sig_all[member], len(tests)) / present
-    groups = {"test_id": test_ids.to_numpy(), "samples": present, "sigma_mean_Pa": sigma_mean}
+        sigma_mean = np.bincount(test, sig_all, n_tests) / present
+    groups = {"test_id": test_ids, "samples": present, "sigma_mean_Pa": sigma_mean}
     if steady_only:
         used, weight, steady_columns = _steady_parts(test, j_all, tau_all, test_ids, weighting)
         groups.update(steady_columns)
@@ -384,7 +371,7 @@ def pool_shear(
             j_all,
             tau_all,
             test,
-            len(tests),
+            n_tests,
             "shear",
             points_per_test=points_per_test,
             weighting="max" if weighting == "max-stress" else "none",
@@ -395,9 +382,8 @@ def pool_shear(
         weight = rule.weight
         groups.update(excluded_j_negative=rule.excluded, problem=rule.problems)
     use, test_of = _used_in_test_order(used, test)
-    counts = np.bincount(test_of, minlength=len(tests))
+    counts = np.bincount(test_of, minlength=n_tests)
     groups.update(used=counts, weight=weight)
-    groups = pd.DataFrame(groups)
     if not counts.any():
         why = (
             "no selected shear test reaches a steady state, so Mohr–Coulomb (Eq. 15) has no "
@@ -406,12 +392,12 @@ def pool_shear(
             else "no selected shear test has a usable record (see the fit's tests['problem'])"
         )
         raise CampaignError(why, file="shear.csv", column="torque_Nm")
-    return PooledData(
-        x={"sigma_Pa": sig_all[use], "j_m": j_all[use]},
-        y=tau_all[use],
-        weights=weight[test_of],
-        test_index=test_of,
-        tests=groups,
+    return PooledData.of(
+        {"sigma_Pa": sig_all[use], "j_m": j_all[use]},
+        tau_all[use],
+        weight[test_of],
+        test_of,
+        groups,
     )
 
 
@@ -465,15 +451,41 @@ def select_one_soil(campaign, kind: str, selection: dict):
     """
     chosen = campaign.select(**selection) if selection else campaign
     tests = chosen.tests[chosen.tests["kind"] == kind]
-    if tests.empty:
+    _demand_one_soil(kind, selection, chosen.tests["kind"], tests["soil"].astype(str))
+    return chosen, tests
+
+
+def _selected_samples(campaign, kind: str, selection: dict, columns: tuple[str, ...]):
+    """The screened ``campaign``'s index, the log rows of the selected tests of ``kind``
+    (:func:`_one_soil_tests`), each of their samples' test (0 … T−1, file order) and the
+    samples' ``columns`` as float arrays."""
+    index, chosen = _one_soil_tests(screened(campaign), kind, selection)
+    rows, test = index.rows_of(kind, chosen)
+    return index, chosen, test, [index.column(kind, c)[rows] for c in columns]
+
+
+def _one_soil_tests(campaign, kind: str, selection: dict):
+    """:func:`select_one_soil` without building the selected campaign: the campaign's
+    index (:mod:`soilstats.campaign.index`) and the log rows of the chosen tests, in log
+    order. Same criteria, same errors."""
+    index = campaign_index(campaign)
+    chosen = campaign.matches(**selection) if selection else np.ones(index.kind.size, bool)
+    rows = np.flatnonzero(chosen & index.of_kind[kind])
+    _demand_one_soil(kind, selection, index.kind[chosen], index.soil[rows])
+    return index, rows
+
+
+def _demand_one_soil(kind: str, selection: dict, kinds, soils) -> None:
+    """Raise unless the selection (``kinds`` of all its tests) holds tests of ``kind``, all
+    of one soil (``soils``: theirs, as text)."""
+    if not len(soils):
         crit = ", ".join(f"{k}={v!r}" for k, v in selection.items()) or "no selection"
         raise CampaignError(
-            f"no {kind} tests match ({crit}); the campaign has kinds "
-            f"{sorted(chosen.tests['kind'].unique())}",
+            f"no {kind} tests match ({crit}); the campaign has kinds {sorted(set(kinds))}",
             file="tests.csv",
             column="kind",
         )
-    soils = sorted(tests["soil"].astype(str).unique())
+    soils = sorted(set(soils))
     if len(soils) > 1:
         raise CampaignError(
             f"the selection holds {len(soils)} soils {soils}; parameters of different soils "
@@ -481,4 +493,3 @@ def select_one_soil(campaign, kind: str, selection: dict):
             file="tests.csv",
             column="soil",
         )
-    return chosen, tests

@@ -10,6 +10,7 @@ import pandas as pd
 from ..fitting.result import FitResult, HealthFlag
 from ..report.files import json_safe
 from .bootstrap import TestBootstrap
+from .pooling import PooledData
 
 __all__ = ["CampaignFit"]
 
@@ -32,19 +33,19 @@ class CampaignFit(FitResult):
     def of(
         cls,
         fit: FitResult,
-        tests: pd.DataFrame,
+        pooled: PooledData,
         notes=(),
         flags: tuple[HealthFlag, ...] | list[HealthFlag] = (),
         bootstrap: TestBootstrap | None = None,
         campaign=None,
     ) -> CampaignFit:
-        """``fit`` with the tests it used, the notes and flags of the pooling, the
-        test-level bootstrap with the flags it raises, and (from ``campaign``) the data
-        screening and fitting window behind its samples."""
+        """``fit`` with the tests it used (``pooled.tests``), the notes and flags of the
+        pooling, the test-level bootstrap with the flags it raises, and (from ``campaign``)
+        the data screening and fitting window behind its samples."""
         notes, flags = list(notes), list(flags)
         data: dict = {}
         if campaign is not None:
-            more_notes, more_flags, data = data_findings(campaign, tests["test_id"])
+            more_notes, more_flags, data = data_findings(campaign, pooled.by_test["test_id"])
             notes += more_notes
             flags += more_flags
         if bootstrap is not None:
@@ -53,7 +54,7 @@ class CampaignFit(FitResult):
             flags += more_flags
         base = fit.annotated(notes, flags)
         fields_ = {f.name: getattr(base, f.name) for f in fields(FitResult)}
-        return cls(**fields_, tests=tests, bootstrap=bootstrap, data=data)
+        return cls(**fields_, tests=pooled.tests, bootstrap=bootstrap, data=data)
 
     @property
     def window(self) -> str:
@@ -137,9 +138,10 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
     report = getattr(campaign, "quality", None)
     if report is None:
         return notes, flags, record
-    mine = report.for_tests(ids)
+    mine = report.flags_of(ids)
     record["quality"] = report.mode
-    excluded = mine.flagged(excluded=True)
+    excluded = [f for f in mine if f.excluded]
+    kept = [f for f in mine if not f.excluded]
     record["excluded"] = [
         {"test_id": f.test_id, "code": f.code, "rows": list(f.rows)} for f in excluded
     ]
@@ -154,14 +156,14 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
             + "; rows in to_dict()['excluded'])."
             + (" z re-zeroed at the contact found." if "pre-contact" in by_code else "")
         )
-    capped = {f.test_id for f in mine.flags if f.code == "load-capped"}
+    capped = {f.test_id for f in mine if f.code == "load-capped"}
     if capped:
         notes.append(
             f"load-capped: {len(capped)} tests stopped at one load, so their depth is an "
             "outcome of stiffness; compare per-test exponents with the pooled one."
         )
     for code in _FIT_CODES:
-        hits = [f for f in mine.flagged(excluded=False) if f.code == code]
+        hits = [f for f in kept if f.code == code]
         if code == "bearing-failure":
             cut = [f for f in hits if z_limit.get(f.test_id, np.inf) <= f.value * (1 + 1e-9)]
             if cut:

@@ -104,7 +104,7 @@ def fit_shear(
             condition_number=lin.condition_number,
         )
         bootstrap = test_bootstrap(spec, sigma, pooled, mohr_coulomb, test_resamples, seed, notes)
-        return CampaignFit.of(mohr_coulomb, groups, notes, flags, bootstrap, campaign)
+        return CampaignFit.of(mohr_coulomb, pooled, notes, flags, bootstrap, campaign)
     if p0 is None:
         p0 = janosi_start(sigma, j, tau)
     notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
@@ -118,4 +118,4 @@ def fit_shear(
     )
     x = np.vstack([sigma, j])
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
-    return CampaignFit.of(result, groups, notes, flags, bootstrap, campaign)
+    return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)

@@ -26,7 +26,8 @@ SINKAGE_MODELS = ("bekker", "bernstein", "reece")
 
 
 def _check_identifiable(model_name: str, pooled: PooledData) -> None:
-    sizes = np.unique(pooled.x["b_m"])
+    tests = pooled.by_test  # the plate sizes of the tests with samples: one per test, not sample
+    sizes = np.unique(tests["b_m"][tests["used"] > 0])
     if model_name in ("bekker", "reece") and sizes.size < 2:
         raise IdentifiabilityError(
             f"the {model_name} model needs tests with at least two plate sizes b to separate "
@@ -36,11 +37,12 @@ def _check_identifiable(model_name: str, pooled: PooledData) -> None:
 
 
 def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
-    g = pooled.tests
+    g = pooled.by_test  # arrays: the frame's lookups cost more than these sums
+    n_tests = len(g["test_id"])
     notes = [
-        f"{len(g)} tests pooled ({', '.join(map(str, g['test_id'][:6]))}"
-        f"{', …' if len(g) > 6 else ''}); plate sizes b = "
-        f"{', '.join(f'{b:g}' for b in sorted(g['b_m'].unique()))} m.",
+        f"{n_tests} tests pooled ({', '.join(map(str, g['test_id'][:6]))}"
+        f"{', …' if n_tests > 6 else ''}); plate sizes b = "
+        f"{', '.join(f'{b:g}' for b in np.unique(g['b_m']))} m.",
         (
             "Weights w = 1/max(p) per test (Section 2.1), so each test's pressures span 0..1."
             if weighting == "max-pressure"
@@ -149,14 +151,14 @@ def fit_sinkage(
         )
         closed = centred(closed, z)
         flags = _adequacy(spec, pooled, closed, None)
-        return CampaignFit.of(closed, pooled.tests, notes, flags, campaign=campaign)
+        return CampaignFit.of(closed, pooled, notes, flags, campaign=campaign)
 
     if p0 is None:
         p0 = sinkage_start(spec.name, b, z, p)
     result = centred(identify(spec, x, p, p0, weights=w, on_failure=on_failure), z)
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
     flags = _adequacy(spec, pooled, result, bootstrap)
-    return CampaignFit.of(result, pooled.tests, notes, flags, bootstrap, campaign)
+    return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)
 
 
 def _adequacy(spec, pooled, fit, bootstrap) -> list:
@@ -164,5 +166,5 @@ def _adequacy(spec, pooled, fit, bootstrap) -> list:
     (identification/adequacy.py)."""
     b = None if spec is BERNSTEIN else pooled.x["b_m"]
     se_n = None if bootstrap is None else float(bootstrap.stderr["n"])
-    n = float(fit.params["n"])
+    n = float(fit.values[fit.param_names.index("n")])  # not fit.params: a pandas Series
     return adequacy_findings(pooled.x["z_m"], pooled.y, pooled.test_index, n, b, se_n)[1]

@@ -63,13 +63,17 @@ def wong_bekker(b, z, p, *, weights=None) -> tuple[np.ndarray, np.ndarray, int]:
 def _bekker(b, z, p, weights, with_covariance):
     b, z, p = (np.asarray(a, float) for a in (b, z, p))
     keep = (z > 0) & (p > 0)
-    sizes = np.unique(b[keep])
+    b, z, p = b[keep], z[keep], p[keep]
+    sizes = np.unique(b)
     if sizes.size < 2:
         raise ValueError("Wong's Bekker method needs at least two plate sizes b")
-    w = p[keep] if weights is None else p[keep] * np.asarray(weights, float)[keep]
-    # One intercept ln k_b per plate size and a common slope n.
-    design = np.column_stack([(b[keep] == s).astype(float) for s in sizes] + [np.log(z[keep])])
-    coef, cov = _log_regression(design, np.log(p[keep]), w, with_covariance)
+    w = p if weights is None else p * np.asarray(weights, float)[keep]
+    # One intercept ln k_b per plate size (indicator columns) and a common slope n (ln z).
+    design = np.empty((b.size, sizes.size + 1))
+    for j, size in enumerate(sizes):
+        design[:, j] = b == size
+    np.log(z, out=design[:, -1])
+    coef, cov = _log_regression(design, np.log(p), w, with_covariance)
     k_b = np.exp(coef[:-1])
     n = coef[-1]
     # k_b = kc·(1/b) + kφ: generalised least squares with the covariance of the k_b.

@@ -88,9 +88,15 @@ class QualityReport:
         keep = set(map(str, test_ids))
         return replace(
             self,
-            flags=tuple(f for f in self.flags if f.test_id in keep),
+            flags=self.flags_of(keep),
             tests=self.tests[self.tests["test_id"].astype(str).isin(keep)],
         )
+
+    def flags_of(self, test_ids) -> tuple[QualityFlag, ...]:
+        """The findings of these tests, in report order: :meth:`for_tests`'s ``flags``
+        without its table of tests (a fit asks this on every call)."""
+        keep = set(map(str, test_ids))
+        return tuple(f for f in self.flags if f.test_id in keep)
 
     @property
     def excluded(self) -> pd.DataFrame:
