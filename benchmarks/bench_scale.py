@@ -9,14 +9,20 @@ the steps a user's commands take:
 
 * load      — ``soilstats.load_campaign(folder)`` (CSV parsing and every format rule);
 * screen    — ``soilstats.quality.screen`` (spikes, contact, load caps, drift …);
-* identify  — ``fit_conditions`` for sinkage and shear, every soil × series × condition,
-  with the 200-resample test bootstrap the ``identify`` command runs by default;
+* identify  — every soil × series × condition of sinkage and shear, planned and fitted as
+  one queue as the ``identify`` command does (``plan_conditions``, ``fit_planned``), with
+  its default 200-resample test bootstrap;
 * discover  — ``soilstats.discovery.discover`` on the screened campaign.
 
-identify and discover run with ``jobs=1`` and ``jobs=2`` (worker processes; results are
-checked equal).  Peak memory is the process's maximum resident set (ru_maxrss).
+identify and discover run with ``jobs=1`` and ``jobs=2`` (worker processes, started before
+the timings as the commands start them while loading; results are checked equal).  Peak
+memory is the process's maximum resident set (ru_maxrss).  At the largest size the two
+commands are then timed end to end (``soilstats identify|discover --jobs 1|2``: loading,
+screening, the workers' start and the output included), and the speed-up this machine gives
+two independent processes over one is measured (:func:`machine_ceiling`), the bound on any
+2-job speed-up here.
 
-    python benchmarks/bench_scale.py                 # all three sizes (~5 min on 2 cores)
+    python benchmarks/bench_scale.py                 # all three sizes (~7 min on 2 cores)
     python benchmarks/bench_scale.py --sizes 100 1000
 
 Targets at 10,000 tests: load ≤ 3 s, screen + identify ≤ 10 s, discover ≤ 60 s, peak
@@ -74,10 +80,14 @@ def measure(folder: str) -> dict:
     """Run in a fresh process: the timings and peak memory of one campaign folder."""
     import soilstats
     from soilstats.discovery import discover
-    from soilstats.identification.conditions import fit_conditions
+    from soilstats.identification.conditions import fit_planned, plan_conditions
+    from soilstats.parallel import warm_workers
     from soilstats.quality import screen
 
     out: dict = {}
+    # The workers' start (about a second) is no step's time: the commands overlap it with
+    # loading the campaign (end-to-end command timings: commands()).
+    warm_workers(2, ("soilstats.identification.conditions", "soilstats.discovery.pipeline")).join()
     t0 = time.perf_counter()
     campaign = soilstats.load_campaign(folder)
     out["load"] = time.perf_counter() - t0
@@ -89,11 +99,13 @@ def measure(folder: str) -> dict:
     summaries = {}
     for jobs in (1, 2):
         t0 = time.perf_counter()
-        fits = [
-            fit_conditions(cleaned, kind, test_resamples=200, seed=0, jobs=jobs)
+        # As the identify command: both kinds planned, then fitted as one queue.
+        plans = [
+            plan_conditions(cleaned, kind, test_resamples=200, seed=0)
             for kind in ("sinkage", "shear")
             if (cleaned.tests["kind"] == kind).any()
         ]
+        fits = fit_planned(plans, jobs=jobs)
         out[f"identify jobs={jobs}"] = time.perf_counter() - t0
         summaries[jobs] = [
             (f.fit.values.tolist(), f.fit.bootstrap and f.fit.bootstrap.draws.sum())
@@ -110,6 +122,55 @@ def measure(folder: str) -> dict:
         found[jobs] = re.sub(r"runtime [0-9.]+ s", "", result.summary())  # wall time
     out["discover equal for jobs 1, 2"] = found[1] == found[2]
     out["peak memory MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return out
+
+
+# The workload of the machine-ceiling check: paper-size Bekker fits, as a worker does them.
+_CEILING_WORK = """
+import sys, numpy as np
+sys.path.insert(0, {bench!r})
+from bench_identify import paper_size_campaign
+import soilstats
+from soilstats.parallel import one_blas_thread
+campaign = paper_size_campaign()
+with one_blas_thread():
+    for _ in range(600):
+        soilstats.fit_sinkage(campaign, "bekker")
+"""
+
+
+def machine_ceiling() -> float:
+    """The speed-up this machine gives two independent processes over one: the same fixed
+    fitting workload run alone, then two copies at once (fresh processes, BLAS on one thread
+    each).  No parallel program can beat it; on a shared or virtual machine it is often
+    well below 2."""
+    code = _CEILING_WORK.format(bench=str(Path(__file__).parent))
+
+    def run(copies: int) -> float:
+        t0 = time.perf_counter()
+        procs = [subprocess.Popen([sys.executable, "-c", code]) for _ in range(copies)]
+        for proc in procs:
+            if proc.wait() != 0:
+                raise RuntimeError("the ceiling workload failed")
+        return time.perf_counter() - t0
+
+    one = min(run(1) for _ in range(2))
+    two = min(run(2) for _ in range(2))
+    return 2 * one / two
+
+
+def commands(folder: Path) -> dict:
+    """End-to-end wall time of ``soilstats identify`` and ``soilstats discover`` on
+    ``folder`` with ``--jobs 1`` and ``--jobs 2`` (fresh processes: loading, screening,
+    the workers' start and the output included — what a user waits for)."""
+    out = {}
+    for command in ("identify", "discover"):
+        for jobs in (1, 2):
+            argv = [sys.executable, "-m", "soilstats", command, "--data", str(folder)]
+            argv += ["--jobs", str(jobs), "--json", "--progress", "off"]
+            t0 = time.perf_counter()
+            subprocess.run(argv, capture_output=True, check=True)
+            out[f"{command} --jobs {jobs}"] = time.perf_counter() - t0
     return out
 
 
@@ -135,7 +196,18 @@ def main() -> None:
             )
             rows[size] = json.loads(run.stdout.strip().splitlines()[-1])
             print(f"{size:>6} tests done", flush=True)
+        ends = commands(paths[max(paths)])
     report(rows)
+    print(f"\nCommands end to end at {rows[max(rows)]['tests']} tests (seconds):")
+    for command in ("identify", "discover"):
+        one, two = ends[f"{command} --jobs 1"], ends[f"{command} --jobs 2"]
+        print(
+            f"  soilstats {command:<9} --jobs 1 {one:6.2f}   --jobs 2 {two:6.2f}   x{one / two:.2f}"
+        )
+    print(
+        f"\n  machine ceiling: two independent processes run {machine_ceiling():.2f}x as fast "
+        "as one (the bound on any 2-job speed-up here)"
+    )
 
 
 def report(rows: dict[int, dict]) -> None:

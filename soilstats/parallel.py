@@ -20,11 +20,14 @@ Progress, when asked for, is a tqdm bar over completed tasks on stderr.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import os
+import threading
+import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
 
-__all__ = ["effective_jobs", "one_blas_thread", "parallel_map"]
+__all__ = ["effective_jobs", "one_blas_thread", "parallel_map", "warm_workers"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -71,6 +74,7 @@ def parallel_map(
     jobs: int | None = 1,
     progress: bool = False,
     desc: str | None = None,
+    single_in_process: bool = True,
 ) -> list[R]:
     """``[function(item) for item in items]``, spread over ``jobs`` workers.
 
@@ -87,6 +91,10 @@ def parallel_map(
         Show a tqdm bar of completed items on stderr.
     desc : str, optional
         The bar's label.
+    single_in_process : bool, default True
+        Run a lone item in this process (no worker round trip).  False sends it to a
+        worker too: for callers that run several ``parallel_map`` at once from threads,
+        where in-process work would contend for this process's interpreter lock.
 
     Returns
     -------
@@ -94,7 +102,7 @@ def parallel_map(
         The results in the order of ``items``, whatever order the workers finished in.
     """
     items = list(items) if not isinstance(items, Sequence) else items
-    n_jobs = min(effective_jobs(jobs), max(len(items), 1))
+    n_jobs = min(effective_jobs(jobs), max(len(items), 1 if single_in_process else 2))
     if n_jobs == 1:
         if progress:
             from tqdm.auto import tqdm
@@ -114,3 +122,32 @@ def parallel_map(
 
         results = tqdm(results, total=len(items), desc=desc, leave=False)
     return list(results)
+
+
+def _import(modules: tuple[str, ...]) -> int:
+    """Import ``modules`` in a worker (its first real task need not wait for them)."""
+    for name in modules:
+        importlib.import_module(name)
+    time.sleep(0.05)  # long enough that every worker gets one
+    return os.getpid()
+
+
+def warm_workers(jobs: int | None, modules: Sequence[str] = ()) -> threading.Thread | None:
+    """Start the ``jobs`` workers of :func:`parallel_map` in the background, each importing
+    ``modules``, while this process does its serial part (loading and screening the
+    campaign): starting processes and importing numpy, pandas and soilstats in them takes
+    about a second, which would otherwise come before the first parallel task.  Returns
+    the thread (None with one job); a failed warm-up only costs the time it would save."""
+    n = effective_jobs(jobs)
+    if n <= 1:
+        return None
+
+    def start():
+        try:
+            parallel_map(_import, [tuple(modules)] * n, jobs=jobs)
+        except Exception:  # the real tasks will meet (and report) whatever went wrong
+            pass
+
+    thread = threading.Thread(target=start, daemon=True)
+    thread.start()
+    return thread

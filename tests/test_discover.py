@@ -29,7 +29,7 @@ from discover_situations import (
 import soilstats
 from soilstats.discovery import discover
 from soilstats.discovery.candidates import enumerate_candidates, relations
-from soilstats.discovery.diagnose import strata_test
+from soilstats.discovery.ftests import strata_test
 from soilstats.models.extended import SinkageLayout, shear_family, sinkage_family
 from soilstats.simulation import simulate
 from soilstats.statistics import anova_twoway
@@ -479,6 +479,23 @@ def test_jobs_give_identical_results(tmp_path, capsys):
     assert strip == [line for line in out[2, None].splitlines() if "runtime" not in line]
 
 
+def test_a_groups_folds_do_not_depend_on_the_other_groups():
+    """Each (kind, soil) draws its folds from its own stream (seed and name): the shear
+    finding's cross-validated gain is the same number whether the campaign holds the sinkage
+    tests (whose group runs first) or not."""
+    campaign = simulate(_TWO_KINDS, seed=5).campaign
+    both = discover(campaign, seed=3)
+    alone = discover(campaign.select(kind="shear"), seed=3)
+
+    def shear_gain(result):
+        (finding,) = [f for f in result.findings if f.kind == "shear"]
+        return finding.cause, finding.gain.base, finding.gain.extended, finding.gain.relative
+
+    assert shear_gain(both) == shear_gain(alone)
+    other_seed = discover(campaign.select(kind="shear"), seed=4)
+    assert shear_gain(other_seed)[1:] != shear_gain(alone)[1:]  # the seed does draw the folds
+
+
 def test_weighted_family_evaluators_match_the_plain_ones():
     """The optimiser's fast path (weights folded in, rows preallocated, softened samples
     only) gives w·f and the rows of w·J, as the plain family does, for every layout."""
@@ -516,7 +533,7 @@ def test_fast_partitions_match_the_sorting_ones():
     import pandas as pd
 
     from soilstats.discovery.candidates import determines
-    from soilstats.discovery.diagnose import _cell_codes, _strata
+    from soilstats.discovery.ftests import cell_codes, strata_codes
 
     rng = np.random.default_rng(6)
     for _ in range(300):
@@ -528,16 +545,16 @@ def test_fast_partitions_match_the_sorting_ones():
         assert determines(a.astype(float) + 0.5, b) == determines(a, b)
         c = rng.integers(0, 3, n)
         sorted_rows = np.unique(np.column_stack([a, b, c]), axis=0, return_inverse=True)[1]
-        assert np.array_equal(_strata([a, b, c], n), sorted_rows.ravel())
+        assert np.array_equal(strata_codes([a, b, c], n), sorted_rows.ravel())
         text = pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
-        assert np.array_equal(_cell_codes(a, b), text)
+        assert np.array_equal(cell_codes(a, b), text)
 
 
 def test_cell_means_f_test_is_the_full_one():
     """The F-test on cell means weighted by their counts (the diagnosis' fast path) gives the
     sums of squares, ranks and p of the one on every row; a design the strata and main
     effects already carry falls back to the full rows (noise decides its rank)."""
-    from soilstats.discovery.diagnose import _cell_codes, _nested_f
+    from soilstats.discovery.ftests import _nested_f, cell_codes
 
     rng = np.random.default_rng(7)
     for _ in range(100):
@@ -545,11 +562,11 @@ def test_cell_means_f_test_is_the_full_one():
         a, b = rng.integers(0, 3, n), rng.integers(0, 3, n)
         strata = rng.integers(0, 2, n)
         y = rng.normal(size=n) + 0.5 * (a == 1) * (b == 2)
-        cells = _cell_codes(a, b)
+        cells = cell_codes(a, b)
         design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
         nuisance = np.hstack([(c[:, None] == np.unique(c)[None, 1:]).astype(float) for c in (a, b)])
         full = _nested_f(y, design, strata, nuisance)
-        fast = _nested_f(y, design, strata, nuisance, cells=_cell_codes(strata, cells))
+        fast = _nested_f(y, design, strata, nuisance, cells=cell_codes(strata, cells))
         assert (fast["df1"], fast["df2"]) == (full["df1"], full["df2"])
         for key in ("statistic", "p_value", "effect_size", "sigma"):
             assert fast[key] == pytest.approx(full[key], rel=1e-9, nan_ok=True)
@@ -557,12 +574,12 @@ def test_cell_means_f_test_is_the_full_one():
     a = np.repeat([0, 1, 2], 10)
     b = a % 2
     y = rng.normal(size=a.size)
-    cells = _cell_codes(a, b)
+    cells = cell_codes(a, b)
     design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
     nuisance = np.hstack([(c[:, None] == np.unique(c)[None, 1:]).astype(float) for c in (a, b)])
     zeros = np.zeros(a.size, int)
     full = _nested_f(y, design, zeros, nuisance)
-    fast = _nested_f(y, design, zeros, nuisance, cells=_cell_codes(zeros, cells))
+    fast = _nested_f(y, design, zeros, nuisance, cells=cell_codes(zeros, cells))
     assert (fast["reason"], fast["df1"], fast["df2"]) == (full["reason"], full["df1"], full["df2"])
     assert fast["p_value"] == pytest.approx(full["p_value"], nan_ok=True)
 

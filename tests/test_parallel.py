@@ -37,8 +37,7 @@ def test_condition_fits_are_the_same_for_any_number_of_jobs():
 
     campaign = soilstats.load_campaign("simulated-paper").select(series="velocity")
     runs = [
-        fit_conditions(campaign, "sinkage", test_resamples=40, seed=3, jobs=jobs)
-        for jobs in (1, 2)
+        fit_conditions(campaign, "sinkage", test_resamples=40, seed=3, jobs=jobs) for jobs in (1, 2)
     ]
     one, two = ([f.fit for f in run.fits] for run in runs)
     assert len(one) == len(two) > 1
@@ -47,3 +46,23 @@ def test_condition_fits_are_the_same_for_any_number_of_jobs():
         assert np.array_equal(a.bootstrap.draws, b.bootstrap.draws)
         assert [f.code for f in a.flags] == [f.code for f in b.flags]
     assert runs[0].summary() == runs[1].summary()
+
+
+def test_planned_kinds_fitted_as_one_queue_equal_separate_calls():
+    """identify plans sinkage and shear and fits them as one queue over the workers; each
+    kind's result is the one fit_conditions gives for it alone, condition by condition."""
+    import soilstats
+    from soilstats.identification.conditions import fit_conditions, fit_planned, plan_conditions
+
+    campaign = soilstats.load_campaign("simulated-paper").select(series=["velocity", "grousers"])
+    options = {"test_resamples": 30, "seed": 2}
+    plans = [plan_conditions(campaign, kind, **options) for kind in ("sinkage", "shear")]
+    together = fit_planned(plans, jobs=2)
+    for kind, result in zip(("sinkage", "shear"), together, strict=True):
+        alone = fit_conditions(campaign, kind, **options)
+        assert [f.kind for f in result.fits] == [kind] * len(alone.fits)
+        assert result.summary() == alone.summary()
+        for a, b in zip(result.fits, alone.fits, strict=True):
+            assert (a.soil, a.condition, a.model) == (b.soil, b.condition, b.model)
+            assert np.array_equal(a.fit.values, b.fit.values)
+            assert np.array_equal(a.fit.bootstrap.draws, b.fit.bootstrap.draws)

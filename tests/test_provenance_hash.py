@@ -52,3 +52,44 @@ def test_digest_is_the_defined_one_with_missing_text_and_covariates(tmp_path):
 def test_digest_of_shear_campaign_is_the_defined_one():
     campaign = soilstats.load_campaign("simulated-paper").select(kind="shear")
     assert len(campaign.shear) and campaign_sha256(campaign) == _definition(campaign)
+
+
+def test_every_command_names_the_data_it_was_given_not_the_screened_copy(tmp_path, capsys):
+    """check, identify and discover on one folder record one campaign_sha256: that of the
+    records as loaded (screening's removals and re-zeroing are the commands' processing,
+    recorded by their command line).  A library call names the campaign it was given."""
+    import json
+
+    from soilstats.cli.main import main
+    from soilstats.discovery import discover
+    from soilstats.quality import screen
+    from soilstats.simulation import simulate
+
+    spec = {
+        "name": "provenance",
+        "soils": {"sand": {"kc": 900.0, "kphi": 1.5e6, "n": 1.1}},
+        "series": [
+            {
+                "name": "plates",
+                "kind": "sinkage",
+                "soils": ["sand"],
+                "plates": [{"shape": "circle", "radius_m": b} for b in (0.025, 0.05)],
+                "repetitions": 4,
+                "points": 120,
+                "sinkage_m": 0.03,
+            }
+        ],
+    }
+    clean = simulate(spec, seed=2).campaign
+    tests = clean.tests.drop(columns=list(DERIVED_COLUMNS["tests"]))
+    sinkage = clean.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"])).reset_index(drop=True)
+    sinkage.loc[60, "z_m"] *= 10.0  # a spike that screening takes out
+    spiked = soilstats.Campaign.from_frames(tests, sinkage)
+    assert campaign_sha256(screen(spiked).campaign) != campaign_sha256(spiked)
+    folder = spiked.save(tmp_path / "spiked")
+    digests = {}
+    for command in ("check", "identify", "discover"):
+        assert main([command, "--data", str(folder), "--json", "--progress", "off"]) == 0
+        digests[command] = json.loads(capsys.readouterr().out)["provenance"]["campaign_sha256"]
+    assert set(digests.values()) == {campaign_sha256(spiked)}, digests
+    assert discover(spiked).provenance.campaign_sha256 == campaign_sha256(spiked)

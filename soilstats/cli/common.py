@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from ..campaign import Campaign
+    from ..report import Provenance
 
 __all__ = [
     "DEFAULT_CAMPAIGN",
@@ -50,7 +51,7 @@ __all__ = [
     "apply_selection",
     "guarded",
     "parse_selection",
-    "prepared_campaign",
+    "prepared",
     "progress_enabled",
 ]
 
@@ -164,16 +165,28 @@ def add_data_options(parser: argparse.ArgumentParser, *, window: bool = True) ->
     )
 
 
-def prepared_campaign(args: argparse.Namespace, *, out=None) -> Campaign:
-    """The campaign a command analyses: loaded, screened (``--quality``), windowed
-    (``--z-max``/``--p-max``) and selected (``--select``), in that order, so that screening
-    rows are the file's rows. One line on stderr (or ``out``) says what screening found."""
+def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenance]:
+    """The campaign a command analyses and the provenance of its outputs.
+
+    The campaign is loaded, screened (``--quality``), windowed (``--z-max``/``--p-max``)
+    and selected (``--select``), in that order, so that screening rows are the file's rows.
+    One line on stderr (or ``out``) says what screening found.
+
+    The provenance hashes the records as the command received them — loaded, after
+    ``--select`` — not as screening and the window left them: those are the command's own
+    processing, recorded by its command line.  So every command on the same data and
+    selection names the same ``campaign_sha256``, that of ``soilstats check``.
+    """
     from ..campaign import load_campaign
     from ..identification.window import FitWindow, windowed
     from ..quality import screen
+    from ..report import Provenance
 
-    campaign = load_campaign(args.data)
-    report = screen(campaign, getattr(args, "quality", "clean"))
+    loaded = load_campaign(args.data)
+    provenance = Provenance.of(
+        apply_selection(loaded, args.select), argv=args.argv, seed=getattr(args, "seed", None)
+    )
+    report = screen(loaded, getattr(args, "quality", "clean"))
     window = FitWindow.parse(getattr(args, "z_max", ()), getattr(args, "p_max", ()))
     campaign = windowed(report.campaign, window)
     if report.mode != "off":
@@ -186,7 +199,7 @@ def prepared_campaign(args: argparse.Namespace, *, out=None) -> Campaign:
             + " (details: soilstats check)",
             file=out or sys.stderr,
         )
-    return apply_selection(campaign, args.select)
+    return apply_selection(campaign, args.select), provenance
 
 
 def check_out(folder: str | None) -> None:

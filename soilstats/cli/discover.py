@@ -15,7 +15,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import add_common_options, add_data_options, prepared_campaign, progress_enabled
+from .common import add_common_options, add_data_options, prepared, progress_enabled
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -37,10 +37,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run discovery; print the summary (or JSON) and write the files asked for."""
     from ..discovery import discover
-    from ..report import Provenance, write_json
+    from ..report import write_json
 
-    campaign = prepared_campaign(args)
-    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
+    campaign, provenance = prepared(args)
     result = discover(
         campaign,
         alpha=args.alpha,

@@ -19,7 +19,7 @@ from .common import (
     add_common_options,
     add_data_options,
     add_jobs_option,
-    prepared_campaign,
+    prepared,
     progress_enabled,
 )
 
@@ -97,10 +97,12 @@ def _check_series(campaign, series: str | None) -> None:
 def run(args: argparse.Namespace) -> int:
     """Fit every soil and condition; print Table-5-style tables or one JSON object."""
     from ..errors import CampaignError
-    from ..identification.conditions import fit_conditions
-    from ..report import Provenance, json_safe, write_csv, write_json
+    from ..identification.conditions import fit_planned, plan_conditions
+    from ..parallel import warm_workers
+    from ..report import json_safe, write_csv, write_json
 
-    campaign = prepared_campaign(args)
+    warm_workers(args.jobs, ("soilstats.identification.conditions",))  # while loading
+    campaign, provenance = prepared(args)
     soils_present = sorted(campaign.tests["soil"].astype(str).unique())
     unknown = sorted(set(args.soil or ()) - set(soils_present))
     if unknown:
@@ -114,26 +116,33 @@ def run(args: argparse.Namespace) -> int:
         campaign = campaign.select(series=args.series)
     out = sys.stderr if args.json else sys.stdout
     print(f"Campaign: {campaign.source}", file=out)
-    results = []
+    # Both kinds are planned first and fitted as one queue of conditions (with --jobs, no
+    # worker waits for the sinkage conditions to finish before the shear ones start).
+    plans = []  # (kind, plan or None when the campaign has no tests of the kind)
     for kind, by in (("sinkage", args.by), ("shear", args.shear_by)):
         if not (campaign.tests["kind"] == kind).any():
-            if args.series is not None:
-                print(f"\n[{kind}: no tests of series {args.series!r}]", file=out)
+            plans.append((kind, None))
             continue
         options = {"test_resamples": args.test_resamples, "seed": args.seed}
         if kind == "sinkage":
             options |= {"method": args.method, "points_per_test": args.points_per_test}
         model = args.model if kind == "sinkage" else "mohr-coulomb"
-        result = fit_conditions(
-            campaign,
-            kind,
-            by=by,
-            model=model,
-            soils=args.soil,
+        plan = plan_conditions(campaign, kind, by=by, model=model, soils=args.soil, **options)
+        plans.append((kind, plan))
+    fitted = iter(
+        fit_planned(
+            [plan for _, plan in plans if plan is not None],
             jobs=args.jobs,
             progress=progress_enabled(args.progress),
-            **options,
         )
+    )
+    results = []
+    for kind, plan in plans:
+        if plan is None:
+            if args.series is not None:
+                print(f"\n[{kind}: no tests of series {args.series!r}]", file=out)
+            continue
+        result = next(fitted)
         print("\n" + result.summary(), file=out)
         if args.verbose:
             for condition in result.fits:
@@ -145,7 +154,6 @@ def run(args: argparse.Namespace) -> int:
             "no condition could be identified in the selected tests (see the messages above)",
             file="tests.csv",
         )
-    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     document = {"fits": records}
     if args.out:
         import pandas as pd

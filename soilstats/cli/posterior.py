@@ -25,7 +25,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from .common import add_common_options, add_data_options, prepared_campaign, progress_enabled
+from .common import add_common_options, add_data_options, prepared, progress_enabled
 
 #: Simulators whose parameter sets --simulator writes (soilstats.bayes.SIMULATOR_FORMATS; a
 #: test keeps the two in step, the bayes package being too heavy to import for --help).
@@ -219,14 +219,13 @@ def run(args: argparse.Namespace) -> int:
     from ..bayes import joint_draws, simulator_parameters, simulator_record
     from ..bayes.support import check_support
     from ..errors import ConvergenceWarning
-    from ..report import Provenance, json_safe, output_path, write_csv
+    from ..report import json_safe, output_path, write_csv
     from ..report.posterior_pdf import write_report
 
     models = args.model.split("+")
     priors = priors_by_model(args, models)
     _check_simulator(args, models)
-    campaign = prepared_campaign(args)
-    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
+    campaign, provenance = prepared(args)
     out = Path(args.out)
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]

@@ -27,7 +27,7 @@ from .common import (
     add_common_options,
     add_data_options,
     add_jobs_option,
-    prepared_campaign,
+    prepared,
     progress_enabled,
 )
 
@@ -43,22 +43,23 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the studies; readable summaries (or one JSON object) on stdout."""
-    from ..parallel import effective_jobs, parallel_map
-    from ..report import Provenance
+    from ..parallel import effective_jobs, parallel_map, warm_workers
     from ..study import available_studies, load_spec
     from ..study.outputs import to_json_dict
     from ..study.responses import PerTestCache
 
     names = available_studies() if args.name == "all" else [args.name]
     specs = [load_spec(n) for n in names]  # every spec checked before any work
-    campaign = prepared_campaign(args)
-    provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
+    parallel = effective_jobs(args.jobs) > 1 and len(specs) > 1
+    if parallel:  # the workers start while the campaign loads
+        modules = ("soilstats.study.runner", "soilstats.study.responses")
+        warm_workers(args.jobs, modules + (() if args.no_pdf else ("soilstats.report.study_pdf",)))
+    campaign, provenance = prepared(args)
     progress = progress_enabled(args.progress)
     cache = PerTestCache(campaign, progress=progress)
     out_dir = Path(args.out)
     log = sys.stderr if args.json else sys.stdout
     print(f"Campaign: {campaign.source}   output: {out_dir}/", file=log)
-    parallel = effective_jobs(args.jobs) > 1 and len(specs) > 1
     if parallel:
         cache.fill(jobs=args.jobs)  # the per-test fits every study shares, across workers
         cache.progress = False

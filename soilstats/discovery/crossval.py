@@ -21,6 +21,7 @@ caveat that samples within a test are not independent (they overstate the eviden
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +36,7 @@ __all__ = [
     "compare",
     "cross_validate",
     "cross_validation",
+    "group_rng",
     "held_out_errors",
     "information_criteria",
     "make_folds",
@@ -98,6 +100,15 @@ class Gain:
             "n_tests": self.n_tests,
             "real": self.real,
         }
+
+
+def group_rng(seed: int, group) -> np.random.Generator:
+    """The stream one (kind, soil) group draws its folds from: seeded by ``seed`` and the
+    group's name, so that a group's folds — and so its findings — depend neither on which
+    other soils the campaign holds nor on the order the groups run in (they may run side by
+    side: :func:`.pipeline.discover` with ``jobs``)."""
+    name = zlib.crc32(f"{group.kind}\x00{group.soil}".encode())
+    return np.random.default_rng([seed, name])
 
 
 def make_folds(levels: np.ndarray, scheme: str, rng: np.random.Generator, k: int = 5):

@@ -25,7 +25,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from ..errors import ConvergenceError
 from ..statistics import verdicts
@@ -40,10 +39,10 @@ from .candidates import (
     determines,
     enumerate_candidates,
     level_codes,
-    spans_log,
 )
 from .candidates import relations as find_relations
 from .extensions import SinkageExtension, base_model
+from .ftests import interaction_test, strata_codes, strata_test
 from .power import minimum_detectable
 
 __all__ = [
@@ -52,8 +51,6 @@ __all__ = [
     "Diagnosis",
     "add_responses",
     "diagnose_groups",
-    "interaction_test",
-    "strata_test",
 ]
 
 RESPONSES = {"sinkage": ("level", "shape"), "shear": ("level", "K")}
@@ -133,216 +130,6 @@ def add_responses(group):
     return replace(group, tests=table), base, notes
 
 
-def _trend(x: np.ndarray) -> np.ndarray:
-    """A continuous candidate as a regressor: ln x when x > 0 spans more than a factor four."""
-    return np.log(x) if spans_log(x) else x
-
-
-def _strata(columns: list[np.ndarray], n: int) -> np.ndarray:
-    """Stratum code of each of ``n`` rows: one per combination of the block codes given,
-    numbered in the lexicographic order of the combinations."""
-    if not columns:
-        return np.zeros(n, int)
-    columns = [np.asarray(c) for c in columns]
-    radix = [int(c.max()) + 1 if c.size else 1 for c in columns]
-    if all(c.dtype.kind in "iu" and (not c.size or c.min() >= 0) for c in columns) and (
-        float(np.prod(radix, dtype=float)) < 2.0**62
-    ):
-        # Level codes: one mixed-radix integer per row orders as the rows do
-        # lexicographically, so a 1-D unique numbers the strata exactly as the row-wise
-        # unique below (which sorts rows of a structured view, far slower).
-        combined = np.zeros(n, np.int64)
-        for c, k in zip(columns, radix, strict=True):
-            combined = combined * k + c
-        return np.unique(combined, return_inverse=True)[1].ravel()
-    return np.unique(np.column_stack(columns), axis=0, return_inverse=True)[1].ravel()
-
-
-def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
-    """F-test of ``design`` after stratum effects (and ``nuisance`` columns), by
-    within-stratum centring (Frisch–Waugh–Lovell).
-
-    Returns ``statistic``, ``df1``, ``df2``, ``p_value``, ``effect_size`` (partial η²),
-    ``sigma`` (residual standard deviation of the full model) and ``norm2`` (the squared
-    length of each design column after the strata and nuisance are taken out: the pattern
-    an effect of one unit leaves, for :mod:`.power`), or ``reason`` when it cannot be made.
-
-    ``cells`` (optional codes) marks rows that share their stratum, design row and nuisance
-    row.  Every column of every model is then constant within a cell, so the within-cell sum
-    of squares W is left by all of them alike, and the rest is the regression of the cell
-    means weighted by the cell counts m: rows scaled by √m, centred with m-weighted stratum
-    means.  The same sums of squares, ranks (the scaled matrix has the same Gram matrix as
-    the full one) and F, on a few hundred cells instead of thousands of tests.  Where the
-    strata and nuisance leave nothing of the design but rounding noise (an interaction the
-    main effects already carry), which columns the rank test counts is decided by that
-    noise: then the test is made on the full rows, so that the answer is the one it always
-    was.
-    """
-    full = (y, design, strata, nuisance)
-    n = y.size
-    s = pd.factorize(strata)[0]
-    n_strata = s.max() + 1
-    within, root = 0.0, None
-    if cells is not None:
-        codes = pd.factorize(cells)[0]
-        m = np.bincount(codes).astype(float)
-        if m.size < n:
-            first = np.empty(m.size, int)
-            first[codes] = np.arange(n)  # a row of each cell (all alike)
-            mean = np.bincount(codes, weights=y) / m
-            within = float(np.sum((y - mean[codes]) ** 2))
-            y, design, s = mean, design[first], s[first]
-            nuisance = None if nuisance is None else nuisance[first]
-            root = np.sqrt(m)
-    weight = np.ones(s.size) if root is None else root**2
-    counts = np.bincount(s, weights=weight, minlength=n_strata)
-
-    def centre(a):
-        if root is None:
-            sums = np.zeros((n_strata, *a.shape[1:]))
-            np.add.at(sums, s, a)
-            return a - (sums / counts.reshape(-1, *[1] * (a.ndim - 1)))[s]
-        wa = a * weight.reshape(-1, *[1] * (a.ndim - 1))
-        sums = np.zeros((n_strata, *a.shape[1:]))
-        np.add.at(sums, s, wa)
-        centred = a - (sums / counts.reshape(-1, *[1] * (a.ndim - 1)))[s]
-        return centred * root.reshape(-1, *[1] * (a.ndim - 1))
-
-    def rank_of(a):
-        if a.shape[1] == 0:
-            return 0
-        sv = np.linalg.svd(a, compute_uv=False)
-        return int(np.sum(sv > sv[0] * 1e-9)) if sv.size and sv[0] > 0 else 0
-
-    out = {"p_value": np.nan, "statistic": np.nan, "df1": 0, "df2": 0, "reason": ""}
-    out.update(effect_size=np.nan, sigma=np.nan, norm2=np.full(design.shape[1], np.nan))
-    yc, dc = centre(y), centre(design)
-    r0 = 0
-    if nuisance is not None and nuisance.shape[1]:
-        nc = centre(nuisance)
-        r0 = rank_of(nc)
-        q = np.linalg.svd(nc, full_matrices=False)[0][:, :r0]
-        before = float(np.max(np.sum(dc**2, axis=0), initial=0.0))
-        yc = yc - q @ (q.T @ yc)
-        dc = dc - q @ (q.T @ dc)
-        left = float(np.max(np.sum(dc**2, axis=0), initial=0.0))
-        if root is not None and not left > 1e-12 * before:  # (norms squared: 1e-6 in norm)
-            return _nested_f(*full)
-    rank = rank_of(dc)
-    df2 = n - n_strata - r0 - rank
-    if rank < 1 or df2 < 2:
-        out["reason"] = f"no degrees of freedom left (n = {n}, strata = {n_strata}, rank = {rank})"
-        return out
-    beta = np.linalg.lstsq(dc, yc, rcond=1e-9)[0]
-    rss1 = within + float(np.sum((yc - dc @ beta) ** 2))
-    rss0 = within + float(np.sum(yc**2))
-    if rss1 <= 0:
-        f_stat, p = (np.inf, 0.0) if rss0 > 0 else (np.nan, np.nan)
-    else:
-        f_stat = ((rss0 - rss1) / rank) / (rss1 / df2)
-        p = float(stats.f.sf(f_stat, rank, df2))
-    out.update(
-        statistic=float(f_stat),
-        df1=rank,
-        df2=int(df2),
-        p_value=p,
-        effect_size=(rss0 - rss1) / rss0 if rss0 > 0 else np.nan,
-        sigma=float(np.sqrt(rss1 / df2)),
-        norm2=np.sum(dc**2, axis=0),
-    )
-    return out
-
-
-def strata_test(y, x, *, categorical: bool, strata) -> dict:
-    """F-test of X after stratum effects, on the strata in which X varies.
-
-    Parameters
-    ----------
-    y : array (n,)
-        Response, finite.
-    x : array (n,)
-        Candidate values: integer level codes (categorical) or numbers (continuous).
-    categorical : bool
-    strata : array (n,) of int
-        Stratum code of each row (a single stratum when there is no block).
-
-    Returns
-    -------
-    dict
-        ``statistic`` (F), ``df1``, ``df2``, ``p_value``, ``effect_size`` (partial η²),
-        ``sigma`` (residual standard deviation), ``mde_norm2`` (‖r‖² of the hardest
-        pattern to detect, :mod:`.power`: one level shifted, or a change across the range of
-        the trend), ``used`` (boolean mask of the rows tested), ``singletons`` (levels with
-        one test), or ``reason`` when the test cannot be made (then ``p_value`` is NaN).
-    """
-    y = np.asarray(y, float)
-    x = np.asarray(x)
-    strata = np.asarray(strata)
-    varies = pd.Series(x).groupby(strata).transform("nunique").to_numpy() >= 2
-    out = {"used": varies, "singletons": [], "p_value": np.nan, "statistic": np.nan}
-    out.update(df1=0, df2=0, effect_size=np.nan, sigma=np.nan, mde_norm2=np.nan, reason="")
-    if int(varies.sum()) < 4:
-        out["reason"] = "the candidate varies within no stratum of the other candidates"
-        return out
-    y, x, s = y[varies], x[varies], strata[varies]
-    cells = None
-    if categorical:
-        levels, counts = np.unique(x, return_counts=True)
-        out["singletons"] = levels[counts == 1].tolist()
-        design = (x[:, None] == levels[None, :]).astype(float)
-        cells = _cell_codes(np.asarray(s), np.unique(x, return_inverse=True)[1].ravel())
-    else:
-        design = _trend(x.astype(float))[:, None]
-    res = _nested_f(y, design, s, cells=cells)
-    norm2 = res.pop("norm2")
-    if res["df1"] and not categorical:
-        norm2 = norm2 / np.ptp(design) ** 2  # per change across the observed range
-    if res["df1"]:
-        res["mde_norm2"] = float(np.nanmin(norm2)) if np.isfinite(norm2).any() else np.nan
-    out.update(res)
-    return out
-
-
-def interaction_test(y, a, b, *, strata) -> dict:
-    """F-test of the A × B interaction of two categorical candidates after both main effects
-    (and the strata): the full cell model against the additive one.
-
-    ``a`` and ``b`` are level codes.  Returns the keys of :func:`strata_test`; ``used`` marks
-    every row (a cell of one test still informs the main effects).
-    """
-    y = np.asarray(y, float)
-    a, b, strata = np.asarray(a), np.asarray(b), np.asarray(strata)
-    out = {"used": np.ones(y.size, bool), "singletons": [], "p_value": np.nan}
-    out.update(statistic=np.nan, df1=0, df2=0, effect_size=np.nan, sigma=np.nan)
-    out.update(mde_norm2=np.nan, reason="")
-    cells = _cell_codes(a, b)
-    if y.size < 6 or np.unique(cells).size < 4:
-        out["reason"] = "fewer than four cells: no interaction to test"
-        return out
-    dummies = [(codes[:, None] == np.unique(codes)[None, 1:]).astype(float) for codes in (a, b)]
-    design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
-    res = _nested_f(
-        y, design, strata, nuisance=np.hstack(dummies), cells=_cell_codes(strata, cells)
-    )
-    norm2 = res.pop("norm2")
-    ok = np.isfinite(norm2) & (norm2 > 1e-12)
-    if res["df1"] and ok.any():
-        res["mde_norm2"] = float(norm2[ok].min())
-    out.update(res)
-    return out
-
-
-def _cell_codes(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Codes of the A × B cells, numbered in order of first appearance.
-
-    For level codes one integer a·(max b + 1) + b per row names the cell (the same numbering
-    as factorising the text "a|b", without building the text); other values take that path.
-    """
-    if a.dtype.kind in "iu" and b.dtype.kind in "iu" and a.size and min(a.min(), b.min()) >= 0:
-        return pd.factorize(a.astype(np.int64) * (int(b.max()) + 1) + b)[0]
-    return pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
-
-
 def _block_eligible(table: pd.DataFrame, cand: Candidate) -> bool:
     """Design-like factors only: categorical with ≥ 3 tests per level on median (a near-unique
     label such as a date would cut the tests into strata of one)."""
@@ -407,7 +194,7 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
     rows_out: list[dict] = []
     for cand in cands:
         blocks = [b for b in sorted(eligible) if b != cand.name and b not in related[cand.name]]
-        strata = _strata([codes[b] for b in blocks], len(table))
+        strata = strata_codes([codes[b] for b in blocks], len(table))
         values = values_of[cand.name]
         recorded = values.notna().to_numpy()
         x_all = codes[cand.name] if cand.categorical else values.to_numpy(float)
@@ -503,7 +290,7 @@ def _interactions(group, table, cands, related, eligible, codes, values_of):
         ]
         key = tuple(blocks)
         if key not in strata_of:
-            strata_of[key] = _strata([codes[k] for k in blocks], len(table))
+            strata_of[key] = strata_codes([codes[k] for k in blocks], len(table))
         strata = strata_of[key]
         for response in RESPONSES[group.kind]:
             y_all = table[f"_dev_{response}"].to_numpy(float)
@@ -654,7 +441,9 @@ def retest(group, table, row) -> dict[str, float]:
     """Raw p-value per response of one candidate (a row of the diagnosis table, main effect
     or interaction) against the responses in ``table``."""
     blocks_list = [b for b in row["blocks"].split(", ") if b]
-    strata = _strata([level_codes(candidate_values(table, b)) for b in blocks_list], len(table))
+    strata = strata_codes(
+        [level_codes(candidate_values(table, b)) for b in blocks_list], len(table)
+    )
     out = {}
     if row["pair"]:
         a, b = row["pair"].split("|")

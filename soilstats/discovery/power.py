@@ -9,7 +9,7 @@ Under an effect δ the F statistic follows a noncentral F(df1, df2, λ) with
 λ = δ²·‖r‖²/σ², where r is the effect's pattern over the tests after the strata (and any
 main effects) are taken out and σ the residual standard deviation of the response.  The
 MDE solves P(F(df1, df2, λ) > F_crit) = power for λ and returns δ = σ·√(λ/‖r‖²).  The
-patterns (:func:`soilstats.discovery.diagnose.strata_test`):
+patterns (:func:`soilstats.discovery.ftests.strata_test`):
 
 * levels — one level (or, for an interaction, one cell) shifted by δ against the others;
   the hardest level to detect (fewest tests), so that *any* level shifted by δ or more

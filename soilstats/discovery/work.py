@@ -13,19 +13,12 @@ in threads of their own on one pool, their waves sharing the workers.
 Why the results are the same for any number of jobs: a fit is a deterministic function of
 its task (model, tests, start) and the group's data; nothing in it draws random numbers.  The
 one random step of discovery, the folds (:func:`.crossval.make_folds`), stays in the calling
-process and draws from the one ``numpy.random.Generator`` in the same order as ever, before
-the wave that uses them is sent out.  Outcomes come back in the order of the tasks, and a
-failed fit comes back as its error, which the caller raises or records exactly where the
-one-at-a-time loop would have met it (a model's later fits after a failed one are skipped,
-as that loop never ran them: :class:`Pool`).
-
-What travels to a worker is kept small.  The group (hundreds of thousands of samples) goes
-once per group and worker, not once per task: the :class:`Pool` writes it to one temporary
-file, which each local worker reads on its first task of the group and keeps
-(:func:`_group_of`); a backend whose workers may not share this machine's files (Dask)
-gets the group with every task instead.  A fit's start is only its model and parameter
-values (:class:`Start`), and a fold fit comes back as such: it is read only as the start of
-the fold fits after it.
+process: each group draws from its own ``numpy.random.Generator``
+(:func:`.crossval.group_rng`) in one fixed order, before the wave that uses them is sent
+out.  Outcomes come back in the order of the tasks, and a failed fit comes back as its
+error, which the caller raises or records exactly where the one-at-a-time loop would have
+met it (a model's later fits after a failed one are skipped, as that loop never ran them:
+:class:`Pool`).
 
 One more thing decides the last bits: a multithreaded BLAS sums long dot products in
 per-thread pieces, so the same fit on two threads and on one differs in its 16th digit.
@@ -41,7 +34,6 @@ import os
 import pickle
 import tempfile
 import threading
-import time
 import uuid
 import weakref
 from dataclasses import dataclass
@@ -50,6 +42,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..parallel import effective_jobs, one_blas_thread, parallel_map
+from ..parallel import warm_workers as _warm_workers
 
 __all__ = [
     "FIT_ERRORS",
@@ -222,7 +215,7 @@ class Pool:
             group, task, _ = items[i]
             return (id(group), i) if task.chain is None else (id(group), task.chain)
 
-        if not self.parallel or len(items) <= 1:
+        if not self.parallel:
             failed, out = set(), []
             for i, (group, task, _) in enumerate(items):
                 if chain_of(i) in failed:
@@ -258,7 +251,10 @@ class Pool:
             )
             for group, t, _ in items
         ]
-        return [_outcome(r) for r in parallel_map(_run_in_worker, sent, jobs=self.jobs)]
+        # Even a lone fit goes to a worker: the waves of several groups are in flight at
+        # once, and fits run here would queue on this process's interpreter lock.
+        done = parallel_map(_run_in_worker, sent, jobs=self.jobs, single_in_process=False)
+        return [_outcome(r) for r in done]
 
 
 class Runner:
@@ -302,31 +298,12 @@ def run_process(process, pool: Pool):
         return stop.value
 
 
-def _warm(_) -> int:
-    """Import in a worker what discovery's tasks need (the first task need not wait)."""
-    import soilstats.discovery.pipeline
-    import soilstats.identification.per_test  # noqa: F401 (imported for its import cost)
-
-    time.sleep(0.05)  # long enough that every worker gets one
-    return os.getpid()
-
-
-def warm_workers(jobs: int | None) -> threading.Thread | None:
-    """Start the ``jobs`` workers and their imports in the background (about a second),
-    while this process loads and screens the campaign; None with one job."""
-    n = effective_jobs(jobs)
-    if n <= 1:
-        return None
-
-    def start():
-        try:
-            parallel_map(_warm, range(n), jobs=jobs)
-        except Exception:  # a failed warm-up costs only the time it would have saved
-            pass
-
-    thread = threading.Thread(target=start, daemon=True)
-    thread.start()
-    return thread
+def warm_workers(jobs: int | None):
+    """Start the workers and the imports discovery's tasks need, in the background
+    (:func:`soilstats.parallel.warm_workers`)."""
+    return _warm_workers(
+        jobs, ("soilstats.discovery.pipeline", "soilstats.identification.per_test")
+    )
 
 
 def _local_workers() -> bool:

@@ -11,7 +11,7 @@ Used by ``soilstats identify`` and by every study's parameter table.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -28,9 +28,12 @@ from .window import windowed
 __all__ = [
     "ConditionFit",
     "ConditionFits",
+    "ConditionPlan",
     "condition_label",
     "default_condition",
     "fit_conditions",
+    "fit_planned",
+    "plan_conditions",
 ]
 
 #: Test-log columns that define conditions when the caller names none, in order of preference.
@@ -160,6 +163,67 @@ def _model_for(kind: str, model: str, fallback: str | None, tests: pd.DataFrame)
     return model, None
 
 
+@dataclass(frozen=True)
+class ConditionPlan:
+    """The conditions one :func:`fit_conditions` call fits, before any fitting: the
+    screened (and windowed) campaign, the fit of every (soil, series, condition) as a task,
+    and the notes of the planning (:func:`plan_conditions`; run by :func:`fit_planned`)."""
+
+    campaign: object = field(repr=False)
+    kind: str
+    tasks: tuple  # (where, soil, series, column, label, model, test ids), in table order
+    options: dict
+    notes: tuple[str, ...] = ()
+
+
+def plan_conditions(
+    campaign,
+    kind: str,
+    *,
+    by: str | None = None,
+    model: str = "auto",
+    fallback_model: str | None = None,
+    soils: Sequence[str] | None = None,
+    test_ids: Sequence[str] | None = None,
+    **options,
+) -> ConditionPlan:
+    """The conditions :func:`fit_conditions` would fit (same arguments, no ``jobs``)."""
+    campaign = screened(campaign, options.pop("quality", "clean"))
+    campaign = windowed(campaign, options.pop("window", None))
+    tests = campaign.tests[campaign.tests["kind"] == kind]
+    if test_ids is not None:
+        tests = tests[tests["test_id"].astype(str).isin(set(map(str, test_ids)))]
+    if soils is not None:
+        tests = tests[tests["soil"].astype(str).isin(set(map(str, soils)))]
+    if kind == "shear" and model == "auto":
+        model = "mohr-coulomb"
+    fallbacks: dict[tuple, list[str]] = {}
+    tasks = []
+    if "series" in tests.columns:
+        by_series = [(str(k), g) for k, g in tests.groupby("series", sort=True, dropna=False)]
+    else:
+        by_series = [(None, tests)]
+    for series, series_tests in by_series:
+        column = default_condition(series_tests, kind, by)
+        keys = ["soil", column] if column else ["soil"]
+        for key, group in series_tests.groupby(keys, sort=True, dropna=False):
+            soil = str(key[0])
+            label = condition_label(key[1]) if column else "all"
+            where = soil + (f", series {series}" if series else "")
+            where += f", {column} {label}" if column else ""
+            chosen, why = _model_for(kind, model, fallback_model, group)
+            if why:
+                fallbacks.setdefault((why, chosen), []).append(where)
+            if chosen is not None:
+                ids = list(group["test_id"].astype(str))
+                tasks.append((where, soil, series, column, label, chosen, ids))
+    notes = tuple(
+        f"{why}; {chosen + ' used' if chosen else 'not identified'}: {'; '.join(where)}"
+        for (why, chosen), where in fallbacks.items()
+    )
+    return ConditionPlan(campaign, kind, tuple(tasks), options, notes)
+
+
 def fit_conditions(
     campaign,
     kind: str,
@@ -198,68 +262,95 @@ def fit_conditions(
     **options
         Passed to :func:`fit_sinkage` or :func:`fit_shear` (``method``, ``points_per_test`` …).
     """
-    campaign = screened(campaign, options.pop("quality", "clean"))
-    campaign = windowed(campaign, options.pop("window", None))
-    tests = campaign.tests[campaign.tests["kind"] == kind]
-    if test_ids is not None:
-        tests = tests[tests["test_id"].astype(str).isin(set(map(str, test_ids)))]
-    if soils is not None:
-        tests = tests[tests["soil"].astype(str).isin(set(map(str, soils)))]
-    if kind == "shear" and model == "auto":
-        model = "mohr-coulomb"
-    failures: list[str] = []
-    fallbacks: dict[tuple, list[str]] = {}
-    tasks = []  # (where, soil, series, column, label, model, test ids), in table order
-    if "series" in tests.columns:
-        by_series = [(str(k), g) for k, g in tests.groupby("series", sort=True, dropna=False)]
+    plan = plan_conditions(
+        campaign,
+        kind,
+        by=by,
+        model=model,
+        fallback_model=fallback_model,
+        soils=soils,
+        test_ids=test_ids,
+        **options,
+    )
+    return fit_planned([plan], jobs=jobs, progress=progress)[0]
+
+
+def fit_planned(
+    plans: Sequence[ConditionPlan], *, jobs: int | None = 1, progress: bool = False
+) -> list[ConditionFits]:
+    """The :class:`ConditionFits` of each plan, their conditions fitted over ``jobs``
+    workers as one queue (``soilstats identify`` plans sinkage and shear, then fits both
+    at once: no worker waits for the other kind to finish)."""
+    # Workers get only their condition's tests (a small pickle, each plan's campaign cut
+    # in one pass); in-process the campaign is used as it is. Both fit the same samples:
+    # fit_* selects test_id=ids either way. The largest conditions go out first, so that no
+    # worker starts a long fit while the other has nothing left to do.
+    items = [(plan, task) for plan in plans for task in plan.tasks]
+    one_process = effective_jobs(jobs) == 1 or len(items) < 2
+    if one_process:
+        pieces = [plan.campaign for plan, _ in items]
+        order = list(range(len(items)))
     else:
-        by_series = [(None, tests)]
-    for series, series_tests in by_series:
-        column = default_condition(series_tests, kind, by)
-        keys = ["soil", column] if column else ["soil"]
-        for key, group in series_tests.groupby(keys, sort=True, dropna=False):
-            soil = str(key[0])
-            label = condition_label(key[1]) if column else "all"
-            where = soil + (f", series {series}" if series else "")
-            where += f", {column} {label}" if column else ""
-            chosen, why = _model_for(kind, model, fallback_model, group)
-            if why:
-                fallbacks.setdefault((why, chosen), []).append(where)
-            if chosen is not None:
-                ids = list(group["test_id"].astype(str))
-                tasks.append((where, soil, series, column, label, chosen, ids))
-    # Workers get only their condition's tests (a small pickle); in-process the campaign is
-    # used as it is. Both fit the same samples: fit_* selects test_id=ids either way.
-    one_process = effective_jobs(jobs) == 1 or len(tasks) < 2
-    outcomes = parallel_map(
+        pieces = [
+            _for_worker(piece, task[-1])
+            for plan in plans
+            for piece, task in zip(
+                plan.campaign.partition([t[-1] for t in plan.tasks]) if plan.tasks else [],
+                plan.tasks,
+                strict=True,
+            )
+        ]
+        order = sorted(range(len(items)), key=lambda i: -_size(pieces[i], items[i][0].kind))
+    kinds = "+".join(dict.fromkeys(plan.kind for plan in plans))
+    done = parallel_map(
         _fit_condition,
         [
-            (
-                campaign if one_process else campaign.select(test_id=t[-1]),
-                kind,
-                t[-2],
-                t[-1],
-                options,
-            )
-            for t in tasks
+            (pieces[i], items[i][0].kind, items[i][1][-2], items[i][1][-1], items[i][0].options)
+            for i in order
         ],
         jobs=jobs,
         progress=progress,
-        desc=f"{kind} conditions",
+        desc=f"{kinds} conditions",
     )
-    fits = []
-    for (where, soil, series, column, label, chosen, _), outcome in zip(
-        tasks, outcomes, strict=True
-    ):
-        if isinstance(outcome, str):
-            failures.append(f"{where}: {chosen} — {outcome}")
-        else:
-            fits.append(ConditionFit(kind, soil, series, column, label, chosen, outcome))
-    notes = [
-        f"{why}; {chosen + ' used' if chosen else 'not identified'}: {'; '.join(where)}"
-        for (why, chosen), where in fallbacks.items()
-    ]
-    return ConditionFits(tuple(fits), tuple(failures), tuple(notes))
+    outcomes: list = [None] * len(items)
+    for i, outcome in zip(order, done, strict=True):
+        outcomes[i] = outcome
+    results, start = [], 0
+    for plan in plans:
+        fits, failures = [], []
+        for (where, soil, series, column, label, chosen, _), outcome in zip(
+            plan.tasks, outcomes[start : start + len(plan.tasks)], strict=True
+        ):
+            if isinstance(outcome, str):
+                failures.append(f"{where}: {chosen} — {outcome}")
+            else:
+                fits.append(ConditionFit(plan.kind, soil, series, column, label, chosen, outcome))
+        start += len(plan.tasks)
+        results.append(ConditionFits(tuple(fits), tuple(failures), plan.notes))
+    return results
+
+
+def _for_worker(piece, ids):
+    """A condition's campaign with its screening report and window cut to its tests: the
+    fit reads only theirs, and the whole campaign's, sent with every condition, would grow
+    as conditions × tests."""
+    quality = None if piece.quality is None else piece.quality.for_tests(ids)
+    window = piece.window
+    if window is not None:
+        kept = window.per_test["test_id"].astype(str).isin(set(ids))
+        window = replace(window, per_test=window.per_test[kept])
+    return replace(piece, quality=quality, window=window)
+
+
+#: Time per sample of a condition's fit, relative to a sinkage sample (measured on the
+#: 10,000-test benchmark campaign: a shear condition adds its Mohr–Coulomb line and a
+#: bootstrap of two fits).  Only the order conditions go to workers depends on it.
+_COST_PER_SAMPLE = {"sinkage": 1.0, "shear": 4.0}
+
+
+def _size(piece, kind: str) -> float:
+    """A condition's expected fitting time, in sinkage samples (the dispatch order)."""
+    return _COST_PER_SAMPLE[kind] * len(piece.sinkage if kind == "sinkage" else piece.shear)
 
 
 def _fit_condition(task) -> CampaignFit | str:

@@ -79,12 +79,12 @@ class PerTestCache:
             ids = [str(t) for t in tests.loc[tests["kind"] == kind, "test_id"]]
             have = set() if self._fits.get(kind) is None else set(self._fits[kind]["test_id"])
             ids = [t for t in ids if t not in have]
-            parts = min(len(ids), max(1, effective_jobs(jobs) * chunks_per_job))
-            chunks += [
-                (self.campaign.select(test_id=list(part)), kind, list(part))
-                for part in np.array_split(np.array(ids, dtype=object), parts)
-                if len(part)
-            ]
+            if not ids:
+                continue
+            n_parts = min(len(ids), max(1, effective_jobs(jobs) * chunks_per_job))
+            parts = [list(p) for p in np.array_split(np.array(ids, dtype=object), n_parts)]
+            pieces = self.campaign.partition(parts)  # one pass, not a select per part
+            chunks += [(piece, kind, part) for piece, part in zip(pieces, parts, strict=True)]
         for kind, fitted, caught in parallel_map(_fit_chunk, chunks, jobs=jobs):
             self.warnings += caught
             done = self._fits.get(kind)

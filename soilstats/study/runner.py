@@ -68,7 +68,8 @@ def run_study(
     seed : int, optional
         Recorded in the result; the shipped studies draw no random numbers.
     provenance : Provenance, optional
-        Recorded in every output (default: a library call on ``campaign`` with ``seed``).
+        Recorded in every output (default: a library call on ``campaign``, as given, with
+        ``seed``).
 
     Raises
     ------
@@ -76,6 +77,8 @@ def run_study(
         The campaign lacks what the study needs.
     """
     start = time.perf_counter()
+    # The provenance names the campaign as given, before this study's window.
+    provenance = provenance or Provenance.of(campaign, seed=seed)
     window_notes = []
     if spec.window:  # the spec's own window: every per-test and pooled fit sees it
         campaign = windowed(campaign, spec.window)
@@ -147,5 +150,5 @@ def run_study(
         notes=tuple(dict.fromkeys(notes)),
         seconds=time.perf_counter() - start,
         seed=seed,
-        provenance=provenance or Provenance.of(campaign, seed=seed),
+        provenance=provenance,
     )

@@ -1,0 +1,319 @@
+"""A group's leads, strongest first, each to a finding (steps 3–4 of :mod:`.pipeline`).
+
+The significant candidates of one (kind, soil) are grouped where the design confounds them,
+and each group is led by its designed factor (:func:`leads_of`).  Each lead is then examined
+(:func:`discover_group`): the library's extensions are cross-validated on the tests in scope
+and one is kept only where its out-of-sample gain is real and its parameters plausible; a
+later lead that the kept extension already explains is no finding.  The examination is a
+*process* (:mod:`.work`): it yields the fits it needs in waves and receives their outcomes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..errors import ConvergenceError, IdentifiabilityError
+from .candidates import candidate_values
+from .crossval import FoldFits, compare, cross_validation, information_criteria, make_folds
+from .diagnose import conditional_responses, retest
+from .extensions import base_model, library
+from .plausibility import implausible
+from .result import Finding
+from .work import FitTask, Wave
+
+__all__ = ["discover_group", "leads_of"]
+
+
+def leads_of(rows: pd.DataFrame, relations) -> list[tuple[str, list[str]]]:
+    """(lead, confounded members) per connected group of significant, confounded candidates."""
+    sig = rows[rows["significant"]]
+    if sig.empty:
+        return []
+    best = sig.sort_values(["p_adjusted", "p_value", "statistic"], ascending=[True, True, False])
+    order = list(dict.fromkeys(best["candidate"]))
+    role = dict(zip(best["candidate"], best["role"], strict=True))
+    members = set(order)
+    adj: dict[str, set[str]] = {m: set() for m in members}
+    finer: set[str] = set()
+    aliased: dict[str, set[str]] = {m: set() for m in members}
+    for r in relations:
+        if r.finer in members and r.coarser in members:
+            adj[r.finer].add(r.coarser)
+            adj[r.coarser].add(r.finer)
+            if r.kind == "nested":
+                finer.add(r.finer)
+        if r.kind == "aliased":
+            for a, b in ((r.finer, r.coarser), (r.coarser, r.finer)):
+                if a in aliased:
+                    aliased[a].add(b)
+    seen: set[str] = set()
+    out = []
+    for name in order:
+        if name in seen:
+            continue
+        comp, stack = set(), [name]
+        while stack:
+            m = stack.pop()
+            if m not in comp:
+                comp.add(m)
+                stack.extend(adj[m] - comp)
+        seen |= comp
+        # The designed factor leads a confounded group (the experimenter set it; a covariate
+        # or the test day merely travelled with it), then the coarsest member, then p.
+        in_comp = [m for m in order if m in comp]
+        design = [m for m in in_comp if role.get(m) == "design"]
+        pool = design or in_comp
+        eligible = [m for m in pool if m not in finer] or pool
+        lead = eligible[0]
+        others = [m for m in order if m in comp and m != lead]
+        others += sorted(aliased[lead] - set(others) - {lead})
+        out.append((lead, others))
+    return out
+
+
+def _caveats(lead_rows: pd.DataFrame, lead: str, confounded: list[str]) -> list[str]:
+    out = []
+    if confounded:
+        out.append(
+            f"{lead} cannot be separated from {', '.join(confounded)} in this design; the named "
+            "cause is the coarsest of them with the smallest p, not a proven mechanism"
+        )
+    singles = [s for s in lead_rows["singleton_levels"] if s]
+    if singles:
+        out.append(
+            f"level(s) {singles[0]} of {lead} rest on a single test each: their part of the "
+            "effect is one test's scatter as much as the level's"
+        )
+    return out
+
+
+# The candidate a physical extension is written in; among *aliased* candidates (identical
+# partitions, which no data can tell apart) the finding is named after it.
+_PHYSICS_NAME = {
+    "softening": "aspect_ratio",
+    "velocity": "velocity_m_s",
+    "side-walls": "grouser_height_m",
+    "reece": "b_m",
+}
+
+
+def _physical_name(lead: str, extension: str, relations) -> str:
+    want = _PHYSICS_NAME.get(extension)
+    for r in relations:
+        if r.kind == "aliased" and {r.finer, r.coarser} == {lead, want}:
+            return want
+    return lead
+
+
+def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng):
+    """Cross-validate every applicable extension on the same folds and fit it on all tests
+    in scope.
+
+    Preference: a physical extension with a real gain and physically plausible parameters
+    (no value outside its range, e.g. K0 > 1), else the generic one with a real gain, else the
+    best gain (not kept).  Returns ``(base, base fitted, chosen, tried)``, chosen being
+    ``(extension, gain, fitted, implausible)`` (the reasons it is not physical, empty when it
+    is) or None.
+
+    A process (:mod:`.work`): the fits go out in two waves, the base model on all tests and
+    without each fold, then every extension without each fold (started from the base
+    model's fit of that fold) and on all tests (started from the base fit).  Errors are
+    recorded where the one-at-a-time loop met them: a base fit that fails raises, a failed
+    fold or full fit of an extension is that extension's ``error``.
+    """
+    base_ext = base_model(group, rows)
+    folds = make_folds(levels, "tests", rng)
+    extensions = library(group, rows, lead, confounded, numeric=numeric, responses=responses)
+    # One chain, in the order the base model is read: its fit on all tests, then the folds.
+    base_plan = FoldFits(rows, base_ext, folds, scheme="tests", chain="base")
+    first = yield Wave(group, [FitTask(base_ext, rows, chain="base"), *base_plan.tasks])
+    first[0].raise_error()
+    base_fitted = first[0].fitted
+    base_failure = None
+    try:
+        starts, e_base = base_plan.collect(first[1:])
+    except (ConvergenceError, np.linalg.LinAlgError, ValueError) as exc:
+        base_failure = exc  # every extension's cross-validation fails with it
+    plans, tasks = [], []
+    if base_failure is None:
+        for i, ext in enumerate(extensions):  # chain i: the folds, then all tests
+            plan = FoldFits(rows, ext, folds, scheme="tests", starts=starts, chain=i)
+            plans.append(plan)
+            tasks += [*plan.tasks, FitTask(ext, rows, base_fitted, chain=i)]
+    outcomes = iter((yield Wave(group, tasks, probe=True)))
+    tried, options = [], []
+    for i, ext in enumerate(extensions):
+        entry = {"extension": ext.name, "physical": ext.physical, "description": ext.description}
+        try:
+            if base_failure is not None:
+                raise base_failure
+            plan = plans[i]
+            folds_out = [next(outcomes) for _ in plan.tasks]
+            full = next(outcomes)
+            gain = compare(e_base, plan.collect(folds_out)[1], scheme="tests", folds=folds)
+            full.raise_error()
+            fitted = full.fitted
+        except (ConvergenceError, np.linalg.LinAlgError, ValueError) as exc:
+            entry["error"] = str(exc)[:400]
+            tried.append(entry)
+            continue
+        reasons = implausible(fitted, base_fitted, group, rows)
+        entry.update(
+            relative=gain.relative,
+            real=gain.real,
+            base=gain.base,
+            extended=gain.extended,
+            implausible=reasons,
+        )
+        tried.append(entry)
+        # An implausible extension is never kept, however much it gains.
+        plausible = gain.real and not reasons
+        rank = (plausible, plausible and ext.physical, gain.relative)
+        options.append((rank, ext, gain, fitted, reasons))
+    if not options:
+        return base_ext, base_fitted, None, tried
+    return base_ext, base_fitted, max(options, key=lambda o: o[0])[1:], tried
+
+
+def discover_group(diag, rows, leads, *, alpha, rng, max_leads):
+    """Process (:mod:`.work`) of the findings of one (kind, soil), leads strongest first, and
+    the leads that an extension kept before them already explains: ``(findings,
+    explained)``."""
+    g = diag.group
+    findings, explained = [], []
+    accepted = None  # (name, fitted) of the latest kept extension in this group
+    for lead, confounded_with in leads[:max_leads]:
+        lead_rows = rows[(rows["candidate"] == lead) & rows["significant"]]
+        top = lead_rows.sort_values(["p_adjusted", "p_value"]).iloc[0]
+        if accepted is not None:
+            why = _explained_by(g, accepted, lead, top, n_leads=len(leads), alpha=alpha)
+            if why is not None:
+                explained.append(why)
+                continue
+        finding = yield from _examine_lead(
+            g, diag.relations, lead_rows, top, lead, confounded_with, rng
+        )
+        findings.append(finding)
+        if finding.extension is not None:
+            # Re-test later leads against this extension fitted on the whole group.
+            ext = finding.fitted.extension
+            whole = (yield Wave(g, [FitTask(ext, np.unique(g.owner))]))[0]
+            if isinstance(whole.error, ConvergenceError | IdentifiabilityError):
+                accepted = (ext.name, finding.fitted)
+            else:
+                whole.raise_error()
+                accepted = (ext.name, whole.fitted)
+    return findings, explained
+
+
+def _explained_by(g, accepted, lead, top, *, n_leads, alpha) -> dict | None:
+    """The record of ``lead`` explained by the accepted extension (no response stays
+    significant, Bonferroni over the leads), or None when it still shows."""
+    cond_table = conditional_responses(g, accepted[1])
+    p_after = retest(g, cond_table, top)
+    if any(p * n_leads < alpha for p in p_after.values() if np.isfinite(p)):
+        return None
+    return {
+        "kind": g.kind,
+        "soil": g.soil,
+        "candidate": lead,
+        "by": accepted[0],
+        "p_after": float(np.nanmin([*p_after.values(), 1.0])),
+    }
+
+
+def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng):
+    """Process (:mod:`.work`) of one finding: try the library's extensions on the tests in
+    scope, keep one only where its cross-validated gain is real, and state every caveat."""
+    scope = np.asarray(top["rows"], int)
+    levels = candidate_values(g.tests, lead).astype(str).to_numpy()[scope]
+    responses = tuple(lead_rows["response"])
+    caveats = _caveats(lead_rows, lead, confounded_with)
+    base_ext = base_fitted = chosen = None
+    tried: list = []
+    if scope.size >= 6:
+        numeric = bool(top["numeric"])
+        try:
+            base_ext, base_fitted, chosen, tried = yield from _try_extensions(
+                g, scope, lead, confounded_with, numeric, set(responses), levels, rng
+            )
+        except (ConvergenceError, IdentifiabilityError) as exc:
+            caveats.append(f"cross-validation on the tests in scope failed: {exc}")
+    else:
+        caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
+    kept = chosen is not None and chosen[1].real and not chosen[3]
+    if kept and chosen[0].physical:
+        lead = _physical_name(lead, chosen[0].name, relations)
+        confounded_with = [m for m in [top["candidate"], *confounded_with] if m != lead]
+    fitted = chosen[2] if chosen is not None else None
+    fit = fitted.result if fitted is not None else None
+    base_fit = base_fitted.result if chosen is not None else None
+    info, gain_cond = {}, None
+    if chosen is not None:
+        info = _information(base_fit, fit)
+        if chosen[3]:  # the reasons decided in _try_extensions, not recomputed
+            caveats.append(f"{chosen[0].name}: physically implausible: " + "; ".join(chosen[3]))
+        if kept:
+            gain_cond = yield from _condition_gain(
+                g, scope, base_ext, chosen[0], levels, rng, caveats
+            )
+        elif chosen[1].real:
+            caveats.append(
+                "no plausible extension gives a real out-of-sample gain; the base model is kept"
+            )
+        else:
+            caveats.append("no extension gives a real out-of-sample gain; the base model is kept")
+    return Finding(
+        kind=g.kind,
+        soil=g.soil,
+        cause=lead,
+        confounded_with=tuple(confounded_with),
+        p_adjusted=float(top["p_adjusted"]),
+        p_value=float(top["p_value"]),
+        responses=responses,
+        statistic=float(top["statistic"]),
+        effect_size=float(top["effect_size"]),
+        n_tests=int(scope.size),
+        extension=chosen[0].name if kept else None,
+        fit=fit if kept else None,
+        base_fit=base_fit,
+        gain=chosen[1] if chosen is not None else None,
+        gain_conditions=gain_cond,
+        information=info,
+        tried=tuple(tried),
+        caveats=tuple(caveats),
+        scope_rows=scope,
+        group=g,
+        fitted=fitted,
+        base_fitted=base_fitted,
+    )
+
+
+def _information(base_fit, fit) -> dict:
+    """AIC and BIC of the base and the extended fit, side by side."""
+    ib, ie = information_criteria(base_fit), information_criteria(fit)
+    return {
+        "aic_base": ib["aic"],
+        "aic_extended": ie["aic"],
+        "bic_base": ib["bic"],
+        "bic_extended": ie["bic"],
+    }
+
+
+def _condition_gain(g, scope, base_ext, ext, levels, rng, caveats: list):
+    """Leave-one-condition-out gain: does the extension predict a condition it never saw?
+
+    Only for trends a formula can carry to a new level (physical or linear extensions, three
+    or more levels); softening has no such level.  A failure becomes a caveat.
+    """
+    if np.unique(levels).size < 3 or ext.name == "softening":
+        return None
+    if not (ext.physical or "linear" in ext.name):
+        return None
+    try:
+        folds = make_folds(levels, "conditions", rng)
+        return (yield from cross_validation(g, scope, base_ext, ext, folds, scheme="conditions"))
+    except (ConvergenceError, IdentifiabilityError) as exc:
+        caveats.append(f"leave-one-condition-out failed: {exc}")
+        return None
