@@ -27,15 +27,54 @@ True
 
 from __future__ import annotations
 
-from ._data import ConfoundingError, StatisticsInputError
-from .ancova import AncovaResult, ancova
-from .effect_size import effect_sizes
-from .oneway import anova_oneway
-from .posthoc import tukey_hsd
-from .result import TestResult
-from .twoway import anova_twoway
-from .variance import scatter_table, variance_test, welch_anova
-from .verdict import VERDICT_COLUMNS, effect_row, verdicts
+import importlib
+from typing import TYPE_CHECKING
+
+# Each name loads its module on first use (PEP 562): statsmodels' formula and model APIs take
+# most of a second to import, and discovery needs only the Holm verdicts of this package.
+_LAZY = {
+    "ConfoundingError": "._data",
+    "StatisticsInputError": "._data",
+    "AncovaResult": ".ancova",
+    "ancova": ".ancova",
+    "effect_sizes": ".effect_size",
+    "anova_oneway": ".oneway",
+    "tukey_hsd": ".posthoc",
+    "TestResult": ".result",
+    "anova_twoway": ".twoway",
+    "scatter_table": ".variance",
+    "variance_test": ".variance",
+    "welch_anova": ".variance",
+    "VERDICT_COLUMNS": ".verdict",
+    "effect_row": ".verdict",
+    "verdicts": ".verdict",
+}
+
+
+if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
+    from ._data import ConfoundingError, StatisticsInputError
+    from .ancova import AncovaResult, ancova
+    from .effect_size import effect_sizes
+    from .oneway import anova_oneway
+    from .posthoc import tukey_hsd
+    from .result import TestResult
+    from .twoway import anova_twoway
+    from .variance import scatter_table, variance_test, welch_anova
+    from .verdict import VERDICT_COLUMNS, effect_row, verdicts
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'soilstats.statistics' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "VERDICT_COLUMNS",
