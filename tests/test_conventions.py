@@ -16,7 +16,7 @@ from soilstats.fitting.linear import LinearFit, linear_least_squares
 from soilstats.fitting.result import FitResult
 from soilstats.identification.conditions import ConditionFits
 from soilstats.identification.result import CampaignFit
-from soilstats.statistics.ancova import AncovaResult, ancova
+from soilstats.statistics.analysis_of_covariance import AncovaResult, ancova
 from soilstats.statistics.result import TestResult
 from soilstats.study.result import StudyResult
 

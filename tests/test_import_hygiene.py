@@ -80,3 +80,28 @@ def test_only_the_report_package_renders():
                 f"{path.name}: {n}" for n in names if n.split(".")[0] in ("matplotlib", "seaborn")
             ]
     assert offenders == []
+
+
+def test_lazy_statistics_names_are_the_functions_whatever_was_imported_first():
+    """soilstats.statistics loads its modules on first use; importing every submodule first
+    (as another module may) must not shadow a function by a module of the same name."""
+    code = (
+        "import importlib, json, pkgutil, sys, types\n"
+        "import soilstats.statistics as s\n"
+        "for m in pkgutil.iter_modules(s.__path__):\n"
+        "    importlib.import_module('soilstats.statistics.' + m.name)\n"
+        "bad = [n for n in s.__all__ if isinstance(getattr(s, n), types.ModuleType)]\n"
+        "print(json.dumps(bad))\n"
+    )
+    assert json.loads(_python(code)) == []
+
+
+def test_discovery_does_not_load_the_statsmodels_model_apis():
+    loaded = json.loads(
+        _python(
+            "import json, sys; import soilstats.discovery.pipeline; "
+            "print(json.dumps([m for m in ('statsmodels.api', 'statsmodels.formula.api') "
+            "if m in sys.modules]))"
+        )
+    )
+    assert loaded == []

@@ -35,8 +35,8 @@ from typing import TYPE_CHECKING
 _LAZY = {
     "ConfoundingError": "._data",
     "StatisticsInputError": "._data",
-    "AncovaResult": ".ancova",
-    "ancova": ".ancova",
+    "AncovaResult": ".analysis_of_covariance",
+    "ancova": ".analysis_of_covariance",
     "effect_sizes": ".effect_size",
     "anova_oneway": ".oneway",
     "tukey_hsd": ".posthoc",
@@ -53,7 +53,7 @@ _LAZY = {
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     from ._data import ConfoundingError, StatisticsInputError
-    from .ancova import AncovaResult, ancova
+    from .analysis_of_covariance import AncovaResult, ancova
     from .effect_size import effect_sizes
     from .oneway import anova_oneway
     from .posthoc import tukey_hsd
