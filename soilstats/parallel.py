@@ -102,8 +102,8 @@ def parallel_map(
         The results in the order of ``items``, whatever order the workers finished in.
     """
     items = list(items) if not isinstance(items, Sequence) else items
-    n_jobs = min(effective_jobs(jobs), max(len(items), 1 if single_in_process else 2))
-    if n_jobs == 1:
+    n_jobs = effective_jobs(jobs)
+    if n_jobs == 1 or len(items) == 0 or (len(items) == 1 and single_in_process):
         if progress:
             from tqdm.auto import tqdm
 
@@ -114,7 +114,10 @@ def parallel_map(
     from joblib import Parallel, delayed  # imported only when workers start: it is slow
 
     # return_as="generator" streams results in input order, so the bar advances as they land.
-    # A negative jobs goes to joblib as given: on Dask it means every cluster worker.
+    # A negative jobs goes to joblib as given: on Dask it means every cluster worker.  The
+    # worker count is the same whatever the number of items: loky keeps one pool of workers
+    # and resizes it when a call asks for another count, which restarts the workers between
+    # calls and deadlocks when calls from several threads (discovery's groups) overlap.
     runner = Parallel(n_jobs=jobs if jobs < 0 else n_jobs, return_as="generator")
     results = runner(delayed(_on_one_blas_thread)(function, item) for item in items)
     if progress:

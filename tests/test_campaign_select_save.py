@@ -75,6 +75,16 @@ def test_partition_part_without_tests_is_an_error(cullinan):
     assert info.value.column == "test_id"
 
 
+def test_partition_parts_sharing_a_test_or_numeric_ids_are_errors(cullinan):
+    a, b, c = list(cullinan.tests["test_id"][:3])
+    with pytest.raises(CampaignError, match=f"test '{b}' is in part 0 and part 1"):
+        cullinan.partition([[a, b], [b, c]])
+    with pytest.raises(CampaignError, match="is in part 0 and part 1"):
+        cullinan.partition([[a], [a]])
+    with pytest.raises(CampaignError, match="not text"):
+        cullinan.partition([[a], [5]])
+
+
 def test_select_unknown_column(cullinan):
     with pytest.raises(CampaignError, match="unknown column") as info:
         cullinan.select(moisture=3)

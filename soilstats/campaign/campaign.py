@@ -405,19 +405,36 @@ class Campaign:
         Raises
         ------
         CampaignError
-            For a part that names no test of this campaign.
+            For a part that names no test of this campaign, a test named in two parts (the
+            pieces must not share tests), or an id that is not text.
         """
         log_ids = pd.Index(self.tests["test_id"].astype(str))
         part_of = np.full(len(log_ids) + 1, -1)  # last entry: a sample of no logged test
         for k, part in enumerate(parts):
-            known = log_ids.isin(list(map(str, part)))
+            part = list(part)
+            odd = [t for t in part if not isinstance(t, str)]
+            if odd:
+                raise CampaignError(
+                    f"partition(): part {k} names test ids that are not text ({odd[:5]}); "
+                    "test_id is text: '001', not 1",
+                    column="test_id",
+                )
+            known = log_ids.isin(part)
             if not known.any():
                 raise CampaignError(
                     f"partition(): part {k} names no test of this campaign "
-                    f"({list(part)[:5]}) — use ids from campaign.tests['test_id']",
+                    f"({part[:5]}) — use ids from campaign.tests['test_id']",
                     column="test_id",
                 )
-            part_of[:-1][known] = k  # parts are meant to be disjoint; a repeat goes last
+            taken = known & (part_of[:-1] >= 0)
+            if taken.any():
+                first = int(np.flatnonzero(taken)[0])
+                raise CampaignError(
+                    f"partition(): test {log_ids[first]!r} is in part {part_of[first]} and "
+                    f"part {k}; the parts must not share tests",
+                    column="test_id",
+                )
+            part_of[:-1][known] = k
 
         def split(table: pd.DataFrame, position: np.ndarray) -> list[pd.DataFrame]:
             codes = part_of[position]

@@ -112,7 +112,10 @@ def add_common_options(
             "a sinkage: or shear: prefix limits the criterion to that kind of test",
         )
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of every random step (default 0; recorded)"
+        "--seed",
+        type=_seed,
+        default=0,
+        help="seed of every random step, an integer >= 0 (default 0; recorded)",
     )
     parser.add_argument(
         "--progress",
@@ -163,6 +166,17 @@ def add_data_options(parser: argparse.ArgumentParser, *, window: bool = True) ->
         metavar="[COLUMN=VALUE:]LIMIT",
         help="fit sinkage only up to pressure LIMIT Pa (as --z-max)",
     )
+
+
+def _seed(text: str) -> int:
+    """``--seed``: numpy's generators take non-negative integers only."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
 
 
 def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenance]:

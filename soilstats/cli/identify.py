@@ -1,11 +1,13 @@
 """``soilstats identify``: parameters per soil and condition, as the paper's Tables 5 and 6.
 
-The work is :func:`soilstats.identification.conditions.fit_conditions`; this module parses
-options and prints.  Sinkage conditions are one test-log column's values (``--by``; default
-the first of velocity_m_s, preparation that varies), shear conditions ``--shear-by``
-(default tool, else r_inner_m).  Bekker where a condition has two or more plate sizes,
-Bernstein otherwise (``--model auto``).  A campaign's ``series`` are never pooled: each is
-tabulated on its own; ``--series NAME`` keeps one.
+The work is :func:`soilstats.identification.conditions.plan_conditions` for each kind, then
+:func:`~soilstats.identification.conditions.fit_planned` for both at once (one queue of
+conditions for ``--jobs``); this module parses options and prints.  Sinkage conditions are
+one test-log column's values (``--by``; default the first of velocity_m_s, preparation that
+varies), shear conditions ``--shear-by`` (default tool, else r_inner_m).  Bekker where a
+condition has two or more plate sizes, Bernstein otherwise (``--model auto``).  A
+campaign's ``series`` are never pooled: each is tabulated on its own; ``--series NAME``
+keeps one.
 """
 
 from __future__ import annotations

@@ -28,6 +28,7 @@ from __future__ import annotations
 import threading
 import time
 
+import numpy as np
 import pandas as pd
 
 from ..campaign import Campaign, load_campaign
@@ -104,6 +105,11 @@ def discover(
     """
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(
+            f"seed must be a non-negative integer (the folds are random and must be "
+            f"reproducible), got {seed!r}; e.g. seed=0"
+        )
     # BLAS on one thread in this process, as in the workers: the same last bits for any
     # jobs (and faster: see .work).
     with one_blas_thread():
@@ -194,7 +200,10 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
     draws its folds from a stream of its own (:func:`.crossval.group_rng`), so the groups
     do not depend on each other: with workers, every group runs in a thread of its own and
     their waves share the workers (a long fit in one group leaves the other workers to the
-    others); with one job, one after the other.  The results are the same either way.
+    others); with one job, one after the other.  The results are the same either way, and
+    so is the error raised when groups fail: that of the first failing group in ``work``'s
+    order.  (One thread per group: a campaign has a handful of (kind, soil) groups, and a
+    thread waiting on its wave costs nothing.)
     """
     pool = Pool(jobs)
     done: list = [None] * len(work)
@@ -203,7 +212,8 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(work), desc="extensions", unit="group")
-    failures: list[BaseException] = []
+    failures: dict[int, BaseException] = {}
+    bar_lock = threading.Lock()
 
     def extend(k):
         d, rows, leads = work[k]
@@ -219,9 +229,10 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
                 note = note or model_note
             done[k] = (found, residues, why_not, model, note)
         except BaseException as exc:  # re-raised in the caller's thread below
-            failures.append(exc)
+            failures[k] = exc
         if bar is not None:
-            bar.update()
+            with bar_lock:
+                bar.update()
 
     if pool.parallel:
         threads = [
@@ -239,7 +250,7 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
     if bar is not None:
         bar.close()
     if failures:
-        raise failures[0]
+        raise failures[min(failures)]
     return done
 
 

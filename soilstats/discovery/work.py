@@ -20,6 +20,15 @@ error, which the caller raises or records exactly where the one-at-a-time loop w
 met it (a model's later fits after a failed one are skipped, as that loop never ran them:
 :class:`Pool`).
 
+What travels to a worker is kept small.  The group (hundreds of thousands of samples) goes
+once per group and worker, not once per task: the :class:`Pool` writes it to one temporary
+file, which each local worker reads on its first task of the group and keeps among the
+latest few groups it read (:func:`_group_of`; all groups of most campaigns, which are in
+flight at once); a backend whose workers may not share this machine's files (Dask) gets the
+group with every task instead.  A fit's start is only its model and parameter values
+(:class:`Start`), and a fold fit comes back as such: it is read only as the start of the
+fold fits after it.
+
 One more thing decides the last bits: a multithreaded BLAS sums long dot products in
 per-thread pieces, so the same fit on two threads and on one differs in its 16th digit.
 Workers run their fits with BLAS on one thread (:func:`_run_in_worker`), and discovery
@@ -133,9 +142,11 @@ def _run(item) -> tuple:
 
 
 # The groups this worker has read (key → group), the latest few: a Runner's tasks name their
-# group by key and file, and a worker reads each file once.
+# group by key and file, and a worker reads each file once while it is among them.  Every
+# (kind, soil) group is in flight at once (pipeline._extend_groups), so a few more than a
+# campaign's usual kinds × soils; a group of a 10,000-test campaign is ~15 MB.
 _GROUPS: dict = {}
-_KEEP_GROUPS = 3
+_KEEP_GROUPS = 8
 
 
 def _group_of(shipped):
@@ -154,8 +165,8 @@ def _group_of(shipped):
 
 
 def _run_in_worker(item) -> tuple:
-    """:func:`_run` in a worker: the group read once (:func:`_group_of`), BLAS on one thread
-    as in the calling process (module docstring)."""
+    """:func:`_run` in a worker: the group read from its file or kept from an earlier task
+    (:func:`_group_of`), BLAS on one thread as in the calling process (module docstring)."""
     shipped, task = item
     with one_blas_thread():
         return _run((_group_of(shipped), task))

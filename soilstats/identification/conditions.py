@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -29,6 +30,7 @@ __all__ = [
     "ConditionFit",
     "ConditionFits",
     "ConditionPlan",
+    "ConditionTask",
     "condition_label",
     "default_condition",
     "fit_conditions",
@@ -163,6 +165,19 @@ def _model_for(kind: str, model: str, fallback: str | None, tests: pd.DataFrame)
     return model, None
 
 
+class ConditionTask(NamedTuple):
+    """One (soil, series, condition) to fit: where it is (for messages), the table keys, the
+    model and its tests."""
+
+    where: str
+    soil: str
+    series: str | None
+    column: str | None
+    label: str
+    model: str
+    test_ids: list[str]
+
+
 @dataclass(frozen=True)
 class ConditionPlan:
     """The conditions one :func:`fit_conditions` call fits, before any fitting: the
@@ -171,7 +186,7 @@ class ConditionPlan:
 
     campaign: object = field(repr=False)
     kind: str
-    tasks: tuple  # (where, soil, series, column, label, model, test ids), in table order
+    tasks: tuple[ConditionTask, ...]  # in table order
     options: dict
     notes: tuple[str, ...] = ()
 
@@ -216,7 +231,7 @@ def plan_conditions(
                 fallbacks.setdefault((why, chosen), []).append(where)
             if chosen is not None:
                 ids = list(group["test_id"].astype(str))
-                tasks.append((where, soil, series, column, label, chosen, ids))
+                tasks.append(ConditionTask(where, soil, series, column, label, chosen, ids))
     notes = tuple(
         f"{why}; {chosen + ' used' if chosen else 'not identified'}: {'; '.join(where)}"
         for (why, chosen), where in fallbacks.items()
@@ -292,22 +307,23 @@ def fit_planned(
         order = list(range(len(items)))
     else:
         pieces = [
-            _for_worker(piece, task[-1])
+            _for_worker(piece, task.test_ids)
             for plan in plans
             for piece, task in zip(
-                plan.campaign.partition([t[-1] for t in plan.tasks]) if plan.tasks else [],
+                plan.campaign.partition([t.test_ids for t in plan.tasks]) if plan.tasks else [],
                 plan.tasks,
                 strict=True,
             )
         ]
         order = sorted(range(len(items)), key=lambda i: -_size(pieces[i], items[i][0].kind))
     kinds = "+".join(dict.fromkeys(plan.kind for plan in plans))
+    sent = []
+    for i in order:
+        plan, task = items[i]
+        sent.append((pieces[i], plan.kind, task.model, task.test_ids, plan.options))
     done = parallel_map(
         _fit_condition,
-        [
-            (pieces[i], items[i][0].kind, items[i][1][-2], items[i][1][-1], items[i][0].options)
-            for i in order
-        ],
+        sent,
         jobs=jobs,
         progress=progress,
         desc=f"{kinds} conditions",
@@ -318,13 +334,23 @@ def fit_planned(
     results, start = [], 0
     for plan in plans:
         fits, failures = [], []
-        for (where, soil, series, column, label, chosen, _), outcome in zip(
+        for task, outcome in zip(
             plan.tasks, outcomes[start : start + len(plan.tasks)], strict=True
         ):
             if isinstance(outcome, str):
-                failures.append(f"{where}: {chosen} — {outcome}")
+                failures.append(f"{task.where}: {task.model} — {outcome}")
             else:
-                fits.append(ConditionFit(plan.kind, soil, series, column, label, chosen, outcome))
+                fits.append(
+                    ConditionFit(
+                        plan.kind,
+                        task.soil,
+                        task.series,
+                        task.column,
+                        task.label,
+                        task.model,
+                        outcome,
+                    )
+                )
         start += len(plan.tasks)
         results.append(ConditionFits(tuple(fits), tuple(failures), plan.notes))
     return results

@@ -89,8 +89,9 @@ class Provenance:
         The input campaign's source (folder, ``bundled:<name>`` or ``<memory>``).
     campaign_sha256 : str
         :func:`campaign_sha256` of the input as the command received it: loaded,
-        after any selection the command made, before screening and fitting windows (the
-        command line records those), so every command on the same data names one digest.
+        after ``--select``, before screening and fitting windows (the
+        command line records those and every other restriction, such as identify's
+        ``--series``), so every command on the same data and selection names one digest.
     command : str
         The command line (``soilstats ...``), or ``"python API"`` for library calls.
     seed : int or None

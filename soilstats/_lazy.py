@@ -1,0 +1,31 @@
+"""Names of a package that load their module on first use (PEP 562).
+
+``import soilstats`` and ``soilstats --help`` must not pay for pandas, SciPy, statsmodels,
+matplotlib or ArviZ, and a command must load only what it uses (discovery, for instance,
+needs the Holm verdicts of :mod:`soilstats.statistics`, not statsmodels' model APIs).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+
+
+def lazy_names(package: str, names: dict[str, str], namespace: dict) -> tuple[Callable, Callable]:
+    """``(__getattr__, __dir__)`` for ``package``, whose public ``names`` map to the module
+    (absolute, or relative to the package) that defines each; a name is imported on first
+    access and then kept in ``namespace`` (the package's ``globals()``), so later lookups
+    skip the hook."""
+
+    def __getattr__(name: str):
+        module = names.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(module, package), name)
+        namespace[name] = value
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted(set(namespace) | set(names))
+
+    return __getattr__, __dir__
