@@ -18,6 +18,7 @@ import pandas as pd
 
 from ..errors import ConvergenceWarning
 from ..identification import fit_per_test
+from ..identification.per_test import not_converged_message
 from ..identification.pooling import MIN_SAMPLES, pool_shear, pool_sinkage
 from .candidates import candidate_values, with_time_hours
 
@@ -126,23 +127,21 @@ def build_groups(
         of_kind = campaign.tests[campaign.tests["kind"] == kind]
         if of_kind.empty:
             continue
+        # Every test of the kind in one call (each test is fitted on its own, so the rows
+        # are those of one call per soil), then split by soil: one queue for the workers.
+        with warnings.catch_warnings():
+            # Reported per soil below, as each group's note.
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            fitted = fit_per_test(
+                campaign, kind, points_per_test=points_per_test, progress=progress, jobs=jobs
+            )
+        soil_of = fitted["soil"].astype(str)
         for soil in sorted(of_kind["soil"].astype(str).unique()):
             group_notes: list[str] = []
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", ConvergenceWarning)
-                table = fit_per_test(
-                    campaign,
-                    kind,
-                    soil=soil,
-                    points_per_test=points_per_test,
-                    progress=progress,
-                    jobs=jobs,
-                )
-            for w in caught:
-                if issubclass(w.category, ConvergenceWarning):
-                    group_notes.append(f"{kind} / {soil}: {w.message}")
-                else:  # not ours to swallow
-                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            table = fitted[soil_of == soil].reset_index(drop=True)
+            failed = not_converged_message(table, kind)
+            if failed:
+                group_notes.append(f"{kind} / {soil}: {failed}")
             x, y, w, owner, usable = _pool(campaign, kind, soil, table, points_per_test)
             if (~usable).any():
                 bad = table.loc[~usable, "test_id"].astype(str).tolist()

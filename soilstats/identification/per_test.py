@@ -33,7 +33,7 @@ from .pooling import kept_samples
 from .starting_values import sinkage_start
 from .steady_state import steady_state
 
-__all__ = ["fit_per_test"]
+__all__ = ["fit_per_test", "not_converged_message"]
 
 
 def fit_per_test(
@@ -91,9 +91,9 @@ def fit_per_test(
     empty = np.array([], int)
     items = [(tid, {k: v[by_test.get(tid, empty)] for k, v in columns.items()}) for tid in ids]
     if effective_jobs(jobs) > 1 and len(items) > 1:
-        # Workers take contiguous chunks of tests (a few per worker, so that uneven fits even
+        # Workers take contiguous chunks of tests (eight per worker, so that uneven fits even
         # out), each with its own samples only; the rows come back in the tests' order.
-        n_chunks = min(len(items), 4 * effective_jobs(jobs))
+        n_chunks = min(len(items), 8 * effective_jobs(jobs))
         bounds = np.linspace(0, len(items), n_chunks + 1).astype(int)
         chunks = [(kind, items[a:b], points_per_test) for a, b in pairwise(bounds)]
         done = parallel_map(
@@ -107,16 +107,23 @@ def fit_per_test(
             items = tqdm(items, desc=f"per-test {kind} fits", unit="test")
         rows = [fit_one(tid, data, points_per_test) for tid, data in items]
     fits = pd.DataFrame(rows)
-    failed = fits.loc[~fits["converged"], "test_id"].tolist()
-    if failed:
-        warnings.warn(
-            f"{len(failed)} of {len(fits)} per-test {kind} fits did not converge "
-            f"({', '.join(failed[:8])}{', …' if len(failed) > 8 else ''}); their rows hold NaN "
-            "and the reason in 'message'",
-            ConvergenceWarning,
-            stacklevel=2,
-        )
+    message = not_converged_message(fits, kind)
+    if message:
+        warnings.warn(message, ConvergenceWarning, stacklevel=2)
     return tests.merge(fits, on="test_id", how="left", validate="one_to_one")
+
+
+def not_converged_message(table: pd.DataFrame, kind: str) -> str | None:
+    """What :func:`fit_per_test` warns of the rows of ``table`` (its result, or part of it)
+    whose fit did not converge; None when every fit converged."""
+    failed = table.loc[~table["converged"].astype(bool), "test_id"].astype(str).tolist()
+    if not failed:
+        return None
+    return (
+        f"{len(failed)} of {len(table)} per-test {kind} fits did not converge "
+        f"({', '.join(failed[:8])}{', …' if len(failed) > 8 else ''}); their rows hold NaN "
+        "and the reason in 'message'"
+    )
 
 
 def _fit_chunk(item) -> list[dict]:
