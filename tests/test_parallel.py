@@ -20,6 +20,26 @@ def test_results_keep_input_order_and_match_serial():
     assert parallel_map(_seeded_mean, seeds, jobs=2) == serial
 
 
+def test_overlapping_calls_from_threads_with_any_item_count_finish():
+    """Discovery calls parallel_map from one thread per group, with waves of 1 to dozens of
+    fits.  With more workers than some waves have items (jobs=3), calls that asked joblib for
+    different worker counts made loky resize its one pool under running jobs and hang."""
+    import threading
+
+    results: dict[int, list] = {}
+
+    def call(n: int) -> None:
+        results[n] = parallel_map(_seeded_mean, list(range(n)), jobs=3, single_in_process=False)
+
+    threads = [threading.Thread(target=call, args=(n,), daemon=True) for n in (1, 2, 3, 17, 30)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=120)
+    assert not any(thread.is_alive() for thread in threads), "parallel_map hung"
+    assert results == {n: [_seeded_mean(s) for s in range(n)] for n in (1, 2, 3, 17, 30)}
+
+
 def test_effective_jobs_follows_joblib_convention():
     import os
 
