@@ -175,3 +175,34 @@ def test_clear_errors_not_tracebacks(tmp_path, capsys):
     assert "\nerror: velocity study needs sinkage tests" in "\n" + err and "velocity_m_s" in err
     assert main(["no-such-study", "--out", str(tmp_path)]) == 2
     assert "choose one of" in capsys.readouterr().err
+
+
+def test_a_study_states_its_failed_per_test_fits_however_the_cache_was_filled():
+    """A test whose per-test fit fails is named in the notes of every study that uses it,
+    whether the shared cache was filled by the study itself, by an earlier study, or by
+    workers beforehand (--jobs): the note comes from the study's own rows."""
+    from dataclasses import replace
+
+    import soilstats
+    from soilstats.study import load_spec, run_study
+    from soilstats.study.responses import PerTestCache
+
+    campaign = soilstats.load_campaign("simulated-paper").select(series="velocity")
+    broken = campaign.tests["test_id"].iloc[0]
+    samples = campaign.sinkage
+    short = samples.index[samples["test_id"] == broken][3:]  # 3 samples: no fit possible
+    campaign = replace(campaign, sinkage=samples.drop(short))
+    spec = load_spec("velocity")
+
+    def failure_notes(cache=None):
+        result = run_study(spec, campaign, cache=cache)
+        return [n for n in result.notes if "did not converge" in n]
+
+    alone = failure_notes()
+    assert len(alone) == 1 and broken in alone[0]
+    shared = PerTestCache(campaign)
+    assert failure_notes(shared) == alone
+    assert failure_notes(shared) == alone  # a second study on the same cache says it too
+    filled = PerTestCache(campaign)
+    filled.fill(jobs=2)
+    assert failure_notes(filled) == alone

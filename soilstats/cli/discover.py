@@ -15,7 +15,13 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import add_common_options, add_data_options, prepared, progress_enabled
+from .common import (
+    add_common_options,
+    add_data_options,
+    add_jobs_option,
+    prepared,
+    progress_enabled,
+)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -25,13 +31,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--alpha", type=float, default=0.05, help="family-wise error rate (default 0.05)"
     )
-    parser.add_argument(
-        "--jobs",
-        type=int,
-        default=1,
-        metavar="N",
-        help="worker processes (joblib; -1 = every core); results are identical for any N",
-    )
+    add_jobs_option(parser, "the per-test fits and the cross-validation fits")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -191,9 +191,7 @@ def kept_by_test(
     ] = True
     used_test = test[used]
     counts = np.bincount(used_test, minlength=n_tests)
-    y_max = np.full(n_tests, -np.inf)
-    np.maximum.at(y_max, used_test, y[used])
-    y_max[counts == 0] = np.nan
+    y_max = _max_by_test(y[used], used_test, n_tests)
     problems: list = [None] * n_tests
     for t in np.flatnonzero(counts < MIN_SAMPLES):
         problems[t] = (

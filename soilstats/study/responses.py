@@ -21,6 +21,7 @@ import warnings
 import numpy as np
 import pandas as pd
 
+from ..errors import ConvergenceWarning
 from ..identification import fit_per_test
 
 __all__ = ["PerTestCache", "pressure_at"]
@@ -46,51 +47,42 @@ class PerTestCache:
         self.campaign = campaign
         self.progress = progress
         self._fits: dict[str, pd.DataFrame] = {}
-        self.warnings: list[str] = []
 
     def fits(self, kind: str, test_ids) -> pd.DataFrame:
-        """Rows of :func:`soilstats.fit_per_test` for ``test_ids`` (fitting those not yet done)."""
+        """Rows of :func:`soilstats.fit_per_test` for ``test_ids`` (fitting those not yet done).
+
+        A fit that did not converge keeps its row (NaN, ``converged`` False); the study
+        states it for its own tests (:func:`~soilstats.identification.per_test
+        .not_converged_message`), whichever study or worker happened to fit them first.
+        """
         ids = [str(t) for t in test_ids]
         done = self._fits.get(kind)
         have = set() if done is None else set(done["test_id"])
         missing = [t for t in ids if t not in have]
         if missing:
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                new = fit_per_test(
-                    self.campaign, kind, progress=self.progress, test_id=list(missing)
-                )
-            # A failed per-test fit keeps its row (NaN) and is stated in the report.
-            self.warnings += [str(w.message) for w in caught]
-            done = new if done is None else pd.concat([done, new], ignore_index=True)
-            self._fits[kind] = done
-        table = done.set_index("test_id").loc[ids].reset_index()
+            self._fit(kind, missing, jobs=1)
+        table = self._fits[kind].set_index("test_id").loc[ids].reset_index()
         return table
 
-    def fill(self, *, jobs: int | None = 1, chunks_per_job: int = 4) -> None:
-        """Fit every test of the campaign now, spread over ``jobs`` workers in chunks of
-        tests (each test's fit depends on its own samples only, so the rows are the ones
-        :meth:`fits` would compute one study at a time)."""
-        from ..parallel import effective_jobs, parallel_map
-
+    def fill(self, *, jobs: int | None = 1) -> None:
+        """Fit every test of the campaign now, over ``jobs`` workers (each test's fit depends
+        on its own samples only, so the rows are the ones :meth:`fits` would compute one
+        study at a time)."""
         tests = self.campaign.tests
-        chunks = []
         for kind in ("sinkage", "shear"):
-            ids = [str(t) for t in tests.loc[tests["kind"] == kind, "test_id"]]
             have = set() if self._fits.get(kind) is None else set(self._fits[kind]["test_id"])
+            ids = [str(t) for t in tests.loc[tests["kind"] == kind, "test_id"]]
             ids = [t for t in ids if t not in have]
-            if not ids:
-                continue
-            n_parts = min(len(ids), max(1, effective_jobs(jobs) * chunks_per_job))
-            parts = [list(p) for p in np.array_split(np.array(ids, dtype=object), n_parts)]
-            pieces = self.campaign.partition(parts)  # one pass, not a select per part
-            chunks += [(piece, kind, part) for piece, part in zip(pieces, parts, strict=True)]
-        for kind, fitted, caught in parallel_map(_fit_chunk, chunks, jobs=jobs):
-            self.warnings += caught
-            done = self._fits.get(kind)
-            self._fits[kind] = (
-                fitted if done is None else pd.concat([done, fitted], ignore_index=True)
-            )
+            if ids:
+                self._fit(kind, ids, jobs=jobs)
+
+    def _fit(self, kind: str, ids: list[str], *, jobs: int | None) -> None:
+        with warnings.catch_warnings():
+            # Stated per study, from the rows (see fits), not once by whoever fitted them.
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            new = fit_per_test(self.campaign, kind, progress=self.progress, jobs=jobs, test_id=ids)
+        done = self._fits.get(kind)
+        self._fits[kind] = new if done is None else pd.concat([done, new], ignore_index=True)
 
     def sinkage(self, test_ids, z_ref_m: float, z_window_m: float) -> pd.DataFrame:
         """Per-test sinkage responses: Bernstein k, n, log10_k, p_ref_Pa, log10_p_ref."""
@@ -107,12 +99,3 @@ class PerTestCache:
     def shear(self, test_ids) -> pd.DataFrame:
         """Per-test shear responses: sigma_mean_Pa, tau_ss_Pa (NaN if never steady), steady."""
         return self.fits("shear", test_ids)
-
-
-def _fit_chunk(task) -> tuple[str, pd.DataFrame, list[str]]:
-    """Per-test fits of one chunk of tests, with the warnings they raised (a worker task)."""
-    campaign, kind, ids = task
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        fitted = fit_per_test(campaign, kind, test_id=ids)
-    return kind, fitted, [str(w.message) for w in caught]

@@ -12,6 +12,7 @@ import time
 import pandas as pd
 
 from ..identification.conditions import fit_conditions
+from ..identification.per_test import not_converged_message
 from ..identification.window import windowed
 from ..report import Provenance, source_date
 from .data import StudyDataError, select_tests, soils_with_levels
@@ -90,7 +91,6 @@ def run_study(
     notes = window_notes + notes
     tests = tests[tests["soil"].astype(str).isin(soils)]
     ids = tests["test_id"].astype(str).tolist()
-    n_warn = len(cache.warnings)
     if spec.kind == "sinkage":
         per_test = cache.sinkage(ids, spec.z_ref_m, spec.z_window_m)
         short = per_test["p_ref_Pa"].isna().sum()
@@ -105,7 +105,9 @@ def run_study(
             )
     else:
         per_test = cache.shear(ids)
-    notes += cache.warnings[n_warn:]
+    failed = not_converged_message(per_test, spec.kind)
+    if failed:
+        notes.append(failed)
     effect_rows, anovas, pairs, lines, params = [], [], [], [], []
     for soil in soils:
         data = per_test[per_test["soil"].astype(str) == soil]
