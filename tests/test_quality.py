@@ -193,3 +193,24 @@ def test_every_code_is_documented():
     text = (Path(__file__).parents[1] / "docs" / "quality.md").read_text(encoding="utf-8")
     for code in CODES:
         assert f"`{code}`" in text
+
+
+def test_a_sinkage_spike_drops_that_sinkage_sample_and_no_shear_sample():
+    """Both tables label samples by their 0-based file row, so a sinkage row and a shear row
+    can share a label: cleaning drops each table's own samples only (a spike at sinkage row
+    61 once also removed shear row 61, a sample of an unrelated shear test)."""
+    campaign = load_campaign("simulated-paper").select(series=["velocity", "grousers"])
+    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
+    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
+    shear = campaign.shear.drop(columns=list(DERIVED_COLUMNS["shear"]), errors="ignore")
+    sinkage, shear = sinkage.reset_index(drop=True), shear.reset_index(drop=True)
+    first = sinkage["test_id"].iloc[0]
+    row = int(np.flatnonzero(sinkage["test_id"].to_numpy() == first)[60])
+    sinkage.loc[row, "z_m"] *= 10.0
+    spiked = Campaign.from_frames(tests, sinkage, shear)
+    assert row in spiked.shear.index  # the label exists in both tables
+    report = screen(spiked)
+    assert [(f.test_id, f.code) for f in report.flags] == [(first, "spike")]
+    assert row not in report.campaign.sinkage.index
+    assert len(report.campaign.sinkage) == len(spiked.sinkage) - 1
+    pd.testing.assert_frame_equal(report.campaign.shear, spiked.shear)

@@ -403,7 +403,8 @@ def _load_capped(tests: pd.DataFrame, ends: pd.DataFrame) -> list[QualityFlag]:
 
 
 def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
-    """(flags, sample labels to drop, z offsets by test) of every rule on ``campaign``."""
+    """(flags, sample labels to drop by table, z offsets by test) of every rule on
+    ``campaign``."""
     log = campaign.tests
     flags: list[QualityFlag] = []
     for finding in implausible_units(log, campaign.sinkage, campaign.shear):
@@ -421,18 +422,19 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
                 )
             )
     sink = campaign.sinkage
-    drop: list[np.ndarray] = []
+    # Labels to drop per table: both tables label their samples by file row from 0, so the
+    # same label names different samples in each.
+    drop: dict[str, list[np.ndarray]] = {"sinkage": [], "shear": []}
     offsets: dict[str, float] = {}
     if len(sink):
-        per_test, drop, offsets, ends = _sinkage_findings(sink, mode, progress)
+        per_test, drop["sinkage"], offsets, ends = _sinkage_findings(sink, mode, progress)
         flags += [f for found in per_test for f in found]
     else:
         ends = pd.DataFrame([], columns=["test_id", "force_end", "z_end"])
     flags += _load_capped(tests, ends)
     if len(campaign.shear):
-        found, dropped = _shear_findings(campaign.shear, mode)
+        found, drop["shear"] = _shear_findings(campaign.shear, mode)
         flags += found
-        drop += dropped
     return flags, drop, offsets
 
 
@@ -491,14 +493,21 @@ def screen(campaign, mode: str = "clean", *, progress: bool = False) -> QualityR
     report = QualityReport(mode, tuple(flags), tests)
     cleaned = campaign
     if mode == "clean":
-        cleaned = _cleaned(campaign, np.concatenate(drop) if drop else np.array([], int), offsets)
+        cleaned = _cleaned(campaign, drop, offsets)
     return replace(report, campaign=replace(cleaned, quality=report))
 
 
-def _cleaned(campaign, drop_labels: np.ndarray, offsets: dict[str, float]):
-    """The campaign without the excluded samples, z re-zeroed where a contact was found."""
-    sink = campaign.sinkage.drop(index=campaign.sinkage.index.intersection(drop_labels))
-    shear = campaign.shear.drop(index=campaign.shear.index.intersection(drop_labels))
+def _cleaned(campaign, drop: dict[str, list[np.ndarray]], offsets: dict[str, float]):
+    """The campaign without the excluded samples (``drop``: labels per table), z re-zeroed
+    where a contact was found."""
+
+    def without(table: pd.DataFrame, labels: list[np.ndarray]) -> pd.DataFrame:
+        if not labels:
+            return table
+        return table.drop(index=table.index.intersection(np.concatenate(labels)))
+
+    sink = without(campaign.sinkage, drop["sinkage"])
+    shear = without(campaign.shear, drop["shear"])
     if offsets:
         sink = sink.copy()
         shift = sink["test_id"].astype(str).map(offsets).fillna(0.0).to_numpy(float)
