@@ -78,7 +78,7 @@ def test_failed_chain_is_not_fitted_further():
     first task of each chain runs first); the other chains' outcomes are the same."""
     from soilstats.discovery.data import build_groups
     from soilstats.discovery.extensions import SinkageExtension, base_model
-    from soilstats.discovery.work import FitTask, Runner
+    from soilstats.discovery.work import FitTask, Pool
     from soilstats.errors import IdentifiabilityError
 
     campaign = simulate(_TWO_KINDS, seed=5).campaign
@@ -93,8 +93,9 @@ def test_failed_chain_is_not_fitted_further():
         FitTask(base, rows[1:], held_out=rows[:1], chain="base"),
         FitTask(base, rows, chain="base"),
     ]
-    serial = Runner(group, 1)(tasks, probe=True)
-    parallel = Runner(group, 2)(tasks, probe=True)
+    items = [(group, task, True) for task in tasks]  # one probed wave
+    serial = Pool(1).execute(items)
+    parallel = Pool(2).execute(items)
     for outcomes in (serial, parallel):
         assert isinstance(outcomes[0].error, IdentifiabilityError)
         assert outcomes[1].skipped and outcomes[1].fitted is None

@@ -27,17 +27,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
-from .work import FitTask, Runner, Wave
+from .work import FitTask, Wave
 
 __all__ = [
     "FoldFits",
     "Gain",
-    "base_fold_fits",
     "compare",
-    "cross_validate",
     "cross_validation",
     "group_rng",
-    "held_out_errors",
     "information_criteria",
     "make_folds",
     "per_test_error",
@@ -188,18 +185,6 @@ class FoldFits:
         return fits, errors
 
 
-def _fold_fits(group, rows, ext, folds, *, scheme, starts=None, run=None):
-    plan = FoldFits(rows, ext, folds, scheme=scheme, starts=starts)
-    return plan.collect((run or Runner(group))(plan.tasks))
-
-
-def held_out_errors(group, rows, ext, folds, *, scheme, starts=None, run=None) -> np.ndarray:
-    """Each test's error when ``ext`` is fitted without its fold; ``starts`` maps a fold to
-    a fitted model whose parameters start the fold's fit (the base model's fit of the fold).
-    ``run``: the :class:`~.work.Runner` that fits (default: in this process)."""
-    return _fold_fits(group, rows, ext, folds, scheme=scheme, starts=starts, run=run)[1]
-
-
 def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
     """The gain of the per-test errors ``e_ext`` over ``e_base`` (the same held-out tests)."""
     d = np.asarray(e_base) - np.asarray(e_ext)
@@ -220,38 +205,20 @@ def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
     )
 
 
-def base_fold_fits(group, rows, base_ext, folds, *, scheme, run=None) -> tuple[dict, np.ndarray]:
-    """The base model fitted without each fold, and each test's held-out error under it."""
-    return _fold_fits(group, rows, base_ext, folds, scheme=scheme, run=run)
-
-
 def cross_validation(group, rows, base_ext, ext, folds, *, scheme):
-    """Process (:mod:`.work`) of :func:`cross_validate`: the base model's fold fits, then
-    the extension's, each one wave; returns the :class:`Gain`."""
+    """Process (:mod:`.work`) of the held-out prediction error of ``base_ext`` and ``ext``
+    on the tests ``rows``: the base model's fold fits, then the extension's (each started
+    from the base model's fit of its fold), each one wave; returns the :class:`Gain`.
+
+    ``folds`` (one fold number per row, from :func:`make_folds`) is shared by every
+    extension compared for one finding, so their gains differ by the model only.  Raises
+    :class:`ConvergenceError` when a fold's fit does not converge and
+    :class:`IdentifiabilityError` when a fold leaves too little to fit (the fold, the model
+    and the reason are in the message): a gain is never computed from a failed fit."""
     base_plan = FoldFits(rows, base_ext, folds, scheme=scheme, chain="base")
     starts, e_base = base_plan.collect((yield Wave(group, base_plan.tasks)))
     plan = FoldFits(rows, ext, folds, scheme=scheme, starts=starts, chain="extension")
     e_ext = plan.collect((yield Wave(group, plan.tasks)))[1]
-    return compare(e_base, e_ext, scheme=scheme, folds=folds)
-
-
-def cross_validate(group, rows, base_ext, ext, folds, *, scheme, cache=None, run=None) -> Gain:
-    """Held-out prediction error of ``base_ext`` and ``ext`` on the tests ``rows``.
-
-    ``folds`` (one fold number per row, from :func:`make_folds`) is shared by every extension
-    compared for one finding, so their gains differ by the model only.  ``cache`` (a dict)
-    keeps the base model's fold fits between calls; ``run`` (a :class:`~.work.Runner`) fits
-    each wave of fold fits, over its workers.  Raises :class:`ConvergenceError` when a
-    fold's fit does not converge and :class:`IdentifiabilityError` when a fold leaves too
-    little to fit (the fold, the model and the reason are in the message): a gain is never
-    computed from a failed fit.
-    """
-    cache = {} if cache is None else cache
-    run = run or Runner(group)
-    if scheme not in cache:
-        cache[scheme] = base_fold_fits(group, rows, base_ext, folds, scheme=scheme, run=run)
-    starts, e_base = cache[scheme]
-    e_ext = held_out_errors(group, rows, ext, folds, scheme=scheme, starts=starts, run=run)
     return compare(e_base, e_ext, scheme=scheme, folds=folds)
 
 

@@ -33,6 +33,7 @@ import pandas as pd
 
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError, IdentifiabilityError
+from ..parallel import one_blas_thread
 from ..quality import screened
 from ..report import Provenance
 from .artefacts import quality_record, split_artefacts, with_quality_caveat
@@ -44,7 +45,7 @@ from .leads import discover_group, leads_of
 from .power import power_records
 from .result import DiscoveryResult, Finding
 from .selection import CombinedModel, prepare_selection, selection_steps
-from .work import Pool, one_blas_thread, run_process, warm_workers
+from .work import Pool, run_process, warm_workers
 
 __all__ = ["discover"]
 

@@ -29,14 +29,13 @@ from .crossval import FoldFits, compare, make_folds
 from .extensions import base_model, combine
 from .plausibility import implausible
 from .result import parameter_lines, parameter_table
-from .work import FIT_ERRORS, FitTask, Runner, Wave, run_process
+from .work import FIT_ERRORS, FitTask, Wave
 
 __all__ = [
     "CombinedModel",
     "PreparedSelection",
     "campaign_gain",
     "prepare_selection",
-    "select_model",
     "selection_steps",
 ]
 
@@ -159,20 +158,6 @@ def prepare_selection(group, kept, rng: np.random.Generator, base=None) -> Prepa
     base_full = base if base is not None else base_model(group, rows).fit(group, rows)
     folds = make_folds(_fold_labels(group, rows, [c for c, _ in kept]), "tests", rng)
     return PreparedSelection(kept, rows, base_full, folds)
-
-
-def select_model(
-    group, kept, rng: np.random.Generator, base=None, run: Runner | None = None
-) -> CombinedModel | None:
-    """Forward selection (module docstring) over ``kept``: ``(cause, Extension)`` pairs of
-    one (kind, soil), strongest finding first.  ``base``: the base model already fitted to
-    all tests (the diagnosis' fit, Bernstein where Bekker failed); fitted here if None.
-    ``run``: the :class:`~.work.Runner` that fits (default: in this process).  None when
-    ``kept`` is empty."""
-    prepared = prepare_selection(group, kept, rng, base=base)
-    if prepared is None:
-        return None
-    return run_process(selection_steps(group, prepared), (run or Runner(group)).pool)
 
 
 def selection_steps(group, prepared: PreparedSelection):

@@ -31,8 +31,9 @@ fold fits after it.
 
 One more thing decides the last bits: a multithreaded BLAS sums long dot products in
 per-thread pieces, so the same fit on two threads and on one differs in its 16th digit.
-Workers run their fits with BLAS on one thread (:func:`_run_in_worker`), and discovery
-runs its own process's BLAS on one thread too (:func:`one_blas_thread`) — which is also
+Workers run their fits with BLAS on one thread (:func:`~soilstats.parallel.parallel_map`
+does so for every item), and discovery runs its own process's BLAS on one thread too
+(:func:`~soilstats.parallel.one_blas_thread`) — which is also
 faster here: the fits' products are memory-bound, and an idle BLAS thread spinning beside
 busy cores slowed a 10 000-test discovery several-fold.
 """
@@ -50,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
-from ..parallel import effective_jobs, one_blas_thread, parallel_map
+from ..parallel import effective_jobs, parallel_map
 from ..parallel import warm_workers as _warm_workers
 
 __all__ = [
@@ -58,10 +59,8 @@ __all__ = [
     "FitTask",
     "Outcome",
     "Pool",
-    "Runner",
     "Start",
     "Wave",
-    "one_blas_thread",
     "run_process",
     "warm_workers",
 ]
@@ -98,7 +97,7 @@ class FitTask:
     ``held_out`` is given — each held-out test's prediction error under that fit
     (:func:`.crossval.per_test_error`); a fold fit (with ``held_out``) gives back its
     :class:`Start` only.  Tasks with the same ``chain`` stop at the first failure
-    (:class:`Runner`)."""
+    (:class:`Pool`)."""
 
     extension: object
     rows: np.ndarray
@@ -141,7 +140,7 @@ def _run(item) -> tuple:
     return fitted, errors, None
 
 
-# The groups this worker has read (key → group), the latest few: a Runner's tasks name their
+# The groups this worker has read (key → group), the latest few: a Pool's tasks name their
 # group by key and file, and a worker reads each file once while it is among them.  Every
 # (kind, soil) group is in flight at once (pipeline._extend_groups), so a few more than a
 # campaign's usual kinds × soils; a group of a 10,000-test campaign is ~15 MB.
@@ -150,7 +149,7 @@ _KEEP_GROUPS = 8
 
 
 def _group_of(shipped):
-    """The group a task names: ``(key, path)`` of a Runner's file, or the group itself."""
+    """The group a task names: ``(key, path)`` of a Pool's file, or the group itself."""
     if not isinstance(shipped, tuple):
         return shipped
     key, path = shipped
@@ -166,10 +165,10 @@ def _group_of(shipped):
 
 def _run_in_worker(item) -> tuple:
     """:func:`_run` in a worker: the group read from its file or kept from an earlier task
-    (:func:`_group_of`), BLAS on one thread as in the calling process (module docstring)."""
+    (:func:`_group_of`).  (BLAS is on one thread there already: parallel_map runs every
+    item so, as this process runs its own fits; module docstring.)"""
     shipped, task = item
-    with one_blas_thread():
-        return _run((_group_of(shipped), task))
+    return _run((_group_of(shipped), task))
 
 
 def _outcome(raw) -> Outcome:
@@ -266,18 +265,6 @@ class Pool:
         # once, and fits run here would queue on this process's interpreter lock.
         done = parallel_map(_run_in_worker, sent, jobs=self.jobs, single_in_process=False)
         return [_outcome(r) for r in done]
-
-
-class Runner:
-    """Fits waves of :class:`FitTask` on one group (a :class:`Pool` of ``jobs`` workers, or
-    the given ``pool``): ``runner(tasks, probe=...)`` returns their outcomes in order."""
-
-    def __init__(self, group, jobs: int | None = 1, *, pool: Pool | None = None) -> None:
-        self.group = group
-        self.pool = pool or Pool(jobs)
-
-    def __call__(self, tasks: list[FitTask], *, probe: bool = False) -> list[Outcome]:
-        return self.pool.execute([(self.group, t, probe) for t in tasks])
 
 
 @dataclass(frozen=True, eq=False)

@@ -51,7 +51,8 @@ class _TestMoments:
         lo = np.minimum.reduceat(log_z, starts)
         hi = np.maximum.reduceat(log_z, starts)
         self.centre = 0.5 * (lo + hi)  # m_i
-        self.half_range = np.maximum(0.5 * (hi - lo), 1e-300)
+        # The widest test's half range of ln z: how far a Taylor step in n may go.
+        self.half_range = float(np.maximum(0.5 * (hi - lo), 1e-300).max())
         u = log_z - np.repeat(self.centre, np.diff(np.r_[starts, log_z.size]))
         self.n0 = float(n0)
         base_a = w2 * np.exp(2.0 * self.n0 * u)
@@ -59,13 +60,17 @@ class _TestMoments:
         # (j, test, k): Σ_s base·(ln z)^j·u^k; ln z = m + u is expanded on the fly.
         self.a = np.empty((3, n_tests, _TERMS))
         self.b = np.empty((2, n_tests, _TERMS))
-        log_z_powers = [log_z**j for j in range(3)]  # (ln z)^j, the same every k
+        log_z_squared = log_z**2
         power = np.ones_like(u)
         for k in range(_TERMS):
-            for j in range(3):
-                self.a[j, :, k] = np.add.reduceat(base_a * power * log_z_powers[j], starts)
-            for j in range(2):
-                self.b[j, :, k] = np.add.reduceat(base_b * power * log_z_powers[j], starts)
+            # base·u^k once per k, then ·(ln z)^j (left to right, as one product would be;
+            # the j = 0 factor is 1).
+            term_a, term_b = base_a * power, base_b * power
+            self.a[0, :, k] = np.add.reduceat(term_a, starts)
+            self.a[1, :, k] = np.add.reduceat(term_a * log_z, starts)
+            self.a[2, :, k] = np.add.reduceat(term_a * log_z_squared, starts)
+            self.b[0, :, k] = np.add.reduceat(term_b, starts)
+            self.b[1, :, k] = np.add.reduceat(term_b * log_z, starts)
             power = power * u
         self.c = np.add.reduceat(w2 * y * y, starts)
         self.a *= _INV_FACTORIAL  # fold 1/k! in once
@@ -84,7 +89,7 @@ class _TestMoments:
         return (*a, *b)
 
     def within_reach(self, n: np.ndarray) -> np.ndarray:
-        return np.abs(2.0 * (n - self.n0)) * self.half_range.max() <= _REACH
+        return np.abs(2.0 * (n - self.n0)) * self.half_range <= _REACH
 
 
 def fit_clustered_resamples(

@@ -95,7 +95,9 @@ def bootstrap_tests(
         Seed of ``numpy.random.default_rng``: the same seed gives the same draws.
     """
     # Tests that contributed no sample are not part of the design: draw among the others.
-    _, test_index = np.unique(np.asarray(test_index, int), return_inverse=True)
+    _, first_sample, test_index = np.unique(
+        np.asarray(test_index, int), return_index=True, return_inverse=True
+    )
     n_tests = int(test_index.max()) + 1 if test_index.size else 0
     rng = np.random.default_rng(seed)
     w = np.asarray(weights, float)
@@ -114,7 +116,7 @@ def bootstrap_tests(
         # Power laws: every resample's exact optimum at once (variable projection, batched).
         basis, log_z = model.separable(x, np.ones_like(w))
         g = basis(0.0)  # (q, N) the basis without z^n
-        g_test = g[:, np.unique(test_index, return_index=True)[1]]  # each test's first sample
+        g_test = g[:, first_sample]  # at each test's first sample
         if np.array_equal(g, g_test[:, test_index]):
             # The basis is constant within each test (1/b and 1): per-test sums suffice.
             theta, done = fit_clustered_resamples(
