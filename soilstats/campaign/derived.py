@@ -16,6 +16,8 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from .index import sample_test_positions
+
 __all__ = [
     "add_sample_columns",
     "add_test_columns",
@@ -295,14 +297,6 @@ def add_test_columns(tests: pd.DataFrame, n_samples: ArrayLike) -> pd.DataFrame:
     return out
 
 
-def _test_rows(tests: pd.DataFrame, samples: pd.DataFrame) -> npt.NDArray[np.intp]:
-    """The row of ``tests`` of every sample's test (-1 where it is not in the log)."""
-    # Look each distinct test_id up once (a test has ~100 samples), then spread to the rows.
-    codes, distinct = pd.factorize(samples["test_id"])
-    rows = pd.Index(tests["test_id"]).get_indexer(distinct)
-    return np.where(codes >= 0, rows[codes], -1)
-
-
 def _per_sample(tests: pd.DataFrame, rows: npt.NDArray[np.intp], column: str) -> FloatArray:
     # The test's value for every sample row (every sample's test is in the log).
     return _col(tests, column)[rows]
@@ -331,10 +325,10 @@ def add_sample_columns(
     sink = sinkage.copy()
     sink["pressure_Pa"] = pressure(
         sink["force_N"].to_numpy(dtype=np.float64),
-        _per_sample(tests, _test_rows(tests, sink), "area_m2"),
+        _per_sample(tests, sample_test_positions(sink["test_id"], tests["test_id"]), "area_m2"),
     )
     shr = shear.copy()
-    rows = _test_rows(tests, shr)
+    rows = sample_test_positions(shr["test_id"], tests["test_id"])
     ri, ro = _per_sample(tests, rows, "r_inner_m"), _per_sample(tests, rows, "r_outer_m")
     shr["sigma_Pa"] = normal_pressure(shr["normal_force_N"].to_numpy(dtype=np.float64), ri, ro)
     shr["tau_Pa"] = shear_stress(shr["torque_Nm"].to_numpy(dtype=np.float64), ri, ro)

@@ -175,10 +175,10 @@ def strata_test(y, x, *, categorical: bool, strata) -> dict:
     y, x, s = y[varies], x[varies], strata[varies]
     cells = None
     if categorical:
-        levels, counts = np.unique(x, return_counts=True)
+        levels, level_of, counts = np.unique(x, return_inverse=True, return_counts=True)
         out["singletons"] = levels[counts == 1].tolist()
         design = (x[:, None] == levels[None, :]).astype(float)
-        cells = cell_codes(np.asarray(s), np.unique(x, return_inverse=True)[1].ravel())
+        cells = cell_codes(np.asarray(s), level_of.ravel())
     else:
         design = trend_regressor(x.astype(float))[:, None]
     res = _nested_f(y, design, s, cells=cells)
@@ -203,12 +203,13 @@ def interaction_test(y, a, b, *, strata) -> dict:
     out = {"used": np.ones(y.size, bool), "singletons": [], "p_value": np.nan}
     out.update(statistic=np.nan, df1=0, df2=0, effect_size=np.nan, sigma=np.nan)
     out.update(mde_norm2=np.nan, reason="")
-    cells = cell_codes(a, b)
-    if y.size < 6 or np.unique(cells).size < 4:
+    cells = cell_codes(a, b)  # 0 … k−1, every code present
+    n_cells = int(cells.max()) + 1 if cells.size else 0
+    if y.size < 6 or n_cells < 4:
         out["reason"] = "fewer than four cells: no interaction to test"
         return out
     dummies = [(codes[:, None] == np.unique(codes)[None, 1:]).astype(float) for codes in (a, b)]
-    design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
+    design = (cells[:, None] == np.arange(n_cells)[None, :]).astype(float)
     res = _nested_f(y, design, strata, nuisance=np.hstack(dummies), cells=cell_codes(strata, cells))
     norm2 = res.pop("norm2")
     ok = np.isfinite(norm2) & (norm2 > 1e-12)
