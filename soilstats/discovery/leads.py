@@ -20,7 +20,7 @@ from .diagnose import conditional_responses, retest
 from .extensions import base_model, library
 from .plausibility import implausible
 from .result import Finding
-from .work import FitTask, Wave
+from .work import FIT_ERRORS, FitTask, Wave
 
 __all__ = ["discover_group", "leads_of"]
 
@@ -133,7 +133,7 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
     base_failure = None
     try:
         starts, e_base = base_plan.collect(first[1:])
-    except (ConvergenceError, np.linalg.LinAlgError, ValueError) as exc:
+    except FIT_ERRORS as exc:
         base_failure = exc  # every extension's cross-validation fails with it
     plans, tasks = [], []
     if base_failure is None:
@@ -154,7 +154,7 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
             gain = compare(e_base, plan.collect(folds_out)[1], scheme="tests", folds=folds)
             full.raise_error()
             fitted = full.fitted
-        except (ConvergenceError, np.linalg.LinAlgError, ValueError) as exc:
+        except FIT_ERRORS as exc:
             entry["error"] = str(exc)[:400]
             tried.append(entry)
             continue

@@ -196,7 +196,7 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
     """Extensions, cross-validated gains and the combined model of every (kind, soil):
     ``(findings, artefacts, explained, model, note)`` per entry of ``work``, in its order.
 
-    Each group is two processes of waves of fits (:func:`.work.run_process`): its leads
+    Each group is one process of waves of fits (:func:`.work.run_process`): its leads
     (:func:`_group_leads`), then its forward selection (:func:`_group_model`).  A group
     draws its folds from a stream of its own (:func:`.crossval.group_rng`), so the groups
     do not depend on each other: with workers, every group runs in a thread of its own and
@@ -220,15 +220,10 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
         d, rows, leads = work[k]
         rng = group_rng(seed, d.group)
         try:
-            process = _group_leads(
+            process = _group_process(
                 d, rows, leads, quality, alpha=alpha, rng=rng, max_leads=max_leads
             )
-            found, residues, why_not, prepared, note = run_process(process, pool)
-            model = None
-            if prepared is not None:
-                model, model_note = run_process(_group_model(d.group, prepared), pool)
-                note = note or model_note
-            done[k] = (found, residues, why_not, model, note)
+            done[k] = run_process(process, pool)
         except BaseException as exc:  # re-raised in the caller's thread below
             failures[k] = exc
         if bar is not None:
@@ -253,6 +248,19 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
     if failures:
         raise failures[min(failures)]
     return done
+
+
+def _group_process(d, rows, leads, quality, *, alpha, rng, max_leads):
+    """Process of one group: its leads (:func:`_group_leads`), then its forward selection
+    (:func:`_group_model`); ``(findings, artefacts, explained, model, note)``."""
+    found, residues, why_not, prepared, note = yield from _group_leads(
+        d, rows, leads, quality, alpha=alpha, rng=rng, max_leads=max_leads
+    )
+    model = None
+    if prepared is not None:
+        model, model_note = yield from _group_model(d.group, prepared)
+        note = note or model_note
+    return found, residues, why_not, model, note
 
 
 def _group_leads(d, rows, leads, quality, *, alpha, rng, max_leads):
