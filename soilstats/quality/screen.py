@@ -214,17 +214,40 @@ class _Records:
         return cls([str(t) for t in uniques], blocks, labels, values)
 
 
-def _split(blocks: Blocks, mask: np.ndarray) -> dict[int, np.ndarray]:
-    """Block number → local positions where ``mask`` holds (only blocks with any)."""
+def _hits_by_block(blocks: Blocks, mask: np.ndarray) -> dict[int, np.ndarray]:
+    """Block number → the positions (in the blocks' arrays) where ``mask`` holds, only
+    blocks with any."""
     hits = np.flatnonzero(mask)
     if not hits.size:
         return {}
-    block = np.searchsorted(blocks.starts, hits, side="right") - 1
+    block = blocks.block_of[hits]
     cut = np.flatnonzero(np.diff(block)) + 1
-    return {
-        int(b[0]): h - blocks.starts[b[0]]
-        for b, h in zip(np.split(block, cut), np.split(hits, cut), strict=True)
-    }
+    return {int(b[0]): h for b, h in zip(np.split(block, cut), np.split(hits, cut), strict=True)}
+
+
+def _spike_findings(rec: _Records, kind: str, columns: tuple[str, str], clean: bool):
+    """``spike`` flags of every record (a spike in either column), per test in test order,
+    the labels they drop in mode ``clean``, and the mask of spiked positions."""
+    spiked = blocks_mod.spikes(rec.blocks, rec.columns[columns[0]]) | blocks_mod.spikes(
+        rec.blocks, rec.columns[columns[1]]
+    )
+    out: list[list[QualityFlag]] = [[] for _ in rec.ids]
+    drop: list[np.ndarray] = []
+    for k, hits in _hits_by_block(rec.blocks, spiked).items():
+        rows = rec.labels[hits]
+        out[k].append(
+            QualityFlag(
+                rec.ids[k],
+                kind,
+                "spike",
+                _rows(rows),
+                f"{hits.size} isolated spiked sample(s) in {columns[0]} or {columns[1]}",
+                excluded=clean,
+            )
+        )
+        if clean:
+            drop.append(rows)
+    return out, drop, spiked
 
 
 def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
@@ -237,23 +260,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
     clean = mode == "clean"
     rec = _Records.of(sink, ("z_m", "force_N"))
     blocks, z, force = rec.blocks, rec.columns["z_m"], rec.columns["force_N"]
-    out: list[list[QualityFlag]] = [[] for _ in rec.ids]
-    drop: list[np.ndarray] = []
-    spiked = blocks_mod.spikes(blocks, z) | blocks_mod.spikes(blocks, force)
-    for k, pos in _split(rec.blocks, spiked).items():
-        rows = rec.labels[blocks.starts[k] + pos]
-        out[k].append(
-            QualityFlag(
-                rec.ids[k],
-                "sinkage",
-                "spike",
-                _rows(rows),
-                f"{pos.size} isolated spiked sample(s) in z_m or force_N",
-                excluded=clean,
-            )
-        )
-        if clean:
-            drop.append(rows)
+    out, drop, spiked = _spike_findings(rec, "sinkage", ("z_m", "force_N"), clean)
     # The good (unspiked) records, on which every other rule runs.
     good, kept = blocks.keep(~spiked)
     zg, fg, labels = z[kept], force[kept], rec.labels[kept]
@@ -320,27 +327,27 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
         )
     if bar is not None:
         bar.close()
-    for k, pos in _split(good, blocks_mod.non_monotone(good, zg)).items():
+    for k, hits in _hits_by_block(good, blocks_mod.non_monotone(good, zg)).items():
         out[k].append(
             QualityFlag(
                 rec.ids[k],
                 "sinkage",
                 "non-monotone",
-                _rows(labels[good.starts[k] + pos]),
-                f"z falls back below its running maximum in {pos.size} samples",
+                _rows(labels[hits]),
+                f"z falls back below its running maximum in {hits.size} samples",
             )
         )
     peaks = {"force_N": good.max(fg), "z_m": good.max(zg)}
     for values, other, column in ((fg, zg, "force_N"), (zg, fg, "z_m")):
         clipped = blocks_mod.saturation(good, values, other)
-        for k, pos in _split(good, clipped).items():
+        for k, hits in _hits_by_block(good, clipped).items():
             out[k].append(
                 QualityFlag(
                     rec.ids[k],
                     "sinkage",
                     "saturation",
-                    _rows(labels[good.starts[k] + pos]),
-                    f"{pos.size} samples of {column} sit exactly at its maximum "
+                    _rows(labels[hits]),
+                    f"{hits.size} samples of {column} sit exactly at its maximum "
                     f"{peaks[column][k]:.6g} while the other channel changes",
                 )
             )
@@ -351,25 +358,10 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
 def _shear_findings(shear: pd.DataFrame, mode: str) -> tuple[list[QualityFlag], list]:
     """Spike findings of every shear record, and the labels they drop."""
     rec = _Records.of(shear, ("torque_Nm", "normal_force_N"))
-    spiked = blocks_mod.spikes(rec.blocks, rec.columns["torque_Nm"]) | blocks_mod.spikes(
-        rec.blocks, rec.columns["normal_force_N"]
+    per_test, drop, _ = _spike_findings(
+        rec, "shear", ("torque_Nm", "normal_force_N"), mode == "clean"
     )
-    flags, drop = [], []
-    for k, pos in _split(rec.blocks, spiked).items():
-        rows = rec.labels[rec.blocks.starts[k] + pos]
-        flags.append(
-            QualityFlag(
-                rec.ids[k],
-                "shear",
-                "spike",
-                _rows(rows),
-                f"{pos.size} isolated spiked sample(s) in torque_Nm or normal_force_N",
-                excluded=mode == "clean",
-            )
-        )
-        if mode == "clean":
-            drop.append(rows)
-    return flags, drop
+    return [f for found in per_test for f in found], drop
 
 
 def _load_capped(tests: pd.DataFrame, ends: pd.DataFrame) -> list[QualityFlag]:
