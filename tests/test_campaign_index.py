@@ -66,3 +66,19 @@ def test_fit_path_shortcuts_equal_the_generic_calls():
         if codes.size:
             assert np.array_equal(_dense_codes(codes), np.unique(codes, return_inverse=True)[1])
         assert np.array_equal(_by_group_then_value(codes, values), np.lexsort((values, codes)))
+
+
+def test_grouped_by_code_keeps_original_order_and_skips_minus_one():
+    import numpy as np
+
+    from soilstats.campaign.index import grouped_by_code
+
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        n = int(rng.integers(1, 8))
+        codes = rng.integers(-1, n, int(rng.integers(0, 40)))
+        groups = grouped_by_code(codes, n)
+        assert len(groups) == n
+        for k, positions in enumerate(groups):
+            assert np.array_equal(positions, np.flatnonzero(codes == k))
+    assert grouped_by_code(np.array([], int), 0) == []

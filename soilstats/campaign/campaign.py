@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import os
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -18,7 +17,7 @@ from ..errors import CampaignError, SoilstatsWarning
 from . import io
 from ._cells import TEXT_DTYPE
 from .derived import add_sample_columns, add_test_columns
-from .index import campaign_index
+from .index import campaign_index, grouped_by_code
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
 from .units import check_plausible_units, convert_columns
@@ -437,11 +436,8 @@ class Campaign:
             part_of[:-1][known] = k
 
         def split(table: pd.DataFrame, position: np.ndarray) -> list[pd.DataFrame]:
-            codes = part_of[position]
-            rows = np.flatnonzero(codes >= 0)  # only rows of some part need ordering
-            order = rows[np.argsort(codes[rows], kind="stable")]  # log / file order kept
-            bounds = np.searchsorted(codes[order], np.arange(len(parts) + 1))
-            return [table.iloc[order[a:b]] for a, b in itertools.pairwise(bounds)]
+            # Log / file order within each part.
+            return [table.iloc[rows] for rows in grouped_by_code(part_of[position], len(parts))]
 
         tests = split(self.tests, np.arange(len(log_ids)))
         index = campaign_index(self)  # each sample's log row (−1 → the last entry)

@@ -25,7 +25,7 @@ import pandas as pd
 
 from .schema import KINDS
 
-__all__ = ["CampaignIndex", "campaign_index", "sample_test_positions"]
+__all__ = ["CampaignIndex", "campaign_index", "grouped_by_code", "sample_test_positions"]
 
 
 def _frozen(values: np.ndarray) -> np.ndarray:
@@ -39,6 +39,17 @@ def sample_test_positions(sample_ids: pd.Series, test_ids) -> np.ndarray:
     codes, distinct = pd.factorize(sample_ids.array)
     position = pd.Index(test_ids).get_indexer(distinct)
     return np.where(codes >= 0, position[codes], -1)
+
+
+def grouped_by_code(codes: np.ndarray, n_codes: int) -> list[np.ndarray]:
+    """The positions of each code 0 … n_codes−1 in ``codes``, in their original order (a
+    record's samples stay in file order); positions coded −1 belong to none."""
+    if n_codes == 0:
+        return []
+    member = np.flatnonzero(codes >= 0)
+    order = member[np.argsort(codes[member], kind="stable")]
+    ends = np.cumsum(np.bincount(codes[member], minlength=n_codes))
+    return np.split(order, ends[:-1])
 
 
 @dataclass(frozen=True, eq=False)

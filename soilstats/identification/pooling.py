@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..campaign.index import campaign_index
+from ..campaign.index import campaign_index, grouped_by_code
 from ..errors import CampaignError
 from ..quality import screened
 
@@ -413,7 +413,7 @@ def _steady_parts(test, j_all, tau_all, test_ids, weighting):
         "tau_ss_Pa": np.full(n_tests, np.nan),
         "reason": [None] * n_tests,
     }
-    index_of = _indices_by_test(test, n_tests)
+    index_of = grouped_by_code(test, n_tests)
     for t, tid in enumerate(test_ids):
         idx = index_of[t]
         j, tau = j_all[idx], tau_all[idx]
@@ -431,14 +431,6 @@ def _steady_parts(test, j_all, tau_all, test_ids, weighting):
         weight[t] = 1.0 / t_max if weighting == "max-stress" else 1.0
         used[idx[keep]] = True
     return used, weight, columns
-
-
-def _indices_by_test(test: np.ndarray, n_tests: int) -> list[np.ndarray]:
-    """Sample positions of each test (record order); empty for a test without samples."""
-    member = np.flatnonzero(test >= 0)
-    order = member[np.argsort(test[member], kind="stable")]
-    bounds = np.cumsum(np.bincount(test[member], minlength=n_tests))
-    return np.split(order, bounds[:-1])
 
 
 def select_one_soil(campaign, kind: str, selection: dict):
