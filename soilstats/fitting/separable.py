@@ -26,6 +26,10 @@ from .levenberg_marquardt import gram_matrix
 
 __all__ = ["refine_exponent", "refine_power_law"]
 
+#: Two basis columns count as collinear (one plate size, say) when the 2×2 Gram determinant
+#: falls below this fraction of the product of its diagonal: the same test in every solver.
+_COLLINEAR = 1e-13
+
 
 def _solve_small(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """gram⁻¹·rhs for q ≤ 2 in closed form (numpy's solve costs more than the arithmetic)."""
@@ -35,7 +39,7 @@ def _solve_small(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     if q == 2:
         (g00, g01), (_, g11) = gram
         det = g00 * g11 - g01 * g01
-        if not det > 1e-13 * g00 * g11:  # collinear basis columns (or NaN)
+        if not det > _COLLINEAR * g00 * g11:  # collinear basis columns (or NaN)
             raise np.linalg.LinAlgError("singular basis")
         return np.array([g11 * rhs[0] - g01 * rhs[1], g00 * rhs[1] - g01 * rhs[0]]) / det
     return np.linalg.solve(gram, rhs)
@@ -196,7 +200,7 @@ def _reduced(mom: list, q: int, yy: float):
     else:
         m00 = m01 = m10 = m11 = u0 = w1 = nan
     det = g00 * g11 - g01 * g01
-    if not det > 1e-13 * g00 * g11:  # collinear basis columns: the test of _solve_small
+    if not det > _COLLINEAR * g00 * g11:  # collinear basis columns: the test of _solve_small
         return None
     a0 = (g11 * r0 - g01 * r1) / det
     a1 = (g00 * r1 - g01 * r0) / det
@@ -376,7 +380,7 @@ def _solve_rows(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     if q == 2:
         g00, g01, g11 = gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1]
         det = g00 * g11 - g01 * g01
-        det = np.where(det > 1e-13 * g00 * g11, det, np.nan)
+        det = np.where(det > _COLLINEAR * g00 * g11, det, np.nan)
         return (
             np.column_stack([g11 * rhs[:, 0] - g01 * rhs[:, 1], g00 * rhs[:, 1] - g01 * rhs[:, 0]])
             / det[:, None]
