@@ -504,8 +504,7 @@ def test_fast_partitions_match_the_sorting_ones():
 
 def test_cell_means_f_test_is_the_full_one():
     """The F-test on cell means weighted by their counts (the diagnosis' fast path) gives the
-    sums of squares, ranks and p of the one on every row; a design the strata and main
-    effects already carry falls back to the full rows (noise decides its rank)."""
+    sums of squares, ranks and p of the one on every row."""
     from soilstats.discovery.ftests import _nested_f, cell_codes
 
     rng = np.random.default_rng(7)
@@ -522,15 +521,41 @@ def test_cell_means_f_test_is_the_full_one():
         assert (fast["df1"], fast["df2"]) == (full["df1"], full["df2"])
         for key in ("statistic", "p_value", "effect_size", "sigma"):
             assert fast[key] == pytest.approx(full[key], rel=1e-9, nan_ok=True)
-    # one cell per (a, b) level pair and b a function of a: the interaction is carried
+
+
+def _dummies(codes: np.ndarray) -> np.ndarray:
+    return (codes[:, None] == np.unique(codes)[None, 1:]).astype(float)
+
+
+def test_f_test_counts_no_rank_in_what_the_other_effects_carry():
+    """A design the main effects (or the strata) carry entirely leaves rounding noise after
+    they are taken out; that noise has no rank, so there is nothing to test — on every row
+    and on cell means alike. Counted against the noise itself, it gave F(3, 24) and a p
+    anywhere in 0..1 for the interaction of a factor with a function of itself."""
+    from soilstats.discovery.ftests import _nested_f, cell_codes
+
     a = np.repeat([0, 1, 2], 10)
-    b = a % 2
-    y = rng.normal(size=a.size)
+    b = a % 2  # a function of a: the A × B cells are the levels of A
     cells = cell_codes(a, b)
     design = (cells[:, None] == np.unique(cells)[None, :]).astype(float)
-    nuisance = np.hstack([(c[:, None] == np.unique(c)[None, 1:]).astype(float) for c in (a, b)])
+    nuisance = np.hstack([_dummies(a), _dummies(b)])
     zeros = np.zeros(a.size, int)
-    full = _nested_f(y, design, zeros, nuisance)
-    fast = _nested_f(y, design, zeros, nuisance, cells=cell_codes(zeros, cells))
-    assert (fast["reason"], fast["df1"], fast["df2"]) == (full["reason"], full["df1"], full["df2"])
-    assert fast["p_value"] == pytest.approx(full["p_value"], nan_ok=True)
+    for seed in range(20):
+        y = np.random.default_rng(seed).normal(size=a.size)
+        for res in (
+            _nested_f(y, design, zeros, nuisance),
+            _nested_f(y, design, zeros, nuisance, cells=cell_codes(zeros, cells)),
+        ):
+            assert res["df1"] == 0 and np.isnan(res["p_value"])
+            assert "nothing left to test" in res["reason"]
+    # A main effect the strata carry (A constant within each stratum) has no rank either,
+    # and takes no degree of freedom from the test of B beside it.
+    rng = np.random.default_rng(3)
+    strata = np.repeat([0, 1, 2, 3], 12)
+    a = strata // 2
+    b = np.tile(np.arange(3), 16)
+    y = rng.normal(size=strata.size) + 0.8 * (b == 1)
+    res = _nested_f(y, _dummies(b), strata, nuisance=_dummies(a))
+    assert (res["df1"], res["df2"]) == (2, strata.size - 4 - 2)
+    alone = _nested_f(y, _dummies(b), strata)
+    assert res["p_value"] == pytest.approx(alone["p_value"], rel=1e-9)

@@ -18,6 +18,11 @@ from scipy import stats
 
 from .candidates import spans_log
 
+#: A column counts towards a design's rank when its singular value exceeds this fraction of
+#: the design's longest column as given: what the strata and other effects leave of a column
+#: they carry entirely is rounding noise, ~1e-16 of its length.
+_RANK_TOLERANCE = 1e-9
+
 __all__ = ["cell_codes", "interaction_test", "strata_codes", "strata_test", "trend_regressor"]
 
 
@@ -60,13 +65,15 @@ def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
     of squares W is left by all of them alike, and the rest is the regression of the cell
     means weighted by the cell counts m: rows scaled by √m, centred with m-weighted stratum
     means.  The same sums of squares, ranks (the scaled matrix has the same Gram matrix as
-    the full one) and F, on a few hundred cells instead of thousands of tests.  Where the
-    strata and nuisance leave nothing of the design but rounding noise (an interaction the
-    main effects already carry), which columns the rank test counts is decided by that
-    noise: then the test is made on the full rows, so that the answer is the one it always
-    was.
+    the full one) and F, on a few hundred cells instead of thousands of tests.
+
+    Ranks are judged against the columns as given, not as left: a column the strata and
+    nuisance carry entirely (an interaction the main effects already hold) is left as
+    rounding noise, ~1e-16 of its length, and must count for nothing.  Judged against the
+    largest of what is left (noise itself, then), noise would count as rank and the test
+    would be made on random directions: F(3, 24) with p anywhere in 0..1 for the
+    interaction of a factor with a function of itself.
     """
-    full = (y, design, strata, nuisance)
     n = y.size
     s = pd.factorize(strata)[0]
     n_strata = s.max() + 1
@@ -96,34 +103,44 @@ def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
         centred = a - (sums / counts.reshape(-1, *[1] * (a.ndim - 1)))[s]
         return centred * root.reshape(-1, *[1] * (a.ndim - 1))
 
-    def rank_of(a):
+    def length(a):
+        """The longest column of ``a`` as the test sees it (rows weighted by the cells)."""
+        rows = a if root is None else a * root.reshape(-1, *[1] * (a.ndim - 1))
+        return float(np.sqrt(np.max(np.sum(rows**2, axis=0), initial=0.0)))
+
+    def basis(a, scale):
+        """Orthonormal basis of the columns of ``a``: the left singular vectors whose
+        singular value exceeds 1e-9 × ``scale`` (the length of the columns before the strata
+        and nuisance were taken out)."""
         if a.shape[1] == 0:
-            return 0
-        sv = np.linalg.svd(a, compute_uv=False)
-        return int(np.sum(sv > sv[0] * 1e-9)) if sv.size and sv[0] > 0 else 0
+            return a[:, :0]
+        u, sv, _ = np.linalg.svd(a, full_matrices=False)
+        return u[:, sv > _RANK_TOLERANCE * scale]
 
     out = {"p_value": np.nan, "statistic": np.nan, "df1": 0, "df2": 0, "reason": ""}
     out.update(effect_size=np.nan, sigma=np.nan, norm2=np.full(design.shape[1], np.nan))
     yc, dc = centre(y), centre(design)
     r0 = 0
     if nuisance is not None and nuisance.shape[1]:
-        nc = centre(nuisance)
-        r0 = rank_of(nc)
-        q = np.linalg.svd(nc, full_matrices=False)[0][:, :r0]
-        before = float(np.max(np.sum(dc**2, axis=0), initial=0.0))
+        q = basis(centre(nuisance), length(nuisance))
+        r0 = q.shape[1]
         yc = yc - q @ (q.T @ yc)
         dc = dc - q @ (q.T @ dc)
-        left = float(np.max(np.sum(dc**2, axis=0), initial=0.0))
-        if root is not None and not left > 1e-12 * before:  # (norms squared: 1e-6 in norm)
-            return _nested_f(*full)
-    rank = rank_of(dc)
+    u = basis(dc, length(design))
+    rank = u.shape[1]
     df2 = n - n_strata - r0 - rank
-    if rank < 1 or df2 < 2:
+    if rank < 1:
+        out["reason"] = (
+            "nothing left to test: the strata and the other effects already carry every "
+            "column of this design"
+        )
+        return out
+    if df2 < 2:
         out["reason"] = f"no degrees of freedom left (n = {n}, strata = {n_strata}, rank = {rank})"
         return out
-    beta = np.linalg.lstsq(dc, yc, rcond=1e-9)[0]
-    rss1 = within + float(np.sum((yc - dc @ beta) ** 2))
-    rss0 = within + float(np.sum(yc**2))
+    left = yc - u @ (u.T @ yc)
+    rss1 = within + float(left @ left)
+    rss0 = within + float(yc @ yc)
     if rss1 <= 0:
         f_stat, p = (np.inf, 0.0) if rss0 > 0 else (np.nan, np.nan)
     else:

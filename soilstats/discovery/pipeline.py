@@ -351,6 +351,7 @@ def _untestable_note(table: pd.DataFrame) -> list[str]:
     names = sorted({f"{r.kind}/{r.soil}:{r.candidate}" for r in untestable.itertuples()})
     more = ", …" if len(names) > 12 else ""
     return [
-        f"{len(names)} candidate(s) could not be tested (no variation within strata, or no "
-        f"degrees of freedom): {', '.join(names[:12])}{more}"
+        f"{len(names)} candidate(s) could not be tested (no variation within strata, nothing "
+        "left once the strata and main effects are taken out, or no degrees of freedom): "
+        f"{', '.join(names[:12])}{more}"
     ]
