@@ -386,6 +386,31 @@ def test_minimum_detectable_effect_has_the_stated_power():
     assert hits / 600 == pytest.approx(0.8, abs=0.05)
 
 
+def test_time_order_trends_are_linear_in_time():
+    """A drift is linear in test order: a time/order candidate is never tested (nor
+    extended) on ln x, although its values 1..34 span more than a factor four. Checked
+    against an ordinary least-squares slope test (scipy.stats.linregress)."""
+    from scipy.stats import linregress
+
+    from soilstats.discovery.extensions import Features, SinkageExtension, Term, combine
+
+    rng = np.random.default_rng(5)
+    order = np.arange(1.0, 35.0)
+    y = 0.03 * order + rng.normal(size=order.size)
+    one = np.zeros(order.size, int)
+    drift = strata_test(y, order, categorical=False, strata=one, log_scale=False)
+    assert drift["p_value"] == pytest.approx(linregress(order, y).pvalue, rel=1e-9)
+    logged = strata_test(y, order, categorical=False, strata=one)
+    assert logged["p_value"] == pytest.approx(linregress(np.log(order), y).pvalue, rel=1e-9)
+    assert logged["p_value"] != pytest.approx(drift["p_value"], rel=1e-3)
+    # the extension keeps the scale it was tested on, also when combined with another
+    trend = Term(Features("test_number", "linear", log_scale=False), ("k",))
+    size = Term(Features("b_m", "linear"), ("n",))
+    parts = [SinkageExtension(n, False, "", terms=(t,)) for n, t in (("a", trend), ("b", size))]
+    merged = {t.features.column: t.features for t in combine(parts).terms}
+    assert merged == {"test_number": trend.features, "b_m": size.features}
+
+
 def test_undetectable_plate_size_gets_a_power_statement_not_silence():
     # Plates 12 % apart and no effect: nothing is found, and discover says how large a size
     # effect the design could have detected.

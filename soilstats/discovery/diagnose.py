@@ -14,8 +14,8 @@ with the base model fitted to all tests of its (kind, soil):
 other categorical candidates that are not confounded with it: y = stratum + X + ε, the
 F-test of X after the strata (absorbed by within-stratum centring, Frisch–Waugh–Lovell), on
 the strata in which X varies.  A categorical X enters as levels, a continuous one as a linear
-trend (on ln x when x > 0 spans more than a factor four).  The p-values of all candidates ×
-responses × groups form one family, adjusted by Holm's method
+trend (on ln x when x > 0 spans more than a factor four; never for time/order, a drift).
+The p-values of all candidates × responses × groups form one family, adjusted by Holm's method
 (:func:`soilstats.statistics.verdicts`), so the chance of any false cause stays ≤ α.
 """
 
@@ -201,7 +201,13 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
         for response in RESPONSES[group.kind]:
             y_all = table[f"_dev_{response}"].to_numpy(float)
             ok = np.isfinite(y_all) & recorded
-            res = strata_test(y_all[ok], x_all[ok], categorical=cand.categorical, strata=strata[ok])
+            res = strata_test(
+                y_all[ok],
+                x_all[ok],
+                categorical=cand.categorical,
+                strata=strata[ok],
+                log_scale=cand.role != "time/order",
+            )
             used = np.flatnonzero(ok)[res["used"]]
             singles = []
             if res["singletons"]:
@@ -457,11 +463,14 @@ def retest(group, table, row) -> dict[str, float]:
             out[response] = res["p_value"]
         return out
     categorical = bool(row["categorical"])
+    log_scale = row["role"] != "time/order"
     values = candidate_values(table, row["candidate"])
     x_all = level_codes(values) if categorical else values.to_numpy(float)
     for response in RESPONSES[group.kind]:
         y_all = table[f"_dev_{response}"].to_numpy(float)
         ok = np.isfinite(y_all) & values.notna().to_numpy()
-        res = strata_test(y_all[ok], x_all[ok], categorical=categorical, strata=strata[ok])
+        res = strata_test(
+            y_all[ok], x_all[ok], categorical=categorical, strata=strata[ok], log_scale=log_scale
+        )
         out[response] = res["p_value"]
     return out

@@ -13,7 +13,8 @@ Physically motivated (each named by the paper's Sections 3–4):
 
 Generic, for covariates no physics names: a parameter that depends on the covariate —
 ``levels`` (one factor per level of a categorical covariate) or ``linear`` (a log-linear
-trend in a numeric one, on ln x where x spans more than a factor four).  Stiffness-type
+trend in a numeric one, on ln x where x spans more than a factor four, except for a
+time/order cause: a drift is linear in time).  Stiffness-type
 parameters (k or kc, kφ; c, tan φ, K) change by a factor exp(θ·F); the exponent n by an
 offset.
 
@@ -61,6 +62,7 @@ class Features:
 
     column: str
     how: str  # "velocity" | "linear" | "levels"
+    log_scale: bool = True  # "linear" may use ln x (not for time/order: a drift)
 
     def prepare(self, group, rows) -> dict:
         """Reference values from the training tests only (no peeking at held-out tests)."""
@@ -74,7 +76,7 @@ class Features:
         x = x[np.isfinite(x)]
         if self.how == "velocity":
             return {"v_ref": float(np.exp(np.mean(np.log(x))))}
-        use_log = spans_log(x)
+        use_log = self.log_scale and spans_log(x)
         g = np.log(x) if use_log else x
         return {"log": use_log, "mean": float(g.mean()), "sd": float(g.std()) or 1.0}
 
@@ -387,7 +389,9 @@ _ASPECT = {"aspect_ratio", "shape"}
 _RING = {"grouser_height_m", "r_inner_m", "r_outer_m", "ring_area_m2"}
 
 
-def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Extension]:
+def library(
+    group, rows, cause, related, *, numeric: bool, responses, drift: bool = False
+) -> list[Extension]:
     """Extensions to try for ``cause`` (and the candidates confounded with it), physical first.
 
     Parameters
@@ -404,6 +408,9 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
     responses : set of str
         Per-test responses in which the cause showed: ``level``, ``shape`` (sinkage),
         ``level``, ``K`` (shear) — they decide which parameters the generic extension frees.
+    drift : bool
+        ``cause`` is a time/order column: its trend is linear in it, never on ln x (as
+        diagnosis tested it).
     """
     names = {cause, *related}
     tests = group.tests.iloc[np.asarray(rows, int)]
@@ -457,7 +464,12 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
                 f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
                 f"{'n' if exponent else ''} depend on {cause} ({how})",
                 bekker=bekker,
-                terms=(Term(Features(cause, how), ("k",) * stiffness + ("n",) * exponent),),
+                terms=(
+                    Term(
+                        Features(cause, how, log_scale=not drift),
+                        ("k",) * stiffness + ("n",) * exponent,
+                    ),
+                ),
             )
         )
         return out
@@ -480,7 +492,7 @@ def library(group, rows, cause, related, *, numeric: bool, responses) -> list[Ex
             f"{cause} ({how})",
             False,
             f"{', '.join(targets)} depend on {cause} ({how})",
-            terms=(Term(Features(cause, how), targets),),
+            terms=(Term(Features(cause, how, log_scale=not drift), targets),),
         )
     )
     return out
@@ -501,12 +513,11 @@ def combine(extensions) -> Extension | None:
         not isinstance(e, SinkageExtension | ShearExtension) for e in extensions
     ):
         return None
-    merged: dict[tuple[str, str], tuple[str, ...]] = {}
+    merged: dict[Features, tuple[str, ...]] = {}  # Features is frozen: its fields are the key
     for e in extensions:
         for t in e.terms:
-            key = (t.features.column, t.features.how)
-            merged[key] = tuple(dict.fromkeys((*merged.get(key, ()), *t.targets)))
-    terms = tuple(Term(Features(col, how), targets) for (col, how), targets in merged.items())
+            merged[t.features] = tuple(dict.fromkeys((*merged.get(t.features, ()), *t.targets)))
+    terms = tuple(Term(features, targets) for features, targets in merged.items())
     name = " + ".join(e.name for e in extensions)
     description = "; ".join(e.description for e in extensions)
     physical = all(e.physical for e in extensions)

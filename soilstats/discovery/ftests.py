@@ -4,10 +4,11 @@ A candidate X is tested on a per-test response y *within strata* of the other ca
 candidates: y = stratum + X + ε, the F-test of X after the strata, whose effects are absorbed
 by centring within each stratum (Frisch–Waugh–Lovell) — only the strata in which X varies
 carry information about it (:func:`strata_test`).  A categorical X enters as levels, a
-continuous one as a linear trend (on ln x when x > 0 spans more than a factor four:
-:func:`trend_regressor`).  An interaction A × B is the F-test of the A × B cells after A, B
-and the strata (:func:`interaction_test`).  The tests work on integer level codes
-(:func:`strata_codes`, :func:`cell_codes`), which keeps a campaign of thousands of tests fast.
+continuous one as a linear trend (on ln x when x > 0 spans more than a factor four, except
+a time/order candidate, whose drift is linear in time: :func:`trend_regressor`).  An
+interaction A × B is the F-test of the A × B cells after A, B and the strata
+(:func:`interaction_test`).  The tests work on integer level codes (:func:`strata_codes`,
+:func:`cell_codes`), which keeps a campaign of thousands of tests fast.
 """
 
 from __future__ import annotations
@@ -26,9 +27,11 @@ _RANK_TOLERANCE = 1e-9
 __all__ = ["cell_codes", "interaction_test", "strata_codes", "strata_test", "trend_regressor"]
 
 
-def trend_regressor(x: np.ndarray) -> np.ndarray:
-    """A continuous candidate as a regressor: ln x when x > 0 spans more than a factor four."""
-    return np.log(x) if spans_log(x) else x
+def trend_regressor(x: np.ndarray, *, log_scale: bool = True) -> np.ndarray:
+    """A continuous candidate as a regressor: ln x when x > 0 spans more than a factor four
+    and ``log_scale`` allows it (not for time/order: a drift is linear in time or order —
+    ln of a test number would make the first tests carry most of it)."""
+    return np.log(x) if log_scale and spans_log(x) else x
 
 
 def strata_codes(columns: list[np.ndarray], n: int) -> np.ndarray:
@@ -158,7 +161,7 @@ def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
     return out
 
 
-def strata_test(y, x, *, categorical: bool, strata) -> dict:
+def strata_test(y, x, *, categorical: bool, strata, log_scale: bool = True) -> dict:
     """F-test of X after stratum effects, on the strata in which X varies.
 
     Parameters
@@ -170,6 +173,9 @@ def strata_test(y, x, *, categorical: bool, strata) -> dict:
     categorical : bool
     strata : array (n,) of int
         Stratum code of each row (a single stratum when there is no block).
+    log_scale : bool, default True
+        Whether a continuous X may enter on ln x (:func:`trend_regressor`); False for
+        time/order candidates.
 
     Returns
     -------
@@ -197,7 +203,7 @@ def strata_test(y, x, *, categorical: bool, strata) -> dict:
         design = (x[:, None] == levels[None, :]).astype(float)
         cells = cell_codes(np.asarray(s), level_of.ravel())
     else:
-        design = trend_regressor(x.astype(float))[:, None]
+        design = trend_regressor(x.astype(float), log_scale=log_scale)[:, None]
     res = _nested_f(y, design, s, cells=cells)
     norm2 = res.pop("norm2")
     if res["df1"] and not categorical:

@@ -106,7 +106,7 @@ def _physical_name(lead: str, extension: str, relations) -> str:
     return lead
 
 
-def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng):
+def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng, drift):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
 
@@ -124,7 +124,9 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
     """
     base_ext = base_model(group, rows)
     folds = make_folds(levels, "tests", rng)
-    extensions = library(group, rows, lead, confounded, numeric=numeric, responses=responses)
+    extensions = library(
+        group, rows, lead, confounded, numeric=numeric, responses=responses, drift=drift
+    )
     # One chain, in the order the base model is read: its fit on all tests, then the folds.
     base_plan = FoldFits(rows, base_ext, folds, scheme="tests", chain="base")
     first = yield Wave(group, [FitTask(base_ext, rows, chain="base"), *base_plan.tasks])
@@ -236,7 +238,15 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng):
         numeric = bool(top["numeric"])
         try:
             base_ext, base_fitted, chosen, tried = yield from _try_extensions(
-                g, scope, lead, confounded_with, numeric, set(responses), levels, rng
+                g,
+                scope,
+                lead,
+                confounded_with,
+                numeric,
+                set(responses),
+                levels,
+                rng,
+                drift=top["role"] == "time/order",
             )
         except (ConvergenceError, IdentifiabilityError) as exc:
             caveats.append(f"cross-validation on the tests in scope failed: {exc}")

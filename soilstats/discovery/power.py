@@ -15,7 +15,7 @@ patterns (:func:`soilstats.discovery.ftests.strata_test`):
   the hardest level to detect (fewest tests), so that *any* level shifted by δ or more
   would have been found;
 * trend — a change of δ across the observed range of the candidate (on ln x when x spans
-  more than a factor four).
+  more than a factor four, except for time/order candidates, as they are tested).
 
 δ is in the response's units: ln of pressure (sinkage ``level``) or plateau stress (shear
 ``level``), the exponent n (``shape``), ln K (``K``).  :func:`describe` turns it into a
