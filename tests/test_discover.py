@@ -584,3 +584,50 @@ def test_f_test_counts_no_rank_in_what_the_other_effects_carry():
     assert (res["df1"], res["df2"]) == (2, strata.size - 4 - 2)
     alone = _nested_f(y, _dummies(b), strata)
     assert res["p_value"] == pytest.approx(alone["p_value"], rel=1e-9)
+
+
+def test_a_lead_is_not_explained_for_want_of_a_retest(monkeypatch):
+    """A lead whose significant response cannot be re-tested against the accepted extension
+    (p NaN) is examined, not reported as explained with p_after = 1."""
+    from types import SimpleNamespace
+
+    from soilstats.discovery import leads
+
+    group = SimpleNamespace(kind="sinkage", soil="s")
+    p_after = {}
+    monkeypatch.setattr(leads, "conditional_responses", lambda g, fitted: None)
+    monkeypatch.setattr(leads, "retest", lambda g, table, row: dict(p_after))
+
+    def explained(**p):
+        p_after.clear()
+        p_after.update(p)
+        return leads._explained_by(
+            group, ("ext", None), "bin", None, {"level"}, n_leads=2, alpha=0.05
+        )
+
+    assert explained(level=np.nan, shape=0.5) is None  # the level cannot be re-tested
+    assert explained(level=0.01, shape=0.5) is None  # still significant (0.01 * 2 < 0.05)
+    record = explained(level=0.4, shape=np.nan)  # the shape never showed
+    assert record is not None and record["p_after"] == pytest.approx(0.4)
+
+
+def test_folds_are_seeded_and_stratified():
+    """Stratified folds: every fold holds its share of every level (counts differ by at most
+    one) and of the tests; and the seed decides them, also when every level is one test
+    (a trend in time), where they once followed the levels' order as text."""
+    from soilstats.discovery.crossval import make_folds
+
+    levels = np.repeat(["a", "b", "c"], [7, 5, 9])
+    for seed in range(5):
+        folds = make_folds(levels, "tests", np.random.default_rng(seed))
+        sizes = np.bincount(folds, minlength=5)
+        assert sizes.max() - sizes.min() <= 1
+        for lv in "abc":
+            per_fold = np.bincount(folds[levels == lv], minlength=5)
+            assert per_fold.max() - per_fold.min() <= 1
+    times = np.array([f"{h:.2f}" for h in np.linspace(0.5, 30.0, 20)])
+    assignments = {
+        tuple(make_folds(times, "tests", np.random.default_rng(seed))) for seed in range(20)
+    }
+    assert len(assignments) > 10
+    assert all(np.bincount(np.array(a), minlength=5).min() == 4 for a in assignments)

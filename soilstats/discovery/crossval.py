@@ -109,7 +109,13 @@ def group_rng(seed: int, group) -> np.random.Generator:
 
 
 def make_folds(levels: np.ndarray, scheme: str, rng: np.random.Generator, k: int = 5):
-    """Fold number of each test: stratified K-fold (``tests``) or one fold per level."""
+    """Fold number of each test: stratified K-fold (``tests``) or one fold per level.
+
+    Stratified: each level's tests, shuffled, are dealt to the folds in turn, continuing
+    from where the previous level stopped, so every fold holds its share of every level.
+    The levels are taken in a random order too: when each level is a single test (a trend
+    in time, say) the folds are then random, not the order of the levels as text.
+    """
     levels = np.asarray(levels)
     codes = np.unique(levels, return_inverse=True)[1].ravel()
     if scheme == "conditions":
@@ -117,7 +123,7 @@ def make_folds(levels: np.ndarray, scheme: str, rng: np.random.Generator, k: int
     folds = np.empty(codes.size, int)
     k = int(min(k, codes.size))
     offset = 0
-    for lv in range(codes.max() + 1):
+    for lv in rng.permutation(codes.max() + 1):
         idx = np.flatnonzero(codes == lv)
         idx = idx[rng.permutation(idx.size)]
         folds[idx] = (np.arange(idx.size) + offset) % k

@@ -189,7 +189,9 @@ def discover_group(diag, rows, leads, *, alpha, rng, max_leads):
         lead_rows = rows[(rows["candidate"] == lead) & rows["significant"]]
         top = lead_rows.sort_values(["p_adjusted", "p_value"]).iloc[0]
         if accepted is not None:
-            why = _explained_by(g, accepted, lead, top, n_leads=len(leads), alpha=alpha)
+            why = _explained_by(
+                g, accepted, lead, top, set(lead_rows["response"]), n_leads=len(leads), alpha=alpha
+            )
             if why is not None:
                 explained.append(why)
                 continue
@@ -209,11 +211,15 @@ def discover_group(diag, rows, leads, *, alpha, rng, max_leads):
     return findings, explained
 
 
-def _explained_by(g, accepted, lead, top, *, n_leads, alpha) -> dict | None:
-    """The record of ``lead`` explained by the accepted extension (no response stays
-    significant, Bonferroni over the leads), or None when it still shows."""
+def _explained_by(g, accepted, lead, top, responses, *, n_leads, alpha) -> dict | None:
+    """The record of ``lead`` explained by the accepted extension (every response in which it
+    was significant, ``responses``, re-tested, and none significant any more, Bonferroni over
+    the leads), or None when it still shows — or when a response it showed in cannot be
+    re-tested against the extension: a lead is never called explained for want of a test."""
     cond_table = conditional_responses(g, accepted[1])
     p_after = retest(g, cond_table, top)
+    if not all(np.isfinite(p_after.get(r, np.nan)) for r in responses):
+        return None
     if any(p * n_leads < alpha for p in p_after.values() if np.isfinite(p)):
         return None
     return {
