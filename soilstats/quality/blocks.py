@@ -174,26 +174,35 @@ class Blocks:
             out = step[kept] if kept.size else np.empty(0)
         return out, blocks
 
-    def median(self, values: np.ndarray) -> FloatArray:
-        """``np.median`` of every block (NaN for an empty block).
+    def padded(self, values: np.ndarray, fill: float):
+        """The non-empty blocks as rows of matrices, in buckets of similar size (the same bit
+        length: within a factor two, so padding at most doubles the work).
 
-        Blocks of similar size are sorted together as the rows of a matrix padded with +inf
-        (sizes within a factor two, so padding at most doubles the work); the median is the
-        middle value, or the mean of the two middle values, exactly as ``np.median``.
+        Yields ``(rows, valid, index, matrix)`` per bucket: the blocks' numbers, a mask of the
+        real entries, their positions in ``values`` (meaningful where valid) and the values,
+        ``fill`` beyond each block's end — for an operation along rows that ``fill`` does not
+        disturb (a sort with +inf, a running maximum with -inf).
         """
-        out = np.full(self.count, np.nan)
         full = np.flatnonzero(self.sizes > 0)
-        if not full.size:
-            return out
         bucket = np.frexp(self.sizes[full].astype(np.float64))[1]  # bit length of the size
         for b in np.unique(bucket):
             rows = full[bucket == b]
             sizes = self.sizes[rows]
-            width = int(sizes.max())
-            cols = np.arange(width)
+            cols = np.arange(int(sizes.max()))
             valid = cols[None, :] < sizes[:, None]
-            index = np.where(valid, self.starts[rows][:, None] + cols[None, :], 0)
-            matrix = np.where(valid, values[index], np.inf)
+            index = self.starts[rows][:, None] + cols[None, :]
+            yield rows, valid, index, np.where(valid, values[np.where(valid, index, 0)], fill)
+
+    def median(self, values: np.ndarray) -> FloatArray:
+        """``np.median`` of every block (NaN for an empty block).
+
+        Blocks of similar size are sorted together as the rows of a matrix padded with +inf
+        (:meth:`padded`); the median is the middle value, or the mean of the two middle
+        values, exactly as ``np.median``.
+        """
+        out = np.full(self.count, np.nan)
+        for rows, _, _, matrix in self.padded(values, np.inf):
+            sizes = self.sizes[rows]
             matrix.sort(axis=1)
             r = np.arange(rows.size)
             low = matrix[r, (sizes - 1) // 2]
@@ -314,18 +323,10 @@ def _running_max(blocks: Blocks, values: np.ndarray) -> FloatArray:
     """``np.maximum.accumulate`` inside every block (a maximum never crosses a block edge).
 
     Blocks of similar size are accumulated together as the rows of a matrix padded at the
-    end with -inf (which no running maximum of the real values ever reaches).
+    end with -inf (:meth:`Blocks.padded`; no running maximum of the real values reaches it).
     """
     out = np.empty_like(values)
-    full = np.flatnonzero(blocks.sizes > 0)
-    bucket = np.frexp(blocks.sizes[full].astype(np.float64))[1]
-    for b in np.unique(bucket):
-        rows = full[bucket == b]
-        sizes = blocks.sizes[rows]
-        cols = np.arange(int(sizes.max()))
-        valid = cols[None, :] < sizes[:, None]
-        index = blocks.starts[rows][:, None] + cols[None, :]
-        matrix = np.where(valid, values[np.where(valid, index, 0)], -np.inf)
+    for _, valid, index, matrix in blocks.padded(values, -np.inf):
         out[index[valid]] = np.maximum.accumulate(matrix, axis=1)[valid]
     return out
 
