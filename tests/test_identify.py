@@ -225,3 +225,32 @@ def test_epsilon_from_a_known_rss_is_the_same_number():
     e = np.array([0.1, -0.1, 0.2, 0.0])
     y = np.array([1.0, -2.0, 3.0, 4.0])
     assert epsilon(e, y, rss=float(e @ e)) == epsilon(e, y)
+
+
+def test_zero_weights_leave_samples_out_of_dof_and_epsilon():
+    """A sample of weight zero is not an observation: the fit equals the one without it —
+    estimates, σ (Eq. 4's s² over N − Np of the kept samples), ε (Eq. 2) and N — and σ
+    equals curve_fit's on the kept samples. Counting them made σ 0.70× too small here."""
+    from scipy.optimize import curve_fit
+
+    rng = np.random.default_rng(0)
+    z = np.linspace(0.002, 0.05, 40)
+    p = 2e5 * z**0.9 * (1 + 0.03 * rng.normal(size=z.size))
+    w = np.ones(z.size)
+    w[::2] = 0.0
+    keep = w > 0
+
+    def power(z, k, n):
+        return k * z**n
+
+    for model in (BERNSTEIN, power):  # the model's fast path and a plain callable
+        weighted = identify(model, z, p, [1e5, 1.0], weights=w)
+        subset = identify(model, z[keep], p[keep], [1e5, 1.0])
+        assert (weighted.nobs, weighted.dof) == (subset.nobs, subset.dof) == (20, 18)
+        np.testing.assert_allclose(weighted.values, subset.values, rtol=1e-8)
+        np.testing.assert_allclose(weighted.stderr_values, subset.stderr_values, rtol=1e-6)
+        assert weighted.epsilon == pytest.approx(subset.epsilon, rel=1e-12)
+    _, pcov = curve_fit(power, z[keep], p[keep], p0=[1e5, 1.0])
+    np.testing.assert_allclose(weighted.stderr_values, np.sqrt(np.diag(pcov)), rtol=1e-5)
+    with pytest.raises(ValueError, match="2 observations of non-zero weight cannot determine 2"):
+        identify(BERNSTEIN, z, p, [1e5, 1.0], weights=np.r_[1.0, 1.0, np.zeros(38)])

@@ -94,7 +94,7 @@ def fit_sinkage(
         Starting values; by default Wong's estimate (a closed-form linear solve).
     test_resamples : int, default 0
         Resamples of the cluster bootstrap over tests that gives ``stderr_tests`` (and the
-        ``test-scatter`` flag when it differs from Eq. 4's stderr by more than 2×); 0: none.
+        ``test-scatter`` flag when it exceeds Eq. 4's stderr by more than 2×); 0: none.
         1000 is a good choice; it costs well under a second for a paper-size problem.
     seed : int, default 0
         Seed of the bootstrap.
