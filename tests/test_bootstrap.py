@@ -75,3 +75,41 @@ def test_stderr_tests_matches_the_spread_of_repeated_campaigns():
         assert tests == pytest.approx(spread, rel=0.3), name
     eq4_kc = np.mean([f.stderr["kc"] for f in fits])
     assert eq4_kc < 0.5 * np.std([f.params["kc"] for f in fits], ddof=1)
+
+
+def test_resamples_that_cannot_separate_the_parameters_count_as_failed():
+    """A resample of tests of one plate size cannot separate kc from kphi, one of tests at
+    one normal pressure c from tan phi; kept as draws (the LM stops near its start) they
+    made stderr_tests wrong — c 98.5 Pa where the tests' own spread says ~15 — and hid
+    from bootstrap-unstable. They are counted failed: as often as the draw makes them."""
+    import statsmodels.api as sm
+
+    from soilstats import fit_shear, load_campaign
+    from soilstats.identification.pooling import pool_shear
+
+    # Four tests at one plate size, one at another: P(one size) = 0.8^5 + 0.2^5 = 0.328.
+    spec = population_spec(4, stiffness_cv=0.1, n_sd=0.03, points=60)
+    spec["series"][0]["plates"] = spec["series"][0]["plates"][:2]
+    campaign = simulate(spec, seed=5).campaign
+    tests = campaign.tests[campaign.tests["kind"] == "sinkage"]
+    small, large = tests["b_m"].min(), tests["b_m"].max()
+    ids = [
+        *tests[tests["b_m"] == small]["test_id"][:4],
+        *tests[tests["b_m"] == large]["test_id"][:1],
+    ]
+    fit = fit_sinkage(campaign, "bekker", test_resamples=1000, seed=1, test_id=ids)
+    assert abs(fit.bootstrap.n_failed - 328.0) < 4 * np.sqrt(1000 * 0.328 * 0.672)
+    assert "bootstrap-unstable" in {f.code for f in fit.flags}
+
+    # Mohr-Coulomb on three tests at 3 kPa and three at 20 kPa: P(one level) = 2/64.
+    shear_ids = [f"shear-ring-00{i}" for i in (16, 17, 18, 28, 29, 30)]
+    bundled = load_campaign("simulated-paper")
+    mc = fit_shear(bundled, "mohr-coulomb", test_resamples=1000, seed=1, test_id=shear_ids)
+    expected = 1000 * 2 / 64
+    assert abs(mc.bootstrap.n_failed - expected) < 4 * np.sqrt(expected)
+    # Independent truth: the cluster-robust (by test) standard error of the same regression.
+    pooled = pool_shear(bundled, steady_only=True, weighting="none", test_id=shear_ids)
+    ols = sm.OLS(pooled.y, sm.add_constant(pooled.x["sigma_Pa"])).fit(
+        cov_type="cluster", cov_kwds={"groups": pooled.test_index}
+    )
+    assert mc.stderr_tests["c"] == pytest.approx(ols.bse[0], rel=0.5)

@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from ..fitting.clustered import fit_clustered_resamples
+from ..fitting.identify import RANK_CONDITION_LIMIT, _covariance
 from ..fitting.levenberg_marquardt import levenberg_marquardt
 from ..fitting.separable import BATCH_ELEMENTS, fit_separable_batch, refine_exponent
 
@@ -31,6 +32,16 @@ __all__ = ["TestBootstrap", "bootstrap_tests", "test_bootstrap"]
 #: Below this many tests a bootstrap over tests says little (and resamples often hold a
 #: single plate size); the fit says so instead of reporting a number.
 MIN_TESTS = 5
+
+#: A resample whose tests span less than this share of the campaign's range of the design
+#: input (plate size b for Bekker and Reece, normal pressure σ for shear) cannot separate
+#: the parameters that input tells apart (kc from kφ, c from tan φ): it counts as failed.
+#: Plate sizes are exact, so one plate size spans 0; normal pressures are measured, and the
+#: tests of one nominal level differ by their noise, a few per cent of the range at most.
+MIN_DESIGN_SPREAD = 0.1
+
+#: The pooled input whose spread separates a model's parameters (by model name).
+_DESIGN_INPUT = {"bekker": "b_m", "reece": "b_m", "mohr-coulomb": "sigma_Pa", "janosi": "sigma_Pa"}
 
 
 @dataclass(frozen=True)
@@ -46,7 +57,8 @@ class TestBootstrap:
 
     @property
     def n_failed(self) -> int:
-        """Resamples whose fit did not converge (left out of ``draws``)."""
+        """Resamples whose fit did not converge or did not determine the parameters (left out
+        of ``draws``; see :func:`_refit`)."""
         return self.n_resamples - len(self.draws)
 
     @property
@@ -76,6 +88,7 @@ def bootstrap_tests(
     *,
     n_resamples: int = 1000,
     seed: int = 0,
+    design=None,
 ) -> TestBootstrap:
     """Cluster bootstrap of a weighted LM fit over tests (see the module docstring).
 
@@ -93,6 +106,11 @@ def bootstrap_tests(
         Number of resamples B (1000 gives the sd to about ±2 %).
     seed : int
         Seed of ``numpy.random.default_rng``: the same seed gives the same draws.
+    design : array_like, optional
+        Per sample, the input that separates the model's linear parameters (b [m] for
+        Bekker, σ [Pa] for shear).  A resample whose tests span less than
+        :data:`MIN_DESIGN_SPREAD` of the campaign's range of its per-test mean is not fitted
+        and counts as failed (:attr:`TestBootstrap.n_failed`): it cannot determine them.
     """
     # Tests that contributed no sample are not part of the design: draw among the others.
     _, first_sample, test_index = np.unique(
@@ -108,6 +126,9 @@ def bootstrap_tests(
     np.add.at(counts, (np.arange(n_resamples)[:, None], picks), 1)
     theta = np.full((n_resamples, len(model.param_names)), np.nan)
     done = np.zeros(n_resamples, bool)
+    # Resamples that keep enough of the design to determine the parameters; only they are
+    # fitted (the rest stay not done, i.e. failed).
+    usable = _spans_design(design, test_index, n_tests, counts)
 
     def resample_weights(rows) -> np.ndarray:  # w·√(times drawn) of each sample, (rows, N)
         return w * np.sqrt(counts[rows][:, test_index])
@@ -119,17 +140,18 @@ def bootstrap_tests(
         g_test = g[:, first_sample]  # at each test's first sample
         if np.array_equal(g, g_test[:, test_index]):
             # The basis is constant within each test (1/b and 1): per-test sums suffice.
-            theta, done = fit_clustered_resamples(
-                g_test.T, log_z, y, w, test_index, counts, start[-1]
+            rows = np.flatnonzero(usable)
+            theta[rows], done[rows] = fit_clustered_resamples(
+                g_test.T, log_z, y, w, test_index, counts[rows], start[-1]
             )
-        rest = np.flatnonzero(~done)  # the basis varies within a test, or a row strayed
+        rest = np.flatnonzero(usable & ~done)  # the basis varies within a test, or a row strayed
         block = max(1, BATCH_ELEMENTS // max(w.size, 1))
         for first in range(0, rest.size, block):
             rows = rest[first : first + block]
             theta[rows], done[rows] = fit_separable_batch(
                 g, log_z, y, resample_weights(rows), start[-1]
             )
-    for i in np.flatnonzero(~done):  # other models, and the rare resample the batch left
+    for i in np.flatnonzero(usable & ~done):  # other models, and what the batch left
         refit = _refit(model, x, y, resample_weights([i])[0], start)
         if refit is not None:
             theta[i], done[i] = refit, True
@@ -143,6 +165,26 @@ def bootstrap_tests(
         n_tests=n_tests,
         seed=seed,
     )
+
+
+def _spans_design(design, test_index, n_tests: int, counts: np.ndarray) -> np.ndarray:
+    """(B,) whether each resample's tests span at least :data:`MIN_DESIGN_SPREAD` of the
+    campaign's range of the per-test mean of ``design`` (all True without a design)."""
+    usable = np.ones(counts.shape[0], bool)
+    if design is None:
+        return usable
+    design = np.asarray(design, float)
+    per_test = np.bincount(test_index, weights=design, minlength=n_tests) / np.bincount(
+        test_index, minlength=n_tests
+    )
+    full = float(np.ptp(per_test)) if per_test.size else 0.0
+    if not full > 0:  # one level in the whole campaign: no resample can do better
+        return usable
+    drawn = counts > 0
+    spread = np.where(drawn, per_test, -np.inf).max(axis=1) - np.where(drawn, per_test, np.inf).min(
+        axis=1
+    )
+    return spread >= MIN_DESIGN_SPREAD * full
 
 
 def test_bootstrap(model, x, pooled, fit, n_resamples: int, seed: int, notes: list):
@@ -165,13 +207,22 @@ def test_bootstrap(model, x, pooled, fit, n_resamples: int, seed: int, notes: li
         fit.values,
         n_resamples=n_resamples,
         seed=seed,
+        design=pooled.x.get(_DESIGN_INPUT.get(model.name, "")),
     )
 
 
 def _refit(model, x, y, w, start) -> np.ndarray | None:
     """The weighted LM optimum of one resample (the identification's own path: variable
-    projection to the exponent, then LM), or None when it does not converge.  No covariance:
-    the resample's estimate is all the bootstrap needs."""
+    projection to the exponent, then LM), or None when it does not converge or its end point
+    does not determine the parameters.
+
+    The second is :func:`~soilstats.fitting.identify`'s rank test (cond(J D⁻¹) above
+    ``RANK_CONDITION_LIMIT``): a resample that drew tests of one plate size (Bekker) or one
+    normal pressure (Mohr–Coulomb, Janosi) cannot separate kc from kφ (c from tan φ), and the
+    LM stops somewhere along the undetermined direction, near its start.  Kept as a draw,
+    such a resample shrank or inflated ``stderr_tests`` (one design: kc's sd 2 988 for 3 603
+    without them; another: c's 98.5 Pa for 14.5 Pa) and hid the failures from
+    ``bootstrap-unstable``."""
     wy = w * y
     f_weighted, jacobian = model.evaluators(x, w)
     with np.errstate(all="ignore"):
@@ -180,5 +231,8 @@ def _refit(model, x, y, w, start) -> np.ndarray | None:
             start, _ = refine_exponent(basis, log_z, wy, start, ftol=1e-9)
         out = levenberg_marquardt(lambda t: wy - f_weighted(t), jacobian, start, ftol=1e-15)
     if not out.converged or not np.all(np.isfinite(out.params)):
+        return None
+    cond, _ = _covariance(out.jacobian, 2.0 * out.cost, w.size, out.gram, out.scaled)
+    if not cond <= RANK_CONDITION_LIMIT:
         return None
     return out.params

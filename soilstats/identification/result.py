@@ -93,7 +93,8 @@ class CampaignFit(FitResult):
         bs = self.bootstrap
         lines = [
             f"Test-level stderr (cluster bootstrap: {bs.n_resamples} resamples of "
-            f"{bs.n_tests} tests, seed {bs.seed}, {bs.n_failed} not converged):"
+            f"{bs.n_tests} tests, seed {bs.seed}, {bs.n_failed} failed: not converged or "
+            "not determined):"
         ]
         ratio = self.stderr_tests / self.stderr
         lines += [
@@ -237,8 +238,10 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
         flags.append(
             HealthFlag(
                 "bootstrap-unstable",
-                f"{bs.n_failed} of {bs.n_resamples} resamples of the tests did not converge: "
-                "the estimate depends on which tests are in the campaign",
+                f"{bs.n_failed} of {bs.n_resamples} resamples of the tests did not converge "
+                "or could not determine the parameters (e.g. they drew tests of one plate size "
+                "or one normal pressure): the estimate depends on which tests are in the "
+                "campaign",
             )
         )
     return notes, flags
