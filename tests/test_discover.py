@@ -277,7 +277,8 @@ def test_simulated_paper_names_the_papers_effects():
     # no effect of grouser count or shear velocity was planted (Tables 7, Section 3.2.4)
     assert not any(f.cause in ("grousers", "omega_rpm") for f in result.findings)
     codes = {(fl["soil"], fl["code"]) for fl in result.flags}
-    assert ("soil01", "implausible-kc") in codes  # frictional sand: negative kc (Table 5)
+    # frictional sand: a negative kc (Table 5) is what such soils give, not a red flag
+    assert not any(code == "implausible-kc" for _, code in codes)
     assert ("soil02", "kc-kphi-collinear") in codes
 
 

@@ -1,7 +1,8 @@
 """Physical red flags: identified parameters no soil can have, in their own list.
 
-Not findings (they name no cause), but signs that the model is being forced: a negative kc or
-kφ (frictional sands give negative kc, the paper's Table 5), n outside its plausible range,
+Not findings (they name no cause), but signs that the model is being forced: a negative kφ
+(kc may take either sign: frictional sands give a negative kc, the paper's Table 5, as their
+bearing capacity grows with width), n outside its plausible range,
 kc and kφ nearly collinear (|corr| > 0.95: the plate sizes barely separate them), a friction
 angle or cohesion outside (0, 90°) / ≥ 0.  Checked on each group's base fit and, for sinkage
 with several velocities, per velocity (the paper's Table 5 conditions), using the health

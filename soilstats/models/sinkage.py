@@ -95,7 +95,10 @@ BEKKER = Model(
     output="p [Pa]",
     param_names=("kc", "kphi", "n"),
     units=("N/m^(n+1)", "N/m^(n+2)", "-"),
-    bounds=((0.0, np.inf), (0.0, np.inf), _N_RANGE),
+    # kc may take either sign: a negative kc (a narrower plate sinks more at one pressure) is
+    # what frictional sands give, bearing capacity growing with width — the paper's own
+    # Table 5 soils 01 and 02. Bounding it at 0 flagged every such fit.
+    bounds=((-np.inf, np.inf), (0.0, np.inf), _N_RANGE),
     func=bekker,
     jac=bekker_jac,
     separable=_separable_bekker,
