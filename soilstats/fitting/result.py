@@ -86,7 +86,8 @@ class FitResult:
     extra_flags: tuple[HealthFlag, ...] = ()
     #: Rows map parameter changes to the basis in which ``high-correlation`` is judged (None:
     #: the parameters themselves). A power law's scale and exponent are coupled by where
-    #: z = 1 lies, not by the data; the identification judges its scales at the data's centre.
+    #: z = 1 lies, not by the data; the identification judges each scale where the data measure it
+    #: (soilstats.identification.centring).
     correlation_basis: np.ndarray | None = field(default=None, repr=False)
     notes: tuple[str, ...] = ()
 
