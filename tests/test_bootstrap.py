@@ -113,3 +113,24 @@ def test_resamples_that_cannot_separate_the_parameters_count_as_failed():
         cov_type="cluster", cov_kwds={"groups": pooled.test_index}
     )
     assert mc.stderr_tests["c"] == pytest.approx(ols.bse[0], rel=0.5)
+
+
+def test_test_level_interval_uses_stderr_tests_and_t_of_the_tests():
+    """conf_int(level='tests'): θ̂ ± t(0.975, T − 1)·stderr_tests, the interval to quote when
+    test-scatter is flagged; the default stays Eq. 4's; without the bootstrap it says how."""
+    from scipy import stats
+
+    fit = fit_sinkage(_campaign(2, stiffness_cv=0.2, n_sd=0.05), "bekker", test_resamples=200)
+    t = stats.t.ppf(0.975, fit.bootstrap.n_tests - 1)
+    tests = fit.conf_int(level="tests")
+    np.testing.assert_allclose(tests["upper"] - fit.params, t * fit.stderr_tests, rtol=1e-12)
+    np.testing.assert_allclose(fit.params - tests["lower"], t * fit.stderr_tests, rtol=1e-12)
+    samples = fit.conf_int()
+    t_samples = stats.t.ppf(0.975, fit.dof)
+    np.testing.assert_allclose(samples["upper"] - fit.params, t_samples * fit.stderr, rtol=1e-12)
+    assert "95% CI (t, " in fit.summary()
+    plain = fit_sinkage(_campaign(2, stiffness_cv=0.2, n_sd=0.05), "bekker")
+    with pytest.raises(ValueError, match="test_resamples"):
+        plain.conf_int(level="tests")
+    with pytest.raises(ValueError, match="level must be"):
+        fit.conf_int(level="campaign")

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from ..fitting.result import FitResult, HealthFlag
 from ..report.files import json_safe
@@ -66,6 +67,30 @@ class CampaignFit(FitResult):
         """Test-level standard errors (cluster bootstrap over tests), or None if not run."""
         return None if self.bootstrap is None else self.bootstrap.stderr
 
+    def conf_int(self, alpha: float = 0.05, *, level: str = "samples") -> pd.DataFrame:
+        """Two-sided (1 − alpha) intervals θ̂ ± t·σ.
+
+        ``level="samples"``: Eq. 4's σ with t(N − Np), as :meth:`FitResult.conf_int` — right
+        when the samples are the unit of replication.  ``level="tests"``: the test-level σ
+        (``stderr_tests``, cluster bootstrap) with t(T − 1) for T tests, the usual small-
+        sample allowance for a cluster-level standard error — the interval to quote when
+        ``test-scatter`` is flagged.  Needs ``test_resamples`` > 0.
+        """
+        if level == "samples":
+            return super().conf_int(alpha)
+        if level != "tests":
+            raise ValueError(f"level must be 'samples' or 'tests', got {level!r}")
+        if self.bootstrap is None:
+            raise ValueError(
+                "no test-level interval without the test bootstrap: fit with test_resamples "
+                "> 0 (e.g. 1000)"
+            )
+        if not 0 < alpha < 1:
+            raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+        t = stats.t.ppf(1 - alpha / 2, max(self.bootstrap.n_tests - 1, 1))
+        half = t * self.stderr_tests
+        return pd.DataFrame({"lower": self.params - half, "upper": self.params + half})
+
     @property
     def n_tests(self) -> int:
         """Tests that contributed samples to the fit."""
@@ -97,8 +122,11 @@ class CampaignFit(FitResult):
             "not determined):"
         ]
         ratio = self.stderr_tests / self.stderr
+        ci = self.conf_int(0.05, level="tests")
         lines += [
-            f"  {name:>8} {self.stderr_tests[name]:>14.4g}   {ratio[name]:.2f} × Eq. 4"
+            f"  {name:>8} {self.stderr_tests[name]:>14.4g}   {ratio[name]:5.2f} × Eq. 4   "
+            f"95% CI (t, {bs.n_tests - 1} dof) [{ci.loc[name, 'lower']:.5g}, "
+            f"{ci.loc[name, 'upper']:.5g}]"
             for name in self.param_names
         ]
         head, _, tail = text.rpartition("Health:")
