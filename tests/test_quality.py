@@ -129,6 +129,24 @@ def test_planted_seating_offsets_are_found_rezeroed_and_the_fit_recovers():
     assert abs(raw.params["n"] - reference.params["n"]) > 3 * reference.stderr["n"]
 
 
+def test_a_seating_offset_is_not_read_as_bearing_failure():
+    """Bearing failure is judged on the loaded record, z from the contact found: with the
+    free travel in, a 1.5 mm seating offset bent the early power law and every loose test
+    (n = 0.45) was flagged bearing-failure too, with a window at 4 of its 30 mm."""
+    tests, sinkage = _raw(_clean(104))
+    loose = set(tests.loc[tests["soil"] == "loose", "test_id"])
+    rng = np.random.default_rng(3)
+    parts = [
+        seated_late(tid, group, 1.5e-3, rng) if tid in loose else group
+        for tid, group in sinkage.groupby("test_id", sort=False)
+    ]
+    seated = Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
+    for mode in ("clean", "flag"):
+        codes = {(f.test_id, f.code) for f in screen(seated, mode).flags}
+        assert {t for t, c in codes if c == "pre-contact"} == loose
+        assert not {t for t, c in codes if c == "bearing-failure"}, mode
+
+
 def test_sinkage_in_millimetres_is_a_units_flag_in_check_and_an_error_at_load():
     tests, sinkage = _raw(_clean(103))
     sinkage["z_m"] *= 1000.0

@@ -133,15 +133,19 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
             out.append((tid, "spike", rows(labels, spiked), None))
         good = np.setdiff1d(np.arange(z.size), spiked)
         zg, fg = z[good], force[good]
-        offset = 0.0
+        offset = shift = 0.0
+        loaded = good
         contact = records.find_contact(zg, fg)
         if contact is not None:
             offset = contact.z_contact if clean else 0.0
             out.append((tid, "pre-contact", rows(labels, good[contact.before]), contact.z_contact))
-        runaway = records.find_runaway(zg, fg)
+            # bearing failure is judged on the loaded record, z from the contact
+            shift = contact.z_contact
+            loaded = np.delete(good, contact.before)
+        runaway = records.find_runaway(z[loaded] - shift, force[loaded])
         if runaway is not None:
-            value = runaway.z_onset - offset
-            out.append((tid, "bearing-failure", rows(labels, good[runaway.after]), value))
+            value = runaway.z_onset + shift - offset
+            out.append((tid, "bearing-failure", rows(labels, loaded[runaway.after]), value))
         fallen = records.find_non_monotone(zg)
         if fallen.size:
             out.append((tid, "non-monotone", rows(labels, good[fallen]), None))
