@@ -168,3 +168,45 @@ def test_cli_refuses_a_prior_for_no_parameter_before_sampling(campaign, tmp_path
         ]
     )
     assert code == 2 and not (tmp_path / "o").exists()
+
+
+def test_a_run_whose_autocorrelation_time_is_not_finite_is_reported_not_raised(monkeypatch):
+    """Walkers that overflow leave emcee's τ NaN; the sampler used it for its burn-in and
+    raised 'cannot convert float NaN to integer'. It now keeps a short stretch and reports
+    τ not reliable, which the posterior turns into 'not converged'."""
+    import emcee
+
+    from soilstats.bayes import sampler
+
+    real = emcee.autocorr.integrated_time
+    calls = []
+
+    def nan_first(chain, **kw):
+        calls.append(1)
+        return np.full(chain.shape[-1], np.nan) if len(calls) == 1 else real(chain, **kw)
+
+    monkeypatch.setattr(emcee.autocorr, "integrated_time", nan_first)
+    run = sampler.run_ensemble(
+        lambda t: -0.5 * np.sum(t * t, axis=1),
+        np.zeros(2),
+        np.eye(2),
+        draws=160,
+        seed=0,
+        tune=50,
+        accept=lambda chain: False,
+    )
+    assert run.chain.shape == (16, 10, 2) and run.extended == 0
+    assert run.burn == run.steps - 10 and run.thin == 1
+
+
+def test_the_models_of_one_run_draw_from_different_streams():
+    """Two models sampled with one seed drew the same random numbers: rows of their draws
+    with the same index were coupled (Spearman 0.9 between kphi and phi). The CLI gives the
+    first model the seed and each later one its own from SeedSequence([seed, index])."""
+    from soilstats.cli.posterior import model_seed
+
+    assert model_seed(7, 0) == 7
+    assert model_seed(7, 1) == model_seed(7, 1) != 7
+    assert len({model_seed(s, i) for s in range(50) for i in range(2)}) == 100
+    expected = np.random.SeedSequence([7, 1]).generate_state(1, np.uint32)[0]
+    assert model_seed(7, 1) == expected

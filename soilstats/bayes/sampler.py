@@ -165,9 +165,17 @@ def run_ensemble(
             state = advance(state, tune)
             adapted = sampler.iteration
         tau = np.max(emcee.autocorr.integrated_time(sampler.get_chain()[adapted // 2 :], tol=0))
-        burn = adapted + max(10, math.ceil(3 * tau))
-        thin = max(1, int(tau / 2))
-        needed = max(burn + thin * per_walker, burn + math.ceil(50 * tau))
+        if math.isfinite(tau):
+            burn = adapted + max(10, math.ceil(3 * tau))
+            thin = max(1, int(tau / 2))
+            needed = max(burn + thin * per_walker, burn + math.ceil(50 * tau))
+        else:
+            # Walkers left the finite part of the density (their values overflowed): there
+            # is no autocorrelation time to set a burn-in or a thinning by.  Keep a short
+            # stretch, unthinned and not extended; its τ is not finite, so the run is
+            # reported as not converged (tau_reliable False) instead of raising here.
+            burn, thin, needed = adapted, 1, adapted + per_walker
+            accept = None
         extended = 0
         while True:
             if needed > sampler.iteration:

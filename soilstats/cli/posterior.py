@@ -128,10 +128,26 @@ def priors_by_model(args, models) -> dict[str, dict]:
     return out
 
 
-def _run(campaign, model, priors, args):
+def model_seed(seed: int, index: int) -> int:
+    """The seed of the ``index``-th model of one run: ``seed`` itself for the first, one
+    drawn from ``SeedSequence([seed, index])`` for the others.  With one seed for both, the
+    sinkage and shear samplers drew the same random streams, and rows of their draws with
+    the same index were coupled (Spearman 0.9 between kφ and φ)."""
+    import numpy as np
+
+    if index == 0:
+        return int(seed)
+    return int(np.random.SeedSequence([int(seed), index]).generate_state(1, np.uint32)[0])
+
+
+def _run(campaign, model, priors, args, index=0):
     from ..bayes import sample_population, sample_posterior
 
-    kw = {"seed": args.seed, "progress": progress_enabled(args.progress), "soil": args.soil}
+    kw = {
+        "seed": model_seed(args.seed, index),
+        "progress": progress_enabled(args.progress),
+        "soil": args.soil,
+    }
     if args.draws is not None:
         kw["draws"] = args.draws
     if priors:
@@ -236,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
     pooled_warnings = pooling_warnings(campaign, args.soil, models)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
-        results = [_run(campaign, m, priors[m], args) for m in models]
+        results = [_run(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
     n = min(len(r.draws()) for r in results)
     draws = (
         joint_draws(results[0], results[1], n, seed=args.seed)
