@@ -52,6 +52,7 @@ __all__ = [
     "relations",
     "spans_log",
     "time_hours",
+    "trend_on_log",
     "with_time_hours",
 ]
 
@@ -319,6 +320,13 @@ def enumerate_candidates(
 def spans_log(x: np.ndarray) -> bool:
     """Whether a continuous candidate enters on ln x: all x > 0, spanning more than a factor 4."""
     return bool(np.all(x > 0) and x.max() / x.min() > 4.0)
+
+
+def trend_on_log(role: str) -> bool:
+    """Whether a trend in a candidate of ``role`` may enter on ln x (:func:`spans_log`
+    decides then): never for time/order — a drift is linear in time or order, and ln of a test
+    number would put most of it on the first few tests."""
+    return role != "time/order"
 
 
 def level_codes(values: pd.Series) -> np.ndarray:

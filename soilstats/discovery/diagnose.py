@@ -39,6 +39,7 @@ from .candidates import (
     determines,
     enumerate_candidates,
     level_codes,
+    trend_on_log,
 )
 from .candidates import relations as find_relations
 from .extensions import SinkageExtension, base_model
@@ -206,7 +207,7 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                 x_all[ok],
                 categorical=cand.categorical,
                 strata=strata[ok],
-                log_scale=cand.role != "time/order",
+                log_scale=trend_on_log(cand.role),
             )
             used = np.flatnonzero(ok)[res["used"]]
             singles = []
@@ -463,7 +464,7 @@ def retest(group, table, row) -> dict[str, float]:
             out[response] = res["p_value"]
         return out
     categorical = bool(row["categorical"])
-    log_scale = row["role"] != "time/order"
+    log_scale = trend_on_log(row["role"])
     values = candidate_values(table, row["candidate"])
     x_all = level_codes(values) if categorical else values.to_numpy(float)
     for response in RESPONSES[group.kind]:

@@ -390,7 +390,7 @@ _RING = {"grouser_height_m", "r_inner_m", "r_outer_m", "ring_area_m2"}
 
 
 def library(
-    group, rows, cause, related, *, numeric: bool, responses, drift: bool = False
+    group, rows, cause, related, *, numeric: bool, responses, log_scale: bool = True
 ) -> list[Extension]:
     """Extensions to try for ``cause`` (and the candidates confounded with it), physical first.
 
@@ -408,9 +408,9 @@ def library(
     responses : set of str
         Per-test responses in which the cause showed: ``level``, ``shape`` (sinkage),
         ``level``, ``K`` (shear) — they decide which parameters the generic extension frees.
-    drift : bool
-        ``cause`` is a time/order column: its trend is linear in it, never on ln x (as
-        diagnosis tested it).
+    log_scale : bool
+        Whether a ``linear`` trend in ``cause`` may enter on ln x, as diagnosis tested it
+        (:func:`~.candidates.trend_on_log`: not for a time/order column).
     """
     names = {cause, *related}
     tests = group.tests.iloc[np.asarray(rows, int)]
@@ -466,7 +466,7 @@ def library(
                 bekker=bekker,
                 terms=(
                     Term(
-                        Features(cause, how, log_scale=not drift),
+                        Features(cause, how, log_scale=log_scale),
                         ("k",) * stiffness + ("n",) * exponent,
                     ),
                 ),
@@ -492,7 +492,7 @@ def library(
             f"{cause} ({how})",
             False,
             f"{', '.join(targets)} depend on {cause} ({how})",
-            terms=(Term(Features(cause, how, log_scale=not drift), targets),),
+            terms=(Term(Features(cause, how, log_scale=log_scale), targets),),
         )
     )
     return out

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import ConvergenceError, IdentifiabilityError
-from .candidates import candidate_values
+from .candidates import candidate_values, trend_on_log
 from .crossval import FoldFits, compare, cross_validation, information_criteria, make_folds
 from .diagnose import conditional_responses, retest
 from .extensions import base_model, library
@@ -106,7 +106,7 @@ def _physical_name(lead: str, extension: str, relations) -> str:
     return lead
 
 
-def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng, drift):
+def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng, log_scale):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
 
@@ -125,7 +125,7 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
     base_ext = base_model(group, rows)
     folds = make_folds(levels, "tests", rng)
     extensions = library(
-        group, rows, lead, confounded, numeric=numeric, responses=responses, drift=drift
+        group, rows, lead, confounded, numeric=numeric, responses=responses, log_scale=log_scale
     )
     # One chain, in the order the base model is read: its fit on all tests, then the folds.
     base_plan = FoldFits(rows, base_ext, folds, scheme="tests", chain="base")
@@ -252,7 +252,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng):
                 set(responses),
                 levels,
                 rng,
-                drift=top["role"] == "time/order",
+                log_scale=trend_on_log(top["role"]),
             )
         except (ConvergenceError, IdentifiabilityError) as exc:
             caveats.append(f"cross-validation on the tests in scope failed: {exc}")

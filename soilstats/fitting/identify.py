@@ -177,14 +177,12 @@ def identify(
     # A sample of weight zero is left out: it counts in neither the degrees of freedom of
     # Eq. 4's s² nor the N of Eq. 2 (counted, half the samples at weight zero made σ 0.70×
     # curve_fit's on the kept ones, and 95 % intervals covered ~60 %).
-    kept = None if weights is None else w != 0
-    n_used = n_obs if kept is None else int(np.count_nonzero(kept))
+    n_used = n_obs if weights is None else int(np.count_nonzero(w))
+    kept = None if n_used == n_obs else w != 0
     if n_used < n_obs and n_used <= n_par:
         raise ValueError(
             f"{n_used} observations of non-zero weight cannot determine {n_par} parameters"
         )
-    if n_used == n_obs:
-        kept = None
 
     jacobian_method = "analytic"
     if jac is None:

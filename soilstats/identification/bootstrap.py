@@ -181,10 +181,9 @@ def _spans_design(design, test_index, n_tests: int, counts: np.ndarray) -> np.nd
     if not full > 0:  # one level in the whole campaign: no resample can do better
         return usable
     drawn = counts > 0
-    spread = np.where(drawn, per_test, -np.inf).max(axis=1) - np.where(drawn, per_test, np.inf).min(
-        axis=1
-    )
-    return spread >= MIN_DESIGN_SPREAD * full
+    highest = np.where(drawn, per_test, -np.inf).max(axis=1)
+    lowest = np.where(drawn, per_test, np.inf).min(axis=1)
+    return highest - lowest >= MIN_DESIGN_SPREAD * full
 
 
 def test_bootstrap(model, x, pooled, fit, n_resamples: int, seed: int, notes: list):

@@ -277,7 +277,6 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
         from tqdm.auto import tqdm
 
         bar = tqdm(total=len(candidates) + len(runaway), desc="screening records", unit="test")
-    offset_of = np.zeros(good.count)
     contact_of: dict[int, records.ContactPoint] = {}
     for k in candidates:
         zk, fk, lk = record(k)
@@ -287,9 +286,8 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
         if contact is None:
             continue
         contact_of[k] = contact
-        offset_of[k] = contact.z_contact if clean else 0.0
-        if offset_of[k]:
-            offsets[rec.ids[k]] = float(offset_of[k])
+        if clean and contact.z_contact:
+            offsets[rec.ids[k]] = float(contact.z_contact)
         rows = lk[contact.before]
         out[k].append(
             QualityFlag(
@@ -331,7 +329,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
         if found is None:
             continue
         onset = found.z_onset + shift  # in the record's own z
-        offset = float(offset_of[k])
+        offset = shift if clean else 0.0  # clean mode re-zeroes z at the contact
         out[k].append(
             QualityFlag(
                 rec.ids[k],
