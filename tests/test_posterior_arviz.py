@@ -330,6 +330,7 @@ def test_population_log_likelihood_and_replicates_are_the_marginal_model():
         ln_zref,
         resolve_priors("bernstein", BERNSTEIN.param_names, None),
         Coordinates(),
+        reference_rows=np.ones((1, 1)),
     )
     k, n, s_eps, s_delta, rho = 8.5e5, 1.07, 0.1, 0.04, 0.3
     v = np.array([[k, n, np.log(s_eps), np.log(s_delta), np.arctanh(rho)]])

@@ -41,9 +41,21 @@ many tests there are, and one log-density costs one 2×2 determinant per test an
 Bekker and Bernstein moduli are sampled in the log-modulus coordinates of
 :mod:`soilstats.bayes.transforms` (exact Jacobian); Janosi's (c, φ, K) as they are.
 
-Priors.  Soil-level parameters: the pooled model's physics priors
-(:mod:`soilstats.bayes.priors`).  s_ε, s_δ: half-Cauchy with scale 1 (a factor e between
-preparations), for sinkage s_δ with scale |n̂| (weak).  ρ: a symmetric Beta(2, 2) on (−1, 1),
+Priors.  Soil-level parameters: the pooled model's physics support
+(:mod:`soilstats.bayes.priors`), and by default flat in the logarithm of each positive scale
+the tests measure — the plate moduli at the smallest and largest plate (Bekker), k
+(Bernstein), the strengths τ_max(σ) = c + σ tan φ at the smallest and largest normal pressure
+and K (Janosi); n stays flat.  Why not flat in the moduli themselves, as the pooled model:
+the moduli enter the marginal likelihood through their logarithm u, and a density flat in a
+modulus is e^u in u; integrating u then leaves e^{s²/(2T)} (s the scatter sd, T tests), which
+grows faster than any prior on s decays — the posterior is improper, and the sampler either
+runs off to overflowing moduli or sits in a local mode (docs/posterior.md).  Flat in u leaves
+a likelihood in s that decays as s^{1−T}: proper for T ≥ 3 (the model's minimum).  A prior
+the caller gives for any parameter of a group (the linear moduli; n or K) replaces that
+group's log-flat factor: the caller's priors are then the prior.
+
+s_ε, s_δ: half-Cauchy with scale 1 (a factor e between preparations), for sinkage s_δ with
+scale |n̂| (weak).  ρ: a symmetric Beta(2, 2) on (−1, 1),
 i.e. LKJ(η = 2) for a 2×2 correlation matrix.
 
 What it assumes: scatter between tests is preparation scatter; a test's own curve is well
@@ -95,6 +107,9 @@ class _Layout:
     scatter: tuple[str, str, str]  # names of s_ε, s_δ, ρ in the posterior
     covariate: str  # per-test quantity of the design row: b_m or sigma_Pa
     log_second: bool
+    #: log dθ_linear/d(moduli): the moduli m are the parameters themselves (sinkage), or
+    #: (c, tan φ) of (c, φ [deg]) — ln dtanφ/dφ = −2 ln cos φ + const.
+    linear_log_jacobian: Callable[[np.ndarray], np.ndarray]
     linear: Callable[[np.ndarray], np.ndarray]
     second: Callable[[np.ndarray], np.ndarray]
     assemble: Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -106,6 +121,7 @@ _SINKAGE = dict(
     scatter=("sd_stiffness", "sd_n", "corr_stiffness_n"),
     covariate="b_m",
     log_second=False,
+    linear_log_jacobian=lambda theta: np.zeros(theta.shape[0]),
     linear=lambda theta: theta[:, :-1],
     second=lambda theta: theta[:, -1],
     assemble=lambda m, g: np.column_stack([m, g]),
@@ -121,6 +137,7 @@ _LAYOUTS = {
         scatter=("sd_strength", "sd_lnK", "corr_strength_K"),
         covariate="sigma_Pa",
         log_second=True,
+        linear_log_jacobian=lambda theta: -2.0 * np.log(np.cos(theta[:, 1] * RAD_PER_DEG)),
         linear=lambda theta: np.column_stack([theta[:, 0], np.tan(theta[:, 1] * RAD_PER_DEG)]),
         second=lambda theta: np.log(theta[:, 2]),
         assemble=lambda m, g: np.column_stack(
@@ -216,14 +233,43 @@ def _to_eta(params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: boo
     return eta, jac @ cov @ np.swapaxes(jac, 1, 2)
 
 
+def _reference_rows(design: np.ndarray, covariate: np.ndarray) -> np.ndarray:
+    """The design rows a_ref whose scales a_refᵀm the default prior is flat in the log of:
+    those of the smallest and largest positive b or σ of the tests, or the one row of a
+    model with one linear modulus (Bernstein).  As many rows as moduli, so the prior is
+    homogeneous of degree −m in m: flat in the log of their common scale."""
+    if design.shape[1] == 1:
+        return design[:1]
+    positive = np.flatnonzero(covariate > 0)
+    if positive.size == 0:  # (σ = 0 only: c alone is measured; flat in ln c)
+        positive = np.arange(covariate.size)
+    ends = positive[[np.argmin(covariate[positive]), np.argmax(covariate[positive])]]
+    return design[ends]
+
+
 class _Population:
     """Walker-vectorised log-posterior of v = (u(θ), ln s_ε, ln s_δ, atanh ρ)."""
 
     def __init__(
-        self, model, layout: _Layout, eta, cov, design, ln_zref, priors, coords: Coordinates
+        self,
+        model,
+        layout: _Layout,
+        eta,
+        cov,
+        design,
+        ln_zref,
+        priors,
+        coords: Coordinates,
+        *,
+        reference_rows: np.ndarray,
+        log_flat: tuple[bool, bool] = (True, True),
     ):
         self.model, self.layout, self.eta, self.cov, self.priors = model, layout, eta, cov, priors
         self.coords, self.ln_zref, self.design = coords, ln_zref, design
+        self.reference_rows = reference_rows
+        # Whether the default log-flat factor applies to the linear moduli, and to K (a
+        # caller's prior on a group replaces it; module docstring, "Priors").
+        self.log_flat_linear, self.log_flat_second = log_flat[0], log_flat[1] and layout.log_second
         self.p = model.n_params
         self.b = np.array([[1.0, ln_zref], [0.0, 1.0]])
         # Half-Cauchy scales: a factor e for a modulus; |n̂| for an exponent.
@@ -265,7 +311,11 @@ class _Population:
         if not ok.any():
             return out
         v, theta = v[ok], theta[ok]
-        lp = self.prior_only.log_prior(theta) + self.coords.log_jacobian(v[:, : self.p])
+        lp = (
+            self.prior_only.log_prior(theta)
+            + self.log_scale_prior(theta)
+            + self.coords.log_jacobian(v[:, : self.p])
+        )
         log_s = v[:, self.p : self.p + 2]
         s = np.exp(log_s)
         lp = lp + np.sum(log_s - np.log1p((s / self.scales) ** 2), axis=1)  # half-Cauchy
@@ -274,6 +324,40 @@ class _Population:
         ll = -0.5 * np.sum(np.log(det) + quad, axis=1)
         out[ok] = np.where(np.isfinite(ll) & np.isfinite(lp), lp + ll, -np.inf)
         return out
+
+    def log_scale_prior(self, theta: np.ndarray) -> np.ndarray:
+        """The default prior's log-flat factor on θ (W, p) → (W,): −Σ ln(a_refᵀm) plus the
+        Jacobian of m in θ for the linear moduli, −ln K for Janosi (module docstring)."""
+        out = np.zeros(theta.shape[0])
+        if self.log_flat_linear:
+            scales = self.layout.linear(theta) @ self.reference_rows.T  # (W, m)
+            positive = np.all(scales > 0, axis=1)
+            logs = np.log(np.where(scales > 0, scales, 1.0))
+            out += np.where(
+                positive, self.layout.linear_log_jacobian(theta) - logs.sum(axis=1), -np.inf
+            )
+        if self.log_flat_second:
+            out -= self.layout.second(theta)  # g = ln K: 1/K on K
+        return out
+
+    def describe_priors(self) -> str:
+        """The soil-level priors in words (notes, ``posterior.attrs['priors']``)."""
+        names = self.model.param_names
+        own = "; ".join(f"{n}: {p}" for n, p in zip(names, self.priors, strict=True))
+        if self.layout.log_second:
+            scales = "tau_max at the smallest and largest normal pressure"
+        elif self.reference_rows.shape[0] == 1:
+            scales = names[0]
+        else:
+            scales = "the plate modulus kc/b + kphi at the smallest and largest plate"
+        parts = []
+        if self.log_flat_linear:
+            parts.append(f"flat in ln of {scales}")
+        if self.log_flat_second:
+            parts.append(f"flat in ln {names[-1]}")
+        if not parts:
+            return own
+        return f"{own}; times the population default: {' and '.join(parts)}"
 
     def _mean_cov(self, v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h_t (W, T, 2) and M_t = B Σ Bᵀ + C_t (W, T, 2, 2) of the marginal likelihood."""
@@ -401,7 +485,10 @@ def sample_population(
 
     Parameters are as for :func:`soilstats.bayes.sample_posterior`.  ``model`` is
     ``"bekker"``, ``"bernstein"`` or ``"janosi"`` (:data:`POPULATION_MODELS`); Mohr–Coulomb
-    alone has no per-test curve to scatter and stays a pooled question.
+    alone has no per-test curve to scatter and stays a pooled question.  The default prior
+    of the soil-level parameters is flat in the log of the measured scales (module docstring,
+    "Priors"); a prior given in ``priors`` for any linear modulus (kc, kφ; k; c, φ), or for
+    Janosi's K, replaces that group's log-flat factor.
 
     Returns
     -------
@@ -445,6 +532,7 @@ def sample_population(
         base = sampling_coordinates(spec, theta0, lsq.cov.to_numpy(), np.unique(fits.covariate))
         coords = base if base.identity else Coordinates(moduli=base.moduli, ln_zref=ln_zref)
     eta, cov = _to_eta(fits.params, fits.cov, ln_zref, layout.log_second)
+    given = set(priors or {})
     pops = _Population(
         spec,
         layout,
@@ -454,6 +542,8 @@ def sample_population(
         ln_zref,
         resolve_priors(spec.name, spec.param_names, priors),
         coords,
+        reference_rows=_reference_rows(fits.design, fits.covariate),
+        log_flat=(not given & set(spec.param_names[:-1]), spec.param_names[-1] not in given),
     )
     # Start: the pooled LS estimate and the spread of the per-test fits around it.
     with np.errstate(all="ignore"):
@@ -527,7 +617,7 @@ def _population_notes(pops: _Population, fits: _TestFits, ln_zref: float) -> lis
         f"Population model: {len(fits.test_ids)} tests (preparations), each reduced to its own "
         f"{reduced} with its Eq. 4 covariance, in {coords}; test-level effects marginalised: "
         f"{layout.scatter_note}, (eps, delta) ~ N(0, Sigma).",
-        f"Priors: ({', '.join(names)}) as the pooled model; {s_e} ~ half-Cauchy(1), "
+        f"Priors: {pops.describe_priors()}; {s_e} ~ half-Cauchy(1), "
         f"{s_d} ~ half-Cauchy({pops.scales[1]:.3g}); {rho} ~ Beta(2, 2) on (-1, 1).",
         f"Draws of {', '.join(names)} are a NEW preparation (the scatter above applied to one "
         "posterior draw of the soil-level parameters each) — parameter uncertainty and "
@@ -553,7 +643,8 @@ def _population_idata(pops: _Population, run, rng, fits: _TestFits, curves=None)
     posterior = xr.Dataset(
         {k: (("chain", "draw"), v) for k, v in data.items()},
         coords=coords,
-        attrs=_attrs(pops.prior_only) | {"kind": "population", "ln_zref": pops.ln_zref},
+        attrs=_attrs(pops.prior_only)
+        | {"kind": "population", "ln_zref": pops.ln_zref, "priors": pops.describe_priors()},
     )
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
     test_ids = np.asarray(fits.test_ids, dtype=str)

@@ -19,6 +19,10 @@ janosi (Eq. 13)         c [Pa], φ [deg]                   as Mohr–Coulomb
                         K [m]                             flat on (0, ∞)
 ======================  ===============================  =====================================
 
+These are the pooled model's priors.  The population model (:mod:`soilstats.bayes.population`)
+keeps their support and, by default, makes them flat in the logarithm of the measured scales
+(plate moduli, k, τ_max, K): flat in a modulus makes its posterior improper.
+
 kc may be negative: the paper's Table 5 reports kc < 0 for all three soils, which only says
 that pressure grows less than linearly in 1/b; what physics demands is a positive pressure,
 kc/b + kφ > 0, on every plate used.  The noise scale σ_w of the weighted residuals has the
