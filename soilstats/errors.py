@@ -71,10 +71,11 @@ class IdentifiabilityError(SoilstatsError, ValueError):
 
 
 class ConvergenceError(SoilstatsError, RuntimeError):
-    """An optimiser did not reach a trustworthy minimum.
+    """An optimiser did not reach a trustworthy minimum, or a sampler a converged posterior.
 
     ``result`` holds the last iterate (a :class:`soilstats.fitting.FitResult` with
-    ``converged=False``) for inspection; it must not be used as an estimate.
+    ``converged=False``) or the unconverged :class:`soilstats.bayes.PosteriorResult`, for
+    inspection; it must not be used as an estimate.
     """
 
     def __init__(self, message: str, result: object | None = None) -> None:

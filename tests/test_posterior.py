@@ -64,6 +64,21 @@ def test_not_converged_is_loud(campaign):
         post = sample_posterior(campaign, "bekker", seed=3, draws=64)
     assert not post.converged
     assert "NOT CONVERGED" in post.summary()
+    # Its numbers are refused, not handed out quietly; asked for explicitly, they come.
+    from soilstats.errors import ConvergenceError
+
+    shear = sample_posterior(campaign, "janosi", seed=1)
+    for take in (
+        post.draws,
+        lambda: post.draws(100, seed=0),
+        post.interval,
+        lambda: post.interval(kind="hdi"),
+        lambda: joint_draws(post, shear, 100, seed=0),
+    ):
+        with pytest.raises(ConvergenceError, match=r"did not converge \(.*(R-hat|ess)"):
+            take()
+    assert len(post.draws(100, seed=0, allow_unconverged=True)) == 100
+    assert len(joint_draws(post, shear, 100, seed=0, allow_unconverged=True)) == 100
 
 
 def test_joint_draws_and_simulator_format(campaign):
@@ -132,6 +147,28 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
     assert provenance["seed"] == 1 and provenance["command"].startswith("soilstats posterior")
     draws = pd.read_csv(out / "draws.csv", comment="#")
     assert list(draws.columns) == ["kc", "kphi", "n", "c", "phi", "K"]
+
+
+def test_cli_draws_csv_rows_are_in_random_order_not_walker_by_walker(campaign, tmp_path):
+    # A user who reads the first N rows must get a fair sample, not one walker's
+    # autocorrelated run: the lag-1 autocorrelation of the rows is that of independent draws.
+    import arviz as az
+
+    from soilstats.cli.posterior import main
+
+    folder = campaign.save(tmp_path / "camp")
+    out = tmp_path / "out"
+    args = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker", "--seed", "2"]
+    assert main([*args, "--out", str(out)]) == 0
+    draws = pd.read_csv(out / "draws.csv", comment="#")
+    post = az.from_netcdf(str(out / "posterior.nc")).posterior
+    stacked = post["n"].to_numpy().reshape(-1)
+    assert len(draws) == stacked.size  # all written (this posterior is inside the support)
+    np.testing.assert_allclose(np.sort(draws["n"]), np.sort(stacked), rtol=1e-9)  # %.10g
+    for column in draws:
+        x = draws[column].to_numpy()
+        lag1 = np.corrcoef(x[:-1], x[1:])[0, 1]
+        assert abs(lag1) < 4 / np.sqrt(x.size), (column, lag1)
 
 
 def test_cli_writes_nothing_when_not_converged_unless_forced(campaign, tmp_path):

@@ -17,7 +17,12 @@ __all__ = ["joint_draws"]
 
 
 def joint_draws(
-    sinkage: PosteriorResult, shear: PosteriorResult, n: int, seed: int | None = None
+    sinkage: PosteriorResult,
+    shear: PosteriorResult,
+    n: int,
+    seed: int | None = None,
+    *,
+    allow_unconverged: bool = False,
 ) -> pd.DataFrame:
     """``n`` joint draws of the sinkage and shear parameters (independent blocks).
 
@@ -29,6 +34,9 @@ def joint_draws(
         Number of rows.
     seed : int, optional
         Seed of the (independent) subsampling of each block.
+    allow_unconverged : bool, default False
+        Take the draws of a posterior that failed its convergence checks; without it such a
+        posterior raises ConvergenceError (:meth:`PosteriorResult.draws`).
 
     Returns
     -------
@@ -37,8 +45,8 @@ def joint_draws(
     """
     rng = np.random.default_rng(seed)
     seeds = rng.integers(2**32, size=2)
-    a = sinkage.draws(n, seed=int(seeds[0]))
-    b = shear.draws(n, seed=int(seeds[1]))
+    a = sinkage.draws(n, seed=int(seeds[0]), allow_unconverged=allow_unconverged)
+    b = shear.draws(n, seed=int(seeds[1]), allow_unconverged=allow_unconverged)
     clash = set(a.columns) & set(b.columns)
     if clash:
         raise ValueError(

@@ -115,10 +115,16 @@ class PosteriorResult:
         """:meth:`summary_table` at 90 %, computed once."""
         return self.summary_table(0.9)
 
-    def interval(self, prob: float = 0.9, kind: str = "eti") -> pd.DataFrame:
-        """Credible interval of each parameter: equal-tailed (``"eti"``) or HDI (``"hdi"``)."""
+    def interval(
+        self, prob: float = 0.9, kind: str = "eti", *, allow_unconverged: bool = False
+    ) -> pd.DataFrame:
+        """Credible interval of each parameter: equal-tailed (``"eti"``) or HDI (``"hdi"``).
+
+        Raises ConvergenceError for a posterior that did not converge, unless
+        ``allow_unconverged`` (as :meth:`draws`)."""
         if not 0 < prob < 1:
             raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+        d = self.draws(allow_unconverged=allow_unconverged)  # raises when not converged
         if kind == "hdi":
             hdi = az.hdi(self.idata, hdi_prob=prob, var_names=list(self.param_names))
             return pd.DataFrame(
@@ -126,21 +132,44 @@ class PosteriorResult:
             ).T
         if kind != "eti":
             raise ValueError(f"kind must be 'eti' or 'hdi', got {kind!r}")
-        d = self.draws()
         q = [(1 - prob) / 2, (1 + prob) / 2]
         return d.quantile(q).T.set_axis(["lower", "upper"], axis=1)
 
-    def draws(self, n: int | None = None, seed: int | None = None) -> pd.DataFrame:
+    def draws(
+        self, n: int | None = None, seed: int | None = None, *, allow_unconverged: bool = False
+    ) -> pd.DataFrame:
         """Joint draws of the soil parameters, one row per draw (SI units, φ in degrees).
 
         Parameters
         ----------
         n : int, optional
-            Number of rows; all draws (chains stacked) by default.  Fewer than available are
-            taken without replacement, more with replacement.
+            Number of rows, taken in a random order (without replacement when there are
+            enough, with replacement otherwise).  By default all draws with the chains
+            stacked: walker by walker, so neighbouring rows are autocorrelated — pass ``n``
+            (e.g. ``len(result.draws())``) for rows in random order.
         seed : int, optional
             Seed of the subsampling.
+        allow_unconverged : bool, default False
+            Return the draws of a posterior that failed its convergence checks (to inspect
+            them).  Without it such a posterior raises: its draws are not fit for a Monte
+            Carlo.
+
+        Raises
+        ------
+        ConvergenceError
+            When the sampler did not converge (R-hat > 1.01 or ESS < 400 for some quantity;
+            :attr:`problems` lists which), unless ``allow_unconverged``.
         """
+        if self.problems and not allow_unconverged:
+            from ..errors import ConvergenceError
+
+            raise ConvergenceError(
+                f"the {self.model_name} {self.kind} posterior did not converge "
+                f"({'; '.join(self.problems)}): its draws are not fit for a rover Monte Carlo. "
+                "Sample longer (draws=...), select one condition, or state priors; pass "
+                "allow_unconverged=True to take them anyway",
+                result=self,
+            )
         post = self.idata.posterior
         table = pd.DataFrame({name: post[name].to_numpy().reshape(-1) for name in self.param_names})
         if n is None:

@@ -253,11 +253,13 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
         results = [_run(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
-    n = min(len(r.draws()) for r in results)
+    # Rows in random order (so any first N rows are a fair sample, not one walker's run);
+    # unconverged draws are taken here and refused below unless --force.
+    n = min(len(r.draws(allow_unconverged=True)) for r in results)
     draws = (
-        joint_draws(results[0], results[1], n, seed=args.seed)
+        joint_draws(results[0], results[1], n, seed=args.seed, allow_unconverged=True)
         if len(results) == 2
-        else results[0].draws()
+        else results[0].draws(n, seed=args.seed, allow_unconverged=True)
     )
     support = check_support(draws, widths)
     table = pd.concat([r.diagnostics.assign(model=r.model_name, kind=r.kind) for r in results])
