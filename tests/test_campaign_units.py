@@ -171,6 +171,49 @@ def test_force_in_kilonewtons_warns_with_the_fix():
         Campaign.from_frames(tests, sinkage)
 
 
+def _cullinan_frames():
+    c = load_campaign("cullinan-sand")
+    tests = c.tests[["test_id", "kind", "soil", "shape", "radius_m"]].copy()
+    return tests, c.sinkage[["test_id", "z_m", "force_N"]].copy()
+
+
+def test_one_test_in_kilonewtons_among_newtons_warns_where_the_absolute_limit_cannot():
+    # Cullinan's plate is large: one test read in kN still peaks above 200 Pa (419 Pa), so
+    # only the comparison with the other tests of its soil can tell (1000x below them).
+    tests, sinkage = _cullinan_frames()
+    one = sinkage["test_id"] == "method2-test1"
+    sinkage.loc[one, "force_N"] /= 1000
+    with pytest.warns(UnitsWarning, match=r"'force_N': 1 test.*1/100 of the median.*method2-test1"):
+        Campaign.from_frames(tests, sinkage)
+
+
+def test_one_test_in_centimetres_among_metres_warns_though_it_spans_under_a_metre():
+    tests, sinkage = _grc1_frames()
+    one = sinkage["test_id"] == "medium-3"
+    sinkage.loc[one, "z_m"] *= 100  # 0.62 m: below the 1 m limit
+    with pytest.warns(UnitsWarning, match=r"'z_m': 1 test.*centimetres.*medium-3"):
+        Campaign.from_frames(tests, sinkage)
+
+
+def test_a_reversed_load_cell_is_named_as_a_sign_not_as_kilonewtons():
+    tests, sinkage = _grc1_frames()
+    one = sinkage["test_id"] == "medium-3"
+    sinkage.loc[one, "force_N"] *= -1
+    with pytest.warns(UnitsWarning, match=r"sign looks reversed.*medium-3") as caught:
+        Campaign.from_frames(tests, sinkage)
+    assert not any("kilonewtons" in str(w.message) for w in caught)
+
+
+def test_a_flat_force_record_is_not_called_a_unit_slip():
+    # A dead channel (5 N throughout, ~280 Pa) peaks far below its soil's tests, but it does not
+    # rise as a loaded curve: screening names it, the unit rule does not.
+    tests, sinkage = _cullinan_frames()
+    sinkage.loc[sinkage["test_id"] == "method2-test1", "force_N"] = 5.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnitsWarning)
+        Campaign.from_frames(tests, sinkage)
+
+
 def test_shear_angle_in_degrees_and_torque_in_newton_millimetres_warn():
     c = load_campaign("simulated-paper").select(kind="shear", soil="soil01")
     tests = c.tests.drop(columns=["b_m", "area_m2", "aspect_ratio", "ring_area_m2", "n_samples"])

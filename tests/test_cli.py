@@ -70,6 +70,13 @@ def test_the_campaign_is_given_the_same_way_everywhere():
         assert {"--data", "--select", "--seed", "--progress", "--json", "--out"} <= options
 
 
+def test_check_reads_a_bundled_name_given_as_its_folder_as_data_does(capsys):
+    # `soilstats check cullinan-sand` used to say the bundled campaign was not bundled.
+    assert main(["check", "cullinan-sand"]) == 0
+    assert "bundled:cullinan-sand" in capsys.readouterr().out
+    assert main(["check", "--data", "cullinan-sand"]) == 0
+
+
 def test_public_functions_and_modules_never_share_a_name():
     modules = {m.name for m in pkgutil.iter_modules(soilstats.__path__)}
     assert not modules & set(soilstats.__all__), modules & set(soilstats.__all__)

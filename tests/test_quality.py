@@ -213,6 +213,29 @@ def test_every_code_is_documented():
         assert f"`{code}`" in text
 
 
+def test_the_codes_state_the_thresholds_the_rules_use():
+    # The code text travels in check --json and check.pdf; it once said 5 % where the rule
+    # used 10 %, and described a bearing-failure rule the code never had.
+    import importlib
+
+    from soilstats.quality import records
+
+    screen_mod = importlib.import_module("soilstats.quality.screen")  # (the package's
+    # `screen` attribute is the function)
+
+    text = (Path(__file__).parents[1] / "docs" / "quality.md").read_text(encoding="utf-8")
+    capped = CODES["load-capped"].what
+    assert f"below {screen_mod.LOAD_CAP_SPREAD:.0%}".replace("%", " %") in capped
+    assert f"more than {screen_mod.LOAD_CAP_DEPTH_SPREAD:.0%}".replace("%", " %") in capped
+    failure = CODES["bearing-failure"].what
+    assert "more than twice as deep" in failure and records.RUNAWAY_EXCESS == 2.0
+    assert f"within {records.RUNAWAY_ONSET:g}x" in failure
+    assert f"at least {records.RUNAWAY_MIN_TRAVEL:.0%}".replace("%", " %") in failure
+    for code in ("load-capped", "bearing-failure"):
+        first = CODES[code].what.split(":")[0].replace("x ", "× ").replace("- 1", "− 1")
+        assert first in text, code
+
+
 def test_a_sinkage_spike_drops_that_sinkage_sample_and_no_shear_sample():
     """Both tables label samples by their 0-based file row, so a sinkage row and a shear row
     can share a label: cleaning drops each table's own samples only (a spike at sinkage row

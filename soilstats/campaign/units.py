@@ -128,6 +128,14 @@ MAX_PEAK_SHEAR_PA = 5e6
 MIN_PEAK_SHEAR_PA = 20.0
 #: A shear-ring test turns less than two revolutions; more is degrees read as radians.
 MAX_ROTATION_RAD = 4.0 * math.pi
+#: Tests of one soil differ in peak pressure by a few times, not a hundred: a test with less
+#: than 1/PRESSURE_JUMP of its soil's median peak (of at least MIN_PEERS tests) is kN among
+#: N (1000×) even where the absolute limit above cannot tell.
+PRESSURE_JUMP = 100.0
+#: ... and in sinkage span by up to ~10× (GRC-1's small plates punch through to 10× the
+#: large plates' depth): a span over SPAN_JUMP times the median is cm (100×) or mm among m.
+SPAN_JUMP = 30.0
+MIN_PEERS = 3
 
 _GEOMETRY = ("radius_m", "width_m", "length_m", "r_inner_m", "r_outer_m", "grouser_height_m")
 
@@ -192,20 +200,52 @@ def implausible_units(
             "sinkage.csv",
             "z_m",
             f"a sinkage span above {MAX_SINKAGE_RANGE_M:g} m; a plate sinks centimetres, so "
-            "z_m looks like millimetres — divide by 1000, or import with unit = 'mm' "
-            "(docs/importing.md)",
+            "z_m looks like millimetres or centimetres — divide by 1000 (or 100), or import "
+            "with unit = 'mm' (or 'cm') (docs/importing.md)",
             fatal=True,
+        )
+        soil = tests.set_index("test_id")["soil"] if "soil" in tests.columns else None
+        above = _times_soil_median(z_range, soil)
+        add(
+            (z_range <= MAX_SINKAGE_RANGE_M) & (above > SPAN_JUMP),
+            z_range,
+            "sinkage.csv",
+            "z_m",
+            f"a sinkage span more than {SPAN_JUMP:g} times the median of its soil's tests: "
+            "z_m looks like centimetres or millimetres among metres — divide by 100 (or "
+            "1000), or import with unit = 'cm' (or 'mm')",
         )
         # Judge the load only where the plate is in contact, on records long enough to fit.
         loaded = sinkage[sinkage["z_m"] > 0].groupby("test_id", sort=False)["pressure_Pa"]
         peak = loaded.max()[loaded.size() >= MIN_SAMPLES]
         add(
-            peak < MIN_PEAK_PRESSURE_PA,
+            peak <= 0,
+            peak,
+            "sinkage.csv",
+            "force_N",
+            "no positive force where the plate is in contact: the load cell's sign looks "
+            "reversed (multiply force_N by -1)",
+        )
+        add(
+            (peak > 0) & (peak < MIN_PEAK_PRESSURE_PA),
             peak,
             "sinkage.csv",
             "force_N",
             f"peak pressure below {MIN_PEAK_PRESSURE_PA:g} Pa: force_N looks like kilonewtons "
             "(multiply by 1000, or import with unit = 'kN')",
+        )
+        below = 1.0 / _times_soil_median(peak, soil)
+        # Only a record that rises as a loaded curve does (not a flat or dead channel,
+        # which screening names on its own) reads as a unit slip.
+        rises = (peak - loaded.min()[peak.index]) > 0.5 * peak
+        add(
+            (peak >= MIN_PEAK_PRESSURE_PA) & (below > PRESSURE_JUMP) & rises,
+            peak,
+            "sinkage.csv",
+            "force_N",
+            f"a peak pressure less than 1/{PRESSURE_JUMP:g} of the median of its soil's tests: "
+            "force_N looks like kilonewtons among newtons (multiply by 1000, or import with "
+            "unit = 'kN')",
         )
     if len(shear):
         by_test = shear.groupby("test_id", sort=False)
@@ -236,6 +276,18 @@ def implausible_units(
             "(multiply by pi/180, or import with unit = 'deg')",
         )
     return found
+
+
+def _times_soil_median(values: pd.Series, soil: pd.Series | None) -> pd.Series:
+    """Each test's value over the median of the tests of its soil (NaN where the soil has
+    fewer than MIN_PEERS tests with a value, or its median is not positive)."""
+    if soil is None or values.empty:
+        return pd.Series(np.nan, index=values.index)
+    of = soil.reindex(values.index).astype(str)
+    median = values.groupby(of).transform("median")
+    peers = values.groupby(of).transform("size")
+    ratio = values / median.where(median > 0)
+    return ratio.where(peers >= MIN_PEERS)
 
 
 def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame) -> None:

@@ -39,8 +39,9 @@ def run(args: argparse.Namespace) -> int:
     from ..quality import screen
     from ..report import Provenance, json_safe, write_json
 
+    # The positional folder reads as --data does: a bundled name means the bundled campaign.
     data = args.folder if args.folder is not None else args.data
-    campaign = load_campaign(Path(data) if args.folder is not None else data, check_units=False)
+    campaign = load_campaign(data, check_units=False)
     report = screen(campaign, args.quality)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     document = report.to_dict()

@@ -63,7 +63,10 @@ CODES: dict[str, QualityCode] = {
             "units",
             "A value whose size only makes sense in another unit (sinkage spanning more than "
             "1 m, a tool larger than 1 m, a peak pressure below 200 Pa, a shear stress above "
-            "5 MPa or below 20 Pa, more than two ring revolutions).",
+            "5 MPa or below 20 Pa, more than two ring revolutions), or one test off the other "
+            "tests of its soil by a unit's factor (peak pressure below 1/100 of their median: "
+            "kN among N; sinkage span above 30x their median: cm or mm among m), or no "
+            "positive force in contact (a reversed load cell).",
             "A number in mm read as m fits without complaint and moves kφ by orders of magnitude.",
             "Fix the column or import it with its unit (docs/importing.md). Fits of these "
             "tests are not to be used.",
@@ -71,8 +74,9 @@ CODES: dict[str, QualityCode] = {
         QualityCode(
             "load-capped",
             "Three or more sinkage tests of one soil end at nearly the same force (spread "
-            "< 5 %) while their maximum sinkage differs by more than 25 %: the tests were "
-            "stopped at a load, not at a depth.",
+            "max/min - 1 below 10 %) while their maximum sinkage differs by more than 25 % "
+            "and five times the force's spread: the tests were stopped at a load, not at a "
+            "depth.",
             "The depth reached is then an outcome of the soil's stiffness: soft tests run "
             "deeper, and a pooled fit leans toward their shape (pooled n can lie outside "
             "every test's n). z_max must never be read as a cause.",
@@ -82,9 +86,12 @@ CODES: dict[str, QualityCode] = {
         ),
         QualityCode(
             "bearing-failure",
-            "After the force reaches 95 % of its peak the sinkage keeps running: the travel "
-            "at near-constant force is more than three times what a power law with the test's "
-            "own early exponent allows (and more than 25 % of the travel before it).",
+            "The record ends more than twice as deep as the test's own early power law puts "
+            "it at the same force (and at least 25 % of its final sinkage beyond it): "
+            "F = k z^n fitted in log-log space to the samples up to where the force first "
+            "reaches 35 % of its peak (and above 5 % of it). The onset is the last sample "
+            "within 1.25x of that law. Where a seating offset was found, the rule runs on the "
+            "loaded record with z from the contact.",
             "The soil under the plate failed (punch-through); pressure–sinkage models describe "
             "the loading before failure. Samples past the onset drag n toward 0.",
             "Fit within the proposed window (z_max = the onset, per plate; listed), e.g. "
