@@ -134,3 +134,37 @@ def test_test_level_interval_uses_stderr_tests_and_t_of_the_tests():
         plain.conf_int(level="tests")
     with pytest.raises(ValueError, match="level must be"):
         fit.conf_int(level="campaign")
+
+
+def test_a_stderr_tests_carried_by_a_few_resamples_is_flagged_with_the_robust_scale():
+    # GRC-1's Bekker fit: a few resamples of its 15 tests give |kφ| ~ 1e6 against a central
+    # spread of 6e4, so the bootstrap sd moved 1.3e5 -> 9.7e5 with the seed, unflagged.
+    from soilstats import load_campaign
+
+    fit = fit_sinkage(load_campaign("grc1-oravec2009"), "bekker", test_resamples=200, seed=0)
+    bs = fit.bootstrap
+    ratio = bs.stderr / bs.central_halfwidth
+    assert ratio["kphi"] > 3
+    flag = next(f for f in fit.flags if f.code == "bootstrap-unstable")
+    assert "a few resamples carry stderr_tests" in flag.message and "kphi sd" in flag.message
+
+
+def test_central_halfwidth_is_the_sd_for_normal_draws_and_ignores_a_few_far_ones():
+    from soilstats.identification.bootstrap import TestBootstrap
+
+    rng = np.random.default_rng(4)
+    draws = rng.normal([1.0, 10.0], [0.1, 2.0], size=(4000, 2))
+    bs = TestBootstrap(("a", "b"), np.array([1.0, 10.0]), draws, 4000, 30, 0)
+    np.testing.assert_allclose(bs.central_halfwidth, bs.stderr, rtol=0.05)
+    far = draws.copy()
+    far[:80, 1] = 1e3  # 2 % of resamples far out: the sd explodes, the half-width does not
+    bs_far = TestBootstrap(("a", "b"), np.array([1.0, 10.0]), far, 4000, 30, 0)
+    assert bs_far.stderr["b"] > 50 * bs.stderr["b"]
+    assert bs_far.central_halfwidth["b"] == pytest.approx(bs.central_halfwidth["b"], rel=0.1)
+
+
+def test_clean_campaigns_do_not_flag_heavy_tails():
+    campaign = _campaign(3, stiffness_cv=0.15, n_sd=0.04)
+    fit = fit_sinkage(campaign, "bekker", test_resamples=200, seed=1)
+    assert not [f for f in fit.flags if f.code == "bootstrap-unstable"], fit.flags
+    assert (fit.bootstrap.stderr / fit.bootstrap.central_halfwidth).max() < 1.5

@@ -71,6 +71,18 @@ class TestBootstrap:
         )
         return pd.Series(sd, index=list(self.param_names), name="stderr_tests")
 
+    @property
+    def central_halfwidth(self) -> pd.Series:
+        """Half the width of the central 68.3 % of the resampled estimates, per parameter:
+        the sd for normal draws, but unmoved by a few extreme resamples (a robust scale to
+        hold :attr:`stderr` against; ``bootstrap-unstable``)."""
+        if len(self.draws) < 2:
+            half = np.full(len(self.param_names), np.nan)
+        else:
+            low, high = np.percentile(self.draws, [15.865, 84.135], axis=0)
+            half = (high - low) / 2.0
+        return pd.Series(half, index=list(self.param_names), name="central_halfwidth")
+
     def sign_stability(self) -> pd.Series:
         """Share of resamples in which each parameter keeps the sign of the full estimate."""
         same = np.sign(self.draws) == np.sign(self.estimate)

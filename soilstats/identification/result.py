@@ -223,6 +223,10 @@ SIGNED = ("kc", "kphi", "k1", "k2", "c")
 MIN_SIGN_STABILITY = 0.9
 #: More resamples than this share not converging: the test-level σ is not to be trusted.
 MAX_FAILED_SHARE = 0.05
+#: The bootstrap sd over this multiple of the central 68 % half-width: a few resamples carry
+#: it, and its value moves with the seed (GRC-1's Bekker kφ: 13.9×, sd 1.3e5–9.7e5 over
+#: seeds 0–4).  Clean simulated campaigns reach 1.7 at most (48 fits, 200 resamples each).
+MAX_TAIL_RATIO = 3.0
 
 
 def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], list[HealthFlag]]:
@@ -262,13 +266,31 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
                 "extrapolate to other contact widths",
             )
         )
+    unstable_why = []
     if bs.n_failed > MAX_FAILED_SHARE * bs.n_resamples:
+        unstable_why.append(
+            f"{bs.n_failed} of {bs.n_resamples} resamples of the tests did not converge "
+            "or could not determine the parameters (e.g. they drew tests of one plate size "
+            "or one normal pressure)"
+        )
+    tails = (bs.stderr / bs.central_halfwidth).to_numpy()
+    heavy = [
+        f"{name} sd {sd:.3g} is {r:.1f}× the central 68 % half-width {half:.3g}"
+        for name, sd, half, r in zip(
+            fit.param_names, bs.stderr, bs.central_halfwidth, tails, strict=True
+        )
+        if np.isfinite(r) and r > MAX_TAIL_RATIO
+    ]
+    if heavy:
+        unstable_why.append(
+            f"a few resamples carry stderr_tests ({'; '.join(heavy)}), so its value moves "
+            "with the seed; quote neither stderr_tests nor Eq. 4's stderr for these"
+        )
+    if unstable_why:
         flags.append(
             HealthFlag(
                 "bootstrap-unstable",
-                f"{bs.n_failed} of {bs.n_resamples} resamples of the tests did not converge "
-                "or could not determine the parameters (e.g. they drew tests of one plate size "
-                "or one normal pressure): the estimate depends on which tests are in the "
+                "; ".join(unstable_why) + ": the estimate depends on which tests are in the "
                 "campaign",
             )
         )
