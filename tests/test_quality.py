@@ -255,3 +255,46 @@ def test_a_sinkage_spike_drops_that_sinkage_sample_and_no_shear_sample():
     assert row not in report.campaign.sinkage.index
     assert len(report.campaign.sinkage) == len(spiked.sinkage) - 1
     pd.testing.assert_frame_equal(report.campaign.shear, spiked.shear)
+
+
+def _with_copies(campaign, ids, suffix="-copy"):
+    """``campaign`` with the tests ``ids`` repeated under new ids (same records)."""
+    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
+    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
+    copies_t = tests[tests["test_id"].isin(ids)].assign(test_id=lambda t: t["test_id"] + suffix)
+    copies_s = sinkage[sinkage["test_id"].isin(ids)].assign(test_id=lambda t: t["test_id"] + suffix)
+    return Campaign.from_frames(
+        pd.concat([tests, copies_t], ignore_index=True),
+        pd.concat([sinkage, copies_s], ignore_index=True),
+    )
+
+
+def test_a_copied_record_is_flagged_and_left_out_so_sigma_does_not_shrink():
+    grc = load_campaign("grc1-oravec2009")
+    doubled = _with_copies(grc, list(grc.tests["test_id"]))
+    report = screen(doubled)
+    copies = report.flagged()
+    dup = [f for f in copies if f.code == "duplicate"]
+    assert sorted(f.test_id for f in dup) == sorted(t + "-copy" for t in grc.tests["test_id"])
+    assert all(f.excluded for f in dup) and "repeat test 'small-1'" in dup[0].message
+    assert len(report.campaign.tests) == len(grc.tests)  # the copies leave the analysed log
+    clean = fit_sinkage(grc, "bernstein", test_resamples=100, seed=1)
+    fit = fit_sinkage(doubled, "bernstein", test_resamples=100, seed=1)
+    assert fit.n_tests == clean.n_tests and fit.nobs == clean.nobs
+    np.testing.assert_allclose(fit.stderr_tests, clean.stderr_tests, rtol=1e-12)
+    # In flag mode the copy is reported and kept.
+    flagged = screen(doubled, "flag")
+    assert not any(f.excluded for f in flagged.flagged() if f.code == "duplicate")
+    assert len(flagged.campaign.tests) == 2 * len(grc.tests)
+
+
+def test_flat_dead_channels_over_one_z_grid_are_not_called_copies():
+    grc = load_campaign("grc1-oravec2009").select(test_id=["medium-1", "medium-2", "medium-3"])
+    tests = grc.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
+    z = np.linspace(0.0, 0.006, 30)
+    flat = pd.concat(
+        [pd.DataFrame({"test_id": t, "z_m": z, "force_N": 1.0}) for t in tests["test_id"]],
+        ignore_index=True,
+    )
+    report = screen(Campaign.from_frames(tests, flat, check_units=False), "flag")
+    assert "duplicate" not in {f.code for f in report.flagged()}

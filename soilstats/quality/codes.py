@@ -99,6 +99,20 @@ CODES: dict[str, QualityCode] = {
             nature="soil",
         ),
         QualityCode(
+            "duplicate",
+            "A test whose samples are identical, value for value and in order, to an earlier "
+            "test's (sinkage: z and force, shear: angle, torque and normal force), with at "
+            "least 5 distinct force (torque) values. Independent tests never repeat a record "
+            "to the last digit; a flat, dead channel over a commanded z grid can, and is "
+            "left to the other rules.",
+            "Two tests are two preparations; a copied record counts one preparation twice. "
+            "The pooled fit weighs it double and the test-level σ shrinks (by √2 when every "
+            "test is doubled), so the campaign looks better replicated than it is.",
+            "Nothing by default: the later copy is left out of every fit and listed. Find out "
+            "which test the copy should have been (an export or file-naming slip).",
+            excluded=True,
+        ),
+        QualityCode(
             "non-monotone",
             "The sinkage falls back below its running maximum by more than 2 % of the test's "
             "travel over three or more samples (unloading, rebound or a slipping mount).",

@@ -36,6 +36,15 @@ LOAD_CAP_SPREAD = 0.10
 #: (at least this, and five times the load's spread).
 LOAD_CAP_DEPTH_SPREAD = 0.25
 LOAD_CAP_MIN_TESTS = 3
+#: Duplicate: records that repeat an earlier test's exactly, with at least this many distinct
+#: values of the response (a flat, dead channel over a commanded z grid repeats by itself).
+DUPLICATE_MIN_SAMPLES = 5
+#: The channels that make up a record, and its response, by table.
+_RESPONSE = {"sinkage": "force_N", "shear": "torque_Nm"}
+_RECORD_COLUMNS = {
+    "sinkage": ("z_m", "force_N"),
+    "shear": ("angle_rad", "torque_Nm", "normal_force_N"),
+}
 
 
 @dataclass(frozen=True)
@@ -444,7 +453,48 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
     if len(campaign.shear):
         found, drop["shear"] = _shear_findings(campaign.shear, mode)
         flags += found
+    found, copies = _duplicates(campaign, clean=mode == "clean")
+    flags += found
+    for table, labels in copies.items():
+        drop[table] += labels
     return flags, drop, offsets
+
+
+def _duplicates(campaign, *, clean: bool) -> tuple[list[QualityFlag], dict[str, list[np.ndarray]]]:
+    """``duplicate`` flags of tests whose record repeats an earlier test's exactly, and (when
+    ``clean``) the sample labels of those copies to leave out, by table."""
+    flags: list[QualityFlag] = []
+    drop: dict[str, list[np.ndarray]] = {"sinkage": [], "shear": []}
+    for kind, columns in _RECORD_COLUMNS.items():
+        table = getattr(campaign, kind)
+        if not len(table) or not set(columns) <= set(table.columns):
+            continue
+        values = np.ascontiguousarray(table[list(columns)].to_numpy(dtype=float))
+        response = values[:, columns.index(_RESPONSE[kind])]
+        labels = table.index.to_numpy()
+        first_of: dict[bytes, str] = {}
+        by_test = pd.Series(np.arange(len(table))).groupby(table["test_id"].astype(str).to_numpy())
+        for tid, rows in by_test.indices.items():
+            if np.unique(response[rows]).size < DUPLICATE_MIN_SAMPLES:
+                continue
+            key = hashlib.blake2b(values[rows].tobytes(), digest_size=16).digest()
+            first = first_of.setdefault(key, tid)
+            if first == tid:
+                continue
+            flags.append(
+                QualityFlag(
+                    tid,
+                    kind,
+                    "duplicate",
+                    _rows(labels[rows]),
+                    f"its {rows.size} samples repeat test {first!r}'s value for value: a copy "
+                    "of one record, not a second preparation",
+                    excluded=clean,
+                )
+            )
+            if clean:
+                drop[kind].append(labels[rows])
+    return flags, drop
 
 
 #: Findings by (mode, content of the records): screening is a pure function of the data, and
@@ -502,13 +552,17 @@ def screen(campaign, mode: str = "clean", *, progress: bool = False) -> QualityR
     report = QualityReport(mode, tuple(flags), tests)
     cleaned = campaign
     if mode == "clean":
-        cleaned = _cleaned(campaign, drop, offsets)
+        copies = {f.test_id for f in flags if f.code == "duplicate" and f.excluded}
+        cleaned = _cleaned(campaign, drop, offsets, copies)
     return replace(report, campaign=replace(cleaned, quality=report))
 
 
-def _cleaned(campaign, drop: dict[str, list[np.ndarray]], offsets: dict[str, float]):
-    """The campaign without the excluded samples (``drop``: labels per table), z re-zeroed
-    where a contact was found."""
+def _cleaned(
+    campaign, drop: dict[str, list[np.ndarray]], offsets: dict[str, float], copies=frozenset()
+):
+    """The campaign without the excluded samples (``drop``: labels per table) and without
+    the tests that are copies of another (``copies``: their whole record is excluded, so
+    they would be tests without samples), z re-zeroed where a contact was found."""
 
     def without(table: pd.DataFrame, labels: list[np.ndarray]) -> pd.DataFrame:
         if not labels:
@@ -521,7 +575,10 @@ def _cleaned(campaign, drop: dict[str, list[np.ndarray]], offsets: dict[str, flo
         sink = sink.copy()
         shift = sink["test_id"].astype(str).map(offsets).fillna(0.0).to_numpy(float)
         sink["z_m"] = sink["z_m"].to_numpy(float) - shift
-    return replace(campaign, sinkage=sink, shear=shear)
+    tests = campaign.tests
+    if copies:
+        tests = tests[~tests["test_id"].astype(str).isin(copies)].reset_index(drop=True)
+    return replace(campaign, tests=tests, sinkage=sink, shear=shear)
 
 
 #: Screened versions of the campaigns analysed in this process, by campaign and mode: the
