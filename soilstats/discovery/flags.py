@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError
+from ..identification.centring import centred
 from .extensions import base_model
 
 __all__ = ["physical_flags"]
@@ -21,7 +22,12 @@ __all__ = ["physical_flags"]
 _CODES = {"outside-bounds", "high-correlation"}
 
 
-def _flags_of(fit, kind, soil, scope) -> list[dict]:
+def _flags_of(fit, kind, soil, scope, z=None) -> list[dict]:
+    if kind == "sinkage":
+        # Judge correlations where the data measure each scale, as identify does (a scale at
+        # z = 1 m is correlated with n by the parametrisation alone: Cullinan's k and n at
+        # +0.996 were flagged here and not by identify).
+        fit = centred(fit, np.asarray([] if z is None else z, float))
     out = []
     for flag in fit.flags:
         if flag.code not in _CODES:
@@ -44,7 +50,8 @@ def physical_flags(diagnoses) -> list[dict]:
         g = d.group
         if d.base is None:
             continue
-        out += _flags_of(d.base.result, g.kind, g.soil, "all tests")
+        z = g.x.get("z")
+        out += _flags_of(d.base.result, g.kind, g.soil, "all tests", z)
         if g.kind != "sinkage" or "velocity_m_s" not in g.tests:
             continue
         v = np.round(g.tests["velocity_m_s"].to_numpy(float), 12)
@@ -70,5 +77,5 @@ def physical_flags(diagnoses) -> list[dict]:
                     }
                 )
                 continue
-            out += _flags_of(fit.result, g.kind, g.soil, f"velocity_m_s = {level:g}")
+            out += _flags_of(fit.result, g.kind, g.soil, f"velocity_m_s = {level:g}", z)
     return out
