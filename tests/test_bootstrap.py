@@ -168,3 +168,20 @@ def test_clean_campaigns_do_not_flag_heavy_tails():
     fit = fit_sinkage(campaign, "bekker", test_resamples=200, seed=1)
     assert not [f for f in fit.flags if f.code == "bootstrap-unstable"], fit.flags
     assert (fit.bootstrap.stderr / fit.bootstrap.central_halfwidth).max() < 1.5
+
+
+def test_the_table_shows_the_sigma_test_scatter_advises_and_says_which():
+    from soilstats import load_campaign
+    from soilstats.identification.table import format_parameter_table, parameter_table
+
+    scattered = fit_sinkage(load_campaign("grc1-oravec2009"), "bernstein", test_resamples=200)
+    assert "test-scatter" in {f.code for f in scattered.flags}
+    clean = fit_sinkage(_campaign(1, stiffness_cv=0.0, n_sd=0.0), "bernstein", test_resamples=200)
+    assert "test-scatter" not in {f.code for f in clean.flags}
+    text = format_parameter_table({"grc": scattered, "clean": clean})
+    n_row = next(line for line in text.splitlines() if line.startswith("n [-]"))
+    assert f"± {scattered.stderr_tests['n']:.3f} *" in n_row  # GRC-1: the test-level σ
+    assert f"± {clean.stderr['n']:.2g}" in n_row.split("*")[-1]  # clean: Eq. 4's σ, unmarked
+    assert n_row.count("*") == 1 and "* ± the test-level σ" in text
+    tidy = parameter_table({"grc": scattered})
+    assert tidy.set_index("parameter").loc["n", "stderr_tests"] == scattered.stderr_tests["n"]

@@ -9,7 +9,7 @@ import pandas as pd
 
 from ..fitting.result import FitResult
 
-__all__ = ["format_parameter_table", "format_value", "parameter_table"]
+__all__ = ["format_parameter_table", "format_value", "parameter_table", "shown_stderr"]
 
 
 def format_value(value: float, sigma: float) -> str:
@@ -25,10 +25,31 @@ def format_value(value: float, sigma: float) -> str:
     return f"({value / scale:.{digits}f} ± {sigma / scale:.{digits}f})e{exponent}"
 
 
+#: Marks a cell whose ± is the test-level σ (see :func:`shown_stderr`).
+TEST_LEVEL_MARK = "*"
+
+
+def _stderr_tests(fit: FitResult) -> pd.Series | None:
+    return getattr(fit, "stderr_tests", None)
+
+
+def shown_stderr(fit: FitResult) -> tuple[pd.Series, bool]:
+    """The σ a table shows beside the estimates, and whether it is the test-level one.
+
+    Eq. 4's σ, unless the fit is flagged ``test-scatter`` (its tests scatter more than its
+    samples say): then ``stderr_tests``, the σ that flag tells the user to quote."""
+    tests = _stderr_tests(fit)
+    if tests is not None and any(f.code == "test-scatter" for f in fit.flags):
+        return tests, True
+    return fit.stderr, False
+
+
 def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
-    """Tidy table: one row per condition and parameter (value, stderr, unit, epsilon, n)."""
+    """Tidy table: one row per condition and parameter (value, stderr, stderr_tests where a
+    test bootstrap ran, unit, epsilon, tests, flags)."""
     rows = []
     for label, fit in fits.items():
+        tests_sd = _stderr_tests(fit)
         for name in fit.param_names:
             rows.append(
                 {
@@ -36,6 +57,7 @@ def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
                     "parameter": name,
                     "value": fit.params[name],
                     "stderr": fit.stderr[name],
+                    "stderr_tests": np.nan if tests_sd is None else tests_sd[name],
                     "unit": fit.units.get(name, ""),
                     "epsilon": fit.epsilon,
                     "tests": len(fit.tests) if fit.tests is not None else np.nan,
@@ -46,18 +68,26 @@ def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
 
 
 def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> str:
-    """Render ``fits`` as the paper's Table 5: parameters in rows, conditions in columns."""
+    """Render ``fits`` as the paper's Table 5: parameters in rows, conditions in columns.
+
+    Each cell is value ± Eq. 4's σ, or ± the test-level σ marked ``*`` where the fit is
+    flagged ``test-scatter`` (:func:`shown_stderr`; a footnote says so)."""
     labels = list(fits)
     first = next(iter(fits.values()))
     names = first.param_names
     header = ["parameter", *labels]
+    shown = {c: shown_stderr(fits[c]) for c in labels}
     body = []
     for name in names:
         unit = first.units.get(name, "")
         body.append(
             [
                 f"{name} [{unit}]",
-                *(format_value(fits[c].params[name], fits[c].stderr[name]) for c in labels),
+                *(
+                    format_value(fits[c].params[name], shown[c][0][name])
+                    + (f" {TEST_LEVEL_MARK}" if shown[c][1] else "")
+                    for c in labels
+                ),
             ]
         )
     body.append(["epsilon (Eq. 2)", *(f"{fits[c].epsilon:.3f}" for c in labels)])
@@ -84,4 +114,9 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
     out.extend(
         "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)) for row in body
     )
+    if any(test_level for _, test_level in shown.values()):
+        out.append(
+            f"{TEST_LEVEL_MARK} ± the test-level σ (stderr_tests: bootstrap over tests), as "
+            "test-scatter advises; other cells ± Eq. 4's σ"
+        )
     return "\n".join(out)
