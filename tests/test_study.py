@@ -124,6 +124,11 @@ def test_method_13_wins_the_preparation_study(reports):
     assert crit["soil01", "9"]["crit2"] == "-"  # the shovel method: operator-dependent scatter
     assert crit["soil01", "1"]["crit1"] == "-"  # 8 cm loosening depth
     assert len([c for c in doc["criteria"] if c["soil"] == "soil01"]) == 13
+    # Criterion 1 is Table 3's row, deterministic from Table 2: the hand shovel scales to dig
+    # and trickle (9: +) but not to level (10: -); 12 rakes in small steps (time-consuming).
+    table3 = "- - - - - - - - + - + - +".split()
+    assert [crit["soil01", str(m)]["crit1"] for m in range(1, 14)] == table3
+    assert "levelling tool 'hand shovel'" in crit["soil01", "10"]["crit1_reason"]
 
 
 def test_cullinan_preparation_reports_the_effect_without_overclaiming(cullinan):

@@ -53,8 +53,12 @@ def _criterion1(method: str, tests: pd.DataFrame, crit) -> tuple[str, str]:
     depth = desc.get("loosening_depth_cm")
     if depth is None or depth < crit.min_loosening_depth_cm:
         reasons.append(f"loosening depth {depth} cm < {crit.min_loosening_depth_cm:g} cm")
-    for key in ("loosening_tool", "levelling_tool"):
-        if key in desc and desc[key] not in crit.scalable_tools:
+    scalable = {
+        "loosening_tool": crit.scalable_loosening_tools,
+        "levelling_tool": crit.scalable_levelling_tools,
+    }
+    for key, tools in scalable.items():
+        if key in desc and desc[key] not in tools:
             reasons.append(f"{key.replace('_', ' ')} '{desc[key]}' does not scale to a testbed")
     for key in ("loosening_movement", "loosening_pattern"):
         if desc.get(key) in crit.time_consuming:

@@ -103,7 +103,10 @@ class Criteria:
 
     # criterion 1: applicability to a large testbed, from the methods' descriptions
     min_loosening_depth_cm: float
-    scalable_tools: tuple[str, ...]
+    #: Tools that scale to a large testbed, by role: the paper scales a hand shovel to dig
+    #: and trickle (method 9, "+") but not to level (method 10, "−"; Table 3).
+    scalable_loosening_tools: tuple[str, ...]
+    scalable_levelling_tools: tuple[str, ...]
     time_consuming: tuple[str, ...]
     match_columns: tuple[str, ...]
     methods: dict[str, dict]
@@ -261,7 +264,14 @@ def _criteria(raw, path) -> Criteria:
     c1 = _get(crit, "applicability", dict, path)
     _check_keys(
         c1,
-        {"min_loosening_depth_cm", "scalable_tools", "time_consuming", "match_columns"},
+        {
+            "min_loosening_depth_cm",
+            "scalable_tools",
+            "scalable_loosening_tools",
+            "scalable_levelling_tools",
+            "time_consuming",
+            "match_columns",
+        },
         path,
         "criteria.applicability.",
     )
@@ -285,9 +295,23 @@ def _criteria(raw, path) -> Criteria:
             path,
             f"criteria.methods.{label}.",
         )
+    # scalable_tools: one list for both roles (as before the roles were told apart).
+    both = _get(c1, "scalable_tools", list, path, default=None)
+    if both is None and not {"scalable_loosening_tools", "scalable_levelling_tools"} <= set(c1):
+        raise _fail(
+            path,
+            "criteria.applicability",
+            "needs scalable_loosening_tools and scalable_levelling_tools (or scalable_tools "
+            "for both)",
+        )
     return Criteria(
         min_loosening_depth_cm=float(_get(c1, "min_loosening_depth_cm", (int, float), path)),
-        scalable_tools=tuple(_get(c1, "scalable_tools", list, path)),
+        scalable_loosening_tools=tuple(
+            _get(c1, "scalable_loosening_tools", list, path, default=both)
+        ),
+        scalable_levelling_tools=tuple(
+            _get(c1, "scalable_levelling_tools", list, path, default=both)
+        ),
         time_consuming=tuple(_get(c1, "time_consuming", list, path, default=[])),
         match_columns=tuple(_get(c1, "match_columns", list, path, default=[])),
         methods={str(k): dict(v) for k, v in methods.items()},
