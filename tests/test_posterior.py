@@ -247,3 +247,12 @@ def test_the_models_of_one_run_draw_from_different_streams():
     assert len({model_seed(s, i) for s in range(50) for i in range(2)}) == 100
     expected = np.random.SeedSequence([7, 1]).generate_state(1, np.uint32)[0]
     assert model_seed(7, 1) == expected
+
+
+def test_a_start_outside_the_prior_names_the_parameter_its_value_and_the_prior():
+    # GRC-1's pooled Bekker optimum has kphi < 0; the sampler used to say only that it could
+    # not place walkers.
+    from soilstats import load_campaign
+
+    with pytest.raises(ValueError, match=r"kphi = -1\.4\d*e\+05 \(prior: flat on \(0, inf\)\)"):
+        sample_posterior(load_campaign("grc1-oravec2009"), "bekker", seed=0)

@@ -98,6 +98,7 @@ def sample_posterior(
             f"({fit.message}); the posterior sampler needs it — see fit_sinkage/fit_shear"
         )
     theta0, cov0 = fit.params.to_numpy(), fit.cov.to_numpy()
+    _check_start_in_prior(spec, theta0, problem)
     coords = sampling_coordinates(spec, theta0, cov0, problem.plate_sizes)
     run = run_ensemble(
         target_in(problem, coords),
@@ -259,6 +260,26 @@ def _inference_data(
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
     groups = pooled_groups(problem, run.chain, sigma, rng, predictive_draws=predictive_draws)
     return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)
+
+
+def _check_start_in_prior(spec, theta0: np.ndarray, problem: PooledProblem) -> None:
+    """Raise, naming the parameter, its least-squares value and the prior, when the start
+    lies outside the priors' support (the walkers could not be placed; GRC-1's Bekker kφ is
+    −1.4e5 against a prior on (0, ∞))."""
+    outside = [
+        f"{name} = {value:.4g} (prior: {prior})"
+        for name, value, prior in zip(spec.param_names, theta0, problem.priors, strict=True)
+        if not np.isfinite(prior.logpdf(np.array([value]))[0])
+    ]
+    if not outside and np.isfinite(problem.log_prior(theta0[None])[0]):
+        return
+    why = "; ".join(outside) or "the plate moduli kc/b + kphi are not positive on every plate"
+    raise ValueError(
+        f"the least-squares estimate of {spec.name} lies outside the prior's support: {why}. "
+        "The data put the optimum where the physics priors forbid it (see the fit's health "
+        "flags: soilstats identify); window the records, choose another model, or state a "
+        "prior that allows it (--prior NAME=LO:HI)"
+    )
 
 
 def _attrs(problem: PooledProblem) -> dict:
