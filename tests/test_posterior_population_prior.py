@@ -126,20 +126,26 @@ def test_janosi_default_is_flat_in_log_strength_at_both_pressures_and_log_k():
     assert np.ptp(density) < 1e-5  # constant: flat in the three logarithms
 
 
-def test_bekker_default_is_flat_in_log_plate_moduli_at_the_smallest_and_largest_plate():
-    b = np.array([0.05, 0.025, 0.075, 0.05])
-    design = np.column_stack([1.0 / b, np.ones(4)])
-    pops = _Population(
+def _bekker_population(b: np.ndarray, priors=None) -> _Population:
+    """A Bekker population on plates ``b`` (no data needed: only its prior is read)."""
+    design = np.column_stack([1.0 / b, np.ones(b.size)])
+    return _Population(
         BEKKER,
         _LAYOUTS["bekker"],
-        np.zeros((4, 2)),
-        np.array([np.eye(2)] * 4),
+        np.zeros((b.size, 2)),
+        np.array([np.eye(2)] * b.size),
         design,
         -3.0,
-        resolve_priors("bekker", BEKKER.param_names, None),
+        resolve_priors("bekker", BEKKER.param_names, priors),
         Coordinates(),
         reference_rows=_reference_rows(design, b),
+        log_flat=(priors is None, True),
     )
+
+
+def test_bekker_default_is_flat_in_log_plate_moduli_at_the_smallest_and_largest_plate():
+    b = np.array([0.05, 0.025, 0.075, 0.05])
+    pops = _bekker_population(b)
 
     def to_logs(theta):
         kc, kphi, n = theta
@@ -156,18 +162,7 @@ def test_bekker_default_is_flat_in_log_plate_moduli_at_the_smallest_and_largest_
     density = _log_density_in(to_logs, theta, log_prior)
     assert np.ptp(density) < 1e-5
     # A caller's prior on either modulus replaces the factor for both (kc, kφ).
-    given = _Population(
-        BEKKER,
-        _LAYOUTS["bekker"],
-        np.zeros((4, 2)),
-        np.array([np.eye(2)] * 4),
-        design,
-        -3.0,
-        resolve_priors("bekker", BEKKER.param_names, {"kphi": (1e5, 1e7)}),
-        Coordinates(),
-        reference_rows=_reference_rows(design, b),
-        log_flat=(False, True),
-    )
+    given = _bekker_population(b, {"kphi": (1e5, 1e7)})
     np.testing.assert_array_equal(given.log_scale_prior(theta), 0.0)
 
 
