@@ -461,29 +461,44 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
 
 
 def _duplicates(campaign, *, clean: bool) -> tuple[list[QualityFlag], dict[str, list[np.ndarray]]]:
-    """``duplicate`` flags of tests whose record repeats an earlier test's exactly, and (when
-    ``clean``) the sample labels of those copies to leave out, by table."""
+    """``duplicate`` flags of tests whose record repeats an earlier test's (in the order of
+    the sample file) exactly, and (when ``clean``) the sample labels of those copies to leave
+    out, by table.  Records are compared in full only where a cheap signature (length and
+    the sum of every channel) collides, so a campaign without copies costs a few bincounts."""
     flags: list[QualityFlag] = []
     drop: dict[str, list[np.ndarray]] = {"sinkage": [], "shear": []}
     for kind, columns in _RECORD_COLUMNS.items():
         table = getattr(campaign, kind)
         if not len(table) or not set(columns) <= set(table.columns):
             continue
+        codes, ids = pd.factorize(table["test_id"].astype(str), sort=False)
         values = np.ascontiguousarray(table[list(columns)].to_numpy(dtype=float))
-        response = values[:, columns.index(_RESPONSE[kind])]
+        sums = {
+            c: np.bincount(codes, weights=values[:, k], minlength=ids.size)
+            for k, c in enumerate(columns)
+        }
+        signature = pd.DataFrame({"n": np.bincount(codes, minlength=ids.size)} | sums)
+        clash = signature.duplicated(keep=False).to_numpy().copy()
+        if not clash.any():
+            continue
+        # Only records that carry information: a flat, dead channel repeats by itself.
+        candidate = clash[codes]
+        response = values[candidate, columns.index(_RESPONSE[kind])]
+        distinct = pd.Series(response).groupby(codes[candidate]).nunique()
+        clash[distinct.index[distinct < DUPLICATE_MIN_SAMPLES]] = False
+        order = np.argsort(codes, kind="stable")
+        starts = np.searchsorted(codes[order], np.arange(ids.size + 1))
         labels = table.index.to_numpy()
         first_of: dict[bytes, str] = {}
-        by_test = pd.Series(np.arange(len(table))).groupby(table["test_id"].astype(str).to_numpy())
-        for tid, rows in by_test.indices.items():
-            if np.unique(response[rows]).size < DUPLICATE_MIN_SAMPLES:
-                continue
+        for t in np.flatnonzero(clash):  # in file order
+            rows = order[starts[t] : starts[t + 1]]
             key = hashlib.blake2b(values[rows].tobytes(), digest_size=16).digest()
-            first = first_of.setdefault(key, tid)
-            if first == tid:
+            first = first_of.setdefault(key, ids[t])
+            if first == ids[t]:
                 continue
             flags.append(
                 QualityFlag(
-                    tid,
+                    ids[t],
                     kind,
                     "duplicate",
                     _rows(labels[rows]),
