@@ -256,3 +256,20 @@ def test_a_start_outside_the_prior_names_the_parameter_its_value_and_the_prior()
 
     with pytest.raises(ValueError, match=r"kphi = -1\.4\d*e\+05 \(prior: flat on \(0, inf\)\)"):
         sample_posterior(load_campaign("grc1-oravec2009"), "bekker", seed=0)
+
+
+def test_a_posterior_carries_the_health_of_the_fit_it_started_from(tmp_path, capsys):
+    # GRC-1's small plates fail in bearing; the posterior's record used to say nothing of it.
+    from soilstats import load_campaign
+    from soilstats.cli.posterior import main
+
+    grc = load_campaign("grc1-oravec2009")
+    post = sample_posterior(grc, "bernstein", seed=0)
+    codes = {f["code"] for f in post.to_dict()["least_squares_health"]}
+    assert "bearing-failure" in codes
+    out = tmp_path / "out"
+    args = ["--data", "grc1-oravec2009", "--soil", "GRC-1", "--model", "bernstein"]
+    assert main([*args, "--out", str(out), "--force"]) in (0, 1)
+    record = json.loads((out / "posterior.json").read_text())
+    assert "bearing-failure" in {f["code"] for f in record["least_squares_health"]["bernstein"]}
+    assert "least-squares fit these draws start from is flagged" in capsys.readouterr().err

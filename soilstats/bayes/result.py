@@ -196,8 +196,15 @@ class PosteriorResult:
                 "diagnostics": table.reset_index(names="quantity").to_dict("records"),
                 "sampler": dict(self.sampler),
                 "notes": list(self.notes),
+                "least_squares_health": self.least_squares_health(),
             }
         )
+
+    def least_squares_health(self) -> list[dict]:
+        """The health flags (``code``, ``message``) of the least-squares fit the sampler
+        started from: its data-quality codes (bearing failure, spikes …) and the model's
+        adequacy (lack-of-fit, test-scatter …) hold for the posterior too."""
+        return [{"code": f.code, "message": f.message} for f in getattr(self.lsq, "flags", ())]
 
     def summary(self, prob: float = 0.9) -> str:
         """Readable report: estimates, ``prob`` HDI, diagnostics, sampler and numbered notes."""

@@ -285,6 +285,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"WARNING: {text}", file=sys.stderr)
     for text in pooled_warnings:
         print(f"WARNING: {text}", file=sys.stderr)
+    health = {r.model_name: r.least_squares_health() for r in results}
+    for model, flags in health.items():
+        if flags:
+            codes = ", ".join(sorted({f["code"] for f in flags}))
+            print(
+                f"WARNING: the {model} least-squares fit these draws start from is flagged "
+                f"({codes}); the posterior inherits its data and model problems (messages in "
+                "posterior.json, least_squares_health; soilstats identify --verbose)",
+                file=sys.stderr,
+            )
     if failures and not args.force:
         for text in failures:
             print(f"error: {text}", file=sys.stderr)
@@ -309,6 +319,7 @@ def run(args: argparse.Namespace) -> int:
             "draws_written": len(kept),
             "priors": {r.model_name: r.idata.posterior.attrs.get("priors", "") for r in results},
             "pooling_warnings": pooled_warnings,
+            "least_squares_health": health,
             "warnings": ours,
             "selection": list(args.select or []),
             "provenance": provenance.to_dict(),
