@@ -204,6 +204,15 @@ def test_a_reversed_load_cell_is_named_as_a_sign_not_as_kilonewtons():
     assert not any("kilonewtons" in str(w.message) for w in caught)
 
 
+def test_a_reversed_displacement_is_named_as_a_sign():
+    # A z column with flipped sign used to be reported only as 'non-monotone'.
+    tests, sinkage = _grc1_frames()
+    one = sinkage["test_id"] == "medium-3"
+    sinkage.loc[one, "z_m"] *= -1
+    with pytest.warns(UnitsWarning, match=r"'z_m'.*displacement sign looks reversed.*medium-3"):
+        Campaign.from_frames(tests, sinkage)
+
+
 def test_a_flat_force_record_is_not_called_a_unit_slip():
     # A dead channel (5 N throughout, ~280 Pa) peaks far below its soil's tests, but it does not
     # rise as a loaded curve: screening names it, the unit rule does not.

@@ -204,6 +204,15 @@ def implausible_units(
             "with unit = 'mm' (or 'cm') (docs/importing.md)",
             fatal=True,
         )
+        travel = by_test["z_m"].last() - by_test["z_m"].first()
+        add(
+            travel < -0.5 * z_range,
+            travel,
+            "sinkage.csv",
+            "z_m",
+            "a sinkage that falls through the record (the plate rises?): the displacement "
+            "sign looks reversed (multiply z_m by -1)",
+        )
         soil = tests.set_index("test_id")["soil"] if "soil" in tests.columns else None
         above = _times_soil_median(z_range, soil)
         add(

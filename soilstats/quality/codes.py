@@ -66,7 +66,8 @@ CODES: dict[str, QualityCode] = {
             "5 MPa or below 20 Pa, more than two ring revolutions), or one test off the other "
             "tests of its soil by a unit's factor (peak pressure below 1/100 of their median: "
             "kN among N; sinkage span above 30x their median: cm or mm among m), or no "
-            "positive force in contact (a reversed load cell).",
+            "positive force in contact (a reversed load cell), or a sinkage that falls "
+            "through the record (a reversed displacement).",
             "A number in mm read as m fits without complaint and moves kφ by orders of magnitude.",
             "Fix the column or import it with its unit (docs/importing.md). Fits of these "
             "tests are not to be used.",
