@@ -298,3 +298,16 @@ def test_flat_dead_channels_over_one_z_grid_are_not_called_copies():
     )
     report = screen(Campaign.from_frames(tests, flat, check_units=False), "flag")
     assert "duplicate" not in {f.code for f in report.flagged()}
+
+
+def test_a_record_that_starts_under_load_has_no_pre_contact_segment():
+    # Cullinan's method2-test4 starts at z = 3.4 mm and 1053 N (14 % of its peak). Cut at
+    # 24 mm, its start read as 2.95 mm of free travel "at the noise floor" and z was shifted.
+    from soilstats.quality.records import find_contact
+
+    c = load_campaign("cullinan-sand")
+    g = c.sinkage[c.sinkage["test_id"] == "method2-test4"]
+    z, force = g["z_m"].to_numpy(), g["force_N"].to_numpy()
+    cut = z <= 0.024
+    assert force[0] > 0.1 * force.max()
+    assert find_contact(z[cut], force[cut]) is None

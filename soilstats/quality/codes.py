@@ -51,7 +51,8 @@ CODES: dict[str, QualityCode] = {
             "The force stays at its noise floor while the sinkage grows: the plate was zeroed "
             "above the surface (seating offset). The contact point is where a power law "
             "measured from it fits the loaded part far better (residuals halved) than one "
-            "measured from z = 0.",
+            "measured from z = 0. A record that starts under load (its first samples above "
+            "5 % of its peak force and 5 noise widths) is not searched.",
             "Bekker's and Bernstein's z is the sinkage below the surface. An offset zero bends "
             "the curve and biases n and k; the free travel adds samples with p ~ 0.",
             "Nothing by default: samples before the contact are excluded and z is re-zeroed "

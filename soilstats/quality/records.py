@@ -36,6 +36,10 @@ CONTACT_NOISE_WIDTHS = 5.0
 CONTACT_MIN_TRAVEL = 0.02
 #: ... and how much better (residual ratio) a power law from the contact must fit.
 CONTACT_RESIDUAL_RATIO = 0.5
+#: A record whose first samples carry more than this share of its peak force (and more than
+#: CONTACT_NOISE_WIDTHS noise widths) started under load (a seating preload, a record cut
+#: after contact): no pre-contact segment is sought.
+CONTACT_MAX_START = 0.05
 #: Runaway: how many times deeper than the early law the record may end ...
 RUNAWAY_EXCESS = 2.0
 #: ... the departure from the early law that marks the onset ...
@@ -151,6 +155,8 @@ def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
         return None
     base = float(np.median(force[:3]))
     noise = max(_robust_width(np.diff(force, 2)) / np.sqrt(6.0), _quantum(force))
+    if abs(base) > max(CONTACT_MAX_START * abs(float(force.max())), CONTACT_NOISE_WIDTHS * noise):
+        return None  # the record starts under load: its flat start is not a noise floor
     threshold = base + max(CONTACT_NOISE_WIDTHS * noise, 0.01 * float(force.max() - base))
     above = force > threshold
     rising = above[:-2] & above[1:-1] & above[2:]
