@@ -236,7 +236,8 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
         "independent samples."
     ]
     flags = []
-    ratio = (bs.stderr / fit.stderr).to_numpy()
+    sd, half = bs.stderr, bs.central_halfwidth  # each a pass over the resamples
+    ratio = (sd / fit.stderr).to_numpy()
     off = [
         f"{name} {r:.2g}×"
         for name, r in zip(fit.param_names, ratio, strict=True)
@@ -273,12 +274,9 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
             "or could not determine the parameters (e.g. they drew tests of one plate size "
             "or one normal pressure)"
         )
-    tails = (bs.stderr / bs.central_halfwidth).to_numpy()
     heavy = [
-        f"{name} sd {sd:.3g} is {r:.1f}× the central 68 % half-width {half:.3g}"
-        for name, sd, half, r in zip(
-            fit.param_names, bs.stderr, bs.central_halfwidth, tails, strict=True
-        )
+        f"{name} sd {sd[name]:.3g} is {r:.1f}× the central 68 % half-width {half[name]:.3g}"
+        for name, r in (sd / half).items()
         if np.isfinite(r) and r > MAX_TAIL_RATIO
     ]
     if heavy:

@@ -31,7 +31,7 @@ fitted by weighted least squares with weights 1/v (feasible GLS).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -62,6 +62,9 @@ class AncovaResult:
         The columns analysed.
     n_obs, n_dropped : int
         Observations used and rows dropped for missing values.
+    separate_fit : statsmodels RegressionResults
+        The fit of M2 (own intercepts, then own slopes, in the order of ``lines``), weighted
+        by 1/v(σ) with ``variance="fitted"``; :attr:`separate_intercepts_test` reads it.
     """
 
     comparison: pd.DataFrame
@@ -71,8 +74,7 @@ class AncovaResult:
     group: str
     n_obs: int
     n_dropped: int
-    #: Weights 1/v(σ) of the rows used (``variance="fitted"``), None for ordinary LS.
-    weights: np.ndarray | None = None
+    separate_fit: object = field(default=None, repr=False, compare=False)
 
     def _test(self, row: str, what: str) -> TestResult:
         r = self.comparison.loc[row]
@@ -100,6 +102,27 @@ class AncovaResult:
     def intercept_test(self) -> TestResult:
         """Do the intercepts (cohesions c) differ, given a common slope?  (common vs parallel)"""
         return self._test("parallel", "one intercept, given a common slope")
+
+    @property
+    def separate_intercepts_test(self) -> TestResult:
+        """Do the intercepts (cohesions c) differ when each group keeps its own slope?  A
+        Wald F-test on M2 (:attr:`intercept_test` assumes a common slope, and where the
+        slopes differ it compares the lines at the mean σ, which is not c)."""
+        k = len(self.lines)
+        contrasts = np.zeros((k - 1, 2 * k))
+        contrasts[:, 0] = 1.0
+        contrasts[np.arange(k - 1), np.arange(1, k)] = -1.0
+        wald = self.separate_fit.f_test(contrasts)
+        f = float(np.squeeze(wald.fvalue))
+        return TestResult(
+            test="Wald F-test of H0: equal intercepts c in the separate-lines model",
+            statistic=f,
+            p_value=float(wald.pvalue),
+            df_num=float(wald.df_num),
+            df_den=float(wald.df_denom),
+            effect_size=f * wald.df_num / (f * wald.df_num + wald.df_denom),
+            effect_size_name="partial_eta_sq",
+        )
 
     def summary(self) -> str:
         """Model comparison, per-group lines and both tests, with numbered notes."""
@@ -233,7 +256,7 @@ def ancova(
         group=group,
         n_obs=n,
         n_dropped=n_dropped,
-        weights=weights,
+        separate_fit=sep,
     )
 
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-import statsmodels.api as sm
 from scipy import stats
 
 from ..identification.conditions import condition_label
@@ -45,32 +44,6 @@ def _line_test(result) -> TestResult:
         df_num=float(dfn),
         df_den=float(df2),
         effect_size=float((ssr0 - ssr2) / ssr0),
-        effect_size_name="partial_eta_sq",
-    )
-
-
-def _cohesion_test(
-    frame: pd.DataFrame, response: str, covariate: str, group: str, weights=None
-) -> TestResult:
-    y = frame[response].to_numpy(float)
-    x = frame[covariate].to_numpy(float)
-    codes, levels = pd.factorize(frame[group])
-    k = len(levels)
-    onehot = np.eye(k)[codes]
-    design = np.hstack([onehot, onehot * x[:, None]])
-    fit = (sm.OLS(y, design) if weights is None else sm.WLS(y, design, weights=weights)).fit()
-    contrasts = np.zeros((k - 1, 2 * k))
-    contrasts[:, 0] = 1.0
-    contrasts[np.arange(k - 1), np.arange(1, k)] = -1.0
-    wald = fit.f_test(contrasts)
-    f = float(np.squeeze(wald.fvalue))
-    return TestResult(
-        test="Wald F-test of H0: equal intercepts c in the separate-lines model",
-        statistic=f,
-        p_value=float(wald.pvalue),
-        df_num=float(wald.df_num),
-        df_den=float(wald.df_denom),
-        effect_size=f * wald.df_num / (f * wald.df_num + wald.df_denom),
         effect_size_name="partial_eta_sq",
     )
 
@@ -101,7 +74,7 @@ def shear_effects(per_test: pd.DataFrame, spec, soil: str) -> dict:
         return {"effects": [], "anova": pd.DataFrame(), "lines": pd.DataFrame(), "notes": notes}
     tests = {
         "phi": result.slope_test,
-        "c": _cohesion_test(data, "tau_ss_Pa", "sigma_mean_Pa", "level", result.weights),
+        "c": result.separate_intercepts_test,
         "line": _line_test(result),
     }
     effects = []
