@@ -2,7 +2,8 @@
 
 :func:`screen` runs every rule over a campaign and returns a :class:`QualityReport` with the
 findings and the cleaned campaign every analysis uses; :func:`screened` is the guard the
-fitting functions call.  The detectors on one record are in :mod:`.records`.
+fitting functions call.  The detectors on one record are in :mod:`.records`; copied records
+(``duplicate``) are found across records by :mod:`.copies`.
 """
 
 from .codes import ARTEFACT_CODES, CODES, MODES, STOP_CODES, QualityCode

@@ -4,7 +4,8 @@ One place, used by every analysis: the command-line tools screen a campaign righ
 loading it, and the fitting functions screen what they are given unless it was screened
 already (:func:`screened`).  In the default mode ``"clean"`` the samples of ``spike`` and
 ``pre-contact`` findings are left out of the cleaned campaign and z is re-zeroed at the
-contact point found; every other finding only flags.  Every finding names its test, its
+contact point found, and a ``duplicate`` test (a copied record) leaves it; every other
+finding only flags.  Every finding names its test, its
 code and the 1-based data rows of the sample file it concerns; nothing is left out silently.
 """
 
@@ -26,6 +27,7 @@ from . import blocks as blocks_mod
 from . import records
 from .blocks import Blocks
 from .codes import CODES, MODES
+from .copies import RECORDS, find_copies
 
 __all__ = ["QualityFlag", "QualityReport", "screen", "screened"]
 
@@ -36,15 +38,6 @@ LOAD_CAP_SPREAD = 0.10
 #: (at least this, and five times the load's spread).
 LOAD_CAP_DEPTH_SPREAD = 0.25
 LOAD_CAP_MIN_TESTS = 3
-#: Duplicate: records that repeat an earlier test's exactly, with at least this many distinct
-#: values of the response (a flat, dead channel over a commanded z grid repeats by itself).
-DUPLICATE_MIN_SAMPLES = 5
-#: The channels that make up a record, and its response, by table.
-_RESPONSE = {"sinkage": "force_N", "shear": "torque_Nm"}
-_RECORD_COLUMNS = {
-    "sinkage": ("z_m", "force_N"),
-    "shear": ("angle_rad", "torque_Nm", "normal_force_N"),
-}
 
 
 @dataclass(frozen=True)
@@ -461,54 +454,25 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
 
 
 def _duplicates(campaign, *, clean: bool) -> tuple[list[QualityFlag], dict[str, list[np.ndarray]]]:
-    """``duplicate`` flags of tests whose record repeats an earlier test's (in the order of
-    the sample file) exactly, and (when ``clean``) the sample labels of those copies to leave
-    out, by table.  Records are compared in full only where a cheap signature (length and
-    the sum of every channel) collides, so a campaign without copies costs a few bincounts."""
+    """``duplicate`` flags of the copied records (:mod:`.copies`) and, when ``clean``, the
+    sample labels of the copies to leave out, by table."""
     flags: list[QualityFlag] = []
     drop: dict[str, list[np.ndarray]] = {"sinkage": [], "shear": []}
-    for kind, columns in _RECORD_COLUMNS.items():
+    for kind, (columns, response) in RECORDS.items():
         table = getattr(campaign, kind)
         if not len(table) or not set(columns) <= set(table.columns):
             continue
-        codes, ids = pd.factorize(table["test_id"].astype(str), sort=False)
-        values = np.ascontiguousarray(table[list(columns)].to_numpy(dtype=float))
-        sums = {
-            c: np.bincount(codes, weights=values[:, k], minlength=ids.size)
-            for k, c in enumerate(columns)
-        }
-        signature = pd.DataFrame({"n": np.bincount(codes, minlength=ids.size)} | sums)
-        clash = signature.duplicated(keep=False).to_numpy().copy()
-        if not clash.any():
-            continue
-        # Only records that carry information: a flat, dead channel repeats by itself.
-        candidate = clash[codes]
-        response = values[candidate, columns.index(_RESPONSE[kind])]
-        distinct = pd.Series(response).groupby(codes[candidate]).nunique()
-        clash[distinct.index[distinct < DUPLICATE_MIN_SAMPLES]] = False
-        order = np.argsort(codes, kind="stable")
-        starts = np.searchsorted(codes[order], np.arange(ids.size + 1))
-        labels = table.index.to_numpy()
-        first_of: dict[bytes, str] = {}
-        for t in np.flatnonzero(clash):  # in file order
-            rows = order[starts[t] : starts[t + 1]]
-            key = hashlib.blake2b(values[rows].tobytes(), digest_size=16).digest()
-            first = first_of.setdefault(key, ids[t])
-            if first == ids[t]:
-                continue
+        for copy, original, rows in find_copies(table, columns, response):
+            labels = table.index.to_numpy()[rows]
+            message = (
+                f"its {rows.size} samples repeat test {original!r}'s value for value: a copy "
+                "of one record, not a second preparation"
+            )
             flags.append(
-                QualityFlag(
-                    ids[t],
-                    kind,
-                    "duplicate",
-                    _rows(labels[rows]),
-                    f"its {rows.size} samples repeat test {first!r}'s value for value: a copy "
-                    "of one record, not a second preparation",
-                    excluded=clean,
-                )
+                QualityFlag(copy, kind, "duplicate", _rows(labels), message, excluded=clean)
             )
             if clean:
-                drop[kind].append(labels[rows])
+                drop[kind].append(labels)
     return flags, drop
 
 
