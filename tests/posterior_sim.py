@@ -116,3 +116,35 @@ def joint_campaign(rng, **kwargs) -> Campaign:
     t1, sinkage, _ = sinkage_frames(rng, **kwargs)
     t2, shear = shear_frames(rng)
     return Campaign.from_frames(pd.concat([t1, t2], ignore_index=True), sinkage, shear)
+
+
+#: A hand-made Bernstein population: three tests' own fits (k_t [N/m^(n+2)], n_t) and their
+#: Eq. 4 covariances, reduced at ln z_ref = -3.5.
+POPULATION_FITS = np.array([[8.0e5, 1.05], [9.5e5, 1.12], [7.2e5, 1.02]])
+POPULATION_FIT_COV = np.array([[[4e8, 30.0], [30.0, 1e-4]]] * 3)
+POPULATION_LN_ZREF = -3.5
+
+
+def bernstein_population(priors=None):
+    """The population model of :data:`POPULATION_FITS`, sampled in (k, n) itself; with
+    ``priors`` the caller's priors replace the default log-flat factor."""
+    from soilstats.bayes.population import _LAYOUTS, _Population, _to_eta
+    from soilstats.bayes.priors import resolve_priors
+    from soilstats.bayes.transforms import Coordinates
+    from soilstats.models import BERNSTEIN
+
+    eta, eta_cov = _to_eta(
+        POPULATION_FITS, POPULATION_FIT_COV, POPULATION_LN_ZREF, log_second=False
+    )
+    return _Population(
+        BERNSTEIN,
+        _LAYOUTS["bernstein"],
+        eta,
+        eta_cov,
+        np.ones((3, 1)),
+        POPULATION_LN_ZREF,
+        resolve_priors("bernstein", BERNSTEIN.param_names, priors),
+        Coordinates(),
+        reference_rows=np.ones((1, 1)),
+        log_flat=(priors is None, priors is None),
+    )

@@ -310,28 +310,13 @@ def test_predictive_figure_caps_panels_and_tests_and_says_so(bekker):
 def test_population_log_likelihood_and_replicates_are_the_marginal_model():
     # A hand-made Bernstein population: 3 tests with their own fits (k_t, n_t) and
     # covariances; one draw v of the soil level (k, n) and of the scatter (s_eps, s_delta, rho).
+    from posterior_sim import POPULATION_FITS as params
+    from posterior_sim import POPULATION_LN_ZREF as ln_zref
+    from posterior_sim import bernstein_population
     from scipy import stats
 
-    from soilstats.bayes.population import _LAYOUTS, _Population, _to_eta
-    from soilstats.bayes.priors import resolve_priors
-    from soilstats.bayes.transforms import Coordinates
-    from soilstats.models import BERNSTEIN
-
-    params = np.array([[8.0e5, 1.05], [9.5e5, 1.12], [7.2e5, 1.02]])
-    cov = np.array([[[4e8, 30.0], [30.0, 1e-4]]] * 3)
-    ln_zref = -3.5
-    eta, eta_cov = _to_eta(params, cov, ln_zref, log_second=False)
-    pops = _Population(
-        BERNSTEIN,
-        _LAYOUTS["bernstein"],
-        eta,
-        eta_cov,
-        np.ones((3, 1)),
-        ln_zref,
-        resolve_priors("bernstein", BERNSTEIN.param_names, None),
-        Coordinates(),
-        reference_rows=np.ones((1, 1)),
-    )
+    pops = bernstein_population()
+    eta, eta_cov = pops.eta, pops.cov
     k, n, s_eps, s_delta, rho = 8.5e5, 1.07, 0.1, 0.04, 0.3
     v = np.array([[k, n, np.log(s_eps), np.log(s_delta), np.arctanh(rho)]])
     b = np.array([[1.0, ln_zref], [0.0, 1.0]])

@@ -13,33 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from posterior_sim import bernstein_population
 from scipy.special import logsumexp
 
-from soilstats.bayes.population import _LAYOUTS, _Population, _reference_rows, _to_eta
+from soilstats.bayes.population import _LAYOUTS, _Population, _reference_rows
 from soilstats.bayes.priors import resolve_priors
 from soilstats.bayes.transforms import Coordinates
-from soilstats.models import BEKKER, BERNSTEIN, JANOSI
+from soilstats.models import BEKKER, JANOSI
 from soilstats.models.shear import RAD_PER_DEG
-
-
-def _bernstein_population(priors=None) -> _Population:
-    # Three tests with their own Bernstein fits (k_t, n_t), sampled in (k, n) itself.
-    params = np.array([[8.0e5, 1.05], [9.5e5, 1.12], [7.2e5, 1.02]])
-    cov = np.array([[[4e8, 30.0], [30.0, 1e-4]]] * 3)
-    ln_zref = -3.5
-    eta, eta_cov = _to_eta(params, cov, ln_zref, log_second=False)
-    return _Population(
-        BERNSTEIN,
-        _LAYOUTS["bernstein"],
-        eta,
-        eta_cov,
-        np.ones((3, 1)),
-        ln_zref,
-        resolve_priors("bernstein", BERNSTEIN.param_names, priors),
-        Coordinates(),
-        reference_rows=np.ones((1, 1)),
-        log_flat=(priors is None, priors is None),
-    )
 
 
 def _log_marginal_of_scatter(pops: _Population, s_eps: float) -> float:
@@ -61,7 +42,7 @@ def _log_marginal_of_scatter(pops: _Population, s_eps: float) -> float:
 
 
 def test_default_population_prior_is_proper_in_the_scatter():
-    pops = _bernstein_population()
+    pops = bernstein_population()
     t = pops.eta.shape[0]
     # Far above the data's scatter the marginal of ln s falls as s^(-T): slope −T in ln s.
     slope = (_log_marginal_of_scatter(pops, 300.0) - _log_marginal_of_scatter(pops, 30.0)) / (
@@ -73,7 +54,7 @@ def test_default_population_prior_is_proper_in_the_scatter():
 def test_a_prior_flat_in_the_modulus_makes_the_scatter_run_off():
     # What the default used to be (flat in k, here given by the caller): the marginal of
     # ln s grows as e^{s²/(2T)} — the improper posterior this module guards against.
-    pops = _bernstein_population(priors={"k": (0.0, np.inf)})
+    pops = bernstein_population(priors={"k": (0.0, np.inf)})
     assert not pops.log_flat_linear
     rise = _log_marginal_of_scatter(pops, 8.0) - _log_marginal_of_scatter(pops, 4.0)
     t = pops.eta.shape[0]
