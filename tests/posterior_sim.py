@@ -128,14 +128,13 @@ POPULATION_LN_ZREF = -3.5
 def bernstein_population(priors=None):
     """The population model of :data:`POPULATION_FITS`, sampled in (k, n) itself; with
     ``priors`` the caller's priors replace the default log-flat factor."""
-    from soilstats.bayes.population import _LAYOUTS, _Population, _to_eta
+    from soilstats.bayes.population import _LAYOUTS, _Population
     from soilstats.bayes.priors import resolve_priors
+    from soilstats.bayes.reduction import to_eta
     from soilstats.bayes.transforms import Coordinates
     from soilstats.models import BERNSTEIN
 
-    eta, eta_cov = _to_eta(
-        POPULATION_FITS, POPULATION_FIT_COV, POPULATION_LN_ZREF, log_second=False
-    )
+    eta, eta_cov = to_eta(POPULATION_FITS, POPULATION_FIT_COV, POPULATION_LN_ZREF, log_second=False)
     return _Population(
         BERNSTEIN,
         _LAYOUTS["bernstein"],

@@ -23,15 +23,16 @@ A rover Monte Carlo needs the posterior predictive of a *new* preparation: (kc·
 n + δ), or (c·e^ε, atan(tan φ·e^ε), K·e^δ), with the soil-level parameters and Σ drawn from
 their posterior.
 
-Marginalisation (why it is fast and low-dimensional).  Each test is first reduced to its own
-weighted least-squares fit — Bernstein (Eq. 8, weights 1/max p as Eq. 9) or Eq. 13 at one σ
-(weights 1/max τ) — written in coordinates η_t in which that fit is close to normal:
-(ln k_t + n_t·ln z_ref, n_t) for sinkage (:mod:`soilstats.bayes.transforms`), (ln τ_max,t,
-ln K_t) for shear; its covariance C_t comes from Eq. 4 by the delta method.  With the Laplace
-approximation η̂_t | (ε_t, δ_t) ~ N(h_t + B·(ε_t, δ_t), C_t), where h_t = (ln(a_tᵀm) +
-g·ln z_ref, g) with the linear moduli m = (kc, kφ), (k) or (c, tan φ), their design row
-a_t = (1/b_t, 1), (1) or (1, σ_t), g = n or ln K, and B = [[1, ln z_ref], [0, 1]] (z_ref = 1
-for shear), the test-level effects integrate out in closed form:
+Marginalisation (why it is fast and low-dimensional). Each test is first reduced to its own
+weighted least-squares fit (:mod:`soilstats.bayes.reduction`) — Bernstein (Eq. 8, weights
+1/max p as Eq. 9) or Eq. 13 at one σ (weights 1/max τ) — written in coordinates η_t in which
+that fit is close to normal: (ln k_t + n_t·ln z_ref, n_t) for sinkage
+(:mod:`soilstats.bayes.transforms`), (ln τ_max,t, ln K_t) for shear; its covariance C_t
+comes from Eq. 4 by the delta method. With the Laplace approximation η̂_t | (ε_t, δ_t) ~
+N(h_t + B·(ε_t, δ_t), C_t), where h_t = (ln(a_tᵀm) + g·ln z_ref, g) with the linear moduli m
+= (kc, kφ), (k) or (c, tan φ), their design row a_t = (1/b_t, 1), (1) or (1, σ_t), g = n or
+ln K, and B = [[1, ln z_ref], [0, 1]] (z_ref = 1 for shear), the test-level effects
+integrate out in closed form:
 
     η̂_t ~ N(h_t, B Σ Bᵀ + C_t),
 
@@ -74,7 +75,6 @@ import xarray as xr
 from scipy import optimize
 
 from ..identification import fit_sinkage, pool_sinkage
-from ..identification.per_test import TEST_FIT_ERRORS, fit_bernstein_test, fit_shear_test
 from ..models import BEKKER, JANOSI, get_model
 from ..models.shear import RAD_PER_DEG
 from ._arviz import az
@@ -83,6 +83,7 @@ from .likelihood import PooledProblem
 from .posterior import _attrs, finish
 from .predictive import PREDICTIVE_DRAWS, measured_dataset, response_dataset, spread_draws
 from .priors import resolve_priors
+from .reduction import PerTestFits, reference_sinkage, shear_tests, sinkage_tests, to_eta
 from .result import PosteriorResult, draws_converge
 from .sampler import run_ensemble
 from .transforms import Coordinates, sampling_coordinates
@@ -148,89 +149,6 @@ _LAYOUTS = {
 }
 #: Soil models with a population model.
 POPULATION_MODELS = tuple(_LAYOUTS)
-
-
-@dataclass(frozen=True)
-class _TestFits:
-    """Every usable test reduced to its own two-parameter fit (the population model's data)."""
-
-    params: np.ndarray  # (T, 2) per-test fit: (k, n) or (tau_max, K)
-    cov: np.ndarray  # (T, 2, 2) their Eq. 4 covariances
-    design: np.ndarray  # (T, m) a_t, the row multiplying the linear moduli
-    covariate: np.ndarray  # (T,) b_t [m] or σ_t [Pa]
-    test_ids: list
-    failed: list
-
-
-def _reduce_tests(test_ids, test_index, fit_one, covariate_of):
-    """Every test reduced to its own two-parameter fit: ``fit_one(mask, tid)`` fits the
-    samples of one test, ``covariate_of(mask)`` gives its b or σ.  A test whose fit fails, or
-    gives a non-positive parameter or a non-finite covariance, is left out and named."""
-    params, covs, covariate, kept, failed = [], [], [], [], []
-    for t, tid in enumerate(test_ids.astype(str)):
-        m = test_index == t
-        try:
-            fit = fit_one(m, tid)
-        except TEST_FIT_ERRORS:  # reported as left out, as fit_per_test reports it
-            failed.append(tid)
-            continue
-        values, cov = fit.params.to_numpy(), fit.cov.to_numpy()
-        if not (np.all(values > 0) and np.all(np.isfinite(cov))):
-            failed.append(tid)
-            continue
-        params.append(values)
-        covs.append(cov)
-        covariate.append(covariate_of(m))
-        kept.append(tid)
-    return np.array(params), np.array(covs), np.array(covariate, float), kept, failed
-
-
-def _sinkage_tests(pooled, spec) -> _TestFits:
-    """Bernstein fit (Eq. 8) of every test on its own (tests whose fit fails: left out)."""
-    z, b, p, w = pooled.x["z_m"], pooled.x["b_m"], pooled.y, pooled.weights
-    params, covs, sizes, kept, failed = _reduce_tests(
-        pooled.tests["test_id"],
-        pooled.test_index,
-        lambda m, tid: fit_bernstein_test(z[m], p[m], w[m], name=f"bernstein {tid}"),
-        lambda m: b[m][0],
-    )
-    design = (
-        np.column_stack([1.0 / sizes, np.ones_like(sizes)])
-        if spec is BEKKER
-        else np.ones((sizes.size, 1))
-    )
-    return _TestFits(params, covs, design, sizes, kept, failed)
-
-
-def _shear_tests(problem: PooledProblem) -> _TestFits:
-    """Eq. 13 at one normal pressure fitted to every test on its own (failures left out)."""
-    sigma, j = problem.x
-    params, covs, sigmas, kept, failed = _reduce_tests(
-        problem.tests["test_id"],
-        problem.test_index,
-        lambda m, tid: fit_shear_test(j[m], problem.y[m], problem.w[m], name=f"shear {tid}"),
-        lambda m: float(np.mean(sigma[m])),
-    )
-    design = np.column_stack([np.ones_like(sigmas), sigmas])
-    return _TestFits(params, covs, design, sigmas, kept, failed)
-
-
-def _reference_sinkage(kn: np.ndarray, cov: np.ndarray) -> float:
-    """ln z_ref: the median over tests of the value decorrelating ln k̂_t and n̂_t."""
-    return float(np.median(-cov[:, 0, 1] / kn[:, 0] / cov[:, 1, 1]))
-
-
-def _to_eta(params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: bool):
-    """Per-test fits and covariances → η = (ln a + g·ln z_ref, g), g = b or ln b, and the
-    delta-method covariances of η."""
-    g = np.log(params[:, 1]) if log_second else params[:, 1]
-    dg = 1.0 / params[:, 1] if log_second else np.ones(len(params))
-    eta = np.column_stack([np.log(params[:, 0]) + g * ln_zref, g])
-    jac = np.zeros_like(cov)
-    jac[:, 0, 0] = 1.0 / params[:, 0]
-    jac[:, 0, 1] = ln_zref * dg
-    jac[:, 1, 1] = dg
-    return eta, jac @ cov @ np.swapaxes(jac, 1, 2)
 
 
 def _reference_rows(design: np.ndarray, covariate: np.ndarray) -> np.ndarray:
@@ -513,11 +431,11 @@ def sample_population(
     layout = _LAYOUTS[spec.name]
     if spec is JANOSI:
         problem, lsq = pooled_problem(campaign, spec.name, **selection)
-        fits = _shear_tests(problem)
+        fits = shear_tests(problem)
     else:
         pooled = pool_sinkage(campaign, points_per_test=points_per_test, **selection)
         lsq = fit_sinkage(campaign, spec.name, points_per_test=points_per_test, **selection)
-        fits = _sinkage_tests(pooled, spec)
+        fits = sinkage_tests(pooled, spec)
     t = len(fits.test_ids)
     if t < 3:
         raise ValueError(
@@ -528,10 +446,10 @@ def sample_population(
     if spec is JANOSI:
         ln_zref, coords = 0.0, Coordinates()
     else:
-        ln_zref = _reference_sinkage(fits.params, fits.cov)
+        ln_zref = reference_sinkage(fits.params, fits.cov)
         base = sampling_coordinates(spec, theta0, lsq.cov.to_numpy(), np.unique(fits.covariate))
         coords = base if base.identity else Coordinates(moduli=base.moduli, ln_zref=ln_zref)
-    eta, cov = _to_eta(fits.params, fits.cov, ln_zref, layout.log_second)
+    eta, cov = to_eta(fits.params, fits.cov, ln_zref, layout.log_second)
     given = set(priors or {})
     pops = _Population(
         spec,
@@ -600,7 +518,7 @@ def sample_population(
     )
 
 
-def _population_notes(pops: _Population, fits: _TestFits, ln_zref: float) -> list[str]:
+def _population_notes(pops: _Population, fits: PerTestFits, ln_zref: float) -> list[str]:
     layout, names = pops.layout, pops.model.param_names
     a, b = layout.per_test
     if layout.log_second:
@@ -628,7 +546,7 @@ def _population_notes(pops: _Population, fits: _TestFits, ln_zref: float) -> lis
     return notes
 
 
-def _population_idata(pops: _Population, run, rng, fits: _TestFits, curves=None):
+def _population_idata(pops: _Population, run, rng, fits: PerTestFits, curves=None):
     chains, draws, dim = run.chain.shape
     flat = run.chain.reshape(-1, dim)
     mu = pops.theta(flat)
