@@ -255,7 +255,7 @@ def run(args: argparse.Namespace) -> int:
         results = [_run(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
     # Rows in random order (so any first N rows are a fair sample, not one walker's run);
     # unconverged draws are taken here and refused below unless --force.
-    n = min(len(r.draws(allow_unconverged=True)) for r in results)
+    n = min(r.idata.posterior.sizes["chain"] * r.idata.posterior.sizes["draw"] for r in results)
     draws = (
         joint_draws(results[0], results[1], n, seed=args.seed, allow_unconverged=True)
         if len(results) == 2
