@@ -273,3 +273,10 @@ def test_a_posterior_carries_the_health_of_the_fit_it_started_from(tmp_path, cap
     record = json.loads((out / "posterior.json").read_text())
     assert "bearing-failure" in {f["code"] for f in record["least_squares_health"]["bernstein"]}
     assert "least-squares fit these draws start from is flagged" in capsys.readouterr().err
+    # ... and so does its report (it used to show the flags nowhere).
+    from test_reports import _squeeze, pdf_text
+
+    text = pdf_text(out / "report.pdf")
+    for flag in record["least_squares_health"]["bernstein"]:
+        assert _squeeze(flag["message"]) in text, flag["code"]
+    assert "Startfitflagged" in text

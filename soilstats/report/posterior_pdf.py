@@ -1,9 +1,10 @@
 """The PDF report of a posterior, typeset: can these draws feed a rover Monte Carlo?
 
 Page 1: the question, the data, and the answer — the posterior mean ± sd and interval of
-each physical parameter in its unit, convergence, the physical-support check and every
-warning. Then the methods (the paper's equations, the likelihood, the sampler), the full
-diagnostics table, and per model the trace, pair and posterior-predictive figures
+each physical parameter in its unit, convergence, the physical-support check, every warning
+and the health flags of the least-squares fit the sampler started from. Then the methods
+(the paper's equations, the likelihood, the sampler), the full diagnostics table, and per
+model the start fit's flags and the trace, pair and posterior-predictive figures
 (:mod:`.posterior_figures`, physical units). Everything in ``posterior.json`` is in the PDF.
 """
 
@@ -52,6 +53,16 @@ def _conclusion(results, record: dict, prob: float) -> list:
         out.append(
             [strong(f"{res.model_name} ({res.kind}): "), *_estimates(res, prob), f"{status}."]
         )
+        codes = sorted({f["code"] for f in res.least_squares_health()})
+        if codes:
+            out.append(
+                [
+                    strong("Start fit flagged: "),
+                    f"the {res.model_name} least-squares fit these draws start from carries "
+                    f"{', '.join(codes)}; the posterior inherits its data and model problems "
+                    f"(messages under {res.model_name}, Health of the start fit).",
+                ]
+            )
     if record:
         support = record.get("support") or {}
         if record.get("forced"):
@@ -163,6 +174,10 @@ def write_report(
             f"{s.get('acceptance', float('nan')):.2f}."
         )
         _diagnostics_table(doc, res, prob)
+        health = res.least_squares_health()
+        if health:
+            doc.paragraph(strong("Health of the start fit (the least-squares fit sampled from):"))
+            doc.bullets([strong(f"{h['code']}: "), h["message"]] for h in health)
         if res.problems:
             doc.paragraph(strong("Convergence problems:"))
             doc.bullets(res.problems)
