@@ -231,7 +231,12 @@ def test_the_codes_state_the_thresholds_the_rules_use():
     assert "more than twice as deep" in failure and records.RUNAWAY_EXCESS == 2.0
     assert f"within {records.RUNAWAY_ONSET:g}x" in failure
     assert f"at least {records.RUNAWAY_MIN_TRAVEL:.0%}".replace("%", " %") in failure
-    for code in ("load-capped", "bearing-failure"):
+    contact = CODES["pre-contact"].what
+    assert f"at least {records.CONTACT_LAW_EXCESS:g}x" in contact
+    assert f"up to {records.CONTACT_EARLY_FRACTION:.0%}".replace("%", " %") in contact
+    assert f"more than {records.CONTACT_GLITCH_FRACTION:.0%}".replace("%", " %") in contact
+    assert "residuals halved" in contact and records.CONTACT_RESIDUAL_RATIO == 0.5
+    for code in ("load-capped", "bearing-failure", "pre-contact"):
         first = CODES[code].what.split(":")[0].replace("x ", "× ").replace("- 1", "− 1")
         assert first in text, code
 
@@ -311,3 +316,81 @@ def test_a_record_that_starts_under_load_has_no_pre_contact_segment():
     cut = z <= 0.024
     assert force[0] > 0.1 * force.max()
     assert find_contact(z[cut], force[cut]) is None
+
+
+def _record(campaign: str, test_id: str) -> tuple[np.ndarray, np.ndarray]:
+    c = load_campaign(campaign)
+    g = c.sinkage[c.sinkage["test_id"] == test_id]
+    return g["z_m"].to_numpy(), g["force_N"].to_numpy()
+
+
+def _seated(z, force, offset: float, rng) -> tuple[np.ndarray, np.ndarray]:
+    """The record as a plate zeroed ``offset`` metres above the surface logs it: free travel
+    at the record's sampling density with the force at its noise floor (1 N), then the
+    loaded record shifted down by ``offset``."""
+    m = max(int(z.size * offset / z.max()), 6)
+    free_z = np.linspace(0.0, offset, m, endpoint=False)
+    return np.r_[free_z, z[1:] + offset], np.r_[rng.normal(0, 1.0, m), force[1:]]
+
+
+@pytest.mark.parametrize("offset", [3e-3, 6e-3])
+def test_a_seating_offset_before_a_near_linear_curve_is_found(offset):
+    # Cullinan's method2-test1 rises almost linearly (n ~ 1) and jumps off the floor at
+    # contact. No shifted power law fits it much better than one from z = 0, so 3-6 mm of
+    # free travel (4-7 % of the test) went unnoticed; it is the force's stay at the floor
+    # where a law from z = 0 has long risen that shows it.
+    from soilstats.quality.records import find_contact
+
+    z, force = _seated(*_record("cullinan-sand", "method2-test1"), offset, np.random.default_rng(1))
+    contact = find_contact(z, force)
+    assert contact is not None and contact.evidence == "floor"
+    assert abs(contact.z_contact - offset) < 1e-4
+    assert contact.law_excess >= 3.0
+
+
+def test_a_contact_is_never_placed_past_a_sample_held_off_the_floor():
+    # GRC-1's sparse medium-3 with 0.3 mm of free travel: the first loaded sample (8.7 N,
+    # 25 noise widths) lies below the 1 %-of-peak rise threshold, and the best shifted law
+    # put the contact at 0.77 mm, past it, leaving out a real sample and re-zeroing 0.47 mm
+    # too deep.
+    from soilstats.quality.records import find_contact
+
+    offset = 3e-4
+    z, force = _seated(*_record("grc1-oravec2009", "medium-3"), offset, np.random.default_rng(1))
+    first_loaded = z[np.argmax(force > 5.0)]
+    contact = find_contact(z, force)
+    assert contact is not None
+    assert offset <= contact.z_contact <= first_loaded
+    assert force[contact.before].max() < 5.0  # no loaded sample is left out
+
+
+def test_a_clipped_top_is_not_the_sensors_resolution():
+    # A clipped channel repeats its maximum: counted as quantisation, it made a clipped
+    # sparse GRC-1 record's "noise" its smallest rise (8.7 N instead of 0), and a noise floor
+    # that high hid or invented seating offsets.
+    from soilstats.quality.records import _quantum, find_contact
+
+    z, force = _record("grc1-oravec2009", "medium-3")
+    clipped = np.minimum(force, 0.6 * force.max())
+    assert (clipped == clipped.max()).sum() >= 4
+    assert _quantum(clipped) == _quantum(force) == 0.0
+    assert find_contact(z, clipped) is None
+
+
+def test_a_force_glitch_at_the_floor_is_not_a_seating_offset():
+    # A steep clean record (n = 2.5: the force stays near its floor over the first few
+    # millimetres) with a three-sample glitch of 35 % of its peak there: the early law from
+    # z = 0 through the glitch puts 35x the floor's threshold at the end of the "free"
+    # travel, but the force falls back after the glitch, so that law is no evidence.
+    from soilstats.quality import records
+
+    rng = np.random.default_rng(4)
+    z = np.linspace(-5e-4, 0.03, 120)
+    force = 4e7 * np.clip(z, 0, None) ** 2.5 + rng.normal(0, 0.2, z.size)
+    assert records.find_contact(z, force) is None
+    force[12:15] += 0.35 * force.max()  # at z = 2.6 mm, where the law gives 14 N of 6.2 kN
+    assert records.find_contact(z, force) is None
+    # The guard is what keeps it out: without it, the glitch reads as a seating offset.
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(records, "_clean_rise", lambda *args: True)
+        assert records.find_contact(z, force).evidence == "floor"

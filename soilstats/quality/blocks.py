@@ -31,6 +31,8 @@ import numpy as np
 
 from . import records
 from .records import (
+    CONTACT_EARLY_FRACTION,
+    CONTACT_LAW_EXCESS,
     CONTACT_MIN_TRAVEL,
     CONTACT_NOISE_WIDTHS,
     FALLBACK_FRACTION,
@@ -259,11 +261,14 @@ def _runs_mask(blocks: Blocks, mask: BoolArray, keep) -> BoolArray:
 
 
 def _quantum(blocks: Blocks, values: np.ndarray) -> FloatArray:
-    """``records._quantum`` of every block: the sensor's step, or 0."""
-    steps, sb = blocks.diff(values, 1)
-    steps = np.abs(steps)
-    n = sb.sizes
-    zeros = sb.total_of(steps == 0)
+    """``records._quantum`` of every block: the sensor's step, or 0 (repeats on a plateau
+    at the block's maximum not counted)."""
+    sb, kept = blocks.drop_last(1)
+    steps = np.abs(values[kept + 1] - values[kept]) if kept.size else np.empty(0)
+    top = values == blocks.spread(blocks.max(values))
+    plateau = top[kept] & top[kept + 1] if kept.size else np.zeros(0, dtype=bool)
+    n = sb.sizes - sb.total_of(plateau)
+    zeros = sb.total_of((steps == 0) & ~plateau)
     with np.errstate(invalid="ignore", divide="ignore"):
         share = zeros.astype(np.float64) / n  # np.mean of a bool array: count / size
     smallest = sb.min(steps, where=steps > 0)
@@ -410,9 +415,11 @@ def _fit_lines(blocks: Blocks, x: np.ndarray, y: np.ndarray, w: np.ndarray | Non
 
 def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
     """What ``records.find_contact`` compares, for every block: (alive, from_zero, coarse,
-    trusted). ``alive``: the block passed the detector's exact early exits; ``from_zero``
-    and ``coarse``: the residual of the power law from z = 0 and the least residual over the
-    grid of contact points (closed form); ``trusted``: both are accurate to :data:`MARGIN`."""
+    law_excess, trusted). ``alive``: the block passed the detector's exact early exits;
+    ``from_zero`` and ``coarse``: the residual of the power law from z = 0 and the least
+    residual over the grid of contact points (closed form); ``law_excess``:
+    the law from z = 0 at the deepest free sample over the rise threshold; ``trusted``: all
+    are accurate to :data:`MARGIN`."""
     empty = np.zeros(blocks.count, dtype=bool)
     if not z.size:
         return empty, np.full(blocks.count, np.inf), np.full(blocks.count, np.inf), empty
@@ -446,38 +453,57 @@ def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
     fl = force[li] - lb.spread(base)
     upper = lb.min(zl, where=zl > 0)
     alive &= np.isfinite(upper) & (upper > 0)
-    refs = np.linspace(0.0, 1.0, 12, endpoint=False)  # 0: from z = 0; then the grid
+    zero = np.zeros(blocks.count)
+    from_zero, trusted, _, _ = _power_law_residuals(lb, zl, fl, zero)
+    # The early law from z = 0 (records.find_contact): up to CONTACT_EARLY_FRACTION of the
+    # loaded record's peak, at least four samples.
+    reach = lb.first(fl >= lb.spread(CONTACT_EARLY_FRACTION * lb.max(fl)))
+    stop = np.maximum(np.where(reach >= 0, reach, lb.sizes), 3)
+    eb, ei = lb.keep(lb.local <= lb.spread(stop))
+    _, early_ok, n0, log_k0 = _power_law_residuals(eb, zl[ei], fl[ei], zero)
+    trusted &= alive & early_ok
+    refs = np.linspace(0.0, 1.0, 12, endpoint=False)[1:]
     residual = np.full((blocks.count, refs.size), np.inf)
-    trusted = alive.copy()
     for r, step in enumerate(refs):
         ref = np.where(np.isfinite(upper), upper, 0.0) * step
-        res, ok = _power_law_residuals(lb, zl, fl, ref)
+        res, ok, _, _ = _power_law_residuals(lb, zl, fl, ref)
         residual[:, r] = res
         trusted &= ok
-    return alive, residual[:, 0], residual[:, 1:].min(axis=1), trusted
+    with np.errstate(all="ignore"):
+        last_free = blocks.starts + np.maximum(_last(blocks, free, local), 0)
+        z_last = z[np.minimum(last_free, max(blocks.total - 1, 0))] if z.size else zero
+        law_excess = np.exp(log_k0 + n0 * np.log(z_last)) / (threshold - base)
+    return alive, from_zero, residual.min(axis=1), law_excess, trusted
 
 
 def contact_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntArray:
     """The blocks that ``records.find_contact`` may find a contact in; all others have none.
 
     The cheap exits of the per-record detector (no rise above the noise floor, no material
-    free travel, nothing loaded) are taken here exactly; the power-law comparison is made in
-    closed form, and a block is screened out only when even the best shifted law is
-    clearly (:data:`MARGIN`) worse than ``0.8 ×`` the one from z = 0, in well-conditioned
-    fits. The per-record detector decides the blocks returned.
+    free travel, nothing loaded) are taken here exactly; the power-law
+    comparisons are made in closed form, and a block is screened out only when even the
+    best shifted law is clearly (:data:`MARGIN`) worse than ``0.8 ×`` the one from z = 0
+    and the law from z = 0 stays clearly below :data:`CONTACT_LAW_EXCESS` times the rise
+    threshold at the free travel's end, in well-conditioned fits. The per-record detector
+    decides the blocks returned.
     """
     with np.errstate(all="ignore"):
-        alive, from_zero, coarse, trusted = contact_statistics(blocks, z, force)
-        clear = trusted & (from_zero > 0) & (coarse > 0.8 * from_zero * (1.0 + MARGIN))
+        alive, from_zero, coarse, law_excess, trusted = contact_statistics(blocks, z, force)
+        clear = (
+            trusted
+            & (from_zero > 0)
+            & (coarse > 0.8 * from_zero * (1.0 + MARGIN))
+            & (law_excess < CONTACT_LAW_EXCESS * (1.0 - MARGIN))
+        )
     return np.union1d(np.flatnonzero(alive & ~clear), _unfinite(blocks, z, force))
 
 
 def _power_law_residuals(
     blocks: Blocks, z: np.ndarray, force: np.ndarray, ref: np.ndarray
 ) -> tuple[FloatArray, BoolArray]:
-    """``records._power_law_residual(z, force, ref)`` of every block, in closed form, and
+    """``records._power_law(z, force, ref)`` of every block, in closed form: (residual,
     whether it can be trusted to :data:`MARGIN` (enough samples, well-conditioned, a residual
-    that is not mere rounding)."""
+    that is not mere rounding), n, ln k)."""
     depth = z - blocks.spread(ref)
     use = (depth > 0) & (force > 0)
     ub, ui = blocks.keep(use)
@@ -493,7 +519,7 @@ def _power_law_residuals(
         trusted = ~enough | (
             conditioned & np.isfinite(residual) & (residual > _RESIDUAL_FLOOR * weight)
         )
-    return residual, trusted
+    return residual, trusted, n, log_k
 
 
 def runaway_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntArray:

@@ -49,10 +49,15 @@ CODES: dict[str, QualityCode] = {
         QualityCode(
             "pre-contact",
             "The force stays at its noise floor while the sinkage grows: the plate was zeroed "
-            "above the surface (seating offset). The contact point is where a power law "
-            "measured from it fits the loaded part far better (residuals halved) than one "
-            "measured from z = 0. A record that starts under load (its first samples above "
-            "5 % of its peak force and 5 noise widths) is not searched.",
+            "above the surface (seating offset). Either a power law measured from a contact "
+            "point fits the loaded part far better (residuals halved) than one measured from "
+            "z = 0, or, for a near-linear curve that no shift fits much better, the early law "
+            "from z = 0 (up to 35 % of the peak) puts at least 3x the floor's threshold at "
+            "the end of the free travel, where the force was still at the floor (only where "
+            "the force then never falls back by more than 10 % of its peak: a glitch is no "
+            "rise). The contact is never placed past a sample held 5 noise widths off the "
+            "floor. A record that starts under load (its first samples above 5 % of its peak "
+            "force and 5 noise widths) is not searched.",
             "Bekker's and Bernstein's z is the sinkage below the surface. An offset zero bends "
             "the curve and biases n and k; the free travel adds samples with p ~ 0.",
             "Nothing by default: samples before the contact are excluded and z is re-zeroed "

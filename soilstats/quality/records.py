@@ -36,6 +36,15 @@ CONTACT_NOISE_WIDTHS = 5.0
 CONTACT_MIN_TRAVEL = 0.02
 #: ... and how much better (residual ratio) a power law from the contact must fit.
 CONTACT_RESIDUAL_RATIO = 0.5
+#: ... or, for a curve that no shift of origin fits better (near-linear), how far above the
+#: noise-floor threshold a power law measured from z = 0 puts the force at the deepest free
+#: sample, as a multiple of the threshold: a curve loaded from z = 0 would have risen that far
+#: by then. The law is fitted to the early loaded record only (up to CONTACT_EARLY_FRACTION
+#: of the peak force), so that a tail of bearing failure or clipping does not bend it.
+CONTACT_LAW_EXCESS = 3.0
+CONTACT_EARLY_FRACTION = 0.35
+#: ... and only where the early force never falls back by more than this share of the peak.
+CONTACT_GLITCH_FRACTION = 0.10
 #: A record whose first samples carry more than this share of its peak force (and more than
 #: CONTACT_NOISE_WIDTHS noise widths) started under load (a seating preload, a record cut
 #: after contact): no pre-contact segment is sought.
@@ -69,8 +78,17 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 def _quantum(values: np.ndarray) -> float:
     """The sensor's step where the record is visibly quantised (≥ 10 % repeated readings),
-    else 0: on a sparse record the smallest change is the signal's, not the sensor's."""
+    else 0: on a sparse record the smallest change is the signal's, not the sensor's.
+
+    Repeats on a plateau at the record's maximum are a clipped channel (saturation), not
+    the sensor's resolution, and are not counted (a clipped sparse record would otherwise
+    take its smallest rise for the noise: 8.7 N instead of 0.35 N on a GRC-1 test).
+    """
     steps = np.abs(np.diff(values))
+    if steps.size == 0:
+        return 0.0
+    top = values == values.max()
+    steps = steps[~(top[:-1] & top[1:])]
     if steps.size == 0 or np.mean(steps == 0) < 0.1:
         return 0.0
     steps = steps[steps > 0]
@@ -111,13 +129,14 @@ def find_spikes(values: np.ndarray) -> np.ndarray:
     return np.concatenate(keep) if keep else np.array([], int)
 
 
-def _power_law_residual(z: np.ndarray, force: np.ndarray, z_ref: float) -> float:
-    """Residual sum of squares of force ≈ k (z − z_ref)^n fitted by p²-weighted log–log
-    least squares (Wong's weighting), on the samples with z > z_ref and force > 0."""
+def _power_law(z: np.ndarray, force: np.ndarray, z_ref: float) -> tuple[float, float, float]:
+    """(residual sum of squares, n, ln k) of force ≈ k (z − z_ref)^n fitted by p²-weighted
+    log–log least squares (Wong's weighting), on the samples with z > z_ref and force > 0;
+    (inf, nan, nan) where no fit."""
     depth = z - z_ref
     use = (depth > 0) & (force > 0)
     if use.sum() < 3:
-        return np.inf
+        return np.inf, np.nan, np.nan
     f = force[use]
     x, y, w = np.log(depth[use]), np.log(f), f * f
     # The 2 × 2 weighted normal equations in closed form (called ~30 times per record).
@@ -125,30 +144,85 @@ def _power_law_residual(z: np.ndarray, force: np.ndarray, z_ref: float) -> float
     sxx, sxy = w @ (x * x), w @ (x * y)
     det = sw * sxx - sx * sx
     if det <= 0:
-        return np.inf
+        return np.inf, np.nan, np.nan
     n = (sw * sxy - sx * sy) / det
     log_k = (sy - n * sx) / sw
-    return float(np.sum((f - np.exp(log_k + n * x)) ** 2))
+    return float(np.sum((f - np.exp(log_k + n * x)) ** 2)), float(n), float(log_k)
+
+
+def _power_law_residual(z: np.ndarray, force: np.ndarray, z_ref: float) -> float:
+    """Residual sum of squares of :func:`_power_law`."""
+    return _power_law(z, force, z_ref)[0]
 
 
 @dataclass(frozen=True)
 class ContactPoint:
-    """A seating offset found in a record: re-zero z at ``z_contact`` [m]."""
+    """A seating offset found in a record: re-zero z at ``z_contact`` [m].
+
+    ``evidence`` says how it was found: ``"shift"`` (a power law from the contact fits the
+    loaded record with ``residual_ratio`` of the residual of one from z = 0) or ``"floor"``
+    (the force stayed at its noise floor where a power law from z = 0 puts ``law_excess``
+    times the floor's threshold).
+    """
 
     z_contact: float
     before: np.ndarray  # positions with 0 < z <= z_contact (free travel), excluded
     residual_ratio: float  # residual from the contact / residual from z = 0
+    law_excess: float = np.nan  # law-from-zero force at the deepest free sample / threshold
+    evidence: str = "shift"
+
+    def describe(self) -> str:
+        """What showed the offset, in words (the flag's message)."""
+        if self.evidence == "floor":
+            return (
+                f"a power law from z = 0 would have reached {self.law_excess:.1f}x the noise "
+                "floor's threshold there"
+            )
+        return f"a power law from a shifted origin leaves {self.residual_ratio:.0%} of the residual"
+
+
+def _clean_rise(zl: np.ndarray, fl: np.ndarray, early: int) -> bool:
+    """Whether the early law from z = 0 can be trusted for the ``floor`` evidence: up to
+    the peak the force never falls back from its running maximum by more than
+    :data:`CONTACT_GLITCH_FRACTION` of the peak (a three-sample glitch is no rise; real sand
+    gives way by 1–3 %), and over the early record the sinkage never by more than
+    :data:`FALLBACK_FRACTION` of the travel (a z glitch bends the law)."""
+    f_rise = fl[: int(np.argmax(fl)) + 1]
+    z_early = zl[:early]
+    force_back = (np.maximum.accumulate(f_rise) - f_rise).max()
+    z_back = (np.maximum.accumulate(z_early) - z_early).max()
+    return bool(
+        force_back <= CONTACT_GLITCH_FRACTION * f_rise[-1]
+        and z_back <= FALLBACK_FRACTION * np.ptp(zl)
+    )
 
 
 def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
     """A pre-contact segment (force at its noise floor while z > 0 grows), or None.
 
     The candidate is the free travel before the force first rises (and stays, three samples)
-    :data:`CONTACT_NOISE_WIDTHS` noise widths above its starting level. It is a seating
-    offset only if it is material (:data:`CONTACT_MIN_TRAVEL` of the travel) and a power law
-    measured from a contact point inside it fits the loaded record with at most
-    :data:`CONTACT_RESIDUAL_RATIO` of the residual of one measured from z = 0 — a steep
-    power law (n > 1) also starts near the noise floor, but shifting its origin fits worse.
+    :data:`CONTACT_NOISE_WIDTHS` noise widths (and 1 % of the peak) above its starting level.
+    It is a seating offset only if it is material (:data:`CONTACT_MIN_TRAVEL` of the travel)
+    and either
+
+    * a power law measured from a contact point inside it fits the loaded record with at
+      most :data:`CONTACT_RESIDUAL_RATIO` of the residual of one measured from z = 0 (a
+      steep power law, n > 1, also starts near the noise floor, but shifting its origin
+      fits worse), or
+    * the power law measured from z = 0 (fitted to the loaded record up to
+      :data:`CONTACT_EARLY_FRACTION` of its peak) puts :data:`CONTACT_LAW_EXCESS` times the
+      rise threshold at the last free sample: the curve is near-linear, no shift fits much
+      better, but loaded from z = 0 it would have left the floor long before. Only where
+      neither the force (up to its peak) nor the early sinkage falls back
+      (:func:`_clean_rise`): a glitch would bend the law.
+
+    No contact lies beyond the first sample held clearly off the floor (more than
+    CONTACT_NOISE_WIDTHS noise widths above the start, with the next two): the 1 %-of-peak
+    part of the rise threshold can leave a sparse record's first loaded sample among the
+    "free" ones. A shifted law is judged with its contact anywhere from z = 0 to the first
+    loaded sample (a steep law stays near the floor well after contact) and, when its best
+    contact lies past that held sample, placed before it; a near-linear curve leaves the
+    floor at once, so its contact is sought after the last sample at the floor proper.
     """
     z, force = np.asarray(z, float), np.asarray(force, float)
     if z.size < 8:
@@ -157,8 +231,8 @@ def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
     noise = max(_robust_width(np.diff(force, 2)) / np.sqrt(6.0), _quantum(force))
     if abs(base) > max(CONTACT_MAX_START * abs(float(force.max())), CONTACT_NOISE_WIDTHS * noise):
         return None  # the record starts under load: its flat start is not a noise floor
-    threshold = base + max(CONTACT_NOISE_WIDTHS * noise, 0.01 * float(force.max() - base))
-    above = force > threshold
+    rise = max(CONTACT_NOISE_WIDTHS * noise, 0.01 * float(force.max() - base))
+    above = force > base + rise
     rising = above[:-2] & above[1:-1] & above[2:]
     if not rising.any():
         return None
@@ -173,27 +247,63 @@ def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
     loaded = np.arange(z.size) >= first
     zl, fl = z[loaded], force[loaded] - base
     from_zero = _power_law_residual(zl, fl, 0.0)
-    upper = float(zl[zl > 0].min()) if (zl > 0).any() else 0.0
-    if upper <= 0:
+    # The early law from z = 0: loaded samples up to CONTACT_EARLY_FRACTION of the peak
+    # (at least four).
+    reach = np.flatnonzero(fl >= CONTACT_EARLY_FRACTION * float(fl.max()))
+    early = max(int(reach[0]) if reach.size else zl.size, 3) + 1
+    _, n0, log_k0 = _power_law(zl[:early], fl[:early], 0.0)
+    first_loaded = float(zl[zl > 0].min()) if (zl > 0).any() else 0.0
+    if not from_zero > 0 or first_loaded <= 0:
         return None
+    # At the last free sample (in record order: a z glitch in the free travel is no depth).
+    law_excess = float(np.exp(log_k0 + n0 * np.log(z[free[-1]]))) / rise
+    # No contact lies beyond the first sample held clearly off the floor.
+    held = (force - base > CONTACT_NOISE_WIDTHS * noise) & (z > 0)
+    lifted = held[:-2] & held[1:-1] & held[2:]
+    lift = int(np.argmax(lifted)) if lifted.any() else z.size
+    upper = min(float(z[lift]), first_loaded) if lift < z.size else first_loaded
+
+    def coarse(lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """Contact points evenly over [lo, hi) and the residuals of the laws from them."""
+        grid = lo + (hi - lo) * np.linspace(0.0, 1.0, 12, endpoint=False)
+        if lo <= 0:
+            grid = grid[1:]  # z = 0 is the law every shift is compared with
+        return grid, np.array([_power_law_residual(zl, fl, ref) for ref in grid])
+
+    def best_in(lo: float, hi: float, grid: np.ndarray, residual: np.ndarray) -> tuple:
+        """(residual, contact) of the best shifted law with its contact in [lo, hi]."""
+        found = minimize_scalar(
+            lambda ref: _power_law_residual(zl, fl, ref),
+            bounds=(lo, hi * (1 - 1e-9)),
+            method="bounded",
+            options={"xatol": 1e-6 * travel},
+        )
+        k = int(residual.argmin())
+        return min((float(found.fun), float(found.x)), (float(residual[k]), float(grid[k])))
+
     # A coarse grid first: most candidates are steep power laws that no offset improves.
-    grid = upper * np.linspace(0.0, 1.0, 12, endpoint=False)[1:]
-    coarse = np.array([_power_law_residual(zl, fl, ref) for ref in grid])
-    if not from_zero > 0 or coarse.min() > 0.8 * from_zero:
+    grid, residual = coarse(0.0, first_loaded)
+    contact = None
+    if residual.min() <= 0.8 * from_zero:
+        fun, z_contact = best_in(0.0, first_loaded, grid, residual)
+        if fun / from_zero <= CONTACT_RESIDUAL_RATIO:
+            if z_contact > upper:  # the best shift lies past a loaded sample: placed before it
+                z_contact = best_in(0.0, upper, *coarse(0.0, upper))[1]
+            contact = (z_contact, fun / from_zero, "shift")
+    if contact is None and law_excess >= CONTACT_LAW_EXCESS and _clean_rise(zl, fl, early):
+        # After the last sample at the floor proper that precedes the lift (z may jitter).
+        floor = free[(force[free] - base <= CONTACT_NOISE_WIDTHS * noise) & (free < lift)]
+        lower = min(float(z[floor].max()), upper) if floor.size else 0.0
+        if upper > lower:
+            fun, z_contact = best_in(lower, upper, *coarse(lower, upper))
+        else:
+            fun, z_contact = _power_law_residual(zl, fl, upper), upper
+        contact = (z_contact, fun / from_zero, "floor")
+    if contact is None or contact[0] < CONTACT_MIN_TRAVEL * travel:
         return None
-    best = minimize_scalar(
-        lambda ref: _power_law_residual(zl, fl, ref),
-        bounds=(0.0, upper * (1 - 1e-9)),
-        method="bounded",
-        options={"xatol": 1e-6 * travel},
-    )
-    refined = (float(best.fun), float(best.x))
-    fun, z_contact = min(refined, (float(coarse.min()), float(grid[coarse.argmin()])))
-    ratio = fun / from_zero
-    if not ratio <= CONTACT_RESIDUAL_RATIO or z_contact < CONTACT_MIN_TRAVEL * travel:
-        return None
+    z_contact, ratio, evidence = contact
     before = np.flatnonzero((z > 0) & (z <= z_contact))
-    return ContactPoint(z_contact, before, ratio)
+    return ContactPoint(z_contact, before, ratio, law_excess, evidence)
 
 
 @dataclass(frozen=True)

@@ -298,8 +298,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
                 "pre-contact",
                 _rows(rows),
                 f"force at its noise floor over the first {contact.z_contact * 1e3:.3g} mm; "
-                f"contact found at z = {contact.z_contact:.4g} m (a power law from there "
-                f"leaves {contact.residual_ratio:.0%} of the residual)"
+                f"contact found at z = {contact.z_contact:.4g} m ({contact.describe()})"
                 + ("; z re-zeroed there" if clean else ""),
                 excluded=clean,
                 value=contact.z_contact,
