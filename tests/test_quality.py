@@ -394,3 +394,18 @@ def test_a_force_glitch_at_the_floor_is_not_a_seating_offset():
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(records, "_clean_rise", lambda *args: True)
         assert records.find_contact(z, force).evidence == "floor"
+
+
+def test_a_record_begun_in_contact_has_no_floor():
+    # A clean Bekker record logged from z = 0.5 mm in 0.5 mm steps (force 17 N, 32 N, 41 N …
+    # with 2 N noise) was read as 1.45 mm of free travel: its first samples, climbing 12
+    # noise widths, set the "floor".
+    from soilstats.quality.records import find_contact
+
+    rng = np.random.default_rng(0)
+    b = 0.05
+    z = np.linspace(5e-4, 0.05, 100)
+    for _ in range(20):
+        kphi, n = 1.2e6 * rng.normal(1, 0.05), 0.8 + rng.normal(0, 0.01)
+        force = (-9.8e3 / b + kphi) * z**n * np.pi * b**2 + rng.normal(0, 2.0, z.size)
+        assert find_contact(z, force) is None

@@ -57,7 +57,8 @@ CODES: dict[str, QualityCode] = {
             "the force then never falls back by more than 10 % of its peak: a glitch is no "
             "rise). The contact is never placed past a sample held 5 noise widths off the "
             "floor. A record that starts under load (its first samples above 5 % of its peak "
-            "force and 5 noise widths) is not searched.",
+            "force and 5 noise widths) or climbing (its first four samples rising by more "
+            "than 5 noise widths) is not searched.",
             "Bekker's and Bernstein's z is the sinkage below the surface. An offset zero bends "
             "the curve and biases n and k; the free travel adds samples with p ~ 0.",
             "Nothing by default: samples before the contact are excluded and z is re-zeroed "

@@ -231,6 +231,9 @@ def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
     noise = max(_robust_width(np.diff(force, 2)) / np.sqrt(6.0), _quantum(force))
     if abs(base) > max(CONTACT_MAX_START * abs(float(force.max())), CONTACT_NOISE_WIDTHS * noise):
         return None  # the record starts under load: its flat start is not a noise floor
+    head = force[:4]
+    if (np.diff(head) > 0).all() and head[-1] - head[0] > CONTACT_NOISE_WIDTHS * noise:
+        return None  # the record starts climbing (logged from inside contact): no floor
     rise = max(CONTACT_NOISE_WIDTHS * noise, 0.01 * float(force.max() - base))
     above = force > base + rise
     rising = above[:-2] & above[1:-1] & above[2:]
