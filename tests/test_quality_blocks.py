@@ -125,6 +125,7 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
         return tuple(int(labels[i]) + 1 for i in positions)
 
     sink = campaign.sinkage
+    b_of = dict(zip(campaign.tests["test_id"].astype(str), campaign.tests["b_m"], strict=True))
     for tid, idx in sink.groupby("test_id", sort=False).indices.items():
         labels = sink.index.to_numpy()[idx]
         z, force = sink["z_m"].to_numpy(float)[idx], sink["force_N"].to_numpy(float)[idx]
@@ -142,7 +143,7 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
             # bearing failure is judged on the loaded record, z from the contact
             shift = contact.z_contact
             loaded = np.delete(good, contact.before)
-        runaway = records.find_runaway(z[loaded] - shift, force[loaded])
+        runaway = records.find_runaway(z[loaded] - shift, force[loaded], b_of.get(str(tid)))
         if runaway is not None:
             value = runaway.z_onset + shift - offset
             out.append((tid, "bearing-failure", rows(labels, loaded[runaway.after]), value))

@@ -98,8 +98,11 @@ CODES: dict[str, QualityCode] = {
             "it at the same force (and at least 25 % of its final sinkage beyond it): "
             "F = k z^n fitted in log-log space to the samples up to where the force first "
             "reaches 35 % of its peak (and above 5 % of it). The onset is the last sample "
-            "within 1.25x of that law. Where a seating offset was found, the rule runs on the "
-            "loaded record with z from the contact.",
+            "within 1.25x of that law. The run-on must also be long (at least 0.5 plate sizes "
+            "b beyond the law: punch-through) or end on a force plateau (less than 10 % force "
+            "gained over the last 25 % of the sinkage): a shorter run-on whose force keeps "
+            "rising is the bend of a record stopped early. Where a seating offset was found, "
+            "the rule runs on the loaded record with z from the contact.",
             "The soil under the plate failed (punch-through); pressure–sinkage models describe "
             "the loading before failure. Samples past the onset drag n toward 0.",
             "Fit within the proposed window (z_max = the onset, per plate; listed), e.g. "

@@ -252,9 +252,11 @@ def _spike_findings(rec: _Records, kind: str, columns: tuple[str, str], clean: b
     return out, drop, spiked
 
 
-def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
+def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict | None = None):
     """Findings of every sinkage record: (flags per test in test order, labels to drop,
     contact offsets by test, each test's end force and depth without its spikes).
+    ``b_of``: Bekker's plate size b [m] by test id (``bearing-failure`` scales its run-on
+    with it).
 
     The rules of :mod:`.records` run across all tests at once (:mod:`.blocks`); the two
     power-law detectors run per record on the tests the batch code could not clear.
@@ -324,7 +326,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool):
             loaded[seated.before] = False
             zk, fk, lk = zk[loaded], fk[loaded], lk[loaded]
             shift = seated.z_contact
-        found = records.find_runaway(zk - shift, fk)
+        found = records.find_runaway(zk - shift, fk, (b_of or {}).get(rec.ids[k]))
         if bar is not None:
             bar.update()
         if found is None:
@@ -437,7 +439,10 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
     drop: dict[str, list[np.ndarray]] = {"sinkage": [], "shear": []}
     offsets: dict[str, float] = {}
     if len(sink):
-        per_test, drop["sinkage"], offsets, ends = _sinkage_findings(sink, mode, progress)
+        b_of = dict(
+            zip(tests["test_id"], pd.to_numeric(tests["b_m"], errors="coerce"), strict=True)
+        )
+        per_test, drop["sinkage"], offsets, ends = _sinkage_findings(sink, mode, progress, b_of)
         flags += [f for found in per_test for f in found]
     else:
         ends = pd.DataFrame([], columns=["test_id", "force_end", "z_end"])
