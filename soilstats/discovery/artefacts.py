@@ -15,11 +15,17 @@ import numpy as np
 import pandas as pd
 
 from ..quality import ARTEFACT_CODES, CODES, STOP_CODES
-from .candidates import candidate_values
+from .candidates import candidate_values, classify_columns
 from .diagnose import INTERACTION
 from .result import Finding
 
 __all__ = ["quality_record", "split_artefacts", "with_quality_caveat"]
+
+#: Artefacts of test order (a drifting zero): they follow the order within a series, so they
+#: make a residue of the causes that number the tests (role time/order), never of the
+#: columns that name the series (its preparation or plate): those are where the flagged
+#: tests sit, not what the artefact follows.
+ORDER_CODES = frozenset({"zero-drift"})
 
 
 # ----------------------------------------------------------------------------- the steps
@@ -70,10 +76,22 @@ def _aligned(values: pd.Series, labels: pd.Series) -> str | None:
     least half the tests of one level and none of another's."""
     out = []
     for code in ARTEFACT_CODES:
+        if code in ORDER_CODES:
+            continue
         flagged = labels.str.contains(code, regex=False)
         share = flagged.groupby(values).mean()
         if share.max() >= 0.5 and share.min() == 0.0:
             out += [f"{code} in {share[lv]:.0%} of {lv}" for lv in share.index if share[lv] > 0]
+    return "; ".join(out) or None
+
+
+def _drifting(labels: pd.Series) -> str | None:
+    """How many tests carry an artefact of test order (:data:`ORDER_CODES`), or None."""
+    out = []
+    for code in sorted(ORDER_CODES):
+        flagged = int(labels.str.contains(code, regex=False).sum())
+        if flagged:
+            out.append(f"{code} in {flagged} of {len(labels)} tests: a zero drifting with order")
     return "; ".join(out) or None
 
 
@@ -85,6 +103,11 @@ def split_artefacts(group, found, quality) -> tuple[list, list[dict]]:
     labels = _artefact_labels(group, quality)
     if labels is None:
         return found, []
+    order = {
+        r.column
+        for r in classify_columns(group.tests, group.kind, group.time_columns)
+        if r.role == "time/order"
+    }
     kept, residues = [], []
     for f in found:
         rows = f.scope_rows if f.scope_rows is not None else np.arange(len(labels))
@@ -92,6 +115,8 @@ def split_artefacts(group, found, quality) -> tuple[list, list[dict]]:
         for column in f.cause.split(INTERACTION):
             values = candidate_values(group.tests, column).astype(str).iloc[rows]
             pattern = _aligned(values, labels.iloc[rows])
+            if pattern is None and column in order:
+                pattern = _drifting(labels.iloc[rows])
             if pattern is not None:
                 why = (
                     f"the levels of {column} line up with data-quality flags ({pattern}): the "

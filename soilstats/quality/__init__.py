@@ -3,7 +3,8 @@
 :func:`screen` runs every rule over a campaign and returns a :class:`QualityReport` with the
 findings and the cleaned campaign every analysis uses; :func:`screened` is the guard the
 fitting functions call.  The detectors on one record are in :mod:`.records`; copied records
-(``duplicate``) are found across records by :mod:`.copies`.
+(``duplicate``) are found across records by :mod:`.copies`, a force zero drifting with test
+order (``zero-drift``) across the tests of a series by :mod:`.drift`.
 """
 
 from .codes import ARTEFACT_CODES, CODES, MODES, STOP_CODES, QualityCode

@@ -124,6 +124,24 @@ CODES: dict[str, QualityCode] = {
             excluded=True,
         ),
         QualityCode(
+            "zero-drift",
+            "The start force (median of the first 3 samples) of the sinkage tests of a series "
+            "(one soil and setup: every log column but test_id, operator and the order "
+            "columns) trends with test order (a sequence column, else repetition, else the "
+            "log's row order): a Kendall test stratified by series, exact permutation p-value "
+            "below 0.01 after Bonferroni over the soils; in a series whose own trend has that "
+            "sign (one-sided p at most 0.1, so at least 4 tests) and a Theil-Sen drift of at "
+            "least 1 % of its median peak force across it. Flagged: the tests whose drift "
+            "since the series' first test reaches that 1 %.",
+            "A load cell whose zero drifts over a test day adds a constant force to each "
+            "record that grows with test order. It fits silently (the offset bends n and k) "
+            "and makes test order (repetition) look like a cause of the soil's behaviour.",
+            "Re-zero the load cell before every test. Nothing is excluded or corrected (the "
+            "offset is estimated from 3 samples; only the rig's zero log can confirm it): "
+            "compare the fit with one of the unflagged tests. Discovery reports causes that "
+            "follow test order as a residue of the data, not a cause.",
+        ),
+        QualityCode(
             "non-monotone",
             "The sinkage falls back below its running maximum by more than 2 % of the test's "
             "travel over three or more samples (unloading, rebound or a slipping mount).",

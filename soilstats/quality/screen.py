@@ -28,6 +28,7 @@ from . import records
 from .blocks import Blocks
 from .codes import CODES, MODES
 from .copies import RECORDS, find_copies
+from .drift import find_drift, start_forces
 
 __all__ = ["QualityFlag", "QualityReport", "screen", "screened"]
 
@@ -372,6 +373,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
                 )
             )
     ends = pd.DataFrame({"test_id": rec.ids, "force_end": peaks["force_N"], "z_end": peaks["z_m"]})
+    ends["force_start"] = start_forces(good, fg)
     return out, drop, offsets, ends
 
 
@@ -414,6 +416,26 @@ def _load_capped(tests: pd.DataFrame, ends: pd.DataFrame) -> list[QualityFlag]:
     return out
 
 
+def _zero_drift(log: pd.DataFrame, ends: pd.DataFrame) -> list[QualityFlag]:
+    """Sinkage tests whose start force trends with test order within their series
+    (:mod:`.drift`)."""
+    if not {"force_start", "force_end"} <= set(ends.columns):
+        return []
+    return [
+        QualityFlag(
+            d.test_id,
+            "sinkage",
+            "zero-drift",
+            (),
+            f"the start force of its series ({d.series_size} tests of {d.soil}, in "
+            f"{d.order}) trends by {d.slope_N:+.3g} N per test (p = {d.p_value:.2g}); this "
+            f"test's zero is off by about {d.offset_N:+.3g} N since the series' first test "
+            f"({abs(d.offset_N) / d.peak_N:.1%} of the peak force)",
+        )
+        for d in find_drift(log, ends)
+    ]
+
+
 def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
     """(flags, sample labels to drop by table, z offsets by test) of every rule on
     ``campaign``."""
@@ -447,6 +469,7 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
     else:
         ends = pd.DataFrame([], columns=["test_id", "force_end", "z_end"])
     flags += _load_capped(tests, ends)
+    flags += _zero_drift(log, ends)
     if len(campaign.shear):
         found, drop["shear"] = _shear_findings(campaign.shear, mode)
         flags += found
@@ -489,7 +512,8 @@ def _fingerprint(campaign) -> str:
     """A digest of everything the rules read: the log's identity columns and the samples."""
     digest = hashlib.blake2b(digest_size=16)
     for frame, columns in (
-        (campaign.tests, ["test_id", "kind", "soil", "b_m", "area_m2"]),
+        # The whole log: zero-drift reads every setup column and the test order.
+        (campaign.tests, list(campaign.tests.columns)),
         (campaign.sinkage, ["test_id", "z_m", "force_N", "pressure_Pa"]),
         (campaign.shear, ["test_id", "torque_Nm", "normal_force_N", "tau_Pa", "angle_rad"]),
     ):
