@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from discover_situations import seated_late
+from quality_sim import plate_spec, raw_tables
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
@@ -31,32 +32,14 @@ SOILS = {
 
 
 def _spec(points: int = 120, repetitions: int = 4) -> dict:
-    return {
-        "name": "quality",
-        "scatter": {"stiffness_cv": 0.1, "n_sd": 0.03},
-        "soils": SOILS,
-        "series": [
-            {
-                "name": "plates",
-                "kind": "sinkage",
-                "soils": list(SOILS),
-                "plates": [{"shape": "circle", "radius_m": b} for b in (0.025, 0.05, 0.075)],
-                "repetitions": repetitions,
-                "points": points,
-                "sinkage_m": 0.03,
-            }
-        ],
-    }
+    return plate_spec("quality", SOILS, points=points, repetitions=repetitions)
 
 
 def _clean(seed: int) -> Campaign:
     return simulate(_spec(), seed=seed).campaign
 
 
-def _raw(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
-    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
-    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
-    return tests, sinkage.reset_index(drop=True)
+_raw = raw_tables
 
 
 def _false_flags(seeds) -> list:

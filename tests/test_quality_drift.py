@@ -9,12 +9,11 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import pytest
+from quality_sim import plate_spec, raw_tables
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
-from soilstats.campaign.schema import DERIVED_COLUMNS
 from soilstats.discovery import discover
 from soilstats.quality import CODES, screen
 from soilstats.quality import drift as drift_mod
@@ -24,28 +23,10 @@ SOIL = {"loose": {"kc": 2.0e3, "kphi": 4.0e5, "n": 0.45}}
 
 
 def _spec(repetitions: int = 6) -> dict:
-    return {
-        "name": "drift",
-        "scatter": {"stiffness_cv": 0.1, "n_sd": 0.03},
-        "soils": SOIL,
-        "series": [
-            {
-                "name": "plates",
-                "kind": "sinkage",
-                "soils": list(SOIL),
-                "plates": [{"shape": "circle", "radius_m": b} for b in (0.025, 0.05, 0.075)],
-                "repetitions": repetitions,
-                "points": 120,
-                "sinkage_m": 0.03,
-            }
-        ],
-    }
+    return plate_spec("drift", SOIL, repetitions=repetitions)
 
 
-def _raw(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
-    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
-    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
-    return tests, sinkage.reset_index(drop=True)
+_raw = raw_tables
 
 
 def drifted(seed: int, step: float, repetitions: int = 6) -> Campaign:
