@@ -10,6 +10,7 @@ raise unless ``dropna=True``, and are then counted in the result.
 :func:`anova_twoway`          factor + blocking factor(s), type II sums of squares
 :func:`ancova`                shear lines τ = c + σ·tanφ by group: do c, φ differ?
 :func:`tukey_hsd`             which pairs of levels differ (simultaneous intervals)
+:func:`tukey_lsmeans`         the same on least-squares means of a blocked model
 :func:`effect_sizes`          η², partial η², ω², partial ω² of an ANOVA table
 :func:`scatter_table`         between-repetition scatter per level (n, mean, sd, cv)
 :func:`variance_test`         Brown–Forsythe / Levene test of equal scatter
@@ -41,6 +42,7 @@ _LAZY = {
     "effect_sizes": ".effect_size",
     "anova_oneway": ".oneway",
     "tukey_hsd": ".posthoc",
+    "tukey_lsmeans": ".posthoc",
     "TestResult": ".result",
     "anova_twoway": ".twoway",
     "scatter_table": ".variance",
@@ -57,7 +59,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .analysis_of_covariance import AncovaResult, ancova
     from .effect_size import effect_sizes
     from .oneway import anova_oneway
-    from .posthoc import tukey_hsd
+    from .posthoc import tukey_hsd, tukey_lsmeans
     from .result import TestResult
     from .twoway import anova_twoway
     from .variance import scatter_table, variance_test, welch_anova
@@ -80,6 +82,7 @@ __all__ = [
     "effect_sizes",
     "scatter_table",
     "tukey_hsd",
+    "tukey_lsmeans",
     "variance_test",
     "verdicts",
     "welch_anova",

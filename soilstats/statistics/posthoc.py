@@ -5,16 +5,27 @@ shapes soften the soil).  Tukey's honestly significant difference compares every
 studentized range distribution, so the simultaneous confidence intervals cover all pairwise
 differences with probability 1 − α.  Computation by
 :func:`statsmodels.stats.multicomp.pairwise_tukeyhsd` (Tukey–Kramer for unequal group sizes).
+
+With blocking factors (operator, plate size), :func:`tukey_lsmeans` compares the
+least-squares (estimated marginal) means of the blocked model instead of raw means: removing
+raw block means from the response, as soilstats did until November 2026, biases the pairwise
+differences whenever the levels are spread unevenly over the blocks (a level tested mostly by
+a "stiff" operator inherits that operator's bias) and its intervals ignore the block degrees
+of freedom.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
+import numpy as np
 import pandas as pd
+from scipy.stats import studentized_range
 from statsmodels.stats.multicomp import pairwise_tukeyhsd
 
 from ._data import StatisticsInputError, prepare
 
-__all__ = ["tukey_hsd"]
+__all__ = ["tukey_hsd", "tukey_lsmeans"]
 
 
 def tukey_hsd(
@@ -83,6 +94,135 @@ def tukey_hsd(
         alpha=alpha,
         response=response,
         factor=factor,
+        n_obs=len(frame),
+        n_dropped=n_dropped,
+    )
+    return out
+
+
+def tukey_lsmeans(
+    data: pd.DataFrame,
+    response: str,
+    factor: str,
+    blocks: str | Sequence[str] = (),
+    *,
+    alpha: float = 0.05,
+    error: tuple[float, float] | None = None,
+    dropna: bool = False,
+) -> pd.DataFrame:
+    """Tukey–Kramer pairs of the least-squares means of ``factor`` in the additive block model.
+
+    The model is ``y = μ + α_level + Σ β_block + ε`` (least squares).  The least-squares
+    (estimated marginal) mean of a level is its prediction averaged over the block levels
+    with equal weights; the difference of two of them is the difference of their α, whatever
+    the weights, so it is free of the block effects however unevenly the levels are spread
+    over the blocks.  Its standard error comes from the model's covariance ``σ̂²·(XᵀX)⁻¹``,
+    and the simultaneous intervals and adjusted p-values from the studentized range with
+    k levels and the error degrees of freedom (Tukey–Kramer; conservative for unbalanced
+    designs, Hayter 1984).  Without blocks this is :func:`tukey_hsd` exactly.
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        Tidy data, one row per observation.  Not modified.
+    response, factor : str
+        Numeric response column and grouping column.
+    blocks : str or sequence of str, optional
+        Blocking factors of the model (additive, fixed).
+    alpha : float, default 0.05
+        Family-wise error rate of the simultaneous (1 − α) intervals.
+    error : (mean square, degrees of freedom), optional
+        Error term instead of the model's residual: e.g. the factor × operator mean square
+        and its df when operators are random (:func:`anova_random_block`), so that the pairs
+        face the same error as the factor's F-test.
+    dropna : bool, default False
+        Drop rows with missing values (counted in ``attrs["n_dropped"]``) instead of raising.
+
+    Returns
+    -------
+    pandas.DataFrame
+        As :func:`tukey_hsd`: ``group1, group2, meandiff`` (LS mean of group2 − LS mean of
+        group1, response unit), ``p_adj``, ``lower, upper``, ``reject``, plus ``std_err`` of
+        the difference.  ``attrs``: ``test``, ``alpha``, ``response``, ``factor``, ``blocks``,
+        ``df_error``, ``n_obs``, ``n_dropped``.
+
+    Raises
+    ------
+    StatisticsInputError
+        Bad input as :func:`tukey_hsd`, a level confounded with the blocks, or no error
+        degrees of freedom.
+    """
+    if not 0.0 < alpha < 1.0:
+        raise StatisticsInputError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
+    blocks = [blocks] if isinstance(blocks, str) else list(blocks)
+    frame, n_dropped = prepare(data, [response], [factor, *blocks], dropna=dropna)
+    labels = frame[factor].astype(str)
+    if labels.nunique() != frame[factor].nunique():
+        raise StatisticsInputError(
+            "two levels print the same as strings (e.g. 1 and '1'); make the labels distinct",
+            column=factor,
+        )
+    levels = np.unique(labels.to_numpy())
+    k = len(levels)
+    codes = np.searchsorted(levels, labels.to_numpy())
+    parts = [np.ones((len(frame), 1)), np.eye(k)[codes][:, 1:]]
+    for block in blocks:
+        b_codes, _ = pd.factorize(frame[block].astype(str), sort=True)
+        parts.append(np.eye(b_codes.max() + 1)[b_codes][:, 1:])
+    x = np.hstack(parts)
+    if np.linalg.matrix_rank(x) < x.shape[1]:
+        raise StatisticsInputError(
+            f"the levels of {factor!r} cannot be separated from the blocks {blocks} (rank-"
+            "deficient design); compare the levels without blocks and state the confounding",
+            column=factor,
+        )
+    y = frame[response].to_numpy(dtype=float)
+    y = y - y.mean()
+    xtx_inv = np.linalg.inv(x.T @ x)
+    beta = xtx_inv @ (x.T @ y)
+    if error is None:
+        df = len(y) - x.shape[1]
+        if df < 1:
+            raise StatisticsInputError(
+                "no residual degrees of freedom; Tukey pairs need replicates", column=factor
+            )
+        resid = y - x @ beta
+        ms = float(resid @ resid) / df
+    else:
+        ms, df = float(error[0]), float(error[1])
+        if not (ms >= 0 and df >= 1):
+            raise StatisticsInputError(f"error term {error!r} needs a mean square ≥ 0 and df ≥ 1")
+    # level effects relative to the first level (0 for it), and their covariance
+    eff = np.concatenate([[0.0], beta[1:k]])
+    cov = np.zeros((k, k))
+    cov[1:, 1:] = ms * xtx_inv[1:k, 1:k]
+    i1, i2 = np.triu_indices(k, 1)
+    diff = eff[i2] - eff[i1]
+    se = np.sqrt(cov[i1, i1] + cov[i2, i2] - 2 * cov[i1, i2])
+    q_crit = float(studentized_range.ppf(1 - alpha, k, df))
+    q = np.abs(diff) / se * np.sqrt(2.0)
+    p_adj = np.atleast_1d(studentized_range.sf(q, k, df))
+    half = q_crit / np.sqrt(2.0) * se
+    out = pd.DataFrame(
+        {
+            "group1": levels[i1],
+            "group2": levels[i2],
+            "meandiff": diff,
+            "p_adj": np.clip(p_adj, 0.0, 1.0),
+            "lower": diff - half,
+            "upper": diff + half,
+            "reject": q > q_crit,
+            "std_err": se,
+        }
+    )
+    out.attrs.update(
+        test="Tukey–Kramer on least-squares means"
+        + (f" (blocks {', '.join(blocks)})" if blocks else ""),
+        alpha=alpha,
+        response=response,
+        factor=factor,
+        blocks=blocks,
+        df_error=df,
         n_obs=len(frame),
         n_dropped=n_dropped,
     )

@@ -6,9 +6,11 @@ For each soil and response (one value per test, see :mod:`.responses`):
    the soil (type II two-way ANOVA, :func:`soilstats.statistics.anova_twoway`); without
    blocks, or when the factor is confounded with them (each method on its own test day), the
    one-way ANOVA (:func:`soilstats.statistics.anova_oneway`) — and the confounding is stated.
-2. **Tukey HSD** pairs (:func:`soilstats.statistics.tukey_hsd`) on the response with the
-   block means removed (exact for the balanced designs of the paper; with blocks the
-   intervals are slightly narrow, as they ignore the block degrees of freedom).
+2. **Tukey pairs** on the least-squares means of the blocked model
+   (:func:`soilstats.statistics.tukey_lsmeans`, Tukey–Kramer on the model's error degrees of
+   freedom).  Until November 2026 the pairs compared the response with raw block means
+   removed: exact for the balanced shipped designs (bar the block degrees of freedom), but
+   with levels spread unevenly over the operators it shrank or inflated the differences.
 3. **Relevance**: the spec's margin (e.g. ±15 % pressure) against the largest pairwise
    difference and its simultaneous interval, so that an effect far smaller than a rover team
    cares about is not reported as one that matters merely because many tests resolve it.
@@ -28,7 +30,7 @@ from ..statistics import (
     anova_oneway,
     anova_twoway,
     effect_row,
-    tukey_hsd,
+    tukey_lsmeans,
 )
 
 __all__ = ["factor_effects"]
@@ -36,13 +38,6 @@ __all__ = ["factor_effects"]
 
 def _active_blocks(frame: pd.DataFrame, spec) -> list[str]:
     return [b for b in spec.blocks if b in frame.columns and frame[b].dropna().nunique() > 1]
-
-
-def _remove_block_means(frame: pd.DataFrame, response: str, blocks: list[str]) -> pd.Series:
-    y = frame[response].astype(float)
-    for block in blocks:
-        y = y - y.groupby(frame[block]).transform("mean") + y.mean()
-    return y
 
 
 def _tidy_anova(table: pd.DataFrame, soil: str, response: str) -> pd.DataFrame:
@@ -107,9 +102,8 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float) -> dic
         row = effect_row(soil, resp.name, factor, table)
         row["blocks"] = ", ".join(blocks)
         row["n_tests"] = len(data)
-        adjusted = data.assign(_y=_remove_block_means(data, resp.name, blocks))
         try:
-            tk = tukey_hsd(adjusted, "_y", "level", alpha=alpha)
+            tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha)
         except StatisticsInputError as err:
             notes.append(f"{soil}, {resp.name}: no pairwise comparison — {err}")
             tk = None
