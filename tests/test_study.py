@@ -131,6 +131,18 @@ def test_method_13_wins_the_preparation_study(reports):
     assert "levelling tool 'hand shovel'" in crit["soil01", "10"]["crit1_reason"]
 
 
+def test_preparation_methods_are_tested_against_the_operators(reports):
+    """The bundled campaign plants no method effect on the mean (spec.toml: only scatter and
+    operator biases differ by method); with the operators random, no method effect is
+    declared — against the residual, soil02's pressure was an 'effect' (p_Holm 0.024), made
+    by method 9's operator biases (operator_cv 0.15)."""
+    effects = reports[1]["preparation"]["effects"]
+    assert not any(e["significant"] for e in effects)
+    df = {e["soil"]: e["df_error"] for e in effects if e["response"] == "log10_p_ref"}
+    assert df == {"soil01": 24, "soil02": 4}  # (13 − 1)(3 − 1), (3 − 1)(3 − 1)
+    assert all(e["error_term"] == "preparation:operator" for e in effects)
+
+
 def test_cullinan_preparation_reports_the_effect_without_overclaiming(cullinan):
     doc = cullinan[1]
     effect = _verdicts(doc)["cullinan-sand", "log10_p_ref"]

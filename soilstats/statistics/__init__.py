@@ -8,6 +8,8 @@ raise unless ``dropna=True``, and are then counted in the result.
 ============================  =============================================================
 :func:`anova_oneway`          one-way ANOVA table, accurate to the data's last digit (NIST)
 :func:`anova_twoway`          factor + blocking factor(s), type II sums of squares
+:func:`anova_random_block`    the same with one random block (operators): factor against
+                              the factor × block mean square
 :func:`ancova`                shear lines τ = c + σ·tanφ by group: do c, φ differ?
 :func:`tukey_hsd`             which pairs of levels differ (simultaneous intervals)
 :func:`tukey_lsmeans`         the same on least-squares means of a blocked model
@@ -41,6 +43,7 @@ _LAZY = {
     "ancova": ".analysis_of_covariance",
     "effect_sizes": ".effect_size",
     "anova_oneway": ".oneway",
+    "anova_random_block": ".mixed",
     "tukey_hsd": ".posthoc",
     "tukey_lsmeans": ".posthoc",
     "TestResult": ".result",
@@ -58,6 +61,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from ._data import ConfoundingError, StatisticsInputError
     from .analysis_of_covariance import AncovaResult, ancova
     from .effect_size import effect_sizes
+    from .mixed import anova_random_block
     from .oneway import anova_oneway
     from .posthoc import tukey_hsd, tukey_lsmeans
     from .result import TestResult
@@ -77,6 +81,7 @@ __all__ = [
     "TestResult",
     "ancova",
     "anova_oneway",
+    "anova_random_block",
     "anova_twoway",
     "effect_row",
     "effect_sizes",

@@ -6,11 +6,17 @@ For each soil and response (one value per test, see :mod:`.responses`):
    the soil (type II two-way ANOVA, :func:`soilstats.statistics.anova_twoway`); without
    blocks, or when the factor is confounded with them (each method on its own test day), the
    one-way ANOVA (:func:`soilstats.statistics.anova_oneway`) — and the confounding is stated.
+   When a block is declared random (``random_blocks``; by default the operator of a
+   preparation study — the persons of the paper's Table 1, criterion 2, are a sample of those
+   who will prepare the bin), the factor is tested against the factor × operator mean square
+   (:func:`soilstats.statistics.anova_random_block`): a persistent bias of one person with
+   one method then counts as error, not as a method effect.  Where that test cannot be made
+   (one operator, no operator column, no interaction degrees of freedom) the test against the
+   residual is used and a note says which and why; with no replicate inside the factor ×
+   operator cells the residual *is* that interaction, and the note says so too.
 2. **Tukey pairs** on the least-squares means of the blocked model
-   (:func:`soilstats.statistics.tukey_lsmeans`, Tukey–Kramer on the model's error degrees of
-   freedom).  Until November 2026 the pairs compared the response with raw block means
-   removed: exact for the balanced shipped designs (bar the block degrees of freedom), but
-   with levels spread unevenly over the operators it shrank or inflated the differences.
+   (:func:`soilstats.statistics.tukey_lsmeans`, Tukey–Kramer), with the same error term as
+   the F-test (the interaction mean square when the operators are random).
 3. **Relevance**: the spec's margin (e.g. ±15 % pressure) against the largest pairwise
    difference and its simultaneous interval, so that an effect far smaller than a rover team
    cares about is not reported as one that matters merely because many tests resolve it.
@@ -28,6 +34,7 @@ from ..statistics import (
     ConfoundingError,
     StatisticsInputError,
     anova_oneway,
+    anova_random_block,
     anova_twoway,
     effect_row,
     tukey_lsmeans,
@@ -38,6 +45,41 @@ __all__ = ["factor_effects"]
 
 def _active_blocks(frame: pd.DataFrame, spec) -> list[str]:
     return [b for b in spec.blocks if b in frame.columns and frame[b].dropna().nunique() > 1]
+
+
+def _random_test(data, resp: str, factor: str, blocks: list[str], spec, soil: str, notes):
+    """The factor's ANOVA against the factor × random-block mean square, or None (noted)."""
+    for block in spec.random_blocks:
+        if block not in blocks:
+            seen = data[block].dropna().nunique() if block in data.columns else 0
+            why = f"one {block} only" if seen == 1 else f"no {block!r} recorded"
+            notes.append(
+                f"{soil}, {resp}: {why} — {factor} tested against the test-to-test scatter, "
+                f"not against the {factor} × {block} mean square; the result holds for the "
+                f"{block}(s) of these tests, whose own bias with a {factor} level cannot be "
+                f"told from a {factor} effect"
+            )
+            continue
+        try:
+            return anova_random_block(data, resp, "level", blocks, block)
+        except StatisticsInputError as err:
+            if getattr(err, "column", None) == resp:  # no replicate within the cells
+                notes.append(
+                    f"{soil}, {resp}: no replicate within the {factor} × {block} cells, so the "
+                    f"residual of the blocked ANOVA is the {factor} × {block} interaction: "
+                    f"{factor} is tested against it ({block} random)"
+                )
+            else:
+                notes.append(
+                    f"{soil}, {resp}: {factor} tested against the test-to-test scatter, not "
+                    f"against the {factor} × {block} mean square — {_first_line(err)}; a "
+                    f"{block}'s own bias with a {factor} level may be read as a {factor} effect"
+                )
+    return None
+
+
+def _first_line(err: Exception) -> str:
+    return str(err).splitlines()[0].rstrip(":;, ")
 
 
 def _tidy_anova(table: pd.DataFrame, soil: str, response: str) -> pd.DataFrame:
@@ -97,13 +139,30 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float) -> dic
         except StatisticsInputError as err:
             notes.append(f"{soil}, {resp.name}: not tested — {err}")
             continue
+        error, error_term = None, "Residual"
+        if blocks:
+            mixed = _random_test(data, resp.name, factor, blocks, spec, soil, notes)
+            if mixed is not None:
+                table = mixed
+                inter = mixed.attrs["error_term"]
+                error = (float(mixed.loc[inter, "mean_sq"]), float(mixed.loc[inter, "df"]))
+                error_term = inter.replace("level", factor, 1)
+                table["error_term"] = table["error_term"].str.replace("level", factor, n=1)
+                table = table.rename(index={inter: error_term})
+                table.attrs["test"] = (
+                    f"type II ANOVA, {factor} against {factor} × {mixed.attrs['random']} "
+                    f"({mixed.attrs['random']} random)"
+                )
         table = table.rename(index={"level": factor, "between": factor})
         anovas.append(_tidy_anova(table, soil, resp.name))
         row = effect_row(soil, resp.name, factor, table)
         row["blocks"] = ", ".join(blocks)
         row["n_tests"] = len(data)
+        row["error_term"] = error_term
+        residual = "within" if "within" in table.index else "Residual"
+        row["df_error"] = error[1] if error is not None else float(table.loc[residual, "df"])
         try:
-            tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha)
+            tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha, error=error)
         except StatisticsInputError as err:
             notes.append(f"{soil}, {resp.name}: no pairwise comparison — {err}")
             tk = None

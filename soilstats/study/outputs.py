@@ -15,6 +15,8 @@ _EFFECT_KEYS = [
     *VERDICT_COLUMNS,
     "blocks",
     "n_tests",
+    "error_term",
+    "df_error",
     "largest_difference",
     "difference_bound",
     "margin",

@@ -55,6 +55,7 @@ _TOP_KEYS = {
     "paper",
     "factor",
     "blocks",
+    "random_blocks",
     "alpha",
     "family",
     "reference",
@@ -130,6 +131,9 @@ class StudySpec:
     blocks: tuple[str, ...]
     alpha: float
     family: str | None
+    #: Blocks whose levels are a random sample (operators): the factor is tested against the
+    #: factor × block mean square (:func:`soilstats.statistics.anova_random_block`).
+    random_blocks: tuple[str, ...]
     reference: object
     z_ref_m: float
     z_window_m: float
@@ -338,6 +342,31 @@ def _window(raw, path):
         raise _fail(path, "window", str(err)) from None
 
 
+def _random_blocks(raw, blocks: tuple[str, ...], criteria: Criteria | None, path):
+    """``random_blocks``: at most one of ``blocks``.  Default: the preparation criteria's
+    ``operator_column`` when it is a block (the people of Table 1's criterion 2 are a sample
+    of those who will prepare the bin), none otherwise."""
+    if "random_blocks" in raw:
+        chosen = tuple(_get(raw, "random_blocks", list, path))
+    elif criteria is not None and criteria.operator_column in blocks:
+        chosen = (criteria.operator_column,)
+    else:
+        chosen = ()
+    for block in chosen:
+        if block not in blocks:
+            raise _fail(
+                path, "random_blocks", f"value {block!r} is not one of blocks {list(blocks)}"
+            )
+    if len(chosen) > 1:
+        raise _fail(
+            path,
+            "random_blocks",
+            f"value {list(chosen)}: at most one random block is supported (the factor is "
+            "tested against its interaction with it)",
+        )
+    return chosen
+
+
 def load_spec(source: str | Path) -> StudySpec:
     """Read and validate a study specification (a shipped name or a .toml path)."""
     path = find_spec(str(source))
@@ -362,6 +391,8 @@ def load_spec(source: str | Path) -> StudySpec:
     if not z_ref > 0:
         raise _fail(path, "z_ref_m", f"value {z_ref!r} must be > 0 (a sinkage in m)")
     name = _get(raw, "name", str, path, default=path.stem)
+    blocks = tuple(_get(raw, "blocks", list, path, default=[]))
+    criteria = _criteria(raw, path) if study_type == "preparation" else None
     try:
         safe_stem(name)  # the outputs are named after it: never a path
     except ValueError as err:
@@ -373,9 +404,10 @@ def load_spec(source: str | Path) -> StudySpec:
         description=_get(raw, "description", str, path, default="").strip(),
         paper=_get(raw, "paper", str, path, default=""),
         factor=_get(raw, "factor", str, path),
-        blocks=tuple(_get(raw, "blocks", list, path, default=[])),
+        blocks=blocks,
         alpha=alpha,
         family=_get(raw, "family", str, path, default=None),
+        random_blocks=_random_blocks(raw, blocks, criteria, path),
         reference=raw.get("reference"),
         z_ref_m=z_ref,
         z_window_m=float(_get(raw, "z_window_m", (int, float), path, default=0.001)),
@@ -388,6 +420,6 @@ def load_spec(source: str | Path) -> StudySpec:
         curves_where=dict(_get(curves, "where", dict, path, default={})),
         window=_window(raw, path),
         paper_finding=_get(raw, "paper_finding", str, path, default="").strip(),
-        criteria=_criteria(raw, path) if study_type == "preparation" else None,
+        criteria=criteria,
         path=path,
     )
