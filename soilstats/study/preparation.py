@@ -7,9 +7,16 @@
   otherwise the criterion is ``n/a`` — a method label alone ("3") does not say which method
   a lab used.
 * **Criterion 2** — several persons give no remarkable differences: no significant operator
-  effect (two-way ANOVA of log10 p_ref by operator, plate size as block; Holm across the
-  methods of a soil) and a between-repetition scatter (pooled within-plate sd of ln p_ref,
+  effect (two-way ANOVA of log10 p_ref by operator, plate size as block, at the study's α
+  for each method) and a between-repetition scatter (pooled within-plate sd of ln p_ref,
   ≈ the coefficient of variation of the pressure at the reference sinkage) ≤ the spec's bound.
+  The criterion is a property of each method, so each method's operator test is read at α
+  on its own.  Until November 2026 the p-values were Holm-adjusted across the (up to 13)
+  methods of a soil: that protects against *any* method failing by chance, but a "+" rests
+  on *not* rejecting, and at α/13 the test found method 10's planted operator bias
+  (``operator_cv`` 0.20) in only a fraction of the campaigns it found it in at α.  The
+  Holm-adjusted p stays in the table (``operator_p_holm``) beside the raw one
+  (``operator_p``).
 * **Criterion 3** — fit quality ε (Eq. 2) of the method's pooled identification as close to
   one as the best method's: within ``epsilon_within_best``.
 
@@ -132,10 +139,13 @@ def evaluate_criteria(
             c1, why1 = _criterion1(m, per_test, crit)
             cv, df = _scatter_cv(g)
             parts, why2 = [], []
-            if m in adjusted:
-                ok = adjusted[m] >= alpha
+            if m in tested:
+                ok = tested[m] >= alpha
                 parts.append(ok)
-                why2.append(f"operator p_Holm = {adjusted[m]:.3g}")
+                why2.append(
+                    f"operator p = {tested[m]:.3g} (α = {alpha:g} per method; Holm across "
+                    f"the soil's methods {adjusted[m]:.3g})"
+                )
             else:
                 why2.append(
                     f"operator effect not assessable (no {crit.operator_column!r} "
@@ -172,6 +182,7 @@ def evaluate_criteria(
                     epsilon=e,
                     scatter_cv=cv,
                     operator_p_holm=adjusted.get(m, math.nan),
+                    operator_p=tested.get(m, math.nan),
                     crit1_reason=why1,
                     crit2_reason="; ".join(why2),
                     crit3_reason=why3,
