@@ -132,10 +132,17 @@ def _methods(doc: Document, result) -> None:
         f"at z_ref = {spec.z_ref_m * 1e3:g} mm). Type II two-way ANOVA (statsmodels) of each "
         f"response by {column_label(spec.factor)} with the blocks "
         f"{', '.join(column_label(b) for b in spec.blocks) or 'none'} where they vary (one-way "
-        "if confounded), Tukey HSD pairs on the block-adjusted response, Holm-adjusted verdicts "
-        f"at α = {spec.alpha:g}. Relevance margins: {margins or 'none declared'}. Verdicts: "
-        "effect (significant and beyond the margin), no relevant effect (all simultaneous "
-        "intervals within the margin), inconclusive, no effect detected."
+        "if confounded)"
+        + (
+            f", {', '.join(column_label(b) for b in spec.random_blocks)} taken as random (the "
+            f"factor tested against its interaction with them)"
+            if spec.random_blocks
+            else ""
+        )
+        + ", Tukey–Kramer pairs on the least-squares means of the blocked model, Holm-adjusted "
+        f"verdicts at α = {spec.alpha:g}. Relevance margins: {margins or 'none declared'}. "
+        "Verdicts: effect (significant and beyond the margin), no relevant effect (all "
+        "simultaneous intervals within the margin), inconclusive, no effect detected."
     )
 
 
@@ -303,9 +310,9 @@ def _pairs_and_criteria(doc: Document, result) -> None:
                 "score": "Σ",
                 "epsilon": Markup("$epsilon$"),
                 "scatter_cv": "scatter CV",
-                "operator_p_holm": "operator p (Holm)",
+                "operator_p": "operator p",
             },
-            formats={"epsilon": ".3f", "scatter_cv": ".3f", "operator_p_holm": ".3g"},
+            formats={"epsilon": ".3f", "scatter_cv": ".3f", "operator_p": ".3g"},
         )
         doc.paragraph("Reasons per soil and method:")
         doc.bullets(

@@ -23,7 +23,7 @@ CRITERIA_COLUMNS = [
     "score",
     "epsilon",
     "scatter_cv",
-    "operator_p_holm",
+    "operator_p",
 ]
 
 
@@ -153,7 +153,7 @@ class StudyResult:
                 method=lambda d: d["method"].astype(str),
                 epsilon=lambda d: d["epsilon"].map(lambda v: f"{v:.3f}"),
                 scatter_cv=lambda d: d["scatter_cv"].map(lambda v: f"{v:.3f}"),
-            )[[c for c in CRITERIA_COLUMNS if c != "operator_p_holm"]]
+            )[[c for c in CRITERIA_COLUMNS if c != "operator_p"]]
             lines += ["  " + row for row in table.to_string(index=False).splitlines()]
         if self.best is not None:
             lines.append(
