@@ -143,3 +143,16 @@ def test_false_alarm_and_detection_rates_over_many_seeds():
     least 95 of 100 (18 tests: 3 plates x 6 repetitions)."""
     assert sum(bool(_drift_flags(drifted(seed, 0.0))) for seed in range(100, 200)) == 0
     assert sum(bool(_drift_flags(drifted(seed, 0.01))) for seed in range(100, 200)) >= 95
+
+
+def test_a_fit_of_drifted_tests_carries_the_flag():
+    # Screening flagged the drifted tests, but the pooled fit of them said nothing: the
+    # code was not among the fit's health codes.
+    from soilstats.identification import fit_sinkage
+
+    campaign = drifted(seed=11, step=0.02)
+    fit = fit_sinkage(campaign, "bernstein", b_m=0.05)
+    flag = next(f for f in fit.flags if f.code == "zero-drift")
+    assert flag.message.startswith("5 of 6 tests")
+    clean = fit_sinkage(drifted(seed=11, step=0.0), "bernstein", b_m=0.05)
+    assert "zero-drift" not in {f.code for f in clean.flags}

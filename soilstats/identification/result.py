@@ -135,7 +135,15 @@ class CampaignFit(FitResult):
 
 #: Screening codes that stay findings of a fit (spikes and pre-contact samples are left out
 #: in the default mode; load-capped is reported as a note: it is a fact of the design).
-_FIT_CODES = ("spike", "pre-contact", "units", "bearing-failure", "non-monotone", "saturation")
+_FIT_CODES = (
+    "spike",
+    "pre-contact",
+    "units",
+    "bearing-failure",
+    "non-monotone",
+    "saturation",
+    "zero-drift",
+)
 
 
 def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict]:

@@ -138,8 +138,9 @@ CODES: dict[str, QualityCode] = {
             "and makes test order (repetition) look like a cause of the soil's behaviour.",
             "Re-zero the load cell before every test. Nothing is excluded or corrected (the "
             "offset is estimated from 3 samples; only the rig's zero log can confirm it): "
-            "compare the fit with one of the unflagged tests. Discovery reports causes that "
-            "follow test order as a residue of the data, not a cause.",
+            "compare the fit with one of the unflagged tests (a fit of flagged tests carries "
+            "the flag). Discovery reports causes that follow test order as a residue of the "
+            "data, not a cause.",
         ),
         QualityCode(
             "non-monotone",
