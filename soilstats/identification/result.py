@@ -146,10 +146,17 @@ _FIT_CODES = (
 )
 
 
+#: A window cuts a ``bearing-failure`` off (resolves it) when its z_max lies at most this
+#: much (relative) above the onset: the proposals print the onset rounded up to 4
+#: significant digits (at most 0.1 % above it), which must resolve what they propose.
+ONSET_TOLERANCE = 1e-3
+
+
 def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict]:
     """Notes, health flags and the JSON record of the screening and window behind a fit.
 
-    A ``bearing-failure`` whose onset the window cuts off is resolved (a note, no flag).
+    A ``bearing-failure`` whose onset the window cuts off is resolved (a note, no flag);
+    an unresolved one's flag names the window ``soilstats check`` proposes for its tests.
     """
     ids = [str(t) for t in test_ids]
     notes: list[str] = []
@@ -202,7 +209,8 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
     for code in _FIT_CODES:
         hits = [f for f in kept if f.code == code]
         if code == "bearing-failure":
-            cut = [f for f in hits if z_limit.get(f.test_id, np.inf) <= f.value * (1 + 1e-9)]
+            limit = 1 + ONSET_TOLERANCE
+            cut = [f for f in hits if z_limit.get(f.test_id, np.inf) <= f.value * limit]
             if cut:
                 notes.append(
                     f"bearing-failure in {len(cut)} tests lies outside the window (resolved)."
@@ -210,14 +218,33 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
             hits = [f for f in hits if f not in cut]
         if hits:
             tests_hit = sorted({f.test_id for f in hits})
+            advice = _proposed_items(report, tests_hit) if code == "bearing-failure" else ""
             flags.append(
                 HealthFlag(
                     code,
                     f"{len(tests_hit)} of {len(ids)} tests ({', '.join(tests_hit[:5])}"
-                    f"{', …' if len(tests_hit) > 5 else ''}): {hits[0].message}",
+                    f"{', …' if len(tests_hit) > 5 else ''}): {hits[0].message}" + advice,
                 )
             )
     return notes, flags, record
+
+
+def _proposed_items(report, tests_hit: list[str]) -> str:
+    """The ``--z-max`` items ``soilstats check`` proposes for these failed tests."""
+    windows = report.proposed_windows()
+    if not len(windows):
+        return ""
+    tests = report.tests.assign(test_id=report.tests["test_id"].astype(str))
+    plates = tests[tests["test_id"].isin(tests_hit)][["soil", "b_m"]]
+    mine = (windows["scope"] == "test") & windows["test_id"].isin(tests_hit)
+    for soil, b in plates.drop_duplicates().itertuples(index=False):
+        same_b = (windows["b_m"] == b) | (windows["b_m"].isna() & pd.isna(b))
+        mine |= (windows["scope"] == "plate") & (windows["soil"] == soil) & same_b
+    items = " ".join(windows.loc[mine, "z_max_item"]).split()
+    if not items:
+        return ""
+    shown = " ".join(f"--z-max {i}" for i in items[:6]) + (" …" if len(items) > 6 else "")
+    return f"; proposed window (soilstats check): {shown}"
 
 
 #: The test-level σ exceeds Eq. 4's by more than this factor: flag it.  One-sided: a

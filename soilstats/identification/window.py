@@ -8,7 +8,9 @@ thinning (so the thinning spans the window), counted per test, and shown in ever
 A :class:`FitWindow` holds rules: a global one (no column) and any number that apply to the
 tests whose test-log ``column`` equals ``value`` (e.g. ``radius_m = 0.038``); a matching
 rule's limits replace the global ones.  Command lines write a rule as ``LIMIT`` or
-``COLUMN=VALUE:LIMIT`` (``--z-max radius_m=0.038:0.0034``).
+``COLUMN=VALUE:LIMIT`` (``--z-max radius_m=0.038:0.0034``); ``test_id`` is a column too, so
+``--z-max test_id=method5-test1:0.01077`` windows one test (as ``soilstats check`` proposes
+for a single failed test).
 """
 
 from __future__ import annotations

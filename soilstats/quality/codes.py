@@ -105,8 +105,10 @@ CODES: dict[str, QualityCode] = {
             "the rule runs on the loaded record with z from the contact.",
             "The soil under the plate failed (punch-through); pressure–sinkage models describe "
             "the loading before failure. Samples past the onset drag n toward 0.",
-            "Fit within the proposed window (z_max = the onset, per plate; listed), e.g. "
-            "soilstats identify --z-max <value>.",
+            "Fit within the proposed window (listed, with the --z-max item that sets it): "
+            "z_max = the failed test's onset for that test only, or, where more than half "
+            "of a plate's tests (soil and plate size b) failed, the smallest onset for all "
+            "of the plate's tests; e.g. soilstats identify --z-max test_id=<test>:<onset>.",
             nature="soil",
         ),
         QualityCode(

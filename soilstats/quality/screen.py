@@ -15,6 +15,7 @@ import hashlib
 import weakref
 from collections import Counter
 from dataclasses import dataclass, field, replace
+from decimal import ROUND_CEILING, Decimal
 
 import numpy as np
 import pandas as pd
@@ -39,6 +40,10 @@ LOAD_CAP_SPREAD = 0.10
 #: (at least this, and five times the load's spread).
 LOAD_CAP_DEPTH_SPREAD = 0.25
 LOAD_CAP_MIN_TESTS = 3
+#: ``bearing-failure`` proposes one window for a whole plate (soil and plate size b) only
+#: when more than this share of its sinkage tests failed; otherwise a window per failed
+#: test (Cullinan sand: 1 of 13 fails at 10.8 mm; the others run to ~80 mm intact).
+PLATE_WINDOW_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -117,17 +122,56 @@ class QualityReport:
         return [f for f in self.flags if excluded is None or f.excluded == excluded]
 
     def proposed_windows(self) -> pd.DataFrame:
-        """Per soil and plate size b, the sinkage window ``bearing-failure`` proposes: the
-        smallest failure onset among that plate's flagged tests (``z_max_m``)."""
-        onsets = [(f.test_id, f.value) for f in self.flags if f.code == "bearing-failure"]
+        """The sinkage windows ``bearing-failure`` proposes, one row per window.
+
+        A plate (soil and plate size b) most of whose sinkage tests failed (more than
+        :data:`PLATE_WINDOW_SHARE`) gets one window for all its tests: the smallest onset
+        among them (``scope`` "plate", ``test_id`` None).  Otherwise each failed test gets
+        its own, at its onset (``scope`` "test"): one failed test says nothing about the
+        depth its plate's other tests reached intact.  Columns: ``soil``, ``b_m``,
+        ``z_max_m`` (the onset, m), ``tests`` (failed tests the window covers),
+        ``scope``, ``test_id``, ``plate_tests`` (sinkage tests of the plate that fits use)
+        and ``z_max_item`` (the ``--z-max`` item that sets it, the onset rounded up to 4
+        significant digits).  Tests left out as copies (``duplicate``) are not counted.
+        """
+        columns = ["soil", "b_m", "z_max_m", "tests", "scope", "test_id", "plate_tests"]
+        columns.append("z_max_item")
+        gone = {f.test_id for f in self.flags if f.code == "duplicate" and f.excluded}
+        onsets = {
+            f.test_id: f.value
+            for f in self.flags
+            if f.code == "bearing-failure" and f.test_id not in gone
+        }
         if not onsets:
-            return pd.DataFrame(columns=["soil", "b_m", "z_max_m", "tests"])
-        frame = pd.DataFrame(onsets, columns=["test_id", "z_max_m"]).merge(self.tests, on="test_id")
-        return (
-            frame.groupby(["soil", "b_m"], sort=True)
-            .agg(z_max_m=("z_max_m", "min"), tests=("test_id", "size"))
-            .reset_index()
-        )
+            return pd.DataFrame(columns=columns)
+        tests = self.tests.assign(test_id=self.tests["test_id"].astype(str))
+        sink = tests[(tests["kind"] == "sinkage") & ~tests["test_id"].isin(gone)]
+        rows = []
+        for (soil, b), plate in sink.groupby(["soil", "b_m"], sort=True, dropna=False):
+            ids = [t for t in plate["test_id"] if t in onsets]
+            if not ids:
+                continue
+            if len(ids) > PLATE_WINDOW_SHARE * len(plate):
+                z = min(onsets[t] for t in ids)
+                others = sink[sink["soil"] != soil]["b_m"].to_numpy(float)
+                if np.isfinite(b) and not np.isclose(others, b, rtol=1e-9, atol=0).any():
+                    items = [f"b_m={float(b)!r}:{_ceil4(z)}"]
+                else:  # b unknown or shared with another soil: the plate's tests by name
+                    items = [f"test_id={t}:{_ceil4(z)}" for t in plate["test_id"]]
+                rows.append((soil, b, z, len(ids), "plate", None, len(plate), " ".join(items)))
+                continue
+            for t in ids:
+                item = f"test_id={t}:{_ceil4(onsets[t])}"
+                rows.append((soil, b, onsets[t], 1, "test", t, len(plate), item))
+        return pd.DataFrame(rows, columns=columns)
+
+    def proposed_window(self):
+        """:meth:`proposed_windows` as one :class:`~soilstats.identification.FitWindow`
+        (``fit_sinkage(..., window=...)``; empty when nothing failed)."""
+        from ..identification.window import FitWindow
+
+        items = " ".join(self.proposed_windows()["z_max_item"]).split()
+        return FitWindow.parse(z_max=items)
 
     def summary(self) -> str:
         """The findings, test by test, then what was excluded and proposed."""
@@ -157,10 +201,18 @@ class QualityReport:
             )
         windows = self.proposed_windows()
         for w in windows.itertuples():
-            notes.append(
-                f"bearing-failure proposes z_max = {w.z_max_m:.4g} m for {w.soil}, "
-                f"b = {w.b_m:g} m ({w.tests} tests failed)."
-            )
+            if w.scope == "plate":
+                notes.append(
+                    f"bearing-failure proposes z_max = {_ceil4(w.z_max_m)} m for all "
+                    f"{w.plate_tests} tests of {w.soil}, b = {w.b_m:g} m ({w.tests} of "
+                    f"{w.plate_tests} failed): --z-max {w.z_max_item}"
+                )
+            else:
+                notes.append(
+                    f"bearing-failure proposes z_max = {_ceil4(w.z_max_m)} m for {w.test_id} only "
+                    f"({w.soil}, b = {w.b_m:g} m: {_failed(windows, w)} of {w.plate_tests} "
+                    f"failed; the others keep their depth): --z-max {w.z_max_item}"
+                )
         return "\n".join(head + lines + notes_block(notes))
 
     def to_dict(self) -> dict:
@@ -180,9 +232,27 @@ class QualityReport:
                 "counts": dict(self.counts),
                 "excluded_samples": len(self.excluded),
                 "proposed_windows": self.proposed_windows().to_dict("records"),
+                "proposed_z_max": " ".join(self.proposed_windows()["z_max_item"]).split(),
                 "codes": {c.code: {"what": c.what, "action": c.action} for c in CODES.values()},
             }
         )
+
+
+def _ceil4(z: float) -> str:
+    """``z`` rounded up to 4 significant digits: a window at the onset as printed keeps
+    the onset sample and cuts everything beyond it by at most 0.1 % (see
+    :data:`soilstats.identification.result.ONSET_TOLERANCE`)."""
+    exact = Decimal(repr(float(z)))
+    step = Decimal(1).scaleb(exact.adjusted() - 3)
+    return f"{float(exact.quantize(step, rounding=ROUND_CEILING)):.4g}"
+
+
+def _failed(windows: pd.DataFrame, w) -> int:
+    """Failed tests of ``w``'s plate (per-test rows)."""
+    same = (windows["soil"] == w.soil) & (
+        (windows["b_m"] == w.b_m) | (windows["b_m"].isna() & pd.isna(w.b_m))
+    )
+    return int(windows.loc[same, "tests"].sum())
 
 
 def _rows(labels: np.ndarray) -> tuple[int, ...]:
@@ -342,7 +412,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
                 _rows(lk[found.after]),
                 f"sinkage runs on from z = {onset:.4g} m to {zk.max():.4g} m, ending "
                 f"{found.excess:.3g}x deeper than the test's early power law at the same "
-                f"force; window proposed: z_max = {onset - offset:.4g} m",
+                f"force; valid up to z = {onset - offset:.4g} m",
                 value=onset - offset,
             )
         )

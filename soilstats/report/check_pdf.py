@@ -107,14 +107,26 @@ def write_report(report, campaign, path: Path, *, provenance=None, overwrite: bo
     if record.get("proposed_windows"):
         doc.heading("Proposed fitting windows")
         doc.paragraph(
-            "A common sinkage window per soil and plate that keeps the flagged tests to their "
-            "valid part (soilstats identify --z-max VALUE):"
+            "Where most tests of a plate (soil and plate size b) failed, one sinkage window "
+            "for all of them: the smallest onset. Otherwise a window for each failed test "
+            "only, at its onset: the plate's other tests keep their depth. Set them with "
+            "soilstats identify --z-max ITEM (repeatable):"
         )
         windows = pd.DataFrame(record["proposed_windows"])
+        windows["test_id"] = windows["test_id"].fillna("all")
         doc.table(
-            windows,
-            caption="Proposed windows: the sinkage z_max (m) every flagged test reached.",
-            labels={"b_m": "plate width b (m)", "z_max_m": "z_max (m)", "tests": "tests"},
+            windows[["soil", "b_m", "test_id", "tests", "plate_tests", "z_max_m", "z_max_item"]],
+            caption="Proposed windows: z_max (m) is the failure onset, the last sinkage the "
+            "early law describes; the --z-max item states it rounded up to 4 digits.",
+            labels={
+                "b_m": "plate width b (m)",
+                "test_id": "for test",
+                "tests": "failed",
+                "plate_tests": "tests of plate",
+                "z_max_m": "z_max (m)",
+                "z_max_item": "--z-max",
+            },
+            align_numbers=False,
         )
     doc.heading("Every screening rule")
     doc.table(
