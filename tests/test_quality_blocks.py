@@ -35,7 +35,7 @@ def _power_law(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _artefact(rng, kind: int) -> tuple[np.ndarray, np.ndarray]:
-    """One record with artefact ``kind`` (0: clean ... 11: odd shapes)."""
+    """One record with artefact ``kind`` (0: clean ... 12: a sparse record's spike)."""
     n = int(rng.choice([30, 80, 120, 300]))
     z, f = _power_law(rng, n)
     if kind == 1:  # one- to three-sample spikes in z or force
@@ -79,6 +79,11 @@ def _artefact(rng, kind: int) -> tuple[np.ndarray, np.ndarray]:
         z = np.interp(t, np.arange(n), z) + rng.normal(0, 2e-6, m)
         f = np.interp(t, np.arange(n), f) + rng.normal(0, 0.3, m)
         f[m // 2] += np.ptp(f)
+    elif kind == 12:  # a sparse record (20-40 samples) with one spike x2-x4 in z or force
+        m = int(rng.integers(20, 41))
+        z, f = z[:: max(1, n // m)][:m], f[:: max(1, n // m)][:m]
+        which = (z, f)[rng.integers(0, 2)]
+        which[rng.integers(2, which.size - 2)] *= rng.uniform(2.0, 4.0)
     return z, f
 
 
@@ -87,7 +92,7 @@ def _campaign(seed: int, tests: int = 240) -> Campaign:
     log, rows = [], []
     for i in range(tests):
         tid = f"t{i:03d}"
-        z, f = _artefact(rng, i % 12)
+        z, f = _artefact(rng, i % 13)
         log.append({"test_id": tid, "kind": "sinkage", "soil": f"s{i % 3}", "shape": "circle"})
         log[-1]["radius_m"] = 0.05
         rows.append(pd.DataFrame({"test_id": tid, "z_m": z, "force_N": f}))
@@ -199,7 +204,7 @@ def _split(blocks: Blocks, values: np.ndarray) -> list[np.ndarray]:
 
 def test_batch_detectors_match_and_the_power_law_screens_keep_every_finding():
     rng = np.random.default_rng(7)
-    pairs = [_artefact(rng, k % 12) for k in range(360)]
+    pairs = [_artefact(rng, k % 13) for k in range(390)]
     blocks = Blocks.of_sizes([z.size for z, _ in pairs])
     z, f = np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs])
     for values in (z, f):

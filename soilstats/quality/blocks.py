@@ -311,7 +311,17 @@ def _spikes(blocks: Blocks, values: np.ndarray) -> BoolArray:
         window = np.clip(np.arange(max(0, j - 10), min(n, j + 11)) - 1, 0, n - 3)
         noise = 1.4826 * float(np.median(second[sb.starts[k] + window]))
         off[i] = departure[i] > SPIKE_NOISE_WIDTHS * noise
-    return _runs_mask(blocks, off, lambda length: length <= SPIKE_MAX_RUN)
+    out = _runs_mask(blocks, off, lambda length: length <= SPIKE_MAX_RUN)
+    # Off samples within 2 of each other may be one spike dragging its neighbours' medians
+    # along (records._drop_dragged): the few records holding such a group are judged by
+    # the per-record code.
+    at = np.flatnonzero(off)
+    near = (np.diff(at) <= 2) & (block[at[1:]] == block[at[:-1]])
+    for k in np.unique(block[at[1:][near]]):
+        at = slice(blocks.starts[k], blocks.starts[k] + blocks.sizes[k])
+        out[at] = False
+        out[blocks.starts[k] + records.find_spikes(values[at].copy())] = True
+    return out
 
 
 def _non_monotone(blocks: Blocks, z: np.ndarray) -> BoolArray:

@@ -38,7 +38,11 @@ CODES: dict[str, QualityCode] = {
         QualityCode(
             "spike",
             "One or two samples that jump away from both neighbours by more than 10 robust "
-            "noise widths and 5 % of the test's span (running median of 5), then come back.",
+            "noise widths and 5 % of the test's span (running median of 5), then come back. "
+            "On a sparse, steep record one spike drags its neighbours' running median along; "
+            "off samples within 2 of each other are read as one spike when one of them "
+            "departs 3x more than the others and, set to its running median, leaves none of "
+            "them off.",
             "A sensor glitch is not soil. One spiked sinkage in 2,000 samples can move a test's "
             "n from 1.2 to 0.06, and it also sets the test's range, so the equal-sinkage "
             "thinning of Section 2.1 throws away most good samples.",
