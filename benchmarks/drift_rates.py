@@ -29,8 +29,9 @@ from soilstats.quality.screen import _Records
 
 def _trend_fires(campaign) -> bool:
     """The soil-level stratified Kendall test alone (no magnitude rule), plates as series."""
-    rec = _Records.of(campaign.sinkage, ("force_N",))
-    starts = pd.Series(drift_mod.start_forces(rec.blocks, rec.columns["force_N"]), rec.ids)
+    rec = _Records.of(campaign.sinkage, ("z_m", "force_N"))
+    z, force = rec.columns["z_m"], rec.columns["force_N"]
+    starts = pd.Series(drift_mod.start_forces(rec.blocks, z, force), rec.ids)
     log = campaign.tests.assign(start=lambda t: t["test_id"].astype(str).map(starts))
     series = [g.sort_values("repetition")["start"].to_numpy() for _, g in log.groupby("b_m")]
     return drift_mod.kendall_p(series)[1] < drift_mod.DRIFT_ALPHA

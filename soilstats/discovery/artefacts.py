@@ -26,6 +26,9 @@ __all__ = ["quality_record", "split_artefacts", "with_quality_caveat"]
 #: columns that name the series (its preparation or plate): those are where the flagged
 #: tests sit, not what the artefact follows.
 ORDER_CODES = frozenset({"zero-drift"})
+#: ... and only when they flag at least this share of the finding's tests: one or two
+#: flagged tests do not explain an effect of test order on all of them.
+ORDER_SHARE = 1 / 3
 
 
 # ----------------------------------------------------------------------------- the steps
@@ -86,11 +89,12 @@ def _aligned(values: pd.Series, labels: pd.Series) -> str | None:
 
 
 def _drifting(labels: pd.Series) -> str | None:
-    """How many tests carry an artefact of test order (:data:`ORDER_CODES`), or None."""
+    """How many tests carry an artefact of test order (:data:`ORDER_CODES`), or None when
+    fewer than :data:`ORDER_SHARE` of them do."""
     out = []
     for code in sorted(ORDER_CODES):
         flagged = int(labels.str.contains(code, regex=False).sum())
-        if flagged:
+        if flagged and flagged >= ORDER_SHARE * len(labels):
             out.append(f"{code} in {flagged} of {len(labels)} tests: a zero drifting with order")
     return "; ".join(out) or None
 

@@ -131,14 +131,16 @@ CODES: dict[str, QualityCode] = {
         ),
         QualityCode(
             "zero-drift",
-            "The start force (median of the first 3 samples) of the sinkage tests of a series "
-            "(one soil and setup: every log column but test_id, operator and the order "
-            "columns) trends with test order (a sequence column, else repetition, else the "
-            "log's row order): a Kendall test stratified by series, exact permutation p-value "
-            "below 0.01 after Bonferroni over the soils; in a series whose own trend has that "
-            "sign (one-sided p at most 0.1, so at least 4 tests) and a Theil-Sen drift of at "
-            "least 1 % of its median peak force across it. Flagged: the tests whose drift "
-            "since the series' first test reaches that 1 %.",
+            "The start force (median of the samples at or above the surface, z <= 0, among "
+            "the first 3; a record with none is not judged) of the sinkage tests of a series "
+            "(one soil and setup: every log column but test_id, operator, the order columns "
+            "and any column with a value of its own for every test) trends with test order (a "
+            "sequence column, else repetition, else the log's row order): a Kendall test "
+            "stratified by series, exact permutation p-value below 0.01 after Bonferroni over "
+            "the soils; in a series whose own trend has that sign (one-sided p at most 0.1, so "
+            "at least 4 tests) and a Theil-Sen drift of at least 1 % of its median peak force "
+            "across it. Flagged: the tests whose drift since the series' first test reaches "
+            "that 1 %.",
             "A load cell whose zero drifts over a test day adds a constant force to each "
             "record that grows with test order. It fits silently (the offset bends n and k) "
             "and makes test order (repetition) look like a cause of the soil's behaviour.",

@@ -3,11 +3,13 @@
 A drifting zero adds a constant force to a whole record, and the offset grows with the order
 in which tests were run. One record cannot show it: a record may start under a real
 preload (Cullinan's ``method2-test4`` starts at 14 % of its peak), so the signature is across
-tests. The rule reads, per sinkage test, the **start force**: the median of the first
-:data:`START_SAMPLES` good samples (spikes removed), the load cell's reading at or before
-first contact. Replicates of one setup all start at the same zero, whatever their soil's
-stiffness, so their start forces scatter around one value; a drifting zero makes them trend
-with test order.
+tests. The rule reads, per sinkage test, the **start force**: the median of the samples at
+or above the surface (z <= 0) among its first :data:`START_SAMPLES` good samples (spikes
+removed), the load cell's reading before contact; a record with none (logged from inside
+contact) is not judged (its first readings carry the soil's response: a stiffness trend over
+the day, GRC-1's forces x (1 + 0.5 (repetition - 1)), was read as a drifting zero).
+Replicates of one setup all start at the same zero, whatever their soil's stiffness, so their
+start forces scatter around one value; a drifting zero makes them trend with test order.
 
 *Series* are the tests of one soil and kind with the same setup (every log column but the
 test's name, ``operator`` and the order columns); *test order* inside a series is the first
@@ -85,11 +87,15 @@ class Drift:
     series_size: int
 
 
-def start_forces(blocks, force: np.ndarray) -> np.ndarray:
-    """The median of the first :data:`START_SAMPLES` samples of every record [N] (NaN for an
-    empty record); ``blocks`` lays the records end to end (:class:`.blocks.Blocks`)."""
+def start_forces(blocks, z: np.ndarray, force: np.ndarray) -> np.ndarray:
+    """The median force [N] of the samples at or above the surface (z <= 0) among the first
+    :data:`START_SAMPLES` of every record; NaN where there is none (a record logged from
+    inside contact: its first readings carry the soil's response, which a trend in stiffness
+    over the day would move as a drifting zero would) and for an empty record. ``blocks``
+    lays the records end to end (:class:`.blocks.Blocks`)."""
     head, kept = blocks.head(START_SAMPLES)
-    return head.median(force[kept])
+    above, where = head.keep(z[kept] <= 0)
+    return above.median(force[kept[where]])
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -182,11 +188,16 @@ def _theil_sen(values: np.ndarray) -> float:
 
 # ----------------------------------------------------------------------------- the rule
 def _series(log: pd.DataFrame) -> pd.Series:
-    """A series label for every sinkage test (same soil and setup)."""
+    """A series label for every sinkage test (same soil and setup). A column with a value of
+    its own for every test (a date, a file name, a note) names tests, not setups: it is not
+    a setup column (it would make every test a series of one and silence the rule)."""
     setup = [
         c
         for c in log.columns
-        if c not in NOT_SETUP and str(c).lower() not in ORDER_COLUMNS and log[c].notna().any()
+        if c not in NOT_SETUP
+        and str(c).lower() not in ORDER_COLUMNS
+        and log[c].notna().any()
+        and not (len(log) > 1 and log[c].nunique(dropna=False) == len(log))
     ]
     # Per column codes (a missing cell is its own level, -1), then one code per combination.
     codes = np.column_stack([pd.factorize(log[c], sort=False)[0] for c in setup])

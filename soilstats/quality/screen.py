@@ -443,7 +443,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
                 )
             )
     ends = pd.DataFrame({"test_id": rec.ids, "force_end": peaks["force_N"], "z_end": peaks["z_m"]})
-    ends["force_start"] = start_forces(good, fg)
+    ends["force_start"] = start_forces(good, zg, fg)
     return out, drop, offsets, ends
 
 
