@@ -253,3 +253,12 @@ def test_block_medians_are_numpy_and_scipy_medians_exactly():
             assert got_median == np.median(part)
         else:
             assert np.isnan(got_median)
+
+
+def test_empty_records_have_no_candidates():
+    # contact_statistics returned four values on empty input where contact_candidates
+    # unpacks five (a ValueError).
+    empty = Blocks.of_sizes([0, 0])
+    nothing = np.empty(0)
+    assert contact_candidates(empty, nothing, nothing).size == 0
+    assert runaway_candidates(empty, nothing, nothing).size == 0

@@ -432,7 +432,8 @@ def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
     are accurate to :data:`MARGIN`."""
     empty = np.zeros(blocks.count, dtype=bool)
     if not z.size:
-        return empty, np.full(blocks.count, np.inf), np.full(blocks.count, np.inf), empty
+        nothing = np.full(blocks.count, np.inf)
+        return empty, nothing, nothing.copy(), np.full(blocks.count, np.nan), empty
     block = blocks.block_of
     local = blocks.local
     n = blocks.sizes
