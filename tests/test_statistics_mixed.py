@@ -102,3 +102,28 @@ def test_level_under_a_method_by_operator_interaction():
     # Binomial(200, 0.05): P(≥ 22) < 10⁻³
     assert mixed <= 21, mixed
     assert fixed > 50, fixed  # the test against the residual, for contrast
+
+
+def test_the_effect_size_is_taken_against_the_term_the_f_test_uses():
+    # The verdict's partial eta^2 came from the residual while F and p came from the
+    # method x operator mean square (F = 0.76, p = 0.56 reported with eta^2 = 0.18).
+    from soilstats.statistics.verdict import effect_row
+
+    d = _design(np.random.default_rng(5), sd_inter=0.08)
+    t = anova_random_block(d, "y", "method", ["b_m", "operator"], "operator")
+    row = effect_row("s", "y", "method", t)
+    ss = t.loc["method", "sum_sq"]
+    assert row["effect_size"] == pytest.approx(ss / (ss + t.loc["method:operator", "sum_sq"]))
+    assert row["statistic"] == t.loc["method", "F"]
+
+
+def test_exact_data_give_no_test_rather_than_an_infinite_one():
+    # Noise-free responses: F = inf and p = 0 with RuntimeWarnings, every pair "different".
+    from soilstats.statistics import StatisticsInputError, tukey_lsmeans
+
+    d = _design(np.random.default_rng(1), shift=0.2)
+    d["y"] = np.where(d["method"] == "m0", 0.2, 0.0) + 0.1 * d["b_m"] / 0.025
+    t = anova_random_block(d, "y", "method", ["b_m", "operator"], "operator")
+    assert np.isnan(t.loc["method", "F"]) and np.isnan(t.loc["method", "PR(>F)"])
+    with pytest.raises(StatisticsInputError, match="exact data"):
+        tukey_lsmeans(d, "y", "method", ["b_m"], error=(0.0, 6))

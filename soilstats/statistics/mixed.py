@@ -160,6 +160,8 @@ def anova_random_block(
     table["F"] = np.nan
     table["PR(>F)"] = np.nan
     for term, err in error.items():
+        if not table.loc[err, "mean_sq"] > 0:
+            continue  # exact data: no scatter to test against (F and p stay NaN)
         f = table.loc[term, "mean_sq"] / table.loc[err, "mean_sq"]
         table.loc[term, "F"] = f
         table.loc[term, "PR(>F)"] = stats.f.sf(f, table.loc[term, "df"], table.loc[err, "df"])

@@ -192,6 +192,11 @@ def tukey_lsmeans(
         ms, df = float(error[0]), float(error[1])
         if not (ms >= 0 and df >= 1):
             raise StatisticsInputError(f"error term {error!r} needs a mean square ≥ 0 and df ≥ 1")
+    if not ms > 0:
+        raise StatisticsInputError(
+            "the error mean square is 0 (exact data): no scatter to judge the pairs by",
+            column=factor,
+        )
     # level effects relative to the first level (0 for it), and their covariance
     eff = np.concatenate([[0.0], beta[1:k]])
     cov = np.zeros((k, k))

@@ -67,7 +67,8 @@ def effect_row(soil: str, response: str, factor: str, result: TestResult | pd.Da
     """One input row for :func:`verdicts` from a :class:`TestResult` or an ANOVA table.
 
     For an ANOVA table (from :func:`anova_oneway` or :func:`anova_twoway`) the factor's row is
-    used (``between`` for one-way) and the effect size is its partial η² (= η² for one-way).
+    used (``between`` for one-way) and the effect size is its partial η² (= η² for one-way),
+    against the row's ``error_term`` where the table names one (:func:`anova_random_block`).
     """
     if isinstance(result, TestResult):
         stat, p, es, test = result.statistic, result.p_value, result.effect_size, result.test
@@ -80,7 +81,14 @@ def effect_row(soil: str, response: str, factor: str, result: TestResult | pd.Da
                 f"the ANOVA table has no row {factor!r} (rows {list(result.index)})", column=factor
             )
         stat, p = float(result.loc[row, "F"]), float(result.loc[row, "PR(>F)"])
-        es = float(effect_sizes(result).loc[row, "partial_eta_sq"])
+        error = str(result.loc[row, "error_term"]) if "error_term" in result.columns else ""
+        if error and error in result.index:
+            # A factor tested against another term (a random block's interaction): its
+            # partial η² is taken against that same term, as its F is.
+            ss = float(result.loc[row, "sum_sq"])
+            es = ss / (ss + float(result.loc[error, "sum_sq"]))
+        else:
+            es = float(effect_sizes(result).loc[row, "partial_eta_sq"])
         test = result.attrs.get("test", "ANOVA")
     else:
         raise StatisticsInputError(
