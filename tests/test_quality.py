@@ -217,6 +217,7 @@ def test_the_codes_state_the_thresholds_the_rules_use():
     assert f"at least {records.RUNAWAY_MIN_TRAVEL_B:g} plate sizes b" in failure
     assert f"less than {records.RUNAWAY_PLATEAU_GAIN:.0%}".replace("%", " %") in failure
     assert f"last {records.RUNAWAY_MIN_TRAVEL:.0%}".replace("%", " %") in failure
+    assert f"less than {records.RUNAWAY_FLAT_GAIN:.0%}".replace("%", " %") in failure
     contact = CODES["pre-contact"].what
     assert f"at least {records.CONTACT_LAW_EXCESS:g}x" in contact
     assert f"up to {records.CONTACT_EARLY_FRACTION:.0%}".replace("%", " %") in contact
@@ -434,3 +435,24 @@ def test_a_short_force_plateau_is_still_bearing_failure():
     for tid, onset in failed.items():  # the onset: the last sample within 1.25x of the law
         assert start[tid] <= onset <= 1.3 * start[tid], tid
     assert 0.03 - max(failed.values()) < RUNAWAY_MIN_TRAVEL_B * 0.075  # a short run-on
+
+
+def test_a_force_limit_reached_part_way_is_flagged_where_it_starts():
+    # A relief valve or motor limit: Cullinan's method2-test1 (near-linear) held at 60 % of
+    # its reach, +-0.3 %, for its last 35 % of sinkage. Its early law, fitted up to 35 % of
+    # the (capped) peak, puts the end no deeper than measured (excess 0.8), so the record
+    # fitted silently with the plateau bending n.
+    tests, sinkage = _raw(load_campaign("cullinan-sand"))
+    rows = (sinkage["test_id"] == "method2-test1").to_numpy()
+    force = sinkage.loc[rows, "force_N"].to_numpy().copy()
+    cap = 0.6 * force.max()
+    over = force > cap
+    rng = np.random.default_rng(2)
+    force[over] = cap + rng.normal(0, 0.003 * cap, over.sum())
+    sinkage.loc[rows, "force_N"] = force
+    z_cap = float(sinkage.loc[rows, "z_m"].to_numpy()[np.argmax(over)])
+    report = screen(Campaign.from_frames(tests, sinkage))
+    failed = {f.test_id: f for f in report.flags if f.code == "bearing-failure"}
+    assert set(failed) == {"method5-test1", "method2-test1"}
+    assert "force limit" in failed["method2-test1"].message
+    assert z_cap - 2e-3 <= failed["method2-test1"].value <= z_cap

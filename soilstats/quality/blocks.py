@@ -38,6 +38,8 @@ from .records import (
     FALLBACK_FRACTION,
     FALLBACK_MIN_RUN,
     RUNAWAY_EXCESS,
+    RUNAWAY_FLAT_GAIN,
+    RUNAWAY_MIN_TRAVEL,
     SATURATION_MIN_SAMPLES,
     SPIKE_MAX_RUN,
     SPIKE_NOISE_WIDTHS,
@@ -539,13 +541,39 @@ def runaway_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntA
 
     The early power law is fitted in closed form; a block is screened out when its final
     excess sinkage is clearly (:data:`MARGIN`) below :data:`RUNAWAY_EXCESS`, in a
-    well-conditioned fit whose rounding cannot move it that far. The per-record detector
+    well-conditioned fit whose rounding cannot move it that far, and its force is not flat
+    at the end (:data:`RUNAWAY_FLAT_GAIN`, computed exactly). The per-record detector
     decides the blocks returned.
     """
     with np.errstate(all="ignore"):
         alive, excess, safe, undecided = runaway_statistics(blocks, z, force)
-        clear = safe & (excess < RUNAWAY_EXCESS * (1.0 - MARGIN))
+        gain = _end_gain(blocks, z, force)
+        clear = safe & (excess < RUNAWAY_EXCESS * (1.0 - MARGIN)) & ~(gain < RUNAWAY_FLAT_GAIN)
     return np.union1d(np.flatnonzero(undecided | (alive & ~clear)), _unfinite(blocks, z, force))
+
+
+def _end_gain(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> FloatArray:
+    """``records.find_runaway``'s force gain over the last RUNAWAY_MIN_TRAVEL of the final
+    sinkage, every block (the same elementwise steps: exact); NaN where it has no loaded
+    sample."""
+    if not z.size:
+        return np.full(blocks.count, np.nan)
+    local = blocks.local
+    f = blocks.rolling_median5(force)
+    head, hi = blocks.head(3)
+    start = head.median(force[hi])
+    with np.errstate(invalid="ignore"):
+        shift = np.abs(start) < 0.02 * np.abs(blocks.max(f))
+    f = f - blocks.spread(np.where(shift, start, 0.0))
+    last = _last(blocks, f > 0, local)
+    has = last >= 0
+    at = np.minimum(blocks.starts + np.maximum(last, 0), blocks.total - 1)
+    z_end = np.where(has, z[at], np.nan)
+    tail = blocks.first(z >= blocks.spread((1 - RUNAWAY_MIN_TRAVEL) * z_end))
+    tail_at = np.minimum(blocks.starts + np.maximum(tail, 0), blocks.total - 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        gain = np.where(f[tail_at] > 0, f[at] / f[tail_at] - 1, np.inf)
+    return np.where(has & (tail >= 0), gain, np.nan)
 
 
 def runaway_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):

@@ -105,10 +105,14 @@ CODES: dict[str, QualityCode] = {
             "within 1.25x of that law. The run-on must also be long (at least 0.5 plate sizes "
             "b beyond the law: punch-through) or end on a force plateau (less than 10 % force "
             "gained over the last 25 % of the sinkage): a shorter run-on whose force keeps "
-            "rising is the bend of a record stopped early. Where a seating offset was found, "
-            "the rule runs on the loaded record with z from the contact.",
-            "The soil under the plate failed (punch-through); pressure–sinkage models describe "
-            "the loading before failure. Samples past the onset drag n toward 0.",
+            "rising is the bend of a record stopped early. A force that gains less than 2 % "
+            "over the last 25 % of the sinkage is flagged whatever the law says (a plateau: "
+            "the soil failed or the rig reached a force limit; onset where the force first "
+            "comes within 2 % of its end). Where a seating offset was found, the rule runs on "
+            "the loaded record with z from the contact.",
+            "The soil under the plate failed (punch-through), or the rig stopped loading (a "
+            "force limit); pressure–sinkage models describe the loading before. Samples past "
+            "the onset drag n toward 0.",
             "Fit within the proposed window (listed, with the --z-max item that sets it): "
             "z_max = the failed test's onset for that test only, or, where more than half "
             "of a plate's tests (soil and plate size b) failed, the smallest onset for all "

@@ -67,6 +67,11 @@ RUNAWAY_MIN_TRAVEL_B = 0.5
 #: force keeps rising is the bend of a record stopped early (its early law then covers only
 #: the first millimetres).
 RUNAWAY_PLATEAU_GAIN = 0.10
+#: A force that gains less than this over the last RUNAWAY_MIN_TRAVEL of the final sinkage
+#: is flat whatever the early law says: the soil failed or the rig reached a force limit
+#: (a relief valve). No clean record comes near (Cullinan's least gain 10.6 %, simulated
+#: 20 %; a power law needs n < 0.07 to gain so little).
+RUNAWAY_FLAT_GAIN = 0.02
 #: Non-monotone: a fall below the running maximum, as a fraction of the travel ...
 FALLBACK_FRACTION = 0.02
 #: ... lasting this many samples at least (shorter is a spike's business).
@@ -373,6 +378,7 @@ class Runaway:
     excess: float  # final sinkage / the early law's sinkage at the final force
     travel: float = np.nan  # final sinkage - the early law's sinkage at the final force [m]
     gain: float = np.nan  # force gained over the last RUNAWAY_MIN_TRAVEL of the sinkage
+    flat: bool = False  # found by the flat force alone (RUNAWAY_FLAT_GAIN), not the excess
 
 
 def find_runaway(z: np.ndarray, force: np.ndarray, b: float | None = None) -> Runaway | None:
@@ -420,14 +426,18 @@ def find_runaway(z: np.ndarray, force: np.ndarray, b: float | None = None) -> Ru
     last = int(np.flatnonzero(np.isfinite(ratio))[-1])
     z_end = float(z[last])
     excess = float(ratio[last])
-    if not excess > RUNAWAY_EXCESS or z_end * (1 - 1 / excess) <= RUNAWAY_MIN_TRAVEL * z_end:
-        return None
-    within = np.flatnonzero(np.nan_to_num(ratio, nan=0.0) <= RUNAWAY_ONSET)
-    onset = int(within[-1]) if within.size else 0
     travel = z_end * (1 - 1 / excess)
     # The force gained over the last RUNAWAY_MIN_TRAVEL of the sinkage (median-filtered).
     tail = int(np.argmax(z >= (1 - RUNAWAY_MIN_TRAVEL) * z_end))
     gain = float(f[last] / f[tail] - 1) if f[tail] > 0 else np.inf
+    if not excess > RUNAWAY_EXCESS or travel <= RUNAWAY_MIN_TRAVEL * z_end:
+        if not gain < RUNAWAY_FLAT_GAIN:
+            return None
+        # Flat alone: valid up to where the force first comes within that gain of its end.
+        onset = max(int(np.argmax(f >= (1 - RUNAWAY_FLAT_GAIN) * f[last])) - 1, 0)
+        return Runaway(float(z[onset]), np.arange(onset + 1, z.size), excess, travel, gain, True)
+    within = np.flatnonzero(np.nan_to_num(ratio, nan=0.0) <= RUNAWAY_ONSET)
+    onset = int(within[-1]) if within.size else 0
     if b is not None and b > 0 and travel < RUNAWAY_MIN_TRAVEL_B * b:
         if not gain < RUNAWAY_PLATEAU_GAIN:
             return None

@@ -410,9 +410,15 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
                 "sinkage",
                 "bearing-failure",
                 _rows(lk[found.after]),
-                f"sinkage runs on from z = {onset:.4g} m to {zk.max():.4g} m, ending "
-                f"{found.excess:.3g}x deeper than the test's early power law at the same "
-                f"force; valid up to z = {onset - offset:.4g} m",
+                (
+                    f"the force holds within {found.gain:+.1%} from z = {onset:.4g} m to "
+                    f"{zk.max():.4g} m (a plateau: the soil failed, or the rig reached a force "
+                    f"limit); valid up to z = {onset - offset:.4g} m"
+                    if found.flat
+                    else f"sinkage runs on from z = {onset:.4g} m to {zk.max():.4g} m, ending "
+                    f"{found.excess:.3g}x deeper than the test's early power law at the same "
+                    f"force; valid up to z = {onset - offset:.4g} m"
+                ),
                 value=onset - offset,
             )
         )
