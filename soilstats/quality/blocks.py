@@ -552,6 +552,17 @@ def runaway_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntA
     return np.union1d(np.flatnonzero(undecided | (alive & ~clear)), _unfinite(blocks, z, force))
 
 
+def _runaway_force(blocks: Blocks, force: np.ndarray) -> FloatArray:
+    """The force ``records.find_runaway`` reads: the running median of five, less the start
+    level where that is a sensor offset (under 2 % of the peak), every block."""
+    f = blocks.rolling_median5(force)
+    head, hi = blocks.head(3)
+    start = head.median(force[hi])
+    with np.errstate(invalid="ignore"):
+        shift = np.abs(start) < 0.02 * np.abs(blocks.max(f))
+    return f - blocks.spread(np.where(shift, start, 0.0))
+
+
 def _end_gain(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> FloatArray:
     """``records.find_runaway``'s force gain over the last RUNAWAY_MIN_TRAVEL of the final
     sinkage, every block (the same elementwise steps: exact); NaN where it has no loaded
@@ -559,12 +570,7 @@ def _end_gain(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> FloatArray:
     if not z.size:
         return np.full(blocks.count, np.nan)
     local = blocks.local
-    f = blocks.rolling_median5(force)
-    head, hi = blocks.head(3)
-    start = head.median(force[hi])
-    with np.errstate(invalid="ignore"):
-        shift = np.abs(start) < 0.02 * np.abs(blocks.max(f))
-    f = f - blocks.spread(np.where(shift, start, 0.0))
+    f = _runaway_force(blocks, force)
     last = _last(blocks, f > 0, local)
     has = last >= 0
     at = np.minimum(blocks.starts + np.maximum(last, 0), blocks.total - 1)
@@ -587,12 +593,7 @@ def runaway_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
         return empty, np.full(blocks.count, np.nan), empty, empty
     local = blocks.local
     alive = blocks.sizes >= 8
-    f = blocks.rolling_median5(force)
-    head, hi = blocks.head(3)
-    start = head.median(force[hi])
-    with np.errstate(invalid="ignore"):
-        shift = np.abs(start) < 0.02 * np.abs(blocks.max(f))
-    f = f - blocks.spread(np.where(shift, start, 0.0))
+    f = _runaway_force(blocks, force)
     peak = blocks.max(f)
     alive &= peak > 0
     reach = blocks.first(f >= blocks.spread(0.35 * peak))
