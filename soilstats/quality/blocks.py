@@ -320,9 +320,9 @@ def _spikes(blocks: Blocks, values: np.ndarray) -> BoolArray:
     at = np.flatnonzero(off)
     near = (np.diff(at) <= 2) & (block[at[1:]] == block[at[:-1]])
     for k in np.unique(block[at[1:][near]]):
-        at = slice(blocks.starts[k], blocks.starts[k] + blocks.sizes[k])
-        out[at] = False
-        out[blocks.starts[k] + records.find_spikes(values[at].copy())] = True
+        record = slice(blocks.starts[k], blocks.starts[k] + blocks.sizes[k])
+        out[record] = False
+        out[blocks.starts[k] + records.find_spikes(values[record].copy())] = True
     return out
 
 
