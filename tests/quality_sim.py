@@ -33,3 +33,20 @@ def raw_tables(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
     tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
     sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
     return tests, sinkage.reset_index(drop=True)
+
+
+def hold_plateau(sinkage: pd.DataFrame, failing, rng) -> tuple[pd.DataFrame, dict[str, float]]:
+    """``sinkage`` with the force of the ``failing`` tests held (+-1 %) from 35 % of their
+    samples to the end, a plateau the plate sinks into; and where each plateau starts [m]."""
+    failing = {str(t) for t in failing}
+    parts, start = [], {}
+    for tid, group in sinkage.groupby("test_id", sort=False):
+        if str(tid) in failing:
+            group = group.copy()
+            f = group["force_N"].to_numpy().copy()
+            k = int(0.35 * f.size)
+            start[str(tid)] = float(group["z_m"].iloc[k - 1])
+            f[k:] = f[k - 1] * (1 + rng.uniform(-0.01, 0.01, f.size - k))
+            group["force_N"] = f
+        parts.append(group)
+    return pd.concat(parts, ignore_index=True), start

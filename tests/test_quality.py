@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from discover_situations import seated_late
-from quality_sim import plate_spec, raw_tables
+from quality_sim import hold_plateau, plate_spec, raw_tables
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
@@ -418,18 +418,8 @@ def test_a_short_force_plateau_is_still_bearing_failure():
 
     tests, sinkage = _raw(_clean(105))
     planted = set(tests.loc[tests["radius_m"] == 0.075, "test_id"])
-    rng = np.random.default_rng(5)
-    parts, start = [], {}
-    for tid, group in sinkage.groupby("test_id", sort=False):
-        if tid in planted:
-            group = group.copy()
-            f = group["force_N"].to_numpy().copy()
-            k = int(0.35 * f.size)
-            start[tid] = float(group["z_m"].iloc[k - 1])
-            f[k:] = f[k - 1] * (1 + rng.uniform(-0.01, 0.01, f.size - k))
-            group["force_N"] = f
-        parts.append(group)
-    report = screen(Campaign.from_frames(tests, pd.concat(parts, ignore_index=True)))
+    held, start = hold_plateau(sinkage, planted, np.random.default_rng(5))
+    report = screen(Campaign.from_frames(tests, held))
     failed = {f.test_id: f.value for f in report.flags if f.code == "bearing-failure"}
     assert set(failed) == planted
     for tid, onset in failed.items():  # the onset: the last sample within 1.25x of the law

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from quality_sim import plate_spec
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
@@ -78,22 +79,7 @@ SOILS = {
 
 
 def _sparse(points: int, seed: int) -> Campaign:
-    spec = {
-        "name": "sparse",
-        "scatter": {"stiffness_cv": 0.1, "n_sd": 0.03},
-        "soils": SOILS,
-        "series": [
-            {
-                "name": "plates",
-                "kind": "sinkage",
-                "soils": list(SOILS),
-                "plates": [{"shape": "circle", "radius_m": b} for b in (0.025, 0.05, 0.075)],
-                "repetitions": 2,
-                "points": points,
-                "sinkage_m": 0.03,
-            }
-        ],
-    }
+    spec = plate_spec("sparse", SOILS, points=points, repetitions=2)
     return simulate(spec, seed=seed).campaign
 
 

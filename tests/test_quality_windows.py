@@ -7,12 +7,11 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pandas as pd
 import pytest
+from quality_sim import hold_plateau, plate_spec, raw_tables
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
-from soilstats.campaign.schema import DERIVED_COLUMNS
 from soilstats.cli.main import main
 from soilstats.identification import fit_sinkage
 from soilstats.identification.window import windowed
@@ -30,44 +29,15 @@ def _planted(failed: dict[tuple[str, float], int], seed: int = 3):
     ``failed[(soil, b)]`` tests of those plates fail: the force is held (+-1 %) from 35 %
     of the samples to the end, a plateau the plate sinks into.  Returns the campaign and the
     planted tests with the sinkage where their plateau starts."""
-    spec = {
-        "name": "windows",
-        "scatter": {"stiffness_cv": 0.1, "n_sd": 0.03},
-        "soils": SOILS,
-        "series": [
-            {
-                "name": "plates",
-                "kind": "sinkage",
-                "soils": list(SOILS),
-                "plates": [{"shape": "circle", "radius_m": b} for b in (0.025, 0.05, 0.075)],
-                "repetitions": 4,
-                "points": 120,
-                "sinkage_m": 0.03,
-            }
-        ],
-    }
-    campaign = simulate(spec, seed=seed).campaign
-    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
-    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
-    sinkage = sinkage.reset_index(drop=True)
-    planted: dict[str, float] = {}
+    campaign = simulate(plate_spec("windows", SOILS), seed=seed).campaign
+    tests, sinkage = raw_tables(campaign)
+    failing = []
     for (soil, b), count in failed.items():
         plate = tests[(tests["soil"] == soil) & np.isclose(tests["radius_m"], b)]
         assert len(plate) == 4
-        for tid in plate["test_id"].iloc[:count]:
-            planted[str(tid)] = np.nan
-    rng = np.random.default_rng(seed)
-    parts = []
-    for tid, group in sinkage.groupby("test_id", sort=False):
-        if tid in planted:
-            group = group.copy()
-            f = group["force_N"].to_numpy().copy()
-            k = int(0.35 * f.size)
-            planted[tid] = float(group["z_m"].iloc[k - 1])
-            f[k:] = f[k - 1] * (1 + rng.uniform(-0.01, 0.01, f.size - k))
-            group["force_N"] = f
-        parts.append(group)
-    return Campaign.from_frames(tests, pd.concat(parts, ignore_index=True)), planted
+        failing += [str(t) for t in plate["test_id"].iloc[:count]]
+    held, planted = hold_plateau(sinkage, failing, np.random.default_rng(seed))
+    return Campaign.from_frames(tests, held), planted
 
 
 def _outside(campaign, report) -> dict[str, int]:
