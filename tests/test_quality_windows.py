@@ -123,7 +123,7 @@ def test_grc1_all_small_plates_fail_one_window_for_the_plate(capsys):
 @pytest.mark.parametrize("z", [0.0107697453, 0.0045813596, 0.0099996, 0.003436])
 def test_the_printed_window_keeps_the_onset_and_resolves_it(z):
     from soilstats.identification.result import ONSET_TOLERANCE
-    from soilstats.quality.screen import _ceil4
+    from soilstats.quality.report import _ceil4
 
     printed = float(_ceil4(z))
     assert z <= printed <= z * (1 + ONSET_TOLERANCE)

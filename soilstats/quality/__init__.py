@@ -1,14 +1,16 @@
 """Data-quality screening of real Bevameter records (codes: :data:`CODES`; docs/quality.md).
 
-:func:`screen` runs every rule over a campaign and returns a :class:`QualityReport` with the
-findings and the cleaned campaign every analysis uses; :func:`screened` is the guard the
+:func:`screen` runs every rule over a campaign and returns a :class:`QualityReport`
+(:mod:`.report`: the findings, the windows they propose, the cleaned campaign every analysis
+uses); :func:`screened` is the guard the
 fitting functions call.  The detectors on one record are in :mod:`.records`; copied records
 (``duplicate``) are found across records by :mod:`.copies`, a force zero drifting with test
 order (``zero-drift``) across the tests of a series by :mod:`.drift`.
 """
 
 from .codes import ARTEFACT_CODES, CODES, MODES, STOP_CODES, QualityCode
-from .screen import QualityFlag, QualityReport, screen, screened
+from .report import QualityFlag, QualityReport
+from .screen import screen, screened
 
 __all__ = [
     "ARTEFACT_CODES",
