@@ -1,5 +1,6 @@
-"""Screening across tests at once (:mod:`soilstats.quality.blocks`) finds exactly what the
-per-record detectors find, test by test: on planted artefacts of every kind, on odd records
+"""Screening across tests at once (:mod:`soilstats.quality.blocks`, and the power-law
+pre-screens of :mod:`soilstats.quality.prescreen`) finds exactly what the per-record
+detectors find, test by test: on planted artefacts of every kind, on odd records
 (tiny, constant, tied, quantised, non-finite) and with the rows of a test spread through the
 file. The reference below is the per-test screening loop the batch code replaced."""
 
@@ -15,14 +16,8 @@ from scipy.ndimage import median_filter
 
 from soilstats.campaign import Campaign
 from soilstats.quality import records, screen
-from soilstats.quality.blocks import (
-    Blocks,
-    contact_candidates,
-    non_monotone,
-    runaway_candidates,
-    saturation,
-    spikes,
-)
+from soilstats.quality.blocks import Blocks, non_monotone, saturation, spikes
+from soilstats.quality.prescreen import contact_candidates, runaway_candidates
 
 PER_RECORD = ("spike", "pre-contact", "bearing-failure", "non-monotone", "saturation")
 

@@ -21,7 +21,7 @@ import pandas as pd
 from ..campaign.units import implausible_units
 from ..errors import CampaignError
 from . import blocks as blocks_mod
-from . import records
+from . import prescreen, records
 from .blocks import Blocks
 from .codes import CODES, MODES
 from .copies import RECORDS, find_copies
@@ -129,8 +129,8 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
         return zg[at].copy(), fg[at].copy(), labels[at]
 
     offsets: dict[str, float] = {}
-    candidates = blocks_mod.contact_candidates(good, zg, fg)
-    runaway = blocks_mod.runaway_candidates(good, zg, fg)
+    candidates = prescreen.contact_candidates(good, zg, fg)
+    runaway = prescreen.runaway_candidates(good, zg, fg)
     bar = None
     if progress:
         from tqdm.auto import tqdm
