@@ -28,6 +28,21 @@ from ._data import StatisticsInputError, prepare
 __all__ = ["tukey_hsd", "tukey_lsmeans"]
 
 
+def _pair_data(data, response: str, factor: str, blocks: list, alpha: float, dropna: bool):
+    """The checked rows of a pairwise comparison, how many were dropped, and the factor's
+    levels as text (which must stay distinct)."""
+    if not 0.0 < alpha < 1.0:
+        raise StatisticsInputError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
+    frame, n_dropped = prepare(data, [response], [factor, *blocks], dropna=dropna)
+    labels = frame[factor].astype(str)
+    if labels.nunique() != frame[factor].nunique():
+        raise StatisticsInputError(
+            "two levels print the same as strings (e.g. 1 and '1'); make the labels distinct",
+            column=factor,
+        )
+    return frame, n_dropped, labels
+
+
 def tukey_hsd(
     data: pd.DataFrame,
     response: str,
@@ -63,15 +78,7 @@ def tukey_hsd(
     StatisticsInputError
         Bad input as for :func:`anova_oneway`, ``alpha`` outside (0, 1), or no replicate.
     """
-    if not 0.0 < alpha < 1.0:
-        raise StatisticsInputError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
-    frame, n_dropped = prepare(data, [response], [factor], dropna=dropna)
-    labels = frame[factor].astype(str)
-    if labels.nunique() != frame[factor].nunique():
-        raise StatisticsInputError(
-            "two levels print the same as strings (e.g. 1 and '1'); make the labels distinct",
-            column=factor,
-        )
+    frame, n_dropped, labels = _pair_data(data, response, factor, [], alpha, dropna)
     if len(frame) <= labels.nunique():
         raise StatisticsInputError(
             "every level has a single observation; Tukey's HSD needs replicates", column=factor
@@ -152,16 +159,8 @@ def tukey_lsmeans(
         Bad input as :func:`tukey_hsd`, a level confounded with the blocks, or no error
         degrees of freedom.
     """
-    if not 0.0 < alpha < 1.0:
-        raise StatisticsInputError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
     blocks = [blocks] if isinstance(blocks, str) else list(blocks)
-    frame, n_dropped = prepare(data, [response], [factor, *blocks], dropna=dropna)
-    labels = frame[factor].astype(str)
-    if labels.nunique() != frame[factor].nunique():
-        raise StatisticsInputError(
-            "two levels print the same as strings (e.g. 1 and '1'); make the labels distinct",
-            column=factor,
-        )
+    frame, n_dropped, labels = _pair_data(data, response, factor, blocks, alpha, dropna)
     levels = np.unique(labels.to_numpy())
     k = len(levels)
     codes = np.searchsorted(levels, labels.to_numpy())
