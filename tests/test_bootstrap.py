@@ -185,3 +185,58 @@ def test_the_table_shows_the_sigma_test_scatter_advises_and_says_which():
     assert n_row.count("*") == 1 and "* ± the test-level σ" in text
     tidy = parameter_table({"grc": scattered})
     assert tidy.set_index("parameter").loc["n", "stderr_tests"] == scattered.stderr_tests["n"]
+
+
+def test_mohr_coulomb_resamples_are_the_exact_weighted_least_squares_of_each_resample():
+    """Mohr–Coulomb is linear in (c, tan phi): every resample is solved in closed form from
+    per-test sums, as the fit itself is.  Independent truth: Householder QR with iterative
+    refinement (``linear_least_squares``) on the resample's own weights w·sqrt(times drawn).
+    The LM refits this replaced were off by up to 2e-8 relative, and ran 50-100x longer."""
+    from soilstats.fitting.linear import linear_least_squares
+    from soilstats.identification.bootstrap import bootstrap_tests
+    from soilstats.models import MOHR_COULOMB
+
+    rng = np.random.default_rng(7)
+    levels = np.repeat([4e3, 12e3, 30e3], 4)  # normal pressure [Pa] of 12 tests
+    test_index = np.repeat(np.arange(levels.size), 25)
+    sigma = levels[test_index] * (1 + rng.normal(0, 0.01, test_index.size))
+    test_c = rng.normal(900.0, 80.0, levels.size)  # per-test cohesion scatter [Pa]
+    tau = test_c[test_index] + sigma * np.tan(np.radians(31.0)) + rng.normal(0, 40, sigma.size)
+    w = rng.uniform(0.5, 2.0, sigma.size)
+    estimate = np.array([900.0, 31.0])
+    boot = bootstrap_tests(
+        MOHR_COULOMB, sigma, tau, w, test_index, estimate, n_resamples=40, seed=3
+    )
+    assert boot.n_failed == 0
+    # The draws bootstrap_tests made: the same generator calls, in the same order.
+    picks = np.random.default_rng(3).integers(0, levels.size, (40, levels.size))
+    design = np.column_stack([np.ones_like(sigma), sigma])
+    for b in range(40):
+        counts = np.bincount(picks[b], minlength=levels.size)
+        lin = linear_least_squares(design, tau, weights=w * np.sqrt(counts[test_index]))
+        c, tan_phi = lin.params.to_numpy()
+        exact = [c, np.degrees(np.arctan(tan_phi))]
+        assert boot.draws[b] == pytest.approx(exact, rel=1e-12)
+
+
+def test_a_resample_at_one_normal_pressure_fails_by_the_rank_rule_of_the_fit():
+    """Without a design to screen by (``design=None``), a resample whose tests all sit at one
+    normal pressure still fails: its design [1, sigma] is collinear, cond(X D^-1) beyond
+    the identification's limit, as numpy's SVD condition number of the equilibrated design
+    says.  A resample with two pressures is solved."""
+    from soilstats.fitting.clustered import fit_linear_resamples
+    from soilstats.fitting.identify import RANK_CONDITION_LIMIT
+
+    test_index = np.repeat(np.arange(4), 10)
+    sigma = np.repeat([5e3, 5e3, 20e3, 20e3], 10).astype(float)
+    tau = 500.0 + 0.6 * sigma + np.random.default_rng(1).normal(0, 30, sigma.size)
+    design = np.column_stack([np.ones_like(sigma), sigma])
+    counts = np.array([[2, 2, 0, 0], [1, 1, 1, 1], [0, 1, 3, 0]])
+    beta, determined, condition = fit_linear_resamples(
+        design, tau, np.ones_like(sigma), test_index, counts, max_condition=RANK_CONDITION_LIMIT
+    )
+    assert determined.tolist() == [False, True, True]
+    assert np.isnan(beta[0]).all()
+    for b in (1, 2):
+        x = design * np.sqrt(counts[b][test_index])[:, None]
+        assert condition[b] == pytest.approx(np.linalg.cond(x / np.linalg.norm(x, axis=0)))

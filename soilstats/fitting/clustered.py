@@ -30,7 +30,7 @@ import numpy as np
 
 from .separable import _solve_rows
 
-__all__ = ["fit_clustered_resamples"]
+__all__ = ["fit_clustered_resamples", "fit_linear_resamples"]
 
 #: Taylor terms of e^{δu}; with |2δu| ≤ _REACH the remainder is below 2^31/31! ≈ 3e-25.
 _TERMS = 31
@@ -233,3 +233,100 @@ def _fit_rows(moments, g, counts, n0, rtol, max_iter):
             if not active.size:
                 break
     return theta, converged
+
+
+def fit_linear_resamples(
+    design: np.ndarray,
+    y: np.ndarray,
+    weights: np.ndarray,
+    test_index: np.ndarray,
+    counts: np.ndarray,
+    *,
+    max_condition: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weighted linear least squares y ≈ X·β for every row of ``counts``, in closed form.
+
+    The linear counterpart of :func:`fit_clustered_resamples` (Mohr–Coulomb, Eq. 15, is
+    linear in c and tan φ): resample b weights test i's samples by c_bi·w², so its normal
+    equations are ``counts @`` per-test sums of w²·XᵀX and w²·Xᵀy — (B, T)·(T, p²) products,
+    never (B, N) arrays.  The columns other than a constant one are centred at their
+    full-data weighted mean first (σ in Pa beside the intercept would square a condition of
+    10³–10⁴ into the normal equations); β is mapped back exactly.
+
+    Parameters
+    ----------
+    design : numpy.ndarray
+        (N, p) the design X (for Mohr–Coulomb: 1 and σ [Pa]).
+    y, weights : numpy.ndarray
+        (N,) measurements and sample weights w.
+    test_index : numpy.ndarray
+        Test of each sample, integers 0 … T−1.
+    counts : numpy.ndarray
+        (B, T) how often resample b drew test i.
+    max_condition : float
+        A resample whose column-equilibrated design has cond(X D⁻¹) above this does not
+        determine β (the identification's rank rule, ``RANK_CONDITION_LIMIT``).
+
+    Returns
+    -------
+    (beta, determined, condition)
+        (B, p) coefficients (NaN where not determined), the (B,) mask of determined rows and
+        (B,) cond(X D⁻¹) of the *uncentred* design, as the identification measures it.
+    """
+    x = np.asarray(design, float)
+    w2 = np.asarray(weights, float) ** 2
+    test_index = np.asarray(test_index)
+    counts = np.asarray(counts, float)
+    n_rows, n_tests = counts.shape
+    p = x.shape[1]
+    constant = np.flatnonzero(np.all(x == x[:1], axis=0))
+    shift = np.zeros(p)
+    if constant.size == 1:
+        shift = np.where(np.arange(p) == constant[0], 0.0, (w2 @ x) / w2.sum())
+    xc = x - shift
+    # Per-test sums of w²·xc_j·xc_k (j ≤ k) and w²·xc_j·y.
+    gram_t = np.empty((n_tests, p, p))
+    for j in range(p):
+        for k in range(j, p):
+            gram_t[:, j, k] = gram_t[:, k, j] = np.bincount(
+                test_index, weights=w2 * xc[:, j] * xc[:, k], minlength=n_tests
+            )
+    rhs_t = np.column_stack(
+        [np.bincount(test_index, weights=w2 * xc[:, j] * y, minlength=n_tests) for j in range(p)]
+    )
+    gram = (counts @ gram_t.reshape(n_tests, p * p)).reshape(n_rows, p, p)
+    rhs = counts @ rhs_t
+    # cond(X D⁻¹) of the uncentred design: X = xc·M with M = I + e_k·shiftᵀ/x_k.
+    unmix = np.eye(p)
+    if constant.size == 1:
+        unmix[constant[0]] += shift / x[0, constant[0]]
+    condition = _scaled_condition(unmix.T @ gram @ unmix)
+    determined = (condition <= max_condition) & (_scaled_condition(gram) <= max_condition)
+    beta = np.full((n_rows, p), np.nan)
+    if determined.any():
+        g, r = gram[determined], rhs[determined]
+        scale = np.sqrt(np.einsum("bii->bi", g))
+        solved = np.linalg.solve(
+            g / (scale[:, :, None] * scale[:, None, :]), (r / scale)[:, :, None]
+        )[:, :, 0]
+        solved /= scale
+        if constant.size == 1:  # back to the uncentred intercept
+            k = constant[0]
+            solved[:, k] -= (solved @ shift) / x[0, k]
+        beta[determined] = solved
+    determined &= np.isfinite(beta).all(axis=1)
+    return beta, determined, condition
+
+
+def _scaled_condition(gram: np.ndarray) -> np.ndarray:
+    """(B,) cond(X D⁻¹) = √(λmax/λmin) of each column-equilibrated Gram matrix XᵀX (inf when
+    singular or not finite)."""
+    diag = np.einsum("bii->bi", gram)
+    out = np.full(gram.shape[0], np.inf)
+    good = np.isfinite(gram).all(axis=(1, 2)) & (diag > 0).all(axis=1)
+    if good.any():
+        scale = np.sqrt(diag[good])
+        eig = np.linalg.eigvalsh(gram[good] / (scale[:, :, None] * scale[:, None, :]))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[good] = np.where(eig[:, 0] > 0, np.sqrt(eig[:, -1] / eig[:, 0]), np.inf)
+    return out

@@ -13,6 +13,8 @@ weighted least squares, started from the full-data estimate, with each test's we
 multiplied by the square root of how often it was drawn (the same normal equations as
 repeating its samples).  For the power laws all resamples are solved at once from per-test
 sums (:mod:`soilstats.fitting.clustered`); a resample that kernel leaves is refitted exactly.
+Mohr–Coulomb, linear in c and tan φ, is solved in closed form per resample (from per-test
+sums too), as its fit is (Section 2.2).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ..fitting.clustered import fit_clustered_resamples
+from ..fitting.clustered import fit_clustered_resamples, fit_linear_resamples
 from ..fitting.identify import RANK_CONDITION_LIMIT, _covariance
 from ..fitting.levenberg_marquardt import levenberg_marquardt
 from ..fitting.separable import BATCH_ELEMENTS, fit_separable_batch, refine_exponent
@@ -145,7 +147,18 @@ def bootstrap_tests(
     def resample_weights(rows) -> np.ndarray:  # w·√(times drawn) of each sample, (rows, N)
         return w * np.sqrt(counts[rows][:, test_index])
 
-    if model.separable is not None:
+    if model.linear_form is not None:
+        # Linear after a change of variables: every resample's exact optimum in closed form;
+        # one whose design does not determine the coefficients fails, as its LM would.
+        design_matrix, to_params = model.linear_form(x)
+        rows = np.flatnonzero(usable)
+        beta, determined, _ = fit_linear_resamples(
+            design_matrix, y, w, test_index, counts[rows], max_condition=RANK_CONDITION_LIMIT
+        )
+        theta[rows[determined]] = to_params(beta[determined])
+        done[rows[determined]] = True
+        usable = done.copy()  # nothing left for the exact refits below
+    elif model.separable is not None:
         # Power laws: every resample's exact optimum at once (variable projection, batched).
         basis, log_z = model.separable(x, np.ones_like(w))
         g = basis(0.0)  # (q, N) the basis without z^n

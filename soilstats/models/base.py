@@ -140,6 +140,11 @@ class Model:
         of shape (N,) or scalars) and the sinkage z (N,).  Gives :class:`PowerLawTerms`, from
         which the identification takes its closures and its variable projection (one ln z
         per fit, the projection in scalar arithmetic on precomputed moments).
+    linear_form : callable, optional
+        For models linear in their parameters after a change of variables (Mohr–Coulomb:
+        c and tan φ): ``linear_form(x) -> (X, to_params)`` with the (N, p) design X and
+        ``to_params`` mapping (B, p) coefficients of X to (B, p) model parameters.  The
+        bootstrap then solves every resample in closed form, as the fit itself is solved.
     """
 
     name: str
@@ -154,6 +159,7 @@ class Model:
     prepare: Callable | None = field(default=None, repr=False)
     separable: Callable | None = field(default=None, repr=False)
     power_law: Callable | None = field(default=None, repr=False)
+    linear_form: Callable | None = field(default=None, repr=False)
 
     def power_terms(self, x, weights) -> PowerLawTerms | None:
         """:class:`PowerLawTerms` of a power-law model for ``x`` and weights, else None."""

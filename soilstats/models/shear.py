@@ -30,6 +30,18 @@ def mohr_coulomb_jac(sigma, c, phi):
     )
 
 
+def mohr_coulomb_linear(sigma):
+    """Mohr–Coulomb as a linear model: the design [1, σ] of (c, tan φ), and the map of
+    those coefficients to (c [Pa], φ [deg])."""
+    sigma = np.asarray(sigma, float)
+
+    def to_params(beta):
+        beta = np.asarray(beta, float)
+        return np.column_stack([beta[:, 0], np.degrees(np.arctan(beta[:, 1]))])
+
+    return np.column_stack([np.ones_like(sigma), sigma]), to_params
+
+
 def janosi(x, c, phi, K):
     """τ = (c + σ tan φ)(1 − exp(−j/K)) (Eq. 13).  ``x = (σ [Pa], j [m])``; K in m."""
     sigma, j = x
@@ -59,6 +71,7 @@ MOHR_COULOMB = Model(
     bounds=((0.0, np.inf), (0.0, 90.0)),
     func=mohr_coulomb,
     jac=mohr_coulomb_jac,
+    linear_form=mohr_coulomb_linear,
 )
 
 JANOSI = Model(
