@@ -52,6 +52,7 @@ __all__ = [
     "Diagnosis",
     "add_responses",
     "diagnose_groups",
+    "training_responses",
 ]
 
 RESPONSES = {"sinkage": ("level", "shape"), "shear": ("level", "K")}
@@ -114,21 +115,43 @@ def add_responses(group):
     for r in RESPONSES[group.kind]:
         table[f"_dev_{r}"] = np.nan
     if base is not None:
-        theta = base.result.values
-        with np.errstate(divide="ignore", invalid="ignore"):
-            if group.kind == "sinkage":
-                if model.bekker:
-                    k_base = theta[0] / table["b_m"].to_numpy(float) + theta[1]
-                else:
-                    k_base = np.full(len(table), theta[0])
-                _sinkage_deviations(table, table.index, np.log(k_base), theta[-1])
-            else:
-                c, phi, k = theta[:3]
-                plateau = c + table["sigma_mean_Pa"].to_numpy(float) * np.tan(np.radians(phi))
-                _shear_deviations(table, table.index, plateau, k)
-        unused = np.setdiff1d(np.arange(len(table)), rows)
-        table.loc[table.index[unused], [f"_dev_{r}" for r in RESPONSES[group.kind]]] = np.nan
+        _base_deviations(table, group.kind, model, base.result.values, rows)
     return replace(group, tests=table), base, notes
+
+
+def _base_deviations(table: pd.DataFrame, kind: str, model, theta, rows) -> None:
+    """The responses of the tests ``rows`` (positions) against the base model ``model``
+    with parameters ``theta``, written into ``table``; every other test's are left NaN."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if kind == "sinkage":
+            if model.bekker:
+                k_base = theta[0] / table["b_m"].to_numpy(float) + theta[1]
+            else:
+                k_base = np.full(len(table), theta[0])
+            _sinkage_deviations(table, table.index, np.log(k_base), theta[-1])
+        else:
+            c, phi, k = theta[:3]
+            plateau = c + table["sigma_mean_Pa"].to_numpy(float) * np.tan(np.radians(phi))
+            _shear_deviations(table, table.index, plateau, k)
+    unused = np.setdiff1d(np.arange(len(table)), rows)
+    table.loc[table.index[unused], [f"_dev_{r}" for r in RESPONSES[kind]]] = np.nan
+
+
+def training_responses(group, base, rows) -> pd.DataFrame:
+    """The per-test responses of the tests ``rows`` only, against a base model fitted on
+    them (``base``: its extension and ``result.values``, e.g. a fold fit's
+    :class:`~.work.Start`); every other test's responses are NaN.
+
+    What diagnosis would have measured had only these tests been run — so that a
+    cross-validation fold can repeat diagnosis's F-tests without its held-out tests
+    (:mod:`.nested`): on all tests, the base model and so every response carry the
+    held-out tests too.
+    """
+    table = group.tests.copy()
+    for r in RESPONSES[group.kind]:
+        table[f"_dev_{r}"] = np.nan
+    _base_deviations(table, group.kind, base.extension, np.asarray(base.result.values), rows)
+    return table
 
 
 def _block_eligible(table: pd.DataFrame, cand: Candidate) -> bool:
@@ -368,12 +391,24 @@ def diagnose_groups(groups, *, alpha: float = 0.05) -> tuple[list[Diagnosis], pd
     # Silence is not evidence: the effect each test would have found (80 % power) at the
     # strictest Holm level α/m, in the response's units (:mod:`.power`).
     level = alpha / max(int(testable.sum()), 1)
+    table["holm_level"] = _holm_levels(table["p_value"].to_numpy(float), alpha)
     table["alpha_level"] = level
     table["mde"] = [
         minimum_detectable(r.sigma, r.mde_norm2, r.df1, r.df2, level) if ok else np.nan
         for r, ok in zip(table.itertuples(), testable, strict=True)
     ]
     return diags, table
+
+
+def _holm_levels(p: np.ndarray, alpha: float) -> np.ndarray:
+    """The level Holm's step-down compares each p-value with, α/(m − i) for the i-th
+    smallest (0-based) of the m finite ones; NaN for an untestable row.  A cross-validation
+    fold repeats a lead's test at this level on its training tests (:mod:`.nested`)."""
+    out = np.full(p.size, np.nan)
+    finite = np.flatnonzero(np.isfinite(p))
+    order = finite[np.argsort(p[finite], kind="stable")]
+    out[order] = alpha / (finite.size - np.arange(finite.size))
+    return out
 
 
 def _synthetic(group, rows):
