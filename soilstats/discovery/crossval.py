@@ -63,6 +63,11 @@ class Gain:
         error.
     real : bool
         ``difference > 2·stderr`` and ``relative > 0``.
+    selected_folds : int or None
+        Folds whose training tests chose the extension (the lead significant on them,
+        :mod:`.nested`); the others' held-out tests were predicted by the base model.  None
+        when the choice was not repeated per fold (leave-one-condition-out; forward
+        selection, :mod:`.selection`).
     """
 
     metric: str
@@ -75,13 +80,19 @@ class Gain:
     difference: float
     stderr: float
     real: bool
+    selected_folds: int | None = None
 
     def summary(self) -> str:
         """One line: the out-of-sample error before and after, and whether the gain is real."""
+        chosen = (
+            ""
+            if self.selected_folds is None
+            else f", chosen in {self.selected_folds} of {self.folds}"
+        )
         return (
             f"{self.metric} {self.base:.4g} -> {self.extended:.4g} ({self.relative:+.1%}; "
             f"difference {self.difference:.3g} ± {self.stderr:.2g}, {self.scheme}, "
-            f"{self.folds} folds): {'real' if self.real else 'not real'}"
+            f"{self.folds} folds{chosen}): {'real' if self.real else 'not real'}"
         )
 
     def to_dict(self) -> dict:
@@ -96,6 +107,7 @@ class Gain:
             "folds": self.folds,
             "n_tests": self.n_tests,
             "real": self.real,
+            "selected_folds": self.selected_folds,
         }
 
 
@@ -142,30 +154,53 @@ def per_test_error(group, rows, y_hat) -> np.ndarray:
     return sums[rows] / np.maximum(counts[rows], 1)
 
 
+#: A fold whose training tests did not choose the extension (:mod:`.nested`): its held-out
+#: tests are predicted by the base model.
+_BASE = object()
+
+
 class FoldFits:
     """The fold fits of one model, as :class:`~.work.FitTask` to run (``tasks``), then
     :meth:`collect`-ed into the fits and each test's held-out error.
 
     ``ext`` is fitted without each fold (started from ``starts[fold]`` when given: the base
-    model's fit of that fold) and predicts the fold's tests.  Planning and collecting are
-    apart so that the fold fits of several models can run in one wave (:mod:`.work`); the
-    tasks form one ``chain``: after a fold that fails, the rest need not run.
+    model's fit of that fold) and predicts the fold's tests.  ``ext`` may also be a mapping
+    fold → extension (the one each fold's training tests chose, :mod:`.nested`) or None:
+    that fold chose no extension, and its held-out errors are ``base_errors`` (the base
+    model's, same rows).  Planning and collecting are apart so that the fold fits of several
+    models can run in one wave (:mod:`.work`); the tasks form one ``chain``: after a fold
+    that fails, the rest need not run.
     """
 
     def __init__(
-        self, rows, ext, folds, *, scheme: str, starts: dict | None = None, chain=0
+        self,
+        rows,
+        ext,
+        folds,
+        *,
+        scheme: str,
+        starts: dict | None = None,
+        chain=0,
+        base_errors=None,
     ) -> None:
         self.rows = np.asarray(rows, int)
         self.folds = np.asarray(folds)
         self.scheme = scheme
-        self.plan: list[tuple[int, FitTask | None]] = []
+        self.base_errors = base_errors
+        self.plan: list[tuple[int, object]] = []
         for fold in np.unique(self.folds):
             train = self.rows[self.folds != fold]
             test = self.rows[self.folds == fold]
             start = None if starts is None else starts[int(fold)]
-            task = FitTask(ext, train, start, test, chain) if train.size >= 2 else None
+            model = ext.get(int(fold)) if isinstance(ext, dict) else ext
+            if model is None:
+                task = _BASE
+            else:
+                task = FitTask(model, train, start, test, chain) if train.size >= 2 else None
             self.plan.append((int(fold), task))
-        self.tasks = [task for _, task in self.plan if task is not None]
+        self.tasks = [task for _, task in self.plan if isinstance(task, FitTask)]
+        #: Folds whose extension was fitted (not predicted by the base model).
+        self.extended = sum(isinstance(task, FitTask) for _, task in self.plan)
 
     def collect(self, outcomes) -> tuple[dict, np.ndarray]:
         """(fits by fold, each test's held-out error) from the outcomes of ``tasks``.
@@ -177,6 +212,10 @@ class FoldFits:
         outcomes = iter(outcomes)
         fits, errors = {}, np.empty(self.rows.size)
         for fold, task in self.plan:
+            if task is _BASE:
+                fits[fold] = None
+                errors[self.folds == fold] = np.asarray(self.base_errors)[self.folds == fold]
+                continue
             if task is None:
                 raise IdentifiabilityError(
                     f"cross-validation fold {fold} ({self.scheme}): fewer than two training tests"
@@ -191,8 +230,9 @@ class FoldFits:
         return fits, errors
 
 
-def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
-    """The gain of the per-test errors ``e_ext`` over ``e_base`` (the same held-out tests)."""
+def compare(e_base, e_ext, *, scheme: str, folds, selected_folds: int | None = None) -> Gain:
+    """The gain of the per-test errors ``e_ext`` over ``e_base`` (the same held-out tests);
+    ``selected_folds``: see :class:`Gain`."""
     d = np.asarray(e_base) - np.asarray(e_ext)
     stderr = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else np.inf
     base, extended = float(np.sqrt(np.mean(e_base))), float(np.sqrt(np.mean(e_ext)))
@@ -208,6 +248,7 @@ def compare(e_base, e_ext, *, scheme: str, folds) -> Gain:
         difference=float(d.mean()),
         stderr=stderr,
         real=bool(d.mean() > Z_KEEP * stderr and relative > 0),
+        selected_folds=selected_folds,
     )
 
 

@@ -18,6 +18,7 @@ from .candidates import candidate_values, trend_on_log
 from .crossval import FoldFits, compare, cross_validation, information_criteria, make_folds
 from .diagnose import conditional_responses, retest
 from .extensions import base_model, library
+from .nested import fold_choices, fold_extensions
 from .plausibility import implausible
 from .result import Finding
 from .work import FIT_ERRORS, FitTask, Wave
@@ -106,9 +107,15 @@ def _physical_name(lead: str, extension: str, relations) -> str:
     return lead
 
 
-def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, rng, log_scale):
+def _try_extensions(
+    group, rows, lead, confounded, numeric, responses, levels, rng, log_scale, lead_table
+):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
+
+    Nested: each fold repeats, on its training tests, the choice of the lead and of the
+    responses it frees (:mod:`.nested`, from ``lead_table``, the lead's diagnosis rows); a
+    fold where the lead is not significant is predicted by the base model.
 
     Preference: a physical extension with a real gain and physically plausible parameters
     (no value outside its range, e.g. K0 > 1), else the generic one with a real gain, else the
@@ -124,9 +131,15 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
     """
     base_ext = base_model(group, rows)
     folds = make_folds(levels, "tests", rng)
-    extensions = library(
-        group, rows, lead, confounded, numeric=numeric, responses=responses, log_scale=log_scale
+    library_args = dict(
+        group=group,
+        rows=rows,
+        cause=lead,
+        related=confounded,
+        numeric=numeric,
+        log_scale=log_scale,
     )
+    extensions = library(**library_args, responses=responses)
     # One chain, in the order the base model is read: its fit on all tests, then the folds.
     base_plan = FoldFits(rows, base_ext, folds, scheme="tests", chain="base")
     first = yield Wave(group, [FitTask(base_ext, rows, chain="base"), *base_plan.tasks])
@@ -139,8 +152,17 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
         base_failure = exc  # every extension's cross-validation fails with it
     plans, tasks = [], []
     if base_failure is None:
+        choices = fold_choices(group, lead_table, rows, folds, starts)
         for i, ext in enumerate(extensions):  # chain i: the folds, then all tests
-            plan = FoldFits(rows, ext, folds, scheme="tests", starts=starts, chain=i)
+            plan = FoldFits(
+                rows,
+                fold_extensions(ext, choices, **library_args),
+                folds,
+                scheme="tests",
+                starts=starts,
+                chain=i,
+                base_errors=e_base,
+            )
             plans.append(plan)
             tasks += [*plan.tasks, FitTask(ext, rows, base_fitted, chain=i)]
     outcomes = iter((yield Wave(group, tasks, probe=True)))
@@ -153,7 +175,13 @@ def _try_extensions(group, rows, lead, confounded, numeric, responses, levels, r
             plan = plans[i]
             folds_out = [next(outcomes) for _ in plan.tasks]
             full = next(outcomes)
-            gain = compare(e_base, plan.collect(folds_out)[1], scheme="tests", folds=folds)
+            gain = compare(
+                e_base,
+                plan.collect(folds_out)[1],
+                scheme="tests",
+                folds=folds,
+                selected_folds=plan.extended,
+            )
             full.raise_error()
             fitted = full.fitted
         except FIT_ERRORS as exc:
@@ -196,7 +224,7 @@ def discover_group(diag, rows, leads, *, alpha, rng, max_leads):
                 explained.append(why)
                 continue
         finding = yield from _examine_lead(
-            g, diag.relations, lead_rows, top, lead, confounded_with, rng
+            g, diag.relations, lead_rows, top, lead, confounded_with, rng, rows
         )
         findings.append(finding)
         if finding.extension is not None:
@@ -231,10 +259,12 @@ def _explained_by(g, accepted, lead, top, responses, *, n_leads, alpha) -> dict 
     }
 
 
-def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng):
+def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng, rows):
     """Process (:mod:`.work`) of one finding: try the library's extensions on the tests in
-    scope, keep one only where its cross-validated gain is real, and state every caveat."""
+    scope, keep one only where its cross-validated gain is real, and state every caveat.
+    ``rows``: the group's diagnosis rows (each fold repeats the lead's test, :mod:`.nested`)."""
     scope = np.asarray(top["rows"], int)
+    lead_table = rows[rows["candidate"] == top["candidate"]]
     levels = candidate_values(g.tests, lead).astype(str).to_numpy()[scope]
     responses = tuple(lead_rows["response"])
     caveats = _caveats(lead_rows, lead, confounded_with)
@@ -253,6 +283,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng):
                 levels,
                 rng,
                 log_scale=trend_on_log(top["role"]),
+                lead_table=lead_table,
             )
         except (ConvergenceError, IdentifiabilityError) as exc:
             caveats.append(f"cross-validation on the tests in scope failed: {exc}")
@@ -321,7 +352,10 @@ def _condition_gain(g, scope, base_ext, ext, levels, rng, caveats: list):
     """Leave-one-condition-out gain: does the extension predict a condition it never saw?
 
     Only for trends a formula can carry to a new level (physical or linear extensions, three
-    or more levels); softening has no such level.  A failure becomes a caveat.
+    or more levels); softening has no such level.  A failure becomes a caveat.  Not nested
+    (:mod:`.nested`): it asks whether the extension carries to an unseen condition, not
+    whether the other conditions alone would have shown the lead (without one of three
+    velocities the rest often do not), and it never decides what is kept.
     """
     if np.unique(levels).size < 3 or ext.name == "softening":
         return None

@@ -146,8 +146,10 @@ class Finding:
         ]
         if self.gain is not None:
             g = self.gain
+            chosen = "" if g.selected_folds is None else f", lead chosen in {g.selected_folds}"
             lines.append(
-                f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds): "
+                f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds"
+                f"{chosen}): "
                 f"base {g.base:.4f} -> extended {g.extended:.4f} (gain {g.relative:+.1%}, paired "
                 f"difference {g.difference:.3g} +/- {g.stderr:.2g})"
             )
