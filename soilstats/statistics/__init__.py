@@ -10,6 +10,7 @@ raise unless ``dropna=True``, and are then counted in the result.
 :func:`anova_twoway`          factor + blocking factor(s), type II sums of squares
 :func:`anova_random_block`    the same with one random block (operators): factor against
                               the factor × block mean square
+:func:`welch_random_block`    the same with one variance per factor level (unequal scatter)
 :func:`ancova`                shear lines τ = c + σ·tanφ by group: do c, φ differ?
 :func:`tukey_hsd`             which pairs of levels differ (simultaneous intervals)
 :func:`tukey_lsmeans`         the same on least-squares means of a blocked model
@@ -44,6 +45,8 @@ _LAZY = {
     "effect_sizes": ".effect_size",
     "anova_oneway": ".oneway",
     "anova_random_block": ".mixed",
+    "shukla_variances": ".hetero",
+    "welch_random_block": ".hetero",
     "tukey_hsd": ".posthoc",
     "tukey_lsmeans": ".posthoc",
     "TestResult": ".result",
@@ -61,6 +64,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from ._data import ConfoundingError, StatisticsInputError
     from .analysis_of_covariance import AncovaResult, ancova
     from .effect_size import effect_sizes
+    from .hetero import shukla_variances, welch_random_block
     from .mixed import anova_random_block
     from .oneway import anova_oneway
     from .posthoc import tukey_hsd, tukey_lsmeans
@@ -86,9 +90,11 @@ __all__ = [
     "effect_row",
     "effect_sizes",
     "scatter_table",
+    "shukla_variances",
     "tukey_hsd",
     "tukey_lsmeans",
     "variance_test",
     "verdicts",
     "welch_anova",
+    "welch_random_block",
 ]

@@ -20,11 +20,14 @@ whose expectation holds the same σ_γ² term as the factor's:
     F = MS_factor / MS_factor×random   on (df_factor, df_factor×random).
 
 For a balanced design (equal counts in every cell) this F has exactly the F distribution
-under the null, whatever σ_o and σ_γ; for unbalanced data it is an approximation (the
-expected mean squares then weigh σ_γ² slightly differently), stated in ``attrs["balanced"]``.
-It is preferred here over a REML fit (``statsmodels`` ``MixedLM``) because it is exact for
-the designs studies use, needs no iteration that can fail to converge with three operators,
-and costs one least-squares fit per term.
+under the null, whatever σ_o and σ_γ, as long as every factor level has the same σ_γ and
+test-to-test scatter; for unbalanced data it is an approximation (the expected mean squares
+then weigh σ_γ² slightly differently), stated in ``attrs["balanced"]``.  Where the levels
+scatter unequally (preparation methods: stiffness cv 0.08–0.32) use
+:func:`soilstats.statistics.welch_random_block`, which gives each level its own variance.
+This F is preferred over a REML fit (``statsmodels`` ``MixedLM``) because it is exact for the
+designs studies use, needs no iteration that can fail to converge with three operators, and
+costs one least-squares fit per term.
 
 Sums of squares are type II, as :func:`anova_twoway`: each term after every term that does
 not contain it (the factor and the random block after the other main effects, the
