@@ -176,9 +176,12 @@ def _effects_table(doc: Document, result) -> None:
         table,
         caption=f"Effect of {column_label(spec.factor)} per soil and response (Holm family: "
         + ("the whole study" if spec.family is None else f"each {spec.family}")
-        + "). Largest difference and margin on the response's scale (log₁₀ for pressures).",
+        + "). Largest difference and margin on the response's scale (log₁₀ for pressures). "
+        "p is that of the test named below the table: F of the ANOVA, or A, the Welch-type "
+        "statistic with one variance per level (parametric bootstrap p), where operators are "
+        "random.",
         labels={
-            "statistic": "F",
+            "statistic": "F or A",
             "effect_size": "η² (partial)",
             "largest_difference": "largest difference",
             "largest_pair": "between",
@@ -245,7 +248,9 @@ def _anova_tables(doc: Document, result) -> None:
             table["term"] = [column_label(t) if t != "Residual" else t for t in table["term"]]
         doc.table(
             table,
-            caption="Analysis-of-variance tables (statsmodels) behind the verdicts.",
+            caption="Analysis-of-variance tables behind the verdicts. A row '… (one variance "
+            "per level)' holds the Welch-type statistic A and its bootstrap p: that p decides, "
+            "not the pooled F above it.",
             labels={
                 "PR(>F)": "p",
                 "sum_sq": "sum of squares",
