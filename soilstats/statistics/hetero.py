@@ -29,8 +29,8 @@ and denominator, so the F has far fewer effective degrees of freedom than (k −
    (df o − 1 per variance) gave a test that never rejected (0.000 on the null, 400 campaigns).
 
 Measured on the bundled preparation design (docs/studies.md): any significant method verdict
-in 0.043 of 400 null campaigns (0.142 with the pooled F), and a × 1.26 pressure of method 13
-found after Holm in 0.81 of 150 campaigns on soil01 (0.32): the precise methods are no longer
+in 0.030 of 400 null campaigns (0.142 with the pooled F), and a × 1.26 pressure of method 13
+found after Holm in 0.87 of 150 campaigns on soil01 (0.32): the precise methods are no longer
 compared against the shovel methods' scatter.
 """
 
