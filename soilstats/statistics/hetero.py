@@ -41,9 +41,9 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from ._data import StatisticsInputError, prepare
+from ._data import StatisticsInputError
+from .mixed import random_block_input
 from .result import TestResult
-from .twoway import _check_estimable
 
 __all__ = ["shukla_variances", "welch_random_block"]
 
@@ -189,13 +189,7 @@ def welch_random_block(
     ConfoundingError
         The factor cannot be separated from the blocks.
     """
-    blocks = [blocks] if isinstance(blocks, str) else list(blocks)
-    if random not in blocks:
-        raise StatisticsInputError(
-            f"the random block must be one of the blocks {blocks}", column=random
-        )
-    frame, _ = prepare(data, [response], [factor, *blocks], dropna=dropna)
-    _check_estimable(frame, factor, blocks)
+    blocks, frame, _ = random_block_input(data, response, factor, blocks, random, dropna=dropna)
     fixed = [b for b in blocks if b != random]
     means, s2, df, c, levels = _cell_fit(frame, response, factor, fixed, random)
     k, o = means.shape

@@ -65,6 +65,20 @@ def _cells(frame: pd.DataFrame, a: str, b: str) -> np.ndarray:
     return np.eye(codes.max() + 1)[codes]
 
 
+def random_block_input(data, response: str, factor: str, blocks, random: str, *, dropna: bool):
+    """(blocks as a list, the prepared frame, rows dropped) for a test of ``factor`` with
+    ``random`` one of ``blocks``: the input checks both random-block tests share (this
+    module's and :func:`.hetero.welch_random_block`)."""
+    blocks = [blocks] if isinstance(blocks, str) else list(blocks)
+    if random not in blocks:
+        raise StatisticsInputError(
+            f"the random block must be one of the blocks {blocks}", column=random
+        )
+    frame, n_dropped = prepare(data, [response], [factor, *blocks], dropna=dropna)
+    _check_estimable(frame, factor, blocks)
+    return blocks, frame, n_dropped
+
+
 def anova_random_block(
     data: pd.DataFrame,
     response: str,
@@ -112,13 +126,9 @@ def anova_random_block(
         only); or no replicate within the factor × random cells (the residual of the
         additive model is then the interaction: test with :func:`anova_twoway`).
     """
-    blocks = [blocks] if isinstance(blocks, str) else list(blocks)
-    if random not in blocks:
-        raise StatisticsInputError(
-            f"the random block must be one of the blocks {blocks}", column=random
-        )
-    frame, n_dropped = prepare(data, [response], [factor, *blocks], dropna=dropna)
-    _check_estimable(frame, factor, blocks)
+    blocks, frame, n_dropped = random_block_input(
+        data, response, factor, blocks, random, dropna=dropna
+    )
     y = frame[response].to_numpy(dtype=np.float64)
     y = y - np.median(y)  # changes no sum of squares, keeps the fits well scaled
     inter = f"{factor}:{random}"
