@@ -17,7 +17,9 @@ responses the fold chose (:func:`fold_extensions`).
 Not repeated (docs/discover.md, "Known gaps"): the Holm family over the other candidates
 (the level of each response is kept as it was on all tests), which candidate of a
 confounded group leads, which extension of the library is kept, the leave-one-condition-out
-gain (:func:`.leads._condition_gain`) and forward selection (:mod:`.selection`).  And
+gain (:func:`.leads._condition_gain`), forward selection (:mod:`.selection`), and the
+reference depth of the ``level`` response (half the median depth reached, taken over all
+tests of the group, held-out ones included).  And
 the gain is still reported only for leads that were significant on all tests: conditional
 on that, the held-out tests share some of the chance pattern that made the lead
 significant (docs/discover.md, "Gain").

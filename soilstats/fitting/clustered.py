@@ -265,7 +265,10 @@ def fit_linear_resamples(
         (B, T) how often resample b drew test i.
     max_condition : float
         A resample whose column-equilibrated design has cond(X D⁻¹) above this does not
-        determine β (the identification's rank rule, ``RANK_CONDITION_LIMIT``).
+        determine β (the identification's rank rule, ``RANK_CONDITION_LIMIT``).  The
+        condition is read from the eigenvalues of the Gram matrix, which resolve it to about
+        1e7; beyond that it reads inf, so such a resample fails where the LM's limit is 1e12
+        (the bootstrap screens resamples by the spread of σ first, which removes them).
 
     Returns
     -------

@@ -177,11 +177,11 @@ def _effects_table(doc: Document, result) -> None:
         caption=f"Effect of {column_label(spec.factor)} per soil and response (Holm family: "
         + ("the whole study" if spec.family is None else f"each {spec.family}")
         + "). Largest difference and margin on the response's scale (log₁₀ for pressures). "
-        "p is that of the test named below the table: F of the ANOVA, or A, the Welch-type "
-        "statistic with one variance per level (parametric bootstrap p), where operators are "
-        "random.",
+        "p is that of the test named below the table; where operators are random it is the "
+        "larger of the F's p and that of the Welch-type test with one variance per level "
+        "(both must reject).",
         labels={
-            "statistic": "F or A",
+            "statistic": "F",
             "effect_size": "η² (partial)",
             "largest_difference": "largest difference",
             "largest_pair": "between",
@@ -249,8 +249,8 @@ def _anova_tables(doc: Document, result) -> None:
         doc.table(
             table,
             caption="Analysis-of-variance tables behind the verdicts. A row '… (one variance "
-            "per level)' holds the Welch-type statistic A and its bootstrap p: that p decides, "
-            "not the pooled F above it.",
+            "per level)' holds the Welch-type statistic A and its bootstrap p; with it, the "
+            "larger of its p and the F's above it decides.",
             labels={
                 "PR(>F)": "p",
                 "sum_sq": "sum of squares",

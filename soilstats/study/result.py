@@ -144,7 +144,7 @@ class StudyResult:
         if not self.effects.empty:
             for _, r in self.effects.iterrows():
                 lines.append(
-                    f"  {r['soil']:<14} {r['response']:<12} {_stat(r['test'])} = "
+                    f"  {r['soil']:<14} {r['response']:<12} F = "
                     f"{r['statistic']:9.3g}  p = {r['p_value']:.3g}  "
                     f"p_Holm = {r['p_adjusted']:.3g}  -> {r['verdict']}"
                 )
@@ -165,8 +165,3 @@ class StudyResult:
 
     def __str__(self) -> str:
         return self.summary()
-
-
-def _stat(test: str) -> str:
-    """The statistic's letter: A for the Welch-type test (one variance per level), else F."""
-    return "A" if "one variance per" in str(test) else "F"
