@@ -85,18 +85,13 @@ def tukey_hsd(
         )
     y = frame[response].to_numpy(dtype=float)
     res = pairwise_tukeyhsd(y - y.mean(), labels.to_numpy(), alpha=alpha)
-    out = pd.DataFrame(
-        {
-            "group1": res.group_c,
-            "group2": res.group_t,
-            "meandiff": res.meandiffs,
-            "p_adj": res.pvalues,
-            "lower": res.confint[:, 0],
-            "upper": res.confint[:, 1],
-            "reject": res.reject.astype(bool),
-        }
-    )
-    out.attrs.update(
+    return _pairs_frame(
+        res.group_c,
+        res.group_t,
+        res.meandiffs,
+        res.pvalues,
+        res.confint,
+        res.reject.astype(bool),
         test="Tukey HSD",
         alpha=alpha,
         response=response,
@@ -104,7 +99,6 @@ def tukey_hsd(
         n_obs=len(frame),
         n_dropped=n_dropped,
     )
-    return out
 
 
 def tukey_lsmeans(
@@ -207,19 +201,14 @@ def tukey_lsmeans(
     q = np.abs(diff) / se * np.sqrt(2.0)
     p_adj = np.atleast_1d(studentized_range.sf(q, k, df))
     half = q_crit / np.sqrt(2.0) * se
-    out = pd.DataFrame(
-        {
-            "group1": levels[i1],
-            "group2": levels[i2],
-            "meandiff": diff,
-            "p_adj": np.clip(p_adj, 0.0, 1.0),
-            "lower": diff - half,
-            "upper": diff + half,
-            "reject": q > q_crit,
-            "std_err": se,
-        }
-    )
-    out.attrs.update(
+    return _pairs_frame(
+        levels[i1],
+        levels[i2],
+        diff,
+        np.clip(p_adj, 0.0, 1.0),
+        np.column_stack([diff - half, diff + half]),
+        q > q_crit,
+        std_err=se,
         test="Tukey–Kramer on least-squares means"
         + (f" (blocks {', '.join(blocks)})" if blocks else ""),
         alpha=alpha,
@@ -230,4 +219,22 @@ def tukey_lsmeans(
         n_obs=len(frame),
         n_dropped=n_dropped,
     )
+
+
+def _pairs_frame(group1, group2, meandiff, p_adj, interval, reject, *, std_err=None, **attrs):
+    """The pairs table both Tukey functions return: ``group1, group2, meandiff, p_adj, lower,
+    upper, reject`` (and ``std_err`` when given), ``attrs`` as given."""
+    columns = {
+        "group1": group1,
+        "group2": group2,
+        "meandiff": meandiff,
+        "p_adj": p_adj,
+        "lower": interval[:, 0],
+        "upper": interval[:, 1],
+        "reject": reject,
+    }
+    if std_err is not None:
+        columns["std_err"] = std_err
+    out = pd.DataFrame(columns)
+    out.attrs.update(attrs)
     return out
