@@ -157,7 +157,6 @@ def bootstrap_tests(
         )
         theta[rows[determined]] = to_params(beta[determined])
         done[rows[determined]] = True
-        usable = done.copy()  # nothing left for the exact refits below
     elif model.separable is not None:
         # Power laws: every resample's exact optimum at once (variable projection, batched).
         basis, log_z = model.separable(x, np.ones_like(w))
@@ -176,7 +175,10 @@ def bootstrap_tests(
             theta[rows], done[rows] = fit_separable_batch(
                 g, log_z, y, resample_weights(rows), start[-1]
             )
-    for i in np.flatnonzero(usable & ~done):  # other models, and what the batch left
+    # Other models, and what the power-law batch left; the closed form leaves nothing an LM
+    # could determine.
+    left = np.flatnonzero(usable & ~done) if model.linear_form is None else ()
+    for i in left:
         refit = _refit(model, x, y, resample_weights([i])[0], start)
         if refit is not None:
             theta[i], done[i] = refit, True
