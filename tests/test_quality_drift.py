@@ -9,6 +9,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from quality_sim import plate_spec, raw_tables
 
@@ -180,6 +181,24 @@ def test_a_column_naming_each_test_does_not_silence_the_rule():
     tests, sinkage = _raw(campaign)
     dated = tests.assign(date=[f"2026-11-{i:02d}" for i in range(1, len(tests) + 1)])
     assert _drift_flags(Campaign.from_frames(dated, sinkage)) == _drift_flags(campaign) != set()
+
+
+def test_a_start_time_column_orders_the_tests():
+    # A log in no particular row order, without repetition numbers, but with the time each
+    # test started: the drift follows the clock, and only the clock shows it.
+    campaign = drifted(seed=4, step=0.02)
+    tests, sinkage = _raw(campaign)
+    run = (tests["repetition"] - 1) * 10 + tests.groupby("repetition").cumcount()
+    start = pd.Timestamp("2026-11-24 08:00") + pd.to_timedelta(run * 12, unit="min")
+    tests = tests.assign(start_time=start.dt.strftime("%Y-%m-%dT%H:%M"))
+    shuffled = tests.sample(frac=1.0, random_state=1).drop(columns="repetition")
+    log = Campaign.from_frames(shuffled, sinkage)
+    later = set(tests.loc[tests["repetition"] > 1, "test_id"])
+    flags = [f for f in screen(log).flags if f.code == "zero-drift"]
+    assert {f.test_id for f in flags} == later
+    assert all(", in start_time)" in f.message for f in flags)
+    # Without the clock the shuffled rows are all the order there is: the drift is lost.
+    assert _drift_flags(Campaign.from_frames(shuffled.drop(columns="start_time"), sinkage)) != later
 
 
 def test_one_or_two_drifted_tests_do_not_explain_an_order_effect():

@@ -38,6 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ..campaign.times import time_hours
+
 __all__ = [
     "FIT_COLUMNS",
     "ROLES",
@@ -160,30 +162,6 @@ def _rounded(values: pd.Series) -> pd.Series:
         mag = np.where(x != 0, np.floor(np.log10(np.abs(x))), 0.0)
     scale = 10.0 ** (8 - np.nan_to_num(mag))
     return pd.Series(np.round(x * scale) / scale, index=values.index)
-
-
-_TIME_TEXT = r"\d{4}-\d{2}-\d{2}|\d{1,2}:\d{2}"
-
-
-def time_hours(col: pd.Series) -> pd.Series | None:
-    """A column of dates/times as hours since its earliest value, or None if it is not one.
-
-    Text counts as a time when at least 90 % of the recorded values look like an ISO date or
-    a clock time and parse (``2024-05-02T09:15``, ``2024-05-02 09:15:00+02:00``, ``09:15``).
-    """
-    if pd.api.types.is_datetime64_any_dtype(col):
-        stamps = pd.to_datetime(col, utc=True)
-    elif pd.api.types.is_object_dtype(col) or pd.api.types.is_string_dtype(col):
-        text = col.dropna().astype(str)
-        if text.empty or text.str.contains(_TIME_TEXT, regex=True).mean() < 0.9:
-            return None
-        stamps = pd.to_datetime(col, errors="coerce", utc=True, format="mixed")
-        if stamps.notna().sum() < 0.9 * col.notna().sum():
-            return None
-    else:
-        return None
-    hours = (stamps - stamps.min()).dt.total_seconds() / 3600.0
-    return hours.astype(float)
 
 
 def with_time_hours(table: pd.DataFrame) -> tuple[pd.DataFrame, tuple[str, ...]]:

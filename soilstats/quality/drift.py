@@ -13,8 +13,9 @@ start forces scatter around one value; a drifting zero makes them trend with tes
 
 *Series* are the tests of one soil and kind with the same setup (every log column but the
 test's name, ``operator`` and the order columns); *test order* inside a series is the first
-of :data:`ORDER_COLUMNS` that every test of the series has (a sequence number, else
-``repetition``), ties and else the log's row order. The
+of :data:`ORDER_COLUMNS` that every test of the series has (a sequence number, else a
+date/time column such as ``start_time``, else ``repetition``), ties and else the log's row
+order. The
 statistic is Kendall's S between test order and start force, summed over the series of a
 soil (stratified: only tests of one series are compared), with its exact permutation
 distribution (start forces shuffled within each series; ties kept). A soil is judged
@@ -35,6 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+
+from ..campaign.times import time_hours
 
 __all__ = [
     "DRIFT_ALPHA",
@@ -65,7 +68,8 @@ SERIES_P = 0.1
 #: soil with a longer series uses the normal approximation (tie-corrected variance).
 MAX_EXACT = 60
 #: Log columns read as test order, first found first (a sequence over the day before the
-#: repetition within a condition; discovery reads the same names as time/order).
+#: repetition within a condition; discovery reads the same names as time/order).  Any
+#: date/time column comes just before ``repetition`` (:func:`_order_sources`).
 ORDER_COLUMNS = ("sequence", "seq", "order", "run", "test_order", "test_number", "repetition")
 #: Log columns that are no part of a test's setup (besides the order columns).
 NOT_SETUP = ("test_id", "operator", "n_samples")
@@ -204,20 +208,38 @@ def _series(log: pd.DataFrame) -> pd.Series:
     return pd.Series(np.unique(codes, axis=0, return_inverse=True)[1].ravel(), index=log.index)
 
 
+def _order_sources(tests: pd.DataFrame) -> list[tuple[str, pd.Series]]:
+    """What test order may be read from, first found first: the numeric columns of
+    :data:`ORDER_COLUMNS` before ``repetition``, then every date/time column (as hours,
+    :func:`~soilstats.campaign.times.time_hours`), then ``repetition`` — when a test ran
+    orders a day's tests across conditions; a repetition number only within one."""
+    names = {str(c).lower(): c for c in tests.columns}
+    sources = []
+    for name in ORDER_COLUMNS:
+        if name == "repetition":
+            for column in tests.columns:
+                if column in NOT_SETUP or pd.api.types.is_numeric_dtype(tests[column]):
+                    continue
+                hours = time_hours(tests[column])
+                if hours is not None:
+                    sources.append((str(column), hours))
+        column = names.get(name)
+        if column is not None and pd.api.types.is_numeric_dtype(tests[column]):
+            sources.append((str(column), tests[column]))
+    return sources
+
+
 def _in_order(tests: pd.DataFrame) -> tuple[pd.DataFrame, pd.Series]:
     """``tests`` sorted by soil, series and test order, and what each series' order was read
-    from (by series): the first of :data:`ORDER_COLUMNS` that every test of the series has,
-    ties and else the log's row order. One sort for all series (10,000 tests: ~1,000)."""
-    names = {str(c).lower(): c for c in tests.columns}
+    from (by series): the first source of :func:`_order_sources` that every test of the
+    series has, ties and else the log's row order. One sort for all series (10,000 tests:
+    ~1,000)."""
     order = pd.Series(np.nan, index=tests.index)
     source = pd.Series("log row order", index=tests.index)
     done = pd.Series(False, index=tests.index)
-    for name in ORDER_COLUMNS:
-        column = names.get(name)
-        if column is None or not pd.api.types.is_numeric_dtype(tests[column]):
-            continue
-        full = tests[column].notna().groupby(tests["series"]).transform("all") & ~done
-        order[full], source[full], done = tests.loc[full, column], str(column), done | full
+    for label, values in _order_sources(tests):
+        full = values.notna().groupby(tests["series"]).transform("all") & ~done
+        order[full], source[full], done = values[full], label, done | full
     keys = (tests["row"].to_numpy(), order.fillna(0.0).to_numpy(float), tests["series"])
     ranked = tests.iloc[np.lexsort(keys)]
     return ranked, source.groupby(tests["series"]).first()
