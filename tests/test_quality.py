@@ -274,10 +274,16 @@ def test_a_copied_record_is_flagged_and_left_out_so_sigma_does_not_shrink():
     fit = fit_sinkage(doubled, "bernstein", test_resamples=100, seed=1)
     assert fit.n_tests == clean.n_tests and fit.nobs == clean.nobs
     np.testing.assert_allclose(fit.stderr_tests, clean.stderr_tests, rtol=1e-12)
-    # In flag mode the copy is reported and kept.
+    # In flag mode the copy is reported and kept — and a fit of it says so: it counts the
+    # record twice (σ shrinks by √2), which its health used to pass over in silence.
     flagged = screen(doubled, "flag")
     assert not any(f.excluded for f in flagged.flagged() if f.code == "duplicate")
     assert len(flagged.campaign.tests) == 2 * len(grc.tests)
+    kept = fit_sinkage(doubled, "bernstein", quality="flag")
+    assert kept.n_tests == 2 * clean.n_tests
+    flag = next(f for f in kept.flags if f.code == "duplicate")
+    assert flag.message.startswith(f"{len(grc.tests)} of {2 * len(grc.tests)} tests")
+    assert "duplicate" not in {f.code for f in fit.flags}  # left out: nothing to flag
 
 
 def test_flat_dead_channels_over_one_z_grid_are_not_called_copies():

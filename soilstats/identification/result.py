@@ -133,8 +133,9 @@ class CampaignFit(FitResult):
         return head + "\n".join(lines) + "\nHealth:" + tail
 
 
-#: Screening codes that stay findings of a fit (spikes and pre-contact samples are left out
-#: in the default mode; load-capped is reported as a note: it is a fact of the design).
+#: Screening codes that stay findings of a fit (spikes, pre-contact samples and the later
+#: copy of a duplicate are left out in the default mode; load-capped is reported as a note:
+#: it is a fact of the design).
 _FIT_CODES = (
     "spike",
     "pre-contact",
@@ -143,6 +144,7 @@ _FIT_CODES = (
     "non-monotone",
     "saturation",
     "zero-drift",
+    "duplicate",
 )
 
 

@@ -129,7 +129,8 @@ CODES: dict[str, QualityCode] = {
             "Two tests are two preparations; a copied record counts one preparation twice. "
             "The pooled fit weighs it double and the test-level σ shrinks (by √2 when every "
             "test is doubled), so the campaign looks better replicated than it is.",
-            "Nothing by default: the later copy is left out of every fit and listed. Find out "
+            "Nothing by default: the later copy is left out of every fit and listed (with "
+            "--quality flag it is kept and a fit of it carries the flag). Find out "
             "which test the copy should have been (an export or file-naming slip).",
             excluded=True,
         ),
