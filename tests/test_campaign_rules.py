@@ -219,6 +219,25 @@ def test_repeated_column_name(write_campaign):
     assert (info.value.file, info.value.column) == ("tests.csv", "soil")
 
 
+@pytest.mark.parametrize(
+    ("table", "position"),
+    [
+        ("tests", 1),  # written by DataFrame.to_csv() with its default index=True
+        ("sinkage", 4),  # a comma at the end of every line
+    ],
+)
+def test_a_column_without_a_name_is_refused(write_campaign, campaign_frames, table, position):
+    # pandas named it 'Unnamed: k' and the log's row numbers became a covariate.
+    frames = dict(campaign_frames)
+    text = frames[table].to_csv(index=table == "tests")
+    if position == 4:
+        text = "".join(line + ",\n" for line in text.splitlines())
+    frames[table] = text
+    with pytest.raises(CampaignError, match=f"column {position} of .* has no name") as info:
+        load_campaign(write_campaign(**frames))
+    assert info.value.file == f"{table}.csv" and "index=False" in str(info.value)
+
+
 def test_missing_tests_file(write_campaign, campaign_frames):
     folder = write_campaign(sinkage=campaign_frames["sinkage"])
     with pytest.raises(CampaignError, match=r"no tests\.csv or tests\.parquet"):

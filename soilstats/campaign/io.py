@@ -114,7 +114,8 @@ def read_table(path: Path) -> pd.DataFrame:
     Raises
     ------
     CampaignError
-        If the file cannot be read or parsed, or a column name appears twice.
+        If the file cannot be read or parsed, a column name appears twice or a column has
+        no name.
     """
     name = path.name
     try:
@@ -130,6 +131,16 @@ def read_table(path: Path) -> pd.DataFrame:
                     "name must be unique — rename or remove the repeated column",
                     file=name,
                     column=dup[0],
+                )
+            # pandas would name a nameless column 'Unnamed: k' and keep it as a covariate:
+            # a to_csv index became a cause discovery tested (the row numbers).
+            blank = [k for k, c in enumerate(header, start=1) if not c.strip()]
+            if blank:
+                raise CampaignError(
+                    f"column {blank[0]} of {len(header)} in the header has no name; every "
+                    "column needs one — an index written by pandas' to_csv (pass "
+                    "index=False), or a comma at the end of every line? Name or remove it",
+                    file=name,
                 )
             # index_col=False: a row with extra fields must not silently become an index.
             with warnings.catch_warnings():
