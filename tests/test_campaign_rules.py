@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from soilstats.campaign import Campaign, load_campaign
-from soilstats.errors import CampaignError
+from soilstats.errors import CampaignError, SoilstatsWarning
 
 # Row numbers of the fixture campaign (see conftest): tests.csv c1=1, r1=2, s1=3;
 # sinkage.csv rows c1=1,2,4 and r1=3,5; shear.csv s1=1,2.
@@ -236,6 +236,18 @@ def test_a_column_without_a_name_is_refused(write_campaign, campaign_frames, tab
     with pytest.raises(CampaignError, match=f"column {position} of .* has no name") as info:
         load_campaign(write_campaign(**frames))
     assert info.value.file == f"{table}.csv" and "index=False" in str(info.value)
+
+
+def test_soil_names_that_differ_only_in_case_or_blanks_are_warned_of(campaign_frames):
+    # Loaded silently before: 'soil01 ' and 'Soil01' became soils of one test each.
+    tests = campaign_frames["tests"].copy()
+    first = tests["soil"].iloc[0]
+    tests.loc[tests.index[1], "soil"] = first.upper() + " "
+    with pytest.warns(SoilstatsWarning, match="column 'soil': .* differ only in case") as rec:
+        campaign = Campaign.from_frames(**{**campaign_frames, "tests": tests})
+    assert str(tests["test_id"].iloc[1]) in str(rec[0].message)
+    assert campaign.tests["soil"].nunique() == campaign_frames["tests"]["soil"].nunique() + 1
+    Campaign.from_frames(**campaign_frames)  # one spelling each: no warning (errors here)
 
 
 def test_missing_tests_file(write_campaign, campaign_frames):
