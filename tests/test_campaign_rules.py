@@ -289,6 +289,8 @@ def test_derived_column_in_input_must_agree(campaign_frames):
     with pytest.raises(CampaignError, match="computed by soilstats") as info:
         Campaign.from_frames(**campaign_frames)
     assert (info.value.column, info.value.test_id, info.value.row) == ("area_m2", "c1", 1)
+    # Plain numbers, not numpy's reprs ('np.float64(1.0)').
+    assert "the value given, 1.0, differs from the computed 0.00785398" in str(info.value)
 
 
 def test_file_problems_raise_even_when_skipping(write_campaign, campaign_frames):

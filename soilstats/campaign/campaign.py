@@ -66,14 +66,19 @@ def _check_derived(
         return
     i = int(np.flatnonzero(~ok)[0])
     raise CampaignError(
-        f"this column is computed by soilstats, and the value given, {given.iloc[i]!r}, differs "
-        f"from the computed {c[i]!r} — drop the column (soilstats adds it; see "
+        f"this column is computed by soilstats, and the value given, {_cell(given.iloc[i])}, "
+        f"differs from the computed {float(c[i])!r} — drop the column (soilstats adds it; see "
         "docs/campaign-format.md for how it is computed)",
         file=name,
         column=col,
         test_id=str(ids.iloc[i]),
         row=int(given.index[i]) + 1,
     )
+
+
+def _cell(value) -> str:
+    """A cell as its file shows it: text quoted, a number (Parquet) as a plain float."""
+    return repr(value) if isinstance(value, str) else repr(float(value))
 
 
 def _derive(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> dict[str, pd.DataFrame]:
