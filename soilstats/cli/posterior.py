@@ -298,10 +298,25 @@ def run(args: argparse.Namespace) -> int:
     if failures and not args.force:
         for text in failures:
             print(f"error: {text}", file=sys.stderr)
+        advice = (
+            "select fewer conditions, window the data (--z-max), state narrower --prior "
+            "ranges, or pass --force to write them anyway (marked FORCED; unphysical draws are "
+            "left out)"
+        )
+        if args.population:
+            # Where the tests agree to within their noise, the scatter sds (sd_stiffness,
+            # sd_n; sd_strength, sd_lnK) pile up at 0, the boundary of their support, and
+            # the chains mix badly there (a review: R-hat up to 2.0 on zero-scatter data).
+            advice = (
+                "With --population: if the tests agree to within their noise, the scatter "
+                "sds sit at 0 and the chains cannot mix there; the pooled posterior (without "
+                f"--population) is then the model the data support. Otherwise {advice}"
+            )
+        else:
+            advice = advice[0].upper() + advice[1:]
         print(
             f"error: nothing written to {out}: these draws are not fit for a rover Monte Carlo. "
-            "Select fewer conditions, window the data (--z-max), state narrower --prior ranges, "
-            "or pass --force to write them anyway (marked FORCED; unphysical draws are left out)",
+            f"{advice}",
             file=sys.stderr,
         )
         return 2
