@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-__all__ = ["time_hours"]
+__all__ = ["time_columns", "time_hours"]
 
 _TIME_TEXT = r"\d{4}-\d{2}-\d{2}|\d{1,2}:\d{2}"
 
@@ -33,3 +33,17 @@ def time_hours(col: pd.Series) -> pd.Series | None:
         return None
     hours = (stamps - stamps.min()).dt.total_seconds() / 3600.0
     return hours.astype(float)
+
+
+def time_columns(table: pd.DataFrame) -> dict[str, pd.Series]:
+    """Every date/time column of ``table`` (:func:`time_hours`), as hours, by name, in the
+    table's column order; numeric and boolean columns are never times."""
+    hours = {}
+    for name in table.columns:
+        col = table[name]
+        if pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col):
+            continue
+        converted = time_hours(col)
+        if converted is not None:
+            hours[name] = converted
+    return hours

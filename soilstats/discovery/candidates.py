@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ..campaign.times import time_hours
+from ..campaign import times
 
 __all__ = [
     "FIT_COLUMNS",
@@ -53,7 +53,6 @@ __all__ = [
     "level_codes",
     "relations",
     "spans_log",
-    "time_hours",
     "trend_on_log",
     "with_time_hours",
 ]
@@ -165,17 +164,10 @@ def _rounded(values: pd.Series) -> pd.Series:
 
 
 def with_time_hours(table: pd.DataFrame) -> tuple[pd.DataFrame, tuple[str, ...]]:
-    """``table`` with every date/time column (:func:`time_hours`) replaced by hours since its
-    earliest value, and the names of those columns.  Done once per per-test table, so that
-    nothing downstream parses times again."""
-    hours = {}
-    for name in table.columns:
-        col = table[name]
-        if pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col):
-            continue
-        converted = time_hours(col)
-        if converted is not None:
-            hours[name] = converted
+    """``table`` with every date/time column replaced by hours since its earliest value
+    (:func:`~soilstats.campaign.times.time_columns`), and the names of those columns.  Done
+    once per per-test table, so that nothing downstream parses times again."""
+    hours = times.time_columns(table)
     return (table.assign(**hours) if hours else table), tuple(hours)
 
 

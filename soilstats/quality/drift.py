@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ..campaign.times import time_hours
+from ..campaign.times import time_columns
 
 __all__ = [
     "DRIFT_ALPHA",
@@ -211,18 +211,17 @@ def _series(log: pd.DataFrame) -> pd.Series:
 def _order_sources(tests: pd.DataFrame) -> list[tuple[str, pd.Series]]:
     """What test order may be read from, first found first: the numeric columns of
     :data:`ORDER_COLUMNS` before ``repetition``, then every date/time column (as hours,
-    :func:`~soilstats.campaign.times.time_hours`), then ``repetition`` — when a test ran
+    :func:`~soilstats.campaign.times.time_columns`), then ``repetition`` — when a test ran
     orders a day's tests across conditions; a repetition number only within one."""
     names = {str(c).lower(): c for c in tests.columns}
     sources = []
     for name in ORDER_COLUMNS:
         if name == "repetition":
-            for column in tests.columns:
-                if column in NOT_SETUP or pd.api.types.is_numeric_dtype(tests[column]):
-                    continue
-                hours = time_hours(tests[column])
-                if hours is not None:
-                    sources.append((str(column), hours))
+            sources += [
+                (str(column), hours)
+                for column, hours in time_columns(tests).items()
+                if column not in NOT_SETUP
+            ]
         column = names.get(name)
         if column is not None and pd.api.types.is_numeric_dtype(tests[column]):
             sources.append((str(column), tests[column]))
