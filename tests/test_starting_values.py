@@ -47,3 +47,35 @@ def test_side_wall_ratio_closed_form():
     assert np.isclose(side_wall_ratio(0.1, 0.15, 0.01), 3 * 0.01 * 0.0325 / 0.002375, rtol=1e-14)
     assert side_wall_ratio(0.1, 0.15, 0.0) == 0.0
     np.testing.assert_allclose(side_wall_ratio([0.1, 0.1], [0.15, 0.15], [0.0, 0.01])[1], 0.4105263)
+
+
+def test_wong_start_is_wongs_estimate_from_the_certified_solver():
+    # The start is solved from per-plate sums; the comparison method (wong_bekker /
+    # wong_bernstein) by the certified linear solver. Same regression: same n, same k_b.
+    from soilstats.identification.wong import wong_bekker, wong_bernstein, wong_start
+
+    rng = np.random.default_rng(3)
+    b = np.repeat([0.025, 0.05, 0.075], 60)
+    z = np.tile(np.linspace(0.001, 0.05, 60), 3)
+    p = BEKKER.func(np.vstack([b, z]), -9.8e3, 1.2e6, 0.8) * rng.normal(1, 0.03, b.size)
+    p[:3] = -1.0  # no logarithm: excluded by both
+    start, certified = wong_start(b, z, p), wong_bekker(b, z, p)[0]
+    np.testing.assert_allclose(start[2], certified[2], rtol=1e-11)
+    # (kc, kφ): the start's line through the plates' k_b is unweighted, the certified
+    # method's is generalised least squares; both go through k_b, so they agree closely.
+    np.testing.assert_allclose(start[:2], certified[:2], rtol=1e-3)
+    np.testing.assert_allclose(
+        wong_start(None, z[:60], p[:60]), wong_bernstein(z[:60], p[:60])[0], rtol=1e-11
+    )
+
+
+def test_wong_start_refuses_what_wongs_method_cannot_do():
+    import pytest
+
+    from soilstats.identification.wong import wong_start
+
+    z = np.linspace(0.001, 0.05, 20)
+    with pytest.raises(ValueError, match="two plate sizes"):
+        wong_start(np.full(20, 0.05), z, z)
+    with pytest.raises(ValueError, match="more than one sinkage"):
+        wong_start(np.repeat([0.025, 0.05], 10), np.full(20, 0.01), np.arange(1.0, 21.0))

@@ -77,6 +77,37 @@ def _group_sum(values: np.ndarray, group: np.ndarray, n_groups: int) -> np.ndarr
     return np.bincount(group, weights=values, minlength=n_groups)
 
 
+class _Groups:
+    """Per-group reductions of sample arrays, for groups coded 0 … T−1 (every code present).
+
+    Pooled arrays hold each test's samples as one run, tests in order; then every reduction
+    is one ``reduceat`` over the runs (stacked rows at once) instead of a ``bincount`` per
+    array or a ``ufunc.at`` (several times dearer at a paper-size fit, where the adequacy
+    checks ran longer than the fit itself).  Any other order falls back to those.
+    """
+
+    def __init__(self, group: np.ndarray, n_groups: int):
+        self.group, self.n_groups = group, n_groups
+        step = np.diff(group)
+        self.starts = None
+        if group.size and group[0] == 0 and ((step == 0) | (step == 1)).all():
+            self.starts = np.concatenate(([0], np.flatnonzero(step) + 1))
+
+    def sum(self, *rows: np.ndarray) -> np.ndarray:
+        """(len(rows), T) sums per group of each row."""
+        if self.starts is not None:
+            return np.add.reduceat(np.stack(rows), self.starts, axis=1)
+        return np.stack([_group_sum(r, self.group, self.n_groups) for r in rows])
+
+    def reduce(self, ufunc: np.ufunc, values: np.ndarray, initial: float) -> np.ndarray:
+        """``ufunc`` (maximum, fmin, fmax) over each group; ``initial`` where it is empty."""
+        if self.starts is not None:
+            return ufunc.reduceat(values, self.starts)
+        out = np.full(self.n_groups, initial)
+        ufunc.at(out, self.group, values)
+        return out
+
+
 def _dense_codes(test_index: np.ndarray) -> np.ndarray:
     """``np.unique(test_index, return_inverse=True)[1]``: tests renumbered 0 … T−1.
 
@@ -120,32 +151,30 @@ def test_forms(z: np.ndarray, p: np.ndarray, test_index: np.ndarray) -> TestForm
     z, p = np.asarray(z, float), np.asarray(p, float)
     group = _dense_codes(np.asarray(test_index))
     n_tests = int(group.max()) + 1 if group.size else 0
-    p_max = np.zeros(n_tests)
-    np.maximum.at(p_max, group, np.abs(p))
+    groups = _Groups(group, n_tests)
+    p_max = groups.reduce(np.maximum, np.abs(p), 0.0)
     use = (z > 0) & (p > 0) & (p >= NOISE_FLOOR * p_max[group])
     lz = np.log(np.where(use, z, 1.0))
     lp = np.log(np.where(use, p, 1.0))
     w = np.where(use, p, 0.0) ** 2
-    sw = _group_sum(w, group, n_tests)
+    wz = w * lz
+    sw, swz, swp, count, sum_p, n_use = groups.sum(w, wz, w * lp, np.ones_like(p), p, use)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mz = _group_sum(w * lz, group, n_tests) / sw
-        mp = _group_sum(w * lp, group, n_tests) / sw
+        mz, mp = swz / sw, swp / sw
         dz, dp = lz - mz[group], lp - mp[group]
-        n = _group_sum(w * dz * dp, group, n_tests) / _group_sum(w * dz * dz, group, n_tests)
+        wdz = w * dz
+        sxy, sxx = groups.sum(wdz * dp, wdz * dz)
+        n = sxy / sxx
         k = np.exp(mp - n * mz)
         residual = p - k[group] * np.power(np.clip(z, 0, None), n[group])
-        count = np.bincount(group, minlength=n_tests)
-        mean_p = _group_sum(p, group, n_tests) / count
-        spread = _group_sum((p - mean_p[group]) ** 2, group, n_tests)
-        r2 = np.where(spread > 0, 1 - _group_sum(residual**2, group, n_tests) / spread, np.nan)
+        mean_p = sum_p / count
+        spread, rss = groups.sum((p - mean_p[group]) ** 2, residual**2)
+        r2 = np.where(spread > 0, 1 - rss / spread, np.nan)
+    count = count.astype(np.intp)
     lz_use = np.where(use, lz, np.nan)
-    lz_min = np.full(n_tests, np.inf)
-    lz_max = np.full(n_tests, -np.inf)
-    np.fmin.at(lz_min, group, lz_use)
-    np.fmax.at(lz_max, group, lz_use)
-    usable = (np.bincount(group, weights=use, minlength=n_tests) >= max(PROFILE_BINS, 4)) & (
-        lz_max > lz_min
-    )
+    lz_min = groups.reduce(np.fmin, lz_use, np.inf)
+    lz_max = groups.reduce(np.fmax, lz_use, -np.inf)
+    usable = (n_use >= max(PROFILE_BINS, 4)) & (lz_max > lz_min)
     # Depth bins: samples ranked within the test by z (stable) fill the bins in turn, bin
     # sizes as numpy.array_split's (the first count % BINS bins hold one sample more).
     order = _by_group_then_value(group, z)

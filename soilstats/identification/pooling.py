@@ -11,6 +11,7 @@ response, is unusable. Everything excluded on the way is counted per test and re
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import pandas as pd
@@ -45,15 +46,20 @@ class PooledData:
     y: np.ndarray  # (N,)
     weights: np.ndarray  # (N,)
     test_index: np.ndarray  # (N,) position of each sample's test in ``tests``
-    tests: pd.DataFrame  # one row per test: bookkeeping of what was used and excluded
-    #: The columns of ``tests`` as the arrays it was built from, for code that reads them on
-    #: every fit (a fresh frame's first column lookup costs more than a whole reduction).
+    #: One entry per test, the columns of ``tests`` as arrays: what code reads on every fit
+    #: (a fresh frame's first column lookup costs more than a whole reduction).
     by_test: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, x, y, weights, test_index, by_test: dict) -> PooledData:
-        """The pooled arrays and the per-test columns, ``tests`` built from them."""
-        return cls(x, y, weights, test_index, pd.DataFrame(by_test), by_test)
+        """The pooled arrays and the per-test columns (``tests`` is built from them)."""
+        return cls(x, y, weights, test_index, by_test)
+
+    @cached_property
+    def tests(self) -> pd.DataFrame:
+        """One row per test: bookkeeping of what was used and excluded (``by_test`` as a
+        frame, built on first use: building it costs more than the fit it describes)."""
+        return pd.DataFrame(self.by_test)
 
 
 def equidistant_indices(z: np.ndarray, count: int | None) -> np.ndarray:

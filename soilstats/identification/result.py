@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
+from functools import cached_property
 
 import numpy as np
 import pandas as pd
@@ -26,7 +27,8 @@ class CampaignFit(FitResult):
     layer knows nothing of campaigns; this is where the two meet.
     """
 
-    tests: pd.DataFrame | None = field(default=None, repr=False)
+    #: The columns of ``tests`` as arrays (:attr:`PooledData.by_test`); None: no tests.
+    test_columns: dict[str, np.ndarray] | None = field(default=None, repr=False)
     bootstrap: TestBootstrap | None = field(default=None, repr=False)
     data: dict = field(default_factory=dict, repr=False)
 
@@ -55,7 +57,12 @@ class CampaignFit(FitResult):
             flags += more_flags
         base = fit.annotated(notes, flags)
         fields_ = {f.name: getattr(base, f.name) for f in fields(FitResult)}
-        return cls(**fields_, tests=pooled.tests, bootstrap=bootstrap, data=data)
+        return cls(**fields_, test_columns=pooled.by_test, bootstrap=bootstrap, data=data)
+
+    @cached_property
+    def tests(self) -> pd.DataFrame | None:
+        """One row per test considered (see the class docstring), built on first use."""
+        return None if self.test_columns is None else pd.DataFrame(self.test_columns)
 
     @property
     def window(self) -> str:
@@ -94,11 +101,12 @@ class CampaignFit(FitResult):
     @property
     def n_tests(self) -> int:
         """Tests that contributed samples to the fit."""
-        if self.tests is None:
+        columns = self.test_columns
+        if not columns:
             return 0
-        if "used" in self.tests.columns:
-            return int((self.tests["used"].to_numpy() > 0).sum())
-        return len(self.tests)
+        if "used" in columns:
+            return int((np.asarray(columns["used"]) > 0).sum())
+        return len(next(iter(columns.values())))
 
     def to_dict(self) -> dict:
         out = super().to_dict() | {"tests": self.n_tests, "stderr_tests": None}
