@@ -77,6 +77,28 @@ def test_check_reads_a_bundled_name_given_as_its_folder_as_data_does(capsys):
     assert main(["check", "--data", "cullinan-sand"]) == 0
 
 
+@pytest.mark.parametrize("name", ["identify", "discover", "posterior", "check"])
+def test_every_command_takes_the_campaign_as_its_positional_or_data(name, capsys):
+    # `soilstats identify DIR` was a usage error ("unrecognized arguments") while check took it.
+    from soilstats.cli.common import resolve_campaign
+
+    parser = build_parser()
+    more = ["--soil", "GRC-1", "--model", "bernstein", "--out", "x"] if name == "posterior" else []
+    args = parser.parse_args([name, "grc1-oravec2009", *more])
+    resolve_campaign(args, args._parser)
+    assert args.data == "grc1-oravec2009"
+    args = parser.parse_args([name, *more])
+    resolve_campaign(args, args._parser)
+    assert args.data == "simulated-paper"  # the documented default
+    assert main([name, "grc1-oravec2009", "--data", "cullinan-sand", *more]) == 2
+    assert "campaign given twice" in capsys.readouterr().err
+
+
+def test_study_takes_its_name_then_the_campaign():
+    args = build_parser().parse_args(["study", "velocity", "grc1-oravec2009"])
+    assert (args.name, args.folder) == ("velocity", "grc1-oravec2009")
+
+
 def test_public_functions_and_modules_never_share_a_name():
     modules = {m.name for m in pkgutil.iter_modules(soilstats.__path__)}
     assert not modules & set(soilstats.__all__), modules & set(soilstats.__all__)

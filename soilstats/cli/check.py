@@ -20,9 +20,6 @@ from .common import add_common_options
 
 def configure(parser: argparse.ArgumentParser) -> None:
     """The check subcommand's options."""
-    parser.add_argument(
-        "folder", nargs="?", default=None, metavar="DIR", help="campaign folder (or --data)"
-    )
     add_common_options(
         parser, select=False, out_help="also write check.json and check.pdf into DIR"
     )
@@ -40,9 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from ..quality import screen
     from ..report import Provenance, json_safe, write_json
 
-    # The positional folder reads as --data does: a bundled name means the bundled campaign.
-    data = args.folder if args.folder is not None else args.data
-    campaign = load_campaign(data, check_units=False)
+    campaign = load_campaign(args.data, check_units=False)
     report = screen(campaign, args.quality)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     document = report.to_dict()

@@ -85,9 +85,16 @@ def add_common_options(
     """
     if data:
         parser.add_argument(
+            "folder",
+            nargs="?",
+            default=None,
+            metavar="CAMPAIGN",
+            help="campaign folder or bundled name, as --data (either, not both)",
+        )
+        parser.add_argument(
             "--data",
             metavar="CAMPAIGN",
-            default=DEFAULT_CAMPAIGN,
+            default=None,
             help=f"campaign folder or bundled name ({_bundled()}); default {DEFAULT_CAMPAIGN}",
         )
     if out is not None:
@@ -126,6 +133,17 @@ def add_common_options(
     parser.add_argument(
         "--json", action="store_true", help="print one JSON object on stdout instead of text"
     )
+
+
+def resolve_campaign(args: argparse.Namespace, parser: argparse.ArgumentParser) -> None:
+    """Set ``args.data`` from the positional CAMPAIGN or ``--data`` (default
+    :data:`DEFAULT_CAMPAIGN`); both given is a usage error, not a silent choice."""
+    if not hasattr(args, "data"):
+        return
+    folder = getattr(args, "folder", None)
+    if folder is not None and args.data is not None and folder != args.data:
+        parser.error(f"campaign given twice: {folder!r} and --data {args.data!r}; give one")
+    args.data = folder or args.data or DEFAULT_CAMPAIGN
 
 
 def add_jobs_option(parser: argparse.ArgumentParser, what: str) -> None:

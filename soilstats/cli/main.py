@@ -12,7 +12,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from .common import guarded
+from .common import guarded, resolve_campaign
 
 # name -> (module of soilstats.cli, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -59,7 +59,7 @@ def build_parser(prog: str = "soilstats") -> argparse.ArgumentParser:
         )
         sub.add_argument("--version", action="version", version=_version())
         module.configure(sub)
-        sub.set_defaults(_run=module.run)
+        sub.set_defaults(_run=module.run, _parser=sub)
     return parser
 
 
@@ -69,6 +69,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "soilstats") -> int:
     parser = build_parser(prog)
     try:
         args = parser.parse_args(argv)
+        resolve_campaign(args, args._parser)
     except SystemExit as exit_:  # argparse: 0 for --help/--version, 2 for usage errors
         return int(exit_.code or 0)
     args.argv = argv
