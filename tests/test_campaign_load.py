@@ -220,13 +220,14 @@ def test_numbers_read_in_bulk_are_those_of_float_bit_for_bit(write_campaign):
 
 
 def test_numbers_outside_the_plain_grammar_are_read_by_float(write_campaign):
-    """Cells Arrow would refuse or read differently (blanks around, underscores) keep the
-    meaning float() gives them; 'NaN' and 'inf' are still not finite samples."""
+    """Cells Arrow would refuse (blanks around) keep the meaning float() gives them; 'NaN'
+    and 'inf' are still not finite samples, and what float() reads but no logger writes
+    (an underscore: '1_5' may mean 1.5; non-ASCII digits) is not a number at all."""
     tests = "test_id,kind,soil,shape,radius_m\na,sinkage,s,circle,0.05\n"
-    sinkage = "test_id,z_m,force_N\na,0.001, 1.5\na,0.002,1_000\na,0.003,2.5 \n"
+    sinkage = "test_id,z_m,force_N\na,0.001, 1.5\na,0.002,1000\na,0.003,2.5 \n"
     got = load_campaign(write_campaign(tests=tests, sinkage=sinkage), check_units=False)
     assert list(got.sinkage["force_N"]) == [1.5, 1000.0, 2.5]
-    for cell in ("NaN", "inf"):
+    for name, cell in (("nan", "NaN"), ("inf", "inf"), ("underscore", "1_5"), ("digit", "\u0663")):
         bad = sinkage.replace("2.5 ", cell)
         with pytest.raises(CampaignError, match=f"value '{cell}' is not a finite number"):
-            load_campaign(write_campaign(name=cell, tests=tests, sinkage=bad))
+            load_campaign(write_campaign(name=name, tests=tests, sinkage=bad))

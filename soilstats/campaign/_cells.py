@@ -84,6 +84,11 @@ def as_text(cells: ObjArray, index: pd.Index) -> pd.Series:
 _DECIMAL = r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$"
 
 
+def _plain_text(cell: str) -> bool:
+    """ASCII without underscores: the only cells :class:`Numbers` hands to float()."""
+    return cell.isascii() and "_" not in cell
+
+
 def _parse_decimals(series: pd.Series) -> np.ndarray | None:
     """The cells of a text column as float64 when every one is a plain decimal number and
     pandas holds them in Arrow (a CSV read as text), else None.
@@ -135,17 +140,23 @@ class Numbers:
             self.missing = np.zeros(n, dtype=bool)
             return
         cells = self.cells
-        try:  # fast path: every cell parses (float() is correctly rounded: repr round-trips)
-            self.values = np.asarray(cells, dtype=np.float64) if n else np.empty(0)
-            self.missing = np.isnan(self.values)
-            return
-        except (ValueError, TypeError):
-            pass
+        # Python's float() (and numpy's) also reads "1_000" and non-ASCII digits ("٣"): no
+        # spreadsheet or logger writes numbers so, and "1_5" may mean 1.5; such cells are
+        # not numbers under the format's rule ('.' the only separator).
+        foreign = np.fromiter((not _plain_text(c) for c in cells), bool, n)
+        if not foreign.any():
+            try:  # fast path: every cell parses (float() is correctly rounded: repr round-trips)
+                self.values = np.asarray(cells, dtype=np.float64) if n else np.empty(0)
+                self.missing = np.isnan(self.values)
+                return
+            except (ValueError, TypeError):
+                pass
         self.missing = np.array(
             [not c.strip() or c.strip().lower() in MISSING_TOKENS for c in cells], dtype=bool
         )
         self.values = np.full(n, np.nan)
-        for i in np.flatnonzero(~self.missing):
+        self.bad = foreign & ~self.missing
+        for i in np.flatnonzero(~self.missing & ~foreign):
             try:
                 self.values[i] = float(cells[i])
             except ValueError:
