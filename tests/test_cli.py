@@ -328,3 +328,20 @@ def test_column_equals_value_has_one_meaning_everywhere():
     assert set(study["test_id"]) == set(velocity.tests["test_id"])
     with pytest.raises(CampaignError, match="compare as text"):
         campaign.select(preparation=5)  # a text column: "5", not 5
+
+
+def test_soilstats_warnings_reach_the_user_as_one_plain_line(tmp_path):
+    # A warning used to print as '/path/soilstats/cli/common.py:217: SoilstatsWarning: ...'
+    # followed by the library's source line.
+    folder = tmp_path / "c"
+    import shutil
+
+    shutil.copytree(ROOT / "soilstats" / "data" / "cullinan-sand", folder)
+    log = pd.read_csv(folder / "tests.csv", dtype=str, keep_default_na=False)
+    log.loc[2, "soil"] = "Cullinan-sand"  # one soil written two ways
+    log.to_csv(folder / "tests.csv", index=False)
+    done = _run("soilstats", "check", str(folder))
+    assert done.returncode == 0, done.stderr
+    lines = [ln for ln in done.stderr.splitlines() if "differ only in case" in ln]
+    assert len(lines) == 1 and lines[0].startswith("warning: file 'tests.csv', column 'soil'")
+    assert "common.py" not in done.stderr and "SoilstatsWarning" not in done.stderr

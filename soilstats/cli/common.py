@@ -32,6 +32,7 @@ import argparse
 import os
 import sys
 import traceback
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -339,7 +340,9 @@ def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) 
 
     try:
         check_out(getattr(args, "out", None))
-        return run(args)
+        with warnings.catch_warnings():  # restores the hook afterwards (tests call main)
+            warnings.showwarning = _show_warning
+            return run(args)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
@@ -354,6 +357,19 @@ def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) 
             file=sys.stderr,
         )
         return EXIT_INTERNAL
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """soilstats' own warnings as one line for the user, ``warning: <message>``: their text
+    names the file, column and test; the library line that raised them is no help. Other
+    warnings (numpy, scipy) keep Python's format, which says where they came from."""
+    from ..errors import SoilstatsWarning
+
+    stream = sys.stderr if file is None else file
+    if issubclass(category, SoilstatsWarning):
+        stream.write(f"warning: {message}\n")
+    else:
+        stream.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 def _describe(err: BaseException) -> str:
