@@ -231,3 +231,20 @@ def test_numbers_outside_the_plain_grammar_are_read_by_float(write_campaign):
         bad = sinkage.replace("2.5 ", cell)
         with pytest.raises(CampaignError, match=f"value '{cell}' is not a finite number"):
             load_campaign(write_campaign(name=name, tests=tests, sinkage=bad))
+
+
+def test_a_semicolon_separated_file_is_named_as_such(write_campaign):
+    # A European spreadsheet export: one column name holding every name.
+    tests = "test_id,kind,soil,shape,radius_m\na,sinkage,s,circle,0.05\n"
+    sinkage = "test_id;z_m;force_N\na;0.001;1.5\na;0.002;3.0\n"
+    with pytest.raises(CampaignError, match="looks semicolon-separated") as info:
+        load_campaign(write_campaign(tests=tests, sinkage=sinkage))
+    assert "sinkage.csv" in str(info.value)
+
+
+def test_lines_above_the_header_are_named_with_the_header_line(write_campaign):
+    # A logger's preamble: the first line is read as the header.
+    tests = "test_id,kind,soil,shape,radius_m\na,sinkage,s,circle,0.05\n"
+    sinkage = "Rig 3 export\nunits: m and N\ntest_id,z_m,force_N\na,0.001,1.5\na,0.002,3.0\n"
+    with pytest.raises(CampaignError, match=r"column names .* are on line 3"):
+        load_campaign(write_campaign(tests=tests, sinkage=sinkage))

@@ -99,6 +99,18 @@ def _header(path: Path) -> list[str]:
         return next(csv.reader(fh), [])
 
 
+def _line_of_names(path: Path, search: int = 50) -> int | None:
+    """1-based line, among the first ``search``, of the first row with a ``test_id`` cell
+    (every campaign file has that column): below line 1, lines precede the header."""
+    with path.open(newline="", encoding="utf-8-sig", errors="replace") as fh:
+        for number, row in enumerate(csv.reader(fh), start=1):
+            if "test_id" in (cell.strip() for cell in row):
+                return number
+            if number >= search:
+                break
+    return None
+
+
 def _long_row(path: Path) -> int | None:
     """First 1-based data row with more fields than the header (blank lines not counted)."""
     with path.open(newline="", encoding="utf-8-sig") as fh:
@@ -159,9 +171,17 @@ def read_table(path: Path) -> pd.DataFrame:
         row = _long_row(path)
         if row is None:  # another parse error, e.g. an unclosed quote
             raise _unreadable(path, exc) from exc
+        width = len(_header(path))
+        line = _line_of_names(path)
+        preamble = (
+            f" The column names (test_id, …) are on line {line}: the first line must be "
+            "the header, so remove the lines above it (a logger's preamble?)."
+            if line and line > 1
+            else ""
+        )
         raise CampaignError(
-            f"a data row has more fields than the header's {len(_header(path))}; every row "
-            "needs one cell per column — fix the row (a stray comma?)",
+            f"a data row has more fields than the header's {width}; every row "
+            f"needs one cell per column — fix the row (a stray comma?).{preamble}",
             file=name,
             row=row,
         ) from exc

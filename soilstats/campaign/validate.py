@@ -75,6 +75,14 @@ def _require(frame: pd.DataFrame, stem: str, name: str, columns: list[str]) -> N
         have = [str(c) for c in frame.columns]
         near = [c for c in have if c.strip().lower() == col.lower()]
         hint = f" (found {near[0]!r}: names are matched exactly)" if near else ""
+        # A spreadsheet's European export separates with ';' (or a tab): one long name.
+        for sep, what in ((";", "semicolon"), ("\t", "tab")):
+            if not near and len(have) == 1 and sep in str(have[0]):
+                hint = (
+                    f" (the header is one name holding '{sep}': the file looks "
+                    f"{what}-separated; campaign files are comma-separated, with '.' as the "
+                    "decimal separator)"
+                )
         raise CampaignError(
             f"required column is missing{hint}; the file has columns {have}, and every "
             f"{stem} file needs {columns} — add or rename the column",
