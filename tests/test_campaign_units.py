@@ -255,3 +255,17 @@ def test_the_check_can_be_turned_off_for_data_known_to_be_unusual():
     tests, sinkage = _grc1_frames()
     sinkage["z_m"] *= 1000
     assert Campaign.from_frames(tests, sinkage, check_units=False).sinkage["z_m"].max() > 1
+
+
+def test_unit_messages_name_the_file_as_it_was_read(tmp_path):
+    # A Parquet campaign's messages said 'tests.csv'.
+    campaign = soilstats.load_campaign("grc1-oravec2009")
+    folder = tmp_path / "pq"
+    folder.mkdir()
+    tests = campaign.tests[["test_id", "kind", "soil", "shape", "radius_m"]].copy()
+    tests["radius_m"] *= 1000.0  # millimetres
+    tests.to_parquet(folder / "tests.parquet")
+    campaign.sinkage[["test_id", "z_m", "force_N"]].to_parquet(folder / "sinkage.parquet")
+    with pytest.raises(CampaignError, match="radius_m") as info:
+        soilstats.load_campaign(folder)
+    assert "tests.parquet" in str(info.value) and "tests.csv" not in str(info.value)

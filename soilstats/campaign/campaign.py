@@ -111,7 +111,8 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
             " — fix the campaign (see campaign.skipped of a partial load for the reasons)",
             file=tables.issues[0].file,
         )
-    out = _derive(kept, {s: name for s, (_, name) in frames.items()})
+    file_names = {s: name for s, (_, name) in frames.items()}
+    out = _derive(kept, file_names)
     if len(skipped):
         listed = "; ".join(
             f"{r.test_id!r} ({r.file}, column {r.column!r}"
@@ -127,7 +128,7 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
         )
     _warn_near_names(out["tests"], frames["tests"][1])
     if check_units:
-        check_plausible_units(out["tests"], out["sinkage"], out["shear"])
+        check_plausible_units(out["tests"], out["sinkage"], out["shear"], file_names)
     return Campaign(out["tests"], out["sinkage"], out["shear"], source, skipped)
 
 

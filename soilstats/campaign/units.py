@@ -299,16 +299,25 @@ def _times_soil_median(values: pd.Series, soil: pd.Series | None) -> pd.Series:
     return ratio.where(peers >= MIN_PEERS)
 
 
-def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame) -> None:
+def check_plausible_units(
+    tests: pd.DataFrame,
+    sinkage: pd.DataFrame,
+    shear: pd.DataFrame,
+    file_names: Mapping[str, str] | None = None,
+) -> None:
     """Stop (lengths) or warn (loads, angles) where a value only makes sense in another unit.
 
-    ``tests``, ``sinkage``, ``shear`` are the validated tables with derived columns.
+    ``tests``, ``sinkage``, ``shear`` are the validated tables with derived columns;
+    ``file_names`` maps each to the file it was read from (``sinkage.parquet``, say), for
+    the messages (default ``<name>.csv``).
     """
+    names = dict(file_names or {})
     for finding in implausible_units(tests, sinkage, shear):
+        file = names.get(finding.file.removesuffix(".csv")) or finding.file
         if finding.fatal:
             raise CampaignError(
                 f"{finding.values[0]:g} m: {finding.what} ({len(finding.test_ids)} tests)",
-                file=finding.file,
+                file=file,
                 column=finding.column,
                 test_id=finding.test_ids[0],
             )
@@ -317,7 +326,7 @@ def check_plausible_units(tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.
         )
         more = f" and {len(finding.test_ids) - 5} more" if len(finding.test_ids) > 5 else ""
         warnings.warn(
-            f"file {finding.file!r}, column {finding.column!r}: {len(finding.test_ids)} "
+            f"file {file!r}, column {finding.column!r}: {len(finding.test_ids)} "
             f"test(s) with {finding.what}: {shown}{more}. Fitting data in the wrong unit gives "
             "wrong parameters; fix the data before trusting any result.",
             UnitsWarning,
