@@ -189,6 +189,26 @@ def _drop_dragged(x: np.ndarray, off: np.ndarray, width: float, span: float) -> 
     return off
 
 
+def _noise_floor(force: np.ndarray) -> tuple[float, float, float, np.ndarray] | None:
+    """(base, noise, rise, above) of the noise floor a record starts on, or None when it
+    starts off one: the house conventions of :func:`find_contact`.
+
+    ``base`` is the median of the first 3 forces; ``noise`` the robust width of the second
+    differences (blind to ramps and curvature; white noise: sqrt(6) sigma), at least the
+    sensor's step; the rise threshold is :data:`CONTACT_NOISE_WIDTHS` noise widths or 1 % of
+    the peak above ``base``, whichever is larger; ``above`` marks the samples above
+    ``base + rise``. None where the record starts under load (its first samples above
+    :data:`CONTACT_MAX_START` of the peak and CONTACT_NOISE_WIDTHS noise widths: a seating
+    preload, a record cut after contact): its flat start is no noise floor.
+    """
+    base = float(np.median(force[:3]))
+    noise = max(_robust_width(np.diff(force, 2)) / np.sqrt(6.0), _quantum(force))
+    if abs(base) > max(CONTACT_MAX_START * abs(float(force.max())), CONTACT_NOISE_WIDTHS * noise):
+        return None  # the record starts under load: its flat start is not a noise floor
+    rise = max(CONTACT_NOISE_WIDTHS * noise, 0.01 * float(force.max() - base))
+    return base, noise, rise, force > base + rise
+
+
 def _power_law(z: np.ndarray, force: np.ndarray, z_ref: float) -> tuple[float, float, float]:
     """(residual sum of squares, n, ln k) of force ≈ k (z − z_ref)^n fitted by p²-weighted
     log–log least squares (Wong's weighting), on the samples with z > z_ref and force > 0;
@@ -287,15 +307,13 @@ def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
     z, force = np.asarray(z, float), np.asarray(force, float)
     if z.size < 8:
         return None
-    base = float(np.median(force[:3]))
-    noise = max(_robust_width(np.diff(force, 2)) / np.sqrt(6.0), _quantum(force))
-    if abs(base) > max(CONTACT_MAX_START * abs(float(force.max())), CONTACT_NOISE_WIDTHS * noise):
-        return None  # the record starts under load: its flat start is not a noise floor
+    floor = _noise_floor(force)
+    if floor is None:
+        return None
+    base, noise, rise, above = floor
     head = force[:4]
     if (np.diff(head) > 0).all() and head[-1] - head[0] > CONTACT_NOISE_WIDTHS * noise:
         return None  # the record starts climbing (logged from inside contact): no floor
-    rise = max(CONTACT_NOISE_WIDTHS * noise, 0.01 * float(force.max() - base))
-    above = force > base + rise
     rising = above[:-2] & above[1:-1] & above[2:]
     if not rising.any():
         return None
