@@ -17,9 +17,13 @@ from scipy.ndimage import median_filter
 from soilstats.campaign import Campaign
 from soilstats.quality import records, screen
 from soilstats.quality.blocks import Blocks, non_monotone, saturation, spikes
-from soilstats.quality.prescreen import contact_candidates, runaway_candidates
+from soilstats.quality.prescreen import (
+    contact_candidates,
+    late_zero_candidates,
+    runaway_candidates,
+)
 
-PER_RECORD = ("spike", "pre-contact", "bearing-failure", "non-monotone", "saturation")
+PER_RECORD = ("spike", "pre-contact", "late-zero", "bearing-failure", "non-monotone", "saturation")
 
 
 def _power_law(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -30,7 +34,7 @@ def _power_law(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _artefact(rng, kind: int) -> tuple[np.ndarray, np.ndarray]:
-    """One record with artefact ``kind`` (0: clean ... 12: a sparse record's spike)."""
+    """One record with artefact ``kind`` (0: clean ... 13: a displacement zeroed late)."""
     n = int(rng.choice([30, 80, 120, 300]))
     z, f = _power_law(rng, n)
     if kind == 1:  # one- to three-sample spikes in z or force
@@ -79,6 +83,10 @@ def _artefact(rng, kind: int) -> tuple[np.ndarray, np.ndarray]:
         z, f = z[:: max(1, n // m)][:m], f[:: max(1, n // m)][:m]
         which = (z, f)[rng.integers(0, 2)]
         which[rng.integers(2, which.size - 2)] *= rng.uniform(2.0, 4.0)
+    elif kind == 13:  # displacement zeroed after contact (0-10 % of the travel), or preloaded
+        z = z - rng.uniform(0.0, 0.1) * np.ptp(z)
+        if rng.random() < 0.3:
+            f = f + rng.uniform(0.0, 0.2) * f.max()
     return z, f
 
 
@@ -87,7 +95,7 @@ def _campaign(seed: int, tests: int = 240) -> Campaign:
     log, rows = [], []
     for i in range(tests):
         tid = f"t{i:03d}"
-        z, f = _artefact(rng, i % 13)
+        z, f = _artefact(rng, i % 14)
         log.append({"test_id": tid, "kind": "sinkage", "soil": f"s{i % 3}", "shape": "circle"})
         log[-1]["radius_m"] = 0.05
         rows.append(pd.DataFrame({"test_id": tid, "z_m": z, "force_N": f}))
@@ -136,6 +144,9 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
         zg, fg = z[good], force[good]
         offset = shift = 0.0
         loaded = good
+        late = records.find_late_zero(zg, fg)
+        if late is not None:
+            out.append((tid, "late-zero", rows(labels, good[late.loaded]), late.z_start))
         contact = records.find_contact(zg, fg)
         if contact is not None:
             offset = contact.z_contact if clean else 0.0
@@ -199,7 +210,7 @@ def _split(blocks: Blocks, values: np.ndarray) -> list[np.ndarray]:
 
 def test_batch_detectors_match_and_the_power_law_screens_keep_every_finding():
     rng = np.random.default_rng(7)
-    pairs = [_artefact(rng, k % 13) for k in range(390)]
+    pairs = [_artefact(rng, k % 14) for k in range(420)]
     blocks = Blocks.of_sizes([z.size for z, _ in pairs])
     z, f = np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs])
     for values in (z, f):
@@ -211,7 +222,8 @@ def test_batch_detectors_match_and_the_power_law_screens_keep_every_finding():
     clipped_z = _split(blocks, saturation(blocks, z, f))
     contact = set(contact_candidates(blocks, z, f).tolist())
     runaway = set(runaway_candidates(blocks, z, f).tolist())
-    found = {"contact": set(), "runaway": set()}
+    late = set(late_zero_candidates(blocks, z, f).tolist())
+    found = {"contact": set(), "runaway": set(), "late": set()}
     for k, (zk, fk) in enumerate(pairs):
         np.testing.assert_array_equal(np.flatnonzero(fallen[k]), records.find_non_monotone(zk))
         np.testing.assert_array_equal(np.flatnonzero(clipped_f[k]), records.find_saturation(fk, zk))
@@ -220,11 +232,15 @@ def test_batch_detectors_match_and_the_power_law_screens_keep_every_finding():
             found["contact"].add(k)
         if records.find_runaway(zk, fk) is not None:
             found["runaway"].add(k)
+        if records.find_late_zero(zk, fk) is not None:
+            found["late"].add(k)
     assert found["contact"] and found["contact"] <= contact
     assert found["runaway"] and found["runaway"] <= runaway
+    assert found["late"] and found["late"] <= late
     # ... and the screens do screen: few records besides the findings go one by one.
     assert len(contact - found["contact"]) <= 0.1 * len(pairs)
     assert len(runaway - found["runaway"]) <= 0.1 * len(pairs)
+    assert len(late - found["late"]) <= 0.1 * len(pairs)
 
 
 def test_block_medians_are_numpy_and_scipy_medians_exactly():
@@ -257,3 +273,4 @@ def test_empty_records_have_no_candidates():
     nothing = np.empty(0)
     assert contact_candidates(empty, nothing, nothing).size == 0
     assert runaway_candidates(empty, nothing, nothing).size == 0
+    assert late_zero_candidates(empty, nothing, nothing).size == 0

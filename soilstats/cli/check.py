@@ -1,8 +1,8 @@
 """``soilstats check``: screen a campaign's records for data-quality problems (docs/quality.md).
 
 Every test is run through the screening rules (spikes, implausible units, pre-contact
-segments, load-capped tests, bearing failure, copied records, a force zero drifting with test
-order, non-monotone sinkage, saturation). The report
+segments, a displacement zeroed after contact, load-capped tests, bearing failure, copied
+records, a force zero drifting with test order, non-monotone sinkage, saturation). The report
 lists each finding with its test, code and file rows, what the default cleaning leaves out
 of fits, and the sinkage windows that bearing failure proposes. Units are judged here, not
 at loading, so a campaign in the wrong unit is reported rather than refused.

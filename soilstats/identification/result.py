@@ -147,6 +147,7 @@ class CampaignFit(FitResult):
 _FIT_CODES = (
     "spike",
     "pre-contact",
+    "late-zero",
     "units",
     "bearing-failure",
     "non-monotone",

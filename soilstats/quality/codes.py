@@ -71,6 +71,27 @@ CODES: dict[str, QualityCode] = {
             excluded=True,
         ),
         QualityCode(
+            "late-zero",
+            "The force leaves its noise floor and is held above it while the sinkage is still "
+            "z <= 0, in a loading branch continuous with the loaded record: the displacement "
+            "was zeroed after the plate touched the soil. The floor and threshold are "
+            "pre-contact's (the median of the first 3 forces; 5 noise widths or 1 % of the "
+            "peak above it, three samples held); the branch must start at least 2 % of the "
+            "test's travel before z = 0. A record that starts under load (its first samples "
+            "above 5 % of its peak force and 5 noise widths, a seating preload) has no floor "
+            "to leave and is not judged.",
+            "Bekker's and Bernstein's z is the sinkage below the surface. Zeroed late, every "
+            "sinkage is short by the travel before the zero and the loaded samples at "
+            "z <= 0 are left out of fits as out of contact: n and k are biased (a simulated "
+            "campaign zeroed 1.5 mm after contact fitted n = 0.70 for 0.80 and 0.99 for 1.10, "
+            "kphi 28-30 % low).",
+            "Nothing is excluded or corrected (the contact lies somewhere before the branch, "
+            "where the force was still within the threshold, and cannot be placed reliably). "
+            "Re-zero the displacement at first contact: shift that test's z before importing "
+            "it. Until then compare its fit with fits of tests that are not flagged (a fit of "
+            "flagged tests carries the flag).",
+        ),
+        QualityCode(
             "units",
             "A value whose size only makes sense in another unit (sinkage spanning more than "
             "1 m, a tool larger than 1 m, a peak pressure below 200 Pa, a shear stress above "

@@ -1,5 +1,6 @@
 """Pre-screens for the two detectors of :mod:`.records` that fit a power law
-(``find_contact``, ``find_runaway``), across all records at once (:class:`.blocks.Blocks`).
+(``find_contact``, ``find_runaway``), and for ``find_late_zero``, across all records at once
+(:class:`.blocks.Blocks`).
 
 They sum with BLAS dot products and solve with LAPACK, whose rounding cannot be reproduced
 across tests; so the batch code only *screens out* the tests that certainly have no finding
@@ -30,6 +31,7 @@ __all__ = [
     "MARGIN",
     "contact_candidates",
     "contact_statistics",
+    "late_zero_candidates",
     "runaway_candidates",
     "runaway_statistics",
 ]
@@ -159,6 +161,35 @@ def contact_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntA
             & (law_excess < CONTACT_LAW_EXCESS * (1.0 - MARGIN))
         )
     return np.union1d(np.flatnonzero(alive & ~clear), _unfinite(blocks, z, force))
+
+
+def late_zero_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntArray:
+    """The blocks that ``records.find_late_zero`` may find a loading branch at z <= 0 in;
+    all others have none.
+
+    A branch is three or more consecutive samples at z <= 0 above the rise threshold,
+    base + max(5 noise widths, 1 % of (peak − base)), in a record of 8 samples or more; a
+    block is a candidate when it holds three consecutive samples at z <= 0 above
+    base + 1 % of (peak − base) alone. Both use the per-record code's numbers exactly (the
+    median of the first three forces, the maximum) and rounding is monotone, so the
+    threshold is never below that bound: no block with a branch is screened out, and the
+    noise width (a median of second differences) is not needed. On a clean record the
+    samples at z <= 0 sit at the floor; a seating preload passes this screen and the
+    per-record detector decides it.
+    """
+    if not z.size:
+        return np.empty(0, np.int64)
+    block = blocks.block_of
+    head, hi = blocks.head(3)
+    base = head.median(force[hi])
+    with np.errstate(invalid="ignore"):
+        bound = base + 0.01 * (blocks.max(force) - base)
+        loaded = (z <= 0) & (force > blocks.spread(bound)) & blocks.spread(blocks.sizes >= 8)
+    # held[j] = loaded[j] & loaded[j+1] & loaded[j+2], inside the block
+    ahead1 = np.r_[loaded[1:], False] & (np.r_[block[1:], -1] == block)
+    ahead2 = np.r_[loaded[2:], False, False] & (np.r_[block[2:], -1, -1] == block)
+    held = loaded & ahead1 & ahead2
+    return np.union1d(np.flatnonzero(blocks.total_of(held)), _unfinite(blocks, z, force))
 
 
 def _power_law_residuals(

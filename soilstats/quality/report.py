@@ -30,7 +30,8 @@ class QualityFlag:
 
     ``rows`` are 1-based data rows of the test's sample file (empty: the whole test);
     ``excluded`` says whether they are left out of fits in the screening's mode; ``value``
-    is the contact point (``pre-contact``) or the failure onset (``bearing-failure``) in m.
+    is the contact point (``pre-contact``), the failure onset (``bearing-failure``) or the
+    z at which a loading branch at z <= 0 starts (``late-zero``) in m.
     """
 
     test_id: str

@@ -130,12 +130,15 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
 
     offsets: dict[str, float] = {}
     candidates = prescreen.contact_candidates(good, zg, fg)
+    late = prescreen.late_zero_candidates(good, zg, fg)
     runaway = prescreen.runaway_candidates(good, zg, fg)
     bar = None
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(candidates) + len(runaway), desc="screening records", unit="test")
+        bar = tqdm(
+            total=len(candidates) + len(late) + len(runaway), desc="screening records", unit="test"
+        )
     contact_of: dict[int, records.ContactPoint] = {}
     for k in candidates:
         zk, fk, lk = record(k)
@@ -163,11 +166,18 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
         )
         if clean:
             drop.append(rows)
+    for k in late:
+        zk, fk, lk = record(k)
+        found = records.find_late_zero(zk, fk)
+        if bar is not None:
+            bar.update()
+        if found is not None:
+            out[k].append(_late_zero_flag(rec.ids[k], lk, found))
     # The batch cleared the others on their raw records; a seated record is judged again
     # from its contact, where the batch did not look.
     judged = np.union1d(runaway, np.fromiter(contact_of, int, len(contact_of)))
     if bar is not None:
-        bar.total = len(candidates) + len(judged)
+        bar.total = len(candidates) + len(late) + len(judged)
         bar.refresh()
     for k in judged:
         zk, fk, lk = record(k)
@@ -235,6 +245,22 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
     ends = pd.DataFrame({"test_id": rec.ids, "force_end": peaks["force_N"], "z_end": peaks["z_m"]})
     ends["force_start"] = start_forces(good, zg, fg)
     return out, drop, offsets, ends
+
+
+def _late_zero_flag(test_id: str, labels: np.ndarray, found: records.LateZero) -> QualityFlag:
+    """The ``late-zero`` flag of a loading branch at z <= 0 (flag only: nothing excluded)."""
+    return QualityFlag(
+        test_id,
+        "sinkage",
+        "late-zero",
+        _rows(labels[found.loaded]),
+        f"{found.loaded.size} samples at z <= 0 carry force, up to {found.share:.1%} of the "
+        f"peak force, over the last {found.extent * 1e3:.3g} mm before z = 0: the "
+        "displacement was zeroed after first contact, so z is measured from below the "
+        "surface and n and k are biased (the samples at z <= 0 are left out of fits as out "
+        "of contact)",
+        value=found.z_start,
+    )
 
 
 def _shear_findings(shear: pd.DataFrame, mode: str) -> tuple[list[QualityFlag], list]:
