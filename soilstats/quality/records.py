@@ -208,10 +208,13 @@ def _noise_floor(force: np.ndarray) -> tuple[float, float, float, np.ndarray] | 
     differences (blind to ramps and curvature; white noise: sqrt(6) sigma), at least the
     sensor's step; the rise threshold is :data:`CONTACT_NOISE_WIDTHS` noise widths or 1 % of
     the peak above ``base``, whichever is larger; ``above`` marks the samples above
-    ``base + rise``. None where the record starts under load (its first samples above
-    :data:`CONTACT_MAX_START` of the peak and CONTACT_NOISE_WIDTHS noise widths: a seating
-    preload, a record cut after contact): its flat start is no noise floor.
+    ``base + rise``. None for a record of fewer than 8 samples, and for one that starts
+    under load (its first samples above :data:`CONTACT_MAX_START` of the peak and
+    CONTACT_NOISE_WIDTHS noise widths: a seating preload, a record cut after contact): its
+    flat start is no noise floor.
     """
+    if force.size < 8:
+        return None  # too short to tell a floor from a rise
     base = float(np.median(force[:3]))
     noise = max(_robust_width(np.diff(force, 2)) / np.sqrt(6.0), _quantum(force))
     if abs(base) > max(CONTACT_MAX_START * abs(float(force.max())), CONTACT_NOISE_WIDTHS * noise):
@@ -316,8 +319,6 @@ def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
     floor at once, so its contact is sought after the last sample at the floor proper.
     """
     z, force = np.asarray(z, float), np.asarray(force, float)
-    if z.size < 8:
-        return None
     floor = _noise_floor(force)
     if floor is None:
         return None
@@ -432,8 +433,6 @@ def find_late_zero(z: np.ndarray, force: np.ndarray) -> LateZero | None:
     reliably.
     """
     z, force = np.asarray(z, float), np.asarray(force, float)
-    if z.size < 8:
-        return None
     floor = _noise_floor(force)
     if floor is None:
         return None
