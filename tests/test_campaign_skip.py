@@ -62,3 +62,19 @@ def test_skipping_every_test_raises(write_campaign, campaign_frames):
     campaign_frames["shear"]["torque_Nm"] = ""
     with pytest.raises(CampaignError, match=r"every test was skipped \(3\)"):
         load_campaign(write_campaign(**campaign_frames), on_error="skip")
+
+
+def test_rows_without_a_test_id_are_listed_as_rows_not_as_a_test(write_campaign, campaign_frames):
+    # Three blank test_id cells were reported as "skipped 1 test ... ''" and "(3 rows of this
+    # test have this problem)".
+    sink = campaign_frames["sinkage"].copy()
+    blank = pd.DataFrame([{"test_id": "", "z_m": "0.01", "force_N": "1"}] * 3)
+    campaign_frames["sinkage"] = pd.concat([sink, blank], ignore_index=True)
+    first = len(sink) + 1  # 1-based data rows of the blank ones
+    with pytest.warns(SoilstatsWarning) as record:
+        c = load_campaign(write_campaign(**campaign_frames), on_error="skip")
+    msg = str(record[0].message)
+    assert msg.startswith("skipped the rows without a test_id:")
+    assert f"rows {first}, {first + 1}, {first + 2}" in msg and "''" not in msg
+    assert set(c.sinkage["test_id"]) == set(sink["test_id"])  # every test kept
+    assert "3 rows have no test_id" in c.skipped.loc[0, "reason"]

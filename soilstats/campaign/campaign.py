@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -48,6 +49,18 @@ def _skipped_table(issues: list[Issue]) -> pd.DataFrame:
         for c, v in zip(SKIPPED_COLUMNS, cols, strict=True)
     }
     return pd.DataFrame(out)
+
+
+def _skipped_item(r) -> str:
+    """One skipped entry for the warning: 'id' (file, column, row: reason), or for rows that
+    name no test, the rows themselves."""
+    reason = r.reason.split(";")[0].split(" — ")[0]
+    row = "" if pd.isna(r.row) else f", row {r.row}"
+    if str(r.test_id).strip():
+        return f"{r.test_id!r} ({r.file}, column {r.column!r}{row}: {reason})"
+    rows = re.search(r"rows ([0-9, …]+)\)$", r.reason)
+    row = f", rows {rows.group(1)}" if rows else row
+    return f"{r.file}, column {r.column!r}{row}: {reason}"
 
 
 def _check_on_error(on_error: str) -> None:
@@ -114,15 +127,16 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
     file_names = {s: name for s, (_, name) in frames.items()}
     out = _derive(kept, file_names)
     if len(skipped):
-        listed = "; ".join(
-            f"{r.test_id!r} ({r.file}, column {r.column!r}"
-            + (f", row {r.row}" if not pd.isna(r.row) else "")
-            + f": {r.reason.split(';')[0].split(' — ')[0]})"
-            for r in skipped.itertuples()
-        )
+        listed = "; ".join(_skipped_item(r) for r in skipped.itertuples())
+        n_tests = int(sum(bool(str(t).strip()) for t in skipped["test_id"]))
+        parts = [f"{n_tests} test{'s' if n_tests != 1 else ''} with all their samples"][
+            : 1 if n_tests else 0
+        ]
+        if n_tests < len(skipped):
+            parts.append("the rows without a test_id")
+        what = " and ".join(parts)
         warnings.warn(
-            f"skipped {len(skipped)} test{'s' if len(skipped) > 1 else ''} with all their "
-            f"samples: {listed}. The reasons are in campaign.skipped.",
+            f"skipped {what}: {listed}. The reasons are in campaign.skipped.",
             SoilstatsWarning,
             stacklevel=3,  # the caller of load_campaign or from_frames
         )

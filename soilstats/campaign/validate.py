@@ -265,6 +265,10 @@ def _check_samples(
         ids = uniq[codes]
         for pos, key, count in first_per_key(ids, mask):
             more = f" ({count} rows of this test have this problem)" if count > 1 else ""
+            if count > 1 and not str(key).strip():  # rows of no test: say which rows
+                rows = np.flatnonzero(mask & (ids == key))[:5] + 1
+                listed = ", ".join(map(str, rows)) + (", …" if count > 5 else "")
+                more = f" ({count} rows have no test_id: rows {listed})"
             issue = Issue(key, name, specs[col].name, pos + 1, message(pos, key) + more)
             found.append((pos, col, issue))
 
