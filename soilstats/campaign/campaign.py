@@ -129,9 +129,8 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
     if len(skipped):
         listed = "; ".join(_skipped_item(r) for r in skipped.itertuples())
         n_tests = int(sum(bool(str(t).strip()) for t in skipped["test_id"]))
-        parts = [f"{n_tests} test{'s' if n_tests != 1 else ''} with all their samples"][
-            : 1 if n_tests else 0
-        ]
+        plural = "s" if n_tests != 1 else ""
+        parts = [f"{n_tests} test{plural} with all their samples"] if n_tests else []
         if n_tests < len(skipped):
             parts.append("the rows without a test_id")
         what = " and ".join(parts)

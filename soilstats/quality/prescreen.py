@@ -88,7 +88,6 @@ def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
     if not z.size:
         nothing = np.full(blocks.count, np.inf)
         return empty, nothing, nothing.copy(), np.full(blocks.count, np.nan), empty
-    block = blocks.block_of
     local = blocks.local
     n = blocks.sizes
     alive = n >= 8
@@ -101,10 +100,7 @@ def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
     noise = _py_max(1.4826 * mad / np.sqrt(6.0), _quantum(blocks, force))
     threshold = base + _py_max(CONTACT_NOISE_WIDTHS * noise, 0.01 * (blocks.max(force) - base))
     above = force > blocks.spread(threshold)
-    # rising[j] = above[j] & above[j+1] & above[j+2], inside the block
-    ahead1 = np.r_[above[1:], False] & (np.r_[block[1:], -1] == block)
-    ahead2 = np.r_[above[2:], False, False] & (np.r_[block[2:], -1, -1] == block)
-    first = blocks.first(above & ahead1 & ahead2)
+    first = blocks.first(_held(blocks, above))
     alive &= first >= 0
     travel = blocks.max(z) - _py_max(blocks.min(z), np.zeros(blocks.count))
     free = (local < blocks.spread(first)) & (z > 0)
@@ -179,17 +175,22 @@ def late_zero_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> In
     """
     if not z.size:
         return np.empty(0, np.int64)
-    block = blocks.block_of
     head, hi = blocks.head(3)
     base = head.median(force[hi])
     with np.errstate(invalid="ignore"):
         bound = base + 0.01 * (blocks.max(force) - base)
         loaded = (z <= 0) & (force > blocks.spread(bound)) & blocks.spread(blocks.sizes >= 8)
-    # held[j] = loaded[j] & loaded[j+1] & loaded[j+2], inside the block
-    ahead1 = np.r_[loaded[1:], False] & (np.r_[block[1:], -1] == block)
-    ahead2 = np.r_[loaded[2:], False, False] & (np.r_[block[2:], -1, -1] == block)
-    held = loaded & ahead1 & ahead2
+    held = _held(blocks, loaded)
     return np.union1d(np.flatnonzero(blocks.total_of(held)), _unfinite(blocks, z, force))
+
+
+def _held(blocks: Blocks, mask: np.ndarray) -> np.ndarray:
+    """mask[j] & mask[j+1] & mask[j+2] inside each block: where a condition starts to hold
+    for three samples (the detectors' held rise, ``above[:-2] & above[1:-1] & above[2:]``)."""
+    block = blocks.block_of
+    ahead1 = np.r_[mask[1:], False] & (np.r_[block[1:], -1] == block)
+    ahead2 = np.r_[mask[2:], False, False] & (np.r_[block[2:], -1, -1] == block)
+    return mask & ahead1 & ahead2
 
 
 def _power_law_residuals(
