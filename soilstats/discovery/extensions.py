@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..fitting.identify import identify
@@ -35,7 +36,7 @@ from ..identification.starting_values import janosi_start, reece_from_bekker, si
 from ..identification.wong import wong_start
 from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
 from ..models.extended import ShearLayout, SinkageLayout, shear_family, sinkage_family
-from .candidates import MISSING, spans_log
+from .candidates import MISSING, candidate_values, spans_log
 
 __all__ = [
     "Extension",
@@ -142,6 +143,48 @@ def _stack(terms, states, group, owner, target) -> np.ndarray | None:
     return np.vstack(blocks).T if blocks else None
 
 
+def _test_features(terms, states, group, rows, targets) -> list[np.ndarray]:
+    """Per-test feature columns (on the tests ``rows``) of every term that moves one of
+    ``targets``: the test-level design the structural checks below look at."""
+    return [
+        col
+        for t, st in zip(terms, states, strict=True)
+        if set(t.targets) & set(targets)
+        for col in t.features.matrix(group, st)[rows].T
+    ]
+
+
+def _per_test_input(group, key: str) -> np.ndarray:
+    """A per-sample input that is constant within a test (``b``, ``sigma``), per test row."""
+
+    def compute():
+        out = np.full(len(group.tests), np.nan)
+        out[group.owner] = group.x[key]
+        return out
+
+    return group.memo(("per-test", key), compute)
+
+
+def _independent(columns) -> bool:
+    """Whether test-level design columns are linearly independent.
+
+    Each column is scaled to unit length first (features, 1 and 1/b [1/m] differ in scale
+    by orders of magnitude); a column that is zero on these tests (a trend in a column that
+    is constant on them) makes the design dependent."""
+    a = np.column_stack(columns)
+    norm = np.linalg.norm(a, axis=0)
+    a = a / np.where(norm > 0, norm, 1.0)
+    return bool(np.all(norm > 0) and np.linalg.matrix_rank(a) == a.shape[1])
+
+
+def _not_separable(name, rows, parts) -> IdentifiabilityError:
+    return IdentifiabilityError(
+        f"{name}: {parts} are not determined on these {len(rows)} tests (the design is "
+        "rank-deficient before any fit: one column's levels determine another's, or a trend's "
+        "column is constant on them or aliased with such levels)"
+    )
+
+
 def _term_names(terms, states, target, label) -> list[str]:
     return [
         label.format(n)
@@ -158,6 +201,11 @@ class Fitted:
     extension: Extension
     result: FitResult
     state: dict = field(default_factory=dict)
+
+
+def _uses_bekker(fitted: Fitted) -> bool | None:
+    """Whether a fitted sinkage model kept Eq. 7 (None for Reece and shear models)."""
+    return fitted.state.get("bekker", getattr(fitted.extension, "bekker", None))
 
 
 @dataclass(frozen=True)
@@ -212,7 +260,7 @@ class SinkageExtension(Extension):
             soft = aspect >= state["min_aspect"] - 1e-9
         n_s = 0 if fs is None else fs.shape[1]
         n_d = 0 if gd is None else gd.shape[1]
-        layout = SinkageLayout(self.bekker, n_s, n_d, self.soften)
+        layout = SinkageLayout(state.get("bekker", self.bekker), n_s, n_d, self.soften)
         return (
             mask,
             layout,
@@ -220,7 +268,7 @@ class SinkageExtension(Extension):
         )
 
     def _names(self, state):
-        names = ["kc", "kphi", "n"] if self.bekker else ["k", "n"]
+        names = ["kc", "kphi", "n"] if state.get("bekker", self.bekker) else ["k", "n"]
         units = [_SINK_UNITS[n] for n in names]
         states = state.get("terms", [])
         for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
@@ -232,15 +280,40 @@ class SinkageExtension(Extension):
             units += ["m", "-"]
         return names, units
 
+    def _base_form(self, group, rows, states) -> bool:
+        """Whether Eq. 7's kc/b + kφ can stay beside the terms on the tests ``rows``
+        (else Eq. 8's one k takes its place); raises IdentifiabilityError when the terms
+        themselves are redundant.
+
+        A stiffness factor per level of a column whose levels determine the plate width
+        (``velocity_m_s × area_m2``, ``tool``) already gives every plate size a stiffness of
+        its own: kc/b + kφ then sets one number, and two parameters for it leave a direction
+        along which the fit walks off to kc → −∞ without end (measured: 1,000 iterations,
+        7 s, on a 10,000-test campaign).  Judged on the test-level design, linearised at
+        θ = 0 (a factor exp(θ·F) moves ln k by F·dθ)."""
+        one = np.ones(len(rows))
+        k_cols = _test_features(self.terms, states, group, rows, ("k",))
+        n_cols = _test_features(self.terms, states, group, rows, ("n",))
+        if n_cols and not _independent([one, *n_cols]):
+            raise _not_separable(self.name, rows, "the exponent's offsets beside the base n")
+        if k_cols and not _independent([one, *k_cols]):
+            raise _not_separable(self.name, rows, "the stiffness factors beside the base k")
+        if not (self.bekker and k_cols):
+            return self.bekker
+        return _independent([one, 1.0 / _per_test_input(group, "b")[rows], *k_cols])
+
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
         state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
+        bekker = self._base_form(group, rows, state["terms"])
+        if bekker != self.bekker:
+            state["bekker"] = bekker
         mask = group.samples_of(rows)
         y, w = group.y[mask], group.w[mask]
-        if base is not None and getattr(base.extension, "bekker", None) == self.bekker:
-            start = list(base.result.values[: 3 if self.bekker else 2])
+        if base is not None and _uses_bekker(base) == bekker:
+            start = list(base.result.values[: 3 if bekker else 2])
         else:
-            model = "bekker" if self.bekker else "bernstein"
+            model = "bekker" if bekker else "bernstein"
             start = list(sinkage_start(model, group.x["b"][mask], group.x["z"][mask], y))
         if not self.soften:
             mask, layout, family = self._inputs(group, rows, state)
@@ -341,9 +414,29 @@ class ShearExtension(Extension):
             units.append("-")
         return names, units
 
+    def _check_separable(self, group, rows, states) -> None:
+        """Raise IdentifiabilityError when the terms are redundant on the tests ``rows``.
+
+        Linearised at θ = 0, a test's plateau τ_max = c·e^(θ_c·F) + σ·tan φ·e^(θ_t·F) moves
+        with the columns 1, σ, F_c and σ·F_t; factors on c and tan φ per level of a column
+        whose levels each hold one normal stress cannot be told apart, as c and tan φ cannot
+        from tests at one σ (Eq. 12).  K's factors move ln K with 1 and F_K."""
+        one = np.ones(len(rows))
+        sigma = _per_test_input(group, "sigma")[rows]
+        c_cols = _test_features(self.terms, states, group, rows, ("c",))
+        t_cols = _test_features(self.terms, states, group, rows, ("tan_phi",))
+        k_cols = _test_features(self.terms, states, group, rows, ("K",))
+        if (c_cols or t_cols) and not _independent(
+            [one, sigma, *c_cols, *(sigma * col for col in t_cols)]
+        ):
+            raise _not_separable(self.name, rows, "the factors on c and tan φ beside the base c, φ")
+        if k_cols and not _independent([one, *k_cols]):
+            raise _not_separable(self.name, rows, "the factors on K beside the base K")
+
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
         state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
+        self._check_separable(group, rows, state["terms"])
         mask, layout, family = self._inputs(group, rows, state)
         y, w = group.y[mask], group.w[mask]
         if base is not None:
@@ -457,6 +550,10 @@ def library(
         stiffness = "level" in responses or not responses
         exponent = "shape" in responses or not responses
         how = "linear" if numeric else "levels"
+        if names & _SIZE and not numeric and stiffness and exponent and _fixes_width(tests, cause):
+            # k and n per level of a column that fixes the plate width is what the generic
+            # extension becomes (SinkageExtension._base_form): the same model, fitted once.
+            return out
         out.append(
             SinkageExtension(
                 f"{cause} ({how})",
@@ -496,6 +593,13 @@ def library(
         )
     )
     return out
+
+
+def _fixes_width(tests, column) -> bool:
+    """Whether each level of ``column`` holds one plate width b among ``tests``."""
+    levels = candidate_values(tests, column).astype(object).fillna(MISSING)
+    widths = np.round(tests["b_m"].to_numpy(float), 9)
+    return bool(pd.Series(widths).groupby(levels.to_numpy()).nunique().max() == 1)
 
 
 def combine(extensions) -> Extension | None:

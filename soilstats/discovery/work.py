@@ -46,7 +46,7 @@ import tempfile
 import threading
 import uuid
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -72,11 +72,13 @@ FIT_ERRORS = (ConvergenceError, IdentifiabilityError, np.linalg.LinAlgError, Val
 
 @dataclass(frozen=True, eq=False)
 class Start:
-    """What a fit reads of the fitted model it starts from: the extension and its parameter
-    values (``start.result.values``, as of a :class:`~.extensions.Fitted`)."""
+    """What a fit reads of the fitted model it starts from: the extension, its parameter
+    values (``start.result.values``, as of a :class:`~.extensions.Fitted`) and the base form
+    its fit chose (``state["bekker"]``, when it differs from the extension's)."""
 
     extension: object
     values: np.ndarray
+    state: dict = field(default_factory=dict)
 
     @property
     def result(self) -> Start:
@@ -87,7 +89,8 @@ class Start:
         """The start part of a fitted model (None stays None)."""
         if fitted is None or isinstance(fitted, Start):
             return fitted
-        return cls(fitted.extension, np.asarray(fitted.result.values))
+        kept = {k: v for k, v in fitted.state.items() if k == "bekker"}
+        return cls(fitted.extension, np.asarray(fitted.result.values), kept)
 
 
 @dataclass(frozen=True, eq=False)
