@@ -248,3 +248,34 @@ def test_lines_above_the_header_are_named_with_the_header_line(write_campaign):
     sinkage = "Rig 3 export\nunits: m and N\ntest_id,z_m,force_N\na,0.001,1.5\na,0.002,3.0\n"
     with pytest.raises(CampaignError, match=r"column names .* are on line 3"):
         load_campaign(write_campaign(tests=tests, sinkage=sinkage))
+
+
+def test_fit_time_errors_name_the_parquet_file_read(tmp_path, campaign_frames):
+    """Errors raised when fitting (pooling, shear, per-test) name the file the table was read
+    from — ``sinkage.parquet``, not ``sinkage.csv``; in-memory tables keep ``<stem>.csv``."""
+    import soilstats
+    from soilstats.errors import CampaignError
+
+    folder = tmp_path / "pq"
+    folder.mkdir()
+    for stem, frame in campaign_frames.items():
+        frame.to_parquet(folder / f"{stem}.parquet")
+    campaign = load_campaign(folder)
+    assert campaign.select(kind="shear").file_name("shear") == "shear.parquet"  # kept by select
+    calls = [
+        (lambda: soilstats.fit_sinkage(campaign), "sinkage.parquet", "c1"),
+        (lambda: soilstats.fit_shear(campaign), "shear.parquet", None),
+        (lambda: soilstats.fit_shear(campaign, model="janosi"), "shear.parquet", "s1"),
+        (
+            lambda: soilstats.fit_per_test(campaign.select(kind="shear"), "sinkage"),
+            "tests.parquet",
+            None,
+        ),
+    ]
+    for call, file, test_id in calls:
+        with pytest.raises(CampaignError, match=f"file '{file}'") as raised:
+            call()
+        assert raised.value.file == file and raised.value.test_id == test_id
+    memory = Campaign.from_frames(campaign.tests, campaign.sinkage, campaign.shear)
+    with pytest.raises(CampaignError, match="file 'sinkage.csv'"):
+        soilstats.fit_sinkage(memory)

@@ -142,7 +142,7 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
     _warn_near_names(out["tests"], frames["tests"][1])
     if check_units:
         check_plausible_units(out["tests"], out["sinkage"], out["shear"], file_names)
-    return Campaign(out["tests"], out["sinkage"], out["shear"], source, skipped)
+    return Campaign(out["tests"], out["sinkage"], out["shear"], source, skipped, files=file_names)
 
 
 #: Log columns whose values name groups the analyses keep apart.
@@ -318,6 +318,9 @@ class Campaign:
     window : AppliedWindow or None
         Set by :func:`soilstats.identification.window.windowed`: the fitting window whose
         samples were removed, with its per-test counts.
+    files : mapping of str to str
+        File stem → the file name the table was read from (``sinkage.parquet``), for
+        messages; ``<stem>.csv`` for tables given in memory. See :meth:`file_name`.
     """
 
     tests: pd.DataFrame
@@ -327,6 +330,12 @@ class Campaign:
     skipped: pd.DataFrame = field(default_factory=lambda: _skipped_table([]))
     quality: Any = None
     window: Any = None
+    files: Mapping[str, str] = field(default_factory=lambda: {s: f"{s}.csv" for s in FILES})
+
+    def file_name(self, stem: str) -> str:
+        """The file a table (``"tests"``, ``"sinkage"``, ``"shear"``) was read from, as
+        error messages name it: ``sinkage.parquet`` for a Parquet campaign."""
+        return self.files.get(stem, f"{stem}.csv")
 
     @classmethod
     def from_frames(

@@ -300,7 +300,7 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
         if crit.column not in tests.columns:
             raise CampaignError(
                 f"--select {crit}: no such column; the test log has {list(tests.columns)}",
-                file="tests.csv",
+                file=campaign.file_name("tests"),
                 column=crit.column,
             )
         value: object = crit.text
@@ -310,7 +310,7 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
             except ValueError:
                 raise CampaignError(
                     f"--select {crit}: {crit.column!r} is a numeric column; give a number",
-                    file="tests.csv",
+                    file=campaign.file_name("tests"),
                     column=crit.column,
                 ) from None
         hit = match_values(tests[crit.column], value, crit.column)
@@ -324,7 +324,7 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
             "--select kept no test: "
             + (f"{', '.join(empty)} matched none" if empty else "no test meets all criteria")
             + " — check the values in the test log",
-            file="tests.csv",
+            file=campaign.file_name("tests"),
         )
     return campaign.select(test_id=list(tests["test_id"][keep]))
 

@@ -91,7 +91,7 @@ def _check_series(campaign, series: str | None) -> None:
     if series not in present:
         raise CampaignError(
             f"--series {series!r}: no such series; series present: {sorted(present)}",
-            file="tests.csv",
+            file=campaign.file_name("tests"),
             column="series",
         )
 
@@ -110,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise CampaignError(
             f"--soil {', '.join(unknown)}: no such soil; soils present: {soils_present}",
-            file="tests.csv",
+            file=campaign.file_name("tests"),
             column="soil",
         )
     _check_series(campaign, args.series)
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
     if not records:
         raise CampaignError(
             "no condition could be identified in the selected tests (see the messages above)",
-            file="tests.csv",
+            file=campaign.file_name("tests"),
         )
     document = {"fits": records}
     if args.out:

@@ -54,15 +54,18 @@ def condition_label(value) -> str:
     return str(value)
 
 
-def default_condition(tests: pd.DataFrame, kind: str, requested: str | None = None) -> str | None:
+def default_condition(
+    tests: pd.DataFrame, kind: str, requested: str | None = None, file: str = "tests.csv"
+) -> str | None:
     """The column whose values are the conditions: ``requested`` (checked), else the first of
-    :data:`DEFAULT_CONDITION_COLUMNS` that varies among ``tests``, else None (one condition)."""
+    :data:`DEFAULT_CONDITION_COLUMNS` that varies among ``tests``, else None (one condition).
+    ``file``: the test log's name, for messages."""
     if requested:
         if requested not in tests.columns:
             raise CampaignError(
                 f"condition column {requested!r} is not a test-log column; "
                 f"columns: {list(tests.columns)}",
-                file="tests.csv",
+                file=file,
                 column=requested,
             )
         return requested
@@ -219,7 +222,7 @@ def plan_conditions(
     else:
         by_series = [(None, tests)]
     for series, series_tests in by_series:
-        column = default_condition(series_tests, kind, by)
+        column = default_condition(series_tests, kind, by, campaign.file_name("tests"))
         keys = ["soil", column] if column else ["soil"]
         for key, group in series_tests.groupby(keys, sort=True, dropna=False):
             soil = str(key[0])

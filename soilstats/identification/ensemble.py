@@ -63,12 +63,15 @@ class EnsembleCurve:
         return self.pressure_Pa > self.sampled_max_Pa
 
 
-def _rising_record(test_id: str, p: np.ndarray, z: np.ndarray, rows, non_increasing: str):
-    """The record with strictly rising pressure that a spline z(p) needs, and the count left out."""
+def _rising_record(
+    test_id: str, p: np.ndarray, z: np.ndarray, rows, non_increasing: str, file: str
+):
+    """The record with strictly rising pressure that a spline z(p) needs, and the count left
+    out; ``file``: the sinkage file's name, for messages."""
     if not (np.all(np.isfinite(p)) and np.all(np.isfinite(z))):
         raise CampaignError(
             "an ensemble curve needs finite pressure and sinkage",
-            file="sinkage.csv",
+            file=file,
             test_id=test_id,
         )
     rising = np.diff(p) > 0
@@ -80,7 +83,7 @@ def _rising_record(test_id: str, p: np.ndarray, z: np.ndarray, rows, non_increas
             f"pressure does not rise at file row {rows[first]} ({p[first]:g} Pa after "
             f"{p[first - 1]:g} Pa); a spline z(p) needs strictly rising pressure. Pass "
             "non_increasing='drop' to keep only the samples that set a new pressure maximum",
-            file="sinkage.csv",
+            file=file,
             column="force_N",
             test_id=test_id,
         )
@@ -129,6 +132,7 @@ def ensemble_curve(
     grid = np.arange(0.0, p_max + step / 2.0, step)
     curves, tops, dropped = [], [], {}
     by_test = campaign.sinkage.groupby("test_id", sort=False)
+    file = campaign.file_name("sinkage")
     for test_id in ids:
         record = by_test.get_group(test_id)
         p, z, left_out = _rising_record(
@@ -137,12 +141,13 @@ def ensemble_curve(
             record["z_m"].to_numpy(float),
             record.index.to_numpy() + 1,
             non_increasing,
+            file,
         )
         if p.size < MIN_SPLINE_SAMPLES:
             raise CampaignError(
                 f"{p.size} samples with rising pressure; a not-a-knot spline needs "
                 f"{MIN_SPLINE_SAMPLES}",
-                file="sinkage.csv",
+                file=file,
                 test_id=test_id,
             )
         dropped[test_id] = left_out

@@ -78,7 +78,9 @@ def fit_per_test(
     tests = chosen.tests[chosen.tests["kind"] == kind].reset_index(drop=True)
     if tests.empty:
         crit = ", ".join(f"{k}={v!r}" for k, v in selection.items()) or "no selection"
-        raise CampaignError(f"no {kind} tests match ({crit})", file="tests.csv", column="kind")
+        raise CampaignError(
+            f"no {kind} tests match ({crit})", file=campaign.file_name("tests"), column="kind"
+        )
     samples = chosen.sinkage if kind == "sinkage" else chosen.shear
     by_test = samples.groupby("test_id", sort=False).indices
     fit_one = _fit_sinkage_test if kind == "sinkage" else _fit_shear_test

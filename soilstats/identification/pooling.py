@@ -257,9 +257,9 @@ def kept_samples(
     )
 
 
-def _unusable(kind: str, tid, problem: str) -> CampaignError:
+def _unusable(kind: str, tid, problem: str, file: str) -> CampaignError:
     column = ("z_m" if "samples" in problem else "force_N") if kind == "sinkage" else "torque_Nm"
-    return CampaignError(problem, file=f"{kind}.csv", column=column, test_id=str(tid))
+    return CampaignError(problem, file=file, column=column, test_id=str(tid))
 
 
 def pool_sinkage(
@@ -298,7 +298,7 @@ def pool_sinkage(
         weighting="max" if weighting == "max-pressure" else "none",
     )
     if on_unusable == "raise":
-        _raise_first_problem("sinkage", test_ids, rule.problems)
+        _raise_first_problem("sinkage", test_ids, rule.problems, campaign.file_name("sinkage"))
     use, test_of = _used_in_test_order(rule.fitted(test), test)
     z, p = z_all[use], p_all[use]
     used = np.bincount(test_of, minlength=n_tests)
@@ -333,10 +333,10 @@ def _max_by_test(values: np.ndarray, test: np.ndarray, n_tests: int) -> np.ndarr
     return out
 
 
-def _raise_first_problem(kind: str, test_ids: np.ndarray, problems: list) -> None:
+def _raise_first_problem(kind: str, test_ids: np.ndarray, problems: list, file: str) -> None:
     for tid, problem in zip(test_ids, problems, strict=True):
         if problem is not None:
-            raise _unusable(kind, tid, problem)
+            raise _unusable(kind, tid, problem, file)
 
 
 def pool_shear(
@@ -368,7 +368,9 @@ def pool_shear(
         sigma_mean = np.bincount(test, sig_all, n_tests) / present
     groups = {"test_id": test_ids, "samples": present, "sigma_mean_Pa": sigma_mean}
     if steady_only:
-        used, weight, steady_columns = _steady_parts(test, j_all, tau_all, test_ids, weighting)
+        used, weight, steady_columns = _steady_parts(
+            test, j_all, tau_all, test_ids, weighting, campaign.file_name("shear")
+        )
         groups.update(steady_columns)
     else:
         rule = kept_by_test(
@@ -381,7 +383,7 @@ def pool_shear(
             weighting="max" if weighting == "max-stress" else "none",
         )
         if on_unusable == "raise":
-            _raise_first_problem("shear", test_ids, rule.problems)
+            _raise_first_problem("shear", test_ids, rule.problems, campaign.file_name("shear"))
         used = rule.fitted(test)
         weight = rule.weight
         groups.update(excluded_j_negative=rule.excluded, problem=rule.problems)
@@ -395,7 +397,7 @@ def pool_shear(
             if steady_only
             else "no selected shear test has a usable record (see the fit's tests['problem'])"
         )
-        raise CampaignError(why, file="shear.csv", column="torque_Nm")
+        raise CampaignError(why, file=campaign.file_name("shear"), column="torque_Nm")
     return PooledData.of(
         {"sigma_Pa": sig_all[use], "j_m": j_all[use]},
         tau_all[use],
@@ -405,9 +407,10 @@ def pool_shear(
     )
 
 
-def _steady_parts(test, j_all, tau_all, test_ids, weighting):
+def _steady_parts(test, j_all, tau_all, test_ids, weighting, file: str):
     """The steady-state samples of every shear test (rule in :mod:`.steady_state`), their
-    weights and the bookkeeping columns; one test at a time, as the rule reads a record."""
+    weights and the bookkeeping columns; one test at a time, as the rule reads a record.
+    ``file``: the shear file's name, for messages."""
     from .steady_state import steady_state
 
     n_tests = len(test_ids)
@@ -433,7 +436,7 @@ def _steady_parts(test, j_all, tau_all, test_ids, weighting):
             continue
         t_max = float(np.max(tau[keep]))
         if weighting == "max-stress" and t_max <= 0:
-            raise _unusable("shear", tid, f"max shear stress {t_max:g} Pa <= 0")
+            raise _unusable("shear", tid, f"max shear stress {t_max:g} Pa <= 0", file)
         weight[t] = 1.0 / t_max if weighting == "max-stress" else 1.0
         used[idx[keep]] = True
     return used, weight, columns
@@ -447,7 +450,13 @@ def select_one_soil(campaign, kind: str, selection: dict):
     """
     chosen = campaign.select(**selection) if selection else campaign
     tests = chosen.tests[chosen.tests["kind"] == kind]
-    _demand_one_soil(kind, selection, chosen.tests["kind"], tests["soil"].astype(str))
+    _demand_one_soil(
+        kind,
+        selection,
+        chosen.tests["kind"],
+        tests["soil"].astype(str),
+        campaign.file_name("tests"),
+    )
     return chosen, tests
 
 
@@ -467,18 +476,20 @@ def _one_soil_tests(campaign, kind: str, selection: dict):
     index = campaign_index(campaign)
     chosen = campaign.matches(**selection) if selection else np.ones(index.kind.size, bool)
     rows = np.flatnonzero(chosen & index.of_kind[kind])
-    _demand_one_soil(kind, selection, index.kind[chosen], index.soil[rows])
+    _demand_one_soil(
+        kind, selection, index.kind[chosen], index.soil[rows], campaign.file_name("tests")
+    )
     return index, rows
 
 
-def _demand_one_soil(kind: str, selection: dict, kinds, soils) -> None:
+def _demand_one_soil(kind: str, selection: dict, kinds, soils, file: str) -> None:
     """Raise unless the selection (``kinds`` of all its tests) holds tests of ``kind``, all
-    of one soil (``soils``: theirs, as text)."""
+    of one soil (``soils``: theirs, as text); ``file``: the test log's name, for messages."""
     if not len(soils):
         crit = ", ".join(f"{k}={v!r}" for k, v in selection.items()) or "no selection"
         raise CampaignError(
             f"no {kind} tests match ({crit}); the campaign has kinds {sorted(set(kinds))}",
-            file="tests.csv",
+            file=file,
             column="kind",
         )
     soils = sorted(set(soils))
@@ -486,6 +497,6 @@ def _demand_one_soil(kind: str, selection: dict, kinds, soils) -> None:
         raise CampaignError(
             f"the selection holds {len(soils)} soils {soils}; parameters of different soils "
             f"must not be pooled — add soil=... to the call (e.g. soil={soils[0]!r})",
-            file="tests.csv",
+            file=file,
             column="soil",
         )

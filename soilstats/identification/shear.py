@@ -81,7 +81,7 @@ def fit_shear(
             raise CampaignError(
                 "Mohr–Coulomb needs steady-state data at two or more normal "
                 "pressures (Section 2.2)",
-                file="shear.csv",
+                file=campaign.file_name("shear"),
                 column="normal_force_N",
             )
         lin = linear_least_squares(

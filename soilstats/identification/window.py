@@ -82,9 +82,10 @@ class FitWindow:
     def __bool__(self) -> bool:
         return any(r.z_max is not None or r.p_max is not None for r in self.rules)
 
-    def limits(self, tests: pd.DataFrame) -> pd.DataFrame:
+    def limits(self, tests: pd.DataFrame, file: str = "tests.csv") -> pd.DataFrame:
         """``test_id``, ``z_max``, ``p_max`` per test (NaN: no limit); a column rule whose
-        value matches a test replaces the global rule's limits."""
+        value matches a test replaces the global rule's limits.  ``file``: the test log's
+        name, for messages."""
         from ..campaign.campaign import match_values
 
         out = pd.DataFrame({"test_id": tests["test_id"].astype(str).to_numpy()})
@@ -99,7 +100,7 @@ class FitWindow:
                     raise CampaignError(
                         f"window rule {rule.describe()!r}: no such column; the test log has "
                         f"{list(tests.columns)}",
-                        file="tests.csv",
+                        file=file,
                         column=rule.column,
                     )
                 value = rule.value
@@ -156,7 +157,7 @@ def windowed(campaign, window: FitWindow | None):
     if window is None or not window:
         return campaign
     tests = campaign.tests[campaign.tests["kind"] == "sinkage"]
-    limits = window.limits(tests)
+    limits = window.limits(tests, campaign.file_name("tests"))
     sink = campaign.sinkage
     per_sample = limits.set_index("test_id").reindex(sink["test_id"].astype(str))
     z_max = per_sample["z_max"].to_numpy(float)
