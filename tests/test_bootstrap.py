@@ -240,3 +240,36 @@ def test_a_resample_at_one_normal_pressure_fails_by_the_rank_rule_of_the_fit():
     for b in (1, 2):
         x = design * np.sqrt(counts[b][test_index])[:, None]
         assert condition[b] == pytest.approx(np.linalg.cond(x / np.linalg.norm(x, axis=0)))
+
+
+def test_fits_on_fewer_tests_than_the_bootstrap_needs_are_flagged_few_tests():
+    """One to four tests: the ± is Eq. 4's alone and cannot show the scatter between
+    repeats, so the fit says so (``few-tests``) however many resamples were asked for;
+    five tests are enough for the bootstrap and carry no such flag."""
+    from soilstats.identification.bootstrap import MIN_TESTS
+
+    campaign = _campaign(5, stiffness_cv=0.1, n_sd=0.03, repetitions=MIN_TESTS)
+    ids = list(campaign.tests["test_id"][campaign.tests["radius_m"] == 0.05])
+    assert len(ids) == MIN_TESTS
+    for n_tests, resamples in ((1, 0), (2, 50), (MIN_TESTS - 1, 50)):
+        fit = fit_sinkage(campaign, "bernstein", test_resamples=resamples, test_id=ids[:n_tests])
+        (flag,) = [f for f in fit.flags if f.code == "few-tests"]
+        assert ("one test" if n_tests == 1 else f"{n_tests} tests") in flag.message
+        assert not fit.healthy and "few-tests" in fit.summary()
+    enough = fit_sinkage(campaign, "bernstein", test_resamples=50, test_id=ids)
+    assert "few-tests" not in {f.code for f in enough.flags}
+
+
+def test_table_marks_the_sigma_of_a_bootstrap_unstable_fit():
+    """A fit flagged bootstrap-unstable says not to quote its σ: its cells carry ``!`` and a
+    footnote, cells of other fits do not."""
+    from soilstats.fitting.result import HealthFlag
+    from soilstats.identification.table import UNSTABLE_MARK, format_parameter_table
+
+    fit = fit_sinkage(_campaign(6, stiffness_cv=0.1, n_sd=0.03), "bekker")
+    unstable = fit.annotated(flags=[HealthFlag("bootstrap-unstable", "a few resamples")])
+    text = format_parameter_table({"plain": fit, "unstable": unstable})
+    (kc_row,) = [line for line in text.splitlines() if line.startswith("kc ")]
+    assert kc_row.count(f" {UNSTABLE_MARK}") == 1  # only the unstable fit's cell
+    assert f"{UNSTABLE_MARK} bootstrap-unstable" in text
+    assert f"{UNSTABLE_MARK} bootstrap-unstable" not in format_parameter_table({"plain": fit})

@@ -277,5 +277,5 @@ def test_fit_time_errors_name_the_parquet_file_read(tmp_path, campaign_frames):
             call()
         assert raised.value.file == file and raised.value.test_id == test_id
     memory = Campaign.from_frames(campaign.tests, campaign.sinkage, campaign.shear)
-    with pytest.raises(CampaignError, match="file 'sinkage.csv'"):
+    with pytest.raises(CampaignError, match=r"file 'sinkage\.csv'"):
         soilstats.fit_sinkage(memory)

@@ -11,7 +11,7 @@ from scipy import stats
 
 from ..fitting.result import FitResult, HealthFlag
 from ..report.files import json_safe
-from .bootstrap import TestBootstrap
+from .bootstrap import MIN_TESTS, TestBootstrap
 from .pooling import PooledData
 
 __all__ = ["CampaignFit"]
@@ -55,6 +55,7 @@ class CampaignFit(FitResult):
             more_notes, more_flags = _bootstrap_findings(fit, bootstrap)
             notes += more_notes
             flags += more_flags
+        flags += _few_tests(pooled)
         base = fit.annotated(notes, flags)
         fields_ = {f.name: getattr(base, f.name) for f in fields(FitResult)}
         return cls(**fields_, test_columns=pooled.by_test, bootstrap=bootstrap, data=data)
@@ -273,6 +274,24 @@ MAX_FAILED_SHARE = 0.05
 #: it, and its value moves with the seed (GRC-1's Bekker kφ: 13.9×, sd 1.3e5–9.7e5 over
 #: seeds 0–4).  Clean simulated campaigns reach 1.7 at most (48 fits, 200 resamples each).
 MAX_TAIL_RATIO = 3.0
+
+
+def _few_tests(pooled: PooledData) -> list[HealthFlag]:
+    """``few-tests`` when the fit rests on fewer tests than a test bootstrap needs: its σ is
+    then one set of curves' (Eq. 4), and nothing measures the scatter between repeats."""
+    n = int(np.unique(pooled.test_index).size)
+    if n >= MIN_TESTS:
+        return []
+    what = "one test" if n == 1 else f"{n} tests"
+    return [
+        HealthFlag(
+            "few-tests",
+            f"{what}: too few to measure the scatter between repeated tests (a test "
+            f"bootstrap needs {MIN_TESTS}), so the ± is Eq. 4's alone and leaves that scatter "
+            "out (on Cullinan sand it is 7× one curve's σ of n); repeat the test before "
+            "quoting a σ",
+        )
+    ]
 
 
 def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], list[HealthFlag]]:

@@ -27,6 +27,12 @@ def format_value(value: float, sigma: float) -> str:
 
 #: Marks a cell whose ± is the test-level σ (see :func:`shown_stderr`).
 TEST_LEVEL_MARK = "*"
+#: Marks a cell whose fit is flagged ``bootstrap-unstable``: no σ of it may be quoted.
+UNSTABLE_MARK = "!"
+
+
+def _unstable(fit: FitResult) -> bool:
+    return any(f.code == "bootstrap-unstable" for f in fit.flags)
 
 
 def _stderr_tests(fit: FitResult) -> pd.Series | None:
@@ -71,7 +77,8 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
     """Render ``fits`` as the paper's Table 5: parameters in rows, conditions in columns.
 
     Each cell is value ± Eq. 4's σ, or ± the test-level σ marked ``*`` where the fit is
-    flagged ``test-scatter`` (:func:`shown_stderr`; a footnote says so)."""
+    flagged ``test-scatter`` (:func:`shown_stderr`; a footnote says so); ``!`` marks the
+    cells of a fit flagged ``bootstrap-unstable``, whose σ that flag says not to quote."""
     labels = list(fits)
     first = next(iter(fits.values()))
     names = first.param_names
@@ -86,6 +93,7 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
                 *(
                     format_value(fits[c].params[name], shown[c][0][name])
                     + (f" {TEST_LEVEL_MARK}" if shown[c][1] else "")
+                    + (f" {UNSTABLE_MARK}" if _unstable(fits[c]) else "")
                     for c in labels
                 ),
             ]
@@ -118,5 +126,10 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
         out.append(
             f"{TEST_LEVEL_MARK} ± the test-level σ (stderr_tests: bootstrap over tests), as "
             "test-scatter advises; other cells ± Eq. 4's σ"
+        )
+    if any(_unstable(fits[c]) for c in labels):
+        out.append(
+            f"{UNSTABLE_MARK} bootstrap-unstable: the estimate depends on which tests are in the "
+            "campaign; quote no σ of it (soilstats identify --verbose says why)"
         )
     return "\n".join(out)
