@@ -16,6 +16,7 @@ import pytest
 from pypdf import PdfReader
 
 from soilstats.cli.study import main
+from soilstats.errors import ConvergenceError
 from soilstats.identification.table import format_value
 
 STUDIES = [
@@ -207,6 +208,53 @@ def test_clear_errors_not_tracebacks(tmp_path, capsys):
     assert "\nerror: velocity study needs sinkage tests" in "\n" + err and "velocity_m_s" in err
     assert main(["no-such-study", "--out", str(tmp_path)]) == 2
     assert "choose one of" in capsys.readouterr().err
+
+
+def test_all_runs_what_the_campaign_answers_and_lists_the_rest(tmp_path, capsys):
+    """cullinan-sand has preparation tests only: 'all' runs that study and lists the six
+    others as not applicable with their reason, in the text and the JSON, exit 0."""
+    argv = ["all", "--data", "cullinan-sand", "--no-pdf", "--progress", "off"]
+    assert main([*argv, "--out", str(tmp_path / "text")]) == 0
+    text = capsys.readouterr().out
+    assert "Study 'preparation'" in text
+    assert "velocity: not applicable: velocity study needs" in text and "velocity_m_s" in text
+    assert "grousers: not applicable: grousers study needs shear tests" in text
+    assert main([*argv, "--out", str(tmp_path / "json"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [d["study"] for d in doc["studies"]] == ["preparation"]
+    assert [n["study"] for n in doc["not_applicable"]] == STUDIES[1:]
+    assert all(n["reason"].startswith(f"{n['study']} study needs") for n in doc["not_applicable"])
+    written = {p.name for p in (tmp_path / "json").iterdir()}
+    assert "preparation.json" in written and not any(n.startswith("velocity") for n in written)
+
+
+def test_all_with_no_applicable_study_is_one_error_listing_each(tmp_path, capsys):
+    out = tmp_path / "out"
+    argv = ["all", "--data", "grc1-oravec2009", "--out", str(out), "--no-pdf"]
+    assert main([*argv, "--progress", "off"]) == 2
+    err = capsys.readouterr().err
+    assert "error: no study applies to the campaign bundled:grc1-oravec2009" in err
+    for name in STUDIES:
+        assert f"\n  {name}: not applicable: {name} study needs" in err
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("error", "code"), [(RuntimeError("a bug"), 1), (ConvergenceError("no minimum"), 2)]
+)
+def test_all_stops_on_a_real_failure(error, code, tmp_path, capsys, monkeypatch):
+    """Only 'the design cannot answer this' becomes not applicable: a bug or a failed fit
+    in one study still stops 'all' with its own message."""
+    import soilstats.study
+
+    def failing(spec, *args, **kwargs):
+        raise error
+
+    monkeypatch.setattr(soilstats.study, "run_study", failing)
+    argv = ["all", "--data", "cullinan-sand", "--out", str(tmp_path), "--no-pdf"]
+    assert main([*argv, "--progress", "off"]) == code
+    err = capsys.readouterr().err
+    assert str(error) in err and "not applicable" not in err
 
 
 def test_a_study_states_its_failed_per_test_fits_however_the_cache_was_filled():

@@ -1,7 +1,8 @@
 """Run setup-effect studies of the paper's Sections 3-4 and write their reports.
 
 NAME is a shipped study (preparation, velocity, tool-shape, shear-ring, grousers,
-grouser-height, shear-velocity), 'all' for every shipped study, or the path of a study
+grouser-height, shear-velocity), 'all' for every shipped study the campaign can answer (the
+others are listed as "not applicable" with the reason), or the path of a study
 specification (.toml; format in docs/studies.md: copy a shipped one from the 'studies' folder
 of the repository and change it).
 
@@ -44,7 +45,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the studies; readable summaries (or one JSON object) on stdout."""
     from ..parallel import effective_jobs, parallel_map, warm_workers
-    from ..study import available_studies, load_spec
+    from ..study import StudyDataError, available_studies, load_spec
     from ..study.outputs import to_json_dict
     from ..study.responses import PerTestCache
 
@@ -72,8 +73,11 @@ def run(args: argparse.Namespace) -> int:
             from tqdm.auto import tqdm
 
             outcomes = tqdm(outcomes, total=len(tasks), desc="studies", unit="study")
-    documents, timings = [], []
+    documents, timings, not_applicable = [], [], []
     for spec, (result, written, pages, seconds) in zip(specs, outcomes, strict=True):
+        if isinstance(result, str):  # 'all': a study this campaign's design cannot answer
+            not_applicable.append({"study": spec.name, "reason": result})
+            continue
         timings.append((spec.name, seconds))
         documents.append(to_json_dict(result) | {"files": [str(p) for p in written]})
         if not args.json:
@@ -87,8 +91,14 @@ def run(args: argparse.Namespace) -> int:
             + f"; total {sum(s for _, s in timings):.1f} s",
             file=log,
         )
+    reasons = "\n".join(f"  {n['study']}: not applicable: {n['reason']}" for n in not_applicable)
+    if not documents:  # 'all' and no study applies: bad input, not an empty success
+        raise StudyDataError(f"no study applies to the campaign {campaign.source}:\n{reasons}")
+    if not_applicable:
+        print(f"\nStudies this campaign cannot answer:\n{reasons}", file=log)
     if args.json:
-        print(json.dumps({"studies": documents, "provenance": provenance.to_dict()}, indent=2))
+        document = {"studies": documents, "not_applicable": not_applicable}
+        print(json.dumps(document | {"provenance": provenance.to_dict()}, indent=2))
     return 0
 
 
@@ -102,14 +112,29 @@ def _one_after_another(tasks):
 
 
 def _run_one(task):
-    """One study: run, write its JSON/CSV (and PDF); (result, files, pages, seconds)."""
-    from ..study import run_study, write_outputs, write_report
+    """One study: run, write its JSON/CSV (and PDF); (result, files, pages, seconds).
+
+    Under 'all', a study the campaign's design cannot answer (:class:`StudyDataError`: no
+    tests of its kind, no factor column, one level per soil) gives its reason in place of
+    the result; any other error (a bug, a failed fit) propagates and stops the command.
+    """
+    from ..study import StudyDataError, run_study, write_outputs, write_report
 
     spec, campaign, cache, args, provenance = task
     start = time.perf_counter()
-    result = run_study(
-        spec, campaign, cache=cache, progress=cache.progress, seed=args.seed, provenance=provenance
-    )
+    try:
+        result = run_study(
+            spec,
+            campaign,
+            cache=cache,
+            progress=cache.progress,
+            seed=args.seed,
+            provenance=provenance,
+        )
+    except StudyDataError as err:
+        if args.name != "all":
+            raise
+        return str(err), [], None, time.perf_counter() - start
     out_dir = Path(args.out)
     written = write_outputs(result, out_dir, overwrite=args.overwrite)
     pages = None
