@@ -257,6 +257,24 @@ def test_all_stops_on_a_real_failure(error, code, tmp_path, capsys, monkeypatch)
     assert str(error) in err and "not applicable" not in err
 
 
+def test_no_repeated_level_is_an_error_in_the_studys_terms(tmp_path, capsys):
+    """cullinan-sand's methods 3-5 have one test each: the error names the factor column
+    (not the ANOVA's internal 'level'), the soil, the response, the tests and the levels."""
+    import soilstats
+
+    folder = tmp_path / "cs_345"
+    soilstats.load_campaign("cullinan-sand").select(preparation=["3", "4", "5"]).save(folder)
+    argv = ["preparation", str(folder), "--out", str(tmp_path / "out"), "--no-pdf"]
+    assert main([*argv, "--progress", "off"]) == 2
+    err = capsys.readouterr().err
+    assert "'level'" not in err
+    assert "error: preparation study, soil cullinan-sand, response log10_p_ref" in err
+    assert "response n:" in err and "each of the 3 preparation levels has a single test" in err
+    for method in "345":
+        assert f"preparation {method}: method{method}-test1" in err
+    assert "repeat the tests of at least one of these preparation levels" in err
+
+
 def test_a_study_states_its_failed_per_test_fits_however_the_cache_was_filled():
     """A test whose per-test fit fails is named in the notes of every study that uses it,
     whether the shared cache was filled by the study itself, by an earlier study, or by

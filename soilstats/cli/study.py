@@ -91,7 +91,10 @@ def run(args: argparse.Namespace) -> int:
             + f"; total {sum(s for _, s in timings):.1f} s",
             file=log,
         )
-    reasons = "\n".join(f"  {n['study']}: not applicable: {n['reason']}" for n in not_applicable)
+    reasons = "\n".join(  # a reason of several lines (one per response) stays indented
+        f"  {n['study']}: not applicable: " + n["reason"].replace("\n", "\n    ")
+        for n in not_applicable
+    )
     if not documents:  # 'all' and no study applies: bad input, not an empty success
         raise StudyDataError(f"no study applies to the campaign {campaign.source}:\n{reasons}")
     if not_applicable:

@@ -128,6 +128,11 @@ def _welch_row(result, factor: str, soil: str, response: str) -> pd.DataFrame:
     )
 
 
+def _in_terms(err: Exception, factor: str) -> str:
+    """The error's text with the factor's column name for the internal 'level' column."""
+    return str(err).replace("column 'level'", f"column {factor!r}")
+
+
 def _first_line(err: Exception) -> str:
     return str(err).splitlines()[0].rstrip(":;, ")
 
@@ -159,12 +164,14 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float, *, see
     -------
     dict
         ``effects`` (rows for :func:`soilstats.statistics.verdicts`, with the relevance
-        columns), ``anova`` (tidy ANOVA rows), ``pairs`` (Tukey rows), ``notes``.
+        columns), ``anova`` (tidy ANOVA rows), ``pairs`` (Tukey rows), ``notes``, and
+        ``untested`` (why a response could not be tested for want of repetitions; also in
+        ``notes``).
     """
     factor = spec.factor
     frame = per_test.copy()
     frame["level"] = frame[factor].map(condition_label)
-    effects, anovas, pairs, notes = [], [], [], []
+    effects, anovas, pairs, notes, untested = [], [], [], [], []
     for resp in spec.responses:
         data = frame.dropna(subset=[resp.name])
         dropped = len(frame) - len(data)
@@ -172,6 +179,11 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float, *, see
             notes.append(f"{soil}, {resp.name}: {dropped} test(s) without a value left out")
         if data["level"].nunique() < 2:
             notes.append(f"{soil}, {resp.name}: fewer than two {factor} levels with values")
+            continue
+        unreplicated = _unreplicated(data, spec, soil, resp.name)
+        if unreplicated:
+            untested.append(unreplicated)
+            notes.append(unreplicated)
             continue
         blocks = _active_blocks(data, spec)
         try:
@@ -190,7 +202,7 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float, *, see
             blocks = []
             table = anova_oneway(data, resp.name, "level")
         except StatisticsInputError as err:
-            notes.append(f"{soil}, {resp.name}: not tested — {err}")
+            notes.append(f"{soil}, {resp.name}: not tested — {_in_terms(err, factor)}")
             continue
         error, error_term = None, "Residual"
         if blocks:
@@ -236,7 +248,7 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float, *, see
         try:
             tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha, error=error)
         except StatisticsInputError as err:
-            notes.append(f"{soil}, {resp.name}: no pairwise comparison — {err}")
+            notes.append(f"{soil}, {resp.name}: no pairwise comparison — {_in_terms(err, factor)}")
             tk = None
         row.update(_relevance(tk, resp))
         effects.append(row)
@@ -248,7 +260,29 @@ def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float, *, see
         "anova": pd.concat(anovas, ignore_index=True) if anovas else pd.DataFrame(),
         "pairs": pd.concat(pairs, ignore_index=True) if pairs else pd.DataFrame(),
         "notes": notes,
+        "untested": untested,
     }
+
+
+def _unreplicated(data: pd.DataFrame, spec, soil: str, response: str) -> str | None:
+    """Why ``response`` cannot be tested when every factor level has one test, else None.
+
+    The ANOVA needs at least one level with a repetition for its test-to-test scatter; said
+    here in the study's own terms (factor column, soil, response, tests), not the ANOVA's.
+    """
+    counts = data.groupby("level").size()
+    if counts.max() > 1:
+        return None
+    ids = data.set_index("level")["test_id"] if "test_id" in data.columns else None
+    tests = ", ".join(
+        f"{spec.factor} {lv}" + ("" if ids is None else f": {ids[lv]}") for lv in counts.index
+    )
+    return (
+        f"{spec.name} study, soil {soil}, response {response}: each of the {len(counts)} "
+        f"{spec.factor} levels has a single test ({tests}), so there is no test-to-test "
+        f"scatter to test {spec.factor} against — repeat the tests of at least one of "
+        f"these {spec.factor} levels (better: of each)"
+    )
 
 
 def _relevance(tk: pd.DataFrame | None, resp) -> dict:

@@ -76,7 +76,7 @@ def run_study(
     Raises
     ------
     StudyDataError
-        The campaign lacks what the study needs.
+        The campaign lacks what the study needs (also: no soil has a repeated factor level).
     """
     start = time.perf_counter()
     # The provenance names the campaign as given, before this study's window.
@@ -109,7 +109,7 @@ def run_study(
     failed = not_converged_message(per_test, spec.kind)
     if failed:
         notes.append(failed)
-    effect_rows, anovas, pairs, lines, params = [], [], [], [], []
+    effect_rows, anovas, pairs, lines, params, untested = [], [], [], [], [], []
     for soil in soils:
         data = per_test[per_test["soil"].astype(str) == soil]
         if spec.kind == "shear":
@@ -119,9 +119,12 @@ def run_study(
             out = factor_effects(data, spec, soil, spec.alpha, seed=seed or 0)
             pairs.append(out["pairs"])
         effect_rows += out["effects"]
+        untested += out.get("untested", [])
         anovas.append(out["anova"])
         notes += out["notes"]
         params.append(_pooled_fits(campaign, tests, spec, soil, notes))
+    if untested and not effect_rows:  # nothing tested: an error, not an empty verdict
+        raise StudyDataError("\n".join(untested))
     effects = classify(effect_rows, alpha=spec.alpha, family=spec.family)
     parameters = pd.concat(params, ignore_index=True) if params else pd.DataFrame()
     criteria = best = None
