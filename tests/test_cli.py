@@ -232,6 +232,26 @@ def test_selection_compares_as_the_columns_type_and_respects_kind():
         apply_selection(campaign, ["soil=soil99"])
 
 
+def test_a_selection_that_keeps_nothing_says_what_the_test_log_has(capsys):
+    """A value no test has: the values present in its column (as Campaign.select says); a
+    combination no test meets: every criterion, with its column's values among the tests
+    meeting the others; a kind's criterion: the values of that kind's tests."""
+    argv = ["identify", "cullinan-sand", "--select", "preparation=7", "--progress", "off"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "column 'preparation'" in err
+    assert "preparation=7 matched none (values present: ['1', '2', '3', '4', '5'])" in err
+    campaign = soilstats.load_campaign("cullinan-sand")
+    with pytest.raises(CampaignError) as both:
+        apply_selection(campaign, ["preparation=3", "session=24Aug"])
+    message = str(both.value)
+    assert "each of preparation=3, session=24Aug matches some tests, but no test meets" in message
+    assert "preparation has ['1']; session has ['27SEPT']" in message
+    paper = soilstats.load_campaign("simulated-paper")
+    with pytest.raises(CampaignError, match=r"sinkage:series=none matched none \(values pre"):
+        apply_selection(paper, ["sinkage:series=none", "shear:series=none"])
+
+
 # ----------------------------------------------------------------- outputs and provenance
 
 

@@ -295,7 +295,7 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
     if not criteria:
         return campaign
     tests = campaign.tests
-    masks = []
+    masks, own, scopes = [], [], []
     for crit in criteria:
         if crit.column not in tests.columns:
             raise CampaignError(
@@ -313,20 +313,58 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
                     file=campaign.file_name("tests"),
                     column=crit.column,
                 ) from None
+        # The tests a criterion speaks about: all, or those of its kind (the others pass).
+        scope = np.ones(len(tests), bool) if crit.kind is None else (tests["kind"] == crit.kind)
+        scope = np.asarray(scope, dtype=bool)
         hit = match_values(tests[crit.column], value, crit.column)
-        if crit.kind is not None:
-            hit = hit | (tests["kind"] != crit.kind).to_numpy()
-        masks.append(hit)
+        scopes.append(scope)
+        own.append(hit & scope)
+        masks.append(hit | ~scope)
     keep = np.logical_and.reduce(masks)
     if not keep.any():
-        empty = [str(c) for c, m in zip(criteria, masks, strict=True) if not m.any()]
-        raise CampaignError(
-            "--select kept no test: "
-            + (f"{', '.join(empty)} matched none" if empty else "no test meets all criteria")
-            + " — check the values in the test log",
-            file=campaign.file_name("tests"),
-        )
+        raise _kept_nothing(campaign, criteria, masks, own, scopes)
     return campaign.select(test_id=list(tests["test_id"][keep]))
+
+
+def _kept_nothing(campaign, criteria, masks, own, scopes) -> Exception:
+    """The error of a selection that keeps no test: the criteria that match nothing with the
+    values present in their column (as ``Campaign.select`` says), or, when each matches some
+    tests, every criterion with the values its column has among the tests meeting the others.
+    """
+    import numpy as np
+
+    from ..campaign.campaign import _values_present
+    from ..errors import CampaignError
+
+    tests = campaign.tests
+
+    def among(crit, rows) -> str:
+        where = f" of the {crit.kind} tests" if crit.kind else ""
+        return f"{crit.column}{where} has {_values_present(tests.loc[rows, crit.column])}"
+
+    empty = [i for i, hit in enumerate(own) if not hit.any()]
+    if empty:
+        why = "; ".join(
+            f"{criteria[i]} matched none (values present: "
+            f"{_values_present(tests.loc[scopes[i], criteria[i].column])})"
+            for i in empty
+        )
+    else:
+        others = [
+            np.logical_and.reduce([m for j, m in enumerate(masks) if j != i] or [scopes[i]])
+            & scopes[i]
+            for i in range(len(criteria))
+        ]
+        why = (
+            f"each of {', '.join(map(str, criteria))} matches some tests, but no test meets "
+            "all; among the tests meeting the other criteria, "
+            + "; ".join(among(c, rows) for c, rows in zip(criteria, others, strict=True))
+        )
+    return CampaignError(
+        f"--select kept no test: {why} — change the criteria",
+        file=campaign.file_name("tests"),
+        column=criteria[empty[0] if empty else 0].column,
+    )
 
 
 def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:
