@@ -252,6 +252,21 @@ def test_a_selection_that_keeps_nothing_says_what_the_test_log_has(capsys):
         apply_selection(paper, ["sinkage:series=none", "shear:series=none"])
 
 
+def test_counts_of_one_are_singular(capsys):
+    """cullinan-sand has one failed test and three methods with one test each: no '1 tests'
+    in the screening line, the pooled-fit notes or the bootstrap note."""
+    assert main(["identify", "cullinan-sand", "--progress", "off", "--json"]) == 0
+    captured = capsys.readouterr()
+    text = captured.err + captured.out
+    assert "bearing-failure in 1 test (" in captured.err
+    assert "1 test pooled (method3-test1)" in text and "1 test is too few to resample" in text
+    assert "1 tests" not in text
+    from soilstats._text import plural
+
+    assert [plural(n, "test") for n in (0, 1, 3)] == ["0 tests", "1 test", "3 tests"]
+    assert plural(2, "criterion", "criteria") == "2 criteria"
+
+
 # ----------------------------------------------------------------- outputs and provenance
 
 

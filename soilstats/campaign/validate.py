@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .._text import plural
 from ..errors import CampaignError
 from ._cells import TEXT_DTYPE, Numbers, blank, empty_samples, first_per_key, texts, typed
 from .schema import KINDS, SHAPES, SPECS, spec
@@ -89,10 +90,6 @@ def _require(frame: pd.DataFrame, stem: str, name: str, columns: list[str]) -> N
             file=name,
             column=col,
         )
-
-
-def _plural(n: int, word: str) -> str:
-    return f"{n} {word}" if n == 1 else f"{n} {word}s"
 
 
 class _TestsChecker:
@@ -275,7 +272,7 @@ def _check_samples(
     def orphan_msg(pos: int, key: str) -> str:
         shown = list(log)[:5]
         return (
-            f"test_id {key!r} is not in {tests_name} (which has {_plural(len(log), 'test')}, "
+            f"test_id {key!r} is not in {tests_name} (which has {plural(len(log), 'test')}, "
             f"e.g. {shown}); every sample must belong to a test of the log — add the test to "
             f"{tests_name} or correct the test_id"
         )

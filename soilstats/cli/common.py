@@ -37,6 +37,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from .._text import plural
+
 if TYPE_CHECKING:
     from ..campaign import Campaign
     from ..report import Provenance
@@ -227,7 +229,7 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
         excluded = len(report.excluded)
         print(
             f"Data quality ({report.mode}): "
-            + (", ".join(f"{c} in {n} tests" for c, n in counts.items()) or "no findings")
+            + (", ".join(f"{c} in {plural(n, 'test')}" for c, n in counts.items()) or "no findings")
             + (f"; {excluded} samples left out" if excluded else "")
             + " (details: soilstats check)",
             file=out or sys.stderr,

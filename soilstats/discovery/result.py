@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from .._text import plural
 from ..report import Provenance, json_safe
 from ..report.text import notes_block
 
@@ -380,7 +381,10 @@ class DiscoveryResult:
         lines = ["-" * width, f"Data quality ({q['mode']} mode; data problems, never causes):"]
         if q["mode"] == "off":
             return [*lines, "  screening was off: nothing was checked"]
-        counts = ", ".join(f"{c} in {n} tests" for c, n in q["counts"].items()) or "no findings"
+        counts = (
+            ", ".join(f"{c} in {plural(n, 'test')}" for c, n in q["counts"].items())
+            or "no findings"
+        )
         lines.append(f"  {counts}; {q['excluded_samples']} samples left out of every fit")
         for t in q["tests"]:
             lines.append(f"  {t['kind']} {t['test_id']}: {', '.join(t['codes'])}")

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .._text import plural
 from ..fitting.clustered import fit_clustered_resamples, fit_linear_resamples
 from ..fitting.identify import RANK_CONDITION_LIMIT, _covariance
 from ..fitting.levenberg_marquardt import levenberg_marquardt
@@ -221,7 +222,8 @@ def test_bootstrap(model, x, pooled, fit, n_resamples: int, seed: int, notes: li
     n_tests = np.unique(pooled.test_index).size
     if n_tests < MIN_TESTS:
         notes.append(
-            f"no test-level stderr: {n_tests} tests are too few to resample (needs {MIN_TESTS})"
+            f"no test-level stderr: {plural(n_tests, 'test')} {'is' if n_tests == 1 else 'are'} "
+            f"too few to resample (needs {MIN_TESTS})"
         )
         return None
     return bootstrap_tests(

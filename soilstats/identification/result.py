@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from .._text import plural
 from ..fitting.result import FitResult, HealthFlag
 from ..report.files import json_safe
 from .bootstrap import MIN_TESTS, TestBootstrap
@@ -225,7 +226,8 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
             cut = [f for f in hits if z_limit.get(f.test_id, np.inf) <= f.value * limit]
             if cut:
                 notes.append(
-                    f"bearing-failure in {len(cut)} tests lies outside the window (resolved)."
+                    f"bearing-failure in {plural(len(cut), 'test')} lies outside the window "
+                    "(resolved)."
                 )
             hits = [f for f in hits if f not in cut]
         if hits:
@@ -234,7 +236,7 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
             flags.append(
                 HealthFlag(
                     code,
-                    f"{len(tests_hit)} of {len(ids)} tests ({', '.join(tests_hit[:5])}"
+                    f"{len(tests_hit)} of {plural(len(ids), 'test')} ({', '.join(tests_hit[:5])}"
                     f"{', …' if len(tests_hit) > 5 else ''}): {hits[0].message}" + advice,
                 )
             )

@@ -6,6 +6,7 @@ from typing import Literal
 
 import numpy as np
 
+from .._text import plural
 from ..errors import IdentifiabilityError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
@@ -40,7 +41,7 @@ def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
     g = pooled.by_test  # arrays: the frame's lookups cost more than these sums
     n_tests = len(g["test_id"])
     notes = [
-        f"{n_tests} tests pooled ({', '.join(map(str, g['test_id'][:6]))}"
+        f"{plural(n_tests, 'test')} pooled ({', '.join(map(str, g['test_id'][:6]))}"
         f"{', …' if n_tests > 6 else ''}); plate sizes b = "
         f"{', '.join(f'{b:g}' for b in np.unique(g['b_m']))} m.",
         (

@@ -12,6 +12,7 @@ from decimal import ROUND_CEILING, Decimal
 import numpy as np
 import pandas as pd
 
+from .._text import plural
 from ..report.files import json_safe
 from ..report.text import notes_block
 from .codes import CODES
@@ -175,8 +176,10 @@ class QualityReport:
         notes = []
         if len(excluded):
             notes.append(
-                f"{len(excluded)} samples in {excluded['test_id'].nunique()} tests are left out "
-                "of every fit (rows listed in the JSON output; --quality flag keeps them)."
+                f"{plural(len(excluded), 'sample')} in "
+                f"{plural(excluded['test_id'].nunique(), 'test')} "
+                f"{'is' if len(excluded) == 1 else 'are'} left out of every fit "
+                "(rows listed in the JSON output; --quality flag keeps them)."
             )
         windows = self.proposed_windows()
         for w in windows.itertuples():

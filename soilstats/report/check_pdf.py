@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from .._text import plural
 from ..quality.codes import CODES
 from .document import Document, strong
 from .files import output_path
@@ -31,7 +32,7 @@ def _conclusion(doc_dict: dict, n_tests: int) -> list:
     out: list = [
         [
             strong(f"{len(flagged)} of {n_tests} tests carry screening codes: "),
-            "; ".join(f"{code} in {n} tests" for code, n in doc_dict["counts"].items()),
+            "; ".join(f"{code} in {plural(n, 'test')}" for code, n in doc_dict["counts"].items()),
             ".",
         ]
     ]
@@ -78,7 +79,7 @@ def write_report(report, campaign, path: Path, *, provenance=None, overwrite: bo
         doc.paragraph("No code was found.")
     for code, count in record["counts"].items():
         q = CODES.get(code)
-        doc.heading(f"{code} ({count} tests)", level=2)
+        doc.heading(f"{code} ({plural(count, 'test')})", level=2)
         if q is None:
             doc.paragraph("No documentation for this code.")
             continue

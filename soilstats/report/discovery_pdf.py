@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from .._text import plural
 from ..discovery.candidates import candidate_values
 from ..discovery.result import METHOD_NOTES
 from .document import Document, strong
@@ -323,7 +324,9 @@ def _quality_section(doc: Document, result) -> None:
     if q["mode"] == "off":
         doc.paragraph("Screening was off: nothing was checked.")
         return
-    counts = ", ".join(f"{c} in {n} tests" for c, n in q["counts"].items()) or "no findings"
+    counts = (
+        ", ".join(f"{c} in {plural(n, 'test')}" for c, n in q["counts"].items()) or "no findings"
+    )
     doc.paragraph(
         f"Screening in {q['mode']} mode (docs/quality.md: what each code means and what to "
         f"do): {counts}; {q['excluded_samples']} samples left out of every fit. These are data "
