@@ -247,6 +247,11 @@ def _aggregation_bias(forms: TestForms, n_pooled: float, se_n: float | None) -> 
     return None
 
 
+#: How the ``lack-of-fit`` message of :func:`_plates_disagree` begins: the one form of
+#: lack-of-fit a population posterior would misread as scatter between preparations.
+PLATES_DISAGREE = "the plate sizes disagree on the exponent"
+
+
 def _plates_disagree(forms: TestForms, sizes: np.ndarray) -> HealthFlag | None:
     ok = np.isfinite(forms.n)
     groups = {b: forms.n[ok & (sizes == b)] for b in np.unique(sizes[ok])}
@@ -263,7 +268,7 @@ def _plates_disagree(forms: TestForms, sizes: np.ndarray) -> HealthFlag | None:
     listed = ", ".join(f"{m:.2f} (b = {b:g} m)" for b, m in sorted(means.items()))
     return HealthFlag(
         "lack-of-fit",
-        f"the plate sizes disagree on the exponent (mean per-test n {listed}; ANOVA p = "
+        f"{PLATES_DISAGREE} (mean per-test n {listed}; ANOVA p = "
         f"{p_value:.1g}): Bekker's one n for every plate (Eq. 7) does not hold here, and kc, "
         "kphi are a compromise between plates; fit each plate size (Bernstein) or window "
         "the plates alike",
