@@ -150,7 +150,7 @@ def _shear_group(one_sigma_per_level: bool) -> Group:
             label = f"L{i}" if one_sigma_per_level else f"R{rep}"
             tau = (c + sigma * tan_phi) * (1 - np.exp(-j / k))
             owner.append(np.full(j.size, len(rows)))
-            rows.append({"test_id": f"{i}-{rep}", "load": label})
+            rows.append({"test_id": f"{i}-{rep}", "load": label, "sigma_mean_Pa": sigma})
             js.append(j)
             sig.append(np.full(j.size, sigma))
             ys.append(tau)

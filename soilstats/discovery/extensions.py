@@ -37,6 +37,7 @@ from ..identification.wong import wong_start
 from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
 from ..models.extended import ShearLayout, SinkageLayout, shear_family, sinkage_family
 from .candidates import MISSING, candidate_values, spans_log
+from .separable import check_shear_terms, sinkage_keeps_bekker
 
 __all__ = [
     "Extension",
@@ -143,48 +144,6 @@ def _stack(terms, states, group, owner, target) -> np.ndarray | None:
     return np.vstack(blocks).T if blocks else None
 
 
-def _test_features(terms, states, group, rows, targets) -> list[np.ndarray]:
-    """Per-test feature columns (on the tests ``rows``) of every term that moves one of
-    ``targets``: the test-level design the structural checks below look at."""
-    return [
-        col
-        for t, st in zip(terms, states, strict=True)
-        if set(t.targets) & set(targets)
-        for col in t.features.matrix(group, st)[rows].T
-    ]
-
-
-def _per_test_input(group, key: str) -> np.ndarray:
-    """A per-sample input that is constant within a test (``b``, ``sigma``), per test row."""
-
-    def compute():
-        out = np.full(len(group.tests), np.nan)
-        out[group.owner] = group.x[key]
-        return out
-
-    return group.memo(("per-test", key), compute)
-
-
-def _independent(columns) -> bool:
-    """Whether test-level design columns are linearly independent.
-
-    Each column is scaled to unit length first (features, 1 and 1/b [1/m] differ in scale
-    by orders of magnitude); a column that is zero on these tests (a trend in a column that
-    is constant on them) makes the design dependent."""
-    a = np.column_stack(columns)
-    norm = np.linalg.norm(a, axis=0)
-    a = a / np.where(norm > 0, norm, 1.0)
-    return bool(np.all(norm > 0) and np.linalg.matrix_rank(a) == a.shape[1])
-
-
-def _not_separable(name, rows, parts) -> IdentifiabilityError:
-    return IdentifiabilityError(
-        f"{name}: {parts} are not determined on these {len(rows)} tests (the design is "
-        "rank-deficient before any fit: one column's levels determine another's, or a trend's "
-        "column is constant on them or aliased with such levels)"
-    )
-
-
 def _term_names(terms, states, target, label) -> list[str]:
     return [
         label.format(n)
@@ -280,32 +239,12 @@ class SinkageExtension(Extension):
             units += ["m", "-"]
         return names, units
 
-    def _base_form(self, group, rows, states) -> bool:
-        """Whether Eq. 7's kc/b + kφ can stay beside the terms on the tests ``rows``
-        (else Eq. 8's one k takes its place); raises IdentifiabilityError when the terms
-        themselves are redundant.
-
-        A stiffness factor per level of a column whose levels determine the plate width
-        (``velocity_m_s × area_m2``, ``tool``) already gives every plate size a stiffness of
-        its own: kc/b + kφ then sets one number, and two parameters for it leave a direction
-        along which the fit walks off to kc → −∞ without end (measured: 1,000 iterations,
-        7 s, on a 10,000-test campaign).  Judged on the test-level design, linearised at
-        θ = 0 (a factor exp(θ·F) moves ln k by F·dθ)."""
-        one = np.ones(len(rows))
-        k_cols = _test_features(self.terms, states, group, rows, ("k",))
-        n_cols = _test_features(self.terms, states, group, rows, ("n",))
-        if n_cols and not _independent([one, *n_cols]):
-            raise _not_separable(self.name, rows, "the exponent's offsets beside the base n")
-        if k_cols and not _independent([one, *k_cols]):
-            raise _not_separable(self.name, rows, "the stiffness factors beside the base k")
-        if not (self.bekker and k_cols):
-            return self.bekker
-        return _independent([one, 1.0 / _per_test_input(group, "b")[rows], *k_cols])
-
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
         state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
-        bekker = self._base_form(group, rows, state["terms"])
+        bekker = sinkage_keeps_bekker(
+            self.name, self.bekker, self.terms, state["terms"], group, rows
+        )
         if bekker != self.bekker:
             state["bekker"] = bekker
         mask = group.samples_of(rows)
@@ -414,29 +353,10 @@ class ShearExtension(Extension):
             units.append("-")
         return names, units
 
-    def _check_separable(self, group, rows, states) -> None:
-        """Raise IdentifiabilityError when the terms are redundant on the tests ``rows``.
-
-        Linearised at θ = 0, a test's plateau τ_max = c·e^(θ_c·F) + σ·tan φ·e^(θ_t·F) moves
-        with the columns 1, σ, F_c and σ·F_t; factors on c and tan φ per level of a column
-        whose levels each hold one normal stress cannot be told apart, as c and tan φ cannot
-        from tests at one σ (Eq. 12).  K's factors move ln K with 1 and F_K."""
-        one = np.ones(len(rows))
-        sigma = _per_test_input(group, "sigma")[rows]
-        c_cols = _test_features(self.terms, states, group, rows, ("c",))
-        t_cols = _test_features(self.terms, states, group, rows, ("tan_phi",))
-        k_cols = _test_features(self.terms, states, group, rows, ("K",))
-        if (c_cols or t_cols) and not _independent(
-            [one, sigma, *c_cols, *(sigma * col for col in t_cols)]
-        ):
-            raise _not_separable(self.name, rows, "the factors on c and tan φ beside the base c, φ")
-        if k_cols and not _independent([one, *k_cols]):
-            raise _not_separable(self.name, rows, "the factors on K beside the base K")
-
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
         rows = np.asarray(rows, int)
         state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
-        self._check_separable(group, rows, state["terms"])
+        check_shear_terms(self.name, self.terms, state["terms"], group, rows)
         mask, layout, family = self._inputs(group, rows, state)
         y, w = group.y[mask], group.w[mask]
         if base is not None:
@@ -552,7 +472,7 @@ def library(
         how = "linear" if numeric else "levels"
         if names & _SIZE and not numeric and stiffness and exponent and _fixes_width(tests, cause):
             # k and n per level of a column that fixes the plate width is what the generic
-            # extension becomes (SinkageExtension._base_form): the same model, fitted once.
+            # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
             return out
         out.append(
             SinkageExtension(

@@ -89,8 +89,8 @@ class Start:
         """The start part of a fitted model (None stays None)."""
         if fitted is None or isinstance(fitted, Start):
             return fitted
-        kept = {k: v for k, v in fitted.state.items() if k == "bekker"}
-        return cls(fitted.extension, np.asarray(fitted.result.values), kept)
+        form = {"bekker": fitted.state["bekker"]} if "bekker" in fitted.state else {}
+        return cls(fitted.extension, np.asarray(fitted.result.values), form)
 
 
 @dataclass(frozen=True, eq=False)
