@@ -125,9 +125,10 @@ POPULATION_FIT_COV = np.array([[[4e8, 30.0], [30.0, 1e-4]]] * 3)
 POPULATION_LN_ZREF = -3.5
 
 
-def bernstein_population(priors=None):
+def bernstein_population(priors=None, ln_zs=None):
     """The population model of :data:`POPULATION_FITS`, sampled in (k, n) itself; with
-    ``priors`` the caller's priors replace the default log-flat factor."""
+    ``priors`` the caller's priors replace the default log-flat factor; ``ln_zs``: where its
+    scatter sits (default: at the reduction's z_ref)."""
     from soilstats.bayes.population import _LAYOUTS, _Population
     from soilstats.bayes.priors import resolve_priors
     from soilstats.bayes.reduction import to_eta
@@ -146,4 +147,5 @@ def bernstein_population(priors=None):
         Coordinates(),
         reference_rows=np.ones((1, 1)),
         log_flat=(priors is None, priors is None),
+        ln_zs=ln_zs,
     )

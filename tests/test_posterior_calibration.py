@@ -154,7 +154,7 @@ def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
     assert pop.converged, pop.problems
     # a new preparation scatters far more than one pooled parameter set is uncertain
     assert pop.draws()["n"].std() > 5 * pooled.draws()["n"].std()
-    assert {"mu_k", "mu_n", "sd_stiffness", "sd_n", "corr_stiffness_n"} <= set(
+    assert {"mu_k", "mu_n", "sd_p_ref", "sd_n", "corr_p_ref_n"} <= set(
         pop.idata.posterior.data_vars
     )
 
@@ -170,8 +170,58 @@ def test_cli_population_with_select_on_real_data(tmp_path):
     draws = pd.read_csv(out / "draws.csv", comment="#")
     assert list(draws.columns) == ["k", "n"] and (draws["k"] > 0).all()
     summary = pd.read_csv(out / "summary.csv", comment="#", index_col="quantity")
-    assert {"mu_k", "sd_stiffness", "sd_n", "k", "n"} <= set(summary.index)
+    assert {"mu_k", "sd_p_ref", "sd_n", "k", "n"} <= set(summary.index)
     assert summary["r_hat"].max() <= 1.01
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert idata.posterior.attrs["converged"] == 1
     assert main([*args, "--select", "nosuchcolumn=1", "--out", str(tmp_path / "o2")]) == 2
+
+
+def _crossing_campaign(rng, *, tests=6, z_ref=0.01, sd_p=0.05, sd_n=0.15, b=0.05):
+    """Bernstein tests whose curves cross near ``z_ref``: each preparation shifts ln p at
+    z_ref by N(0, sd_p²) and n by N(0, sd_n²), independently — as GRC-1's repeat tests do
+    (ln p at 4 mm scatters by 0.06, n by 0.19).  Returns the campaign and the truth."""
+    k, n = 8.0e5, 1.1
+    rows, log = [], []
+    z = np.linspace(0.001, 0.03, 80)
+    for t in range(tests):
+        n_t = n + sd_n * rng.standard_normal()
+        ln_p_ref = np.log(k) + n * np.log(z_ref) + sd_p * rng.standard_normal()
+        p = np.exp(ln_p_ref + n_t * np.log(z / z_ref))
+        p = p + 0.01 * p.max() * rng.standard_normal(z.size)
+        tid = f"x{t}"
+        log.append(
+            {
+                "test_id": tid,
+                "kind": "sinkage",
+                "soil": "s",
+                "repetition": t + 1,
+                "shape": "circle",
+                "radius_m": b,
+            }
+        )
+        rows.append(pd.DataFrame({"test_id": tid, "z_m": z, "force_N": p * np.pi * b * b}))
+    camp = soilstats.Campaign.from_frames(pd.DataFrame(log), pd.concat(rows, ignore_index=True))
+    return camp, (k, n, z_ref, sd_p, sd_n)
+
+
+def test_population_band_inside_the_measured_range_is_as_wide_as_the_scatter_of_crossing_curves():
+    # Review finding F1: with the scatter placed on ln k (the pressure at z = 1 m), curves that
+    # cross inside the measured range need corr(ln k, n) ≈ 1, which the Beta(2, 2) prior on
+    # the correlation does not reach with a few tests; the band of a new preparation came out
+    # 14–20× wider than the measured repeat scatter on GRC-1 (5 tests), here 4–9× at z_ref.
+    from soilstats.identification import fit_sinkage
+
+    camp, (_, _, z_ref, _, _) = _crossing_campaign(np.random.default_rng(0))
+    pop = sample_population(camp, "bernstein", seed=0, draws=6000)
+    assert pop.converged, pop.problems
+    new = pop.draws()
+    own = np.array(
+        [fit_sinkage(camp, "bernstein", test_id=t).params for t in camp.tests["test_id"]]
+    )
+    for z in (0.003, z_ref, 0.03):
+        measured = np.std(np.log(own[:, 0]) + own[:, 1] * np.log(z), ddof=1)
+        band = np.std(np.log(new["k"]) + new["n"] * np.log(z))
+        # 6 tests: the predictive carries the uncertainty of the scatter itself, so it is
+        # wider than the 6 tests' own scatter (1.7–1.8× over seeds 0–7), not 2–9× as before.
+        assert measured < band < 2.5 * measured, (z, band, measured)

@@ -167,7 +167,32 @@ def test_grc1_population_bekker_converges_to_one_answer_whatever_the_seed():
         assert r.converged, r.problems
         assert np.all(np.isfinite(r.draws().to_numpy()))
     post = [r.idata.posterior for r in results]
-    for name in ("mu_kc", "mu_kphi", "mu_n", "sd_stiffness"):
+    for name in ("mu_kc", "mu_kphi", "mu_n", "sd_p_ref"):
         a, b = (np.median(p[name]) for p in post)
         spread = float(np.std(post[0][name]))
         assert abs(a - b) < 0.2 * spread, (name, a, b, spread)
+
+
+def test_scatter_sits_where_the_tests_curves_cross_within_the_measured_range():
+    # Curves p_t = p*(b)·(z/z*)^(n_t) all pass through p*(b) at z* = 8 mm: there ln p̂_t(z)
+    # does not vary with n̂_t, so that is z_s — whatever each plate's own level p*(b), which
+    # is Eq. 7's plate effect, not preparation scatter.
+    from soilstats.bayes.reduction import PerTestFits, scatter_sinkage
+
+    n = np.array([0.9, 1.1, 1.3, 1.0, 1.2, 0.8])
+    b = np.array([0.05, 0.05, 0.05, 0.1, 0.1, 0.1])
+    ln_p_star = np.where(b == 0.05, np.log(6e4), np.log(3e4))
+    z = np.linspace(0.001, 0.03, 200)
+
+    def fits(ln_z_star):
+        params = np.column_stack([np.exp(ln_p_star - n * ln_z_star), n])
+        cov = np.repeat(np.eye(2)[None], n.size, axis=0)
+        return PerTestFits(params, cov, np.ones((n.size, 1)), b, list("abcdef"), [])
+
+    assert scatter_sinkage(fits(np.log(0.008)), z, -5.0) == pytest.approx(np.log(0.008))
+    # Curves that would cross at 1 m (the scatter independent on ln k) sit at the edge of the
+    # measured sinkages, not beyond them.
+    assert scatter_sinkage(fits(0.0), z, -5.0) == pytest.approx(np.log(np.quantile(z, 0.95)))
+    # One test per plate: no spread of n within a plate locates z_s; the reduction's z_ref does.
+    one = PerTestFits(fits(0.0).params[:2], fits(0.0).cov[:2], np.ones((2, 1)), b[[0, 3]], [], [])
+    assert scatter_sinkage(one, z, -5.0) == pytest.approx(-5.0)

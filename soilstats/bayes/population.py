@@ -2,12 +2,25 @@
 
 Sinkage model.  Test t (one preparation) has its own sinkage curve p = k_t(b)·z^(n_t) with
 
-    k_t(b) = (kc/b + kφ)·exp(ε_t)   (Bekker, Eq. 7;  Bernstein, Eq. 8: k_t = k·exp(ε_t)),
+    k_t(b) = (kc/b + kφ)·exp(ε_t − δ_t·ln z_s)   (Bekker, Eq. 7;  Bernstein, Eq. 8: k·…),
     n_t    = n + δ_t,               (ε_t, δ_t) ~ N(0, Σ),   Σ = [[s_ε², ρ s_ε s_δ], [·, s_δ²]],
 
 i.e. a preparation scales kc and kφ by one common log-normal stiffness factor and shifts the
-exponent n (the simulator's preparation scatter, docs/simulator.md).  Moduli stay positive for
-every preparation.
+exponent n (the simulator's preparation scatter, docs/simulator.md); ε_t is the shift of
+ln p at the sinkage z_s, p_t(b, z_s) = p(b, z_s)·e^(ε_t), so s_ε (``sd_p_ref``) is about
+the coefficient of variation of the pressure there.  Moduli stay positive for every
+preparation.
+
+Where the scatter sits.  Any z_s gives the same family of curves, but not the same prior:
+ρ ~ Beta(2, 2) keeps |ρ| away from 1, i.e. it favours level and exponent scatter that are
+independent *at z_s*.  Measured preparations often differ in n while their curves cross
+inside the measured range (GRC-1, 51 mm plate: ln p at 4.2 mm scatters by 0.06, n by 0.19).
+With z_s = 1 m, two hundred times the depth tested (Eq. 8's k), that is ln k's sd ≈ 1 with
+corr(ln k, n) ≈ 0.999, which the prior does not reach with 5 tests: the predictive band of a
+new preparation came out 14–20× wider than the measured repeat scatter.  z_s is therefore
+where the tests' own curves scatter least, inside the measured range
+(:func:`reduction.scatter_sinkage`): there the data, too, say level and exponent vary
+independently.
 
 Shear model (Janosi–Hanamoto, Eq. 13).  Test t runs at one normal pressure σ_t, so it
 identifies only its own strength τ_max,t and modulus K_t (Eq. 13 at one σ):
@@ -31,8 +44,8 @@ that fit is close to normal: (ln k_t + n_t·ln z_ref, n_t) for sinkage
 comes from Eq. 4 by the delta method. With the Laplace approximation η̂_t | (ε_t, δ_t) ~
 N(h_t + B·(ε_t, δ_t), C_t), where h_t = (ln(a_tᵀm) + g·ln z_ref, g) with the linear moduli m
 = (kc, kφ), (k) or (c, tan φ), their design row a_t = (1/b_t, 1), (1) or (1, σ_t), g = n or
-ln K, and B = [[1, ln z_ref], [0, 1]] (z_ref = 1 for shear), the test-level effects
-integrate out in closed form:
+ln K, and B = [[1, ln z_ref − ln z_s], [0, 1]] (z_ref = z_s = 1 for shear), the test-level
+effects integrate out in closed form:
 
     η̂_t ~ N(h_t, B Σ Bᵀ + C_t),
 
@@ -83,7 +96,14 @@ from .likelihood import PooledProblem
 from .posterior import _attrs, finish
 from .predictive import PREDICTIVE_DRAWS, measured_dataset, response_dataset, spread_draws
 from .priors import resolve_priors
-from .reduction import PerTestFits, reference_sinkage, shear_tests, sinkage_tests, to_eta
+from .reduction import (
+    PerTestFits,
+    reference_sinkage,
+    scatter_sinkage,
+    shear_tests,
+    sinkage_tests,
+    to_eta,
+)
 from .result import PosteriorResult, draws_converge
 from .sampler import run_ensemble
 from .transforms import Coordinates, sampling_coordinates
@@ -119,7 +139,7 @@ class _Layout:
 
 _SINKAGE = dict(
     per_test=("k", "n"),
-    scatter=("sd_stiffness", "sd_n", "corr_stiffness_n"),
+    scatter=("sd_p_ref", "sd_n", "corr_p_ref_n"),
     covariate="b_m",
     log_second=False,
     linear_log_jacobian=lambda theta: np.zeros(theta.shape[0]),
@@ -130,9 +150,11 @@ _SINKAGE = dict(
 _LAYOUTS = {
     "bekker": _Layout(
         **_SINKAGE,
-        scatter_note="k_t(b) = (kc/b + kphi) exp(eps_t), n_t = n + delta_t",
+        scatter_note="k_t(b) = (kc/b + kphi) exp(eps_t - delta_t ln z_s), n_t = n + delta_t",
     ),
-    "bernstein": _Layout(**_SINKAGE, scatter_note="k_t = k exp(eps_t), n_t = n + delta_t"),
+    "bernstein": _Layout(
+        **_SINKAGE, scatter_note="k_t = k exp(eps_t - delta_t ln z_s), n_t = n + delta_t"
+    ),
     "janosi": _Layout(
         per_test=("tau_max", "K"),
         scatter=("sd_strength", "sd_lnK", "corr_strength_K"),
@@ -181,15 +203,18 @@ class _Population:
         *,
         reference_rows: np.ndarray,
         log_flat: tuple[bool, bool] = (True, True),
+        ln_zs: float | None = None,
     ):
         self.model, self.layout, self.eta, self.cov, self.priors = model, layout, eta, cov, priors
         self.coords, self.ln_zref, self.design = coords, ln_zref, design
+        # Σ sits on (ln p at z_s, n); B carries it to η's (ln p at z_ref, n).  Shear: z_s = z_ref.
+        self.ln_zs = ln_zref if ln_zs is None else ln_zs
+        self.b = np.array([[1.0, ln_zref - self.ln_zs], [0.0, 1.0]])
         self.reference_rows = reference_rows
         # Whether the default log-flat factor applies to the linear moduli, and to K (a
         # caller's prior on a group replaces it; module docstring, "Priors").
         self.log_flat_linear, self.log_flat_second = log_flat[0], log_flat[1] and layout.log_second
         self.p = model.n_params
-        self.b = np.array([[1.0, ln_zref], [0.0, 1.0]])
         # Half-Cauchy scales: a factor e for a modulus; |n̂| for an exponent.
         g_hat = float(np.median(eta[:, 1]))
         self.scales = np.array([1.0, 1.0 if layout.log_second else max(abs(g_hat), 0.1)])
@@ -337,11 +362,11 @@ class _Population:
         }
 
     def new_preparation(self, v: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """θ of a new preparation, one per row of ``v``: moduli·e^ε, g + δ."""
+        """θ of a new preparation, one per row of ``v``: moduli·e^(ε − δ ln z_s), g + δ."""
         theta = self.theta(v)
         chol = np.linalg.cholesky(self.sigma(v))
         e = np.einsum("wij,wj->wi", chol, rng.standard_normal((v.shape[0], 2)))
-        linear = self.layout.linear(theta) * np.exp(e[:, :1])
+        linear = self.layout.linear(theta) * np.exp(e[:, :1] - e[:, 1:] * self.ln_zs)
         return self.layout.assemble(linear, self.layout.second(theta) + e[:, 1])
 
 
@@ -412,9 +437,10 @@ def sample_population(
     -------
     PosteriorResult
         ``kind="population"``.  Its posterior holds ``mu_<name>`` (the soil-level parameters:
-        a median preparation), the scatter between preparations — ``sd_stiffness`` (sd of the
-        log stiffness factor e^ε, ≈ the coefficient of variation of kc and kφ), ``sd_n`` and
-        ``corr_stiffness_n`` for sinkage; ``sd_strength`` (≈ the CV of c + σ tan φ), ``sd_lnK``
+        a median preparation), the scatter between preparations — ``sd_p_ref`` (sd of ln p at
+        the sinkage z_s where the tests scatter least, ≈ the coefficient of variation of the
+        pressure there; z_s [m] is ``exp(posterior.attrs["ln_zs"])``), ``sd_n`` and
+        ``corr_p_ref_n`` for sinkage; ``sd_strength`` (≈ the CV of c + σ tan φ), ``sd_lnK``
         (≈ the CV of K) and ``corr_strength_K`` for shear — and the parameters of a *new*
         preparation under the plain names (``kc``, ``kphi``, ``n`` / ``c``, ``phi``, ``K``),
         which :meth:`~PosteriorResult.draws` returns.  ``observed_data``,
@@ -444,9 +470,10 @@ def sample_population(
         )
     theta0 = lsq.params.to_numpy()
     if spec is JANOSI:
-        ln_zref, coords = 0.0, Coordinates()
+        ln_zref, ln_zs, coords = 0.0, 0.0, Coordinates()
     else:
         ln_zref = reference_sinkage(fits.params, fits.cov)
+        ln_zs = scatter_sinkage(fits, pooled.x["z_m"], ln_zref)
         base = sampling_coordinates(spec, theta0, lsq.cov.to_numpy(), np.unique(fits.covariate))
         coords = base if base.identity else Coordinates(moduli=base.moduli, ln_zref=ln_zref)
     eta, cov = to_eta(fits.params, fits.cov, ln_zref, layout.log_second)
@@ -462,6 +489,7 @@ def sample_population(
         coords,
         reference_rows=_reference_rows(fits.design, fits.covariate),
         log_flat=(not given & set(spec.param_names[:-1]), spec.param_names[-1] not in given),
+        ln_zs=ln_zs,
     )
     # Start: the pooled LS estimate and the spread of the per-test fits around it.
     with np.errstate(all="ignore"):
@@ -469,7 +497,7 @@ def sample_population(
         kb0 = (layout.linear(theta_row) @ fits.design.T)[0]
         g0 = layout.second(theta_row)[0]
         r1 = eta[:, 1] - g0
-        r0 = eta[:, 0] - (np.log(np.abs(kb0)) + g0 * ln_zref) - ln_zref * r1
+        r0 = eta[:, 0] - (np.log(np.abs(kb0)) + g0 * ln_zref) - (ln_zref - ln_zs) * r1
         spread = np.log(np.maximum([np.std(r0, ddof=1), np.std(r1, ddof=1)], 1e-3))
         x0 = np.concatenate([coords.to_u(theta0)[0], spread, [0.0]])
     if not (np.all(np.isfinite(x0)) and np.all(kb0 > 0)):
@@ -534,7 +562,13 @@ def _population_notes(pops: _Population, fits: PerTestFits, ln_zref: float) -> l
     notes = [
         f"Population model: {len(fits.test_ids)} tests (preparations), each reduced to its own "
         f"{reduced} with its Eq. 4 covariance, in {coords}; test-level effects marginalised: "
-        f"{layout.scatter_note}, (eps, delta) ~ N(0, Sigma).",
+        f"{layout.scatter_note}, (eps, delta) ~ N(0, Sigma)"
+        + (
+            "."
+            if layout.log_second
+            else f"; {s_e} is the sd of ln p at z_s = {np.exp(pops.ln_zs) * 1e3:.3g} mm, where "
+            "the tests' curves scatter least inside the measured range."
+        ),
         f"Priors: {pops.describe_priors()}; {s_e} ~ half-Cauchy(1), "
         f"{s_d} ~ half-Cauchy({pops.scales[1]:.3g}); {rho} ~ Beta(2, 2) on (-1, 1).",
         f"Draws of {', '.join(names)} are a NEW preparation (the scatter above applied to one "
@@ -562,7 +596,12 @@ def _population_idata(pops: _Population, run, rng, fits: PerTestFits, curves=Non
         {k: (("chain", "draw"), v) for k, v in data.items()},
         coords=coords,
         attrs=_attrs(pops.prior_only)
-        | {"kind": "population", "ln_zref": pops.ln_zref, "priors": pops.describe_priors()},
+        | {
+            "kind": "population",
+            "ln_zref": pops.ln_zref,
+            "ln_zs": pops.ln_zs,
+            "priors": pops.describe_priors(),
+        },
     )
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
     test_ids = np.asarray(fits.test_ids, dtype=str)

@@ -90,6 +90,30 @@ def reference_sinkage(kn: np.ndarray, cov: np.ndarray) -> float:
     return float(np.median(-cov[:, 0, 1] / kn[:, 0] / cov[:, 1, 1]))
 
 
+def scatter_sinkage(fits: PerTestFits, z: np.ndarray, ln_zref: float) -> float:
+    """ln z_s, the sinkage [m] at which the population model places its preparation scatter:
+    where the tests' own curves scatter least, i.e. where ln p̂_t(z) and n̂_t are uncorrelated
+    over tests (ln z_s = −Cov(ln k̂, n̂)/Var(n̂), within groups of one plate width, so Eq. 7's
+    plate effect is not read as scatter), kept inside the measured sinkages ``z`` [m] (their
+    5–95 % range).  Without a spread of n̂ to locate it, ``ln_zref``, clipped alike.
+
+    Why it matters (docs/posterior.md, "Where the scatter sits"): the Beta(2, 2) prior on the
+    correlation of the level and exponent scatter favours independence at this sinkage.
+    """
+    lo, hi = np.log(np.quantile(z[z > 0], [0.05, 0.95]))
+    ln_k, n = np.log(fits.params[:, 0]), fits.params[:, 1]
+    _, group = np.unique(fits.covariate, return_inverse=True)
+    counts = np.bincount(group)
+    within = counts[group] > 1
+    if np.count_nonzero(within) - np.count_nonzero(counts > 1) >= 2:
+        dk = ln_k - (np.bincount(group, ln_k) / counts)[group]
+        dn = n - (np.bincount(group, n) / counts)[group]
+        var_n = float(np.sum(dn[within] ** 2))
+        if var_n > 0:
+            return float(np.clip(-np.sum(dk[within] * dn[within]) / var_n, lo, hi))
+    return float(np.clip(ln_zref, lo, hi))
+
+
 def to_eta(params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: bool):
     """Per-test fits and covariances → η = (ln a + g·ln z_ref, g), g = b or ln b, and the
     delta-method covariances of η."""

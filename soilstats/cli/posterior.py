@@ -319,7 +319,7 @@ def run(args: argparse.Namespace) -> int:
             "left out)"
         )
         if args.population:
-            # Where the tests agree to within their noise, the scatter sds (sd_stiffness,
+            # Where the tests agree to within their noise, the scatter sds (sd_p_ref,
             # sd_n; sd_strength, sd_lnK) pile up at 0, the boundary of their support, and
             # the chains mix badly there (a review: R-hat up to 2.0 on zero-scatter data).
             advice = (
