@@ -267,6 +267,24 @@ def test_counts_of_one_are_singular(capsys):
     assert plural(2, "criterion", "criteria") == "2 criteria"
 
 
+def test_the_screening_line_counts_the_selected_tests_only(capsys):
+    """cullinan-sand's one failed test is method5-test1: a selection without it reports no
+    finding and says how many tests it keeps; without --select the line is unchanged."""
+    from soilstats.quality import screen
+
+    campaign = soilstats.load_campaign("cullinan-sand")
+    failed = {f.test_id for f in screen(campaign, "clean").flags if f.code == "bearing-failure"}
+    kept = campaign.select(preparation="3").tests["test_id"]
+    assert failed and not failed & set(kept)  # the premise: the failed test is left out
+    argv = ["identify", "cullinan-sand", "--progress", "off"]
+    assert main([*argv, "--select", "preparation=3"]) == 0
+    line = capsys.readouterr().err.splitlines()[0]
+    assert line.startswith(f"Data quality (clean, selection: {len(kept)} of {len(campaign.tests)} ")
+    assert "bearing-failure" not in line and "no findings" in line
+    assert main(argv) == 0
+    assert "bearing-failure in 1 test" in capsys.readouterr().err
+
+
 # ----------------------------------------------------------------- outputs and provenance
 
 

@@ -205,7 +205,7 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
 
     The campaign is loaded, screened (``--quality``), windowed (``--z-max``/``--p-max``)
     and selected (``--select``), in that order, so that screening rows are the file's rows.
-    One line on stderr (or ``out``) says what screening found.
+    One line on stderr (or ``out``) says what screening found in the tests selected.
 
     The provenance hashes the records as the command received them — loaded, after
     ``--select`` — not as screening and the window left them: those are the command's own
@@ -223,18 +223,22 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
     )
     report = screen(loaded, getattr(args, "quality", "clean"))
     window = FitWindow.parse(getattr(args, "z_max", ()), getattr(args, "p_max", ()))
-    campaign = windowed(report.campaign, window)
+    campaign = apply_selection(windowed(report.campaign, window), args.select)
     if report.mode != "off":
-        counts = report.counts
-        excluded = len(report.excluded)
+        # Screening runs on the whole file (its rows are the file's rows), but the line
+        # counts the tests the command uses: a failed test outside --select is no concern.
+        used = report.for_tests(campaign.tests["test_id"])
+        counts = used.counts
+        excluded = len(used.excluded)
+        scope = f", selection: {len(used.tests)} of {plural(len(report.tests), 'test')}"
         print(
-            f"Data quality ({report.mode}): "
+            f"Data quality ({report.mode}{scope if args.select else ''}): "
             + (", ".join(f"{c} in {plural(n, 'test')}" for c, n in counts.items()) or "no findings")
             + (f"; {excluded} samples left out" if excluded else "")
             + " (details: soilstats check)",
             file=out or sys.stderr,
         )
-    return apply_selection(campaign, args.select), provenance
+    return campaign, provenance
 
 
 def check_out(folder: str | None) -> None:
