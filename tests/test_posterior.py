@@ -171,19 +171,42 @@ def test_cli_draws_csv_rows_are_in_random_order_not_walker_by_walker(campaign, t
         assert abs(lag1) < 4 / np.sqrt(x.size), (column, lag1)
 
 
-def test_cli_writes_nothing_when_not_converged_unless_forced(campaign, tmp_path):
+def test_cli_writes_nothing_when_not_converged_unless_forced(campaign, tmp_path, monkeypatch):
+    from soilstats.bayes import result
     from soilstats.cli.posterior import main
 
     folder = campaign.save(tmp_path / "camp")
-    args = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker", "--draws", "64"]
+    args = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker", "--draws"]
     out = tmp_path / "out"
-    assert main([*args, "--out", str(out)]) == 2
+    with monkeypatch.context() as m:  # enough draws, but an R-hat no chain can reach
+        m.setattr(result, "RHAT_MAX", 0.5)
+        assert main([*args, str(result.ESS_MIN), "--out", str(out)]) == 2
     assert not out.exists() or not any(out.iterdir())
-    assert main([*args, "--out", str(out), "--force"]) == 1
+    assert main([*args, "64", "--out", str(out), "--force"]) == 1
     record = json.loads((out / "posterior.json").read_text())
     assert record["forced"] and "not converged" in record["failures"][0]
     draws = pd.read_csv(out / "draws.csv", comment="#")
     assert np.isfinite(draws.to_numpy()).all() and (draws["n"] > 0).all()
+
+
+def test_cli_refuses_draws_below_the_ess_floor_before_sampling(
+    campaign, tmp_path, capsys, monkeypatch
+):
+    """Fewer draws than the ESS the convergence check needs can only fail it, after all the
+    sampling: refused up front (exit 2, nothing sampled), naming the floor."""
+    from soilstats.bayes import result
+    from soilstats.cli import posterior
+
+    folder = campaign.save(tmp_path / "camp")
+    few = result.ESS_MIN - 1
+    argv = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker"]
+    sampled = []
+    real_run = posterior._run
+    monkeypatch.setattr(posterior, "_run", lambda *a, **k: sampled.append(1) or real_run(*a, **k))
+    assert posterior.main([*argv, "--draws", str(few), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"--draws {few} is below {result.ESS_MIN}" in err and "--force" in err
+    assert not sampled and not (tmp_path / "o").exists()
 
 
 def test_cli_refuses_a_prior_for_no_parameter_before_sampling(campaign, tmp_path):

@@ -174,6 +174,27 @@ def _check_simulator(args, models) -> None:
         )
 
 
+def _check_draws(args) -> None:
+    """--draws below the convergence check's ESS floor: refuse before sampling, not after.
+
+    N draws carry an effective sample size of about N at most, so fewer than
+    :data:`~soilstats.bayes.result.ESS_MIN` fail the check and exit 2 after all the
+    sampling; with --force the user has accepted unconverged (FORCED) draws.
+    """
+    from ..bayes.population import POPULATION_DRAWS
+    from ..bayes.posterior import DEFAULT_DRAWS
+    from ..bayes.result import ESS_MIN
+
+    if args.draws is not None and args.draws < ESS_MIN and not args.force:
+        raise ValueError(
+            f"--draws {args.draws} is below {ESS_MIN}, the effective sample size (bulk and "
+            f"tail ESS) per parameter the convergence check needs: {args.draws} draws can "
+            f"carry at most about {args.draws}. Ask for at least {ESS_MIN} (default "
+            f"{DEFAULT_DRAWS}, {POPULATION_DRAWS} with --population), or pass --force to "
+            "write unconverged draws anyway"
+        )
+
+
 def _contact_widths(args, campaign) -> tuple[float, float]:
     if args.contact_width:
         lo, _, hi = args.contact_width.partition(":")
@@ -243,6 +264,7 @@ def run(args: argparse.Namespace) -> int:
     models = args.model.split("+")
     priors = priors_by_model(args, models)
     _check_simulator(args, models)
+    _check_draws(args)
     campaign, provenance = prepared(args)
     out = Path(args.out)
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
