@@ -172,6 +172,17 @@ def test_cullinan_preparation_reports_the_effect_without_overclaiming(cullinan):
     assert crit["3"]["crit2"] == "n/a"
 
 
+def test_cullinan_criterion_3_does_not_reward_a_single_or_failed_test(cullinan):
+    """Pooled ε fell with the number of tests pooled: method 2's four consistent repetitions
+    scored "−" while one-test methods scored "+", method 5's test failed in bearing among
+    them. Each method is now judged by its tests' own fits; the failed test by none."""
+    crit = {c["method"]: c for c in cullinan[1]["criteria"]}
+    assert crit["2"]["tests"] == 4 and crit["2"]["crit3"] == "+"
+    assert crit["2"]["epsilon"] > crit["2"]["epsilon_pooled"]  # the pooled one holds scatter
+    assert crit["5"]["crit3"] == "n/a" and "method5-test1" in crit["5"]["crit3_reason"]
+    assert "per-test ε" in crit["3"]["crit3_reason"]
+
+
 def test_pdf_opens_has_its_pages_and_the_identified_values(reports, tmp_path):
     _, docs = reports
     out = tmp_path

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from soilstats.study import load_spec
 from soilstats.study.preparation import evaluate_criteria
@@ -42,3 +43,34 @@ def test_an_operator_dependent_method_fails_criterion_2_at_alpha():
     assert row["operator_p"] < 0.05 <= row["operator_p_holm"]
     assert row["crit2"] == "-"
     assert "operator p = " in row["crit2_reason"]
+
+
+def test_criterion_3_compares_per_test_fits_not_pooled_fits_of_unequal_size():
+    """A pooled ε carries the scatter between a method's tests: four consistent repetitions
+    pooled (0.85) lost to one test (0.95) although each of the four fits as well as that one.
+    Criterion 3 compares the mean per-test ε; a test that failed in bearing is left out, and
+    a method with no other test is n/a, never "+"."""
+    spec = load_spec("preparation")
+    tol = spec.criteria.epsilon_within_best
+    per_test = pd.DataFrame(
+        {
+            "soil": "s",
+            "preparation": ["1"] * 4 + ["2", "3"],
+            "test_id": ["a1", "a2", "a3", "a4", "b1", "c1"],
+            "b_m": 0.05,
+            "log10_p_ref": [4.0, 4.01, 3.99, 4.0, 4.2, 4.1],
+            "epsilon": [0.95 - tol / 2] * 4 + [0.95, 0.99],
+        }
+    )
+    pooled = pd.DataFrame({"soil": "s", "level": ["1", "2", "3"], "epsilon": [0.85, 0.95, 0.99]})
+    table, _ = evaluate_criteria(per_test, pooled, spec, 0.05, failed={"c1"})
+    rows = table.set_index("method")
+    assert rows.loc["1", "crit3"] == "+" and rows.loc["2", "crit3"] == "+"
+    assert rows.loc["1", "epsilon"] == pytest.approx(0.95 - tol / 2)
+    assert rows.loc["1", "epsilon_pooled"] == 0.85
+    assert rows.loc["3", "crit3"] == "n/a" and "c1" in rows.loc["3", "crit3_reason"]
+    assert "bearing-failure" in rows.loc["3", "crit3_reason"]
+    # without the failure, its own fit is the best one, and the four repetitions fall short
+    table, _ = evaluate_criteria(per_test, pooled, spec, 0.05)
+    rows = table.set_index("method")
+    assert rows.loc["3", "crit3"] == "+" and rows.loc["1", "crit3"] == "-"

@@ -307,7 +307,8 @@ def _pairs_and_criteria(doc: Document, result) -> None:
         doc.table(
             crit[CRITERIA_COLUMNS],
             caption="Criteria per method as the paper's Table 3 (+1 met, −1 not met; Σ the "
-            "sum), with the pooled fit quality ε and the test-to-test scatter.",
+            "sum), with the mean per-test fit quality ε (criterion 3) and the test-to-test "
+            "scatter.",
             labels={
                 "crit1": "crit. 1",
                 "crit2": "crit. 2",

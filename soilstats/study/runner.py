@@ -13,6 +13,7 @@ import pandas as pd
 
 from ..identification.conditions import fit_conditions
 from ..identification.per_test import not_converged_message
+from ..identification.result import ONSET_TOLERANCE
 from ..identification.window import windowed
 from ..report import Provenance, source_date
 from .data import StudyDataError, select_tests, soils_with_levels
@@ -44,6 +45,21 @@ def _pooled_fits(campaign, tests: pd.DataFrame, spec, soil: str, notes: list) ->
     return table.drop(columns=["kind", "series"]).pipe(
         lambda t: t[["soil", *[c for c in t.columns if c != "soil"]]]
     )
+
+
+def _failed_in_bearing(campaign, per_test: pd.DataFrame) -> set[str]:
+    """Tests flagged ``bearing-failure`` whose fitted curve still reaches the onset (a window
+    that cuts the failure off resolves it, as for the identification's health flags)."""
+    report = getattr(campaign, "quality", None)
+    if report is None or "z_max_m" not in per_test:
+        return set()
+    z_max = dict(zip(per_test["test_id"].astype(str), per_test["z_max_m"], strict=True))
+    return {
+        f.test_id
+        for f in report.flags_of(z_max)
+        if f.code == "bearing-failure"
+        and not z_max[f.test_id] <= (f.value or 0.0) * (1 + ONSET_TOLERANCE)
+    }
 
 
 def run_study(
@@ -131,7 +147,11 @@ def run_study(
     if spec.type == "preparation":
         eps = parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
         criteria, best = evaluate_criteria(
-            per_test, eps.rename(columns={"condition": "level"}), spec, spec.alpha
+            per_test,
+            eps.rename(columns={"condition": "level"}),
+            spec,
+            spec.alpha,
+            failed=_failed_in_bearing(campaign, per_test),
         )
         single = per_test.groupby(["soil", spec.factor]).size()
         single = single[single == 1]
