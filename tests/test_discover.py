@@ -289,7 +289,32 @@ def test_cli_null_prints_empty_findings(tmp_path, capsys):
 
     folder = simulate(NULL, seed=0).campaign.save(tmp_path / "null")
     assert main(["discover", "--data", str(folder), "--json", "--progress", "off"]) == 0
-    assert json.loads(capsys.readouterr().out)["findings"] == []
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["findings"] == [] and doc["untested"] == []  # its candidates were tested
+
+
+@pytest.mark.parametrize(
+    ("ids", "why"), [(["large-1"], "1 test: nothing"), (["large-1", "large-2"], "no set-up")]
+)
+def test_no_finding_where_nothing_could_be_tested_says_so(tmp_path, capsys, ids, why):
+    """One test, or tests that differ in no set-up column: 'No finding' alone read as 'the
+    model is fine'. The text, the JSON record and its notes say nothing could be tested."""
+    from soilstats.cli.main import main
+
+    campaign = soilstats.load_campaign("grc1-oravec2009").select(test_id=ids)
+    folder = campaign.save(tmp_path / "few")
+    argv = ["discover", str(folder), "--progress", "off"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "NO CANDIDATE CAUSE COULD BE TESTED" in text and why in text
+    assert "No finding: no candidate cause passes the test." not in text
+    assert main([*argv, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["findings"] == []
+    found = [(u["kind"], u["soil"], u["n_tests"]) for u in doc["untested"]]
+    assert found == [("sinkage", "GRC-1", len(ids))]
+    assert why in doc["untested"][0]["reason"]
+    assert any("NO CANDIDATE CAUSE COULD BE TESTED" in n for n in doc["notes"])
 
 
 def test_simulated_paper_names_the_papers_effects():

@@ -31,6 +31,7 @@ import time
 import numpy as np
 import pandas as pd
 
+from .._text import plural
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..parallel import one_blas_thread
@@ -172,6 +173,12 @@ def _discover(
     findings.sort(key=lambda f: (f.p_adjusted, f.p_value, -f.statistic))
     findings = [with_quality_caveat(f, quality) for f in findings]
     notes += _untestable_note(table)
+    untested = _untested_groups(diags, table)
+    notes += [
+        f"{u['kind']} / {u['soil']}: NO CANDIDATE CAUSE COULD BE TESTED — {u['reason']}; "
+        "'no finding' there is no evidence that the model is right"
+        for u in untested
+    ]
     return DiscoveryResult(
         findings=tuple(findings),
         flags=tuple(physical_flags(diags)),
@@ -181,6 +188,7 @@ def _discover(
         models=tuple(models),
         artefacts=tuple(artefacts),
         power=tuple(power_records(table, alpha)),
+        untested=tuple(untested),
         quality=quality,
         columns=tuple(_column_records(diags)),
         notes=tuple(notes),
@@ -340,6 +348,33 @@ def _confounding_records(diag) -> list[dict]:
                 "text": text,
             }
         )
+    return out
+
+
+def _untested_groups(diags, table: pd.DataFrame) -> list[dict]:
+    """The (kind, soil) groups in which not one candidate cause got a p-value, and why:
+    discovery compares tests that differ in a set-up column, so one test, or tests that
+    differ in nothing, leave it nothing to test."""
+    out = []
+    for d in diags:
+        g = d.group
+        rows = table[(table["kind"] == g.kind) & (table["soil"] == g.soil)] if len(table) else table
+        if len(rows) and rows["p_value"].notna().any():
+            continue
+        n = len(g.tests)
+        if n < 2:
+            reason = (
+                f"{plural(n, 'test')}: nothing to compare with; discovery needs two or more "
+                "tests that differ in a set-up column (and more for any power)"
+            )
+        elif not d.candidates:
+            reason = f"no set-up column varies among its {n} tests: no candidate cause to test"
+        else:
+            reason = (
+                f"none of its {plural(len(d.candidates), 'candidate')} could be tested with "
+                f"{n} tests (no degrees of freedom left once the strata are taken out)"
+            )
+        out.append({"kind": g.kind, "soil": g.soil, "n_tests": n, "reason": reason})
     return out
 
 

@@ -217,6 +217,10 @@ class DiscoveryResult:
     power : tuple of dict
         Per candidate tested and not found: the smallest effect the design would have found
         (80 % power at Holm's strictest level, :mod:`.power`).
+    untested : tuple of dict
+        Per (kind, soil) in which no candidate cause could be tested (one test, no varying
+        set-up column): ``kind``, ``soil``, ``n_tests``, ``reason``.  "No finding" there
+        says nothing about the model.
     quality : dict or None
         The data-quality screening the fits used (:mod:`soilstats.quality`): data problems,
         never causes.
@@ -233,6 +237,7 @@ class DiscoveryResult:
     models: tuple = ()
     artefacts: tuple[dict, ...] = ()
     power: tuple[dict, ...] = ()
+    untested: tuple[dict, ...] = ()
     quality: dict | None = None
     alpha: float = 0.05
     seed: int = 0
@@ -264,6 +269,22 @@ class DiscoveryResult:
         extended = [m for m in self.models if m.extensions]
         return campaign_gain(extended) if len(extended) > 1 else None
 
+    def no_finding_text(self) -> str:
+        """What an empty ``findings`` means: nothing passed, or nothing could be tested."""
+        if self.tests_run == 0:
+            return (
+                "No finding, because NO CANDIDATE CAUSE COULD BE TESTED: this says nothing "
+                "about whether the model is right."
+            )
+        if self.untested:
+            return "No finding: no candidate cause passes the test (some groups untested)."
+        return "No finding: no candidate cause passes the test."
+
+    @property
+    def tests_run(self) -> int:
+        """Significance tests with a p-value (the m of Holm's method)."""
+        return int(self.tests["p_value"].notna().sum()) if len(self.tests) else 0
+
     def to_dict(self) -> dict:
         """JSON-ready content (no run time: outputs are byte-identical between runs)."""
         return {
@@ -275,6 +296,7 @@ class DiscoveryResult:
             "columns": list(self.columns),
             "artefacts": list(self.artefacts),
             "power": list(self.power),
+            "untested": list(self.untested),
             "quality": self.quality,
             "notes": list(self.notes),
             "alpha": self.alpha,
@@ -292,12 +314,13 @@ class DiscoveryResult:
         lines = [
             " discovery: what the soil model gets wrong ".center(width, "="),
             f"campaign: {self.source}   alpha = {self.alpha} (Holm over "
-            f"{int(self.tests['p_value'].notna().sum()) if len(self.tests) else 0} tests)   "
+            f"{self.tests_run} tests)   "
             f"seed = {self.seed}   runtime {self.runtime_s:.1f} s",
             "-" * width,
         ]
         if not self.findings:
-            lines.append("No finding: no candidate cause passes the test.")
+            lines.append(self.no_finding_text())
+        lines += [f"  ! {u['kind']} / {u['soil']}: {u['reason']}" for u in self.untested]
         for i, f in enumerate(self.findings, 1):
             first, *rest = f.summary_lines()
             lines.append(f"[{i}] {first}")

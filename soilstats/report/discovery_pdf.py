@@ -403,7 +403,7 @@ def write_report(
     doc.bullets(METHOD_NOTES)
     doc.heading("Findings")
     if not result.findings:
-        doc.paragraph("No finding: no candidate cause passes the test.")
+        doc.paragraph(result.no_finding_text())
     for i, f in enumerate(result.findings, 1):
         _finding_section(doc, i, f)
     if result.explained:
