@@ -209,6 +209,31 @@ def test_cli_refuses_draws_below_the_ess_floor_before_sampling(
     assert not sampled and not (tmp_path / "o").exists()
 
 
+def test_cli_warns_when_contact_widths_leave_the_tested_plates(campaign, tmp_path, capsys):
+    """Bekker's kc/b + kphi at contact widths beyond the plates tested is extrapolated: a
+    WARNING on stderr and in posterior.json, naming both ranges; none inside them, nor for
+    a model without a size term."""
+    from soilstats.cli import posterior
+
+    b = campaign.tests.loc[campaign.tests["kind"] == "sinkage", "b_m"]
+    tested = (float(b.min()), float(b.max()))
+    wide = (2 * tested[1], 4 * tested[1])
+    folder = campaign.save(tmp_path / "camp")
+    argv = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker", "--seed", "1"]
+    out = tmp_path / "out"
+    assert (
+        posterior.main([*argv, "--contact-width", f"{wide[0]}:{wide[1]}", "--out", str(out)]) == 0
+    )
+    ranges = f"{wide[0]:g}–{wide[1]:g} m leaves the plate sizes tested (b = {tested[0]:g}–"
+    assert ranges in capsys.readouterr().err
+    record = json.loads((out / "posterior.json").read_text())
+    assert any(ranges in w and "kc/b + kphi" in w for w in record["warnings"])
+    warned = posterior.extrapolation_warnings
+    assert warned(tested, tested, ["bekker"]) == []
+    assert warned(wide, tested, ["bernstein", "janosi"]) == []
+    assert warned((tested[0] / 2, tested[1]), tested, ["bekker", "janosi"])
+
+
 def test_cli_refuses_a_prior_for_no_parameter_before_sampling(campaign, tmp_path):
     from soilstats.cli.posterior import main
 

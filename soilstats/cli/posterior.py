@@ -195,6 +195,36 @@ def _check_draws(args) -> None:
         )
 
 
+def _tested_widths(args, campaign) -> tuple[float, float] | None:
+    """Smallest and largest plate dimension b [m] of the soil's sinkage tests, if any."""
+    tests = campaign.tests
+    b = tests.loc[(tests["kind"] == "sinkage") & (tests["soil"].astype(str) == args.soil), "b_m"]
+    b = b.dropna()
+    return (float(b.min()), float(b.max())) if len(b) else None
+
+
+def extrapolation_warnings(widths, tested, models) -> list[str]:
+    """Say when --contact-width leaves the tested plate sizes for a model whose modulus
+    depends on b (Bekker kc/b + kφ, Reece k1 + k2·b): there it is extrapolated, and the
+    support check only says it stays positive, not that it is right."""
+    from ..models import get_model
+
+    terms = {("kc", "kphi"): "kc/b + kphi", ("k1", "k2"): "k1 + k2*b"}
+    sized = [
+        f"{m}'s {text}"
+        for m in models
+        for names, text in terms.items()
+        if set(names) <= set(get_model(m).param_names)
+    ]
+    if not sized or tested is None or (tested[0] <= widths[0] and widths[1] <= tested[1]):
+        return []
+    return [
+        f"--contact-width {widths[0]:g}–{widths[1]:g} m leaves the plate sizes tested "
+        f"(b = {tested[0]:g}–{tested[1]:g} m): {', '.join(sized)} is extrapolated there, "
+        "unconstrained by the data; the support check only says it stays positive"
+    ]
+
+
 def _contact_widths(args, campaign) -> tuple[float, float]:
     if args.contact_width:
         lo, _, hi = args.contact_width.partition(":")
@@ -207,10 +237,7 @@ def _contact_widths(args, campaign) -> tuple[float, float]:
         if not 0 < widths[0] <= widths[1]:
             raise ValueError(f"--contact-width needs 0 < B_MIN <= B_MAX, got {widths}")
         return widths
-    tests = campaign.tests
-    b = tests.loc[(tests["kind"] == "sinkage") & (tests["soil"].astype(str) == args.soil), "b_m"]
-    b = b.dropna()
-    return (float(b.min()), float(b.max())) if len(b) else (1.0, 1.0)
+    return _tested_widths(args, campaign) or (1.0, 1.0)
 
 
 def _pooled_columns(kind: str, models) -> tuple[str, ...]:
@@ -305,6 +332,7 @@ def run(args: argparse.Namespace) -> int:
             f"{numeric} numerical warnings (overflow, invalid values) while sampling: the "
             "sampler reached extreme parameter values (an improper or very wide posterior)"
         )
+    ours += extrapolation_warnings(widths, _tested_widths(args, campaign), models)
     for text in ours:
         print(f"WARNING: {text}", file=sys.stderr)
     for text in pooled_warnings:
