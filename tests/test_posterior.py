@@ -49,12 +49,34 @@ def test_result_groups_summary_and_convergence(campaign):
     groups = set(post.idata.groups())
     assert {"posterior", "sample_stats", "observed_data", "posterior_predictive"} <= groups
     text = post.summary()
-    assert "90% highest-density" in text and "Convergence: OK" in text
+    assert "90% equal-tailed" in text and "Convergence: OK" in text
     assert post.diagnostics["r_hat"].max() <= 1.01
     assert post.diagnostics[["ess_bulk", "ess_tail"]].min().min() >= 400
     doc = json.loads(json.dumps(post.to_dict(), allow_nan=False))
     assert doc["converged"] is True and set(doc["params"]) == set(post.param_names)
     assert doc["stderr"]["K"] == pytest.approx(post.diagnostics.loc["K", "sd"])
+
+
+def test_summary_describes_the_draws_handed_out_with_equal_tailed_intervals(campaign):
+    # Review finding F3: the summary's interval of k started at a draw with n < 0 that
+    # draws.csv leaves out, and an HDI of a modulus spanning decades collapses onto its
+    # smallest draw.  The summary now describes the rows a user is handed, equal-tailed.
+    post = sample_posterior(campaign, "janosi", seed=2)
+    every = post.draws()
+    handed = every[every["K"] > every["K"].median()]  # as if the rest failed a support rule
+    table = post.summary_table(0.9, handed)
+    assert list(table.columns[2:4]) == ["eti_5%", "eti_95%"]
+    row = table.loc["K"]
+    assert row["mean"] == pytest.approx(handed["K"].mean())
+    assert row["eti_5%"] == pytest.approx(np.quantile(handed["K"], 0.05))
+    assert row["eti_5%"] > every["K"].median()
+    # Quantities not handed out, and every diagnostic, are the chains' own.
+    plain = post.summary_table(0.9)
+    assert plain.loc["K", "eti_95%"] == pytest.approx(np.quantile(every["K"], 0.95))
+    pd.testing.assert_series_equal(table["r_hat"], plain["r_hat"])
+    # Equal-tailed: the interval of ln K is the log of K's (an HDI's is not).
+    assert np.log(plain.loc["K", "eti_5%"]) == pytest.approx(np.quantile(np.log(every["K"]), 0.05))
+    assert "over the" in post.summary(handed_out=handed)
 
 
 def test_not_converged_is_loud(campaign):

@@ -93,22 +93,40 @@ class PosteriorResult:
         """True when R-hat ≤ 1.01 and bulk/tail ESS ≥ 400 for every sampled quantity."""
         return not self.problems
 
-    def summary_table(self, prob: float = 0.9) -> pd.DataFrame:
-        """ArviZ summary: mean, sd, ``prob`` HDI, MCSE, bulk/tail ESS, R-hat, per quantity.
+    def summary_table(
+        self, prob: float = 0.9, handed_out: pd.DataFrame | None = None
+    ) -> pd.DataFrame:
+        """Mean, sd, ``prob`` equal-tailed interval, MCSE, bulk/tail ESS, R-hat per quantity.
 
         Parameters
         ----------
         prob : float
-            Probability of the highest-density interval; columns are named by it
-            (``hdi_5%``/``hdi_95%`` for 0.9).
+            Probability of the interval; its columns are named by it (``eti_5%``/``eti_95%``
+            for 0.9).  Equal-tailed, not highest-density: an ETI maps through any monotone
+            transform (k ↔ ln k), while the HDI of a right-skewed modulus spanning decades
+            collapses onto its smallest draw (a review: k's 90 % HDI started at 1.7 N/m^(n+2),
+            one draw with n < 0).
+        handed_out : DataFrame, optional
+            The draws a user is handed (the CLI's ``draws.csv``: inside the physical support).
+            Mean, sd and interval of the handed-out parameters are then theirs; the
+            diagnostics (MCSE, ESS, R-hat) stay those of the chains.
         """
-        return az.summary(
-            self.idata,
-            var_names=list(self.var_names),
-            hdi_prob=prob,
-            kind="all",
-            round_to="none",
+        q = [(1 - prob) / 2, (1 + prob) / 2]
+        lo, hi = (f"eti_{100 * x:.3g}%" for x in q)
+        post = self.idata.posterior
+        rows = {}
+        for name in self.var_names:
+            use_kept = handed_out is not None and name in handed_out
+            x = handed_out[name].to_numpy() if use_kept else post[name].to_numpy().ravel()
+            x = x[np.isfinite(x)]
+            lower, upper = np.quantile(x, q) if x.size else (np.nan, np.nan)
+            sd = float(np.std(x, ddof=1)) if x.size > 1 else np.nan
+            rows[name] = {"mean": float(np.mean(x)), "sd": sd, lo: lower, hi: upper}
+        stats = pd.DataFrame.from_dict(rows, orient="index")
+        diag = az.summary(
+            self.idata, var_names=list(self.var_names), kind="diagnostics", round_to="none"
         )
+        return stats.join(diag)
 
     @cached_property
     def diagnostics(self) -> pd.DataFrame:
@@ -206,10 +224,11 @@ class PosteriorResult:
         adequacy (lack-of-fit, test-scatter …) hold for the posterior too."""
         return [{"code": f.code, "message": f.message} for f in getattr(self.lsq, "flags", ())]
 
-    def summary(self, prob: float = 0.9) -> str:
-        """Readable report: estimates, ``prob`` HDI, diagnostics, sampler and numbered notes."""
+    def summary(self, prob: float = 0.9, handed_out: pd.DataFrame | None = None) -> str:
+        """Readable report: estimates, ``prob`` interval, diagnostics, sampler and numbered
+        notes; ``handed_out`` as in :meth:`summary_table`."""
         width = 92
-        tab = self.summary_table(prob)
+        tab = self.summary_table(prob, handed_out)
         lo, hi = tab.columns[2], tab.columns[3]
         s = self.sampler
         lines = [
@@ -239,9 +258,18 @@ class PosteriorResult:
             )
             lines.extend(f"  ! {p}" for p in self.problems)
         units = ", ".join(f"{n} [{self.units[n]}]" for n in self.param_names)
+        over = ""
+        if handed_out is not None:
+            post = self.idata.posterior
+            total = post.sizes["chain"] * post.sizes["draw"]
+            names = ", ".join(n for n in self.param_names if n in handed_out)
+            over = (
+                f" {names}: mean, sd and interval over the {len(handed_out)} draws handed out "
+                f"(inside the physical support), of {total}; diagnostics over all."
+            )
         notes = (
-            f"Intervals are {prob:.0%} highest-density intervals (HDI); mcse is the Monte "
-            f"Carlo standard error of the mean.",
+            f"Intervals are {prob:.0%} equal-tailed intervals; mcse is the Monte Carlo "
+            f"standard error of the mean.{over}",
             f"Units: {units}.",
             *self.notes,
         )

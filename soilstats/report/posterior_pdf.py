@@ -26,8 +26,8 @@ from .provenance import Provenance
 __all__ = ["write_report"]
 
 
-def _estimates(res: PosteriorResult, prob: float) -> list:
-    table = res.summary_table(prob)
+def _estimates(res: PosteriorResult, prob: float, handed_out=None) -> list:
+    table = res.summary_table(prob, handed_out)
     lo, hi = table.columns[2], table.columns[3]
     parts: list = []
     for name in res.param_names:
@@ -42,7 +42,7 @@ def _estimates(res: PosteriorResult, prob: float) -> list:
     return parts
 
 
-def _conclusion(results, record: dict, prob: float) -> list:
+def _conclusion(results, record: dict, prob: float, handed_out=None) -> list:
     out: list = []
     for res in results:
         status = (
@@ -51,7 +51,11 @@ def _conclusion(results, record: dict, prob: float) -> list:
             else "NOT CONVERGED: " + "; ".join(res.problems)
         )
         out.append(
-            [strong(f"{res.model_name} ({res.kind}): "), *_estimates(res, prob), f"{status}."]
+            [
+                strong(f"{res.model_name} ({res.kind}): "),
+                *_estimates(res, prob, handed_out),
+                f"{status}.",
+            ]
         )
         codes = sorted({f["code"] for f in res.least_squares_health()})
         if codes:
@@ -93,13 +97,19 @@ def _conclusion(results, record: dict, prob: float) -> list:
     return out
 
 
-def _diagnostics_table(doc: Document, res: PosteriorResult, prob: float) -> None:
-    table = res.summary_table(prob).reset_index(names="quantity")
+def _diagnostics_table(doc: Document, res: PosteriorResult, prob: float, handed_out) -> None:
+    table = res.summary_table(prob, handed_out).reset_index(names="quantity")
+    over = (
+        f"; mean, sd and interval of {', '.join(res.param_names)} over the draws handed out "
+        "(draws.csv, inside the physical support)"
+        if handed_out is not None
+        else ""
+    )
     doc.table(
         table,
-        caption=f"{res.model_name}: posterior mean, sd, {prob:.0%} interval, Monte Carlo "
-        "standard error, bulk and tail effective sample size and R-hat of every sampled "
-        "quantity (SI units as in the campaign format).",
+        caption=f"{res.model_name}: posterior mean, sd, {prob:.0%} equal-tailed interval, "
+        "Monte Carlo standard error, bulk and tail effective sample size and R-hat of every "
+        f"sampled quantity (SI units as in the campaign format){over}.",
         labels={
             "mcse_mean": "MCSE",
             "ess_bulk": "ESS bulk",
@@ -117,11 +127,13 @@ def write_report(
     provenance: Provenance | None = None,
     prob: float = 0.9,
     overwrite: bool = True,
+    handed_out=None,
 ) -> int:
     """Write the typeset posterior report for ``results`` to ``path``; return its pages.
 
     ``record`` is the content of ``posterior.json`` (checks, warnings, priors); everything
     in it is printed. ``provenance`` goes into the PDF metadata and onto the last page.
+    ``handed_out``: the draws written (as :meth:`PosteriorResult.summary_table`).
     """
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     record = record or {}
@@ -150,7 +162,7 @@ def write_report(
             f"; selection {', '.join(record['selection'])}" if record.get("selection") else "",
             ".",
         ],
-        conclusion=_conclusion(results, record, prob),
+        conclusion=_conclusion(results, record, prob, handed_out),
     )
     doc.page_break()
     doc.heading("Methods")
@@ -173,7 +185,7 @@ def write_report(
             f"autocorrelation time {s.get('tau_max', float('nan')):.3g} steps; acceptance "
             f"{s.get('acceptance', float('nan')):.2f}."
         )
-        _diagnostics_table(doc, res, prob)
+        _diagnostics_table(doc, res, prob, handed_out)
         health = res.least_squares_health()
         if health:
             doc.paragraph(strong("Health of the start fit (the least-squares fit sampled from):"))
