@@ -86,6 +86,7 @@ def test_the_scan_finds_the_known_codes():
         "rank-deficient",
         "excluded-tests",
         "lack-of-fit",
+        "plate-exponents",
         "aggregation-bias",
         "test-scatter",
         "sign-unstable",

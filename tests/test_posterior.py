@@ -355,8 +355,8 @@ def test_a_posterior_carries_the_health_of_the_fit_it_started_from(tmp_path, cap
 # The population's Laplace start meets overflow on GRC-1 (the CLI counts it as a numerical
 # warning, which pytest's error filter would otherwise raise before the CLI can record it).
 @pytest.mark.filterwarnings("default::RuntimeWarning")
-def test_population_draws_of_a_model_flagged_lack_of_fit_are_refused(tmp_path, capsys):
-    """GRC-1's plates disagree on Bekker's n (identify: lack-of-fit, ANOVA p = 4e-6); a
+def test_population_draws_of_a_model_flagged_plate_exponents_are_refused(tmp_path, capsys):
+    """GRC-1's plates disagree on Bekker's n (identify: plate-exponents, ANOVA p = 4e-6); a
     population posterior would hand that misfit out as scatter between preparations, so
     nothing is written unless forced (and then marked FORCED)."""
     from soilstats.cli.main import main
@@ -365,8 +365,8 @@ def test_population_draws_of_a_model_flagged_lack_of_fit_are_refused(tmp_path, c
     args += ["--population", "--draws", "400", "--seed", "1"]
     assert main([*args, "--out", str(tmp_path / "refused")]) == 2
     err = capsys.readouterr().err
-    assert "flagged lack-of-fit because the plate sizes disagree on the exponent" in err
+    assert "flagged plate-exponents" in err and "plate sizes disagree on the exponent" in err
     assert not (tmp_path / "refused" / "draws.csv").exists()
     assert main([*args, "--force", "--out", str(tmp_path / "forced")]) == 1
     record = json.loads((tmp_path / "forced" / "posterior.json").read_text())
-    assert record["forced"] and any("lack-of-fit" in f for f in record["failures"])
+    assert record["forced"] and any("plate-exponents" in f for f in record["failures"])

@@ -10,7 +10,7 @@ simulator's parameter sets (CSV) with their record (JSON).
 Nothing is written until the draws pass: every sampler converged (R-hat, ESS), at most 1 %
 of the draws fall outside the physical support at the stated contact widths
 (soilstats.bayes.support), and a population's least-squares start is not flagged
-lack-of-fit for plates that disagree on n. Otherwise exit 2 with the reasons, unless --force
+plate-exponents (plates that disagree on n). Otherwise exit 2 with the reasons, unless --force
 (exit 1, every file marked). Draws outside the support are never written.
 
 --model takes one model (bekker, bernstein, reece, mohr-coulomb, janosi) or a sinkage and a
@@ -284,7 +284,6 @@ def run(args: argparse.Namespace) -> int:
     from ..bayes import joint_draws, simulator_parameters, simulator_record
     from ..bayes.support import check_support
     from ..errors import ConvergenceWarning
-    from ..identification.adequacy import PLATES_DISAGREE
     from ..report import json_safe, output_path, write_csv
     from ..report.posterior_pdf import write_report
 
@@ -358,12 +357,12 @@ def run(args: argparse.Namespace) -> int:
         # preparations (GRC-1's Bekker: a stiffness sd of 5.8x). A residual pattern every
         # test shares moves the mean curve, not the scatter: that stays a warning.
         failures += [
-            f"{model}: its least-squares fit is flagged lack-of-fit because "
-            f"{PLATES_DISAGREE}, so the population's scatter would take up the model's misfit "
-            f"between plate sizes as scatter between preparations ({f['message']})"
+            f"{model}: its least-squares fit is flagged plate-exponents, so the population's "
+            "scatter would take up the model's misfit between plate sizes as scatter between "
+            f"preparations ({f['message']})"
             for model, flags in health.items()
             for f in flags
-            if f["code"] == "lack-of-fit" and PLATES_DISAGREE in f["message"]
+            if f["code"] == "plate-exponents"
         ]
     if failures and not args.force:
         for text in failures:

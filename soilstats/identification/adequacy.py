@@ -14,9 +14,12 @@ closed form, so this costs well under a millisecond per test) and two questions 
   pressure and by more than :data:`PATTERN_T` standard errors) — a curve the model bends the
   wrong way on every test, e.g. bearing failure or a seating toe. Real sands deviate from
   a power law by a few per cent of their largest pressure (Cullinan: ≤ 6 %); that is not
-  flagged. For Bekker (Eq. 7: one n for every plate size) the plates' own exponents are also
-  compared: a one-way ANOVA of the per-test n by plate size at p < :data:`PLATE_ANOVA_P`,
-  with plate means more than :data:`MIN_PLATE_SPREAD` apart (GRC-1: 0.43 against 1.05).
+  flagged.
+* ``plate-exponents`` — for Bekker (Eq. 7: one n for every plate size), do the plates share
+  an exponent?  A one-way ANOVA of the per-test n by plate size at p < :data:`PLATE_ANOVA_P`,
+  with plate means more than :data:`MIN_PLATE_SPREAD` apart (GRC-1: 0.43 against 1.05).  A
+  code of its own, not a form of ``lack-of-fit``: a population posterior would read exactly
+  this misfit as scatter between preparations, so ``posterior --population`` refuses on it.
 * ``aggregation-bias`` — is the pooled exponent one the tests share? When tests stop at one
   load, soft tests run deeper and the pooled curve is flatter than every single test. Flagged
   when at most :data:`MAX_SIDE_SHARE` of the tests lie on one side of the pooled n, the
@@ -247,11 +250,6 @@ def _aggregation_bias(forms: TestForms, n_pooled: float, se_n: float | None) -> 
     return None
 
 
-#: How the ``lack-of-fit`` message of :func:`_plates_disagree` begins: the one form of
-#: lack-of-fit a population posterior would misread as scatter between preparations.
-PLATES_DISAGREE = "the plate sizes disagree on the exponent"
-
-
 def _plates_disagree(forms: TestForms, sizes: np.ndarray) -> HealthFlag | None:
     ok = np.isfinite(forms.n)
     groups = {b: forms.n[ok & (sizes == b)] for b in np.unique(sizes[ok])}
@@ -267,8 +265,8 @@ def _plates_disagree(forms: TestForms, sizes: np.ndarray) -> HealthFlag | None:
         return None
     listed = ", ".join(f"{m:.2f} (b = {b:g} m)" for b, m in sorted(means.items()))
     return HealthFlag(
-        "lack-of-fit",
-        f"{PLATES_DISAGREE} (mean per-test n {listed}; ANOVA p = "
+        "plate-exponents",
+        f"the plate sizes disagree on the exponent (mean per-test n {listed}; ANOVA p = "
         f"{p_value:.1g}): Bekker's one n for every plate (Eq. 7) does not hold here, and kc, "
         "kphi are a compromise between plates; fit each plate size (Bernstein) or window "
         "the plates alike",
@@ -278,7 +276,8 @@ def _plates_disagree(forms: TestForms, sizes: np.ndarray) -> HealthFlag | None:
 def adequacy_findings(
     z, p, test_index, n_pooled: float, b=None, n_stderr_tests: float | None = None
 ) -> tuple[TestForms, list[HealthFlag]]:
-    """The per-test forms and the ``lack-of-fit`` / ``aggregation-bias`` flags they raise.
+    """The per-test forms and the ``lack-of-fit`` / ``plate-exponents`` / ``aggregation-bias``
+    flags they raise.
 
     ``z`` [m], ``p`` [Pa] and ``test_index`` are pooled arrays (one entry per sample); ``b``
     [m], per sample, only for Bekker-type fits (the plate-exponent comparison);

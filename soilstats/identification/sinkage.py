@@ -163,7 +163,7 @@ def fit_sinkage(
 
 
 def _adequacy(spec, pooled, fit, bootstrap) -> list:
-    """``lack-of-fit`` and (with the test bootstrap) ``aggregation-bias`` flags
+    """``lack-of-fit``, ``plate-exponents`` and (with the test bootstrap) ``aggregation-bias`` flags
     (identification/adequacy.py)."""
     b = None if spec is BERNSTEIN else pooled.x["b_m"]
     se_n = None if bootstrap is None else float(bootstrap.stderr["n"])
