@@ -227,7 +227,9 @@ def load_campaign(
     return _build(io.read_folder(folder), source=source, on_error=on_error, check_units=check_units)
 
 
-def _values_present(series: pd.Series, limit: int = 20) -> str:
+def values_present(series: pd.Series, limit: int = 20) -> str:
+    """The distinct values of a test-log column, as error messages list them (``select``
+    and the CLI's ``--select``): sorted, at most ``limit``, and whether any are missing."""
     vals = series.dropna().unique().tolist()
     vals = sorted(vals, key=lambda v: (str(type(v)), v))
     shown = ", ".join(repr(v) for v in vals[:limit])
@@ -432,7 +434,7 @@ class Campaign:
         if not mask.any():
             empty = [c for c, m in masks.items() if not m.any()]
             why = "; ".join(
-                f"{c}={criteria[c]!r} (values present: {_values_present(self.tests[c])})"
+                f"{c}={criteria[c]!r} (values present: {values_present(self.tests[c])})"
                 for c in (empty or criteria)
             )
             what = "matched no test" if empty else "each match some tests, but no test meets all"

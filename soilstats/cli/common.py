@@ -339,20 +339,20 @@ def _kept_nothing(campaign, criteria, masks, own, scopes) -> Exception:
     """
     import numpy as np
 
-    from ..campaign.campaign import _values_present
+    from ..campaign.campaign import values_present
     from ..errors import CampaignError
 
     tests = campaign.tests
 
     def among(crit, rows) -> str:
         where = f" of the {crit.kind} tests" if crit.kind else ""
-        return f"{crit.column}{where} has {_values_present(tests.loc[rows, crit.column])}"
+        return f"{crit.column}{where} has {values_present(tests.loc[rows, crit.column])}"
 
     empty = [i for i, hit in enumerate(own) if not hit.any()]
     if empty:
         why = "; ".join(
             f"{criteria[i]} matched none (values present: "
-            f"{_values_present(tests.loc[scopes[i], criteria[i].column])})"
+            f"{values_present(tests.loc[scopes[i], criteria[i].column])})"
             for i in empty
         )
     else:
