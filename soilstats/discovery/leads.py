@@ -21,6 +21,7 @@ from .extensions import base_model, library
 from .nested import fold_choices, fold_extensions
 from .plausibility import implausible
 from .result import Finding
+from .testlevel import scatter_caveat, test_level
 from .work import FIT_ERRORS, FitTask, Wave
 
 __all__ = ["discover_group", "leads_of"]
@@ -295,6 +296,11 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng, rows
         confounded_with = [m for m in [top["candidate"], *confounded_with] if m != lead]
     fitted = chosen[2] if chosen is not None else None
     fit = fitted.result if fitted is not None else None
+    # The printed ± of the kept fit is Eq. 4's, which treats samples as independent: its
+    # test-level counterpart (one Jacobian, no refit) says when the tests scatter more.
+    level = test_level(fitted, g, scope) if kept else None
+    if (scatter := scatter_caveat(fit, level)) is not None:
+        caveats.append(scatter)
     base_fit = base_fitted.result if chosen is not None else None
     info, gain_cond = {}, None
     if chosen is not None:
@@ -334,6 +340,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng, rows
         group=g,
         fitted=fitted,
         base_fitted=base_fitted,
+        test_level=level,
     )
 
 

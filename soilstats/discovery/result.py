@@ -28,24 +28,47 @@ METHOD_NOTES = (
 )
 
 
-def parameter_table(fit) -> dict | None:
-    """``{name: {"value", "stderr", "unit"}}`` of a fit (JSON-ready), or None."""
+def parameter_table(fit, level=None) -> dict | None:
+    """``{name: {"value", "stderr", "unit"}}`` of a fit (JSON-ready), or None.
+
+    With ``level`` (a :class:`~.testlevel.TestLevel`) each entry also carries
+    ``stderr_tests`` (the cluster-robust σ over tests, in the parameter's unit; null where
+    the parameter rests on one test) and ``test_scatter`` (it exceeds ``stderr`` by more
+    than 2×, judged on five or more tests: quote ``stderr_tests``)."""
     if fit is None:
         return None
-    return {
+    out = {
         name: {"value": json_safe(v), "stderr": json_safe(s), "unit": fit.units.get(name, "")}
         for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
     }
+    if level is not None:
+        for name, st, hit in zip(fit.param_names, level.stderr, level.flagged(), strict=True):
+            out[name] |= {"stderr_tests": json_safe(st), "test_scatter": bool(hit)}
+    return out
 
 
-def parameter_lines(fit, indent: str = "    ") -> list[str]:
-    """A fit's parameters as aligned ``name = value +/- stderr unit`` lines."""
+def parameter_lines(fit, indent: str = "    ", level=None) -> list[str]:
+    """A fit's parameters as aligned ``name = value +/- stderr unit`` lines; with ``level``
+    (a :class:`~.testlevel.TestLevel`) each line adds the test-level σ, ``*`` where it is
+    the one to quote (``test-scatter``) and ``n/a`` where one test alone sets the
+    parameter."""
     if fit is None:
         return []
-    return [
-        f"{indent}{name:>34} = {v:>12.5g} +/- {s:<10.3g} {fit.units.get(name, '')}"
-        for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
-    ]
+    out = []
+    for j, (name, v, s) in enumerate(
+        zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
+    ):
+        line = f"{indent}{name:>34} = {v:>12.5g} +/- {s:<10.3g} {fit.units.get(name, ''):<10}"
+        if level is not None:
+            st = level.stderr[j]
+            mark = " *" if level.flagged()[j] else ""
+            line += (
+                f" test-level +/- {st:.3g}{mark}"
+                if np.isfinite(st)
+                else " test-level n/a (one test)"
+            )
+        out.append(line.rstrip())
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +97,9 @@ class Finding:
         The extended model kept (None when no extension gives a real out-of-sample gain).
     fit : FitResult or None
         The kept extension fitted to all tests in scope: parameters ± σ (Eq. 3).
+    test_level : TestLevel or None
+        The test-level σ of ``fit`` (cluster-robust over tests, :mod:`.testlevel`); where it
+        exceeds Eq. 4's by more than 2× a ``TEST-SCATTER`` caveat names the parameters.
     gain : Gain or None
         Cross-validated gain of the kept (or, if none is kept, the best tried) extension.
     gain_conditions : Gain or None
@@ -107,6 +133,8 @@ class Finding:
     group: object | None = field(default=None, repr=False)
     fitted: object | None = field(default=None, repr=False)
     base_fitted: object | None = field(default=None, repr=False)
+    #: Test-level σ of ``fit`` (:class:`~.testlevel.TestLevel`), None without a kept fit.
+    test_level: object | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
         """The JSON shape of issue #6, plus the supporting detail."""
@@ -131,7 +159,7 @@ class Finding:
         }
         if self.gain_conditions is not None:
             out["gain_conditions"] = json_safe(self.gain_conditions.to_dict())
-        out["parameters"] = parameter_table(self.fit)
+        out["parameters"] = parameter_table(self.fit, self.test_level)
         return out
 
     def summary_lines(self) -> list[str]:
@@ -162,7 +190,7 @@ class Finding:
                 f"  leave-one-condition-out ({g.folds} conditions): base {g.base:.4f} -> "
                 f"extended {g.extended:.4f} (gain {g.relative:+.1%}, real: {g.real})"
             )
-        lines += parameter_lines(self.fit)
+        lines += parameter_lines(self.fit, level=self.test_level)
         for t in self.tried:
             if t.get("error"):
                 lines.append(f"  tried {t['extension']}: failed — {t['error']}")

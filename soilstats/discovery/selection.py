@@ -29,6 +29,7 @@ from .crossval import FoldFits, compare, make_folds
 from .extensions import base_model, combine
 from .plausibility import implausible
 from .result import parameter_lines, parameter_table
+from .testlevel import scatter_caveat, test_level
 from .work import FIT_ERRORS, FitTask, Wave
 
 __all__ = [
@@ -54,6 +55,10 @@ class CombinedModel:
         The finding (cause) each selected extension came from, in the same order.
     fit : FitResult or None
         The combined model fitted to all tests of the group: parameters ± σ (Eq. 3).
+    test_level : TestLevel or None
+        Test-level σ of ``fit`` (cluster-robust over tests, :mod:`.testlevel`).
+    caveats : tuple of str
+        A ``TEST-SCATTER`` caveat where the test-level σ exceeds Eq. 4's by more than 2×.
     gain : Gain or None
         Cross-validated gain of the combined model over the base model (same folds).
     steps : tuple of dict
@@ -72,6 +77,10 @@ class CombinedModel:
     steps: tuple[dict, ...] = ()
     n_tests: int = 0
     fitted: object | None = field(default=None, repr=False)
+    #: Test-level σ of ``fit`` (:class:`~.testlevel.TestLevel`; cluster-robust over tests).
+    test_level: object | None = field(default=None, repr=False)
+    #: ``TEST-SCATTER`` and the like: what the reader of the parameters must know.
+    caveats: tuple[str, ...] = ()
     #: Per-test held-out errors (base, combined), for a campaign-wide gain.
     held_out: tuple | None = field(default=None, repr=False)
 
@@ -82,9 +91,10 @@ class CombinedModel:
             "extensions": list(self.extensions),
             "causes": list(self.causes),
             "gain": None if self.gain is None else json_safe(self.gain.to_dict()),
-            "parameters": parameter_table(self.fit),
+            "parameters": parameter_table(self.fit, self.test_level),
             "steps": [json_safe(s) for s in self.steps],
             "n_tests": self.n_tests,
+            "caveats": list(self.caveats),
         }
 
     def summary(self) -> str:
@@ -102,7 +112,8 @@ class CombinedModel:
             f"{g.base:.4f} -> {g.extended:.4f} ({g.relative:+.1%}, paired difference "
             f"{g.difference:.3g} +/- {g.stderr:.2g})",
         ]
-        lines += parameter_lines(self.fit)
+        lines += parameter_lines(self.fit, level=self.test_level)
+        lines += [f"  caveat: {c}" for c in self.caveats]
         for st in self.steps:
             if st["added"]:
                 continue
@@ -220,6 +231,8 @@ def selection_steps(group, prepared: PreparedSelection):
         remaining = [(o[2], o[3]) for o in options if o[3].name != ext.name]
     if current is None:
         return CombinedModel(group.kind, group.soil, (), (), steps=tuple(steps), n_tests=rows.size)
+    level = test_level(current[1], group, rows)
+    scatter = scatter_caveat(current[1].result, level)
     return CombinedModel(
         kind=group.kind,
         soil=group.soil,
@@ -230,6 +243,8 @@ def selection_steps(group, prepared: PreparedSelection):
         steps=tuple(steps),
         n_tests=int(rows.size),
         fitted=current[1],
+        test_level=level,
+        caveats=() if scatter is None else (scatter,),
         held_out=(e_base, current[2]),
     )
 

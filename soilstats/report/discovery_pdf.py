@@ -203,7 +203,7 @@ def _finding_section(doc: Document, i: int, f) -> None:
             "(at most eight): measured samples (dots), base model (dashed) and "
             f"{f.extension or 'extension'} (solid).",
         )
-    fit_table(doc, f.fit, f"Parameters of {f.extension} ± σ (Eqs. 3–5).")
+    fit_table(doc, f.fit, f"Parameters of {f.extension} ± σ (Eqs. 3–5).", f.test_level)
     if f.tried:
         tried = pd.DataFrame(
             [
@@ -264,7 +264,10 @@ def _model_section(doc: Document, result, all_groups) -> None:
                 _gain_words(m.gain) if m.gain is not None else "not measured",
                 ".",
             )
-        fit_table(doc, m.fit, f"{m.kind} / {m.soil}: combined model parameters ± σ.")
+        fit_table(doc, m.fit, f"{m.kind} / {m.soil}: combined model parameters ± σ.", m.test_level)
+        if m.caveats:
+            doc.paragraph(strong("Caveats:"))
+            doc.bullets(m.caveats)
         if m.steps:
             steps = pd.DataFrame(
                 [

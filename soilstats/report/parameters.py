@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 
+import numpy as np
 import pandas as pd
 
 from ..identification.table import format_value
@@ -53,12 +54,24 @@ def condition_table(
     )
 
 
-def fit_table(doc: Document, fit, caption: str) -> None:
-    """One fit's parameters as ``value ± σ`` with units (nothing without a fit)."""
+def fit_table(doc: Document, fit, caption: str, level=None) -> None:
+    """One fit's parameters as ``value ± σ`` with units (nothing without a fit).
+
+    With ``level`` (discovery's :class:`~soilstats.discovery.testlevel.TestLevel`) a
+    column gives the test-level σ (cluster-robust over tests, in the parameter's unit),
+    ``*`` where it exceeds Eq. 4's by more than 2× (``test-scatter``: quote it), ``n/a``
+    where one test alone sets the parameter."""
     if fit is None:
         return
     rows = [
         {"parameter": name, "value ± σ": format_value(v, s), "unit": fit.units.get(name, "") or "–"}
         for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
     ]
+    if level is not None:
+        for row, st, hit in zip(rows, level.stderr, level.flagged(), strict=True):
+            row["test-level σ"] = f"{st:.3g}{' *' if hit else ''}" if np.isfinite(st) else "n/a"
+        caption += (
+            " Test-level σ: cluster-robust over tests; * exceeds Eq. 4's σ by more than 2× "
+            "(test-scatter): quote it instead."
+        )
     doc.table(pd.DataFrame(rows), caption=caption, align_numbers=False)
