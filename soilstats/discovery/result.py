@@ -55,13 +55,14 @@ def parameter_lines(fit, indent: str = "    ", level=None) -> list[str]:
     if fit is None:
         return []
     out = []
+    flagged = None if level is None else level.flagged()
     for j, (name, v, s) in enumerate(
         zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
     ):
         line = f"{indent}{name:>34} = {v:>12.5g} +/- {s:<10.3g} {fit.units.get(name, ''):<10}"
         if level is not None:
             st = level.stderr[j]
-            mark = " *" if level.flagged()[j] else ""
+            mark = " *" if flagged[j] else ""
             line += (
                 f" test-level +/- {st:.3g}{mark}"
                 if np.isfinite(st)

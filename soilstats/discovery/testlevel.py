@@ -118,19 +118,20 @@ def test_level(fitted, group, rows) -> TestLevel | None:
 def _resting_on_one(jac: np.ndarray, idx: np.ndarray, n_tests: int) -> np.ndarray:
     """Parameters that one test alone determines: without it, the other tests leave them
     undetermined (a null direction of their information matrix involves them)."""
+    n_par = jac.shape[0]
     gram = jac @ jac.T
     scale = np.sqrt(np.diag(gram))
-    out = np.zeros(jac.shape[0], bool)
     if not (scale > 0).all():
-        return ~out
-    for g in range(n_tests):
-        cols = jac[:, idx == g]
-        rest = (gram - cols @ cols.T) / (scale[:, None] * scale)
-        eig, vecs = np.linalg.eigh(rest)
-        null = vecs[:, eig < _NULL_TOL * eig[-1]]
-        if null.size:
-            out |= (np.abs(null) > 0.1).any(axis=1)
-    return out
+        return np.ones(n_par, bool)
+    # Each test's own share of the information, by one bincount per pair of parameters: a
+    # mask over the samples per test would cost tests × samples (6.6 s of discovery at
+    # 10 000 tests).
+    own = np.empty((n_tests, n_par, n_par))
+    for a, b in zip(*np.triu_indices(n_par), strict=True):
+        own[:, a, b] = own[:, b, a] = np.bincount(idx, jac[a] * jac[b], n_tests)
+    eig, vecs = np.linalg.eigh((gram - own) / np.outer(scale, scale))  # one per test left out
+    null = eig < _NULL_TOL * eig[:, -1:]  # (tests, directions)
+    return ((np.abs(vecs) > 0.1) & null[:, None, :]).any(axis=(0, 2))
 
 
 def scatter_caveat(fit, level: TestLevel | None) -> str | None:
