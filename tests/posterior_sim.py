@@ -129,16 +129,16 @@ def bernstein_population(priors=None, ln_zs=None):
     """The population model of :data:`POPULATION_FITS`, sampled in (k, n) itself; with
     ``priors`` the caller's priors replace the default log-flat factor; ``ln_zs``: where its
     scatter sits (default: at the reduction's z_ref)."""
-    from soilstats.bayes.population import _LAYOUTS, _Population
+    from soilstats.bayes.population_model import LAYOUTS, PopulationModel
     from soilstats.bayes.priors import resolve_priors
     from soilstats.bayes.reduction import to_eta
     from soilstats.bayes.transforms import Coordinates
     from soilstats.models import BERNSTEIN
 
     eta, eta_cov = to_eta(POPULATION_FITS, POPULATION_FIT_COV, POPULATION_LN_ZREF, log_second=False)
-    return _Population(
+    return PopulationModel(
         BERNSTEIN,
-        _LAYOUTS["bernstein"],
+        LAYOUTS["bernstein"],
         eta,
         eta_cov,
         np.ones((3, 1)),

@@ -16,14 +16,14 @@ import pytest
 from posterior_sim import bernstein_population
 from scipy.special import logsumexp
 
-from soilstats.bayes.population import _LAYOUTS, _Population, _reference_rows
+from soilstats.bayes.population_model import LAYOUTS, PopulationModel, reference_rows
 from soilstats.bayes.priors import resolve_priors
 from soilstats.bayes.transforms import Coordinates
 from soilstats.models import BEKKER, JANOSI
 from soilstats.models.shear import RAD_PER_DEG
 
 
-def _log_marginal_of_scatter(pops: _Population, s_eps: float) -> float:
+def _log_marginal_of_scatter(pops: PopulationModel, s_eps: float) -> float:
     """ln ∫ p(k, n, s_ε, s_δ, ρ | data) dk at fixed n, s_δ, ρ = 0, on a wide grid of ln k."""
     u = np.linspace(np.log(8.5e5) - 12 * s_eps, np.log(8.5e5) + 12 * s_eps, 40001)
     with np.errstate(over="ignore"):  # k beyond float range: rejected by the model (−inf)
@@ -78,16 +78,16 @@ def _log_density_in(to_logs, theta: np.ndarray, log_prior, step=1e-6) -> np.ndar
 def test_janosi_default_is_flat_in_log_strength_at_both_pressures_and_log_k():
     sigma = np.array([5e3, 1e4, 2e4, 4e4])
     design = np.column_stack([np.ones(4), sigma])
-    pops = _Population(
+    pops = PopulationModel(
         JANOSI,
-        _LAYOUTS["janosi"],
+        LAYOUTS["janosi"],
         np.zeros((4, 2)),
         np.array([np.eye(2)] * 4),
         design,
         0.0,
         resolve_priors("janosi", JANOSI.param_names, None),
         Coordinates(),
-        reference_rows=_reference_rows(design, sigma),
+        reference_rows=reference_rows(design, sigma),
     )
 
     def to_logs(theta):  # (ln τ(σ_min), ln τ(σ_max), ln K) of (c [Pa], φ [deg], K [m])
@@ -107,19 +107,19 @@ def test_janosi_default_is_flat_in_log_strength_at_both_pressures_and_log_k():
     assert np.ptp(density) < 1e-5  # constant: flat in the three logarithms
 
 
-def _bekker_population(b: np.ndarray, priors=None) -> _Population:
+def _bekker_population(b: np.ndarray, priors=None) -> PopulationModel:
     """A Bekker population on plates ``b`` (no data needed: only its prior is read)."""
     design = np.column_stack([1.0 / b, np.ones(b.size)])
-    return _Population(
+    return PopulationModel(
         BEKKER,
-        _LAYOUTS["bekker"],
+        LAYOUTS["bekker"],
         np.zeros((b.size, 2)),
         np.array([np.eye(2)] * b.size),
         design,
         -3.0,
         resolve_priors("bekker", BEKKER.param_names, priors),
         Coordinates(),
-        reference_rows=_reference_rows(design, b),
+        reference_rows=reference_rows(design, b),
         log_flat=(priors is None, True),
     )
 

@@ -19,7 +19,7 @@ janosi (Eq. 13)         c [Pa], φ [deg]                   as Mohr–Coulomb
                         K [m]                             flat on (0, ∞)
 ======================  ===============================  =====================================
 
-These are the pooled model's priors.  The population model (:mod:`soilstats.bayes.population`)
+These are the pooled model's priors.  The population model (:mod:`soilstats.bayes.population_model`)
 keeps their support and, by default, makes them flat in the logarithm of the measured scales
 (plate moduli, k, τ_max, K): flat in a modulus makes its posterior improper.
 

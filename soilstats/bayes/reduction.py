@@ -3,8 +3,8 @@
 Test t of a sinkage campaign is reduced to its own weighted Bernstein fit (k̂_t, n̂_t) (Eq. 8,
 weights 1/max p as Eq. 9), a shear test to Eq. 13 at its one normal pressure (τ̂_max,t, K̂_t)
 (weights 1/max τ), each with its Eq. 4 covariance, and written in the coordinates η_t where
-that fit is close to normal (:func:`to_eta`).  :mod:`soilstats.bayes.population` marginalises
-the test-level effects over these (module docstring there).
+that fit is close to normal (:func:`to_eta`).  :mod:`soilstats.bayes.population_model`
+marginalises the test-level effects over these (module docstring there).
 """
 
 from __future__ import annotations
