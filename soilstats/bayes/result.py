@@ -123,10 +123,15 @@ class PosteriorResult:
             sd = float(np.std(x, ddof=1)) if x.size > 1 else np.nan
             rows[name] = {"mean": float(np.mean(x)), "sd": sd, lo: lower, hi: upper}
         stats = pd.DataFrame.from_dict(rows, orient="index")
-        diag = az.summary(
+        return stats.join(self._chain_diagnostics)
+
+    @cached_property
+    def _chain_diagnostics(self) -> pd.DataFrame:
+        """MCSE, bulk/tail ESS and R-hat of every sampled quantity: the chains' own, whatever
+        interval or draws a table describes, so computed once."""
+        return az.summary(
             self.idata, var_names=list(self.var_names), kind="diagnostics", round_to="none"
         )
-        return stats.join(diag)
 
     @cached_property
     def diagnostics(self) -> pd.DataFrame:
