@@ -209,13 +209,8 @@ def extrapolation_warnings(widths, tested, models) -> list[str]:
     support check only says it stays positive, not that it is right."""
     from ..models import get_model
 
-    terms = {("kc", "kphi"): "kc/b + kphi", ("k1", "k2"): "k1 + k2*b"}
-    sized = [
-        f"{m}'s {text}"
-        for m in models
-        for names, text in terms.items()
-        if set(names) <= set(get_model(m).param_names)
-    ]
+    # The model's own inputs say whether it depends on the plate width b.
+    sized = [f"{m} ({spec.equation})" for m in models if "b [m]" in (spec := get_model(m)).inputs]
     if not sized or tested is None or (tested[0] <= widths[0] and widths[1] <= tested[1]):
         return []
     return [
