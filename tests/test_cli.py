@@ -258,7 +258,8 @@ def test_counts_of_one_are_singular(capsys):
     assert main(["identify", "cullinan-sand", "--progress", "off", "--json"]) == 0
     captured = capsys.readouterr()
     text = captured.err + captured.out
-    assert "bearing-failure in 1 test (" in captured.err
+    assert "bearing-failure in 1 test," in captured.err
+    assert "unload-reload in 1 test," in captured.err
     assert "1 test pooled (method3-test1)" in text and "1 test is too few to resample" in text
     assert "1 tests" not in text
     from soilstats._text import plural
@@ -268,8 +269,9 @@ def test_counts_of_one_are_singular(capsys):
 
 
 def test_the_screening_line_counts_the_selected_tests_only(capsys):
-    """cullinan-sand's one failed test is method5-test1: a selection without it reports no
-    finding and says how many tests it keeps; without --select the line is unchanged."""
+    """cullinan-sand's one failed test is method5-test1: a selection without it reports only
+    the findings of the tests it keeps (method3-test1's hold and step) and says how many it
+    keeps; without --select the line counts every test."""
     from soilstats.quality import screen
 
     campaign = soilstats.load_campaign("cullinan-sand")
@@ -280,9 +282,9 @@ def test_the_screening_line_counts_the_selected_tests_only(capsys):
     assert main([*argv, "--select", "preparation=3"]) == 0
     line = capsys.readouterr().err.splitlines()[0]
     assert line.startswith(f"Data quality (clean, selection: {len(kept)} of {len(campaign.tests)} ")
-    assert "bearing-failure" not in line and "no findings" in line
+    assert "bearing-failure" not in line and "hold in 1 test, step in 1 test;" in line
     assert main(argv) == 0
-    assert "bearing-failure in 1 test" in capsys.readouterr().err
+    assert "bearing-failure in 1 test, hold in 5 tests" in capsys.readouterr().err
 
 
 # ----------------------------------------------------------------- outputs and provenance

@@ -140,7 +140,7 @@ def test_sinkage_in_millimetres_is_a_units_flag_in_check_and_an_error_at_load():
     assert {f.test_id for f in report.flags if f.code == "units"} == set(tests["test_id"])
 
 
-def test_real_campaigns_grc1_load_capped_and_small_plates_fail_cullinan_clean_of_artefacts():
+def test_real_campaigns_grc1_load_capped_and_small_plates_fail_cullinan_phases_named():
     grc = screen(load_campaign("grc1-oravec2009"))
     by_code: dict[str, set] = {}
     for f in grc.flags:
@@ -151,8 +151,22 @@ def test_real_campaigns_grc1_load_capped_and_small_plates_fail_cullinan_clean_of
     window = grc.proposed_windows()
     assert list(window["b_m"]) == [0.038] and 2e-3 < window["z_max_m"].iloc[0] < 8e-3
     cullinan = screen(load_campaign("cullinan-sand"))
-    assert not {f.code for f in cullinan.flags} & {"spike", "units", "pre-contact"}
-    assert len({f.test_id for f in cullinan.flags}) <= 1
+    assert not {f.code for f in cullinan.flags} & {"spike", "burst", "units", "pre-contact"}
+    found = {(f.test_id, f.code) for f in cullinan.flags}
+    # Read off the records (docs/quality.md): method1-test3 unloads to ~12 N at 18.3 mm and
+    # reloads; method2-test2 holds at 77.6 mm and relaxes 7.7 %; method3-test1 holds at
+    # 11.7 mm (7.8 %) and steps down 7.5 % at 71.5 mm while z advances; method5-test1 holds
+    # four times (15-18 %), method2-test4 once (16 %), method4-test1 once (14 %).
+    assert found == {
+        ("method5-test1", "bearing-failure"),
+        ("method5-test1", "hold"),
+        ("method1-test3", "unload-reload"),
+        ("method2-test2", "hold"),
+        ("method2-test4", "hold"),
+        ("method4-test1", "hold"),
+        ("method3-test1", "hold"),
+        ("method3-test1", "step"),
+    }
 
 
 def test_spike_rule_ignores_steps_ramps_and_noise_but_finds_a_lone_sample():
@@ -181,7 +195,8 @@ def test_check_cli_json_and_identify_json_schema(capsys):
     assert main(["check", "--data", "grc1-oravec2009", "--json"]) == 0
     document = json.loads(capsys.readouterr().out)
     first = document["tests"][0]
-    assert set(first) == {"test_id", "kind", "flags"}
+    assert set(first) == {"test_id", "kind", "flags", "phases"}
+    assert [p["phase"] for p in first["phases"]] == ["approach", "contact", "loading", "failure"]
     assert {"code", "rows", "message"} <= set(first["flags"][0])
     assert set(document["codes"]) == set(CODES)
     assert main(["identify", "--data", "grc1-oravec2009", "--json", "--test-resamples", "20"]) == 0

@@ -17,13 +17,27 @@ from scipy.ndimage import median_filter
 from soilstats.campaign import Campaign
 from soilstats.quality import records, screen
 from soilstats.quality.blocks import Blocks, non_monotone, saturation, spikes
+from soilstats.quality.bursts import find_bursts
+from soilstats.quality.phases import EXCLUDED_PHASES, find_phases
 from soilstats.quality.prescreen import (
     contact_candidates,
     late_zero_candidates,
     runaway_candidates,
 )
 
-PER_RECORD = ("spike", "pre-contact", "late-zero", "bearing-failure", "non-monotone", "saturation")
+PER_RECORD = (
+    "spike",
+    "burst",
+    "pre-contact",
+    "late-zero",
+    "bearing-failure",
+    "non-monotone",
+    "saturation",
+    "release",
+    "hold",
+    "unload-reload",
+    "step",
+)
 
 
 def _power_law(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -34,7 +48,7 @@ def _power_law(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _artefact(rng, kind: int) -> tuple[np.ndarray, np.ndarray]:
-    """One record with artefact ``kind`` (0: clean ... 13: a displacement zeroed late)."""
+    """One record with artefact ``kind`` (0: clean ... 18: a force step while z advances)."""
     n = int(rng.choice([30, 80, 120, 300]))
     z, f = _power_law(rng, n)
     if kind == 1:  # one- to three-sample spikes in z or force
@@ -87,6 +101,27 @@ def _artefact(rng, kind: int) -> tuple[np.ndarray, np.ndarray]:
         z = z - rng.uniform(0.0, 0.1) * np.ptp(z)
         if rng.random() < 0.3:
             f = f + rng.uniform(0.0, 0.2) * f.max()
+    elif kind == 14:  # the drive lets go: the force collapses at standing z, record ends
+        m = int(rng.integers(3, 40))
+        z = np.r_[z, z[-1] - rng.uniform(0, 0.02) * np.ptp(z) * np.linspace(0, 1, m)]
+        f = np.r_[f, f[-1] * np.maximum(rng.uniform(0.0, 0.3), np.linspace(0.9, 0, m))]
+    elif kind in (15, 16):  # a hold that relaxes 6-30 %, or an unload to 0-20 %, then reload
+        k, m = int(rng.integers(n // 3, 2 * n // 3)), int(rng.integers(4, 30))
+        low = rng.uniform(0.7, 0.94) if kind == 15 else rng.uniform(0.0, 0.2)
+        back = int(rng.integers(1, 6))
+        hold = f[k] * (low + (1 - low) * np.exp(-np.arange(1, m + 1) / (0.3 * m)))
+        reload = f[k + 1 : k + 1 + back] - (f[k] - hold[-1]) * np.linspace(1, 0, back + 2)[1:-1]
+        z = np.r_[z[: k + 1], np.full(m, z[k]), z[k + 1 :]]
+        f = np.r_[f[: k + 1], hold, reload, f[k + 1 + back :]]
+    elif kind == 17:  # 3-4-sample bursts in z, or clustered spikes in either channel
+        which = (z, f)[rng.integers(0, 2)] if rng.random() < 0.5 else z
+        for _ in range(int(rng.integers(1, 3))):
+            i, k = int(rng.integers(5, n - 10)), int(rng.integers(1, 5))
+            which[i : i + k] += rng.choice([-1, 1]) * np.ptp(which) * rng.uniform(0.08, 0.5)
+    elif kind == 18:  # a step: the force drops 6-20 % while z advances, then recovers
+        k = int(rng.integers(n // 3, 2 * n // 3))
+        m = min(int(rng.integers(3, 20)), n - k)
+        f[k : k + m] -= f[k] * rng.uniform(0.06, 0.2) * np.linspace(1, 0, m)
     return z, f
 
 
@@ -95,7 +130,7 @@ def _campaign(seed: int, tests: int = 240) -> Campaign:
     log, rows = [], []
     for i in range(tests):
         tid = f"t{i:03d}"
-        z, f = _artefact(rng, i % 14)
+        z, f = _artefact(rng, i % 19)
         log.append({"test_id": tid, "kind": "sinkage", "soil": f"s{i % 3}", "shape": "circle"})
         log[-1]["radius_m"] = 0.05
         rows.append(pd.DataFrame({"test_id": tid, "z_m": z, "force_N": f}))
@@ -126,7 +161,8 @@ def _campaign(seed: int, tests: int = 240) -> Campaign:
 
 
 def _reference(campaign: Campaign, mode: str) -> list[tuple]:
-    """The per-record findings, test by test (the screening loop before batching)."""
+    """The per-record findings, test by test (the screening loop before batching): spikes,
+    then bursts, then the record's phases, then the loading record's rules."""
     clean, out = mode == "clean", []
 
     def rows(labels, positions):
@@ -141,30 +177,42 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
         if spiked.size:
             out.append((tid, "spike", rows(labels, spiked), None))
         good = np.setdiff1d(np.arange(z.size), spiked)
-        zg, fg = z[good], force[good]
+        burst = good[np.union1d(find_bursts(z[good]), find_bursts(force[good])).astype(int)]
+        if burst.size:
+            out.append((tid, "burst", rows(labels, burst), None))
+        good = np.setdiff1d(good, burst)
+        phases = find_phases(z[good], force[good])
+        excluded = phases.mask(*EXCLUDED_PHASES)
+        for code, positions in _events(phases).items():
+            # one flag per code: its events' phases, a reload joined to the event it follows
+            out.append((tid, code, rows(labels, good[positions]), None))
+        contact = next((p.start for p in phases.phases if p.name != "approach"), good.size)
+        loaded = good[~excluded]
+        zg, fg = z[loaded], force[loaded]
         offset = shift = 0.0
-        loaded = good
+        seated = loaded
         late = records.find_late_zero(zg, fg)
         if late is not None:
-            out.append((tid, "late-zero", rows(labels, good[late.loaded]), late.z_start))
-        contact = records.find_contact(zg, fg)
-        if contact is not None:
-            offset = contact.z_contact if clean else 0.0
-            out.append((tid, "pre-contact", rows(labels, good[contact.before]), contact.z_contact))
+            out.append((tid, "late-zero", rows(labels, loaded[late.loaded]), late.z_start))
+        found = records.find_contact(zg, fg)
+        if found is not None:
+            offset = found.z_contact if clean else 0.0
+            out.append((tid, "pre-contact", rows(labels, loaded[found.before]), found.z_contact))
             # bearing failure is judged on the loaded record, z from the contact
-            shift = contact.z_contact
-            loaded = np.delete(good, contact.before)
-        runaway = records.find_runaway(z[loaded] - shift, force[loaded], b_of.get(str(tid)))
+            shift = found.z_contact
+            seated = np.delete(loaded, found.before)
+        runaway = records.find_runaway(z[seated] - shift, force[seated], b_of.get(str(tid)))
         if runaway is not None:
             value = runaway.z_onset + shift - offset
-            out.append((tid, "bearing-failure", rows(labels, loaded[runaway.after]), value))
-        fallen = records.find_non_monotone(zg)
+            out.append((tid, "bearing-failure", rows(labels, seated[runaway.after]), value))
+        after = loaded[contact:]  # non-monotone and clipping: from the contact on
+        fallen = records.find_non_monotone(z[after])
         if fallen.size:
-            out.append((tid, "non-monotone", rows(labels, good[fallen]), None))
-        for values, other in ((fg, zg), (zg, fg)):
+            out.append((tid, "non-monotone", rows(labels, after[fallen]), None))
+        for values, other in ((force[after], z[after]), (z[after], force[after])):
             clipped = records.find_saturation(values, other)
             if clipped.size:
-                out.append((tid, "saturation", rows(labels, good[clipped]), None))
+                out.append((tid, "saturation", rows(labels, after[clipped]), None))
     shear = campaign.shear
     for tid, idx in shear.groupby("test_id", sort=False).indices.items():
         labels = shear.index.to_numpy()[idx]
@@ -173,6 +221,33 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
         if spiked.size:
             out.append((tid, "spike", rows(labels, spiked), None))
     return sorted(out, key=repr)
+
+
+#: The flag code of each excluded phase (a hold right before an unload or a release, and a
+#: reload, count with the event they belong to: _event_positions).
+EVENT_OF = {"hold": "hold", "unload": "unload-reload", "step": "step", "release": "release"}
+
+
+def _events(phases) -> dict[str, np.ndarray]:
+    """Positions of the phases that make up each code's events."""
+    parts = [p for p in phases.phases if p.name in EXCLUDED_PHASES]
+    owner: list[str] = []
+    for i, p in enumerate(parts):
+        follows = i and parts[i - 1].stop == p.start
+        if follows and p.name == "reload":
+            owner.append(owner[-1])
+        elif follows and parts[i - 1].name == "hold" and p.name in ("unload", "release"):
+            j = i - 1  # the hold and what joined it before become this event
+            while j >= 0 and owner[j] == owner[i - 1] and parts[j].stop == parts[j + 1].start:
+                owner[j] = EVENT_OF[p.name]
+                j -= 1
+            owner.append(EVENT_OF[p.name])
+        else:
+            owner.append(EVENT_OF.get(p.name, "hold"))
+    out: dict[str, list] = {}
+    for p, o in zip(parts, owner, strict=True):
+        out.setdefault(o, []).append(np.arange(p.start, p.stop))
+    return {code: np.concatenate(ranges) for code, ranges in out.items()}
 
 
 def _batch(campaign: Campaign, mode: str) -> list[tuple]:
@@ -210,7 +285,7 @@ def _split(blocks: Blocks, values: np.ndarray) -> list[np.ndarray]:
 
 def test_batch_detectors_match_and_the_power_law_screens_keep_every_finding():
     rng = np.random.default_rng(7)
-    pairs = [_artefact(rng, k % 14) for k in range(420)]
+    pairs = [_artefact(rng, k % 19) for k in range(420)]
     blocks = Blocks.of_sizes([z.size for z, _ in pairs])
     z, f = np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs])
     for values in (z, f):

@@ -4,8 +4,10 @@
 says whether the samples a code names are left out of every fit in the default mode
 (``quality="clean"``); the other codes only flag.  ``nature`` says what a code is evidence
 of: ``artefact`` (a corrupted record: sensor, wiring, seating), ``soil`` (the soil's own
-behaviour beyond the model: bearing failure) or ``stop`` (how the test was ended: a load
-cap); discovery never names a cause that lines up with artefacts.
+behaviour beyond the model: bearing failure), ``stop`` (how the test was ended: a load
+cap) or ``phase`` (a phase of the record that is not virgin loading: a hold, an
+unload–reload, a step, the release; :mod:`.phases`); discovery never names a cause that
+lines up with artefacts.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ class QualityCode:
     why: str
     action: str
     excluded: bool = False
-    nature: str = "artefact"  # "artefact" | "soil" | "stop" (module docstring)
+    nature: str = "artefact"  # "artefact" | "soil" | "stop" | "phase" (module docstring)
 
 
 CODES: dict[str, QualityCode] = {
@@ -48,6 +50,22 @@ CODES: dict[str, QualityCode] = {
             "thinning of Section 2.1 throws away most good samples.",
             "Nothing by default: the samples are excluded from every fit and listed. Use "
             "--quality flag to keep them, and check the rig's wiring if spikes are frequent.",
+            excluded=True,
+        ),
+        QualityCode(
+            "burst",
+            "A run of 1-5 samples, alone or in a cluster (candidates at most 3 samples apart), "
+            "that departs from the running median of 11 samples by more than 10 robust noise "
+            "widths and 5 % of the span while the 3 good samples on each side lie on one "
+            "straight line (within 20 % of the burst's departure from it), every run on one "
+            "side of the line. Runs after the spike rule, on the samples it kept: the median "
+            "of five that the spike rule compares with is dragged along by a run of three.",
+            "A burst is the sensor's or the wiring's, not the soil's. Three- and four-sample "
+            "bursts in z that stay in a fit move it far (a soil's pooled Bernstein n 0.51 "
+            "where the same records without them give 0.75-1.4).",
+            "Nothing by default: the samples are excluded from every fit and listed. Use "
+            "--quality flag to keep them; check the displacement sensor's cable and "
+            "connector if bursts recur.",
             excluded=True,
         ),
         QualityCode(
@@ -139,6 +157,63 @@ CODES: dict[str, QualityCode] = {
             "of a plate's tests (soil and plate size b) failed, the smallest onset for all "
             "of the plate's tests; e.g. soilstats identify --z-max test_id=<test>:<onset>.",
             nature="soil",
+        ),
+        QualityCode(
+            "release",
+            "The force collapses (loses more than 50 % of its running maximum) while z stands "
+            "still or backs off by less than 10 % of the travel, and the record ends without "
+            "loading again: the drive let go or the test was stopped, and z no longer tracks "
+            "the plate. A hold at the peak just before (z standing, force within 5 % and 10 "
+            "noise widths of its maximum) belongs to it. Found from z and force alone, "
+            "whatever the sampling clock.",
+            "The release is no soil response. Read as loading it looks like bearing failure "
+            "(sinkage at a falling force) and the hold before it like a clipped channel.",
+            "Nothing: its samples are left out of every fit (listed). Cut records at the force "
+            "peak when exporting, if you like.",
+            excluded=True,
+            nature="phase",
+        ),
+        QualityCode(
+            "hold",
+            "The drive stands still (z advances by at most 4 z-noise widths, or a quarter of "
+            "what loading would cover in the time) while the force relaxes below its running "
+            "maximum by more than 5 % (and 10 force-noise widths) but less than 50 %; the "
+            "reload after it, until the force is back within 1 % (and 3 noise widths) of its "
+            "running maximum, belongs to it.",
+            "A hold measures stress relaxation, and the reload after it an elastic branch "
+            "stiffer than virgin loading: neither is the pressure-sinkage law of a plate "
+            "pushed into virgin soil.",
+            "Nothing: the hold and its reload are left out of every fit (listed) and kept "
+            "as data for an elastic model. Avoid pauses while loading where the protocol "
+            "allows.",
+            excluded=True,
+            nature="phase",
+        ),
+        QualityCode(
+            "unload-reload",
+            "The force falls by more than 50 % of its running maximum at standing z, or falls "
+            "while z backs off by more than 2 % of the travel, and loading resumes: the "
+            "samples from the fall until the force regains its running maximum (the unload "
+            "and the reload below the virgin curve).",
+            "Unloading and reloading follow the soil's elastic law, not Bekker's or "
+            "Bernstein's: fitted as loading they drag n down.",
+            "Nothing: the branch is left out of every fit (listed) and kept as data for an "
+            "elastic (unload-reload) model.",
+            excluded=True,
+            nature="phase",
+        ),
+        QualityCode(
+            "step",
+            "The force drops below its running maximum by more than 5 % (and 10 robust noise "
+            "widths of the record's force) while z keeps advancing, until it is back within "
+            "1 % of that maximum: a sudden local collapse of a dense soil, or a jolt of the "
+            "rig.",
+            "The samples of the drop and its recovery lie below the loading curve; they are "
+            "no point of the pressure-sinkage law.",
+            "Nothing: the samples are left out of every fit (listed). Repeated steps in one "
+            "soil are worth a look: a layered bed, or a rig that sticks and slips.",
+            excluded=True,
+            nature="phase",
         ),
         QualityCode(
             "duplicate",

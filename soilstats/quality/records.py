@@ -549,6 +549,8 @@ def find_saturation(values: np.ndarray, other: np.ndarray) -> np.ndarray:
     """Positions where ``values`` sit exactly at their maximum (≥ :data:`SATURATION_MIN_SAMPLES`
     samples) while ``other`` changes across them by more than 1 % of its span."""
     x, y = np.asarray(values, float), np.asarray(other, float)
+    if x.size < SATURATION_MIN_SAMPLES:
+        return np.array([], int)
     at_max = np.flatnonzero(x == x.max())
     if at_max.size < SATURATION_MIN_SAMPLES:
         return np.array([], int)

@@ -64,12 +64,16 @@ class QualityReport:
     campaign : Campaign
         The campaign analyses use: in mode ``clean`` without the excluded samples and with
         re-zeroed sinkage; otherwise the input.  Its ``quality`` is this report.
+    phases : dict
+        Test id → :class:`~soilstats.quality.staging.TestPhases` of every sinkage record
+        (empty in mode ``off``).
     """
 
     mode: str
     flags: tuple[QualityFlag, ...]
     tests: pd.DataFrame
     campaign: object = field(repr=False, default=None)
+    phases: dict = field(repr=False, default_factory=dict)
 
     def for_tests(self, test_ids) -> QualityReport:
         """The findings of these tests only."""
@@ -78,6 +82,7 @@ class QualityReport:
             self,
             flags=self.flags_of(keep),
             tests=self.tests[self.tests["test_id"].astype(str).isin(keep)],
+            phases={t: p for t, p in self.phases.items() if t in keep},
         )
 
     def flags_of(self, test_ids) -> tuple[QualityFlag, ...]:
@@ -209,6 +214,7 @@ class QualityReport:
                 "mode": self.mode,
                 "tests": [
                     {"test_id": t, "kind": kinds.get(t), "flags": flags}
+                    | ({"phases": self.phases[t].to_list()} if t in self.phases else {})
                     for t, flags in by_test.items()
                 ],
                 "counts": dict(self.counts),

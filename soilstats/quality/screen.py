@@ -21,11 +21,12 @@ import pandas as pd
 from ..campaign.units import implausible_units
 from ..errors import CampaignError
 from . import blocks as blocks_mod
-from . import prescreen, records
+from . import prescreen, records, staging
 from .blocks import Blocks
 from .codes import CODES, MODES
 from .copies import RECORDS, find_copies
 from .drift import find_drift, start_forces
+from .phases import find_phases
 from .report import QualityFlag, QualityReport
 
 __all__ = ["QualityFlag", "QualityReport", "screen", "screened"]
@@ -109,29 +110,47 @@ def _spike_findings(rec: _Records, kind: str, columns: tuple[str, str], clean: b
 
 def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict | None = None):
     """Findings of every sinkage record: (flags per test in test order, labels to drop,
-    contact offsets by test, each test's end force and depth without its spikes).
-    ``b_of``: Bekker's plate size b [m] by test id (``bearing-failure`` scales its run-on
-    with it).
+    contact offsets by test, each test's end force and depth without its spikes, the phases
+    of every record by test). ``b_of``: Bekker's plate size b [m] by test id
+    (``bearing-failure`` scales its run-on with it).
 
-    The rules of :mod:`.records` run across all tests at once (:mod:`.blocks`); the two
-    power-law detectors run per record on the tests the batch code could not clear.
+    Spikes, then bursts, then the phases of each record (:mod:`.staging`); the other rules
+    of :mod:`.records` judge the loading record (its approach, contact, loading and failure)
+    across all tests at once (:mod:`.blocks`), and the two power-law detectors run per
+    record on the tests the batch code could not clear.
     """
     clean = mode == "clean"
     rec = _Records.of(sink, ("z_m", "force_N"))
     blocks, z, force = rec.blocks, rec.columns["z_m"], rec.columns["force_N"]
     out, drop, spiked = _spike_findings(rec, "sinkage", ("z_m", "force_N"), clean)
-    # The good (unspiked) records, on which every other rule runs.
-    good, kept = blocks.keep(~spiked)
-    zg, fg, labels = z[kept], force[kept], rec.labels[kept]
+    unspiked, kept = blocks.keep(~spiked)
+    found, burst_drop, bursts = staging.burst_flags(
+        rec.ids, unspiked, {"z_m": z[kept], "force_N": force[kept]}, rec.labels[kept], clean
+    )
+    _merge(out, found)
+    drop += burst_drop
+    good, kept2 = unspiked.keep(~bursts)
+    kept = kept[kept2]
+    staged, found, phase_drop = staging.stage(
+        rec.ids, good, z[kept], force[kept], rec.labels[kept], clean
+    )
+    _merge(out, found)
+    drop += phase_drop
+    # The loading records, on which every other rule runs.
+    loaded, at = good.keep(staged.loading)
+    zg, fg, labels = staged.z[at], staged.force[at], staged.labels[at]
+    # Each loading record's approach: every position before the contact (a phase that is not
+    # loading comes only after it).
+    approach = loaded.local < loaded.spread(staged.contact)
 
     def record(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        at = slice(good.starts[k], good.starts[k] + good.sizes[k])
+        at = slice(loaded.starts[k], loaded.starts[k] + loaded.sizes[k])
         return zg[at].copy(), fg[at].copy(), labels[at]
 
     offsets: dict[str, float] = {}
-    candidates = prescreen.contact_candidates(good, zg, fg)
-    late = prescreen.late_zero_candidates(good, zg, fg)
-    runaway = prescreen.runaway_candidates(good, zg, fg)
+    candidates = prescreen.contact_candidates(loaded, zg, fg)
+    late = prescreen.late_zero_candidates(loaded, zg, fg)
+    runaway = prescreen.runaway_candidates(loaded, zg, fg)
     bar = None
     if progress:
         from tqdm.auto import tqdm
@@ -140,6 +159,7 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
             total=len(candidates) + len(late) + len(runaway), desc="screening records", unit="test"
         )
     contact_of: dict[int, records.ContactPoint] = {}
+    failure_of: dict[int, float] = {}
     for k in candidates:
         zk, fk, lk = record(k)
         contact = records.find_contact(zk, fk)
@@ -168,11 +188,11 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
             drop.append(rows)
     for k in late:
         zk, fk, lk = record(k)
-        found = records.find_late_zero(zk, fk)
+        found_late = records.find_late_zero(zk, fk)
         if bar is not None:
             bar.update()
-        if found is not None:
-            out[k].append(_late_zero_flag(rec.ids[k], lk, found))
+        if found_late is not None:
+            out[k].append(_late_zero_flag(rec.ids[k], lk, found_late))
     # The batch cleared the others on their raw records; a seated record is judged again
     # from its contact, where the batch did not look.
     judged = np.union1d(runaway, np.fromiter(contact_of, int, len(contact_of)))
@@ -187,30 +207,32 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
         seated = contact_of.get(k)
         shift = 0.0
         if seated is not None:
-            loaded = np.ones(zk.size, bool)
-            loaded[seated.before] = False
-            zk, fk, lk = zk[loaded], fk[loaded], lk[loaded]
+            keep = np.ones(zk.size, bool)
+            keep[seated.before] = False
+            zk, fk, lk = zk[keep], fk[keep], lk[keep]
             shift = seated.z_contact
-        found = records.find_runaway(zk - shift, fk, (b_of or {}).get(rec.ids[k]))
+        found_run = records.find_runaway(zk - shift, fk, (b_of or {}).get(rec.ids[k]))
         if bar is not None:
             bar.update()
-        if found is None:
+        if found_run is None:
             continue
-        onset = found.z_onset + shift  # in the record's own z
+        onset = found_run.z_onset + shift  # in the record's own z
         offset = shift if clean else 0.0  # clean mode re-zeroes z at the contact
+        failed_rows = lk[found_run.after]
+        failure_of[k] = int(failed_rows.min()) if failed_rows.size else None
         out[k].append(
             QualityFlag(
                 rec.ids[k],
                 "sinkage",
                 "bearing-failure",
-                _rows(lk[found.after]),
+                _rows(failed_rows),
                 (
-                    f"the force holds within {found.gain:+.1%} from z = {onset:.4g} m to "
+                    f"the force holds within {found_run.gain:+.1%} from z = {onset:.4g} m to "
                     f"{zk.max():.4g} m (a plateau: the soil failed, or the rig reached a force "
                     f"limit); valid up to z = {onset - offset:.4g} m"
-                    if found.flat
+                    if found_run.flat
                     else f"sinkage runs on from z = {onset:.4g} m to {zk.max():.4g} m, ending "
-                    f"{found.excess:.3g}x deeper than the test's early power law at the same "
+                    f"{found_run.excess:.3g}x deeper than the test's early power law at the same "
                     f"force; valid up to z = {onset - offset:.4g} m"
                 ),
                 value=onset - offset,
@@ -218,33 +240,65 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
         )
     if bar is not None:
         bar.close()
-    for k, hits in _hits_by_block(good, blocks_mod.non_monotone(good, zg)).items():
+    # Non-monotone sinkage and clipping are judged from the contact on: the approach may lift
+    # the plate, and z stands still at its maximum in a hold.
+    contacted, cat = loaded.keep(~approach)
+    zc, fc, lc = zg[cat], fg[cat], labels[cat]
+    for k, hits in _hits_by_block(contacted, blocks_mod.non_monotone(contacted, zc)).items():
         out[k].append(
             QualityFlag(
                 rec.ids[k],
                 "sinkage",
                 "non-monotone",
-                _rows(labels[hits]),
+                _rows(lc[hits]),
                 f"z falls back below its running maximum in {hits.size} samples",
             )
         )
-    peaks = {"force_N": good.max(fg), "z_m": good.max(zg)}
-    for values, other, column in ((fg, zg, "force_N"), (zg, fg, "z_m")):
-        clipped = blocks_mod.saturation(good, values, other)
-        for k, hits in _hits_by_block(good, clipped).items():
+    peaks = {"force_N": contacted.max(fc), "z_m": contacted.max(zc)}
+    for values, other, column in ((fc, zc, "force_N"), (zc, fc, "z_m")):
+        clipped = blocks_mod.saturation(contacted, values, other)
+        for k, hits in _hits_by_block(contacted, clipped).items():
             out[k].append(
                 QualityFlag(
                     rec.ids[k],
                     "sinkage",
                     "saturation",
-                    _rows(labels[hits]),
+                    _rows(lc[hits]),
                     f"{hits.size} samples of {column} sit exactly at its maximum "
                     f"{peaks[column][k]:.6g} while the other channel changes",
                 )
             )
-    ends = pd.DataFrame({"test_id": rec.ids, "force_end": peaks["force_N"], "z_end": peaks["z_m"]})
-    ends["force_start"] = start_forces(good, zg, fg)
-    return out, drop, offsets, ends
+    ends = pd.DataFrame({"test_id": rec.ids, "force_end": loaded.max(fg), "z_end": loaded.max(zg)})
+    ends["force_start"] = start_forces(good, staged.z, staged.force)
+    phases = _final_phases(rec.ids, staged, contact_of, failure_of)
+    return out, drop, offsets, ends, phases
+
+
+def _merge(out: list[list[QualityFlag]], found: list[list[QualityFlag]]) -> None:
+    """Append each test's new flags to its list."""
+    for mine, new in zip(out, found, strict=True):
+        mine.extend(new)
+
+
+def _final_phases(ids, staged: staging.Staged, contact_of: dict, failure_of: dict) -> dict:
+    """Each test's phases, the approach ending at a seating offset's contact and the loading
+    turned to failure after a bearing failure's onset (rows: the sample file's)."""
+    out = {}
+    good = staged.good
+    for k in range(good.count):
+        at = slice(good.starts[k], good.starts[k] + good.sizes[k])
+        z, force, labels = staged.z[at], staged.force[at], staged.labels[at]
+        found = staged.phases[k]
+        seated, failed = contact_of.get(k), failure_of.get(k)
+        if seated is not None or failed is not None:
+            onset = None
+            if failed is not None:
+                later = np.flatnonzero(labels >= failed)
+                onset = int(later[0]) - 1 if later.size else None
+            surface = seated.z_contact if seated is not None else 0.0
+            found = find_phases(z, force, surface=surface, failure_onset=onset)
+        out[ids[k]] = staging.spans_of(ids[k], found, z, force, labels)
+    return out
 
 
 def _late_zero_flag(test_id: str, labels: np.ndarray, found: records.LateZero) -> QualityFlag:
@@ -350,10 +404,13 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
         b_of = dict(
             zip(tests["test_id"], pd.to_numeric(tests["b_m"], errors="coerce"), strict=True)
         )
-        per_test, drop["sinkage"], offsets, ends = _sinkage_findings(sink, mode, progress, b_of)
+        per_test, drop["sinkage"], offsets, ends, phases = _sinkage_findings(
+            sink, mode, progress, b_of
+        )
         flags += [f for found in per_test for f in found]
     else:
         ends = pd.DataFrame([], columns=["test_id", "force_end", "z_end"])
+        phases = {}
     flags += _load_capped(tests, ends)
     flags += _zero_drift(log, ends)
     if len(campaign.shear):
@@ -363,7 +420,7 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
     flags += found
     for table, labels in copies.items():
         drop[table] += labels
-    return flags, drop, offsets
+    return flags, drop, offsets, phases
 
 
 def _duplicates(campaign, *, clean: bool) -> tuple[list[QualityFlag], dict[str, list[np.ndarray]]]:
@@ -438,11 +495,11 @@ def screen(campaign, mode: str = "clean", *, progress: bool = False) -> QualityR
         if len(_FINDINGS) >= 16:
             _FINDINGS.pop(next(iter(_FINDINGS)))
         _FINDINGS[key] = _findings(campaign, tests, mode, progress)
-    flags, drop, offsets = _FINDINGS[key]
+    flags, drop, offsets, phases = _FINDINGS[key]
     flags = list(flags)
     order = {t: i for i, t in enumerate(tests["test_id"])}
     flags.sort(key=lambda f: (order.get(f.test_id, len(order)), list(CODES).index(f.code)))
-    report = QualityReport(mode, tuple(flags), tests)
+    report = QualityReport(mode, tuple(flags), tests, phases=phases)
     cleaned = campaign
     if mode == "clean":
         copies = {f.test_id for f in flags if f.code == "duplicate" and f.excluded}
