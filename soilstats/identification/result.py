@@ -11,6 +11,7 @@ from scipy import stats
 
 from .._text import plural
 from ..fitting.result import FitResult, HealthFlag
+from ..quality.codes import CODES
 from ..report.files import json_safe
 from .bootstrap import MIN_TESTS, TestBootstrap
 from .pooling import PooledData
@@ -143,20 +144,10 @@ class CampaignFit(FitResult):
         return head + "\n".join(lines) + "\nHealth:" + tail
 
 
-#: Screening codes that stay findings of a fit (spikes, pre-contact samples and the later
-#: copy of a duplicate are left out in the default mode; load-capped is reported as a note:
-#: it is a fact of the design).
-_FIT_CODES = (
-    "spike",
-    "pre-contact",
-    "late-zero",
-    "units",
-    "bearing-failure",
-    "non-monotone",
-    "saturation",
-    "zero-drift",
-    "duplicate",
-)
+#: Screening codes that are findings of a fit (the samples of the excluded codes are left out
+#: in the default mode and only noted; load-capped, a stop code, is a note: a fact of the
+#: design).
+_FIT_CODES = tuple(code for code, q in CODES.items() if q.nature != "stop")
 
 
 #: A window cuts a ``bearing-failure`` off (resolves it) when its z_max lies at most this
@@ -209,7 +200,7 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
         notes.append(
             f"Data quality ({report.mode}): {sum(len(f.rows) for f in excluded)} samples left "
             "out ("
-            + ", ".join(f"{code} in {len(t)} tests" for code, t in by_code.items())
+            + ", ".join(f"{code} in {plural(len(t), 'test')}" for code, t in by_code.items())
             + "; rows in to_dict()['excluded'])."
             + (" z re-zeroed at the contact found." if "pre-contact" in by_code else "")
         )
@@ -221,15 +212,22 @@ def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict
         )
     for code in _FIT_CODES:
         hits = [f for f in kept if f.code == code]
-        if code == "bearing-failure":
-            limit = 1 + ONSET_TOLERANCE
-            cut = [f for f in hits if z_limit.get(f.test_id, np.inf) <= f.value * limit]
-            if cut:
-                notes.append(
-                    f"bearing-failure in {plural(len(cut), 'test')} lies outside the window "
-                    "(resolved)."
-                )
-            hits = [f for f in hits if f not in cut]
+        # A finding whose samples the window cut off is resolved: a bearing failure past the
+        # window's z_max (its onset rounded up, as proposed), or any flag whose rows the window
+        # (z_max or p_max) left out, every one.
+        limit = 1 + ONSET_TOLERANCE
+        cut = [
+            f
+            for f in hits
+            if (applied is not None and applied.cuts(f.rows))
+            or (code == "bearing-failure" and z_limit.get(f.test_id, np.inf) <= f.value * limit)
+        ]
+        if cut:
+            notes.append(
+                f"{code} in {plural(len({f.test_id for f in cut}), 'test')} lies outside the "
+                "window (resolved)."
+            )
+        hits = [f for f in hits if f not in cut]
         if hits:
             tests_hit = sorted({f.test_id for f in hits})
             advice = _proposed_items(report, tests_hit) if code == "bearing-failure" else ""

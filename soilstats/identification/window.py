@@ -15,7 +15,7 @@ for a single failed test).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -135,10 +135,17 @@ def _positive(value, name: str) -> float | None:
 @dataclass(frozen=True)
 class AppliedWindow:
     """A window and what it left out, per test (``test_id``, ``z_max``, ``p_max``,
-    ``outside``: samples beyond the limits)."""
+    ``outside``: samples beyond the limits), and the 1-based data rows of the sample file it
+    left out (``rows``, sorted): a screening flag whose rows all lie there is cut off."""
 
     window: FitWindow
     per_test: pd.DataFrame
+    rows: np.ndarray = field(default_factory=lambda: np.empty(0, np.int64), repr=False)
+
+    def cuts(self, rows) -> bool:
+        """Whether the window left out every one of these 1-based sample-file rows."""
+        rows = np.asarray(rows, dtype=np.int64)
+        return bool(rows.size) and bool(np.isin(rows, self.rows, assume_unique=False).all())
 
     def to_dict(self) -> dict:
         outside = self.per_test[self.per_test["outside"] > 0]
@@ -166,4 +173,5 @@ def windowed(campaign, window: FitWindow | None):
     outside = (~np.isnan(z_max) & (z > z_max)) | (~np.isnan(p_max) & (p > p_max))
     counts = pd.Series(outside).groupby(sink["test_id"].astype(str).to_numpy()).sum()
     limits["outside"] = limits["test_id"].map(counts).fillna(0).astype(int)
-    return replace(campaign, sinkage=sink[~outside], window=AppliedWindow(window, limits))
+    cut = np.sort(sink.index.to_numpy()[outside].astype(np.int64) + 1)
+    return replace(campaign, sinkage=sink[~outside], window=AppliedWindow(window, limits, cut))

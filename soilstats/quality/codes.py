@@ -256,15 +256,20 @@ CODES: dict[str, QualityCode] = {
         QualityCode(
             "non-monotone",
             "The sinkage falls back below its running maximum by more than 2 % of the test's "
-            "travel over three or more samples (unloading, rebound or a slipping mount).",
-            "Pressure–sinkage models describe monotone loading; an unloading branch follows "
-            "another law (elastic rebound).",
-            "Cut the record at the start of unloading, or fit within a window.",
+            "travel over three or more samples of the loading record from its contact on (a "
+            "slipping mount, a z glitch longer than a burst): the approach and the phases "
+            "that are not loading are not judged.",
+            "Pressure–sinkage models describe monotone loading: a sinkage that falls back "
+            "while the force keeps to its curve is a mount or sensor fault, not soil.",
+            "Check the displacement mount and its cable; fit within a window that ends "
+            "before the fallback.",
         ),
         QualityCode(
             "saturation",
-            "Four or more samples sit exactly at a channel's maximum while the other channel "
-            "keeps changing: the sensor or its amplifier clipped.",
+            "Four or more samples of the loading record (from its contact on) sit exactly at "
+            "a channel's maximum while the other channel keeps changing: the sensor or its "
+            "amplifier clipped. z standing at its maximum in a hold or a release is no "
+            "clipping.",
             "Clipped values are not the soil's response; they flatten the top of the curve.",
             "Re-run with a larger sensor range, or fit within a window below the clipping.",
         ),

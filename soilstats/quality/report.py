@@ -106,6 +106,21 @@ class QualityReport:
         """The findings, optionally only those whose samples are (not) excluded."""
         return [f for f in self.flags if excluded is None or f.excluded == excluded]
 
+    def phase_table(self, *, all_tests: bool = False) -> pd.DataFrame:
+        """One row per sinkage test whose record holds more than approach, contact and
+        loading (every test with ``all_tests``): ``test_id`` and ``phases``, each phase with
+        the 1-based data rows of its first and last sample (``loading 178-274``)."""
+        plain = {"approach", "contact", "loading"}
+        rows = [
+            {
+                "test_id": t,
+                "phases": " · ".join(f"{s.phase} {s.rows[0]}-{s.rows[1]}" for s in found.spans),
+            }
+            for t, found in self.phases.items()
+            if all_tests or not set(found.names) <= plain
+        ]
+        return pd.DataFrame(rows, columns=["test_id", "phases"])
+
     def proposed_windows(self) -> pd.DataFrame:
         """The sinkage windows ``bearing-failure`` proposes, one row per window.
 
@@ -177,6 +192,16 @@ class QualityReport:
             what = f"{len(f.rows)} rows" if f.rows else "whole test"
             act = "excluded" if f.excluded else "flagged"
             lines.append(f"  {f.test_id:<16} {f.code:<16} {what:>10}  {act}: {f.message}")
+        table = self.phase_table()
+        if self.phases:
+            lines.append(
+                "Phases (rows of the sample file; approach, contact and loading only in the "
+                f"other {len(self.phases) - len(table)} sinkage tests):"
+                if len(table)
+                else f"Phases: approach, contact and loading only, in all {len(self.phases)} "
+                "sinkage tests."
+            )
+            lines += [f"  {r.test_id:<16} {r.phases}" for r in table.itertuples()]
         excluded = self.excluded
         notes = []
         if len(excluded):

@@ -38,8 +38,9 @@ def _conclusion(doc_dict: dict, n_tests: int) -> list:
     ]
     left_out = doc_dict["excluded_samples"]
     out.append(
-        f"{left_out} samples are left out of every fit ({doc_dict['mode']} mode: spike and "
-        "pre-contact samples; every other code flags the fits that use the test)."
+        f"{left_out} samples are left out of every fit ({doc_dict['mode']} mode: the samples "
+        "of spikes, bursts, pre-contact travel, holds, unload-reload branches, steps, "
+        "releases and copied records; every other code flags the fits that use the test)."
         if doc_dict["mode"] == "clean"
         else "Flag mode: nothing is left out; the codes become health flags of the fits."
     )
@@ -105,6 +106,28 @@ def write_report(report, campaign, path: Path, *, provenance=None, overwrite: bo
         )
     else:
         doc.paragraph("No test carries a flag.")
+    if report.phases:
+        doc.heading("Phases of each record")
+        table = report.phase_table()
+        plain = len(report.phases) - len(table)
+        doc.paragraph(
+            "Each sinkage record cut into its phases from z and force alone (docs/quality.md, "
+            "Phases of a record): only contact and loading are fitted; holds, unload-reload "
+            "branches, steps and the release are left out in clean mode; failure is cut by "
+            "the proposed window. "
+            + (
+                f"The other {plural(plain, 'test')} hold approach, contact and loading only."
+                if len(table)
+                else f"All {plural(plain, 'test')} hold approach, contact and loading only."
+            )
+        )
+        if len(table):
+            doc.table(
+                table.rename(columns={"test_id": "test"}),
+                caption="Phases per test, each with the data rows of its first and last "
+                "sample in the sample file.",
+                align_numbers=False,
+            )
     if record.get("proposed_windows"):
         doc.heading("Proposed fitting windows")
         doc.paragraph(

@@ -18,6 +18,7 @@ __all__ = [
     "PARAMS",
     "SHEAR_PARAMS",
     "SINKAGE_PARAMS",
+    "Artefact",
     "Effect",
     "Noise",
     "Preparation",
@@ -148,6 +149,12 @@ class Effect:
 
 
 @dataclass(frozen=True)
+class Artefact(Effect):
+    """One planted record phase or sensor glitch (see :mod:`soilstats.simulation.artefacts`
+    for each kind); ``options["share"]`` is the probability that a matching test gets it."""
+
+
+@dataclass(frozen=True)
 class Spec:
     """A checked SPEC; build it with :func:`load_spec` or :func:`parse_spec`."""
 
@@ -160,6 +167,7 @@ class Spec:
     noise: Noise
     resolution: Resolution
     scatter: Scatter
+    artefacts: tuple[Artefact, ...] = ()
     raw: dict[str, Any] = field(repr=False, default_factory=dict)
     source: str = "<memory>"
     sha256: str = ""

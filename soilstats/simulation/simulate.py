@@ -19,10 +19,11 @@ import pandas as pd
 
 from ..campaign import Campaign
 from ..models.shear import side_wall_ratio
+from .artefacts import plant
 from .design import draw_parameters, expand, operator_biases
 from .effects import apparent_shear, side_wall_K0, softening_of
 from .shear import shear_samples
-from .sinkage import sinkage_samples
+from .sinkage import quantise, sinkage_samples
 from .spec import SHEAR_PARAMS, SINKAGE_PARAMS, Spec, load_spec, parse_spec
 
 __all__ = ["SimulatedCampaign", "simulate"]
@@ -47,6 +48,7 @@ _LOG_ORDER = (
     "series",
 )
 _PRIVATE = ("b_m", "area_m2", "aspect_ratio", "normal_pressure_Pa")
+_ARTEFACT_COLUMNS = ("test_id", "kind", "first_row", "last_row", "samples", "rows")
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +73,11 @@ class SimulatedCampaign:
         ``c_apparent_soil``, ``phi_apparent_soil``, soil level).
     spec : Spec
     seed : int
+    artefacts : DataFrame
+        One row per planted record phase or glitch (``[[artefacts]]``): ``test_id``,
+        ``kind``, ``first_row`` and ``last_row`` (1-based data rows of sinkage.csv),
+        ``samples`` and ``rows`` (every row it concerns, space-separated); empty when the
+        SPEC plants none.
     """
 
     campaign: Campaign
@@ -78,6 +85,9 @@ class SimulatedCampaign:
     test_truth: pd.DataFrame
     spec: Spec
     seed: int
+    artefacts: pd.DataFrame = dataclasses.field(
+        default_factory=lambda: pd.DataFrame(columns=list(_ARTEFACT_COLUMNS))
+    )
 
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> Path:
         """Write the campaign files plus ``truth.json``, ``truth_tests.csv`` and ``README.md``.
@@ -106,6 +116,8 @@ class SimulatedCampaign:
             json.dumps(self.truth, indent=2, sort_keys=True) + "\n", encoding="utf-8"
         )
         self.test_truth.to_csv(folder / "truth_tests.csv", index=False, lineterminator="\n")
+        if len(self.artefacts):
+            self.artefacts.to_csv(folder / "truth_artefacts.csv", index=False, lineterminator="\n")
         (folder / "README.md").write_text(self._readme(), encoding="utf-8")
         return folder
 
@@ -127,7 +139,7 @@ with seed {self.seed}. No Bevameter produced them.
   the `series` column names the test series of each test.
 - `truth.json`: the soils' parameters, the planted effects, scatter, noise and resolution.
 - `truth_tests.csv`: every test's drawn parameters (kc N/m^(n+1), kphi N/m^(n+2), n -,
-  c Pa, phi deg, K m) and its soil-level values.
+  c Pa, phi deg, K m) and its soil-level values.{self._artefact_line()}
 
 Regenerate (byte-identical) with
 
@@ -135,6 +147,17 @@ Regenerate (byte-identical) with
 
 run in the folder that holds `{spec.source}`; the format of the SPEC is in docs/simulator.md.
 """
+
+    def _artefact_line(self) -> str:
+        if not len(self.artefacts):
+            return ""
+        kinds = ", ".join(
+            f"{k} ({n})" for k, n in self.artefacts["kind"].value_counts(sort=False).items()
+        )
+        return (
+            "\n- `truth_artefacts.csv`: the record phases and glitches planted, one row each "
+            f"(test, kind, its rows of sinkage.csv): {kinds}."
+        )
 
 
 def _as_spec(spec: Spec | dict | str | os.PathLike[str]) -> Spec:
@@ -189,7 +212,16 @@ def _truth(spec: Spec, seed: int, biases: dict[tuple[str, str], float]) -> dict[
         },
         "noise": dataclasses.asdict(spec.noise),
         "resolution": dataclasses.asdict(spec.resolution),
-    }
+    } | (
+        {
+            "artefacts": [
+                plain({"kind": a.kind, "soils": a.soils, "series": a.series, **a.options})
+                for a in spec.artefacts
+            ]
+        }
+        if spec.artefacts
+        else {}
+    )
 
 
 def simulate(
@@ -217,13 +249,15 @@ def simulate(
         For a malformed SPEC (a ``ValueError`` naming the key and the valid options).
     """
     spec = _as_spec(spec)
-    param_rng, noise_rng = np.random.default_rng(seed).spawn(2)
+    # A stream of its own for the artefacts: a SPEC without them simulates as it always did.
+    param_rng, noise_rng, artefact_rng = np.random.default_rng(seed).spawn(3)
     biases = operator_biases(spec, param_rng)
     rows = expand(spec)
     series_of = {s.name: s for s in spec.series}
     sink_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
     shear_parts: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = []
     truth_rows = []
+    planted: list[tuple[str, int, str, np.ndarray]] = []
     iterator = rows
     if progress:
         from tqdm import tqdm
@@ -258,6 +292,9 @@ def simulate(
                 series.points,
                 noise_rng,
             )
+            if spec.artefacts:
+                z, force, found = _plant_artefacts(spec, row, z, force, artefact_rng)
+                planted += [(row["test_id"], len(sink_parts), kind, at) for kind, at in found]
             sink_parts.append((row["test_id"], z, force))
             record["force_offset_N"] = offset
             record["softening_zc_m"], record["softening_factor"] = soft or (np.nan, np.nan)
@@ -297,7 +334,47 @@ def simulate(
         tests, sinkage, shear, source=f"simulated:{spec.name}:seed={seed}"
     )
     test_truth = pd.DataFrame(truth_rows)
-    return SimulatedCampaign(campaign, _truth(spec, seed, biases), test_truth, spec, seed)
+    artefacts = _artefact_table(planted, sink_parts)
+    truth = _truth(spec, seed, biases)
+    return SimulatedCampaign(campaign, truth, test_truth, spec, seed, artefacts)
+
+
+def _plant_artefacts(spec: Spec, row: dict, z, force, rng) -> tuple:
+    """``spec``'s artefacts planted in one sinkage record, in SPEC order: (z, force,
+    [(kind, positions)]). One uniform number is drawn per matching artefact whether or not
+    it is planted, so ``share`` leaves the other tests' draws alone."""
+    found: list[tuple[str, np.ndarray]] = []
+    for artefact in spec.artefacts:
+        if not artefact.applies(row["soil"], row["series"]):
+            continue
+        if rng.random() >= artefact.options["share"]:
+            continue
+        z, force, mask, inserted = plant(
+            artefact.kind, artefact.options, z, force, rng, spec.noise.force_N
+        )
+        found = [(kind, _stretch(at, inserted)) for kind, at in found]
+        found.append((artefact.kind, np.flatnonzero(mask)))
+    z = quantise(z, spec.resolution.z_m)
+    force = quantise(force, spec.resolution.force_N)
+    return z, force, found
+
+
+def _stretch(positions: np.ndarray, inserted: np.ndarray) -> np.ndarray:
+    """Positions in a record after samples were inserted (``inserted``: the new record's
+    mask of the added samples)."""
+    return np.flatnonzero(~inserted)[positions] if inserted.any() else positions
+
+
+def _artefact_table(planted: list, sink_parts: list) -> pd.DataFrame:
+    """The planted artefacts with their 1-based rows of sinkage.csv."""
+    starts = np.cumsum([0] + [p[1].size for p in sink_parts])
+    records = []
+    for test_id, part, kind, at in planted:
+        rows = starts[part] + at + 1
+        first, last = (int(rows.min()), int(rows.max())) if rows.size else (0, 0)
+        text = " ".join(str(int(r)) for r in rows)
+        records.append((test_id, kind, first, last, int(rows.size), text))
+    return pd.DataFrame(records, columns=list(_ARTEFACT_COLUMNS))
 
 
 def _stack(parts: list[tuple], columns: tuple[str, ...]) -> pd.DataFrame | None:

@@ -22,6 +22,7 @@ from .records import (
     PARAMS,
     SHEAR_PARAMS,
     SINKAGE_PARAMS,
+    Artefact,
     Effect,
     Noise,
     Preparation,
@@ -316,12 +317,20 @@ def _series(i: int, t: Any, soils: dict, preps: dict) -> Series:
     )
 
 
-def _effect(i: int, t: Any, soils: dict, series_names: tuple[str, ...]) -> Effect:
-    from .effects import check_effect  # the options of each kind live with their physics
+def _limited(i: int, t: Any, soils: dict, series_names: tuple[str, ...], table: str):
+    """(kind, options, soils, series) of an ``[[effects]]`` or ``[[artefacts]]`` entry: a
+    kind of its table, limited to some soils and series, its options checked by the module
+    that owns the kind's physics."""
+    from .artefacts import ARTEFACT_KINDS, check_artefact
+    from .effects import check_effect
 
-    where = f"[[effects]][{i}]"
+    kinds, check = {
+        "effects": (EFFECT_KINDS, check_effect),
+        "artefacts": (tuple(ARTEFACT_KINDS), check_artefact),
+    }[table]
+    where = f"[[{table}]][{i}]"
     _check_keys(t, (), where, extra_ok=True)
-    kind = _text(t.get("kind"), f"{where}.kind", EFFECT_KINDS)
+    kind = _text(t.get("kind"), f"{where}.kind", kinds)
     e_soils = tuple(
         _text(s, f"{where}.soils", tuple(soils))
         for s in (_list(t["soils"], f"{where}.soils") if "soils" in t else [])
@@ -331,11 +340,20 @@ def _effect(i: int, t: Any, soils: dict, series_names: tuple[str, ...]) -> Effec
         for s in (_list(t["series"], f"{where}.series") if "series" in t else [])
     )
     options = {k: v for k, v in t.items() if k not in ("kind", "soils", "series")}
-    return Effect(kind, check_effect(kind, options, where), e_soils, e_series)
+    return kind, check(kind, options, where), e_soils, e_series
+
+
+def _effect(i: int, t: Any, soils: dict, series_names: tuple[str, ...]) -> Effect:
+    return Effect(*_limited(i, t, soils, series_names, "effects"))
+
+
+def _artefact(i: int, t: Any, soils: dict, series_names: tuple[str, ...]) -> Artefact:
+    return Artefact(*_limited(i, t, soils, series_names, "artefacts"))
 
 
 _TOP = (
     "name",
+    "artefacts",
     "description",
     "soils",
     "preparations",
@@ -380,6 +398,12 @@ def parse_spec(data: dict[str, Any], *, source: str = "<memory>", sha256: str = 
     effects = tuple(
         _effect(i, t, soils, tuple(names)) for i, t in enumerate(data.get("effects", []))
     )
+    artefacts = tuple(
+        _artefact(i, t, soils, tuple(names))
+        for i, t in enumerate(
+            _list(data["artefacts"], "[[artefacts]]") if "artefacts" in data else []
+        )
+    )
     return Spec(
         name=_text(data.get("name", "simulated"), "top level.name"),
         description=_text(data.get("description", ""), "top level.description"),
@@ -387,6 +411,7 @@ def parse_spec(data: dict[str, Any], *, source: str = "<memory>", sha256: str = 
         preparations=preps,
         series=series,
         effects=effects,
+        artefacts=artefacts,
         noise=_dataclass_table(Noise, data.get("noise"), "[noise]"),
         resolution=_dataclass_table(Resolution, data.get("resolution"), "[resolution]"),
         scatter=scatter,
