@@ -24,6 +24,7 @@ from soilstats.quality.prescreen import (
     late_zero_candidates,
     runaway_candidates,
 )
+from soilstats.quality.screen import seating_per_soil
 
 PER_RECORD = (
     "spike",
@@ -162,7 +163,8 @@ def _campaign(seed: int, tests: int = 240) -> Campaign:
 
 def _reference(campaign: Campaign, mode: str) -> list[tuple]:
     """The per-record findings, test by test (the screening loop before batching): spikes,
-    then bursts, then the record's phases, then the loading record's rules."""
+    then bursts, then the record's phases, then the loading record's rules (the seating
+    offset decided soil by soil, as screening decides it)."""
     clean, out = mode == "clean", []
 
     def rows(labels, positions):
@@ -170,6 +172,8 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
 
     sink = campaign.sinkage
     b_of = dict(zip(campaign.tests["test_id"].astype(str), campaign.tests["b_m"], strict=True))
+    soil_of = dict(zip(campaign.tests["test_id"].astype(str), campaign.tests["soil"], strict=True))
+    staged = []
     for tid, idx in sink.groupby("test_id", sort=False).indices.items():
         labels = sink.index.to_numpy()[idx]
         z, force = sink["z_m"].to_numpy(float)[idx], sink["force_N"].to_numpy(float)[idx]
@@ -188,19 +192,30 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
             out.append((tid, code, rows(labels, good[positions]), None))
         contact = next((p.start for p in phases.phases if p.name != "approach"), good.size)
         loaded = good[~excluded]
+        weak = records.find_contact(z[loaded], force[loaded], ratio=records.CONTACT_WEAK_RATIO)
+        staged.append((tid, labels, z, force, loaded, contact, weak))
+    found = {k: item[6] for k, item in enumerate(staged) if item[6] is not None}
+
+    def record(k):
+        _, labels, z, force, loaded, _, _ = staged[k]
+        return z[loaded], force[loaded], labels[loaded]
+
+    soils = [soil_of[str(item[0])] for item in staged]
+    seated_of = seating_per_soil(found, record, soils)
+    for k, (tid, labels, z, force, loaded, contact, _) in enumerate(staged):
         zg, fg = z[loaded], force[loaded]
         offset = shift = 0.0
         seated = loaded
         late = records.find_late_zero(zg, fg)
         if late is not None:
             out.append((tid, "late-zero", rows(labels, loaded[late.loaded]), late.z_start))
-        found = records.find_contact(zg, fg)
-        if found is not None:
-            offset = found.z_contact if clean else 0.0
-            out.append((tid, "pre-contact", rows(labels, loaded[found.before]), found.z_contact))
+        chosen = seated_of.get(k)
+        if chosen is not None:
+            offset = chosen.z_contact if clean else 0.0
+            out.append((tid, "pre-contact", rows(labels, loaded[chosen.before]), chosen.z_contact))
             # bearing failure is judged on the loaded record, z from the contact
-            shift = found.z_contact
-            seated = np.delete(loaded, found.before)
+            shift = chosen.z_contact
+            seated = np.delete(loaded, chosen.before)
         runaway = records.find_runaway(z[seated] - shift, force[seated], b_of.get(str(tid)))
         if runaway is not None:
             value = runaway.z_onset + shift - offset

@@ -49,6 +49,9 @@ CLUSTER_GAP = 3
 ANCHOR_SAMPLES = 3
 #: ... to within this share of the cluster's smallest departure from that line.
 ANCHOR_TOLERANCE = 0.2
+#: Samples around a candidate whose second differences give its local noise (the spike
+#: rule's 21).
+LOCAL_WINDOW = 21
 #: Repeated readings in a run longer than this are a plateau (a hold), not quantisation.
 PLATEAU_RUN = 3
 #: Fewest samples a record needs for the rule (two anchors of three and room for a burst).
@@ -67,7 +70,17 @@ def find_bursts(values: np.ndarray) -> np.ndarray:
         return np.array([], int)
     width = max(_robust_width(np.diff(x, 2)) / np.sqrt(6.0), _resolution(x), 1e-9 * span)
     threshold = max(SPIKE_NOISE_WIDTHS * width, SPIKE_SPAN_FRACTION * span)
-    off = np.flatnonzero(np.abs(x - trend) > threshold)
+    departure = np.abs(x - trend)
+    off = np.flatnonzero(departure > threshold)
+    if not off.size:
+        return np.array([], int)
+    # Judged against the local noise too (LOCAL_WINDOW samples around each): the noise of a
+    # load cell grows with the load, and one sample of a noisy top is no burst.
+    second = np.abs(np.diff(x, 2)) / np.sqrt(6.0)
+    padded = np.pad(second, 1, mode="edge")
+    half = LOCAL_WINDOW // 2
+    local = np.array([1.4826 * np.median(padded[max(0, i - half) : i + half + 1]) for i in off])
+    off = off[departure[off] > SPIKE_NOISE_WIDTHS * local]
     if not off.size:
         return np.array([], int)
     found: list[np.ndarray] = []

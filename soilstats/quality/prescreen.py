@@ -22,6 +22,7 @@ from .records import (
     CONTACT_LAW_EXCESS,
     CONTACT_MIN_TRAVEL,
     CONTACT_NOISE_WIDTHS,
+    CONTACT_WEAK_RATIO,
     RUNAWAY_EXCESS,
     RUNAWAY_FLAT_GAIN,
     RUNAWAY_MIN_TRAVEL,
@@ -143,7 +144,8 @@ def contact_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntA
     The cheap exits of the per-record detector (no rise above the noise floor, no material
     free travel, nothing loaded) are taken here exactly; the power-law
     comparisons are made in closed form, and a block is screened out only when even the
-    best shifted law is clearly (:data:`MARGIN`) worse than ``0.8 ×`` the one from z = 0
+    best shifted law is clearly (:data:`MARGIN`) worse than :data:`CONTACT_WEAK_RATIO` ×
+    the one from z = 0
     and the law from z = 0 stays clearly below :data:`CONTACT_LAW_EXCESS` times the rise
     threshold at the free travel's end, in well-conditioned fits. The per-record detector
     decides the blocks returned.
@@ -153,7 +155,7 @@ def contact_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntA
         clear = (
             trusted
             & (from_zero > 0)
-            & (coarse > 0.8 * from_zero * (1.0 + MARGIN))
+            & (coarse > CONTACT_WEAK_RATIO * from_zero * (1.0 + MARGIN))
             & (law_excess < CONTACT_LAW_EXCESS * (1.0 - MARGIN))
         )
     return np.union1d(np.flatnonzero(alive & ~clear), _unfinite(blocks, z, force))

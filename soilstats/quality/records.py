@@ -42,6 +42,12 @@ CONTACT_NOISE_WIDTHS = 5.0
 CONTACT_MIN_TRAVEL = 0.02
 #: ... and how much better (residual ratio) a power law from the contact must fit.
 CONTACT_RESIDUAL_RATIO = 0.5
+#: A shifted law that leaves at most this share of the residual is evidence of a toe, if
+#: weak: clean records of exponents 0.5-1.8 never go below 0.9 (0 of 4,720 simulated tests
+#: below 0.8), but a record whose toe sits in noise (a small plate's first newtons) may show
+#: no more. Weak evidence re-zeroes a test only where most tests of its soil show a toe
+#: (:func:`soilstats.quality.screen`: one rule for the same toe in every test).
+CONTACT_WEAK_RATIO = 0.8
 #: ... or, for a curve that no shift of origin fits better (near-linear), how far above the
 #: noise-floor threshold a power law measured from z = 0 puts the force at the deepest free
 #: sample, as a multiple of the threshold: a curve loaded from z = 0 would have risen that far
@@ -254,9 +260,10 @@ class ContactPoint:
     """A seating offset found in a record: re-zero z at ``z_contact`` [m].
 
     ``evidence`` says how it was found: ``"shift"`` (a power law from the contact fits the
-    loaded record with ``residual_ratio`` of the residual of one from z = 0) or ``"floor"``
+    loaded record with ``residual_ratio`` of the residual of one from z = 0), ``"floor"``
     (the force stayed at its noise floor where a power law from z = 0 puts ``law_excess``
-    times the floor's threshold).
+    times the floor's threshold) or ``"soil"`` (the record cannot place its own contact, and
+    is re-zeroed at the median contact of its soil's other tests, which show a toe).
     """
 
     z_contact: float
@@ -272,7 +279,40 @@ class ContactPoint:
                 f"a power law from z = 0 would have reached {self.law_excess:.1f}x the noise "
                 "floor's threshold there"
             )
-        return f"a power law from a shifted origin leaves {self.residual_ratio:.0%} of the residual"
+        if self.evidence == "soil":
+            return (
+                "the record cannot place its own contact; most tests of its soil show a toe, "
+                "and it is re-zeroed at their median contact, where its force is still at the "
+                "floor"
+            )
+        strength = "" if self.residual_ratio <= CONTACT_RESIDUAL_RATIO else " (weak: most tests "
+        strength += "of its soil show a toe)" if strength else ""
+        return (
+            f"a power law from a shifted origin leaves {self.residual_ratio:.0%} of the "
+            f"residual{strength}"
+        )
+
+    @property
+    def strong(self) -> bool:
+        """Evidence that re-zeroes the record on its own (not only beside its soil's)."""
+        return self.evidence == "floor" or self.residual_ratio <= CONTACT_RESIDUAL_RATIO
+
+
+def floor_end(z: np.ndarray, force: np.ndarray) -> float | None:
+    """The deepest z > 0 [m] before the force first rises (three samples held) off the noise
+    floor the record starts on (:func:`_noise_floor`), or None where the record has no floor,
+    never rises, or has no free sample: how far a seating toe can reach."""
+    z, force = np.asarray(z, float), np.asarray(force, float)
+    floor = _noise_floor(force)
+    if floor is None:
+        return None
+    above = floor[3]
+    rising = above[:-2] & above[1:-1] & above[2:]
+    if not rising.any():
+        return None
+    free = z[: int(np.argmax(rising))]
+    free = free[free > 0]
+    return float(free.max()) if free.size else None
 
 
 def _clean_rise(zl: np.ndarray, fl: np.ndarray, early: int) -> bool:
@@ -291,7 +331,9 @@ def _clean_rise(zl: np.ndarray, fl: np.ndarray, early: int) -> bool:
     )
 
 
-def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
+def find_contact(
+    z: np.ndarray, force: np.ndarray, *, ratio: float = CONTACT_RESIDUAL_RATIO
+) -> ContactPoint | None:
     """A pre-contact segment (force at its noise floor while z > 0 grows), or None.
 
     The candidate is the free travel before the force first rises (and stays, three samples)
@@ -377,9 +419,9 @@ def find_contact(z: np.ndarray, force: np.ndarray) -> ContactPoint | None:
     # A coarse grid first: most candidates are steep power laws that no offset improves.
     grid, residual = coarse(0.0, first_loaded)
     contact = None
-    if residual.min() <= 0.8 * from_zero:
+    if residual.min() <= CONTACT_WEAK_RATIO * from_zero:
         fun, z_contact = best_in(0.0, first_loaded, grid, residual)
-        if fun / from_zero <= CONTACT_RESIDUAL_RATIO:
+        if fun / from_zero <= ratio:
             if z_contact > upper:  # the best shift lies past a loaded sample: placed before it
                 z_contact = best_in(0.0, upper, *coarse(0.0, upper))[1]
             contact = (z_contact, fun / from_zero, "shift")

@@ -108,11 +108,18 @@ def _spike_findings(rec: _Records, kind: str, columns: tuple[str, str], clean: b
     return out, drop, spiked
 
 
-def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict | None = None):
+def _sinkage_findings(
+    sink: pd.DataFrame,
+    mode: str,
+    progress: bool,
+    b_of: dict | None = None,
+    soil_of: dict | None = None,
+):
     """Findings of every sinkage record: (flags per test in test order, labels to drop,
     contact offsets by test, each test's end force and depth without its spikes, the phases
     of every record by test). ``b_of``: Bekker's plate size b [m] by test id
-    (``bearing-failure`` scales its run-on with it).
+    (``bearing-failure`` scales its run-on with it); ``soil_of``: the soil by test id (a
+    seating toe is judged soil by soil: :func:`seating_per_soil`).
 
     Spikes, then bursts, then the phases of each record (:mod:`.staging`); the other rules
     of :mod:`.records` judge the loading record (its approach, contact, loading and failure)
@@ -158,16 +165,18 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
         bar = tqdm(
             total=len(candidates) + len(late) + len(runaway), desc="screening records", unit="test"
         )
-    contact_of: dict[int, records.ContactPoint] = {}
     failure_of: dict[int, float] = {}
+    found_contacts: dict[int, records.ContactPoint] = {}
     for k in candidates:
-        zk, fk, lk = record(k)
-        contact = records.find_contact(zk, fk)
+        zk, fk, _ = record(k)
+        contact = records.find_contact(zk, fk, ratio=records.CONTACT_WEAK_RATIO)
         if bar is not None:
             bar.update()
-        if contact is None:
-            continue
-        contact_of[k] = contact
+        if contact is not None:
+            found_contacts[k] = contact
+    contact_of = seating_per_soil(found_contacts, record, [(soil_of or {}).get(t) for t in rec.ids])
+    for k, contact in sorted(contact_of.items()):
+        _, _, lk = record(k)
         if clean and contact.z_contact:
             offsets[rec.ids[k]] = float(contact.z_contact)
         rows = lk[contact.before]
@@ -272,6 +281,49 @@ def _sinkage_findings(sink: pd.DataFrame, mode: str, progress: bool, b_of: dict 
     ends["force_start"] = start_forces(good, staged.z, staged.force)
     phases = _final_phases(rec.ids, staged, contact_of, failure_of)
     return out, drop, offsets, ends, phases
+
+
+def seating_per_soil(found: dict, record, soils: list) -> dict:
+    """The seating offsets to re-zero, by record: one rule for the same toe in every test of
+    a soil.
+
+    ``found`` holds each record's contact with at least weak evidence
+    (:data:`~.records.CONTACT_WEAK_RATIO`). A soil *shows a toe* when the median of its
+    sinkage tests' residual ratios is at most CONTACT_WEAK_RATIO (a test without evidence
+    counts as 1; ``floor`` evidence as 0). There, every test with evidence is re-zeroed at
+    its own contact, and one without it at the soil's median contact where its force is
+    still at the floor there (:func:`~.records.floor_end`) and that contact is material
+    (:data:`~.records.CONTACT_MIN_TRAVEL` of its travel). Elsewhere only strong evidence
+    re-zeroes a test (``floor``, or a ratio at most :data:`~.records.CONTACT_RESIDUAL_RATIO`):
+    a seating offset of its own.
+    """
+
+    def ratio(k: int) -> float:
+        c = found.get(k)
+        if c is None:
+            return 1.0
+        return 0.0 if c.evidence == "floor" else c.residual_ratio
+
+    by_soil: dict = {}
+    for k, soil in enumerate(soils):
+        by_soil.setdefault(soil, []).append(k)
+    chosen = {k: c for k, c in found.items() if c.strong}
+    for members in by_soil.values():
+        if np.median([ratio(k) for k in members]) > records.CONTACT_WEAK_RATIO:
+            continue
+        chosen.update({k: found[k] for k in members if k in found})
+        median = float(np.median([found[k].z_contact for k in members if k in found]))
+        for k in members:
+            if k in found:
+                continue
+            z, force, _ = record(k)
+            end = records.floor_end(z, force)
+            travel = float(z.max() - max(z.min(), 0.0))
+            if end is None or end < median or median < records.CONTACT_MIN_TRAVEL * travel:
+                continue
+            before = np.flatnonzero((z > 0) & (z <= median))
+            chosen[k] = records.ContactPoint(median, before, np.nan, evidence="soil")
+    return chosen
 
 
 def _merge(out: list[list[QualityFlag]], found: list[list[QualityFlag]]) -> None:
@@ -404,8 +456,9 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
         b_of = dict(
             zip(tests["test_id"], pd.to_numeric(tests["b_m"], errors="coerce"), strict=True)
         )
+        soil_of = dict(zip(tests["test_id"], tests["soil"].astype(str), strict=True))
         per_test, drop["sinkage"], offsets, ends, phases = _sinkage_findings(
-            sink, mode, progress, b_of
+            sink, mode, progress, b_of, soil_of
         )
         flags += [f for found in per_test for f in found]
     else:
