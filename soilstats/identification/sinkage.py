@@ -9,7 +9,7 @@ import numpy as np
 from .._text import plural
 from ..errors import IdentifiabilityError
 from ..fitting.identify import identify
-from ..fitting.result import FitResult
+from ..fitting.result import FitResult, HealthFlag
 from ..models import BERNSTEIN, REECE, get_model
 from ..quality import screened
 from .adequacy import adequacy_findings
@@ -159,7 +159,51 @@ def fit_sinkage(
     result = centred(identify(spec, x, p, p0, weights=w, on_failure=on_failure), z)
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
     flags = _adequacy(spec, pooled, result, bootstrap)
+    flags += _rezero_sensitivity(
+        spec, campaign, window, pooled, result, bootstrap, p0, points_per_test, weighting, selection
+    )
     return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)
+
+
+#: Re-zeroing at a seating contact that moves a parameter by more than this many of its
+#: σ (test-level where a bootstrap over tests gave one, else Eq. 4's) is stated in the fit.
+REZERO_SIGMAS = 1.0
+
+
+def _rezero_sensitivity(
+    spec, campaign, window, pooled, result, bootstrap, p0, points_per_test, weighting, selection
+) -> list:
+    """``rezero-sensitive`` when the fit's tests include records re-zeroed at a seating
+    contact and the same fit on the records as logged (toes kept, z unchanged) differs by
+    more than :data:`REZERO_SIGMAS` σ in some parameter."""
+    report = getattr(campaign, "quality", None)
+    ids = {str(t) for t in pooled.by_test["test_id"]}
+    rezeroed = sorted(ids & report.rezeroed) if report is not None else []
+    if not rezeroed or report.unseated is None:
+        return []
+    logged = windowed(report.unseated(), window)
+    other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)
+    b, z = other.x["b_m"], other.x["z_m"]
+    x = z if spec is BERNSTEIN else np.vstack([b, z])
+    alt = identify(spec, x, other.y, p0, weights=other.weights, on_failure="warn")
+    if not alt.converged:
+        return []
+    sigma = bootstrap.stderr if bootstrap is not None else result.stderr
+    moved = (result.params - alt.params) / sigma
+    worst = moved.abs().idxmax()
+    if not abs(moved[worst]) > REZERO_SIGMAS:
+        return []
+    which = "test-level" if bootstrap is not None else "Eq. 4"
+    return [
+        HealthFlag(
+            "rezero-sensitive",
+            f"{plural(len(rezeroed), 'test')} re-zeroed at a seating contact "
+            f"({', '.join(rezeroed[:4])}{', …' if len(rezeroed) > 4 else ''}) move "
+            f"{worst} by {moved[worst]:+.1f} {which} σ ({alt.params[worst]:.4g} with z as "
+            f"logged, {result.params[worst]:.4g} re-zeroed); the fit uses the re-zeroed "
+            "records: check the contacts with soilstats check",
+        )
+    ]
 
 
 def _adequacy(spec, pooled, fit, bootstrap) -> list:

@@ -67,6 +67,10 @@ class QualityReport:
     phases : dict
         Test id → :class:`~soilstats.quality.staging.TestPhases` of every sinkage record
         (empty in mode ``off``).
+    unseated : callable, optional
+        In mode ``clean`` with re-zeroed tests: returns the campaign cleaned as ``campaign``
+        but with every seating toe kept and z as recorded, for the fits that state how much
+        the re-zeroing moved them (``rezero-sensitive``).
     """
 
     mode: str
@@ -74,6 +78,12 @@ class QualityReport:
     tests: pd.DataFrame
     campaign: object = field(repr=False, default=None)
     phases: dict = field(repr=False, default_factory=dict)
+    unseated: object = field(repr=False, default=None, compare=False)
+
+    @property
+    def rezeroed(self) -> frozenset[str]:
+        """Tests whose z was re-zeroed at a seating contact (``pre-contact`` in mode clean)."""
+        return frozenset(f.test_id for f in self.flags if f.code == "pre-contact" and f.excluded)
 
     def for_tests(self, test_ids) -> QualityReport:
         """The findings of these tests only."""

@@ -557,7 +557,28 @@ def screen(campaign, mode: str = "clean", *, progress: bool = False) -> QualityR
     if mode == "clean":
         copies = {f.test_id for f in flags if f.code == "duplicate" and f.excluded}
         cleaned = _cleaned(campaign, drop, offsets, copies)
+        if offsets:
+            seated = [np.asarray(f.rows) - 1 for f in flags if f.code == "pre-contact"]
+            kept = {
+                "sinkage": [np.setdiff1d(np.concatenate(drop["sinkage"]), np.concatenate(seated))],
+                "shear": drop["shear"],
+            }
+            report = replace(report, unseated=_Unseated(campaign, kept, copies, report))
     return replace(report, campaign=replace(cleaned, quality=report))
+
+
+@dataclass(frozen=True, eq=False)
+class _Unseated:
+    """The campaign cleaned but for the seating offsets (built when first asked for)."""
+
+    raw: object
+    drop: dict
+    copies: frozenset | set
+    report: QualityReport
+
+    def __call__(self):
+        cleaned = _cleaned(self.raw, self.drop, {}, self.copies)
+        return replace(cleaned, quality=self.report)
 
 
 def _cleaned(
