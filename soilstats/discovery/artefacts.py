@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from ..quality import ARTEFACT_CODES, CODES, STOP_CODES
+from ..quality import ARTEFACT_CODES, CODES, PHASE_CODES, STOP_CODES
 from .candidates import candidate_values, classify_columns
 from .diagnose import INTERACTION
 from .result import Finding
@@ -149,8 +149,9 @@ def with_quality_caveat(finding: Finding, quality: dict | None) -> Finding:
     reader judges whether the data problem, not the cause, drives it."""
     if not quality or not quality["tests"] or finding.group is None:
         return finding
-    # A load-capped test is sound (its depth is an outcome, never a cause: .candidates).
-    flagged = _codes_by_test(quality, finding.kind, set(CODES) - STOP_CODES)
+    # A load-capped test is sound (its depth is an outcome, never a cause: .candidates), and
+    # a record's hold or release is no fault of it (its samples are left out of the fits).
+    flagged = _codes_by_test(quality, finding.kind, set(CODES) - STOP_CODES - PHASE_CODES)
     scope = finding.group.tests["test_id"].astype(str).to_numpy()[finding.scope_rows]
     hit = [t for t in scope if t in flagged]
     if not hit:

@@ -8,7 +8,7 @@ fitting functions call.  The detectors on one record are in :mod:`.records`; cop
 order (``zero-drift``) across the tests of a series by :mod:`.drift`.
 """
 
-from .codes import ARTEFACT_CODES, CODES, MODES, STOP_CODES, QualityCode
+from .codes import ARTEFACT_CODES, CODES, MODES, PHASE_CODES, STOP_CODES, QualityCode
 from .report import QualityFlag, QualityReport
 from .screen import screen, screened
 
@@ -16,6 +16,7 @@ __all__ = [
     "ARTEFACT_CODES",
     "CODES",
     "MODES",
+    "PHASE_CODES",
     "STOP_CODES",
     "QualityCode",
     "QualityFlag",

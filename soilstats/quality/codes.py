@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ARTEFACT_CODES", "CODES", "MODES", "STOP_CODES", "QualityCode"]
+__all__ = ["ARTEFACT_CODES", "CODES", "MODES", "PHASE_CODES", "STOP_CODES", "QualityCode"]
 
 #: ``off``: no screening; ``flag``: screen and report, exclude nothing; ``clean`` (default):
 #: also leave spikes and pre-contact samples out of every fit (and re-zero the sinkage at the
@@ -280,3 +280,5 @@ CODES: dict[str, QualityCode] = {
 ARTEFACT_CODES = tuple(c for c, q in CODES.items() if q.nature == "artefact")
 #: Codes that describe how a test was ended, not a fault of its record.
 STOP_CODES = frozenset(c for c, q in CODES.items() if q.nature == "stop")
+#: Codes of a record's phases that are not virgin loading (left out of fits, no fault).
+PHASE_CODES = frozenset(c for c, q in CODES.items() if q.nature == "phase")
