@@ -551,8 +551,10 @@ class Campaign:
             File format. CSV floats are written with ``repr`` precision, so
             ``load_campaign(c.save(p))`` gives back the same values exactly.
         overwrite : bool
-            Replace campaign files already in the folder (all of tests/sinkage/shear in
-            both formats are removed first). Without it, existing campaign files raise.
+            Replace campaign files already in the folder (those of tests/sinkage/shear in
+            either format that are not rewritten are removed). Without it, existing
+            campaign files raise. Each file is written atomically, and never through a
+            symbolic link (:func:`soilstats.campaign.io.save_tables`).
 
         Returns
         -------
@@ -561,26 +563,16 @@ class Campaign:
         """
         if format not in ("csv", "parquet"):
             raise ValueError(f"format={format!r} is not an option; use 'csv' or 'parquet'")
-        folder = Path(path)
-        folder.mkdir(parents=True, exist_ok=True)
-        existing = [folder / n for n in io.CAMPAIGN_FILE_NAMES if (folder / n).exists()]
-        if existing and not overwrite:
-            raise CampaignError(
-                f"{str(folder)!r} already holds campaign files {[p.name for p in existing]} — "
-                "save to a new folder or pass overwrite=True"
+        tables = {
+            stem: table.drop(columns=[c for c in DERIVED_COLUMNS[stem] if c in table.columns])
+            for stem, table in (
+                ("tests", self.tests),
+                ("sinkage", self.sinkage),
+                ("shear", self.shear),
             )
-        for p in existing:
-            p.unlink()
-        for stem, table in (
-            ("tests", self.tests),
-            ("sinkage", self.sinkage),
-            ("shear", self.shear),
-        ):
-            if stem != "tests" and table.empty:
-                continue
-            raw = table.drop(columns=[c for c in DERIVED_COLUMNS[stem] if c in table.columns])
-            io.write_table(raw, folder / f"{stem}.{format}", format)
-        return folder
+            if stem == "tests" or not table.empty
+        }
+        return io.save_tables(Path(path), tables, format, overwrite=overwrite)
 
     def __repr__(self) -> str:
         kinds = self.tests["kind"].value_counts()

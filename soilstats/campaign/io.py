@@ -34,6 +34,7 @@ __all__ = [
     "read_folder",
     "read_table",
     "resolve",
+    "save_tables",
     "write_table",
 ]
 
@@ -475,8 +476,51 @@ def _csv_ready(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def write_table(frame: pd.DataFrame, path: Path, fmt: Format) -> None:
-    """Write one table to ``path`` as CSV (missing → empty cell) or Parquet, without index."""
+    """Write one table to ``path`` as CSV (missing → empty cell) or Parquet, without index.
+
+    The cells are written exactly (a campaign file is data, read back by
+    :func:`read_table`): no spreadsheet-formula escaping here, unlike the report CSVs.
+    """
     if fmt == "parquet":
         frame.to_parquet(path, index=False)
     else:
         _csv_ready(frame).to_csv(path, index=False, na_rep="", lineterminator="\n")
+
+
+def save_tables(
+    folder: Path, tables: dict[str, pd.DataFrame], fmt: Format, *, overwrite: bool
+) -> Path:
+    """Write the campaign files ``tables`` (stem → table) into ``folder``.
+
+    Every destination is checked before anything is written (no link, no folder in the
+    way; campaign files already there need ``overwrite``); each file is written to a
+    temporary file and renamed into place; campaign files of the folder that were not
+    rewritten (the other format, a sample table now empty) are removed last, so that a
+    failed save never leaves a table half-written or a stale table behind a new log.
+
+    Raises
+    ------
+    CampaignError
+        If the folder holds campaign files and ``overwrite`` is false.
+    OSError
+        If a campaign file name in the folder is a symbolic link or a folder.
+    """
+    from ..report.files import output_path, write_atomic
+
+    existing = [folder / n for n in CAMPAIGN_FILE_NAMES if os.path.lexists(folder / n)]
+    if existing and not overwrite:
+        raise CampaignError(
+            f"{str(folder)!r} already holds campaign files {[p.name for p in existing]} — "
+            "save to a new folder or pass overwrite=True"
+        )
+    for name in CAMPAIGN_FILE_NAMES:
+        output_path(folder, name, overwrite=True)
+    written = set()
+    for stem, table in tables.items():
+        name = f"{stem}.{fmt}"
+        write_atomic(folder / name, lambda tmp, table=table: write_table(table, tmp, fmt))
+        written.add(name)
+    for path in existing:
+        if path.name not in written:
+            path.unlink()
+    return folder
