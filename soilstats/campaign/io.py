@@ -493,10 +493,10 @@ def save_tables(
     """Write the campaign files ``tables`` (stem → table) into ``folder``.
 
     Every destination is checked before anything is written (no link, no folder in the
-    way; campaign files already there need ``overwrite``); each file is written to a
-    temporary file and renamed into place; campaign files of the folder that were not
-    rewritten (the other format, a sample table now empty) are removed last, so that a
-    failed save never leaves a table half-written or a stale table behind a new log.
+    way; campaign files already there need ``overwrite``); every table is written to a
+    temporary file, and only when all are written are they renamed into place; campaign
+    files of the folder that were not rewritten (the other format, a sample table now
+    empty) are removed last. A failed save leaves the folder as it was.
 
     Raises
     ------
@@ -505,7 +505,7 @@ def save_tables(
     OSError
         If a campaign file name in the folder is a symbolic link or a folder.
     """
-    from ..report.files import output_path, write_atomic
+    from ..report.files import output_path, replacing
 
     existing = [folder / n for n in CAMPAIGN_FILE_NAMES if os.path.lexists(folder / n)]
     if existing and not overwrite:
@@ -515,11 +515,10 @@ def save_tables(
         )
     for name in CAMPAIGN_FILE_NAMES:
         output_path(folder, name, overwrite=True)
-    written = set()
-    for stem, table in tables.items():
-        name = f"{stem}.{fmt}"
-        write_atomic(folder / name, lambda tmp, table=table: write_table(table, tmp, fmt))
-        written.add(name)
+    written = {f"{stem}.{fmt}" for stem in tables}
+    with replacing(*(folder / f"{stem}.{fmt}" for stem in tables)) as temporaries:
+        for tmp, table in zip(temporaries, tables.values(), strict=True):
+            write_table(table, tmp, fmt)
     for path in existing:
         if path.name not in written:
             path.unlink()

@@ -2,7 +2,7 @@
 
 The one place that turns results into files on disk (PDF pages, netCDF posteriors and
 campaign tables are rendered elsewhere, but checked through :func:`output_path` and written
-through :func:`write_atomic`), so every output follows the same rules:
+through :func:`write_atomic` or :func:`replacing`), so every output follows the same rules:
 
 * a file that exists is never replaced unless the caller passes ``overwrite=True``
   (:class:`FileExistsError` otherwise);
@@ -32,7 +32,8 @@ import math
 import os
 import re
 import secrets
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -45,6 +46,7 @@ __all__ = [
     "csv_text",
     "json_safe",
     "output_path",
+    "replacing",
     "safe_stem",
     "write_atomic",
     "write_csv",
@@ -105,8 +107,8 @@ def output_path(folder: str | Path, filename: str, *, overwrite: bool = False) -
     safe_stem(filename)
     folder = Path(folder)
     if os.path.islink(folder) and not folder.exists():
-        raise OSError(
-            errno.ENOENT,
+        raise OSError(  # ELOOP: a plain OSError, its text shown as is (ENOENT would not be)
+            errno.ELOOP,
             f"is a dangling symbolic link (to {os.readlink(folder)!r}); give a folder",
             str(folder),
         )
@@ -135,6 +137,39 @@ def _temporary(path: Path) -> Path:
         return tmp
 
 
+@contextmanager
+def replacing(*paths: str | Path) -> Iterator[list[Path]]:
+    """Temporary files standing in for ``paths``, renamed into place when the block ends.
+
+    Write each temporary file inside the ``with`` block. If the block raises, every
+    temporary file is removed and no destination is touched; otherwise each one replaces its
+    destination (:func:`os.replace`, atomic on POSIX), so a set of files (a campaign's
+    tables) is replaced only once all of them are written.
+
+    Raises
+    ------
+    OSError
+        If a destination is a symbolic link (before anything is written).
+    """
+    targets = [Path(p) for p in paths]
+    for target in targets:
+        _refuse_link(target)
+    temporaries: list[Path] = []
+    try:
+        temporaries.extend(_temporary(t) for t in targets)
+        yield list(temporaries)
+        for tmp, target in zip(temporaries, targets, strict=True):
+            _refuse_link(target)  # still no link, just before the rename
+            os.replace(tmp, target)
+    except BaseException:
+        for tmp in temporaries:
+            try:
+                os.unlink(tmp)
+            except OSError:  # renamed already, or never written
+                pass
+        raise
+
+
 def write_atomic(path: str | Path, content: str | bytes | Callable[[Path], object]) -> Path:
     """Write ``content`` to ``path`` through a temporary file renamed into place.
 
@@ -158,24 +193,12 @@ def write_atomic(path: str | Path, content: str | bytes | Callable[[Path], objec
         If ``path`` is a symbolic link, or the write fails (then ``path`` is unchanged and no
         temporary file is left).
     """
-    path = Path(path)
-    _refuse_link(path)
-    tmp = _temporary(path)
-    try:
+    with replacing(path) as (tmp,):
         if callable(content):
             content(tmp)
         else:
-            data = content.encode("utf-8") if isinstance(content, str) else content
-            with open(tmp, "wb") as fh:
-                fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
+            tmp.write_bytes(content.encode("utf-8") if isinstance(content, str) else content)
+    return Path(path)
 
 
 def json_safe(value: Any) -> Any:
