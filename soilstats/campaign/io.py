@@ -229,14 +229,19 @@ def _records(fh: BinaryIO, name: str) -> Iterator[Iterator[list[str]]]:
         text.detach()
 
 
-def _too_long(name: str, row: int | None, column: str | None = None) -> CampaignError:
+def _at(name: str, row: int | None, problem: str) -> CampaignError:
+    """An error at a data row of a CSV file (None: its header); ``{where}`` in ``problem``
+    becomes "this row" or "the header"."""
     where = "the header" if row is None else "this row"
-    return CampaignError(
-        f"a cell of {where} is longer than {MAX_CELL_CHARS} characters, the most a campaign "
+    return CampaignError(problem.format(where=where), file=name, row=row)
+
+
+def _too_long(name: str, row: int | None) -> CampaignError:
+    return _at(
+        name,
+        row,
+        f"a cell of {{where}} is longer than {MAX_CELL_CHARS} characters, the most a campaign "
         "cell holds; a quote left open swallows the lines after it — fix the file there",
-        file=name,
-        column=column,
-        row=row,
     )
 
 
@@ -317,13 +322,11 @@ def _parse_error(fh: BinaryIO, name: str, exc: Exception) -> CampaignError:
     """The error of a CSV pandas could not parse: an unclosed quote, a long row, or else."""
     opened = _OPEN_QUOTE.search(str(exc))
     if opened:
-        row = _open_quote_row(fh, name, int(opened.group(1)))
-        where = "the header" if row is None else "this row"
-        return CampaignError(
-            f'cannot read the file: a quote (") opened in {where} is never closed, so it takes '
+        return _at(
+            name,
+            _open_quote_row(fh, name, int(opened.group(1))),
+            'cannot read the file: a quote (") opened in {where} is never closed, so it takes '
             "in every line after it — close the quote or remove it",
-            file=name,
-            row=row,
         )
     row = _long_row(fh, name)
     if row is None:  # another parse error
