@@ -217,9 +217,13 @@ class Numbers:
         return str(texts(self._series.iloc[i : i + 1])[0])
 
     def cell(self, i: int) -> str:
-        """Text of cell ``i`` for a message."""
+        """Text of cell ``i`` for a message (a stored integer as itself, not as float64
+        holds it: the message may be about that difference)."""
         cells = self.cells
-        return str(cells[i]) if cells is not None else repr(float(self.values[i]))
+        if cells is not None:
+            return str(cells[i])
+        original = self._series.iloc[i]
+        return str(int(original)) if is_integer(original) else repr(float(self.values[i]))
 
     @property
     def lost(self) -> BoolArray:

@@ -75,7 +75,11 @@ def resolve(path_or_name: str | os.PathLike[str]) -> tuple[Path, str]:
     names = ", ".join(repr(n) for n in bundled_names()) or "none"
     if what is not None:
         problem = f"{str(path)!r} is {what or 'a file'}, not a campaign folder"
-        fix = "pass the folder that holds tests.csv, not one of its files"
+        fix = (
+            "pass the folder that holds tests.csv, not one of its files"
+            if not what
+            else "pass a folder holding tests.csv (or tests.parquet) or a bundled name"
+        )
     else:
         problem = f"{str(path_or_name)!r} is not a bundled campaign and the path does not exist"
         fix = "pass a folder holding tests.csv (or tests.parquet) or a bundled name"
