@@ -7,6 +7,8 @@ already catch ``ValueError`` keep working; every warning derives from
 
 from __future__ import annotations
 
+from ._text import shown
+
 __all__ = [
     "CampaignError",
     "ConfoundingError",
@@ -37,7 +39,9 @@ class CampaignError(SoilstatsError, ValueError):
     """A campaign breaks a rule of the campaign format.
 
     The message names the file, the column, the test and the row (1-based data row, the
-    header not counted) wherever they exist; the same facts are kept as attributes.
+    header not counted) wherever they exist; the same facts are kept as attributes. A column
+    name or test id of hostile length is cut short in the message (the attribute keeps it
+    whole), so the message stays one readable line.
     """
 
     def __init__(
@@ -57,9 +61,9 @@ class CampaignError(SoilstatsError, ValueError):
         if file is not None:
             where.append(f"file {file!r}")
         if column is not None:
-            where.append(f"column {column!r}")
+            where.append(f"column {shown(column)}")
         if test_id is not None:
-            where.append(f"test {test_id!r}")
+            where.append(f"test {shown(test_id)}")
         if row is not None:
             where.append(f"row {row}")
         prefix = ", ".join(where)

@@ -206,14 +206,18 @@ def test_numbers_read_in_bulk_are_those_of_float_bit_for_bit(write_campaign):
     rng = np.random.default_rng(0)
     values = rng.normal(size=300) * 10.0 ** rng.integers(-300, 300, 300)
     cells = [repr(float(v)) for v in values] + [f"{v:.17g}" for v in values]
-    cells += ["1", "-0", "+1.5", "1.", ".5", "-.5", "1E5", "1e-400", "4.9e-324"]
-    cells += ["0.1000000000000000055511151231257827021181583404541015625", "9007199254740993"]
-    cells += ["123456789012345678901234567890e-5", "2.4703282292062328e-324"]
+    cells += ["1", "-0", "+1.5", "1.", ".5", "-.5", "1E5", "4.9e-324"]
+    cells += ["0.1000000000000000055511151231257827021181583404541015625"]
+    cells += ["123456789012345678901234567890e-5"]
     sinkage = "test_id,z_m,force_N\n" + "".join(f"a,{i * 1e-4},{c}\n" for i, c in enumerate(cells))
     tests = "test_id,kind,soil,shape,radius_m\na,sinkage,s,circle,0.05\n"
     got = load_campaign(write_campaign(tests=tests, sinkage=sinkage), check_units=False)
     want = np.array([float(c) for c in cells]).view(np.int64)
     np.testing.assert_array_equal(got.sinkage["force_N"].to_numpy().view(np.int64), want)
+    # Numbers float64 cannot hold as written are refused by the rules (the loader), not
+    # by the parser: the parser still reads them as float() does.
+    cells += ["1e-400", "9007199254740993", "2.4703282292062328e-324"]
+    want = np.array([float(c) for c in cells]).view(np.int64)
     bulk = _parse_decimals(pd.Series(cells, dtype="str"))  # the bulk path, not float()
     assert bulk is not None and np.array_equal(bulk.view(np.int64), want)
     assert _parse_decimals(pd.Series([*cells, " 1"], dtype="str")) is None

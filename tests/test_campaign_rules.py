@@ -112,9 +112,9 @@ CASES = [
     ("r-outer-infinite", lambda f: _set(f, "tests", 3, "r_outer_m", "inf"),
      "tests.csv", "r_outer_m", "s1", 3, ["not a finite number"]),
     ("grousers-fraction", lambda f: _set(f, "tests", 3, "grousers", "2.5"),
-     "tests.csv", "grousers", "s1", 3, ["2.5 is not a whole number ≥ 0"]),
+     "tests.csv", "grousers", "s1", 3, ["'2.5' is not a whole number ≥ 0"]),
     ("grousers-negative", lambda f: _set(f, "tests", 3, "grousers", "-1"),
-     "tests.csv", "grousers", "s1", 3, ["-1.0 is not a whole number ≥ 0"]),
+     "tests.csv", "grousers", "s1", 3, ["'-1' is not a whole number ≥ 0"]),
     ("grousers-text", lambda f: _set(f, "tests", 3, "grousers", "ten"),
      "tests.csv", "grousers", "s1", 3, ["'ten' is not a finite number"]),
     ("grouser-height-negative", lambda f: _set(f, "tests", 3, "grouser_height_m", "-0.01"),
@@ -130,7 +130,7 @@ CASES = [
     ("omega-negative", lambda f: _set(f, "tests", 3, "omega_rpm", "-2"),
      "tests.csv", "omega_rpm", "s1", 3, ["-2.0 is not positive"]),
     ("repetition-fraction", lambda f: _set(f, "tests", 2, "repetition", "1.5"),
-     "tests.csv", "repetition", "r1", 2, ["1.5 is not a whole number"]),
+     "tests.csv", "repetition", "r1", 2, ["'1.5' is not a whole number"]),
     ("repetition-text", lambda f: _set(f, "tests", 2, "repetition", "first"),
      "tests.csv", "repetition", "r1", 2, ["'first' is not a finite number"]),
     # --- samples --------------------------------------------------------------------------------
@@ -269,7 +269,8 @@ def test_csv_and_parquet_of_one_table_is_ambiguous(write_campaign, campaign_fram
         ("sinkage.csv", "test_id,z_m,force_N\nc1,1,2,3,4\n", "more fields than the header", 1),
         # a blank line is not a data row: the long row is data row 2
         ("sinkage.csv", "test_id,z_m,force_N\nc1,1,2\n\nc1,1,2,3\n", "more fields than", 2),
-        ("sinkage.csv", 'test_id,z_m,force_N\n"c1,1,2\n', "cannot read the file", None),
+        # an unclosed quote: the data row where it opens
+        ("sinkage.csv", 'test_id,z_m,force_N\n"c1,1,2\n', "quote .* is never closed", 1),
         ("shear.parquet", b"not parquet", "cannot read the file", None),
         ("shear.csv", b"test_id,angle_rad\n\xff\xfe", "cannot read the file", None),
     ],

@@ -8,11 +8,13 @@ tables whichever way it was stored.
 from __future__ import annotations
 
 import math
+import re
+from decimal import Decimal, InvalidOperation
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from pandas.api.types import infer_dtype, is_bool_dtype, is_numeric_dtype
+from pandas.api.types import infer_dtype, is_bool_dtype, is_integer, is_numeric_dtype
 
 from .schema import MISSING_TOKENS, SPECS, canonical_order, spec
 
@@ -21,12 +23,22 @@ __all__ = [
     "Numbers",
     "as_text",
     "blank",
+    "control_characters",
     "empty_samples",
+    "first_control",
     "first_per_key",
     "texts",
     "typed",
     "typed_extra",
+    "without_controls",
 ]
+
+#: Float64 holds every whole number below this exactly, and not every one above.
+EXACT_WHOLE = 2.0**53
+#: A whole number written out in digits ("12345678901234567", "3.0").
+_WHOLE_DIGITS = r"^\s*[+-]?[0-9]+(?:\.0*)?\s*$"
+#: A number whose digits before the exponent are not all zero ("1e-400", ".5e-999").
+_NONZERO_MANTISSA = r"^\s*[+-]?(?:[0-9]*\.)?[0-9]*[1-9]"
 
 #: The running pandas' default string dtype ("str" in pandas 3, object in pandas 2), so that
 #: text columns look the same as those pandas itself would create.
@@ -70,6 +82,30 @@ def texts(series: pd.Series) -> ObjArray:
 def blank(cells: ObjArray) -> BoolArray:
     """Return True where a text cell is empty or only blanks."""
     return np.array([not c.strip() for c in cells], dtype=bool)
+
+
+#: C0 controls (NUL, TAB, line breaks, ...), DEL and C1 controls: never part of a name.
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+
+
+def control_characters(cells: ObjArray) -> BoolArray:
+    """Return True where a text cell holds a control character (NUL, TAB, a line break, DEL).
+
+    An id or a name with one looks like another ("c1" and "c1\\x00" print alike) but
+    matches nothing: a sample of "c1\\x00" would be no sample of test "c1".
+    """
+    return np.array([_CONTROL.search(c) is not None for c in cells], dtype=bool)
+
+
+def first_control(text: str) -> str:
+    """The first control character of ``text``, as ``U+0000`` (for a message)."""
+    found = _CONTROL.search(text)
+    return f"U+{ord(found.group()):04X}" if found else ""
+
+
+def without_controls(text: str) -> str:
+    """``text`` with its control characters removed (the id a corrupted cell meant)."""
+    return _CONTROL.sub("", text)
 
 
 def as_text(cells: ObjArray, index: pd.Index) -> pd.Series:
@@ -122,6 +158,8 @@ class Numbers:
         Non-empty cell that is not a number.
     cells : ndarray of object or None
         Cell texts for messages (None when the column was typed numeric).
+    lost : ndarray of bool
+        A number float64 does not hold as written (see :attr:`lost`); the rules refuse it.
     """
 
     def __init__(self, series: pd.Series) -> None:
@@ -130,7 +168,9 @@ class Numbers:
         self._series = series
         self._cells: ObjArray | None = None
         self._finite: np.ndarray | None = None
-        if is_numeric_dtype(series.dtype) and not is_bool_dtype(series.dtype):
+        self._lost: np.ndarray | None = None
+        self._typed = is_numeric_dtype(series.dtype) and not is_bool_dtype(series.dtype)
+        if self._typed:
             self.values = series.to_numpy(dtype=np.float64, na_value=np.nan)
             self.missing = np.isnan(self.values)
             return
@@ -166,16 +206,107 @@ class Numbers:
     def cells(self) -> ObjArray | None:
         """Cell texts (None when the column was typed numeric); made when first needed,
         since a clean column of a million samples never needs them."""
-        if self._cells is None and not (
-            is_numeric_dtype(self._series.dtype) and not is_bool_dtype(self._series.dtype)
-        ):
+        if self._cells is None and not self._typed:
             self._cells = texts(self._series)
         return self._cells
 
+    def _text(self, i: int) -> str:
+        """Text of cell ``i`` without making the texts of the whole column."""
+        if self._cells is not None:
+            return str(self._cells[i])
+        return str(texts(self._series.iloc[i : i + 1])[0])
+
     def cell(self, i: int) -> str:
-        """Text of cell ``i`` for a message."""
+        """Text of cell ``i`` for a message (a stored integer as itself, not as float64
+        holds it: the message may be about that difference)."""
         cells = self.cells
-        return str(cells[i]) if cells is not None else repr(float(self.values[i]))
+        if cells is not None:
+            return str(cells[i])
+        original = self._series.iloc[i]
+        return str(int(original)) if is_integer(original) else repr(float(self.values[i]))
+
+    @property
+    def lost(self) -> BoolArray:
+        """True where float64 does not hold the number written, beyond the rounding of a
+        decimal's last digit: a nonzero number read as 0 (below ~1e-324), or a whole number
+        beyond 2^53 (written in digits, or stored as an integer) read as a neighbour.
+
+        Such a cell would be changed without a word (a serial number 12345678901234567
+        becomes ...568; a repetition 2^53 + 1 becomes 2^53), so the rules refuse it.
+        """
+        if self._lost is None:
+            v = self.values
+            with np.errstate(invalid="ignore"):
+                zero = self.finite & (v == 0)
+                big = self.finite & (np.abs(v) >= EXACT_WHOLE)
+            self._lost = np.zeros(len(v), dtype=bool)
+            # Screen in bulk (a column of a million zeros is common), confirm one by one.
+            candidates = np.flatnonzero(big)
+            if not self._typed:  # text: only a cell written so can have lost its number
+                candidates = np.union1d(
+                    self._matching(np.flatnonzero(zero), _NONZERO_MANTISSA),
+                    self._matching(candidates, _WHOLE_DIGITS),
+                )
+            for i in candidates:
+                self._lost[i] = self.lost_reason(int(i)) != ""
+        return self._lost
+
+    def _matching(self, rows: np.ndarray, pattern: str) -> np.ndarray:
+        """The ``rows`` whose text matches ``pattern``, screened in Arrow (a column of a
+        million zeros is common; a Python loop over it would add a second to a load)."""
+        if not rows.size:
+            return rows
+        import pyarrow as pa
+        import pyarrow.compute as pc
+
+        sub = self._series.iloc[rows]
+        cells = pa.array(
+            sub.array if isinstance(sub.dtype, pd.StringDtype) else list(texts(sub)),
+            type=pa.large_string(),
+        )
+        hit = pc.match_substring_regex(cells, pattern).to_numpy(zero_copy_only=False)
+        return rows[hit.astype(bool)]
+
+    def lost_reason(self, i: int) -> str:
+        """Why cell ``i`` is not held as written (``""`` when it is), for a message."""
+        value = float(self.values[i])
+        exact = self._exact(i)
+        if exact is None or exact == Decimal(value):
+            return ""
+        if value == 0:
+            return "is too small for float64 and would be read as 0"
+        return (
+            "is a whole number beyond 2^53, which float64 cannot hold exactly: it would be "
+            f"read as {value:.0f}"
+        )
+
+    def _exact(self, i: int) -> Decimal | None:
+        """The number cell ``i`` holds exactly, where float64 may not: a whole number
+        stored as an integer, a text cell written as digits; None for other cells (a
+        decimal fraction is rounded in its last digit by any binary reader)."""
+        if self._typed:
+            original = self._series.iloc[i]
+            return Decimal(int(original)) if is_integer(original) else None
+        text = self._text(i)
+        if self.values[i] != 0 and not re.match(_WHOLE_DIGITS, text):
+            return None
+        try:
+            return Decimal(text.strip())
+        except InvalidOperation:
+            return None
+
+    def whole(self, i: int) -> bool:
+        """Whether cell ``i`` is a whole number float64 holds exactly: written as one
+        (``"1.0000000000000001"`` is not, though float64 reads it as 1.0) and below 2^53."""
+        value = float(self.values[i])
+        if not math.isfinite(value) or value != math.trunc(value) or abs(value) >= EXACT_WHOLE:
+            return False
+        if self._typed:
+            return True
+        try:
+            return Decimal(self._text(i).strip()) == Decimal(value)
+        except InvalidOperation:
+            return False
 
     @property
     def finite(self) -> BoolArray:
@@ -185,7 +316,7 @@ class Numbers:
         return self._finite
 
 
-def typed_extra(series: pd.Series, index: pd.Index) -> pd.Series:
+def typed_extra(series: pd.Series, index: pd.Index, num: Numbers | None = None) -> pd.Series:
     """Type an extra (covariate) column: float64 if every non-empty cell parses, else text.
 
     Parameters
@@ -194,13 +325,15 @@ def typed_extra(series: pd.Series, index: pd.Index) -> pd.Series:
         The column as read or as stored.
     index : Index
         Index of the result.
+    num : Numbers, optional
+        The column already parsed (the validator parses it to check it).
 
     Returns
     -------
     Series
         float64 (NaN where not recorded) or the text dtype (NaN where empty).
     """
-    num = Numbers(series)
+    num = num or Numbers(series)
     if not num.bad.any() and not is_bool_dtype(series.dtype):
         return pd.Series(num.values, index=index, dtype=np.float64)
     return as_text(texts(series), index)
@@ -214,7 +347,7 @@ def typed(raw: pd.DataFrame, stem: str, parsed: dict[str, Numbers] | None = None
     for col in order:
         s = spec(stem, col)
         if s is None:
-            cols[col] = typed_extra(raw[col], index)
+            cols[col] = typed_extra(raw[col], index, (parsed or {}).get(col))
         elif s.dtype == "text" and col == "test_id":
             # test_id stays as written (a blank one is reported and never kept).
             cols[col] = _as_written(raw[col], index)

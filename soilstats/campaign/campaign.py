@@ -22,7 +22,7 @@ from .index import campaign_index, grouped_by_code
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
 from .units import check_plausible_units, convert_columns
-from .validate import Frames, Issue, validate
+from .validate import Frames, Issue, derived_issues, validate
 
 __all__ = ["SKIPPED_COLUMNS", "Campaign", "load_campaign"]
 
@@ -94,19 +94,23 @@ def _cell(value) -> str:
     return repr(value) if isinstance(value, str) else repr(float(value))
 
 
-def _derive(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> dict[str, pd.DataFrame]:
-    """Append the derived columns; index of each table = original data row, reset at the end."""
+def _derive(tables: dict[str, pd.DataFrame]) -> tuple[dict, dict]:
+    """The tables with their derived columns appended, and the derived columns the input
+    held (to compare); the index of each table stays the original data row."""
     given = {s: {c: tables[s][c] for c in DERIVED_COLUMNS[s] if c in tables[s]} for s in FILES}
     base = {s: tables[s].drop(columns=list(given[s])) for s in FILES}
     ids = pd.concat([base["sinkage"]["test_id"], base["shear"]["test_id"]], ignore_index=True)
     n = ids.value_counts().reindex(base["tests"]["test_id"].to_numpy(), fill_value=0)
-    tests = add_test_columns(base["tests"], n.to_numpy())
-    sinkage, shear = add_sample_columns(tests, base["sinkage"], base["shear"])
-    out = {"tests": tests, "sinkage": sinkage, "shear": shear}
-    for s in FILES:
-        for col, values in given[s].items():
-            _check_derived(values, out[s][col], names[s], col, out[s]["test_id"])
-    return {s: f.reset_index(drop=True) for s, f in out.items()}
+    # Over- and underflow are judged by derived_issues, per test, not warned of per array.
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore", under="ignore"):
+        tests = add_test_columns(base["tests"], n.to_numpy())
+        sinkage, shear = add_sample_columns(tests, base["sinkage"], base["shear"])
+    return {"tests": tests, "sinkage": sinkage, "shear": shear}, given
+
+
+def _without(tables: dict[str, pd.DataFrame], bad: list[str]) -> dict[str, pd.DataFrame]:
+    """The tables without the tests ``bad`` (and their samples)."""
+    return {s: f[~f["test_id"].isin(bad)] for s, f in tables.items()}
 
 
 def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool) -> Campaign:
@@ -114,18 +118,28 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
     tables = validate(frames)
     if tables.issues and on_error == "raise":
         raise tables.issues[0].error()
-    skipped = _skipped_table(tables.issues)
-    bad = list(skipped["test_id"])
-    kept = {s: getattr(tables, s) for s in FILES}
-    kept = {s: f[~f["test_id"].isin(bad)] for s, f in kept.items()}
-    if kept["tests"].empty:
-        raise CampaignError(
-            f"every test was skipped ({len(bad)}); the first problem: {tables.issues[0].message}"
-            " — fix the campaign (see campaign.skipped of a partial load for the reasons)",
-            file=tables.issues[0].file,
-        )
     file_names = {s: name for s, (_, name) in frames.items()}
-    out = _derive(kept, file_names)
+    kept = _without({s: getattr(tables, s) for s in FILES}, [i.key for i in tables.issues])
+    out, given = _derive(kept)
+    late = derived_issues(out, file_names)
+    if late and on_error == "raise":
+        raise late[0].error()
+    issues = tables.issues + late
+    out = _without(out, [i.key for i in late])
+    if out["tests"].empty:
+        raise CampaignError(
+            f"every test was skipped ({len({i.key for i in issues})}); the first problem: "
+            f"{issues[0].message} — fix the campaign (see campaign.skipped of a partial load "
+            "for the reasons)",
+            file=issues[0].file,
+        )
+    for s in FILES:
+        for col, values in given[s].items():
+            _check_derived(
+                values.loc[out[s].index], out[s][col], file_names[s], col, out[s]["test_id"]
+            )
+    out = {s: f.reset_index(drop=True) for s, f in out.items()}
+    skipped = _skipped_table(issues)
     if len(skipped):
         listed = "; ".join(_skipped_item(r) for r in skipped.itertuples())
         n_tests = int(sum(bool(str(t).strip()) for t in skipped["test_id"]))
@@ -537,8 +551,10 @@ class Campaign:
             File format. CSV floats are written with ``repr`` precision, so
             ``load_campaign(c.save(p))`` gives back the same values exactly.
         overwrite : bool
-            Replace campaign files already in the folder (all of tests/sinkage/shear in
-            both formats are removed first). Without it, existing campaign files raise.
+            Replace campaign files already in the folder (those of tests/sinkage/shear in
+            either format that are not rewritten are removed). Without it, existing
+            campaign files raise. Each file is written atomically, and never through a
+            symbolic link (:func:`soilstats.campaign.io.save_tables`).
 
         Returns
         -------
@@ -547,26 +563,16 @@ class Campaign:
         """
         if format not in ("csv", "parquet"):
             raise ValueError(f"format={format!r} is not an option; use 'csv' or 'parquet'")
-        folder = Path(path)
-        folder.mkdir(parents=True, exist_ok=True)
-        existing = [folder / n for n in io.CAMPAIGN_FILE_NAMES if (folder / n).exists()]
-        if existing and not overwrite:
-            raise CampaignError(
-                f"{str(folder)!r} already holds campaign files {[p.name for p in existing]} — "
-                "save to a new folder or pass overwrite=True"
+        tables = {
+            stem: table.drop(columns=[c for c in DERIVED_COLUMNS[stem] if c in table.columns])
+            for stem, table in (
+                ("tests", self.tests),
+                ("sinkage", self.sinkage),
+                ("shear", self.shear),
             )
-        for p in existing:
-            p.unlink()
-        for stem, table in (
-            ("tests", self.tests),
-            ("sinkage", self.sinkage),
-            ("shear", self.shear),
-        ):
-            if stem != "tests" and table.empty:
-                continue
-            raw = table.drop(columns=[c for c in DERIVED_COLUMNS[stem] if c in table.columns])
-            io.write_table(raw, folder / f"{stem}.{format}", format)
-        return folder
+            if stem == "tests" or not table.empty
+        }
+        return io.save_tables(Path(path), tables, format, overwrite=overwrite)
 
     def __repr__(self) -> str:
         kinds = self.tests["kind"].value_counts()

@@ -16,6 +16,7 @@ __all__ = [
     "FILES",
     "FORMAT_VERSION",
     "KINDS",
+    "MAX_CELL_CHARS",
     "MISSING_TOKENS",
     "SHAPES",
     "SPECS",
@@ -41,6 +42,12 @@ FILES: tuple[str, ...] = ("tests", "sinkage", "shear")
 #: the empty cell (compared case-insensitively after stripping blanks). Text columns keep
 #: every non-empty value literally, so a test may be called ``NA``.
 MISSING_TOKENS: frozenset[str] = frozenset({"na", "n/a", "nan", "null"})
+
+#: The longest cell (and column name) a campaign file may hold, in characters. No name,
+#: number or note of a Bevameter test needs more; a longer cell is a broken file (an
+#: unclosed quote that swallowed the lines after it, a binary file read as text), and the
+#: reader refuses it by file, column and row instead of carrying it into every message.
+MAX_CELL_CHARS = 4096
 
 Dtype = Literal["text", "float", "int"]
 #: When a column is required: ``always``; ``sinkage``/``shear`` for tests of that kind;

@@ -18,12 +18,24 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .._text import plural
+from .._text import plural, shown
 from ..errors import CampaignError
-from ._cells import TEXT_DTYPE, Numbers, blank, empty_samples, first_per_key, texts, typed
-from .schema import KINDS, SHAPES, SPECS, spec
+from ._cells import (
+    EXACT_WHOLE,
+    TEXT_DTYPE,
+    Numbers,
+    blank,
+    control_characters,
+    empty_samples,
+    first_control,
+    first_per_key,
+    texts,
+    typed,
+    without_controls,
+)
+from .schema import KINDS, MAX_CELL_CHARS, SHAPES, SPECS, spec
 
-__all__ = ["SKIP_HINT", "Issue", "Tables", "validate"]
+__all__ = ["SKIP_HINT", "Issue", "Tables", "derived_issues", "validate"]
 
 SKIP_HINT = ' (or load with on_error="skip" to drop the whole test with a listed reason)'
 Frames = dict[str, tuple[pd.DataFrame | None, str]]
@@ -62,6 +74,8 @@ class Tables:
 
 
 def _require(frame: pd.DataFrame, stem: str, name: str, columns: list[str]) -> None:
+    """File-level checks of one table: sizes of names and cells, unique names, ``columns``."""
+    _check_cell_sizes(frame, name)
     if frame.columns.duplicated().any():
         dup = str(frame.columns[frame.columns.duplicated()][0])
         raise CampaignError(
@@ -101,6 +115,12 @@ class _TestsChecker:
         self.kind = texts(raw["kind"])
         self.soil = texts(raw["soil"])
         self.shape = texts(raw["shape"]) if "shape" in raw.columns else None
+        # Names that group tests: a control character would make a second, invisible group.
+        self.controls = {
+            c: control_characters(texts(raw[c]))
+            for c in ("test_id", "soil", "preparation", "operator")
+            if c in raw.columns
+        }
         self.num = {
             s.name: Numbers(raw[s.name])
             for s in SPECS["tests"]
@@ -144,7 +164,7 @@ class _TestsChecker:
             if needed:
                 s = spec("tests", col)
                 text = num.cell(i).strip()
-                seen = f"{text!r} (not recorded)" if text and text != "nan" else "is empty"
+                seen = f"{shown(text)} (not recorded)" if text and text != "nan" else "is empty"
                 self.add(
                     i,
                     col,
@@ -155,10 +175,53 @@ class _TestsChecker:
             text = num.cell(i)
             comma = "; use '.' as the decimal separator" if "," in text else ""
             self.add(
-                i, col, f"value {text!r} is not a finite number{comma} — fix the value in {col}"
+                i,
+                col,
+                f"value {shown(text)} is not a finite number{comma} — fix the value in {col}",
             )
             return None
+        if num.lost[i]:
+            self.add(i, col, f"value {shown(num.cell(i))} {num.lost_reason(i)} — fix the value")
+            return None
         return float(num.values[i])
+
+    def whole(self, i: int, col: str, *, needed: bool, least: float | None = None) -> None:
+        """A whole-number cell (``repetition``, ``grousers``): refused, never rounded, when
+        float64 would hold another number than the one written."""
+        value = self.number(i, col, needed=needed)
+        if value is None:
+            return
+        num = self.num[col]
+        at_least = f" ≥ {least:g}" if least is not None else ""
+        if abs(value) >= EXACT_WHOLE:
+            self.add(
+                i,
+                col,
+                f"value {shown(num.cell(i))} is not below 2^53 = {EXACT_WHOLE:.0f}, the "
+                "largest whole number float64 holds exactly (a larger one would be read as a "
+                "neighbour) — fix the value",
+            )
+        elif not num.whole(i) or (least is not None and value < least):
+            rounded = "" if num.whole(i) else f" (float64 would read it as {value!r})"
+            rounded = rounded if value == int(value) else ""
+            self.add(
+                i,
+                col,
+                f"value {shown(num.cell(i))} is not a whole number{at_least}{rounded} — fix "
+                "the value",
+            )
+
+    def controlled(self, i: int, col: str, what: str) -> None:
+        """Refuse a name holding a control character (checked for every grouping name)."""
+        if col in self.controls and self.controls[col][i]:
+            text = texts(self.raw[col].iloc[i : i + 1])[0]
+            self.add(
+                i,
+                col,
+                f"{what} {shown(text)} holds a control character ({first_control(text)}); "
+                "names are printable text and one with a hidden NUL, TAB or line break would "
+                "match nothing — remove the character",
+            )
 
     def run(self) -> list[Issue]:
         first: dict[str, int] = {}
@@ -175,26 +238,28 @@ class _TestsChecker:
             self.add(
                 i,
                 "test_id",
-                f"test_id {tid!r} is already used in row {first[tid]}; every test_id must be "
+                f"test_id {shown(tid)} is already used in row {first[tid]}; every test_id must be "
                 "unique — rename one of the tests (and its samples) or remove the duplicate row",
             )
         else:
             first[tid] = i + 1
+        self.controlled(i, "test_id", "test_id")
         if kind not in KINDS:
             self.add(
                 i,
                 "kind",
-                f"value {kind!r} is not a known kind; valid kinds are {list(KINDS)} "
+                f"value {shown(kind)} is not a known kind; valid kinds are {list(KINDS)} "
                 "(case-sensitive) — fix the value",
             )
         if not self.soil[i].strip():
             self.add(i, "soil", "value is empty; every test needs its soil name — fill it in")
-        rep = self.number(i, "repetition", needed=False)
-        if rep is not None and rep != int(rep):
-            self.add(i, "repetition", f"value {rep!r} is not a whole number — fix the value")
+        self.controlled(i, "soil", "value")
+        self.controlled(i, "preparation", "value")
+        self.controlled(i, "operator", "value")
+        self.whole(i, "repetition", needed=False)
         if kind == "sinkage" and self.shape is not None and self.shape[i] not in SHAPES:
             shape = self.shape[i]
-            problem = "is empty" if not shape.strip() else f"{shape!r} is not a known shape"
+            problem = "is empty" if not shape.strip() else f"{shown(shape)} is not a known shape"
             self.add(
                 i,
                 "shape",
@@ -238,9 +303,10 @@ class _TestsChecker:
                 f"value {ro!r} is not larger than r_inner_m {ri!r}; a ring needs "
                 "r_outer_m > r_inner_m — fix or swap the radii",
             )
-        g = self.number(i, "grousers", needed=shear)
-        if shear and g is not None and (g < 0 or g != int(g)):
-            self.add(i, "grousers", f"value {g!r} is not a whole number ≥ 0 — fix it")
+        if shear:
+            self.whole(i, "grousers", needed=True, least=0)
+        else:
+            self.number(i, "grousers", needed=False)
         h = self.number(i, "grouser_height_m", needed=shear)
         if shear and h is not None and h < 0:
             self.add(i, "grouser_height_m", f"value {h!r} is negative; it must be ≥ 0 — fix it")
@@ -254,42 +320,57 @@ def _check_samples(
     _require(raw, stem, name, [s.name for s in specs])
     # Judge each distinct test_id once (a few per test), then spread to the rows.
     codes, uniq = _distinct_ids(raw["test_id"])
+    u_blank = blank(uniq)
+    u_orphan = ~u_blank & np.array([u not in log for u in uniq], dtype=bool)
+    # An id with a control character ('c1\x00') is refused, not taken for an unknown test:
+    # it is counted against the test it names without them, so skipping drops that test
+    # whole instead of keeping it short of the rows written with the stray character.
+    u_control = u_orphan & control_characters(uniq)
+    u_orphan &= ~u_control
+    keys = _meant_ids(uniq, u_control, log)[codes]
     found: list[tuple[int, int, Issue]] = []  # (row position, column order, issue)
 
     def add(mask: np.ndarray, col: int, message: Callable[[int, str], str]) -> None:
         if not mask.any():
             return
-        ids = uniq[codes]
-        for pos, key, count in first_per_key(ids, mask):
+        for pos, key, count in first_per_key(keys, mask):
             more = f" ({count} rows of this test have this problem)" if count > 1 else ""
             if count > 1 and not str(key).strip():  # rows of no test: say which rows
-                rows = np.flatnonzero(mask & (ids == key))[:5] + 1
+                rows = np.flatnonzero(mask & (keys == key))[:5] + 1
                 listed = ", ".join(map(str, rows)) + (", …" if count > 5 else "")
                 more = f" ({count} rows have no test_id: rows {listed})"
             issue = Issue(key, name, specs[col].name, pos + 1, message(pos, key) + more)
             found.append((pos, col, issue))
 
     def orphan_msg(pos: int, key: str) -> str:
-        shown = list(log)[:5]
+        examples = ", ".join(shown(k) for k in list(log)[:5])
         return (
-            f"test_id {key!r} is not in {tests_name} (which has {plural(len(log), 'test')}, "
-            f"e.g. {shown}); every sample must belong to a test of the log — add the test to "
-            f"{tests_name} or correct the test_id"
+            f"test_id {shown(key)} is not in {tests_name} (which has "
+            f"{plural(len(log), 'test')}, e.g. [{examples}]); every sample must belong to a "
+            f"test of the log — add the test to {tests_name} or correct the test_id"
+        )
+
+    def control_msg(pos: int, key: str) -> str:
+        written = uniq[codes[pos]]
+        meant = f" (test {shown(key)} without it)" if key != written else ""
+        return (
+            f"test_id {shown(written)} holds a control character ({first_control(written)})"
+            f"{meant}; ids are printable text — remove the character"
         )
 
     def other_msg(pos: int, key: str) -> str:
         kind, row = log[key]
         return (
-            f"test {key!r} is of kind {kind!r} ({tests_name} row {row}), so its samples belong "
-            f"in the {kind} file, not {name} — fix the test's kind or move the rows"
+            f"test {shown(key)} is of kind {kind!r} ({tests_name} row {row}), so its samples "
+            f"belong in the {kind} file, not {name} — fix the test's kind or move the rows"
         )
 
-    u_blank = blank(uniq)
-    u_orphan = ~u_blank & np.array([u not in log for u in uniq], dtype=bool)
     other_kinds = set(KINDS) - {stem}
     u_other = np.array([u in log and log[u][0] in other_kinds for u in uniq], dtype=bool)
     empty, orphan, other = u_blank[codes], u_orphan[codes], u_other[codes]
+    unknown = orphan | u_control[codes]
     add(empty, 0, lambda p, k: "test_id is empty; every sample must name its test — fill it in")
+    add(u_control[codes], 0, control_msg)
     add(orphan, 0, orphan_msg)
     add(other, 0, other_msg)
     nums = {}
@@ -298,13 +379,121 @@ def _check_samples(
 
         def bad_msg(pos: int, key: str, num: Numbers = num) -> str:
             text = num.cell(pos)
-            what = "is empty" if not text.strip() else f"{text!r} is not a finite number"
+            if num.finite[pos]:
+                what = f"{shown(text)} {num.lost_reason(pos)}"
+            elif not text.strip():
+                what = "is empty"
+            else:
+                what = f"{shown(text)} is not a finite number"
             comma = "; use '.' as the decimal separator" if "," in text else ""
             return f"value {what}{comma}; every sample must be numeric — fix or remove the row"
 
-        add(~num.finite & ~empty & ~orphan, j, bad_msg)
+        add((~num.finite | num.lost) & ~empty & ~unknown, j, bad_msg)
+    _check_extras(raw, stem, name, nums)
     found.sort(key=lambda t: (t[0], t[1]))
     return typed(raw, stem, nums), [f[2] for f in found]
+
+
+def _meant_ids(uniq: np.ndarray, control: np.ndarray, log: dict) -> np.ndarray:
+    """Each distinct test_id, or for one with a control character the logged id it names
+    without them (the test whose samples those rows are)."""
+    meant = uniq.copy()
+    for k in np.flatnonzero(control):
+        clean = without_controls(uniq[k])
+        if clean in log:
+            meant[k] = clean
+    return meant
+
+
+def _check_extras(raw: pd.DataFrame, stem: str, name: str, nums: dict[str, Numbers]) -> None:
+    """Parse the covariate columns (into ``nums``, for :func:`typed`) and refuse a numeric one
+    holding a number float64 would change (a 17-digit serial number, 1e-400).
+
+    A covariate whose every cell is a number becomes float64 (the format's rule); rounding
+    one of its cells would change the data without a word. File-level: the column's type,
+    not one test, is at stake.
+    """
+    for col in raw.columns:
+        if spec(stem, col) is not None:
+            continue
+        num = nums[col] = Numbers(raw[col])
+        if num.bad.any() or pd.api.types.is_bool_dtype(raw[col].dtype):
+            continue  # a text column: every cell kept as written
+        lost = np.flatnonzero(num.lost)
+        if lost.size:
+            i = int(lost[0])
+            raise CampaignError(
+                f"value {shown(num.cell(i))} {num.lost_reason(i)}; a column whose cells are "
+                "all numbers is read as float64 — write the value as text (e.g. with a "
+                "letter: 'SN…') or fix it",
+                file=name,
+                column=str(col),
+                test_id=_test_of(raw, i),
+                row=i + 1,
+            )
+
+
+def _test_of(raw: pd.DataFrame, i: int) -> str | None:
+    """The test_id of row ``i`` as written, for a file-level error (None if it has none)."""
+    if "test_id" not in raw.columns:
+        return None
+    tid = texts(raw["test_id"].iloc[i : i + 1])[0]
+    return tid if tid.strip() and len(tid) <= MAX_CELL_CHARS else None
+
+
+def _first_too_long(series: pd.Series) -> tuple[int, int] | None:
+    """(position, length) of the first text cell longer than :data:`MAX_CELL_CHARS`, or
+    None. Arrow-held text (a CSV) is measured in Arrow: a million cells in milliseconds."""
+    dtype = series.dtype
+    if isinstance(dtype, pd.CategoricalDtype):
+        return _first_too_long(series.astype(object))
+    if isinstance(dtype, pd.StringDtype) and dtype.storage == "pyarrow":
+        import pyarrow as pa
+        import pyarrow.compute as pc
+
+        lengths = pc.utf8_length(pa.array(series.array))
+        longest = pc.max(lengths).as_py()
+        if longest is None or longest <= MAX_CELL_CHARS:
+            return None
+        i = pc.index(pc.greater(lengths, MAX_CELL_CHARS), True).as_py()
+        return i, int(lengths[i].as_py())
+    if not (isinstance(dtype, pd.StringDtype) or pd.api.types.is_object_dtype(dtype)):
+        return None  # typed numbers hold no text
+    return next(
+        (
+            (i, len(v))
+            for i, v in enumerate(series)
+            if isinstance(v, str) and len(v) > MAX_CELL_CHARS
+        ),
+        None,
+    )
+
+
+def _check_cell_sizes(raw: pd.DataFrame, name: str) -> None:
+    """Refuse a column name or cell beyond :data:`~.schema.MAX_CELL_CHARS` (a broken file)."""
+    for k, col in enumerate(raw.columns, start=1):
+        if len(str(col)) > MAX_CELL_CHARS:
+            raise CampaignError(
+                f"column {k} of the header is {len(str(col))} characters long; a column name "
+                f"(like every cell) holds at most {MAX_CELL_CHARS} — a broken header (a quote "
+                "left open?): fix or re-export the file",
+                file=name,
+                column=str(col),
+            )
+    for col in raw.columns:
+        found = _first_too_long(raw[col])
+        if found is None:
+            continue
+        i, length = found
+        raise CampaignError(
+            f"the cell is {length} characters long; a campaign cell holds at most "
+            f"{MAX_CELL_CHARS} (no name, number or note needs more) — a quote left open "
+            "swallows the lines after it, or the file is not text: fix the file here",
+            file=name,
+            column=str(col),
+            test_id=None if col == "test_id" else _test_of(raw, i),
+            row=i + 1,
+        )
 
 
 def _distinct_ids(series: pd.Series) -> tuple[np.ndarray, np.ndarray]:
@@ -353,7 +542,9 @@ def validate(frames: Frames) -> Tables:
     checker = _TestsChecker(raw, tests_name)
     checker.require_conditional()
     issues = checker.run()
-    tests = typed(raw, "tests", checker.num)
+    parsed = dict(checker.num)
+    _check_extras(raw, "tests", tests_name, parsed)
+    tests = typed(raw, "tests", parsed)
     log: dict[str, tuple[str, int]] = {}
     for i, (tid, kind) in enumerate(zip(checker.ids, checker.kind, strict=True)):
         if tid.strip():
@@ -395,3 +586,111 @@ def validate(frames: Frames) -> Tables:
             if kind == stem and tid not in counts.index
         ]
     return Tables(tests, samples["sinkage"], samples["shear"], issues + late)
+
+
+#: Derived test columns that must be positive and finite: kind of test, what it is, the
+#: columns it is computed from, what an infinite or zero value would do.
+_TEST_QUANTITIES = (
+    ("area_m2", "sinkage", "the plate area", "every pressure of the test would be infinite"),
+    ("aspect_ratio", "sinkage", "the aspect ratio length_m / width_m", "b and l/b are unusable"),
+    (
+        "ring_area_m2",
+        "shear",
+        "the ring area π (r_outer_m² − r_inner_m²)",
+        "every σ would be infinite",
+    ),
+)
+#: Derived sample columns that must be finite: how each is computed, from which column.
+_SAMPLE_QUANTITIES = {
+    "sinkage": (("pressure_Pa", "p = force_N / area_m2 (Eq. 6)", "force_N"),),
+    "shear": (
+        ("sigma_Pa", "σ = normal_force_N / ring_area_m2", "normal_force_N"),
+        ("tau_Pa", "τ = 3 torque_Nm / (2π (r_outer_m³ − r_inner_m³)) (Eq. 12)", "torque_Nm"),
+        ("j_m", "j = (r_outer_m + r_inner_m) / 2 · angle_rad (Eq. 14)", "angle_rad"),
+    ),
+}
+
+
+def _geometry(tests: pd.DataFrame, i: int, column: str) -> str:
+    """The log values a derived test quantity is computed from, for a message."""
+
+    def v(c: str) -> str:
+        return f"{c} {float(tests[c].iloc[i])!r}" if c in tests.columns else f"{c} (none)"
+
+    if column == "ring_area_m2":
+        return f"{v('r_inner_m')}, {v('r_outer_m')}"
+    if column == "area_m2" and tests["shape"].iloc[i] == "circle":
+        return v("radius_m")
+    return f"{v('width_m')}, {v('length_m')}"
+
+
+def derived_issues(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> list[Issue]:
+    """Finite inputs whose derived quantities are not finite, as per-test issues.
+
+    Every input may be a finite number and the quantity computed from them still not be:
+    a radius of 1e-200 m gives an area of 0 in float64 and infinite pressures; a force of
+    1e308 N on a small plate, an infinite pressure. Such a value would reach every fit as
+    ``inf``; the test is refused, with the derived column named (``area_m2``,
+    ``pressure_Pa``, ...).
+
+    Parameters
+    ----------
+    tables : dict
+        ``tests``, ``sinkage``, ``shear`` with their derived columns; the index of each is
+        the 0-based data row of its file.
+    names : dict
+        File stem → file name for messages.
+
+    Returns
+    -------
+    list of Issue
+        One per test and quantity (at its first row), in file order: log, sinkage, shear. A
+        test refused for its geometry is not checked again for its samples.
+    """
+    tests = tables["tests"]
+    ids = tests["test_id"].to_numpy(dtype=object)
+    kind = tests["kind"].to_numpy(dtype=object)
+    refused: set[str] = set()
+    issues = []
+    for column, applies, what, consequence in _TEST_QUANTITIES:
+        values = tests[column].to_numpy(dtype=np.float64)
+        with np.errstate(invalid="ignore"):
+            bad = (kind == applies) & ~(np.isfinite(values) & (values > 0))
+        for i in np.flatnonzero(bad):
+            if ids[i] in refused:
+                continue
+            refused.add(ids[i])
+            issues.append(
+                Issue(
+                    ids[i],
+                    names["tests"],
+                    column,
+                    int(tests.index[i]) + 1,
+                    f"{what} is {float(values[i])!r} in float64 for {_geometry(tests, i, column)}"
+                    f" — not a positive finite number, so {consequence}; check the values "
+                    "(metres)",
+                )
+            )
+    for stem, quantities in _SAMPLE_QUANTITIES.items():
+        table = tables[stem]
+        for column, formula, source in quantities:
+            values = table[column].to_numpy(dtype=np.float64)
+            bad = ~np.isfinite(values)
+            if not bad.any():  # the common case: no id of a million samples is looked at
+                continue
+            bad &= ~table["test_id"].isin(refused).to_numpy(dtype=bool)
+            sample_ids = table["test_id"].to_numpy(dtype=object)
+            for pos, key, count in first_per_key(sample_ids, bad):
+                more = f" ({count} rows of this test have this problem)" if count > 1 else ""
+                issues.append(
+                    Issue(
+                        key,
+                        names[stem],
+                        column,
+                        int(table.index[pos]) + 1,
+                        f"{formula} is {float(values[pos])!r} in float64 for {source} "
+                        f"{float(table[source].iloc[pos])!r} — not a finite number; check "
+                        f"{source} and the test's geometry in {names['tests']} (SI units){more}",
+                    )
+                )
+    return issues

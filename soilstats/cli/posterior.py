@@ -279,7 +279,7 @@ def run(args: argparse.Namespace) -> int:
     from ..bayes import joint_draws, simulator_parameters, simulator_record
     from ..bayes.support import check_support
     from ..errors import ConvergenceWarning
-    from ..report import json_safe, output_path, write_csv
+    from ..report import json_safe, output_path, write_atomic, write_csv
     from ..report.posterior_pdf import write_report
 
     models = args.model.split("+")
@@ -409,10 +409,15 @@ def run(args: argparse.Namespace) -> int:
         # netCDF attributes take no None: the record travels as JSON strings.
         res.idata.posterior.attrs["soilstats_provenance"] = json.dumps(json_safe(prov))
         res.idata.posterior.attrs["soilstats_record"] = json.dumps(record)
-        res.idata.to_netcdf(str(output_path(out, name, overwrite=True)))
+        write_atomic(
+            output_path(out, name, overwrite=True),
+            lambda tmp, idata=res.idata: idata.to_netcdf(str(tmp)),
+        )
     write_csv(out / "draws.csv", kept, provenance, overwrite=True, float_format="%.10g")
     write_csv(out / "summary.csv", table.reset_index(), provenance, overwrite=True)
-    (out / "posterior.json").write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+    write_atomic(
+        output_path(out, "posterior.json", overwrite=True), json.dumps(record, indent=2) + "\n"
+    )
     write_report(results, out / "report.pdf", record=record, provenance=provenance, handed_out=kept)
     if args.simulator:
         stated = {"elastic_K": args.scm_elastic_K, "damping_R": args.scm_damping_R}
@@ -425,8 +430,9 @@ def run(args: argparse.Namespace) -> int:
         sim_record = simulator_record(
             kept, args.simulator, support=support, context=context, **stated
         )
-        (out / f"{args.simulator}.json").write_text(
-            json.dumps(json_safe(sim_record), indent=2) + "\n", encoding="utf-8"
+        write_atomic(
+            output_path(out, f"{args.simulator}.json", overwrite=True),
+            json.dumps(json_safe(sim_record), indent=2) + "\n",
         )
         for note in sim_record["notes"]:
             print(f"note: {note}", file=sys.stderr)

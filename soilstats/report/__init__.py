@@ -6,7 +6,8 @@ by whoever writes a PDF.
 
 ==================  =====================================================================
 ``provenance``      version, campaign format and hash, command, seed, date
-``files``           safe output paths, JSON (no NaN) and CSV with a provenance header
+``files``           safe output paths, atomic writes (never through a link), JSON (no
+                    NaN) and CSV with a provenance header (formula cells escaped)
 ``document``        the report engine: a typeset (Typst) document of prose, tables,
                     equations and figures, rendered to PDF
 ``front``           page 1 of every report: question, data (measured/simulated), conclusion
@@ -24,7 +25,7 @@ by whoever writes a PDF.
 
 from __future__ import annotations
 
-from .files import json_safe, output_path, safe_stem, write_csv, write_json
+from .files import json_safe, output_path, safe_stem, write_atomic, write_csv, write_json
 from .provenance import Provenance, campaign_sha256, source_date
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "output_path",
     "safe_stem",
     "source_date",
+    "write_atomic",
     "write_csv",
     "write_json",
 ]

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .files import write_atomic
+
 if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure
@@ -284,7 +286,7 @@ class Document:
                 pdf = typst.compile(str(main), root=str(root), ignore_system_fonts=True)
             except Exception as exc:  # typst raises its own TypstError type
                 raise RuntimeError(f"the report {path.name} could not be typeset: {exc}") from exc
-        path.write_bytes(pdf)
+        write_atomic(path, pdf)  # never half a PDF, never through a link
         return page_count(pdf)
 
 

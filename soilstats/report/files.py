@@ -1,24 +1,39 @@
-"""Writing output files: JSON and CSV with provenance, safe names, no silent overwrite.
+"""Writing output files: atomically, never through a link, JSON and CSV with provenance.
 
-The one place that turns results into files on disk (PDF pages are rendered elsewhere in
-this package but opened through :func:`output_path` too), so every output follows the same
-rules:
+The one place that turns results into files on disk (PDF pages, netCDF posteriors and
+campaign tables are rendered elsewhere, but checked through :func:`output_path` and written
+through :func:`write_atomic` or :func:`replacing`), so every output follows the same rules:
 
 * a file that exists is never replaced unless the caller passes ``overwrite=True``
   (:class:`FileExistsError` otherwise);
 * an output name is a plain file name: a study spec's ``name`` can never write outside the
   output folder;
+* an output is never written through a symbolic link, dangling or not (a link inside the
+  output folder could point anywhere: the write would create or replace its target);
+* every file is written to a temporary file beside it and renamed into place
+  (:func:`os.replace`): a reader sees the old file or the new one, never half of one, and a
+  write that fails leaves the old file as it was and no temporary file behind;
 * JSON has no NaN or infinity (they become ``null``), numpy scalars become Python ones, and
   the document carries ``"provenance"``;
-* CSV starts with ``# key: value`` comment lines of provenance; read it back with
-  ``pandas.read_csv(path, comment="#")``.
+* CSV starts with ``# key: value`` comment lines of provenance (each kept on one line: a line
+  break in a value is written as ``\\n``); read it back with
+  ``pandas.read_csv(path, comment="#")``. Text cells that a spreadsheet would run as a
+  formula (starting with ``=``, ``+``, ``-``, ``@``, a TAB or a CR) get a leading ``'``
+  (OWASP's advice); numbers are never altered, so a negative number stays a number. A text
+  cell holding a comma, a quote, a line break or a ``#`` is quoted, so that it reads back
+  whole with ``comment="#"``.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import math
+import os
 import re
+import secrets
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,7 +42,16 @@ if TYPE_CHECKING:
 
     from .provenance import Provenance
 
-__all__ = ["json_safe", "output_path", "safe_stem", "write_csv", "write_json"]
+__all__ = [
+    "csv_text",
+    "json_safe",
+    "output_path",
+    "replacing",
+    "safe_stem",
+    "write_atomic",
+    "write_csv",
+    "write_json",
+]
 
 _STEM = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
@@ -46,8 +70,26 @@ def safe_stem(name: str) -> str:
     return name
 
 
+def _refuse_link(path: Path) -> None:
+    """Raise if ``path`` is a symbolic link: writing would create or replace its target,
+    which may lie anywhere (outside the output folder)."""
+    if os.path.islink(path):
+        target = os.readlink(path)
+        state = "" if os.path.exists(path) else ", dangling"
+        raise OSError(
+            errno.ELOOP,
+            f"is a symbolic link (to {target!r}{state}); soilstats never writes through a "
+            "link, whose target may lie outside the output folder — remove the link or "
+            "choose another --out",
+            str(path),
+        )
+
+
 def output_path(folder: str | Path, filename: str, *, overwrite: bool = False) -> Path:
     """The path ``folder/filename``, checked and with ``folder`` created.
+
+    ``folder`` itself may be a link to a folder (the user named it); the file in it may not
+    be a link at all.
 
     Raises
     ------
@@ -57,16 +99,106 @@ def output_path(folder: str | Path, filename: str, *, overwrite: bool = False) -
         If the file exists and ``overwrite`` is false.
     NotADirectoryError
         If ``folder`` exists but is a file.
+    IsADirectoryError
+        If ``folder/filename`` is a folder.
+    OSError
+        If ``folder`` is a dangling link, or ``folder/filename`` is a link (``errno.ELOOP``).
     """
     safe_stem(filename)
     folder = Path(folder)
+    if os.path.islink(folder) and not folder.exists():
+        raise OSError(  # ELOOP: a plain OSError, its text shown as is (ENOENT would not be)
+            errno.ELOOP,
+            f"is a dangling symbolic link (to {os.readlink(folder)!r}); give a folder",
+            str(folder),
+        )
     if folder.exists() and not folder.is_dir():
         raise NotADirectoryError(20, "not a folder", str(folder))
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / filename
+    _refuse_link(path)
+    if path.is_dir():
+        raise IsADirectoryError(21, "is a folder", str(path))
     if path.exists() and not overwrite:
         raise FileExistsError(17, "exists already", str(path))
     return path
+
+
+def _temporary(path: Path) -> Path:
+    """A new, empty file beside ``path`` (same folder, so the rename cannot cross file
+    systems), created exclusively and with the permissions a plain write would give."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+    while True:
+        tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp{path.suffix}")
+        try:
+            os.close(os.open(tmp, flags | getattr(os, "O_CLOEXEC", 0), 0o666))
+        except FileExistsError:
+            continue
+        return tmp
+
+
+@contextmanager
+def replacing(*paths: str | Path) -> Iterator[list[Path]]:
+    """Temporary files standing in for ``paths``, renamed into place when the block ends.
+
+    Write each temporary file inside the ``with`` block. If the block raises, every
+    temporary file is removed and no destination is touched; otherwise each one replaces its
+    destination (:func:`os.replace`, atomic on POSIX), so a set of files (a campaign's
+    tables) is replaced only once all of them are written.
+
+    Raises
+    ------
+    OSError
+        If a destination is a symbolic link (before anything is written).
+    """
+    targets = [Path(p) for p in paths]
+    for target in targets:
+        _refuse_link(target)
+    temporaries: list[Path] = []
+    try:
+        temporaries.extend(_temporary(t) for t in targets)
+        yield list(temporaries)
+        for tmp, target in zip(temporaries, targets, strict=True):
+            _refuse_link(target)  # still no link, just before the rename
+            os.replace(tmp, target)
+    except BaseException:
+        for tmp in temporaries:
+            try:
+                os.unlink(tmp)
+            except OSError:  # renamed already, or never written
+                pass
+        raise
+
+
+def write_atomic(path: str | Path, content: str | bytes | Callable[[Path], object]) -> Path:
+    """Write ``content`` to ``path`` through a temporary file renamed into place.
+
+    Parameters
+    ----------
+    path : str or Path
+        The destination (checked with :func:`output_path` beforehand for the no-overwrite
+        rule); refused if it is a symbolic link.
+    content : str, bytes or callable
+        Text (written as UTF-8), bytes, or a function that writes the file whose path it is
+        given (a serialiser that wants a path: netCDF, Parquet).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OSError
+        If ``path`` is a symbolic link, or the write fails (then ``path`` is unchanged and no
+        temporary file is left).
+    """
+    with replacing(path) as (tmp,):
+        if callable(content):
+            content(tmp)
+        else:
+            tmp.write_bytes(content.encode("utf-8") if isinstance(content, str) else content)
+    return Path(path)
 
 
 def json_safe(value: Any) -> Any:
@@ -104,8 +236,79 @@ def write_json(
     path = Path(path)
     target = output_path(path.parent, path.name, overwrite=overwrite)
     doc = {**json_safe(document), "provenance": provenance.to_dict()}
-    target.write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
-    return target
+    return write_atomic(target, json.dumps(doc, indent=2, ensure_ascii=False) + "\n")
+
+
+#: First characters that make a spreadsheet read a cell as a formula (OWASP, CSV injection).
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+#: Characters that make a text cell need quotes: the CSV syntax, and the comment character
+#: readers are told to pass (``comment="#"`` cuts an unquoted line at its first ``#``).
+_NEEDS_QUOTES = re.compile(r'[,"\r\n#]')
+#: Characters that end a line for some reader (str.splitlines): escaped in comment lines.
+_LINE_BREAKS = {c: repr(c)[1:-1] for c in "\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"}
+
+
+def _text_cell(text: str) -> str:
+    """A text cell as written: formula-escaped, quoted where its content needs it."""
+    if text.startswith(_FORMULA_START):
+        text = "'" + text
+    if _NEEDS_QUOTES.search(text):
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
+def _object_cell(value: object) -> str:
+    """A cell of a text (object) column: a number stays a number, as pandas writes it."""
+    import pandas as pd
+
+    if isinstance(value, str):
+        return _text_cell(value)
+    if value is None or (not isinstance(value, list | tuple | dict) and pd.isna(value)):
+        return ""
+    if isinstance(value, bool | int | float) or pd.api.types.is_number(value):
+        return str(value)
+    return _text_cell(str(value))
+
+
+def _one_line(text: str) -> str:
+    """``text`` with every line break written as its escape (``\\n``)."""
+    return text.translate(str.maketrans(_LINE_BREAKS))
+
+
+def csv_text(frame: pd.DataFrame, float_format: str | None = None) -> str:
+    """The CSV of ``frame`` (no index): numbers as pandas writes them, text made safe.
+
+    Numeric, boolean and date columns are formatted by pandas (``float_format`` applies);
+    text cells are escaped against spreadsheet formulas and quoted where needed (module
+    rules). Every line ends with ``\\n``.
+    """
+    import pandas as pd
+    from pandas.api.types import is_object_dtype
+
+    def is_text(dtype) -> bool:
+        return isinstance(dtype, pd.StringDtype | pd.CategoricalDtype) or is_object_dtype(dtype)
+
+    def numbers(part: pd.DataFrame) -> list[str]:
+        text = part.to_csv(
+            index=False, header=False, float_format=float_format, na_rep="", lineterminator="\n"
+        )
+        return text.split("\n")[:-1]
+
+    header = ",".join(_text_cell(str(c)) for c in frame.columns)
+    if frame.shape[1] and not any(is_text(d) for d in frame.dtypes):
+        rows = numbers(frame)  # no text: pandas writes it all (a draws table of numbers)
+    else:
+        columns: list[list[str]] = []
+        for j in range(frame.shape[1]):
+            series = frame.iloc[:, j]
+            if is_text(series.dtype):
+                columns.append([_object_cell(v) for v in series.tolist()])
+            else:  # numbers never need quotes; a lone empty field is written '""'
+                columns.append(["" if c == '""' else c for c in numbers(series.to_frame())])
+        rows = [",".join(cells) for cells in zip(*columns, strict=True)] if columns else []
+        # A row of one empty cell is written '""': an empty line would be read as no row.
+        rows = [r or '""' for r in rows]
+    return "".join(f"{line}\n" for line in (header, *rows))
 
 
 def write_csv(
@@ -119,7 +322,5 @@ def write_csv(
     """Write ``frame`` (no index) after ``# key: value`` provenance comment lines."""
     path = Path(path)
     target = output_path(path.parent, path.name, overwrite=overwrite)
-    header = "".join(f"# {line}\n" for line in provenance.lines())
-    body = frame.to_csv(index=False, float_format=float_format, lineterminator="\n")
-    target.write_text(header + body, encoding="utf-8")
-    return target
+    header = "".join(f"# {_one_line(line)}\n" for line in provenance.lines())
+    return write_atomic(target, header + csv_text(frame, float_format))

@@ -104,21 +104,30 @@ class SimulatedCampaign:
         Path
             The folder.
         """
+        from ..report.files import output_path, write_atomic
+
         folder = Path(path)
-        own = [folder / n for n in ("truth.json", "truth_tests.csv", "README.md")]
-        if not overwrite and any(p.exists() for p in own):
+        own = ("truth.json", "truth_tests.csv", "README.md")
+        if not overwrite and any(os.path.lexists(folder / n) for n in own):
             raise FileExistsError(
                 f"{str(folder)!r} already holds simulation files; pass "
                 "overwrite=True (CLI: --overwrite) or choose a new folder"
             )
+        # No link, no folder in the way of any file, checked before anything is written.
+        targets = [output_path(folder, n, overwrite=True) for n in (*own, "truth_artefacts.csv")]
         self.campaign.save(folder, overwrite=overwrite)
-        (folder / "truth.json").write_text(
-            json.dumps(self.truth, indent=2, sort_keys=True) + "\n", encoding="utf-8"
+        truth, truth_tests, readme, artefacts = targets
+        write_atomic(truth, json.dumps(self.truth, indent=2, sort_keys=True) + "\n")
+        write_atomic(
+            truth_tests,
+            lambda tmp: self.test_truth.to_csv(tmp, index=False, lineterminator="\n"),
         )
-        self.test_truth.to_csv(folder / "truth_tests.csv", index=False, lineterminator="\n")
         if len(self.artefacts):
-            self.artefacts.to_csv(folder / "truth_artefacts.csv", index=False, lineterminator="\n")
-        (folder / "README.md").write_text(self._readme(), encoding="utf-8")
+            write_atomic(
+                artefacts,
+                lambda tmp: self.artefacts.to_csv(tmp, index=False, lineterminator="\n"),
+            )
+        write_atomic(readme, self._readme())
         return folder
 
     def _readme(self) -> str:

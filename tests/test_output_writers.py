@@ -1,0 +1,222 @@
+"""Writers under hostile output folders and cells: links, formulas, line breaks, failures.
+
+Every file soilstats writes into ``--out`` goes through ``soilstats.report.files``: never
+through a symbolic link (dangling or not), always through a temporary file renamed into
+place, and CSV cells made safe for spreadsheets and for ``pandas.read_csv(comment="#")``.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import soilstats
+from soilstats.campaign import load_campaign
+from soilstats.cli.main import main
+from soilstats.report import Provenance, write_atomic, write_csv, write_json
+from soilstats.report import files as report_files
+
+
+@pytest.fixture
+def outside(tmp_path: Path) -> Path:
+    """A folder beside ``--out``, which nothing may write into."""
+    folder = tmp_path / "outside"
+    folder.mkdir()
+    return folder
+
+
+def _provenance(*argv: str) -> Provenance:
+    return Provenance.of(None, argv=list(argv) or None)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# --- links inside --out -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["identify.json", "identify.csv", "identify.pdf"])
+def test_a_dangling_link_in_out_is_refused_and_its_target_never_made(
+    name, tmp_path, outside, capsys
+):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).symlink_to(outside / "made")
+    argv = ["identify", "cullinan-sand", "--out", str(out), "--progress", "off"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"{out / name}: is a symbolic link (to '{outside / 'made'}', dangling)" in err
+    assert "Traceback" not in err
+    assert not list(outside.iterdir())
+    assert (out / name).is_symlink()
+
+
+def test_a_link_to_a_file_outside_is_never_overwritten(tmp_path, outside, capsys):
+    victim = outside / "victim.json"
+    victim.write_text("keep")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "check.json").symlink_to(victim)
+    assert main(["check", "cullinan-sand", "--out", str(out), "--overwrite"]) == 2
+    assert "is a symbolic link" in capsys.readouterr().err
+    assert victim.read_text() == "keep" and (out / "check.json").is_symlink()
+
+
+def test_out_itself_may_be_a_link_to_a_folder_but_not_a_dangling_one(tmp_path, outside, capsys):
+    link = tmp_path / "out"
+    link.symlink_to(outside)
+    assert main(["check", "cullinan-sand", "--out", str(link)]) == 0
+    assert (outside / "check.json").is_file()
+    dangling = tmp_path / "gone"
+    dangling.symlink_to(tmp_path / "nowhere")
+    assert main(["check", "cullinan-sand", "--out", str(dangling)]) == 2
+    assert "is a dangling symbolic link" in capsys.readouterr().err
+    assert not (tmp_path / "nowhere").exists()
+
+
+def test_saving_a_campaign_never_writes_through_a_link(tmp_path, outside):
+    campaign = load_campaign("cullinan-sand")
+    folder = tmp_path / "c"
+    folder.mkdir()
+    (folder / "sinkage.csv").symlink_to(outside / "sinkage.csv")
+    with pytest.raises(OSError, match="is a symbolic link"):
+        campaign.save(folder, overwrite=True)
+    assert not list(outside.iterdir())
+    assert sorted(p.name for p in folder.iterdir()) == ["sinkage.csv"]  # nothing written
+
+
+def test_a_simulation_refuses_a_link_before_writing_anything(tmp_path, outside):
+    from soilstats.simulation import simulate
+
+    folder = tmp_path / "sim"
+    folder.mkdir()
+    (folder / "truth.json").symlink_to(outside / "truth.json")
+    spec = Path(soilstats.__file__).parent / "data" / "simulated-paper" / "spec.toml"
+    with pytest.raises(OSError, match="is a symbolic link"):
+        simulate(spec, seed=1).save(folder, overwrite=True)
+    assert not list(outside.iterdir())
+    assert [p.name for p in folder.iterdir()] == ["truth.json"]
+
+
+# --- CSV cells ------------------------------------------------------------------------------
+
+
+def test_formula_cells_are_escaped_and_numbers_never_altered(tmp_path):
+    texts = ['=HYPERLINK("x")', "+1", "-2", "@SUM(A1)", "\tx", "\rx", "plain", "a-b"]
+    frame = pd.DataFrame(
+        {"name": texts, "value": np.linspace(-3.5, 3.5, len(texts)), "n": range(-4, 4)}
+    )
+    frame["mixed"] = pd.Series([-1.5, "-x", 2, None, "=1", 0.0, "ok", -7], dtype=object)
+    path = write_csv(tmp_path / "t.csv", frame.rename(columns={"n": "=n"}), _provenance())
+    back = pd.read_csv(path, comment="#", keep_default_na=False)
+    assert list(back["name"]) == ["'" + t if t[0] in "=+-@\t\r" else t for t in texts]
+    assert back["value"].tolist() == frame["value"].tolist()  # negative numbers stay numbers
+    assert back["'=n"].tolist() == list(range(-4, 4))  # a column name is text too
+    assert list(back["mixed"]) == ["-1.5", "'-x", "2", "", "'=1", "0.0", "ok", "-7"]
+
+
+def test_line_breaks_hashes_commas_and_quotes_in_cells_read_back_whole(tmp_path):
+    cells = ["two\nlines", "cr\rinside", "bin #3", 'say "hi", twice', "", "#start"]
+    frame = pd.DataFrame({"note": cells, "x": [1.0, 2.0, np.nan, 4.0, 5.0, 6.0]})
+    path = write_csv(tmp_path / "t.csv", frame, _provenance())
+    back = pd.read_csv(path, comment="#")
+    assert back.shape == frame.shape
+    assert back["note"].fillna("").tolist() == cells
+    pd.testing.assert_series_equal(back["x"], frame["x"])
+    one = write_csv(tmp_path / "one.csv", frame[["note"]], _provenance())
+    assert len(pd.read_csv(one, comment="#")) == len(cells)  # the empty cell is a row too
+
+
+def test_a_command_line_with_a_line_break_stays_in_its_comment_line(tmp_path):
+    provenance = _provenance("identify", "--select", "soil=a\nb", "--out", "x\ry")
+    frame = pd.DataFrame({"a": [1, 2]})
+    path = write_csv(tmp_path / "t.csv", frame, provenance)
+    lines = path.read_text(encoding="utf-8").split("\n")
+    comments = [ln for ln in lines if ln.startswith("#")]
+    assert len(comments) == len(provenance.lines())
+    assert lines[len(comments)] == "a"  # the header follows the comments directly
+    assert "soil=a\\nb" in path.read_text() and "x\\ry" in path.read_text()
+    pd.testing.assert_frame_equal(pd.read_csv(path, comment="#"), frame)
+
+
+# --- atomic writes ------------------------------------------------------------------------
+
+
+def test_a_failing_serialiser_leaves_the_old_file_and_no_temporary(tmp_path, monkeypatch):
+    path = write_csv(tmp_path / "t.csv", pd.DataFrame({"a": [1]}), _provenance())
+    before = path.read_bytes()
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("serialiser failed")
+
+    monkeypatch.setattr(report_files, "csv_text", broken)
+    with pytest.raises(RuntimeError, match="serialiser failed"):
+        write_csv(path, pd.DataFrame({"a": [2]}), _provenance(), overwrite=True)
+    monkeypatch.setattr(report_files.json, "dumps", broken)
+    with pytest.raises(RuntimeError, match="serialiser failed"):
+        write_json(tmp_path / "t.json", {"a": 1}, _provenance())
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["t.csv"]
+
+
+def test_a_write_that_fails_midway_leaves_no_partial_file(tmp_path):
+    path = tmp_path / "posterior.nc"
+    path.write_bytes(b"old")
+
+    def half(tmp: Path) -> None:
+        tmp.write_bytes(b"half of a ")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space left"):
+        write_atomic(path, half)
+    assert path.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["posterior.nc"]
+
+
+def test_a_campaign_save_that_fails_leaves_the_folder_as_it_was(tmp_path, monkeypatch):
+    from soilstats.campaign import io as campaign_io
+
+    campaign = load_campaign("cullinan-sand")
+    folder = campaign.save(tmp_path / "c")
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    real = campaign_io.write_table
+
+    def fails_on_sinkage(frame, path, fmt):
+        real(frame, path, fmt)
+        if "sinkage" in path.name:
+            raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(campaign_io, "write_table", fails_on_sinkage)
+    with pytest.raises(OSError, match="No space left"):
+        campaign.select(preparation="1").save(folder, format="parquet", overwrite=True)
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+def test_outputs_get_the_permissions_of_a_plain_write(tmp_path):
+    path = write_json(tmp_path / "t.json", {"a": 1}, _provenance())
+    assert path.stat().st_mode & 0o777 == 0o666 & ~_umask()
+
+
+def test_the_no_silent_overwrite_rule_holds(tmp_path):
+    path = write_json(tmp_path / "t.json", {"a": 1}, _provenance())
+    with pytest.raises(FileExistsError):
+        write_json(path, {"a": 2}, _provenance())
+    write_json(path, {"a": 3}, _provenance(), overwrite=True)
+    assert '"a": 3' in path.read_text()
+
+
+def test_report_csv_reads_back_as_documented():
+    """The README's recipe: pandas.read_csv(path, comment="#")."""
+    text = report_files.csv_text(pd.DataFrame({"a": ["x#y"], "b": [-1.0]}))
+    assert pd.read_csv(io.StringIO(text), comment="#").to_dict("list") == {
+        "a": ["x#y"],
+        "b": [-1.0],
+    }
