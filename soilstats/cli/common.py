@@ -380,12 +380,18 @@ def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) 
     path, a directory where a file belongs, a refused overwrite) is exit 2 with the message;
     anything else is a bug: exit 1, with the traceback for the report.
     """
+    import numpy as np
+
     from ..errors import SoilstatsError
 
     try:
         check_out(getattr(args, "out", None))
-        with warnings.catch_warnings():  # restores the hook afterwards (tests call main)
+        # numpy's floating-point and runtime warnings never reach the user: the library
+        # checks its numbers itself and says what is wrong in its own words (a
+        # ConvergenceWarning, a health flag, an error naming the file and test).
+        with warnings.catch_warnings(), np.errstate(all="ignore"):  # both restored afterwards
             warnings.showwarning = _show_warning
+            warnings.filterwarnings("ignore", category=RuntimeWarning)
             return run(args)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter
 
-from .records import SPIKE_NOISE_WIDTHS, SPIKE_SPAN_FRACTION, _robust_width
+from .records import SPIKE_NOISE_WIDTHS, SPIKE_SPAN_FRACTION, _resolution, _robust_width
 
 __all__ = [
     "ANCHOR_SAMPLES",
@@ -52,8 +52,6 @@ ANCHOR_TOLERANCE = 0.2
 #: Samples around a candidate whose second differences give its local noise (the spike
 #: rule's 21).
 LOCAL_WINDOW = 21
-#: Repeated readings in a run longer than this are a plateau (a hold), not quantisation.
-PLATEAU_RUN = 3
 #: Fewest samples a record needs for the rule (two anchors of three and room for a burst).
 BURST_MIN_SAMPLES = 12
 
@@ -89,27 +87,6 @@ def find_bursts(values: np.ndarray) -> np.ndarray:
         if hit is not None:
             found.append(hit)
     return np.concatenate(found) if found else np.array([], int)
-
-
-def _resolution(x: np.ndarray) -> float:
-    """The sensor's step where the record is visibly quantised (10 % or more of its steps
-    repeat a reading), else 0 — counting only repeats in runs of at most
-    :data:`PLATEAU_RUN`: a hold repeats z for many samples without any quantisation, and
-    its ramp's step is then no noise width."""
-    steps = np.abs(np.diff(x))
-    if not steps.size:
-        return 0.0
-    zero = steps == 0
-    edges = np.flatnonzero(np.diff(np.r_[0, zero.astype(np.int8), 0]))
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):
-        if stop - start > PLATEAU_RUN:
-            zero[start:stop] = False
-            steps[start:stop] = np.nan  # a plateau: neither a repeat nor a step
-    counted = np.isfinite(steps)
-    if not counted.any() or zero.sum() < 0.1 * counted.sum():
-        return 0.0
-    moving = steps[counted & ~zero]
-    return float(moving.min()) if moving.size else 0.0
 
 
 def _judge(x: np.ndarray, a: int, b: int, threshold: float) -> np.ndarray | None:

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import median_filter
 
-from .records import _quantum, _robust_width
+from .records import _resolution, _robust_width
 
 __all__ = [
     "EXCLUDED_PHASES",
@@ -155,10 +155,10 @@ class RecordPhases:
 
 def _noise(values: np.ndarray) -> float:
     """Robust width of the white noise on ``values`` (second differences; floored at the
-    sensor's step)."""
+    sensor's step, which a hold's repeated readings do not set)."""
     if values.size < 3:
         return 0.0
-    return max(_robust_width(np.diff(values, 2)) / np.sqrt(6.0), _quantum(values))
+    return max(_robust_width(np.diff(values, 2)) / np.sqrt(6.0), _resolution(values))
 
 
 def _held_rise(force: np.ndarray, noise: float) -> int:
@@ -245,7 +245,7 @@ def _label_excursions(
     if not triggers.size:
         return
     z_after = z[start:]
-    band = max(STANDING_NOISE_WIDTHS * _noise(z_after), 3.0 * _quantum(z_after), 1e-12)
+    band = max(STANDING_NOISE_WIDTHS * _noise(z_after), 3.0 * _resolution(z_after), 1e-12)
     steps = np.diff(z_after)
     rate = float(np.median(steps[steps > 0])) if (steps > 0).any() else 0.0
     travel = float(np.ptp(z_after))

@@ -93,6 +93,9 @@ RUNAWAY_FLAT_GAIN = 0.02
 FALLBACK_FRACTION = 0.02
 #: ... lasting this many samples at least (shorter is a spike's business).
 FALLBACK_MIN_RUN = 3
+#: Repeated readings in a run longer than this are a plateau (a hold: the drive stood still),
+#: not the sensor's quantisation (:func:`_resolution`).
+PLATEAU_RUN = 3
 #: Saturation: samples exactly at the maximum.
 SATURATION_MIN_SAMPLES = 4
 
@@ -127,6 +130,27 @@ def _quantum(values: np.ndarray) -> float:
         return 0.0
     steps = steps[steps > 0]
     return float(steps.min()) if steps.size else 0.0
+
+
+def _resolution(x: np.ndarray) -> float:
+    """The sensor's step where the record is visibly quantised (10 % or more of its steps
+    repeat a reading), else 0 — counting only repeats in runs of at most
+    :data:`PLATEAU_RUN`: a hold repeats z for many samples without any quantisation, and
+    its ramp's step is then no noise width."""
+    steps = np.abs(np.diff(x))
+    if not steps.size:
+        return 0.0
+    zero = steps == 0
+    edges = np.flatnonzero(np.diff(np.r_[0, zero.astype(np.int8), 0]))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        if stop - start > PLATEAU_RUN:
+            zero[start:stop] = False
+            steps[start:stop] = np.nan  # a plateau: neither a repeat nor a step
+    counted = np.isfinite(steps)
+    if not counted.any() or zero.sum() < 0.1 * counted.sum():
+        return 0.0
+    moving = steps[counted & ~zero]
+    return float(moving.min()) if moving.size else 0.0
 
 
 def find_spikes(values: np.ndarray) -> np.ndarray:
