@@ -33,9 +33,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
         out_help="also write identify.json, identify.csv (every fit) and identify.pdf into DIR",
     )
     add_data_options(parser)
+    from ..models import model_names  # the registry (light: numpy only)
+
     parser.add_argument(
         "--model",
-        choices=("auto", "bekker", "bernstein", "reece"),
+        choices=("auto", *model_names("sinkage")),
         default="auto",
         help="sinkage model (auto: Bekker where 2+ plate sizes)",
     )
