@@ -35,7 +35,13 @@ from ..fitting.result import FitResult
 from ..identification.starting_values import janosi_start, reece_from_bekker, sinkage_start
 from ..identification.wong import wong_start
 from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
-from ..models.extended import ShearLayout, SinkageLayout, shear_family, sinkage_family
+from ..models.extended import (
+    ShearLayout,
+    SinkageLayout,
+    model_family,
+    shear_family,
+    sinkage_family,
+)
 from .candidates import MISSING, candidate_values, spans_log
 from .separable import check_shear_terms, sinkage_keeps_bekker
 
@@ -43,6 +49,7 @@ __all__ = [
     "Extension",
     "Features",
     "Fitted",
+    "ModelExtension",
     "ReeceExtension",
     "ShearExtension",
     "SinkageExtension",
@@ -317,6 +324,74 @@ class ReeceExtension(Extension):
         )
 
 
+# ------------------------------------------------------------- a registered model of one's own
+#: The group's per-sample inputs (:class:`~.data.Group`) by the pooled-data column a model
+#: record names (``Model.columns``).
+_GROUP_INPUTS = {"b_m": "b", "z_m": "z", "sigma_Pa": "sigma", "j_m": "j"}
+
+
+@dataclass(frozen=True)
+class ModelExtension(Extension):
+    """A registered model (``discover(model=...)``, docs/conventions.md "The model record")
+    with covariate terms: a factor exp(θ·F) on its output for ``"k"`` (stiffness) targets
+    and an offset θ·F on its exponent n for ``"n"`` targets (:class:`~soilstats.models
+    .extended.ModelFamily`).  It starts from the record's starting values."""
+
+    model: object = None  # the Model record
+    terms: tuple[Term, ...] = ()
+
+    def _x(self, group, mask):
+        try:
+            data = {c: group.x[_GROUP_INPUTS[c]][mask] for c in self.model.columns}
+        except KeyError:
+            raise IdentifiabilityError(
+                f"{self.name}: discovery has the inputs {sorted(_GROUP_INPUTS)} of each "
+                f"sample, the model takes {list(self.model.columns)}"
+            ) from None
+        return self.model.x_from(data)
+
+    def _inputs(self, group, rows, state):
+        mask = group.samples_of(rows)
+        owner = group.owner[mask]
+        states = state.get("terms", [])
+        fs = _stack(self.terms, states, group, owner, "k")
+        gd = _stack(self.terms, states, group, owner, "n")
+        family = model_family(self.model, self._x(group, mask), fs, gd, self.model.exponent)
+        return mask, None, family
+
+    def _names(self, state):
+        names, units = list(self.model.param_names), list(self.model.units)
+        states = state.get("terms", [])
+        for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
+            extra = _term_names(self.terms, states, target, label)
+            names += extra
+            units += ["-"] * len(extra)
+        return names, units
+
+    def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
+        rows = np.asarray(rows, int)
+        state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
+        sinkage_keeps_bekker(self.name, False, self.terms, state["terms"], group, rows)
+        mask, _, family = self._inputs(group, rows, state)
+        y, w = group.y[mask], group.w[mask]
+        p = self.model.n_params
+        if base is not None and isinstance(base.extension, ModelExtension):
+            start = list(base.result.values[:p])
+        else:
+            if self.model.start is None:
+                raise ValueError(f"{self.model.name} states no starting values (Model.start)")
+            start = list(self.model.start(self._x(group, mask), y))
+        p0 = start + [0.0] * (family.size - p)
+        names, units = self._names(state)
+        bounds = self.model.bounds_of
+        result = _identify(family, y, w, p0, names, units, bounds, self.name)
+        return Fitted(self, result, state)
+
+    def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
+        _, _, family = self._inputs(group, np.asarray(rows, int), fitted.state)
+        return family.f(fitted.result.values)
+
+
 # ----------------------------------------------------------------------------- shear models
 @dataclass(frozen=True)
 class ShearExtension(Extension):
@@ -388,7 +463,16 @@ def shear_inputs_a(group, rows) -> np.ndarray:
 # ------------------------------------------------------------------------------ the library
 def base_model(group, rows) -> Extension:
     """The paper's base model for these tests: Bekker (Eq. 7) with two or more plate sizes,
-    else Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear."""
+    else Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear — or the group's own
+    registered model (``Group.model``, from ``discover(model=...)``)."""
+    own = getattr(group, "model", None)
+    if own is not None and own.kind == group.kind:
+        return ModelExtension(
+            f"{own.name} (base)",
+            False,
+            f"{own.equation.split(':')[0]}, one {', '.join(own.param_names)}",
+            model=own,
+        )
     if group.kind == "shear":
         return ShearExtension("janosi (base)", False, "Eq. 13, one c, φ, K for all tests")
     sizes = np.unique(np.round(group.tests["b_m"].to_numpy(float)[np.asarray(rows, int)], 9))
@@ -429,6 +513,8 @@ def library(
     tests = group.tests.iloc[np.asarray(rows, int)]
     out: list[Extension] = []
     base = base_model(group, rows)
+    if isinstance(base, ModelExtension):
+        return _own_library(base, group, tests, cause, names, numeric, responses, log_scale)
     if group.kind == "sinkage":
         bekker = base.bekker
         v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
@@ -515,6 +601,48 @@ def library(
     return out
 
 
+def _own_library(base, group, tests, cause, names, numeric, responses, log_scale) -> list:
+    """A registered model's extensions: the velocity law (k·(v/v_ref)^a and an offset of n)
+    where the velocity is a cause, then the generic one (the responses' parameters depend on
+    the cause).  Softening, Reece and the per-size Bernstein law are the paper's
+    Bekker/Bernstein's."""
+    model, out = base.model, []
+    n_free = model.exponent is not None
+    v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
+    if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
+        targets = ("k", "n") if n_free else ("k",)
+        out.append(
+            ModelExtension(
+                "velocity",
+                True,
+                "stiffness·(v/v_ref)^a" + (" and n + m·ln(v/v_ref)" if n_free else ""),
+                model=model,
+                terms=(Term(Features("velocity_m_s", "velocity"), targets),),
+            )
+        )
+    stiffness = "level" in responses or not responses
+    exponent = n_free and ("shape" in responses or not responses)
+    if not (stiffness or exponent):
+        stiffness = True  # a shape effect on a model without an exponent: its level moves
+    how = "linear" if numeric else "levels"
+    out.append(
+        ModelExtension(
+            f"{cause} ({how})",
+            False,
+            f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
+            f"{'n' if exponent else ''} depend on {cause} ({how})",
+            model=model,
+            terms=(
+                Term(
+                    Features(cause, how, log_scale=log_scale),
+                    ("k",) * stiffness + ("n",) * exponent,
+                ),
+            ),
+        )
+    )
+    return out
+
+
 def _fixes_width(tests, column) -> bool:
     """Whether each level of ``column`` holds one plate width b among ``tests``."""
     levels = candidate_values(tests, column).astype(object).fillna(MISSING)
@@ -534,7 +662,11 @@ def combine(extensions) -> Extension | None:
     if len(extensions) == 1:
         return extensions[0]
     if not extensions or any(
-        not isinstance(e, SinkageExtension | ShearExtension) for e in extensions
+        not isinstance(e, SinkageExtension | ShearExtension | ModelExtension) for e in extensions
+    ):
+        return None
+    if any(isinstance(e, ModelExtension) for e in extensions) and not all(
+        isinstance(e, ModelExtension) and e.model == extensions[0].model for e in extensions
     ):
         return None
     merged: dict[Features, tuple[str, ...]] = {}  # Features is frozen: its fields are the key
@@ -545,6 +677,8 @@ def combine(extensions) -> Extension | None:
     name = " + ".join(e.name for e in extensions)
     description = "; ".join(e.description for e in extensions)
     physical = all(e.physical for e in extensions)
+    if isinstance(extensions[0], ModelExtension):
+        return ModelExtension(name, physical, description, model=extensions[0].model, terms=terms)
     if isinstance(extensions[0], SinkageExtension):
         return SinkageExtension(
             name,
