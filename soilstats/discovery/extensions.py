@@ -160,6 +160,26 @@ def _term_names(terms, states, target, label) -> list[str]:
     ]
 
 
+def _sinkage_features(terms, group, rows, state):
+    """``(mask, owner, fs, gd)``: the samples of the tests ``rows``, their tests, and the
+    per-sample features of the stiffness (``"k"``) and exponent (``"n"``) terms."""
+    mask = group.samples_of(rows)
+    owner = group.owner[mask]
+    states = state.get("terms", [])
+    fs = _stack(terms, states, group, owner, "k")
+    gd = _stack(terms, states, group, owner, "n")
+    return mask, owner, fs, gd
+
+
+def _add_term_names(names: list, units: list, terms, state) -> None:
+    """Append the names (and unit "-") of the stiffness factors and exponent offsets."""
+    states = state.get("terms", [])
+    for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
+        extra = _term_names(terms, states, target, label)
+        names += extra
+        units += ["-"] * len(extra)
+
+
 @dataclass(frozen=True, eq=False)
 class Fitted:
     """An extension fitted on some tests: the identification result and its fitted state."""
@@ -215,11 +235,7 @@ class SinkageExtension(Extension):
     soften: bool = False
 
     def _inputs(self, group, rows, state):
-        mask = group.samples_of(rows)
-        owner = group.owner[mask]
-        states = state.get("terms", [])
-        fs = _stack(self.terms, states, group, owner, "k")
-        gd = _stack(self.terms, states, group, owner, "n")
+        mask, owner, fs, gd = _sinkage_features(self.terms, group, rows, state)
         soft = None
         if self.soften:
             aspect = group.tests["aspect_ratio"].to_numpy(float)[owner]
@@ -236,11 +252,7 @@ class SinkageExtension(Extension):
     def _names(self, state):
         names = ["kc", "kphi", "n"] if state.get("bekker", self.bekker) else ["k", "n"]
         units = [_SINK_UNITS[n] for n in names]
-        states = state.get("terms", [])
-        for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
-            extra = _term_names(self.terms, states, target, label)
-            names += extra
-            units += ["-"] * len(extra)
+        _add_term_names(names, units, self.terms, state)
         if self.soften:
             names += ["z_c", "f_soft"]
             units += ["m", "-"]
@@ -351,21 +363,13 @@ class ModelExtension(Extension):
         return self.model.x_from(data)
 
     def _inputs(self, group, rows, state):
-        mask = group.samples_of(rows)
-        owner = group.owner[mask]
-        states = state.get("terms", [])
-        fs = _stack(self.terms, states, group, owner, "k")
-        gd = _stack(self.terms, states, group, owner, "n")
+        mask, _, fs, gd = _sinkage_features(self.terms, group, rows, state)
         family = model_family(self.model, self._x(group, mask), fs, gd, self.model.exponent)
         return mask, None, family
 
     def _names(self, state):
         names, units = list(self.model.param_names), list(self.model.units)
-        states = state.get("terms", [])
-        for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
-            extra = _term_names(self.terms, states, target, label)
-            names += extra
-            units += ["-"] * len(extra)
+        _add_term_names(names, units, self.terms, state)
         return names, units
 
     def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
@@ -561,19 +565,7 @@ def library(
             # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
             return out
         out.append(
-            SinkageExtension(
-                f"{cause} ({how})",
-                False,
-                f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
-                f"{'n' if exponent else ''} depend on {cause} ({how})",
-                bekker=bekker,
-                terms=(
-                    Term(
-                        Features(cause, how, log_scale=log_scale),
-                        ("k",) * stiffness + ("n",) * exponent,
-                    ),
-                ),
-            )
+            _generic(SinkageExtension, cause, how, stiffness, exponent, log_scale, bekker=bekker)
         )
         return out
     a = shear_inputs_a(group, rows)
@@ -625,22 +617,26 @@ def _own_library(base, group, tests, cause, names, numeric, responses, log_scale
     if not (stiffness or exponent):
         stiffness = True  # a shape effect on a model without an exponent: its level moves
     how = "linear" if numeric else "levels"
-    out.append(
-        ModelExtension(
-            f"{cause} ({how})",
-            False,
-            f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
-            f"{'n' if exponent else ''} depend on {cause} ({how})",
-            model=model,
-            terms=(
-                Term(
-                    Features(cause, how, log_scale=log_scale),
-                    ("k",) * stiffness + ("n",) * exponent,
-                ),
-            ),
-        )
-    )
+    out.append(_generic(ModelExtension, cause, how, stiffness, exponent, log_scale, model=model))
     return out
+
+
+def _generic(kind, cause, how, stiffness, exponent, log_scale, **form) -> Extension:
+    """The generic sinkage extension of ``kind``: the stiffness and/or the exponent depend on
+    ``cause`` (``how``: per level, or a linear trend)."""
+    return kind(
+        f"{cause} ({how})",
+        False,
+        f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
+        f"{'n' if exponent else ''} depend on {cause} ({how})",
+        terms=(
+            Term(
+                Features(cause, how, log_scale=log_scale),
+                ("k",) * stiffness + ("n",) * exponent,
+            ),
+        ),
+        **form,
+    )
 
 
 def _fixes_width(tests, column) -> bool:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -23,6 +24,7 @@ __all__ = [
     "PopulationLayout",
     "Positive",
     "PositiveModulus",
+    "PowerLawPopulation",
     "PowerLawTerms",
     "Within",
     "power_law_population",
@@ -129,10 +131,11 @@ def separable_from_power_law(power_law: Callable, x, weights) -> tuple[Callable,
 
 # ------------------------------------------------------------------- parts of the record
 @dataclass(frozen=True)
-class Positive:
-    """Support rule: ``name`` > 0 (a draw breaking it is counted as ``"{name} <= 0"``)."""
+class _ParameterRule:
+    """Support rule on one parameter: a draw breaking it is counted as ``label``."""
 
     name: str
+    broken: ClassVar[str] = ""
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -140,49 +143,48 @@ class Positive:
 
     @property
     def label(self) -> str:
-        return f"{self.name} <= 0"
+        return f"{self.name} {self.broken}"
 
     def holds(self, values: Mapping[str, np.ndarray], widths) -> np.ndarray:
-        return values[self.name] > 0
+        return self._inside(values[self.name])
+
+    def _inside(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover (abstract)
+        raise NotImplementedError
 
 
 @dataclass(frozen=True)
-class NonNegative:
+class Positive(_ParameterRule):
+    """Support rule: ``name`` > 0 (broken: ``"{name} <= 0"``)."""
+
+    broken: ClassVar[str] = "<= 0"
+
+    def _inside(self, x):
+        return x > 0
+
+
+@dataclass(frozen=True)
+class NonNegative(_ParameterRule):
     """Support rule: ``name`` ≥ 0 (c of a cohesionless sand is 0)."""
 
-    name: str
+    broken: ClassVar[str] = "< 0"
 
-    @property
-    def params(self) -> tuple[str, ...]:
-        return (self.name,)
-
-    @property
-    def label(self) -> str:
-        return f"{self.name} < 0"
-
-    def holds(self, values: Mapping[str, np.ndarray], widths) -> np.ndarray:
-        return values[self.name] >= 0
+    def _inside(self, x):
+        return x >= 0
 
 
 @dataclass(frozen=True)
-class Within:
+class Within(_ParameterRule):
     """Support rule: ``lower`` < ``name`` < ``upper`` (in ``unit``)."""
 
-    name: str
-    lower: float
-    upper: float
+    lower: float = -np.inf
+    upper: float = np.inf
     unit: str = ""
-
-    @property
-    def params(self) -> tuple[str, ...]:
-        return (self.name,)
 
     @property
     def label(self) -> str:
         return f"{self.name} outside ({self.lower:g}, {self.upper:g}) {self.unit}".rstrip()
 
-    def holds(self, values: Mapping[str, np.ndarray], widths) -> np.ndarray:
-        x = values[self.name]
+    def _inside(self, x):
         return (x > self.lower) & (x < self.upper)
 
 
@@ -227,59 +229,58 @@ class ParamLabel:
 @dataclass(frozen=True)
 class PopulationLayout:
     """How a soil model maps onto the population (hierarchical) posterior
-    (:mod:`soilstats.bayes.population_model`, module docstring).
+    (:mod:`soilstats.bayes.population_model`, module docstring): a subclass per family of
+    models states the maps.
 
     ``linear(θ)`` → the moduli m that enter a test's first per-test parameter linearly
     (a_tᵀm); ``second(θ)`` → g, the soil-level value of the second per-test coordinate;
-    ``assemble(m, g)`` → θ back.  ``log_second``: the per-test fit's second parameter enters
-    η as its logarithm (K) rather than as it is (n).
+    ``assemble(m, g)`` → θ back; ``linear_log_jacobian(θ)`` → log dθ_linear/d(moduli).
+    ``log_second``: the per-test fit's second parameter enters η as its logarithm (K)
+    rather than as it is (n).
     """
 
     per_test: tuple[str, str]  # names of the per-test fit's two parameters
     scatter: tuple[str, str, str]  # names of s_ε, s_δ, ρ in the posterior
     covariate: str  # per-test quantity of the design row: b_m or sigma_Pa
     log_second: bool
-    #: log dθ_linear/d(moduli): the moduli m are the parameters themselves (sinkage), or
-    #: (c, tan φ) of (c, φ [deg]) — ln dtanφ/dφ = −2 ln cos φ + const.
-    linear_log_jacobian: Callable[[np.ndarray], np.ndarray]
-    linear: Callable[[np.ndarray], np.ndarray]
-    second: Callable[[np.ndarray], np.ndarray]
-    assemble: Callable[[np.ndarray, np.ndarray], np.ndarray]
     scatter_note: str
 
+    def linear_log_jacobian(self, theta: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
 
-# The population layout of a power law (θ = (a₁ … a_q, n)): module-level functions, not
-# lambdas, so that a record pickled to a worker process compares equal to the original.
-def _no_log_jacobian(theta):
-    return np.zeros(theta.shape[0])
+    def linear(self, theta: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
 
+    def second(self, theta: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
 
-def _moduli(theta):
-    return theta[:, :-1]
-
-
-def _exponent(theta):
-    return theta[:, -1]
+    def assemble(self, m: np.ndarray, g: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
 
 
-def _moduli_and_exponent(m, g):
-    return np.column_stack([m, g])
+@dataclass(frozen=True)
+class PowerLawPopulation(PopulationLayout):
+    """A power law θ = (a₁ … a_q, n): each test a Bernstein fit (k_t, n_t) whose k_t is
+    linear in the moduli a (``Model.power_law``'s basis at its b); the moduli are the
+    parameters themselves, so their log-Jacobian is 0."""
+
+    def linear_log_jacobian(self, theta):
+        return np.zeros(theta.shape[0])
+
+    def linear(self, theta):
+        return theta[:, :-1]
+
+    def second(self, theta):
+        return theta[:, -1]
+
+    def assemble(self, m, g):
+        return np.column_stack([m, g])
 
 
-def power_law_population(scatter_note: str) -> PopulationLayout:
-    """The population layout of a power-law sinkage model: each test a Bernstein fit
-    (k_t, n_t) whose k_t is linear in the moduli a (``Model.power_law``'s basis at its b)."""
-    return PopulationLayout(
-        per_test=("k", "n"),
-        scatter=("sd_p_ref", "sd_n", "corr_p_ref_n"),
-        covariate="b_m",
-        log_second=False,
-        linear_log_jacobian=_no_log_jacobian,
-        linear=_moduli,
-        second=_exponent,
-        assemble=_moduli_and_exponent,
-        scatter_note=scatter_note,
-    )
+def power_law_population(scatter_note: str) -> PowerLawPopulation:
+    """The population layout of a power-law sinkage model (:class:`PowerLawPopulation`)."""
+    scatter = ("sd_p_ref", "sd_n", "corr_p_ref_n")
+    return PowerLawPopulation(("k", "n"), scatter, "b_m", False, scatter_note)
 
 
 def _pairs(value) -> tuple:

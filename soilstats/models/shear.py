@@ -9,12 +9,14 @@ Eq. 13 is used in the Janosi–Hanamoto form with exponent −j/K (the paper's t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .base import Model, NonNegative, ParamLabel, PopulationLayout, Positive, Within
 from .priors import NON_NEGATIVE, POSITIVE, Uniform
 
-__all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "side_wall_ratio"]
+__all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "JanosiPopulation", "side_wall_ratio"]
 
 RAD_PER_DEG = np.pi / 180.0
 
@@ -75,22 +77,23 @@ def _start_shear_curve(j, tau):
     return shear_curve_start(j, tau)
 
 
-# Janosi–Hanamoto's population layout (soilstats.bayes.population_model): each test's
-# Eq. 13 at its own σ, (τ_max,t, K_t), with τ_max linear in (c, tan φ).
-def _janosi_log_jacobian(theta):
-    return -2.0 * np.log(np.cos(theta[:, 1] * RAD_PER_DEG))
+@dataclass(frozen=True)
+class JanosiPopulation(PopulationLayout):
+    """Janosi–Hanamoto's population layout (:mod:`soilstats.bayes.population_model`): each
+    test's Eq. 13 at its own σ, (τ_max,t, K_t), with τ_max linear in (c, tan φ) and K
+    entering as ln K."""
 
+    def linear_log_jacobian(self, theta):
+        return -2.0 * np.log(np.cos(theta[:, 1] * RAD_PER_DEG))
 
-def _janosi_linear(theta):
-    return np.column_stack([theta[:, 0], np.tan(theta[:, 1] * RAD_PER_DEG)])
+    def linear(self, theta):
+        return np.column_stack([theta[:, 0], np.tan(theta[:, 1] * RAD_PER_DEG)])
 
+    def second(self, theta):
+        return np.log(theta[:, 2])
 
-def _janosi_second(theta):
-    return np.log(theta[:, 2])
-
-
-def _janosi_assemble(m, g):
-    return np.column_stack([m[:, 0], np.arctan(m[:, 1]) / RAD_PER_DEG, np.exp(g)])
+    def assemble(self, m, g):
+        return np.column_stack([m[:, 0], np.arctan(m[:, 1]) / RAD_PER_DEG, np.exp(g)])
 
 
 _PHI_PRIOR = Uniform(0.0, 90.0)
@@ -140,16 +143,12 @@ JANOSI = Model(
     support=(*_SHEAR_SUPPORT, Positive("K")),
     design_input="sigma_Pa",
     weighting="max-stress",
-    population=PopulationLayout(
-        per_test=("tau_max", "K"),
-        scatter=("sd_strength", "sd_lnK", "corr_strength_K"),
-        covariate="sigma_Pa",
-        log_second=True,
-        linear_log_jacobian=_janosi_log_jacobian,
-        linear=_janosi_linear,
-        second=_janosi_second,
-        assemble=_janosi_assemble,
-        scatter_note="tau_max,t = (c + sigma_t tan phi) exp(eps_t), K_t = K exp(delta_t)",
+    population=JanosiPopulation(
+        ("tau_max", "K"),
+        ("sd_strength", "sd_lnK", "corr_strength_K"),
+        "sigma_Pa",
+        True,
+        "tau_max,t = (c + sigma_t tan phi) exp(eps_t), K_t = K exp(delta_t)",
     ),
     scm={**_SCM_STRENGTH, "K": ("Janosi_shear", "m")},
     labels={"c": _C_LABEL, "phi": _PHI_LABEL, "K": _K_LABEL},

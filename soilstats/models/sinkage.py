@@ -141,6 +141,15 @@ def _wong_bernstein(z, p):
 
 _N_LABEL = ParamLabel("n", r"$n$", "n", "–", "dimensionless", 1.0)
 
+# What Bekker and Reece share: inputs (b, z), and two plate sizes to tell their terms apart.
+_SIZED_PLATES = dict(
+    kind="sinkage",
+    columns=("b_m", "z_m"),
+    min_plate_sizes=2,
+    design_input="b_m",
+    weighting="max-pressure",
+)
+
 _N_RANGE = (0.0, 5.0)  # measured n of dry granular soils and clays lie well inside (paper: 0.8–3.6)
 
 BEKKER = Model(
@@ -158,15 +167,11 @@ BEKKER = Model(
     jac=bekker_jac,
     separable=_separable_bekker,
     power_law=_bekker_terms,
-    kind="sinkage",
-    columns=("b_m", "z_m"),
+    **_SIZED_PLATES,
     start=_start_bekker,
     wong=_wong_bekker,
     priors={"kc": FLAT, "kphi": POSITIVE, "n": POSITIVE},
     support=(Positive("n"), PositiveModulus("kc/b + kphi", bekker_modulus, ("kc", "kphi", "n"))),
-    min_plate_sizes=2,
-    design_input="b_m",
-    weighting="max-pressure",
     population=power_law_population(
         "k_t(b) = (kc/b + kphi) exp(eps_t - delta_t ln z_s), n_t = n + delta_t"
     ),
@@ -219,14 +224,10 @@ REECE = Model(
     bounds=((-np.inf, np.inf), (0.0, np.inf), _N_RANGE),
     func=reece,
     jac=reece_jac,
-    kind="sinkage",
-    columns=("b_m", "z_m"),
+    **_SIZED_PLATES,
     start=_start_reece,
     priors={"k1": FLAT, "k2": POSITIVE, "n": POSITIVE},
     support=(Positive("n"), PositiveModulus("k1 + k2 b", reece_modulus, ("k1", "k2", "n"))),
-    min_plate_sizes=2,
-    design_input="b_m",
-    weighting="max-pressure",
     labels={
         "k1": ParamLabel("k_1", r"$k_1$", "k_1", "kPa", "kPa", 1e-3),
         "k2": ParamLabel("k_2", r"$k_2$", "k_2", "kPa/m", "kPa/m", 1e-3),
