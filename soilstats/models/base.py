@@ -16,6 +16,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..errors import ModelError
+
 __all__ = [
     "KINDS",
     "Model",
@@ -414,14 +416,14 @@ class Model:
         for name in ("priors", "scm", "labels"):
             object.__setattr__(self, name, _pairs(getattr(self, name)))
         if self.kind and self.kind not in KINDS:
-            raise ValueError(f"model {self.name!r}: kind must be one of {KINDS}, got {self.kind!r}")
+            raise ModelError(f"model {self.name!r}: kind must be one of {KINDS}, got {self.kind!r}")
         if self.columns and len(self.columns) != len(self.inputs):
-            raise ValueError(
+            raise ModelError(
                 f"model {self.name!r}: columns {self.columns} do not match inputs {self.inputs}"
             )
         unknown = {n for n, _ in (*self.priors, *self.scm, *self.labels)} - set(self.param_names)
         if unknown:
-            raise ValueError(
+            raise ModelError(
                 f"model {self.name!r}: priors, scm or labels name {sorted(unknown)}, which are "
                 f"not parameters (parameters: {list(self.param_names)})"
             )
@@ -502,6 +504,6 @@ class Model:
         """``x`` from the pooled data's columns (:attr:`columns`): the one array of a model
         with one input, else the (k, N) stack."""
         if not self.columns:
-            raise ValueError(f"model {self.name!r} states no data columns (Model.columns)")
+            raise ModelError(f"model {self.name!r} states no data columns (Model.columns)")
         cols = [data[c] for c in self.columns]
         return cols[0] if len(cols) == 1 else np.vstack(cols)

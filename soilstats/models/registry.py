@@ -15,6 +15,7 @@ ones, never a silent default.
 
 from __future__ import annotations
 
+from ..errors import ModelError
 from .base import KINDS, Model
 
 __all__ = [
@@ -30,12 +31,6 @@ __all__ = [
 MODELS: dict[str, Model] = {}
 
 
-def _error(message: str):
-    from ..errors import ModelError
-
-    return ModelError(message)
-
-
 def register_model(model: Model, *, replace: bool = False) -> Model:
     """Register ``model`` under its name; returns it (so a module can write
     ``MY_MODEL = register_model(Model(...))``).
@@ -45,15 +40,15 @@ def register_model(model: Model, *, replace: bool = False) -> Model:
     (and the paper's models cannot be replaced).
     """
     if not isinstance(model, Model):
-        raise _error(f"register_model takes a soilstats.Model, got {type(model).__name__}")
+        raise ModelError(f"register_model takes a soilstats.Model, got {type(model).__name__}")
     if model.kind not in KINDS:
-        raise _error(f"model {model.name!r}: kind must be one of {KINDS}, got {model.kind!r}")
+        raise ModelError(f"model {model.name!r}: kind must be one of {KINDS}, got {model.kind!r}")
     if not model.columns:
-        raise _error(f"model {model.name!r} names no data columns (Model.columns)")
+        raise ModelError(f"model {model.name!r} names no data columns (Model.columns)")
     taken = MODELS.get(model.name)
     if taken is not None and taken is not model:
         if not replace or model.name in _BUILT_IN:
-            raise _error(
+            raise ModelError(
                 f"a model called {model.name!r} is registered already"
                 + ("" if model.name in _BUILT_IN else "; pass replace=True to replace it")
             )
@@ -64,7 +59,7 @@ def register_model(model: Model, *, replace: bool = False) -> Model:
 def unregister_model(name: str) -> None:
     """Remove a registered model of one's own (the paper's models stay)."""
     if name in _BUILT_IN:
-        raise _error(f"{name!r} is one of the paper's models and stays registered")
+        raise ModelError(f"{name!r} is one of the paper's models and stays registered")
     MODELS.pop(name, None)
 
 
@@ -85,12 +80,12 @@ def get_model(name: str | Model, kind: str | None = None) -> Model:
         model = MODELS.get(name)
         if model is None:
             known = model_names(kind)
-            raise _error(
+            raise ModelError(
                 f"unknown model {name!r}; choose one of {known} "
                 "(or register your own: soilstats.register_model)"
             )
     if kind is not None and model.kind != kind:
-        raise _error(
+        raise ModelError(
             f"{model.name!r} is a {model.kind or 'non-soil'} model; for {kind} tests choose one "
             f"of {model_names(kind)}"
         )
@@ -100,7 +95,7 @@ def get_model(name: str | Model, kind: str | None = None) -> Model:
 def models_of_kind(kind: str) -> tuple[Model, ...]:
     """The registered models of one kind, in the order of registration."""
     if kind not in KINDS:
-        raise _error(f"unknown kind {kind!r}; the kinds are {KINDS}")
+        raise ModelError(f"unknown kind {kind!r}; the kinds are {KINDS}")
     return tuple(m for m in MODELS.values() if m.kind == kind)
 
 
