@@ -4,6 +4,7 @@ unknown name is an error everywhere (docs/conventions.md, "The model record").""
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -208,6 +209,10 @@ def test_an_unknown_model_name_is_an_error_in_every_layer(campaign):
         soilstats.fit_shear(campaign, "bekker")
     with pytest.raises(ModelError, match=r"for sinkage tests choose one of \['bekker'"):
         sinkage_start("janosi", None, np.ones(3), np.ones(3))
+    # A record discovery cannot fit is refused before any fit, saying why.
+    odd = dataclasses.replace(TOY, name="toy-odd", columns=("sigma_Pa",))
+    with pytest.raises(ModelError, match="discovery has the inputs"):
+        soilstats.discover(campaign, model=odd)
 
 
 def test_an_unknown_model_name_is_exit_2_on_the_command_line(tmp_path, capsys):

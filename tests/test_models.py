@@ -100,14 +100,9 @@ def test_the_records_hold_what_the_layers_kept_in_lists():
         "phi": Uniform(0.0, 90.0),
         "K": POSITIVE,
     }
-    assert SIMULATOR_FORMATS["chrono-scm"] == {
-        "kphi": ("Bekker_Kphi", "Pa/m^n"),
-        "kc": ("Bekker_Kc", "Pa/m^(n-1)"),
-        "n": ("Bekker_n", "-"),
-        "c": ("Mohr_cohesion", "Pa"),
-        "phi": ("Mohr_friction", "deg"),
-        "K": ("Janosi_shear", "m"),
-    }
+    scm = SIMULATOR_FORMATS["chrono-scm"]
+    assert list(scm) == ["kphi", "kc", "n", "c", "phi", "K"]  # SCM's order of its inputs
+    assert scm["kc"] == ("Bekker_Kc", "Pa/m^(n-1)") and scm["K"] == ("Janosi_shear", "m")
     assert [r.label for r in BEKKER.support] == ["n <= 0", "kc/b + kphi <= 0"]
     assert [r.label for r in JANOSI.support] == ["c < 0", "phi outside (0, 90) deg", "K <= 0"]
     assert BEKKER.modulus.modulus(0.05, -1e3, 1e5, 1.0) == -1e3 / 0.05 + 1e5

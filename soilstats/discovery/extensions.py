@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..errors import ConvergenceError, IdentifiabilityError
+from ..errors import ConvergenceError, IdentifiabilityError, ModelError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..identification.starting_values import janosi_start, reece_from_bekker, sinkage_start
@@ -55,6 +55,7 @@ __all__ = [
     "SinkageExtension",
     "Term",
     "base_model",
+    "check_own_model",
     "combine",
     "library",
 ]
@@ -337,9 +338,25 @@ class ReeceExtension(Extension):
 
 
 # ------------------------------------------------------------- a registered model of one's own
-#: The group's per-sample inputs (:class:`~.data.Group`) by the pooled-data column a model
-#: record names (``Model.columns``).
-_GROUP_INPUTS = {"b_m": "b", "z_m": "z", "sigma_Pa": "sigma", "j_m": "j"}
+#: A group's per-sample inputs (:class:`~.data.Group`) by the pooled-data column a model
+#: record names (``Model.columns``), per kind.
+_GROUP_INPUTS = {"sinkage": {"b_m": "b", "z_m": "z"}, "shear": {"sigma_Pa": "sigma", "j_m": "j"}}
+
+
+def check_own_model(model) -> None:
+    """Raise :class:`~soilstats.errors.ModelError` unless discovery has every input the
+    registered ``model`` takes (``Model.columns``) and its starting values."""
+    have = _GROUP_INPUTS.get(model.kind, {})
+    missing = [c for c in model.columns if c not in have]
+    if missing or model.start is None:
+        raise ModelError(
+            f"discovery cannot fit {model.name!r}: "
+            + (
+                f"it takes {missing}, and discovery has the inputs {sorted(have)}"
+                if missing
+                else "its record states no starting values (Model.start)"
+            )
+        )
 
 
 @dataclass(frozen=True)
@@ -353,13 +370,8 @@ class ModelExtension(Extension):
     terms: tuple[Term, ...] = ()
 
     def _x(self, group, mask):
-        try:
-            data = {c: group.x[_GROUP_INPUTS[c]][mask] for c in self.model.columns}
-        except KeyError:
-            raise IdentifiabilityError(
-                f"{self.name}: discovery has the inputs {sorted(_GROUP_INPUTS)} of each "
-                f"sample, the model takes {list(self.model.columns)}"
-            ) from None
+        names = _GROUP_INPUTS[self.model.kind]
+        data = {c: group.x[names[c]][mask] for c in self.model.columns}
         return self.model.x_from(data)
 
     def _inputs(self, group, rows, state):
@@ -382,8 +394,6 @@ class ModelExtension(Extension):
         if base is not None and isinstance(base.extension, ModelExtension):
             start = list(base.result.values[:p])
         else:
-            if self.model.start is None:
-                raise ValueError(f"{self.model.name} states no starting values (Model.start)")
             start = list(self.model.start(self._x(group, mask), y))
         p0 = start + [0.0] * (family.size - p)
         names, units = self._names(state)

@@ -42,6 +42,7 @@ from .artefacts import quality_record, split_artefacts, with_quality_caveat
 from .crossval import group_rng
 from .data import build_groups
 from .diagnose import diagnose_groups
+from .extensions import check_own_model
 from .flags import physical_flags
 from .leads import discover_group, leads_of
 from .power import power_records
@@ -122,6 +123,8 @@ def discover(
             f"reproducible), got {seed!r}; e.g. seed=0"
         )
     spec = None if model is None else get_model(model, "sinkage")
+    if spec is not None:
+        check_own_model(spec)
     # BLAS on one thread in this process, as in the workers: the same last bits for any
     # jobs (and faster: see .work).
     with one_blas_thread():
