@@ -13,6 +13,11 @@ every fit.
 >>> fit.params["n"], fit.stderr["n"]                               # doctest: +SKIP
 >>> print(fit.summary())                                           # doctest: +SKIP
 
+A soil model of one's own is one record, registered once; every layer then takes its name
+(docs/conventions.md, "The model record")::
+
+    soilstats.register_model(soilstats.Model(name="my-model", kind="sinkage", ...))
+
 Any model f(x, *params) can be identified the same way::
 
     result = soilstats.identify(f, x, y, p0=[1.0, 0.1], weights=w)
@@ -32,6 +37,7 @@ from .errors import (
     ConvergenceError,
     ConvergenceWarning,
     IdentifiabilityError,
+    ModelError,
     SoilstatsError,
     SoilstatsWarning,
 )
@@ -59,6 +65,8 @@ _LAZY: dict[str, str] = {
     "REECE": "soilstats.models",
     "Model": "soilstats.models",
     "get_model": "soilstats.models",
+    "models_of_kind": "soilstats.models",
+    "register_model": "soilstats.models",
     "simulate": "soilstats.simulation",
     "anova_oneway": "soilstats.statistics",
     "run_study": "soilstats.study",
@@ -72,7 +80,17 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .discovery import DiscoveryResult, discover
     from .fitting import FitResult, identify, linear_least_squares
     from .identification import fit_per_test, fit_shear, fit_sinkage, parameter_table
-    from .models import BEKKER, BERNSTEIN, JANOSI, MOHR_COULOMB, REECE, Model, get_model
+    from .models import (
+        BEKKER,
+        BERNSTEIN,
+        JANOSI,
+        MOHR_COULOMB,
+        REECE,
+        Model,
+        get_model,
+        models_of_kind,
+        register_model,
+    )
     from .simulation import simulate
     from .statistics import anova_oneway
     from .study import run_study
@@ -95,6 +113,7 @@ __all__ = [
     "FitResult",
     "IdentifiabilityError",
     "Model",
+    "ModelError",
     "SoilstatsError",
     "SoilstatsWarning",
     "anova_oneway",
@@ -107,7 +126,9 @@ __all__ = [
     "identify",
     "linear_least_squares",
     "load_campaign",
+    "models_of_kind",
     "parameter_table",
+    "register_model",
     "run_study",
     "sample_population",
     "sample_posterior",

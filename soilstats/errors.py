@@ -15,6 +15,7 @@ __all__ = [
     "ConvergenceError",
     "ConvergenceWarning",
     "IdentifiabilityError",
+    "ModelError",
     "SoilstatsError",
     "SoilstatsWarning",
     "SpecError",
@@ -72,6 +73,11 @@ class CampaignError(SoilstatsError, ValueError):
 
 class IdentifiabilityError(SoilstatsError, ValueError):
     """The data cannot determine the model's parameters (e.g. Bekker with one plate size)."""
+
+
+class ModelError(SoilstatsError, ValueError):
+    """A soil model name that is not registered, or a model asked for where its kind does not
+    fit (a shear model for sinkage tests); the message lists the models that would."""
 
 
 class ConvergenceError(SoilstatsError, RuntimeError):

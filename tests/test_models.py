@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -69,6 +71,52 @@ def test_metadata_and_lookup():
     assert get_model("bekker") is BEKKER
     with pytest.raises(ValueError, match="choose one of"):
         get_model("bekkr")
+
+
+def test_the_records_hold_what_the_layers_kept_in_lists():
+    """The facts identification, bayes, the CLI and the studies each kept about a model,
+    now read from its record (docs/conventions.md, "The model record")."""
+    from soilstats.bayes import DEFAULT_PRIORS, SIMULATOR_FORMATS
+    from soilstats.bayes.population_model import POPULATION_MODELS
+    from soilstats.models import model_names
+    from soilstats.models.priors import FLAT, NON_NEGATIVE, POSITIVE, Uniform
+    from soilstats.study.spec import study_models
+
+    assert model_names("sinkage") == ["bekker", "bernstein", "reece"]
+    assert model_names("shear") == ["janosi", "mohr-coulomb"]
+    assert study_models("sinkage") == ["bekker", "bernstein", "reece"]
+    assert study_models("shear") == ["mohr-coulomb"]
+    assert [m.name for m in MODELS.values() if m.min_plate_sizes == 2] == ["bekker", "reece"]
+    assert {m.name: m.design_input for m in MODELS.values() if m.design_input} == {
+        "bekker": "b_m",
+        "reece": "b_m",
+        "janosi": "sigma_Pa",
+        "mohr-coulomb": "sigma_Pa",
+    }
+    assert POPULATION_MODELS == ("bekker", "bernstein", "janosi")
+    assert dict(DEFAULT_PRIORS["bekker"]) == {"kc": FLAT, "kphi": POSITIVE, "n": POSITIVE}
+    assert DEFAULT_PRIORS["janosi"] == {
+        "c": NON_NEGATIVE,
+        "phi": Uniform(0.0, 90.0),
+        "K": POSITIVE,
+    }
+    scm = SIMULATOR_FORMATS["chrono-scm"]
+    assert list(scm) == ["kphi", "kc", "n", "c", "phi", "K"]  # SCM's order of its inputs
+    assert scm["kc"] == ("Bekker_Kc", "Pa/m^(n-1)") and scm["K"] == ("Janosi_shear", "m")
+    assert [r.label for r in BEKKER.support] == ["n <= 0", "kc/b + kphi <= 0"]
+    assert [r.label for r in JANOSI.support] == ["c < 0", "phi outside (0, 90) deg", "K <= 0"]
+    assert BEKKER.modulus.modulus(0.05, -1e3, 1e5, 1.0) == -1e3 / 0.05 + 1e5
+    assert MOHR_COULOMB.steady_state and not JANOSI.steady_state
+    assert BEKKER.x_from({"b_m": [1.0], "z_m": [2.0]}).tolist() == [[1.0], [2.0]]
+
+
+def test_a_record_refuses_facts_about_parameters_it_does_not_have():
+    with pytest.raises(ValueError, match="not parameters"):
+        dataclasses.replace(BERNSTEIN, name="x", priors={"kc": None})
+    with pytest.raises(ValueError, match="kind must be one of"):
+        dataclasses.replace(BERNSTEIN, name="x", kind="wheel")
+    with pytest.raises(ValueError, match="do not match inputs"):
+        dataclasses.replace(BERNSTEIN, name="x", columns=("b_m", "z_m"))
 
 
 def test_complex_step_is_exact_and_fallback_detects_non_analytic_models():

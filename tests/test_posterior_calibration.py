@@ -91,11 +91,13 @@ def test_cli_shear_population_writes_new_preparation_draws(tmp_path):
     assert summary["r_hat"].max() <= 1.01
 
 
-def test_population_model_list_of_the_cli_follows_the_bayes_package():
+def test_population_models_are_those_whose_record_has_a_layout():
     from soilstats.bayes.population import POPULATION_MODELS
-    from soilstats.cli.posterior import POPULATION_MODELS as CLI_MODELS
+    from soilstats.cli.posterior import _has_population
+    from soilstats.models import MODELS
 
-    assert CLI_MODELS == POPULATION_MODELS
+    assert POPULATION_MODELS == ("bekker", "bernstein", "janosi")
+    assert [n for n in MODELS if _has_population(n)] == list(POPULATION_MODELS)
 
 
 def test_sampling_coordinates_round_trip_and_exact_jacobian():

@@ -23,19 +23,25 @@ from .support import negative_modulus_width
 
 __all__ = ["SCM_DEFAULTS", "SIMULATOR_FORMATS", "simulator_parameters", "simulator_record"]
 
+
+def _scm_format() -> dict[str, tuple[str, str]]:
+    """SCM's column and unit of each parameter, from the paper's model records
+    (``Model.scm``: Bekker's Kphi, Kc, n; Janosi's and Mohr–Coulomb's cohesion, friction,
+    Janosi shear), in the order of registration; the first record to map a parameter names
+    its column."""
+    from ..models import MODELS
+
+    out: dict[str, tuple[str, str]] = {}
+    for model in MODELS.values():
+        for name, column in model.scm:
+            out.setdefault(name, column)
+    return out
+
+
 #: Column names and units of the parameter sets simulators consume. ``chrono-scm``:
 #: Kphi [Pa/m^n] = N/m^(n+2), Kc [Pa/m^(n−1)] = N/m^(n+1), cohesion [Pa], friction [deg],
-#: Janosi shear [m].
-SIMULATOR_FORMATS = {
-    "chrono-scm": {
-        "kphi": ("Bekker_Kphi", "Pa/m^n"),
-        "kc": ("Bekker_Kc", "Pa/m^(n-1)"),
-        "n": ("Bekker_n", "-"),
-        "c": ("Mohr_cohesion", "Pa"),
-        "phi": ("Mohr_friction", "deg"),
-        "K": ("Janosi_shear", "m"),
-    },
-}
+#: Janosi shear [m] — the mapping each model's record states (``Model.scm``).
+SIMULATOR_FORMATS = {"chrono-scm": _scm_format()}
 
 #: SCM's stated (non-Bevameter) inputs: value, unit, and where the default comes from.
 SCM_DEFAULTS = {

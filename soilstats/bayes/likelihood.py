@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..models import BEKKER, BERNSTEIN, Model
+from ..models import Model
 from .priors import Prior
 
 __all__ = ["PooledProblem"]
@@ -79,23 +79,34 @@ class PooledProblem:
         wy = self.w * self.y
         object.__setattr__(self, "_wy", wy)
         object.__setattr__(self, "_wy2", float(wy @ wy))
-        # Power-law models are linear in their moduli, so S(θ) = Σ(wy)² − 2 kᵀF(n) + kᵀG(n)k
-        # with F(n) = Σ wy·a·zⁿ and G(n) = Σ a aᵀ z²ⁿ (a = (w/b, w) for Bekker, w for
-        # Bernstein): one exp per sample and walker, the sums by matrix products.  ln z is
-        # finite because the identification has excluded z ≤ 0.
-        if self.model is BEKKER:
-            b, z = self.x
-            a = np.column_stack([self.w / b, self.w])
-        elif self.model is BERNSTEIN:
-            z = self.x
-            a = self.w[:, None]
-        else:
+        # Power-law models (``Model.power_law``) are linear in their moduli, so S(θ) =
+        # Σ(wy)² − 2 kᵀF(n) + kᵀG(n)k with F(n) = Σ wy·a·zⁿ and G(n) = Σ a aᵀ z²ⁿ (a = w·g,
+        # g the basis: (1/b, 1) for Bekker, 1 for Bernstein): one exp per sample and walker,
+        # the sums by matrix products.  ln z is finite because the identification has
+        # excluded z ≤ 0.
+        if self.model.power_law is None:
             return
+        basis, z = self.model.power_law(self.x)
+        z = np.asarray(z, float)
+        a = self._weighted_basis(basis)
         object.__setattr__(self, "_lnz", np.log(z))
         object.__setattr__(self, "_F", a * wy[:, None])  # (N, m)
         pairs = np.einsum("ni,nj->nij", a, a).reshape(z.size, -1)
         object.__setattr__(self, "_G", pairs)  # (N, m²)
         object.__setattr__(self, "_m", a.shape[1])
+
+    def _weighted_basis(self, basis) -> np.ndarray:
+        """(N, m) a = w·g.  A model whose plate modulus k_b(b; moduli) the record states
+        (``Model.modulus``: Bekker's kc/b + kφ) gives each column as that modulus at the
+        weighted unit moduli, w/b and w: the same numbers as the expression itself rounds."""
+        modulus = self.model.modulus
+        if modulus is None or "b_m" not in self.model.columns:
+            return np.column_stack([self.w * g for g in basis])
+        b = self.x[self.model.columns.index("b_m")]
+        m, zero = len(basis), np.zeros_like(self.w)
+        unit = [[self.w if j == i else zero for j in range(m)] for i in range(m)]
+        rest = [zero] * (len(modulus.params) - m)
+        return np.column_stack([modulus.modulus(b, *cols, *rest) for cols in unit])
 
     @property
     def n_obs(self) -> int:
@@ -141,11 +152,12 @@ class PooledProblem:
         out = np.zeros(theta.shape[0])
         for i, prior in enumerate(self.priors):
             out += prior.logpdf(theta[:, i])
-        if self.plate_sizes.size and self.model.name in ("bekker", "reece"):
-            # Positive pressure on every plate: kc/b + kφ > 0 (Bekker), k1 + k2·b > 0 (Reece).
-            a, c = theta[:, 0:1], theta[:, 1:2]
+        modulus = self.model.modulus
+        if self.plate_sizes.size and modulus is not None:
+            # Positive pressure on every plate (the record's plate-modulus rule): kc/b + kφ > 0
+            # (Bekker), k1 + k2·b > 0 (Reece).
             b = self.plate_sizes[None, :]
-            k = a / b + c if self.model is BEKKER else a + c * b
+            k = modulus.modulus(b, *(theta[:, i : i + 1] for i in range(theta.shape[1])))
             out = np.where(np.all(k > 0, axis=1), out, -np.inf)
         return out
 

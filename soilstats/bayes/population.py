@@ -17,10 +17,10 @@ import xarray as xr
 from scipy import optimize
 
 from ..identification import fit_sinkage, pool_sinkage
-from ..models import JANOSI, get_model
+from ..models import get_model, model_names
 from ._arviz import az
 from .data import pooled_problem
-from .population_model import LAYOUTS, POPULATION_MODELS, PopulationModel, reference_rows
+from .population_model import POPULATION_MODELS, PopulationModel, reference_rows
 from .posterior import _attrs, finish
 from .predictive import PREDICTIVE_DRAWS, measured_dataset, response_dataset, spread_draws
 from .priors import resolve_priors
@@ -99,8 +99,9 @@ def sample_population(
     """Sample the population model (:mod:`soilstats.bayes.population_model`) of a soil model.
 
     Parameters are as for :func:`soilstats.bayes.sample_posterior`.  ``model`` is
-    ``"bekker"``, ``"bernstein"`` or ``"janosi"`` (:data:`POPULATION_MODELS`); Mohr–Coulomb
-    alone has no per-test curve to scatter and stays a pooled question.  The default prior
+    ``"bekker"``, ``"bernstein"`` or ``"janosi"`` (:data:`POPULATION_MODELS`), or any
+    registered model whose record has a ``population`` layout; Mohr–Coulomb alone has no
+    per-test curve to scatter and stays a pooled question.  The default prior
     of the soil-level parameters is flat in the log of the measured scales
     (:mod:`.population_model`, "Priors"); a prior given in ``priors`` for any linear
     modulus (kc, kφ; k; c, φ), or for Janosi's K, replaces that group's log-flat factor.
@@ -121,18 +122,20 @@ def sample_population(
         (:mod:`soilstats.bayes.predictive`).
     """
     spec = get_model(model)
-    if spec.name not in LAYOUTS:
+    layout = spec.population
+    if layout is None:
+        with_layout = [n for n in model_names() if get_model(n).population is not None]
         raise ValueError(
-            f"the population model is implemented for {list(POPULATION_MODELS)} "
+            f"the population model is implemented for {with_layout} "
             f"(got {spec.name!r}); use sample_posterior for the pooled model"
         )
-    layout = LAYOUTS[spec.name]
-    if spec is JANOSI:
-        problem, lsq = pooled_problem(campaign, spec.name, **selection)
+    shear = spec.kind == "shear"
+    if shear:
+        problem, lsq = pooled_problem(campaign, spec, **selection)
         fits = shear_tests(problem)
     else:
         pooled = pool_sinkage(campaign, points_per_test=points_per_test, **selection)
-        lsq = fit_sinkage(campaign, spec.name, points_per_test=points_per_test, **selection)
+        lsq = fit_sinkage(campaign, spec, points_per_test=points_per_test, **selection)
         fits = sinkage_tests(pooled, spec)
     t = len(fits.test_ids)
     if t < 3:
@@ -141,7 +144,7 @@ def sample_population(
             f"selection has {t} (failed: {fits.failed or 'none'})"
         )
     theta0 = lsq.params.to_numpy()
-    if spec is JANOSI:
+    if shear:
         ln_zref, ln_zs, coords = 0.0, 0.0, Coordinates()
     else:
         ln_zref = reference_sinkage(fits.params, fits.cov)
@@ -157,7 +160,7 @@ def sample_population(
         cov,
         fits.design,
         ln_zref,
-        resolve_priors(spec.name, spec.param_names, priors),
+        resolve_priors(spec, spec.param_names, priors),
         coords,
         reference_rows=reference_rows(fits.design, fits.covariate),
         log_flat=(not given & set(spec.param_names[:-1]), spec.param_names[-1] not in given),
@@ -193,7 +196,7 @@ def sample_population(
         accept=lambda chain: draws_converge(pops.summaries(chain)),
     )
     rng = np.random.default_rng(None if seed is None else [seed, 2])
-    if spec is JANOSI:
+    if shear:
         curves = response_dataset(problem)
     else:
         curves = measured_dataset(

@@ -82,76 +82,44 @@ fails are left out and named in the notes.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
-from ..models import BEKKER, JANOSI
-from ..models.shear import RAD_PER_DEG
+from ..models import MODELS
+from ..models.base import PopulationLayout
 from .likelihood import PooledProblem
 from .transforms import Coordinates
 
 __all__ = ["LAYOUTS", "POPULATION_MODELS", "Layout", "PopulationModel", "reference_rows"]
 
 
-@dataclass(frozen=True)
-class Layout:
-    """How one soil model maps onto the population model (see the module docstring).
-
-    ``linear(θ)`` → the moduli m that enter a test's first per-test parameter linearly
-    (a_tᵀm); ``second(θ)`` → g, the soil-level value of the second per-test coordinate;
-    ``assemble(m, g)`` → θ back.  ``log_second``: the per-test fit's second parameter enters
-    η as its logarithm (K) rather than as it is (n).
-    """
-
-    per_test: tuple[str, str]  # names of the per-test fit's two parameters
-    scatter: tuple[str, str, str]  # names of s_ε, s_δ, ρ in the posterior
-    covariate: str  # per-test quantity of the design row: b_m or sigma_Pa
-    log_second: bool
-    #: log dθ_linear/d(moduli): the moduli m are the parameters themselves (sinkage), or
-    #: (c, tan φ) of (c, φ [deg]) — ln dtanφ/dφ = −2 ln cos φ + const.
-    linear_log_jacobian: Callable[[np.ndarray], np.ndarray]
-    linear: Callable[[np.ndarray], np.ndarray]
-    second: Callable[[np.ndarray], np.ndarray]
-    assemble: Callable[[np.ndarray, np.ndarray], np.ndarray]
-    scatter_note: str
+#: How one soil model maps onto the population model: the record's ``population``
+#: (:class:`soilstats.models.base.PopulationLayout`; see the module docstring).
+Layout = PopulationLayout
 
 
-_SINKAGE = dict(
-    per_test=("k", "n"),
-    scatter=("sd_p_ref", "sd_n", "corr_p_ref_n"),
-    covariate="b_m",
-    log_second=False,
-    linear_log_jacobian=lambda theta: np.zeros(theta.shape[0]),
-    linear=lambda theta: theta[:, :-1],
-    second=lambda theta: theta[:, -1],
-    assemble=lambda m, g: np.column_stack([m, g]),
-)
-LAYOUTS = {
-    "bekker": Layout(
-        **_SINKAGE,
-        scatter_note="k_t(b) = (kc/b + kphi) exp(eps_t - delta_t ln z_s), n_t = n + delta_t",
-    ),
-    "bernstein": Layout(
-        **_SINKAGE, scatter_note="k_t = k exp(eps_t - delta_t ln z_s), n_t = n + delta_t"
-    ),
-    "janosi": Layout(
-        per_test=("tau_max", "K"),
-        scatter=("sd_strength", "sd_lnK", "corr_strength_K"),
-        covariate="sigma_Pa",
-        log_second=True,
-        linear_log_jacobian=lambda theta: -2.0 * np.log(np.cos(theta[:, 1] * RAD_PER_DEG)),
-        linear=lambda theta: np.column_stack([theta[:, 0], np.tan(theta[:, 1] * RAD_PER_DEG)]),
-        second=lambda theta: np.log(theta[:, 2]),
-        assemble=lambda m, g: np.column_stack(
-            [m[:, 0], np.arctan(m[:, 1]) / RAD_PER_DEG, np.exp(g)]
-        ),
-        scatter_note="tau_max,t = (c + sigma_t tan phi) exp(eps_t), K_t = K exp(delta_t)",
-    ),
-}
-#: Soil models with a population model.
+class _Layouts(Mapping):
+    """``{model name: Layout}`` of every registered model with a population model, read from
+    its record (``Model.population``) when asked."""
+
+    def __getitem__(self, name: str) -> Layout:
+        layout = MODELS[name].population if name in MODELS else None
+        if layout is None:
+            raise KeyError(name)
+        return layout
+
+    def __iter__(self):
+        return iter([n for n, m in MODELS.items() if m.population is not None])
+
+    def __len__(self) -> int:
+        return sum(m.population is not None for m in MODELS.values())
+
+
+LAYOUTS: Mapping[str, Layout] = _Layouts()
+#: The paper's soil models with a population model (a registered model with a
+#: ``population`` layout has one too: see :data:`LAYOUTS`).
 POPULATION_MODELS = tuple(LAYOUTS)
 
 
@@ -200,7 +168,8 @@ class PopulationModel:
         # Half-Cauchy scales: a factor e for a modulus; |n̂| for an exponent.
         g_hat = float(np.median(eta[:, 1]))
         self.scales = np.array([1.0, 1.0 if layout.log_second else max(abs(g_hat), 0.1)])
-        x = np.ones((2, 1)) if model in (BEKKER, JANOSI) else np.ones(1)  # the prior needs no data
+        inputs = max(len(model.columns), 1)  # the prior needs no data: x of the right shape
+        x = np.ones((inputs, 1)) if inputs > 1 else np.ones(1)
         self.prior_only = PooledProblem(
             model, x, np.ones(1), np.ones(1), np.zeros(1, int), pd.DataFrame(), priors
         )
@@ -274,7 +243,8 @@ class PopulationModel:
         elif self.reference_rows.shape[0] == 1:
             scales = names[0]
         else:
-            scales = "the plate modulus kc/b + kphi at the smallest and largest plate"
+            modulus = self.model.modulus.text if self.model.modulus is not None else "moduli"
+            scales = f"the plate modulus {modulus} at the smallest and largest plate"
         parts = []
         if self.log_flat_linear:
             parts.append(f"flat in ln of {scales}")

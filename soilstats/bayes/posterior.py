@@ -53,8 +53,10 @@ def sample_posterior(
     ----------
     campaign : Campaign
         From :func:`soilstats.load_campaign`.
-    model : {"bekker", "bernstein", "reece", "mohr-coulomb", "janosi"}
-        Soil model.
+    model : str or Model
+        A registered sinkage or shear model (``"bekker"``, ``"bernstein"``, ``"reece"``,
+        ``"mohr-coulomb"``, ``"janosi"`` or one's own, :func:`soilstats.register_model`):
+        its record gives the data, the default priors and the plate-modulus constraint.
     draws : int
         Kept draws over all walkers (default 6000).
     seed : int, optional
@@ -86,12 +88,8 @@ def sample_posterior(
         :class:`~soilstats.errors.ConvergenceWarning` is emitted and ``converged`` is False.
     """
     spec = get_model(model)
-    extra = (
-        {"points_per_test": points_per_test}
-        if spec.name in ("bekker", "bernstein", "reece")
-        else {}
-    )
-    problem, fit = pooled_problem(campaign, spec.name, priors=priors, **extra, **selection)
+    extra = {"points_per_test": points_per_test} if spec.kind == "sinkage" else {}
+    problem, fit = pooled_problem(campaign, spec, priors=priors, **extra, **selection)
     if not fit.converged or not np.all(np.isfinite(fit.cov.to_numpy())):
         raise ValueError(
             f"the least-squares fit of {spec.name} did not give a usable start and covariance "
@@ -187,13 +185,14 @@ def _pooled_notes(problem: PooledProblem) -> list[str]:
     priors = "; ".join(
         f"{n}: {p}" for n, p in zip(problem.model.param_names, problem.priors, strict=True)
     )
+    modulus = problem.model.modulus  # the plate-modulus constraint of the prior, if any
     notes = [
         f"Pooled model: {len(g)} tests, {problem.n_obs} samples; w(y - f) ~ N(0, sigma_w^2) "
         "with the least-squares weights (1/max per test for sinkage and Janosi, 1 for "
         "Mohr-Coulomb), sigma_w marginalised under p(sigma_w) ~ 1/sigma_w, then drawn from "
         "its conditional.",
         f"Priors: {priors}"
-        + ("; kc/b + kphi > 0 on every plate." if problem.model.name == "bekker" else "."),
+        + (f"; {modulus.text} > 0 on every plate." if modulus is not None else "."),
         "The pooled posterior describes how well the pooled data pin ONE parameter set; it "
         "shrinks with more tests. For a new preparation of the soil use the population model.",
     ]
@@ -273,7 +272,8 @@ def _check_start_in_prior(spec, theta0: np.ndarray, problem: PooledProblem) -> N
     ]
     if not outside and np.isfinite(problem.log_prior(theta0[None])[0]):
         return
-    why = "; ".join(outside) or "the plate moduli kc/b + kphi are not positive on every plate"
+    modulus = spec.modulus.text if spec.modulus is not None else "of the model"
+    why = "; ".join(outside) or f"the plate moduli {modulus} are not positive on every plate"
     raise ValueError(
         f"the least-squares estimate of {spec.name} lies outside the prior's support: {why}. "
         "The data put the optimum where the physics priors forbid it (see the fit's health "

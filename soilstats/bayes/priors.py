@@ -1,7 +1,9 @@
 """Priors of the posterior models: physics by default, overridable per parameter.
 
 A prior here is a (possibly truncated, possibly improper) density on one parameter in the
-parameter's own unit (φ in degrees).  The defaults only encode what physics forbids:
+parameter's own unit (φ in degrees).  The defaults are each model's record's
+(``Model.priors``, :mod:`soilstats.models`); those of the paper's models only encode what
+physics forbids:
 
 ======================  ===============================  =====================================
 model                   parameter                         default prior
@@ -32,9 +34,11 @@ Jeffreys prior 1/σ_w (see :mod:`soilstats.bayes.likelihood`).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
+
+from ..models import MODELS, Model, get_model
+from ..models.priors import FLAT, Normal, Prior, Uniform
 
 __all__ = [
     "DEFAULT_PRIORS",
@@ -48,76 +52,35 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
-class Prior:
-    """Base class: a log-density on one parameter, vectorised over walkers."""
+class _DefaultPriors(Mapping):
+    """``{model name: {parameter: Prior}}``: the default priors of every registered model,
+    read from its record (``Model.priors``) when asked, so a registered model has its own."""
 
-    lower: float = -np.inf
-    upper: float = np.inf
+    def __getitem__(self, name: str) -> dict[str, Prior]:
+        if name not in MODELS:
+            raise KeyError(name)
+        return dict(MODELS[name].priors)
 
-    def logpdf(self, x: np.ndarray) -> np.ndarray:
-        """Log-density (up to a constant) at ``x``; ``-inf`` outside (lower, upper)."""
-        raise NotImplementedError
+    def __iter__(self):
+        return iter(list(MODELS))
 
-    def _support(self, x: np.ndarray) -> np.ndarray:
-        return (x > self.lower) & (x < self.upper)
-
-
-@dataclass(frozen=True)
-class Uniform(Prior):
-    """Flat on the open interval (lower, upper); improper if either end is infinite."""
-
-    closed_lower: bool = False  # include ``lower`` itself (c ≥ 0: cohesionless sand)
-
-    def logpdf(self, x: np.ndarray) -> np.ndarray:
-        inside = self._support(x) | (self.closed_lower & (x == self.lower))
-        return np.where(inside, 0.0, -np.inf)
-
-    def __str__(self) -> str:
-        return f"flat on {'[' if self.closed_lower else '('}{self.lower:g}, {self.upper:g})"
+    def __len__(self) -> int:
+        return len(MODELS)
 
 
-@dataclass(frozen=True)
-class Normal(Prior):
-    """Normal(mu, sd) truncated to (lower, upper): an informative prior, e.g. from a handbook."""
-
-    mu: float = 0.0
-    sd: float = 1.0
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.sd) and self.sd > 0):
-            raise ValueError(f"Normal prior needs a finite sd > 0, got sd={self.sd!r}")
-
-    def logpdf(self, x: np.ndarray) -> np.ndarray:
-        return np.where(self._support(x), -0.5 * ((x - self.mu) / self.sd) ** 2, -np.inf)
-
-    def __str__(self) -> str:
-        return f"normal({self.mu:g}, {self.sd:g}) on ({self.lower:g}, {self.upper:g})"
-
-
-_POS = Uniform(0.0, np.inf)
-_ANY = Uniform()
-_C = Uniform(0.0, np.inf, closed_lower=True)
-_PHI = Uniform(0.0, 90.0)
-
-DEFAULT_PRIORS: dict[str, dict[str, Prior]] = {
-    "bekker": {"kc": _ANY, "kphi": _POS, "n": _POS},
-    "bernstein": {"k": _POS, "n": _POS},
-    "reece": {"k1": _ANY, "k2": _POS, "n": _POS},
-    "mohr-coulomb": {"c": _C, "phi": _PHI},
-    "janosi": {"c": _C, "phi": _PHI, "K": _POS},
-}
+DEFAULT_PRIORS: Mapping[str, dict[str, Prior]] = _DefaultPriors()
 
 
 def resolve_priors(
-    model_name: str, param_names: tuple[str, ...], priors: Mapping[str, object] | None
+    model: str | Model, param_names: tuple[str, ...], priors: Mapping[str, object] | None
 ) -> tuple[Prior, ...]:
     """The prior of each parameter: the default, replaced where ``priors`` names one.
 
     Parameters
     ----------
-    model_name : str
-        Model name (key of :data:`DEFAULT_PRIORS`).
+    model : str or Model
+        The model (a registered name, or the record itself), whose ``priors`` are the
+        defaults; a parameter without one is flat on ℝ.
     param_names : tuple of str
         The model's parameter names, in order.
     priors : mapping, optional
@@ -129,9 +92,11 @@ def resolve_priors(
     ValueError
         For a name that is not a parameter of the model, or a value of the wrong type.
     """
-    chosen = dict(DEFAULT_PRIORS.get(model_name, {}))
+    spec = get_model(model)
+    model_name = spec.name
+    chosen = dict(spec.priors)
     for name in param_names:
-        chosen.setdefault(name, _ANY)
+        chosen.setdefault(name, FLAT)
     for name, value in (priors or {}).items():
         if name not in param_names:
             raise ValueError(
@@ -139,7 +104,7 @@ def resolve_priors(
                 f"its parameters are {list(param_names)}"
             )
         if value is None:
-            chosen[name] = _ANY
+            chosen[name] = FLAT
         elif isinstance(value, Prior):
             chosen[name] = value
         elif isinstance(value, tuple) and len(value) == 2:

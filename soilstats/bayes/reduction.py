@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..identification.per_test import TEST_FIT_ERRORS, fit_bernstein_test, fit_shear_test
-from ..models import BEKKER
 from .likelihood import PooledProblem
 
 __all__ = ["PerTestFits", "reference_sinkage", "shear_tests", "sinkage_tests", "to_eta"]
@@ -64,12 +63,14 @@ def sinkage_tests(pooled, spec) -> PerTestFits:
         lambda m, tid: fit_bernstein_test(z[m], p[m], w[m], name=f"bernstein {tid}"),
         lambda m: b[m][0],
     )
-    design = (
-        np.column_stack([1.0 / sizes, np.ones_like(sizes)])
-        if spec is BEKKER
-        else np.ones((sizes.size, 1))
-    )
-    return PerTestFits(params, covs, design, sizes, kept, failed)
+    return PerTestFits(params, covs, _design(spec, sizes), sizes, kept, failed)
+
+
+def _design(spec, sizes: np.ndarray) -> np.ndarray:
+    """(T, q) a_t: the power law's basis (``Model.power_law``) at each test's plate size b_t,
+    so that k_t = a_tᵀ(moduli): (1/b_t, 1) for Bekker, 1 for Bernstein."""
+    basis, _ = spec.power_law(spec.x_from({"b_m": sizes, "z_m": np.ones_like(sizes)}))
+    return np.column_stack([np.broadcast_to(np.asarray(g, float), sizes.shape) for g in basis])
 
 
 def shear_tests(problem: PooledProblem) -> PerTestFits:

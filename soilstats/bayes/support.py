@@ -8,6 +8,8 @@ A draw is physical when every value is finite and
   moduli are monotone in b, so the two ends decide);
 * c >= 0, 0 < φ < 90°, K > 0 (shear, Eqs. 13, 15).
 
+These are the rules of each model's record (``Model.support``, :mod:`soilstats.models`).
+
 The pooled posterior already has this support through its priors (at the tested plate
 sizes); a population's *new preparation* is drawn from a fitted scatter distribution and can
 leave it, and a posterior that is not proper (data that do not pin the parameters) can wander
@@ -81,33 +83,37 @@ class SupportCheck:
         }
 
 
-def check_support(draws: pd.DataFrame, contact_widths: tuple[float, float]) -> SupportCheck:
+def check_support(
+    draws: pd.DataFrame, contact_widths: tuple[float, float], models=None
+) -> SupportCheck:
     """Judge each row of ``draws`` (columns named as the models' parameters, φ in degrees).
 
     ``contact_widths``: (b_min, b_max) [m], the plate or wheel contact widths of the draws' use.
+    ``models``: the models (names or records) whose support rules apply (``Model.support``,
+    judged in the order of registration); by default every registered model's.  A rule
+    applies where its parameters are columns of ``draws``; one that several models share
+    (c ≥ 0) is judged once.
     """
+    from ..models import MODELS, get_model
+
     lo, hi = (float(b) for b in contact_widths)
     if not 0 < lo <= hi:
         raise ValueError(f"contact widths must satisfy 0 < b_min <= b_max, got {contact_widths}")
     values = {c: draws[c].to_numpy(float) for c in draws.columns}
+    if models is None:
+        chosen = list(MODELS.values())
+    else:  # in the registry's order, as by default: the reasons read the same either way
+        order = list(MODELS.values())
+        chosen = sorted(
+            (get_model(m) for m in models),
+            key=lambda m: order.index(m) if m in order else len(order),
+        )
     rules = {"non-finite": ~np.all(np.isfinite(draws.to_numpy(float)), axis=1)}
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        if "n" in values:
-            rules["n <= 0"] = ~(values["n"] > 0)
-        if {"kc", "kphi"} <= set(values):
-            kc, kphi = values["kc"], values["kphi"]
-            rules["kc/b + kphi <= 0"] = ~((kc / lo + kphi > 0) & (kc / hi + kphi > 0))
-        if {"k1", "k2"} <= set(values):
-            k1, k2 = values["k1"], values["k2"]
-            rules["k1 + k2 b <= 0"] = ~((k1 + k2 * lo > 0) & (k1 + k2 * hi > 0))
-        if "k" in values:
-            rules["k <= 0"] = ~(values["k"] > 0)
-        if "c" in values:
-            rules["c < 0"] = ~(values["c"] >= 0)
-        if "phi" in values:
-            rules["phi outside (0, 90) deg"] = ~((values["phi"] > 0) & (values["phi"] < 90))
-        if "K" in values:
-            rules["K <= 0"] = ~(values["K"] > 0)
+        for model in chosen:
+            for rule in model.support:
+                if rule.label not in rules and set(rule.params) <= set(values):
+                    rules[rule.label] = ~rule.holds(values, (lo, hi))
     outside = np.zeros(len(draws), bool)
     for broken in rules.values():
         outside |= broken

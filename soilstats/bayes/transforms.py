@@ -12,7 +12,8 @@ The sampler therefore works in the coordinates
     u_i = ln k_{b_i} + n·ln z_ref   (i = 1, …, m),      u_{m+1} = n,
 
 where k_{b_i} are the plate moduli at the smallest and largest plate (Bekker, m = 2) or k
-itself (Bernstein, m = 1), and z_ref is chosen so that, at the least-squares estimate, every
+itself (Bernstein, m = 1) — any power law of the model record (``Model.power_law``), whose
+basis at those plates gives them — and z_ref is chosen so that, at the least-squares estimate, every
 u_i is uncorrelated with n (ln z_ref = −Cov(ln k_b, n)/Var(n), delta method on the Eq. 4
 covariance).  exp(u_i) is the pressure at the reference sinkage on plate b_i, a quantity the
 data pin directly.  The map is smooth and one-to-one on k_b > 0, so for Bekker the
@@ -31,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..models import BEKKER, BERNSTEIN, Model
+from ..models import Model
 
 __all__ = ["Coordinates", "sampling_coordinates"]
 
@@ -121,6 +122,26 @@ class Coordinates:
         return j @ np.asarray(cov, float) @ j.T
 
 
+def _plate_moduli(model: Model, plate_sizes) -> np.ndarray | None:
+    """M: the power law's basis g(b) (``Model.power_law``) at the smallest and largest plate,
+    one row per plate, so that M·a are the plate moduli (Bekker: rows (1/b, 1)); one row for
+    a model with one modulus (Bernstein: M = 1).  None where the model is no power law or the
+    plates cannot separate its moduli (one plate size, or more than two moduli)."""
+    if model.power_law is None:
+        return None
+    b = np.asarray(plate_sizes, float)
+    q = model.n_params - 1
+    if q == 1:
+        ends = b[:1] if b.size else np.ones(1)
+    elif q == 2 and b.size >= 2:
+        ends = np.array([b.min(), b.max()])
+    else:
+        return None
+    data = {"b_m": ends, "z_m": np.ones(ends.size)}
+    basis, _ = model.power_law(model.x_from(data) if model.columns else ends)
+    return np.column_stack([np.broadcast_to(np.asarray(g, float), ends.shape) for g in basis])
+
+
 def sampling_coordinates(
     model: Model, theta: np.ndarray, cov: np.ndarray, plate_sizes: np.ndarray
 ) -> Coordinates:
@@ -142,12 +163,8 @@ def sampling_coordinates(
         positive at ``theta``; the identity otherwise.
     """
     theta = np.asarray(theta, float)
-    if model is BERNSTEIN:
-        moduli = np.eye(1)
-    elif model is BEKKER and np.asarray(plate_sizes).size >= 2:
-        b = np.asarray(plate_sizes, float)
-        moduli = np.array([[1.0 / b.min(), 1.0], [1.0 / b.max(), 1.0]])
-    else:
+    moduli = _plate_moduli(model, plate_sizes)
+    if moduli is None:
         return Coordinates()
     m = moduli.shape[0]
     kb = moduli @ theta[:m]

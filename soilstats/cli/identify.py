@@ -33,12 +33,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         out_help="also write identify.json, identify.csv (every fit) and identify.pdf into DIR",
     )
     add_data_options(parser)
-    parser.add_argument(
-        "--model",
-        choices=("auto", "bekker", "bernstein", "reece"),
-        default="auto",
-        help="sinkage model (auto: Bekker where 2+ plate sizes)",
+    model = parser.add_argument(
+        "--model", default="auto", help="sinkage model (auto: Bekker where 2+ plate sizes)"
     )
+    model.choices = _SinkageModels()  # after add_argument, which would format them now
     parser.add_argument(
         "--by",
         default=None,
@@ -79,6 +77,22 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--verbose", action="store_true", help="print every fit's summary()")
     add_jobs_option(parser, "the soils and conditions")
+
+
+class _SinkageModels:
+    """``--model``'s choices: ``auto`` and the registered sinkage models, read from the
+    registry when first needed (it imports numpy; building the parser must stay cheap)."""
+
+    def _names(self) -> tuple[str, ...]:
+        from ..models import model_names
+
+        return ("auto", *model_names("sinkage"))
+
+    def __iter__(self):
+        return iter(self._names())
+
+    def __contains__(self, name) -> bool:
+        return name in self._names()
 
 
 def _check_series(campaign, series: str | None) -> None:

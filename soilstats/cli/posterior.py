@@ -31,8 +31,13 @@ from .common import add_common_options, add_data_options, prepared, progress_ena
 #: Simulators whose parameter sets --simulator writes (soilstats.bayes.SIMULATOR_FORMATS; a
 #: test keeps the two in step, the bayes package being too heavy to import for --help).
 SIMULATORS = ("chrono-scm",)
-#: Models with a population model (soilstats.bayes.POPULATION_MODELS; kept in step by a test).
-POPULATION_MODELS = ("bekker", "bernstein", "janosi")
+
+
+def _has_population(model: str) -> bool:
+    """Whether the model's record has a population layout (``Model.population``)."""
+    from ..models import get_model
+
+    return get_model(model).population is not None
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -105,10 +110,9 @@ def priors_by_model(args, models) -> dict[str, dict]:
     ``--prior`` items naming its parameters (they win). A name that belongs to no model — or,
     in a file, not to its table's model — is an error before any sampling."""
     from ..bayes.priors import priors_from_items, priors_from_toml
-    from ..models import get_model
 
     items = priors_from_items(args.prior)
-    params = {m: get_model(m).param_names for m in models}
+    params = {m: _checked_model(m).param_names for m in models}
     known = {n for names in params.values() for n in names}
     unknown = sorted(set(items) - known)
     if unknown:
@@ -127,6 +131,32 @@ def priors_by_model(args, models) -> dict[str, dict]:
             )
         out[model] = table | {k: v for k, v in items.items() if k in names}
     return out
+
+
+def _checked_model(name: str):
+    """The record of one model of ``--model``: a registered sinkage or shear model."""
+    from ..errors import ModelError
+    from ..models import get_model, model_names
+
+    spec = get_model(name)
+    if spec.kind not in ("sinkage", "shear"):
+        raise ModelError(
+            f"--model {name}: a {spec.kind or 'non-soil'} model has no posterior; choose "
+            f"from {model_names('sinkage') + model_names('shear')}"
+        )
+    return spec
+
+
+def _check_models(models) -> None:
+    """``--model``: one registered model, or a sinkage and a shear model joined by '+'."""
+    from ..errors import ModelError
+
+    kinds = [_checked_model(m).kind for m in models]
+    if len(models) > 2 or len(set(kinds)) < len(kinds):
+        raise ModelError(
+            f"--model {'+'.join(models)}: give one model, or one sinkage and one shear model "
+            "joined by '+' (e.g. bekker+janosi)"
+        )
 
 
 def model_seed(seed: int, index: int) -> int:
@@ -153,7 +183,7 @@ def _run(campaign, model, priors, args, index=0):
         kw["draws"] = args.draws
     if priors:
         kw["priors"] = priors
-    if args.population and model in POPULATION_MODELS:
+    if args.population and _has_population(model):
         return sample_population(campaign, model, **kw)
     return sample_posterior(campaign, model, **kw)
 
@@ -240,9 +270,13 @@ def _pooled_columns(kind: str, models) -> tuple[str, ...]:
     identification's condition columns (one home: identification.conditions) and the setup
     columns of the paper's studies; plate size only where the model has no size term."""
     from ..identification.conditions import DEFAULT_CONDITION_COLUMNS
+    from ..models import get_model
 
+    sizeless = any(
+        (spec := get_model(m)).kind == "sinkage" and "b_m" not in spec.columns for m in models
+    )
     setup = {
-        "sinkage": ("shape", "series") + (("b_m",) if "bernstein" in models else ()),
+        "sinkage": ("shape", "series") + (("b_m",) if sizeless else ()),
         "shear": ("grousers", "grouser_height_m", "omega_rpm", "series"),
     }
     return DEFAULT_CONDITION_COLUMNS[kind] + setup[kind]
@@ -283,6 +317,7 @@ def run(args: argparse.Namespace) -> int:
     from ..report.posterior_pdf import write_report
 
     models = args.model.split("+")
+    _check_models(models)
     priors = priors_by_model(args, models)
     _check_simulator(args, models)
     _check_draws(args)
@@ -306,7 +341,7 @@ def run(args: argparse.Namespace) -> int:
         if len(results) == 2
         else results[0].draws(n, seed=args.seed, allow_unconverged=True)
     )
-    support = check_support(draws, widths)
+    support = check_support(draws, widths, models)
     kept = draws[support.inside].reset_index(drop=True)
     # What a user is handed (draws.csv) is what the summary describes; diagnostics stay the
     # chains' (a review: k's interval started at a draw with n < 0 that draws.csv left out).
@@ -449,7 +484,7 @@ def run(args: argparse.Namespace) -> int:
         for res in results:
             print(res.summary(handed_out=kept))
         print(f"Physical support: {support.describe()}")
-    pooled_only = [m for m in models if m not in POPULATION_MODELS]
+    pooled_only = [m for m in models if not _has_population(m)]
     if args.population and pooled_only:
         print(
             f"note: {', '.join(pooled_only)} has no population model (no per-test curve to "

@@ -47,6 +47,9 @@ class Group:
         What was excluded on the way, and why.
     time_columns : tuple of str
         Columns of ``tests`` converted from dates/times to hours since the first test.
+    model : Model, optional
+        The registered model to use as the base of this kind instead of the paper's
+        (``discover(model=...)``; :func:`~.extensions.base_model`).
     """
 
     kind: str
@@ -58,6 +61,7 @@ class Group:
     owner: np.ndarray = field(repr=False)
     notes: tuple[str, ...] = ()
     time_columns: tuple[str, ...] = ()
+    model: object = field(default=None, repr=False)
     # What is computed once per group from its fixed tests (see :meth:`memo`); a new group
     # (``dataclasses.replace``) starts with an empty one.
     _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -111,7 +115,12 @@ def _pool(campaign, kind: str, soil: str, table: pd.DataFrame, points: int):
 
 
 def build_groups(
-    campaign, *, points_per_test: int = 60, progress: bool = False, jobs: int | None = 1
+    campaign,
+    *,
+    points_per_test: int = 60,
+    progress: bool = False,
+    jobs: int | None = 1,
+    model=None,
 ) -> tuple[list[Group], list[str]]:
     """Split a campaign into (kind, soil) groups with per-test fits and pooled samples.
 
@@ -120,6 +129,7 @@ def build_groups(
     are dropped from the pooled samples, and per-test fits that fail keep NaN parameters;
     both are counted in the notes — nothing is dropped silently.  ``jobs``: worker processes
     for the per-test fits (:func:`soilstats.fit_per_test`; the same rows for any number).
+    ``model``: a registered model (a record) to use as the base of its kind's groups.
     """
     groups: list[Group] = []
     notes: list[str] = []
@@ -154,8 +164,20 @@ def build_groups(
                 notes.extend(group_notes)
                 continue
             table, times = with_time_hours(table)
+            own = model if model is not None and model.kind == kind else None
             groups.append(
-                Group(kind, soil, table, x, y, w, owner, tuple(group_notes), time_columns=times)
+                Group(
+                    kind,
+                    soil,
+                    table,
+                    x,
+                    y,
+                    w,
+                    owner,
+                    tuple(group_notes),
+                    time_columns=times,
+                    model=own,
+                )
             )
             notes.extend(group_notes)
     return groups, notes

@@ -22,6 +22,7 @@ The p-values of all candidates × responses × groups form one family, adjusted 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -42,7 +43,7 @@ from .candidates import (
     trend_on_log,
 )
 from .candidates import relations as find_relations
-from .extensions import SinkageExtension, base_model
+from .extensions import ModelExtension, SinkageExtension, base_model
 from .ftests import interaction_test, strata_codes, strata_test
 from .power import minimum_detectable
 
@@ -115,15 +116,19 @@ def add_responses(group):
     for r in RESPONSES[group.kind]:
         table[f"_dev_{r}"] = np.nan
     if base is not None:
-        _base_deviations(table, group.kind, model, base.result.values, rows)
+        _base_deviations(table, group.kind, model, base.result.values, rows, group)
     return replace(group, tests=table), base, notes
 
 
-def _base_deviations(table: pd.DataFrame, kind: str, model, theta, rows) -> None:
+def _base_deviations(table: pd.DataFrame, kind: str, model, theta, rows, group=None) -> None:
     """The responses of the tests ``rows`` (positions) against the base model ``model``
-    with parameters ``theta``, written into ``table``; every other test's are left NaN."""
+    with parameters ``theta``, written into ``table``; every other test's are left NaN.
+    A registered model's (:class:`~.extensions.ModelExtension`) curve is read as
+    :func:`conditional_responses` reads an extended model's."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        if kind == "sinkage":
+        if isinstance(model, ModelExtension):
+            _model_deviations(table, group, model, theta, np.asarray(rows, int))
+        elif kind == "sinkage":
             if model.bekker:
                 k_base = theta[0] / table["b_m"].to_numpy(float) + theta[1]
             else:
@@ -150,7 +155,7 @@ def training_responses(group, base, rows) -> pd.DataFrame:
     table = group.tests.copy()
     for r in RESPONSES[group.kind]:
         table[f"_dev_{r}"] = np.nan
-    _base_deviations(table, group.kind, base.extension, np.asarray(base.result.values), rows)
+    _base_deviations(table, group.kind, base.extension, np.asarray(base.result.values), rows, group)
     return table
 
 
@@ -411,11 +416,15 @@ def _holm_levels(p: np.ndarray, alpha: float) -> np.ndarray:
     return out
 
 
+#: Noiseless points per sinkage test on which a model's curve is read.
+_SYNTHETIC_POINTS = 24
+
+
 def _synthetic(group, rows):
     """Two to twenty-four noiseless sample points per test, for reading a model's curve."""
     t = group.tests.iloc[rows]
     if group.kind == "sinkage":
-        grid = np.linspace(0.05, 1.0, 24)
+        grid = np.linspace(0.05, 1.0, _SYNTHETIC_POINTS)
         z = (t["z_max_m"].to_numpy(float)[:, None] * grid[None, :]).ravel()
         b = np.repeat(t["b_m"].to_numpy(float), grid.size)
         x = {"z": z, "b": b}
@@ -427,6 +436,19 @@ def _synthetic(group, rows):
         owner = np.repeat(rows, 2)
     ones = np.ones(owner.size)
     return replace(group, x=x, y=ones, w=ones, owner=owner), x
+
+
+def _model_deviations(table: pd.DataFrame, group, model, theta, rows) -> None:
+    """``level`` and ``shape`` of the tests ``rows`` against a registered sinkage model with
+    parameters ``theta``: its curve of each test, read on noiseless points as a Bernstein
+    (k̂, n̂) by a p-weighted log–log line (:func:`conditional_responses`)."""
+    synth, x = _synthetic(replace(group, tests=table), rows)
+    fitted = SimpleNamespace(result=SimpleNamespace(values=np.asarray(theta, float)), state={})
+    y_hat = np.asarray(model.predict(fitted, synth, rows), float)
+    m = _SYNTHETIC_POINTS
+    lz, lp = np.log(x["z"]).reshape(-1, m), np.log(y_hat).reshape(-1, m)
+    n_hat, lk_hat = _weighted_lines(lz, lp, np.nan_to_num(y_hat).reshape(-1, m))
+    _sinkage_deviations(table, table.index[rows], lk_hat, n_hat)
 
 
 def conditional_responses(group, fitted) -> pd.DataFrame:

@@ -29,13 +29,19 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..errors import ConvergenceError, IdentifiabilityError
+from ..errors import ConvergenceError, IdentifiabilityError, ModelError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..identification.starting_values import janosi_start, reece_from_bekker, sinkage_start
 from ..identification.wong import wong_start
 from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
-from ..models.extended import ShearLayout, SinkageLayout, shear_family, sinkage_family
+from ..models.extended import (
+    ShearLayout,
+    SinkageLayout,
+    model_family,
+    shear_family,
+    sinkage_family,
+)
 from .candidates import MISSING, candidate_values, spans_log
 from .separable import check_shear_terms, sinkage_keeps_bekker
 
@@ -43,11 +49,13 @@ __all__ = [
     "Extension",
     "Features",
     "Fitted",
+    "ModelExtension",
     "ReeceExtension",
     "ShearExtension",
     "SinkageExtension",
     "Term",
     "base_model",
+    "check_own_model",
     "combine",
     "library",
 ]
@@ -153,6 +161,26 @@ def _term_names(terms, states, target, label) -> list[str]:
     ]
 
 
+def _sinkage_features(terms, group, rows, state):
+    """``(mask, owner, fs, gd)``: the samples of the tests ``rows``, their tests, and the
+    per-sample features of the stiffness (``"k"``) and exponent (``"n"``) terms."""
+    mask = group.samples_of(rows)
+    owner = group.owner[mask]
+    states = state.get("terms", [])
+    fs = _stack(terms, states, group, owner, "k")
+    gd = _stack(terms, states, group, owner, "n")
+    return mask, owner, fs, gd
+
+
+def _add_term_names(names: list, units: list, terms, state) -> None:
+    """Append the names (and unit "-") of the stiffness factors and exponent offsets."""
+    states = state.get("terms", [])
+    for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
+        extra = _term_names(terms, states, target, label)
+        names += extra
+        units += ["-"] * len(extra)
+
+
 @dataclass(frozen=True, eq=False)
 class Fitted:
     """An extension fitted on some tests: the identification result and its fitted state."""
@@ -208,11 +236,7 @@ class SinkageExtension(Extension):
     soften: bool = False
 
     def _inputs(self, group, rows, state):
-        mask = group.samples_of(rows)
-        owner = group.owner[mask]
-        states = state.get("terms", [])
-        fs = _stack(self.terms, states, group, owner, "k")
-        gd = _stack(self.terms, states, group, owner, "n")
+        mask, owner, fs, gd = _sinkage_features(self.terms, group, rows, state)
         soft = None
         if self.soften:
             aspect = group.tests["aspect_ratio"].to_numpy(float)[owner]
@@ -229,11 +253,7 @@ class SinkageExtension(Extension):
     def _names(self, state):
         names = ["kc", "kphi", "n"] if state.get("bekker", self.bekker) else ["k", "n"]
         units = [_SINK_UNITS[n] for n in names]
-        states = state.get("terms", [])
-        for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
-            extra = _term_names(self.terms, states, target, label)
-            names += extra
-            units += ["-"] * len(extra)
+        _add_term_names(names, units, self.terms, state)
         if self.soften:
             names += ["z_c", "f_soft"]
             units += ["m", "-"]
@@ -317,6 +337,75 @@ class ReeceExtension(Extension):
         )
 
 
+# ------------------------------------------------------------- a registered model of one's own
+#: A group's per-sample inputs (:class:`~.data.Group`) by the pooled-data column a model
+#: record names (``Model.columns``), per kind.
+_GROUP_INPUTS = {"sinkage": {"b_m": "b", "z_m": "z"}, "shear": {"sigma_Pa": "sigma", "j_m": "j"}}
+
+
+def check_own_model(model) -> None:
+    """Raise :class:`~soilstats.errors.ModelError` unless discovery has every input the
+    registered ``model`` takes (``Model.columns``) and its starting values."""
+    have = _GROUP_INPUTS.get(model.kind, {})
+    missing = [c for c in model.columns if c not in have]
+    if missing or model.start is None:
+        raise ModelError(
+            f"discovery cannot fit {model.name!r}: "
+            + (
+                f"it takes {missing}, and discovery has the inputs {sorted(have)}"
+                if missing
+                else "its record states no starting values (Model.start)"
+            )
+        )
+
+
+@dataclass(frozen=True)
+class ModelExtension(Extension):
+    """A registered model (``discover(model=...)``, docs/conventions.md "The model record")
+    with covariate terms: a factor exp(θ·F) on its output for ``"k"`` (stiffness) targets
+    and an offset θ·F on its exponent n for ``"n"`` targets (:class:`~soilstats.models
+    .extended.ModelFamily`).  It starts from the record's starting values."""
+
+    model: object = None  # the Model record
+    terms: tuple[Term, ...] = ()
+
+    def _x(self, group, mask):
+        names = _GROUP_INPUTS[self.model.kind]
+        data = {c: group.x[names[c]][mask] for c in self.model.columns}
+        return self.model.x_from(data)
+
+    def _inputs(self, group, rows, state):
+        mask, _, fs, gd = _sinkage_features(self.terms, group, rows, state)
+        family = model_family(self.model, self._x(group, mask), fs, gd, self.model.exponent)
+        return mask, None, family
+
+    def _names(self, state):
+        names, units = list(self.model.param_names), list(self.model.units)
+        _add_term_names(names, units, self.terms, state)
+        return names, units
+
+    def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
+        rows = np.asarray(rows, int)
+        state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
+        sinkage_keeps_bekker(self.name, False, self.terms, state["terms"], group, rows)
+        mask, _, family = self._inputs(group, rows, state)
+        y, w = group.y[mask], group.w[mask]
+        p = self.model.n_params
+        if base is not None and isinstance(base.extension, ModelExtension):
+            start = list(base.result.values[:p])
+        else:
+            start = list(self.model.start(self._x(group, mask), y))
+        p0 = start + [0.0] * (family.size - p)
+        names, units = self._names(state)
+        bounds = self.model.bounds_of
+        result = _identify(family, y, w, p0, names, units, bounds, self.name)
+        return Fitted(self, result, state)
+
+    def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
+        _, _, family = self._inputs(group, np.asarray(rows, int), fitted.state)
+        return family.f(fitted.result.values)
+
+
 # ----------------------------------------------------------------------------- shear models
 @dataclass(frozen=True)
 class ShearExtension(Extension):
@@ -388,7 +477,16 @@ def shear_inputs_a(group, rows) -> np.ndarray:
 # ------------------------------------------------------------------------------ the library
 def base_model(group, rows) -> Extension:
     """The paper's base model for these tests: Bekker (Eq. 7) with two or more plate sizes,
-    else Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear."""
+    else Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear — or the group's own
+    registered model (``Group.model``, from ``discover(model=...)``)."""
+    own = getattr(group, "model", None)
+    if own is not None and own.kind == group.kind:
+        return ModelExtension(
+            f"{own.name} (base)",
+            False,
+            f"{own.equation.split(':')[0]}, one {', '.join(own.param_names)}",
+            model=own,
+        )
     if group.kind == "shear":
         return ShearExtension("janosi (base)", False, "Eq. 13, one c, φ, K for all tests")
     sizes = np.unique(np.round(group.tests["b_m"].to_numpy(float)[np.asarray(rows, int)], 9))
@@ -429,6 +527,8 @@ def library(
     tests = group.tests.iloc[np.asarray(rows, int)]
     out: list[Extension] = []
     base = base_model(group, rows)
+    if isinstance(base, ModelExtension):
+        return _own_library(base, group, tests, cause, names, numeric, responses, log_scale)
     if group.kind == "sinkage":
         bekker = base.bekker
         v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
@@ -475,19 +575,7 @@ def library(
             # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
             return out
         out.append(
-            SinkageExtension(
-                f"{cause} ({how})",
-                False,
-                f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
-                f"{'n' if exponent else ''} depend on {cause} ({how})",
-                bekker=bekker,
-                terms=(
-                    Term(
-                        Features(cause, how, log_scale=log_scale),
-                        ("k",) * stiffness + ("n",) * exponent,
-                    ),
-                ),
-            )
+            _generic(SinkageExtension, cause, how, stiffness, exponent, log_scale, bekker=bekker)
         )
         return out
     a = shear_inputs_a(group, rows)
@@ -515,6 +603,52 @@ def library(
     return out
 
 
+def _own_library(base, group, tests, cause, names, numeric, responses, log_scale) -> list:
+    """A registered model's extensions: the velocity law (k·(v/v_ref)^a and an offset of n)
+    where the velocity is a cause, then the generic one (the responses' parameters depend on
+    the cause).  Softening, Reece and the per-size Bernstein law are the paper's
+    Bekker/Bernstein's."""
+    model, out = base.model, []
+    n_free = model.exponent is not None
+    v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
+    if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
+        targets = ("k", "n") if n_free else ("k",)
+        out.append(
+            ModelExtension(
+                "velocity",
+                True,
+                "stiffness·(v/v_ref)^a" + (" and n + m·ln(v/v_ref)" if n_free else ""),
+                model=model,
+                terms=(Term(Features("velocity_m_s", "velocity"), targets),),
+            )
+        )
+    stiffness = "level" in responses or not responses
+    exponent = n_free and ("shape" in responses or not responses)
+    if not (stiffness or exponent):
+        stiffness = True  # a shape effect on a model without an exponent: its level moves
+    how = "linear" if numeric else "levels"
+    out.append(_generic(ModelExtension, cause, how, stiffness, exponent, log_scale, model=model))
+    return out
+
+
+def _generic(kind, cause, how, stiffness, exponent, log_scale, **form) -> Extension:
+    """The generic sinkage extension of ``kind``: the stiffness and/or the exponent depend on
+    ``cause`` (``how``: per level, or a linear trend)."""
+    return kind(
+        f"{cause} ({how})",
+        False,
+        f"{'k' if stiffness else ''}{' and ' if stiffness and exponent else ''}"
+        f"{'n' if exponent else ''} depend on {cause} ({how})",
+        terms=(
+            Term(
+                Features(cause, how, log_scale=log_scale),
+                ("k",) * stiffness + ("n",) * exponent,
+            ),
+        ),
+        **form,
+    )
+
+
 def _fixes_width(tests, column) -> bool:
     """Whether each level of ``column`` holds one plate width b among ``tests``."""
     levels = candidate_values(tests, column).astype(object).fillna(MISSING)
@@ -534,7 +668,11 @@ def combine(extensions) -> Extension | None:
     if len(extensions) == 1:
         return extensions[0]
     if not extensions or any(
-        not isinstance(e, SinkageExtension | ShearExtension) for e in extensions
+        not isinstance(e, SinkageExtension | ShearExtension | ModelExtension) for e in extensions
+    ):
+        return None
+    if any(isinstance(e, ModelExtension) for e in extensions) and not all(
+        isinstance(e, ModelExtension) and e.model == extensions[0].model for e in extensions
     ):
         return None
     merged: dict[Features, tuple[str, ...]] = {}  # Features is frozen: its fields are the key
@@ -545,6 +683,8 @@ def combine(extensions) -> Extension | None:
     name = " + ".join(e.name for e in extensions)
     description = "; ".join(e.description for e in extensions)
     physical = all(e.physical for e in extensions)
+    if isinstance(extensions[0], ModelExtension):
+        return ModelExtension(name, physical, description, model=extensions[0].model, terms=terms)
     if isinstance(extensions[0], SinkageExtension):
         return SinkageExtension(
             name,

@@ -34,6 +34,7 @@ import pandas as pd
 from .._text import plural
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError, IdentifiabilityError
+from ..models import get_model
 from ..parallel import one_blas_thread
 from ..quality import screened
 from ..report import Provenance
@@ -41,6 +42,7 @@ from .artefacts import quality_record, split_artefacts, with_quality_caveat
 from .crossval import group_rng
 from .data import build_groups
 from .diagnose import diagnose_groups
+from .extensions import check_own_model
 from .flags import physical_flags
 from .leads import discover_group, leads_of
 from .power import power_records
@@ -67,6 +69,7 @@ def discover(
     progress: bool = False,
     provenance: Provenance | None = None,
     jobs: int = 1,
+    model=None,
 ) -> DiscoveryResult:
     """Find what the soil model gets wrong in a campaign, extend it, and measure the gain.
 
@@ -93,6 +96,13 @@ def discover(
         cross-validation and forward selection (:mod:`.work`).  The results are identical
         for any ``jobs``: each group's folds are drawn from its own stream in one order, and
         every fit is a deterministic function of its data and start.
+    model : str or Model, optional
+        A registered sinkage model (:func:`soilstats.register_model`) to use as the base of
+        the sinkage groups instead of the paper's (Bekker with two or more plate sizes, else
+        Bernstein); it starts from its record's starting values and its extensions are the
+        generic ones (a factor on its output and an offset on its exponent n per cause, and
+        the velocity law).  Shear keeps Janosi–Hanamoto.  An unknown name, or a model of
+        another kind, is a :class:`~soilstats.errors.ModelError`.
 
     Returns
     -------
@@ -112,11 +122,15 @@ def discover(
             f"seed must be a non-negative integer (the folds are random and must be "
             f"reproducible), got {seed!r}; e.g. seed=0"
         )
+    spec = None if model is None else get_model(model, "sinkage")
+    if spec is not None:
+        check_own_model(spec)
     # BLAS on one thread in this process, as in the workers: the same last bits for any
     # jobs (and faster: see .work).
     with one_blas_thread():
         return _discover(
             campaign,
+            model=spec,
             alpha=alpha,
             seed=seed,
             max_leads=max_leads,
@@ -128,7 +142,7 @@ def discover(
 
 
 def _discover(
-    campaign, *, alpha, seed, max_leads, points_per_test, progress, provenance, jobs
+    campaign, *, alpha, seed, max_leads, points_per_test, progress, provenance, jobs, model=None
 ) -> DiscoveryResult:
     """:func:`discover` after its argument checks."""
     start = time.perf_counter()
@@ -139,7 +153,7 @@ def _discover(
     campaign = screened(campaign)  # once; every fit below uses the screened records
     quality = quality_record(campaign)
     groups, notes = build_groups(
-        campaign, points_per_test=points_per_test, progress=progress, jobs=jobs
+        campaign, points_per_test=points_per_test, progress=progress, jobs=jobs, model=model
     )
     diags, table = diagnose_groups(groups, alpha=alpha)
     notes = list(dict.fromkeys([*notes, *(n for d in diags for n in d.notes)]))

@@ -43,9 +43,6 @@ MIN_TESTS = 5
 #: tests of one nominal level differ by their noise, a few per cent of the range at most.
 MIN_DESIGN_SPREAD = 0.1
 
-#: The pooled input whose spread separates a model's parameters (by model name).
-_DESIGN_INPUT = {"bekker": "b_m", "reece": "b_m", "mohr-coulomb": "sigma_Pa", "janosi": "sigma_Pa"}
-
 
 @dataclass(frozen=True)
 class TestBootstrap:
@@ -235,7 +232,7 @@ def test_bootstrap(model, x, pooled, fit, n_resamples: int, seed: int, notes: li
         fit.values,
         n_resamples=n_resamples,
         seed=seed,
-        design=pooled.x.get(_DESIGN_INPUT.get(model.name, "")),
+        design=pooled.x.get(model.design_input or ""),  # the record's (Model.design_input)
     )
 
 

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
+from ..models import get_model
 from ..parallel import effective_jobs, parallel_map
 from ..quality import screened
 from .result import CampaignFit
@@ -43,8 +44,6 @@ DEFAULT_CONDITION_COLUMNS = {
     "sinkage": ("velocity_m_s", "preparation"),
     "shear": ("tool", "r_inner_m"),
 }
-#: Bekker-type models need two or more plate sizes in a condition (Section 2.1).
-_NEEDS_SIZES = ("bekker", "reece")
 
 
 def condition_label(value) -> str:
@@ -150,16 +149,20 @@ MIN_SIZE_RATIO = 1.5
 
 
 def _model_for(kind: str, model: str, fallback: str | None, tests: pd.DataFrame):
-    """(model to fit or None, note): Bekker-type models fall back where one plate size."""
+    """(model to fit or None, note): a model whose record needs several plate sizes
+    (``Model.min_plate_sizes``: Bekker, Reece) falls back where the condition has fewer."""
     if kind == "shear":
         return model, None
     if model == "auto":
         model, fallback = "bekker", fallback or "bernstein"
     sizes = tests["b_m"].dropna()
-    if model in _NEEDS_SIZES and sizes.nunique() < 2:
+    needed = get_model(model).min_plate_sizes
+    if needed < 2:
+        return model, None
+    if sizes.nunique() < needed:
         why = f"one plate size: {model}'s kc and kphi cannot be separated (Section 2.1)"
         return (fallback, why) if fallback else (None, why)
-    if model in _NEEDS_SIZES and sizes.max() / sizes.min() < MIN_SIZE_RATIO:
+    if sizes.max() / sizes.min() < MIN_SIZE_RATIO:
         why = (
             f"plate sizes b = {sizes.min():g}-{sizes.max():g} m differ by less than "
             f"{MIN_SIZE_RATIO:g}x: kc/b and kphi cannot be told apart by this design"
@@ -215,6 +218,9 @@ def plan_conditions(
         tests = tests[tests["soil"].astype(str).isin(set(map(str, soils)))]
     if kind == "shear" and model == "auto":
         model = "mohr-coulomb"
+    for name in (model, fallback_model):  # an unknown name or kind: an error, before any fit
+        if name is not None and name != "auto":
+            get_model(name, kind)
     fallbacks: dict[tuple, list[str]] = {}
     tasks = []
     if "series" in tests.columns:
@@ -264,8 +270,10 @@ def fit_conditions(
     by : str, optional
         Test-log column whose values are the conditions (default: :func:`default_condition`).
     model : str
-        Sinkage: ``auto`` (Bekker, Bernstein where one plate size), ``bekker``, ``bernstein``,
-        ``reece``; shear: ``mohr-coulomb`` or ``janosi`` (``auto`` means Mohr–Coulomb).
+        A registered model of ``kind`` (:func:`soilstats.models.models_of_kind`): sinkage
+        ``auto`` (Bekker, Bernstein where one plate size), ``bekker``, ``bernstein``,
+        ``reece``; shear ``mohr-coulomb`` or ``janosi`` (``auto`` means Mohr–Coulomb); or
+        one's own (:func:`soilstats.register_model`).
     fallback_model : str, optional
         Model for a condition with one plate size when ``model`` needs several (else the
         condition is reported as not identified).
@@ -323,7 +331,10 @@ def fit_planned(
     sent = []
     for i in order:
         plan, task = items[i]
-        sent.append((pieces[i], plan.kind, task.model, task.test_ids, plan.options))
+        # The record itself, not its name: a model registered in this process only
+        # reaches a worker process that way.
+        spec = get_model(task.model)
+        sent.append((pieces[i], plan.kind, spec, task.test_ids, plan.options))
     done = parallel_map(
         _fit_condition,
         sent,

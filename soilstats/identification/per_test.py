@@ -30,7 +30,6 @@ from ..parallel import effective_jobs, parallel_map
 from ..quality import screened
 from .centring import centred
 from .pooling import kept_samples
-from .starting_values import sinkage_start
 from .steady_state import steady_state
 
 __all__ = ["fit_per_test", "not_converged_message"]
@@ -160,7 +159,7 @@ def fit_bernstein_test(z, p, weights, *, name: str = "bernstein"):
     The one per-test sinkage fit of soilstats (per-test responses, discovery, the population
     posterior).  Starts from Wong's estimate; raises one of :data:`TEST_FIT_ERRORS`.
     """
-    p0 = sinkage_start("bernstein", None, z, p)
+    p0 = BERNSTEIN.start(z, p)
     return centred(identify(BERNSTEIN, z, p, p0, weights=weights, name=name), z)
 
 
@@ -170,11 +169,8 @@ def fit_shear_test(j, tau, weights, *, name: str = "shear"):
     j [m], τ [Pa], per-sample weights.  The one per-test shear fit of soilstats (per-test
     responses, the population posterior).  Raises one of :data:`TEST_FIT_ERRORS`.
     """
-    # Start: plateau from the top decile, K from where τ first reaches 63 % of it (1 − 1/e).
-    tau_top = float(np.median(np.sort(tau)[-max(3, tau.size // 10) :]))
-    reach = np.flatnonzero(tau >= 0.632 * tau_top)
-    k0 = float(j[reach[0]]) if reach.size and j[reach[0]] > 0 else float(np.ptp(j)) / 20 or 1e-3
-    return identify(SHEAR_CURVE, j, tau, [tau_top, k0], weights=weights, name=name)
+    p0 = SHEAR_CURVE.start(j, tau)  # plateau from the top decile, K where τ reaches 63 %
+    return identify(SHEAR_CURVE, j, tau, p0, weights=weights, name=name)
 
 
 def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:

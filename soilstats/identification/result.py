@@ -264,8 +264,16 @@ def _proposed_items(report, tests_hit: list[str]) -> str:
 #: bootstrap's own sd is noisy (5 clean tests: ratios 0.34–1.32, so a two-sided check fired
 #: on 9 of 40 clean campaigns).
 DISAGREEMENT = 2.0
-#: Parameters whose sign is a physical statement (a modulus that may be either sign).
-SIGNED = ("kc", "kphi", "k1", "k2", "c")
+
+
+def _signed() -> set[str]:
+    """Parameters whose sign is a physical statement (a modulus that may be either sign):
+    those the model records name (``Model.signed``: kc, kphi, k1, k2, c)."""
+    from ..models import MODELS
+
+    return {name for model in MODELS.values() for name in model.signed}
+
+
 #: Below this share of resamples keeping the estimate's sign, the sign is not determined.
 MIN_SIGN_STABILITY = 0.9
 #: More resamples than this share not converging: the test-level σ is not to be trusted.
@@ -318,10 +326,11 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
             )
         )
     stability = bs.sign_stability()
+    signed = _signed()
     unstable = [
         f"{name} keeps its sign in {share:.0%}"
         for name, share in stability.items()
-        if name in SIGNED and np.isfinite(share) and share < MIN_SIGN_STABILITY
+        if name in signed and np.isfinite(share) and share < MIN_SIGN_STABILITY
     ]
     if unstable:
         flags.append(

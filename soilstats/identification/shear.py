@@ -10,12 +10,11 @@ from ..errors import CampaignError
 from ..fitting.identify import identify
 from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
-from ..models import JANOSI, MOHR_COULOMB, get_model
+from ..models import get_model
 from ..quality import screened
 from .bootstrap import test_bootstrap
 from .pooling import pool_shear
 from .result import CampaignFit
-from .starting_values import janosi_start
 
 __all__ = ["fit_shear", "pool_shear"]
 
@@ -40,20 +39,20 @@ def fit_shear(
     of every test (rule in :mod:`soilstats.identification.steady_state`); φ and its σ follow
     from tan φ by the delta method.  Janosi–Hanamoto is the weighted LM fit of Eq. 13 on
     whole records (j ≥ 0).  Weighting defaults to unit weights for Mohr–Coulomb (as the
-    paper's Section 4.2) and 1/max(τ) per test for Janosi (Section 2.2 → 2.1).
+    paper's Section 4.2) and 1/max(τ) per test for Janosi (Section 2.2 → 2.1).  ``model``
+    may be any registered shear model (:func:`soilstats.register_model`): its record says
+    whether it fits the steady-state parts (``Model.steady_state``, solved in closed form
+    through ``Model.linear_form``) or whole records (weighted LM from ``Model.start``), and
+    its default weighting.
     ``test_resamples`` and ``seed`` run the cluster bootstrap over tests behind
     ``stderr_tests``, as in :func:`fit_sinkage`; ``quality`` as there.
     """
-    spec = get_model(model)
-    if spec not in (MOHR_COULOMB, JANOSI):
-        raise ValueError(f"model must be 'mohr-coulomb' or 'janosi' for shear, got {model!r}")
+    spec = get_model(model, "shear")
     if weighting is None:
-        weighting = "none" if spec is MOHR_COULOMB else "max-stress"
+        weighting = spec.weighting or "max-stress"
     campaign = screened(campaign, quality)
-    pooled = pool_shear(
-        campaign, steady_only=spec is MOHR_COULOMB, weighting=weighting, **selection
-    )
-    sigma, j, tau, w = pooled.x["sigma_Pa"], pooled.x["j_m"], pooled.y, pooled.weights
+    pooled = pool_shear(campaign, steady_only=spec.steady_state, weighting=weighting, **selection)
+    sigma, tau, w = pooled.x["sigma_Pa"], pooled.y, pooled.weights
     groups = pooled.tests
     n_tests = len(groups)
     notes = [
@@ -61,7 +60,7 @@ def fit_shear(
         f"{groups['sigma_mean_Pa'].min():.4g}–{groups['sigma_mean_Pa'].max():.4g} Pa."
     ]
     flags = []
-    if spec is MOHR_COULOMB:
+    if spec.steady_state:
         unsteady = groups[~groups["steady"].astype(bool)]
         notes.append(
             "Steady-state part per test: from where tau stays >= 98% of its plateau "
@@ -94,7 +93,7 @@ def fit_shear(
             "Linear least squares (Section 2.2); phi = atan(tan phi), sigma by the delta method."
         )
         mohr_coulomb = FitResult.closed_form(
-            MOHR_COULOMB,
+            spec,
             [c, np.degrees(np.arctan(t))],
             cov,
             w * lin.residuals,
@@ -105,17 +104,12 @@ def fit_shear(
         )
         bootstrap = test_bootstrap(spec, sigma, pooled, mohr_coulomb, test_resamples, seed, notes)
         return CampaignFit.of(mohr_coulomb, pooled, notes, flags, bootstrap, campaign)
+    x = spec.x_from(pooled.x)
     if p0 is None:
-        p0 = janosi_start(sigma, j, tau)
+        if spec.start is None:
+            raise ValueError(f"model {spec.name!r} states no starting values: pass p0")
+        p0 = spec.start(x, tau)
     notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
-    result = identify(
-        JANOSI,
-        np.vstack([sigma, j]),
-        tau,
-        p0,
-        weights=w,
-        on_failure=on_failure,
-    )
-    x = np.vstack([sigma, j])
+    result = identify(spec, x, tau, p0, weights=w, on_failure=on_failure)
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
     return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)

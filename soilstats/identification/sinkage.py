@@ -10,29 +10,31 @@ from .._text import plural
 from ..errors import IdentifiabilityError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult, HealthFlag
-from ..models import BERNSTEIN, REECE, get_model
+from ..models import get_model
 from ..quality import screened
 from .adequacy import adequacy_findings
 from .bootstrap import test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
-from .starting_values import sinkage_start
 from .window import FitWindow, windowed
-from .wong import wong_bekker, wong_bernstein
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
-SINKAGE_MODELS = ("bekker", "bernstein", "reece")
+_COUNTS = {2: "two", 3: "three", 4: "four"}
 
 
-def _check_identifiable(model_name: str, pooled: PooledData) -> None:
+def _check_identifiable(spec, pooled: PooledData) -> None:
+    """The plate sizes the model's record asks for (``Model.min_plate_sizes``)."""
     tests = pooled.by_test  # the plate sizes of the tests with samples: one per test, not sample
     sizes = np.unique(tests["b_m"][tests["used"] > 0])
-    if model_name in ("bekker", "reece") and sizes.size < 2:
+    needed = spec.min_plate_sizes
+    if sizes.size < needed:
+        have = "one" if sizes.size == 1 else str(sizes.size)
         raise IdentifiabilityError(
-            f"the {model_name} model needs tests with at least two plate sizes b to separate "
-            f"its size terms (Section 2.1); the selection has one (b = {sizes[0]:g} m). "
+            f"the {spec.name} model needs tests with at least {_COUNTS.get(needed, needed)} "
+            f"plate sizes b to separate its size terms (Section 2.1); the selection has "
+            f"{have} (b = {', '.join(f'{b:g}' for b in sizes)} m). "
             "Fit model='bernstein' instead, or add tests with another plate size."
         )
 
@@ -85,7 +87,10 @@ def fit_sinkage(
     ----------
     campaign : Campaign
         From :func:`soilstats.load_campaign`.
-    model : {"bekker", "bernstein", "reece"}
+    model : str or Model
+        A registered sinkage model (``"bekker"``, ``"bernstein"``, ``"reece"`` or one's
+        own, :func:`soilstats.register_model`); its record gives the inputs, the starting
+        values and the plate sizes needed.
     method : {"lm", "wong"}
         ``"lm"``: the paper's weighted Levenberg–Marquardt (Eq. 9) with σ from Eq. 3–5.
         ``"wong"``: Wong's p²-weighted log–log regression, for comparison (Fig. 3).
@@ -116,26 +121,25 @@ def fit_sinkage(
         ``kc, kphi, n`` / ``k, n`` / ``k1, k2, n``; ``tests`` holds the per-test bookkeeping
         (samples used, excluded, weight).
     """
-    spec = get_model(model)
-    if spec.name not in SINKAGE_MODELS:
-        raise ValueError(f"model must be one of {SINKAGE_MODELS} for sinkage, got {model!r}")
+    spec = get_model(model, "sinkage")
     if method not in ("lm", "wong"):
         raise ValueError(f"method must be 'lm' or 'wong', got {method!r}")
     campaign = windowed(screened(campaign, quality), window)
     pooled = pool_sinkage(
         campaign, points_per_test=points_per_test, weighting=weighting, **selection
     )
-    _check_identifiable(spec.name, pooled)
-    b, z, p, w = pooled.x["b_m"], pooled.x["z_m"], pooled.y, pooled.weights
-    x = z if spec is BERNSTEIN else np.vstack([b, z])
+    _check_identifiable(spec, pooled)
+    z, p, w = pooled.x["z_m"], pooled.y, pooled.weights
+    x = spec.x_from(pooled.x)
     notes = _notes(pooled, points_per_test, weighting)
 
     if method == "wong":
-        if spec is REECE:
-            raise ValueError("Wong's method is defined for the Bekker and Bernstein models")
-        wong = wong_bernstein if spec is BERNSTEIN else wong_bekker
-        args = (z, p) if spec is BERNSTEIN else (b, z, p)
-        theta, cov, n_nonpos = wong(*args)
+        if spec.wong is None:
+            raise ValueError(
+                f"Wong's method is not defined for the {spec.name} model; it is for "
+                "the Bekker and Bernstein models"
+            )
+        theta, cov, n_nonpos = spec.wong(x, p)
         notes.append(
             "Wong's method: ln p on ln z weighted by p^2; sigma from the linearised "
             f"regressions, not Eq. 4. {n_nonpos} samples with p <= 0 have no log and were excluded."
@@ -155,7 +159,9 @@ def fit_sinkage(
         return CampaignFit.of(closed, pooled, notes, flags, campaign=campaign)
 
     if p0 is None:
-        p0 = sinkage_start(spec.name, b, z, p)
+        if spec.start is None:
+            raise ValueError(f"model {spec.name!r} states no starting values: pass p0")
+        p0 = spec.start(x, p)
     result = centred(identify(spec, x, p, p0, weights=w, on_failure=on_failure), z)
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
     flags = _adequacy(spec, pooled, result, bootstrap)
@@ -183,9 +189,7 @@ def _rezero_sensitivity(
         return []
     logged = windowed(report.unseated(), window)
     other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)
-    b, z = other.x["b_m"], other.x["z_m"]
-    x = z if spec is BERNSTEIN else np.vstack([b, z])
-    alt = identify(spec, x, other.y, p0, weights=other.weights, on_failure="warn")
+    alt = identify(spec, spec.x_from(other.x), other.y, p0, weights=other.weights, on_failure="warn")
     if not alt.converged:
         return []
     sigma = bootstrap.stderr if bootstrap is not None else result.stderr
@@ -209,7 +213,7 @@ def _rezero_sensitivity(
 def _adequacy(spec, pooled, fit, bootstrap) -> list:
     """``lack-of-fit``, ``plate-exponents`` and (with the test bootstrap) ``aggregation-bias`` flags
     (identification/adequacy.py)."""
-    b = None if spec is BERNSTEIN else pooled.x["b_m"]
+    b = pooled.x["b_m"] if "b_m" in spec.columns else None
     se_n = None if bootstrap is None else float(bootstrap.stderr["n"])
     n = float(fit.values[fit.param_names.index("n")])  # not fit.params: a pandas Series
     return adequacy_findings(pooled.x["z_m"], pooled.y, pooled.test_index, n, b, se_n)[1]

@@ -1,8 +1,9 @@
 """Starting values of the LM identification: one home for every model's first guess.
 
 Each is a cheap closed-form estimate that is usually a few LM steps from the optimum; none is a
-result.  Used by the paper's identification (:mod:`.sinkage`, :mod:`.shear`) and by the
-extended models of discovery, so that both start from the same place.
+result.  A model's record names its own (``Model.start``, :mod:`soilstats.models`); the
+paper's identification (:mod:`.sinkage`, :mod:`.shear`) and the extended models of discovery
+ask the record, so that both start from the same place.
 """
 
 from __future__ import annotations
@@ -11,24 +12,51 @@ import numpy as np
 
 from .wong import wong_start
 
-__all__ = ["janosi_start", "reece_from_bekker", "sinkage_start"]
+__all__ = [
+    "bekker_start",
+    "bernstein_start",
+    "janosi_start",
+    "reece_from_bekker",
+    "reece_start",
+    "shear_curve_start",
+    "sinkage_start",
+]
 
 
-def sinkage_start(model_name: str, b, z, p) -> np.ndarray:
-    """Wong's linearised estimate (Fig. 3) of ``bekker`` / ``bernstein``; ``reece`` mapped.
+def sinkage_start(model, b, z, p) -> np.ndarray:
+    """The starting values of a registered sinkage model (its record's ``start``).
+
+    b, z [m] (b may be None for a model without a plate size), p [Pa].  An unknown name, or
+    a model of another kind, is a :class:`~soilstats.errors.ModelError`.
+    """
+    from ..models import get_model
+
+    spec = get_model(model, "sinkage")
+    if spec.start is None:
+        raise ValueError(f"model {spec.name!r} states no starting values (Model.start)")
+    return spec.start(spec.x_from({"b_m": b, "z_m": z}), p)
+
+
+def bekker_start(b, z, p) -> np.ndarray:
+    """Wong's linearised estimate (Fig. 3) of Bekker's (kc, kφ, n).
 
     b, z [m], p [Pa].  Where Wong's method is undefined (one plate size, no positive p) the
-    Bekker start falls back to kc = 0, kφ = median(p/z), n = 1.
+    start falls back to kc = 0, kφ = median(p/z), n = 1.
     """
     try:
-        if model_name == "bernstein":
-            return wong_start(None, z, p)
-        theta = wong_start(b, z, p)
+        return wong_start(b, z, p)
     except (ValueError, np.linalg.LinAlgError):
-        theta = np.array([0.0, np.median(p / np.maximum(z, 1e-9)), 1.0])
-    if model_name == "reece":
-        return reece_from_bekker(theta, b)
-    return theta
+        return np.array([0.0, np.median(p / np.maximum(z, 1e-9)), 1.0])
+
+
+def bernstein_start(z, p) -> np.ndarray:
+    """Wong's linearised estimate (Fig. 3) of Bernstein's (k, n); z [m], p [Pa]."""
+    return wong_start(None, z, p)
+
+
+def reece_start(b, z, p) -> np.ndarray:
+    """Reece's (k1, k2, n) mapped from Bekker's start (:func:`reece_from_bekker`)."""
+    return reece_from_bekker(bekker_start(b, z, p), b)
 
 
 def reece_from_bekker(theta, b) -> np.ndarray:
@@ -59,3 +87,14 @@ def janosi_start(sigma, j, tau) -> np.ndarray:
     k0 = np.median(-j[rising] / np.log1p(-ratio[rising])) if rising.any() else np.median(j)
     phi0 = np.degrees(np.arctan(max(t0, 1e-3)))
     return np.array([max(float(c0), 1.0), float(phi0), max(float(k0), 1e-5)])
+
+
+def shear_curve_start(j, tau) -> np.ndarray:
+    """(τ_max [Pa], K [m]) of Eq. 13 at one normal pressure, from one test's record.
+
+    The plateau from the top decile, K from where τ first reaches 63 % of it (1 − 1/e).
+    """
+    tau_top = float(np.median(np.sort(tau)[-max(3, tau.size // 10) :]))
+    reach = np.flatnonzero(tau >= 0.632 * tau_top)
+    k0 = float(j[reach[0]]) if reach.size and j[reach[0]] > 0 else float(np.ptp(j)) / 20 or 1e-3
+    return np.array([tau_top, k0])

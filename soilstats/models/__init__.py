@@ -1,8 +1,24 @@
-"""Soil models of the paper, each with analytic Jacobian, names, units and plausible bounds."""
+"""Soil models of the paper, each one record (:class:`Model`) in one registry.
+
+Each record holds the equation with its analytic Jacobian, names, units and plausible bounds,
+and everything the layers above ask of the model: kind, data columns, starting values,
+priors, physical support, plate sizes needed, population layout, Chrono SCM mapping and
+display labels (:mod:`.base`).  :func:`get_model` finds one by name; :func:`register_model`
+adds one's own (docs/conventions.md, "The model record").
+"""
 
 from __future__ import annotations
 
 from .base import Model
+from .registry import (
+    MODELS,
+    _register_built_in,
+    get_model,
+    model_names,
+    models_of_kind,
+    register_model,
+    unregister_model,
+)
 from .shear import JANOSI, MOHR_COULOMB, SHEAR_CURVE, side_wall_ratio
 from .sinkage import BEKKER, BERNSTEIN, REECE
 
@@ -16,21 +32,11 @@ __all__ = [
     "SHEAR_CURVE",
     "Model",
     "get_model",
+    "model_names",
+    "models_of_kind",
+    "register_model",
     "side_wall_ratio",
+    "unregister_model",
 ]
 
-MODELS: dict[str, Model] = {
-    m.name: m for m in (BEKKER, BERNSTEIN, REECE, JANOSI, MOHR_COULOMB, SHEAR_CURVE)
-}
-
-
-def get_model(name: str | Model) -> Model:
-    """The model called ``name`` (or ``name`` itself if it is already a :class:`Model`)."""
-    if isinstance(name, Model):
-        return name
-    try:
-        return MODELS[name]
-    except KeyError:
-        raise ValueError(
-            f"unknown model {name!r}; choose one of {sorted(MODELS)} or pass a soilstats.Model"
-        ) from None
+_register_built_in(BEKKER, BERNSTEIN, REECE, JANOSI, MOHR_COULOMB, SHEAR_CURVE)

@@ -1,13 +1,41 @@
-"""The :class:`Model` record: a soil equation with its analytic Jacobian, names, units, bounds."""
+"""The :class:`Model` record: one soil model and everything a layer needs to know about it.
+
+Its equation with the analytic Jacobian, names, units and bounds (what the optimiser needs),
+and its kind, inputs, starting values, default priors, physical support, identifiability
+requirements, population layout, simulator mapping and display labels (what identification,
+the posteriors, discovery, the studies, the reports and the command line ask of it).  A
+model is registered once (:mod:`soilstats.models.registry`) and every layer asks the
+registry (docs/conventions.md, "The model record").
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["Model", "PowerLawTerms", "separable_from_power_law"]
+from ..errors import ModelError
+
+__all__ = [
+    "KINDS",
+    "Model",
+    "NonNegative",
+    "ParamLabel",
+    "PopulationLayout",
+    "Positive",
+    "PositiveModulus",
+    "PowerLawPopulation",
+    "PowerLawTerms",
+    "Within",
+    "power_law_population",
+    "separable_from_power_law",
+]
+
+#: What a soil model describes: a sinkage (plate) test, a shear-ring campaign, or one
+#: shear test at one normal pressure (the per-test fit).
+KINDS = ("sinkage", "shear", "shear-test")
 
 
 class PowerLawTerms:
@@ -103,9 +131,175 @@ def separable_from_power_law(power_law: Callable, x, weights) -> tuple[Callable,
     return terms.basis, terms.log_z
 
 
+# ------------------------------------------------------------------- parts of the record
+@dataclass(frozen=True)
+class _ParameterRule:
+    """Support rule on one parameter: a draw breaking it is counted as ``label``."""
+
+    name: str
+    broken: ClassVar[str] = ""
+
+    @property
+    def params(self) -> tuple[str, ...]:
+        return (self.name,)
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} {self.broken}"
+
+    def holds(self, values: Mapping[str, np.ndarray], widths) -> np.ndarray:
+        return self._inside(values[self.name])
+
+    def _inside(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover (abstract)
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Positive(_ParameterRule):
+    """Support rule: ``name`` > 0 (broken: ``"{name} <= 0"``)."""
+
+    broken: ClassVar[str] = "<= 0"
+
+    def _inside(self, x):
+        return x > 0
+
+
+@dataclass(frozen=True)
+class NonNegative(_ParameterRule):
+    """Support rule: ``name`` ≥ 0 (c of a cohesionless sand is 0)."""
+
+    broken: ClassVar[str] = "< 0"
+
+    def _inside(self, x):
+        return x >= 0
+
+
+@dataclass(frozen=True)
+class Within(_ParameterRule):
+    """Support rule: ``lower`` < ``name`` < ``upper`` (in ``unit``)."""
+
+    lower: float = -np.inf
+    upper: float = np.inf
+    unit: str = ""
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} outside ({self.lower:g}, {self.upper:g}) {self.unit}".rstrip()
+
+    def _inside(self, x):
+        return (x > self.lower) & (x < self.upper)
+
+
+@dataclass(frozen=True)
+class PositiveModulus:
+    """Support rule and prior constraint: the plate modulus ``modulus(b, *params)`` (the
+    pressure at unit sinkage on a plate of width b, e.g. Bekker's kc/b + kφ) is positive at
+    every plate width used.  It is monotone in b, so the smallest and largest width decide.
+
+    ``text`` names it in messages (``"kc/b + kphi"``); ``params`` are the model's parameter
+    names, in the order ``modulus`` takes them after b.
+    """
+
+    text: str
+    modulus: Callable[..., np.ndarray]
+    params: tuple[str, ...]
+
+    @property
+    def label(self) -> str:
+        return f"{self.text} <= 0"
+
+    def holds(self, values: Mapping[str, np.ndarray], widths) -> np.ndarray:
+        lo, hi = widths
+        args = [values[n] for n in self.params]
+        return (self.modulus(lo, *args) > 0) & (self.modulus(hi, *args) > 0)
+
+
+@dataclass(frozen=True)
+class ParamLabel:
+    """How reports show a parameter: ``symbol`` in Typst math (``k_phi``); for figures the
+    matplotlib ``axis`` label, the ``caption`` name, the display ``unit`` (mathtext) and
+    its ``unit_words``, and the ``scale`` from the SI value to the displayed one."""
+
+    symbol: str
+    axis: str | None = None
+    caption: str | None = None
+    unit: str | None = None
+    unit_words: str | None = None
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class PopulationLayout:
+    """How a soil model maps onto the population (hierarchical) posterior
+    (:mod:`soilstats.bayes.population_model`, module docstring): a subclass per family of
+    models states the maps.
+
+    ``linear(θ)`` → the moduli m that enter a test's first per-test parameter linearly
+    (a_tᵀm); ``second(θ)`` → g, the soil-level value of the second per-test coordinate;
+    ``assemble(m, g)`` → θ back; ``linear_log_jacobian(θ)`` → log dθ_linear/d(moduli).
+    ``log_second``: the per-test fit's second parameter enters η as its logarithm (K)
+    rather than as it is (n).
+    """
+
+    per_test: tuple[str, str]  # names of the per-test fit's two parameters
+    scatter: tuple[str, str, str]  # names of s_ε, s_δ, ρ in the posterior
+    covariate: str  # per-test quantity of the design row: b_m or sigma_Pa
+    log_second: bool
+    scatter_note: str
+
+    def linear_log_jacobian(self, theta: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def linear(self, theta: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def second(self, theta: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def assemble(self, m: np.ndarray, g: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class PowerLawPopulation(PopulationLayout):
+    """A power law θ = (a₁ … a_q, n): each test a Bernstein fit (k_t, n_t) whose k_t is
+    linear in the moduli a (``Model.power_law``'s basis at its b); the moduli are the
+    parameters themselves, so their log-Jacobian is 0."""
+
+    def linear_log_jacobian(self, theta):
+        return np.zeros(theta.shape[0])
+
+    def linear(self, theta):
+        return theta[:, :-1]
+
+    def second(self, theta):
+        return theta[:, -1]
+
+    def assemble(self, m, g):
+        return np.column_stack([m, g])
+
+
+def power_law_population(scatter_note: str) -> PowerLawPopulation:
+    """The population layout of a power-law sinkage model (:class:`PowerLawPopulation`)."""
+    scatter = ("sd_p_ref", "sd_n", "corr_p_ref_n")
+    return PowerLawPopulation(("k", "n"), scatter, "b_m", False, scatter_note)
+
+
+def _pairs(value) -> tuple:
+    """A mapping as a tuple of its items (the record stays hashable); a tuple as it is."""
+    return tuple(value.items()) if isinstance(value, Mapping) else tuple(value)
+
+
 @dataclass(frozen=True)
 class Model:
-    """A soil model y = f(x, θ) as the identification needs it.
+    """A soil model y = f(x, θ): the one record every layer asks about it.
+
+    The first block of attributes is what the optimiser needs (any ``Model`` has them; the
+    extended families of discovery build such models on the fly).  The second is what the
+    layers above ask of a *soil* model — registered by name
+    (:func:`~soilstats.models.registry.register_model`), so that identification, the
+    posteriors, discovery, the studies, the reports and the command line keep no list of
+    models of their own.  Each has a default that means "not applicable".
 
     Attributes
     ----------
@@ -145,6 +339,49 @@ class Model:
         c and tan φ): ``linear_form(x) -> (X, to_params)`` with the (N, p) design X and
         ``to_params`` mapping (B, p) coefficients of X to (B, p) model parameters.  The
         bootstrap then solves every resample in closed form, as the fit itself is solved.
+    kind : {"sinkage", "shear", "shear-test"}
+        The tests it describes (:data:`KINDS`): plate-sinkage tests, the shear-ring tests of
+        a campaign, or one shear test at one normal pressure (the per-test fit).  Empty for
+        a model that is no soil model (an extended family, a NIST test problem).
+    columns : tuple of str
+        The pooled-data columns that make ``x``, in the order of ``inputs`` (``("b_m",
+        "z_m")`` for Bekker; :meth:`x_from` builds ``x`` from them).
+    start : callable, optional
+        ``start(x, y) -> θ₀``: the starting values of the LM identification, a cheap
+        closed-form estimate (:mod:`soilstats.identification.starting_values`).
+    wong : callable, optional
+        ``wong(x, y) -> (θ, cov, n_excluded)``: Wong's linearised method (Fig. 3), where the
+        model has one (Bekker, Bernstein).
+    priors : mapping or tuple of (name, Prior)
+        Default prior of each parameter of the posteriors (:mod:`soilstats.models.priors`);
+        a parameter without one is flat on ℝ.  Stored as (name, Prior) pairs.
+    support : tuple of rules
+        The physical support of a parameter draw (:class:`Positive`, :class:`NonNegative`,
+        :class:`Within`, :class:`PositiveModulus`), checked in this order; a
+        :class:`PositiveModulus` rule also constrains the pooled posterior's prior at the
+        plate sizes of the data.
+    min_plate_sizes : int, default 1
+        Plate sizes b the tests of one fit must span (2 where kc/b and kφ, or k1 and k2·b,
+        are told apart only by the spread of b; Section 2.1).
+    design_input : str, optional
+        The pooled input whose spread separates the parameters (``"b_m"``, ``"sigma_Pa"``):
+        a bootstrap resample that spans too little of it counts as failed.
+    steady_state : bool, default False
+        Identified from the steady-state part of each shear test (Mohr–Coulomb, Eq. 15),
+        not from whole records.
+    weighting : str, optional
+        The default weighting of the pooled fit (``"max-pressure"``, ``"max-stress"``,
+        ``"none"``; Section 2.1).
+    population : PopulationLayout, optional
+        How the model maps onto the population posterior; None: pooled posterior only.
+    scm : mapping or tuple of (name, (column, unit))
+        The Chrono SCM soil parameter each parameter is, with the SCM unit
+        (:mod:`soilstats.bayes.export`); empty where SCM has none.
+    labels : mapping or tuple of (name, ParamLabel)
+        How reports show each parameter; a parameter without one is shown by its name.
+    signed : tuple of str
+        Parameters whose sign is a physical statement (a modulus that may take either
+        sign): the test bootstrap flags an unstable sign.
     """
 
     name: str
@@ -160,6 +397,36 @@ class Model:
     separable: Callable | None = field(default=None, repr=False)
     power_law: Callable | None = field(default=None, repr=False)
     linear_form: Callable | None = field(default=None, repr=False)
+    kind: str = ""
+    columns: tuple[str, ...] = ()
+    start: Callable | None = field(default=None, repr=False)
+    wong: Callable | None = field(default=None, repr=False)
+    priors: tuple = field(default=(), repr=False)
+    support: tuple = field(default=(), repr=False)
+    min_plate_sizes: int = 1
+    design_input: str | None = None
+    steady_state: bool = False
+    weighting: str | None = None
+    population: PopulationLayout | None = field(default=None, repr=False)
+    scm: tuple = field(default=(), repr=False)
+    labels: tuple = field(default=(), repr=False)
+    signed: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("priors", "scm", "labels"):
+            object.__setattr__(self, name, _pairs(getattr(self, name)))
+        if self.kind and self.kind not in KINDS:
+            raise ModelError(f"model {self.name!r}: kind must be one of {KINDS}, got {self.kind!r}")
+        if self.columns and len(self.columns) != len(self.inputs):
+            raise ModelError(
+                f"model {self.name!r}: columns {self.columns} do not match inputs {self.inputs}"
+            )
+        unknown = {n for n, _ in (*self.priors, *self.scm, *self.labels)} - set(self.param_names)
+        if unknown:
+            raise ModelError(
+                f"model {self.name!r}: priors, scm or labels name {sorted(unknown)}, which are "
+                f"not parameters (parameters: {list(self.param_names)})"
+            )
 
     def power_terms(self, x, weights) -> PowerLawTerms | None:
         """:class:`PowerLawTerms` of a power-law model for ``x`` and weights, else None."""
@@ -206,3 +473,37 @@ class Model:
     def bounds_of(self) -> dict[str, tuple[float, float]]:
         """Physically plausible range of each parameter, by name."""
         return dict(zip(self.param_names, self.bounds, strict=True))
+
+    @property
+    def prior_of(self) -> dict:
+        """Default prior of each parameter that has one, by name."""
+        return dict(self.priors)
+
+    @property
+    def label_of(self) -> dict[str, ParamLabel]:
+        """Display label of each parameter that has one, by name."""
+        return dict(self.labels)
+
+    @property
+    def scm_of(self) -> dict[str, tuple[str, str]]:
+        """Chrono SCM (column, unit) of each parameter SCM takes, by name."""
+        return dict(self.scm)
+
+    @property
+    def modulus(self) -> PositiveModulus | None:
+        """The plate-modulus rule of the support, if the model has one."""
+        return next((r for r in self.support if isinstance(r, PositiveModulus)), None)
+
+    @property
+    def exponent(self) -> str | None:
+        """The sinkage exponent's name (``"n"``), if the model has one: the parameter a
+        shape effect offsets (discovery)."""
+        return "n" if "n" in self.param_names else None
+
+    def x_from(self, data: Mapping[str, np.ndarray]):
+        """``x`` from the pooled data's columns (:attr:`columns`): the one array of a model
+        with one input, else the (k, N) stack."""
+        if not self.columns:
+            raise ModelError(f"model {self.name!r} states no data columns (Model.columns)")
+        cols = [data[c] for c in self.columns]
+        return cols[0] if len(cols) == 1 else np.vstack(cols)

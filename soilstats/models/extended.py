@@ -18,6 +18,13 @@ with S_c = exp(Σ θ_c·F), S_t = exp(Σ θ_t·F), S_K = exp(Σ θ_K·F) for a c
 side-wall terms of the torque conversion (Eq. 12 ignores them): S_c = 1 + a,
 S_t = 1 + a·K0, a = 3h(r_i² + r_o²)/(r_o³ − r_i³) for grousers of height h (docs/simulator.md).
 
+Any registered model (docs/conventions.md, "The model record") extends the generic way::
+
+    y = S · f(x, θ with its exponent n + D)      S = exp(Σ s_i·F_i),  D = Σ d_i·G_i
+
+(:class:`ModelFamily`): a stiffness-type factor on the output and an offset on the sinkage
+exponent, which for Bekker and Bernstein are those of the sinkage family above.
+
 Every family is an object over fixed inputs with ``f(θ)`` (N,) and ``jac(θ)`` (N, p) —
 ``f, jac = family`` unpacks them — and :meth:`~SinkageFamily.model`, a :class:`Model` whose
 ``prepare`` gives :func:`soilstats.identify` its fast path: the weights folded in, f and J
@@ -44,10 +51,12 @@ from .base import Model
 from .shear import RAD_PER_DEG
 
 __all__ = [
+    "ModelFamily",
     "ShearFamily",
     "ShearLayout",
     "SinkageFamily",
     "SinkageLayout",
+    "model_family",
     "shear_family",
     "sinkage_family",
 ]
@@ -135,6 +144,9 @@ class _Family:
 
         return f_weighted, jac_rows
 
+    def _output(self) -> str:
+        return "p [Pa]" if isinstance(self, SinkageFamily) else "tau [Pa]"
+
     def model(self, names, units, bounds: dict, name: str) -> Model:
         """This family as a :class:`Model` over x = sample index (the inputs are fixed here)."""
         unbounded = (-np.inf, np.inf)
@@ -142,7 +154,7 @@ class _Family:
             name=name,
             equation="extended family (soilstats.models.extended)",
             inputs=("sample index",),
-            output="p [Pa]" if isinstance(self, SinkageFamily) else "tau [Pa]",
+            output=self._output(),
             param_names=tuple(names),
             units=tuple(units),
             bounds=tuple(bounds.get(n, unbounded) for n in names),
@@ -427,3 +439,66 @@ class ShearFamily(_Family):
 def shear_family(layout: ShearLayout, sigma, j, fc=None, ft=None, fk=None, a=None) -> ShearFamily:
     """The extended Janosi–Hanamoto family (:class:`ShearFamily`); ``f, jac = family``."""
     return ShearFamily(layout, sigma, j, fc, ft, fk, a)
+
+
+class ModelFamily(_Family):
+    """Any :class:`Model` with covariate terms over fixed inputs ``x`` (module docstring):
+    y = S·f(x, θ'), S = exp(F·s) per sample, θ' the model's parameters with ``offset``
+    (its exponent n) moved by G·d per sample.  θ = (model parameters, s, d).
+
+    The model's ``func`` and ``jac`` are evaluated with that parameter as a per-sample array,
+    so they must broadcast (numpy expressions do).  ∂y/∂θ_model = S·∂f/∂θ', ∂y/∂s_i = y·F_i,
+    ∂y/∂d_i = S·∂f/∂θ'_offset·G_i.
+    """
+
+    def __init__(self, model: Model, x, fs=None, gd=None, offset: str | None = None) -> None:
+        super().__init__()
+        self.base = model
+        self.x = x
+        self.p = model.n_params
+        self.fs_rows, self.gd_rows = _rows_of(fs), _rows_of(gd)
+        self.fs_times, self.gd_times = _product_of(fs), _product_of(gd)
+        self.n_s = 0 if fs is None else self.fs_rows.shape[0]
+        self.n_d = 0 if gd is None else self.gd_rows.shape[0]
+        if self.n_d and offset not in model.param_names:
+            raise ValueError(f"{model.name}: an offset needs a parameter to move, got {offset!r}")
+        self.i_off = model.param_names.index(offset) if self.n_d else None
+        self.size = self.p + self.n_s + self.n_d
+
+    def _output(self) -> str:
+        return self.base.output
+
+    def _compute(self, theta):
+        p, n_s = self.p, self.n_s
+        params = [theta[i] for i in range(p)]
+        if self.n_d:
+            params[self.i_off] = theta[self.i_off] + self.gd_times(theta[p + n_s :])
+        f0 = np.asarray(self.base.func(self.x, *params), float)
+        jac0 = np.asarray(self.base.jac(self.x, *params), float).reshape(f0.size, p)
+        scale = np.exp(self.fs_times(theta[p : p + n_s])) if n_s else None
+        return scale, jac0, f0 if scale is None else f0 * scale
+
+    def value(self, theta):
+        return self._parts_at(theta)[2]
+
+    def rows(self, theta, w=None):
+        """(size, N) rows of ∂y/∂θ, times the weights ``w`` when given."""
+        scale, jac0, value = self._parts_at(theta)
+        p = self.p
+        out = np.empty((self.size, value.size))
+        out[:p] = jac0.T if scale is None else jac0.T * scale
+        i = p
+        for row in range(self.n_s):
+            np.multiply(value, self.fs_rows[row], out=out[i])
+            i += 1
+        for row in range(self.n_d):
+            np.multiply(out[self.i_off], self.gd_rows[row], out=out[i])
+            i += 1
+        if w is not None:
+            out *= w
+        return out
+
+
+def model_family(model: Model, x, fs=None, gd=None, offset: str | None = None) -> ModelFamily:
+    """The generic extended family of a model (:class:`ModelFamily`); ``f, jac = family``."""
+    return ModelFamily(model, x, fs, gd, offset)

@@ -9,11 +9,14 @@ Eq. 13 is used in the Janosi–Hanamoto form with exponent −j/K (the paper's t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from .base import Model
+from .base import Model, NonNegative, ParamLabel, PopulationLayout, Positive, Within
+from .priors import NON_NEGATIVE, POSITIVE, Uniform
 
-__all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "side_wall_ratio"]
+__all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "JanosiPopulation", "side_wall_ratio"]
 
 RAD_PER_DEG = np.pi / 180.0
 
@@ -61,6 +64,45 @@ def janosi_jac(x, c, phi, K):
     )
 
 
+def _start_janosi(x, tau):
+    from ..identification.starting_values import janosi_start
+
+    sigma, j = x
+    return janosi_start(sigma, j, tau)
+
+
+def _start_shear_curve(j, tau):
+    from ..identification.starting_values import shear_curve_start
+
+    return shear_curve_start(j, tau)
+
+
+@dataclass(frozen=True)
+class JanosiPopulation(PopulationLayout):
+    """Janosi–Hanamoto's population layout (:mod:`soilstats.bayes.population_model`): each
+    test's Eq. 13 at its own σ, (τ_max,t, K_t), with τ_max linear in (c, tan φ) and K
+    entering as ln K."""
+
+    def linear_log_jacobian(self, theta):
+        return -2.0 * np.log(np.cos(theta[:, 1] * RAD_PER_DEG))
+
+    def linear(self, theta):
+        return np.column_stack([theta[:, 0], np.tan(theta[:, 1] * RAD_PER_DEG)])
+
+    def second(self, theta):
+        return np.log(theta[:, 2])
+
+    def assemble(self, m, g):
+        return np.column_stack([m[:, 0], np.arctan(m[:, 1]) / RAD_PER_DEG, np.exp(g)])
+
+
+_PHI_PRIOR = Uniform(0.0, 90.0)
+_SHEAR_SUPPORT = (NonNegative("c"), Within("phi", 0.0, 90.0, "deg"))
+_C_LABEL = ParamLabel("c", r"$c$", "c", "kPa", "kPa", 1e-3)
+_PHI_LABEL = ParamLabel("phi", r"$\varphi$", "φ", "°", "degrees", 1.0)
+_K_LABEL = ParamLabel("K", r"$K$", "K", "mm", "mm", 1e3)
+_SCM_STRENGTH = {"c": ("Mohr_cohesion", "Pa"), "phi": ("Mohr_friction", "deg")}
+
 MOHR_COULOMB = Model(
     name="mohr-coulomb",
     equation="Eq. 15: tau = c + sigma * tan(phi)",
@@ -72,6 +114,16 @@ MOHR_COULOMB = Model(
     func=mohr_coulomb,
     jac=mohr_coulomb_jac,
     linear_form=mohr_coulomb_linear,
+    kind="shear",
+    columns=("sigma_Pa",),
+    priors={"c": NON_NEGATIVE, "phi": _PHI_PRIOR},
+    support=_SHEAR_SUPPORT,
+    design_input="sigma_Pa",
+    steady_state=True,
+    weighting="none",
+    scm=_SCM_STRENGTH,
+    labels={"c": _C_LABEL, "phi": _PHI_LABEL},
+    signed=("c",),
 )
 
 JANOSI = Model(
@@ -84,6 +136,23 @@ JANOSI = Model(
     bounds=((0.0, np.inf), (0.0, 90.0), (0.0, np.inf)),
     func=janosi,
     jac=janosi_jac,
+    kind="shear",
+    columns=("sigma_Pa", "j_m"),
+    start=_start_janosi,
+    priors={"c": NON_NEGATIVE, "phi": _PHI_PRIOR, "K": POSITIVE},
+    support=(*_SHEAR_SUPPORT, Positive("K")),
+    design_input="sigma_Pa",
+    weighting="max-stress",
+    population=JanosiPopulation(
+        ("tau_max", "K"),
+        ("sd_strength", "sd_lnK", "corr_strength_K"),
+        "sigma_Pa",
+        True,
+        "tau_max,t = (c + sigma_t tan phi) exp(eps_t), K_t = K exp(delta_t)",
+    ),
+    scm={**_SCM_STRENGTH, "K": ("Janosi_shear", "m")},
+    labels={"c": _C_LABEL, "phi": _PHI_LABEL, "K": _K_LABEL},
+    signed=("c",),
 )
 
 
@@ -112,6 +181,10 @@ SHEAR_CURVE = Model(
     bounds=((0.0, np.inf), (0.0, np.inf)),
     func=shear_curve,
     jac=shear_curve_jac,
+    kind="shear-test",
+    columns=("j_m",),
+    start=_start_shear_curve,
+    labels={"tau_max": ParamLabel("tau_max"), "K": _K_LABEL},
 )
 
 

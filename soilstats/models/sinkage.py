@@ -10,7 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Model, separable_from_power_law
+from .base import (
+    Model,
+    ParamLabel,
+    Positive,
+    PositiveModulus,
+    power_law_population,
+    separable_from_power_law,
+)
+from .priors import FLAT, POSITIVE
 
 __all__ = ["BEKKER", "BERNSTEIN", "REECE"]
 
@@ -86,6 +94,62 @@ def _separable_bernstein(z, w):
     return separable_from_power_law(_bernstein_terms, z, w)
 
 
+def bekker_modulus(b, kc, kphi, n):
+    """Bekker's plate modulus kc/b + kφ [N/m^(n+2)]: the pressure at unit sinkage on width b."""
+    return kc / b + kphi
+
+
+def reece_modulus(b, k1, k2, n):
+    """Reece's plate modulus k1 + k2·b [Pa]: the pressure at z = b (at sinkage ratio 1)."""
+    return k1 + k2 * b
+
+
+# Starting values and Wong's method live with the identification (their one home,
+# soilstats.identification.starting_values and .wong); imported when first used.
+def _start_bekker(x, p):
+    from ..identification.starting_values import bekker_start
+
+    b, z = x
+    return bekker_start(b, z, p)
+
+
+def _start_bernstein(z, p):
+    from ..identification.starting_values import bernstein_start
+
+    return bernstein_start(z, p)
+
+
+def _start_reece(x, p):
+    from ..identification.starting_values import reece_start
+
+    b, z = x
+    return reece_start(b, z, p)
+
+
+def _wong_bekker(x, p):
+    from ..identification.wong import wong_bekker
+
+    b, z = x
+    return wong_bekker(b, z, p)
+
+
+def _wong_bernstein(z, p):
+    from ..identification.wong import wong_bernstein
+
+    return wong_bernstein(z, p)
+
+
+_N_LABEL = ParamLabel("n", r"$n$", "n", "–", "dimensionless", 1.0)
+
+# What Bekker and Reece share: inputs (b, z), and two plate sizes to tell their terms apart.
+_SIZED_PLATES = dict(
+    kind="sinkage",
+    columns=("b_m", "z_m"),
+    min_plate_sizes=2,
+    design_input="b_m",
+    weighting="max-pressure",
+)
+
 _N_RANGE = (0.0, 5.0)  # measured n of dry granular soils and clays lie well inside (paper: 0.8–3.6)
 
 BEKKER = Model(
@@ -103,6 +167,25 @@ BEKKER = Model(
     jac=bekker_jac,
     separable=_separable_bekker,
     power_law=_bekker_terms,
+    **_SIZED_PLATES,
+    start=_start_bekker,
+    wong=_wong_bekker,
+    priors={"kc": FLAT, "kphi": POSITIVE, "n": POSITIVE},
+    support=(Positive("n"), PositiveModulus("kc/b + kphi", bekker_modulus, ("kc", "kphi", "n"))),
+    population=power_law_population(
+        "k_t(b) = (kc/b + kphi) exp(eps_t - delta_t ln z_s), n_t = n + delta_t"
+    ),
+    scm={
+        "kphi": ("Bekker_Kphi", "Pa/m^n"),
+        "kc": ("Bekker_Kc", "Pa/m^(n-1)"),
+        "n": ("Bekker_n", "-"),
+    },
+    labels={
+        "kc": ParamLabel("k_c", r"$k_c$", "k_c", "kN/m$^{n+1}$", "kN/m^(n+1)", 1e-3),
+        "kphi": ParamLabel("k_phi", r"$k_\varphi$", "k_φ", "kN/m$^{n+2}$", "kN/m^(n+2)", 1e-3),
+        "n": _N_LABEL,
+    },
+    signed=("kc", "kphi"),
 )
 
 BERNSTEIN = Model(
@@ -117,6 +200,18 @@ BERNSTEIN = Model(
     jac=bernstein_jac,
     separable=_separable_bernstein,
     power_law=_bernstein_terms,
+    kind="sinkage",
+    columns=("z_m",),
+    start=_start_bernstein,
+    wong=_wong_bernstein,
+    priors={"k": POSITIVE, "n": POSITIVE},
+    support=(Positive("n"), Positive("k")),
+    weighting="max-pressure",
+    population=power_law_population("k_t = k exp(eps_t - delta_t ln z_s), n_t = n + delta_t"),
+    labels={
+        "k": ParamLabel("k", r"$k$", "k", "kN/m$^{n+2}$", "kN/m^(n+2)", 1e-3),
+        "n": _N_LABEL,
+    },
 )
 
 REECE = Model(
@@ -129,4 +224,14 @@ REECE = Model(
     bounds=((-np.inf, np.inf), (0.0, np.inf), _N_RANGE),
     func=reece,
     jac=reece_jac,
+    **_SIZED_PLATES,
+    start=_start_reece,
+    priors={"k1": FLAT, "k2": POSITIVE, "n": POSITIVE},
+    support=(Positive("n"), PositiveModulus("k1 + k2 b", reece_modulus, ("k1", "k2", "n"))),
+    labels={
+        "k1": ParamLabel("k_1", r"$k_1$", "k_1", "kPa", "kPa", 1e-3),
+        "k2": ParamLabel("k_2", r"$k_2$", "k_2", "kPa/m", "kPa/m", 1e-3),
+        "n": _N_LABEL,
+    },
+    signed=("k1", "k2"),
 )

@@ -21,20 +21,21 @@ __all__ = [
     "unit_text",
 ]
 
-# Typst math for each model parameter (models/sinkage.py, models/shear.py, extended.py).
-_SYMBOLS = {
-    "kc": "k_c",
-    "kphi": "k_phi",
-    "n": "n",
-    "k": "k",
-    "k1": "k_1",
-    "k2": "k_2",
-    "c": "c",
-    "phi": "phi",
-    "K": "K",
-    "tau_max": "tau_max",
-    "epsilon": "epsilon",
-}
+# Typst math of what is no model parameter; those of the parameters are the model records'
+# (``Model.labels``: models/sinkage.py, models/shear.py, or one's own).
+_SYMBOLS = {"epsilon": "epsilon"}
+
+
+def _symbol(name: str) -> str | None:
+    """Typst math of a parameter: the first registered model to label it says how."""
+    from ..models import MODELS
+
+    for model in MODELS.values():
+        label = model.label_of.get(name)
+        if label is not None:
+            return label.symbol
+    return _SYMBOLS.get(name)
+
 
 # Column names whose words are not their parts.
 _COLUMNS = {
@@ -101,7 +102,8 @@ def natural_sorted(values: Iterable[object]) -> list:
 
 def parameter_symbol(name: str) -> Markup:
     """A model parameter as typeset mathematics (``kphi`` → k_φ)."""
-    return math(_SYMBOLS.get(name, name if name.isidentifier() and len(name) == 1 else f'"{name}"'))
+    symbol = _symbol(name)
+    return math(symbol or (name if name.isidentifier() and len(name) == 1 else f'"{name}"'))
 
 
 def unit_text(unit: str) -> str:

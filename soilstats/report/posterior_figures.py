@@ -25,6 +25,7 @@ preparation* (what :meth:`~soilstats.bayes.PosteriorResult.draws` returns).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,7 +37,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..bayes._arviz import az
 from ..bayes.predictive import input_name
-from ..models import Model, get_model
+from ..models import MODELS, Model, get_model
 
 __all__ = [
     "FIGSIZE",
@@ -50,19 +51,34 @@ __all__ = [
 #: Default figure size [in]: the text width of an A4 page with 2.5 cm margins, by 4 in.
 FIGSIZE = (6.3, 4.0)
 
-#: Display of each parameter: axis label (mathtext), caption name, display unit, and the
-#: factor from the SI value stored in the posterior to the display unit.
-PARAMETERS = {
-    "kc": (r"$k_c$", "k_c", "kN/m$^{n+1}$", "kN/m^(n+1)", 1e-3),
-    "kphi": (r"$k_\varphi$", "k_φ", "kN/m$^{n+2}$", "kN/m^(n+2)", 1e-3),
-    "k": (r"$k$", "k", "kN/m$^{n+2}$", "kN/m^(n+2)", 1e-3),
-    "k1": (r"$k_1$", "k_1", "kPa", "kPa", 1e-3),
-    "k2": (r"$k_2$", "k_2", "kPa/m", "kPa/m", 1e-3),
-    "n": (r"$n$", "n", "–", "dimensionless", 1.0),
-    "c": (r"$c$", "c", "kPa", "kPa", 1e-3),
-    "phi": (r"$\varphi$", "φ", "°", "degrees", 1.0),
-    "K": (r"$K$", "K", "mm", "mm", 1e3),
-}
+
+class _Parameters(Mapping):
+    """Display of each parameter: axis label (mathtext), caption name, display unit, unit in
+    words, and the factor from the SI value stored in the posterior to the display unit —
+    from the model records (``Model.labels``), the first registered model to label a
+    parameter for figures saying how."""
+
+    def _table(self) -> dict[str, tuple]:
+        out: dict[str, tuple] = {}
+        for model in MODELS.values():
+            for name, label in model.labels:
+                if label.axis is not None and name not in out:
+                    shown = (label.axis, label.caption, label.unit, label.unit_words)
+                    out[name] = (*shown, label.scale)
+        return out
+
+    def __getitem__(self, name: str) -> tuple:
+        return self._table()[name]
+
+    def __iter__(self):
+        return iter(self._table())
+
+    def __len__(self) -> int:
+        return len(self._table())
+
+
+#: Display of each parameter (see :class:`_Parameters`), read from the model records.
+PARAMETERS: Mapping[str, tuple] = _Parameters()
 
 _STYLE = {
     "font.size": 9,
@@ -530,7 +546,7 @@ def _predictive_caption(post, prob, band_words, counts, n_levels, n_panels, gwor
     n_tests, drawn, skipped, max_tests = counts
     if post.shear:
         what = "Measured shear stress τ (kPa) against shear displacement j (mm)"
-        if post.model.name == "mohr-coulomb":
+        if post.model.steady_state:
             what += " over each test's steady-state part (the samples Mohr–Coulomb uses)"
     else:
         what = "Measured pressure p (kPa) against sinkage z (mm)"

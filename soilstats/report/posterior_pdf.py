@@ -12,9 +12,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..bayes.data import SHEAR_MODELS
 from ..bayes.result import PosteriorResult
 from ..identification.table import format_value
+from ..models import get_model
 from .document import Document, strong
 from .files import output_path
 from .front import data_origin, front_page
@@ -145,9 +145,7 @@ def write_report(
         provenance=provenance,
     )
     source = provenance.campaign if provenance is not None else ""
-    kinds = tuple(
-        dict.fromkeys("shear" if r.model_name in SHEAR_MODELS else "sinkage" for r in results)
-    )
+    kinds = tuple(dict.fromkeys(get_model(r.model_name).kind for r in results))
     front_page(
         doc,
         question=[

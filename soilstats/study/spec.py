@@ -41,11 +41,20 @@ RESPONSES = {
     "preparation": ("log10_p_ref", "n", "log10_k"),
     "shear": ("c", "phi", "line"),
 }
-MODELS = {
-    "sinkage": ("bekker", "bernstein", "reece"),
-    "preparation": ("bekker", "bernstein", "reece"),
-    "shear": ("mohr-coulomb",),
-}
+
+
+def study_models(study_type: str) -> list[str]:
+    """The pooled models a study of ``study_type`` may name, from the registry: every
+    sinkage model for sinkage and preparation studies; for shear studies the shear models
+    identified from the steady-state parts (Mohr–Coulomb: the c and φ of τ_ss against σ
+    the studies compare)."""
+    from ..models import models_of_kind
+
+    if study_type == "shear":
+        return [m.name for m in models_of_kind("shear") if m.steady_state]
+    return [m.name for m in models_of_kind("sinkage")]
+
+
 FIGURES = ("curves", "relative", "mohr-coulomb", "epsilon", "responses")
 _TOP_KEYS = {
     "name",
@@ -411,8 +420,10 @@ def load_spec(source: str | Path) -> StudySpec:
         reference=raw.get("reference"),
         z_ref_m=z_ref,
         z_window_m=float(_get(raw, "z_window_m", (int, float), path, default=0.001)),
-        model=_get(raw, "model", str, path, options=MODELS[study_type]),
-        fallback_model=_get(raw, "fallback_model", str, path, default=None),
+        model=_get(raw, "model", str, path, options=study_models(study_type)),
+        fallback_model=_get(
+            raw, "fallback_model", str, path, default=None, options=study_models(study_type)
+        ),
         where=dict(_get(tests, "where", dict, path, default={})),
         where_present=dict(_get(tests, "where_present", dict, path, default={})),
         responses=_responses(raw, study_type, path),
