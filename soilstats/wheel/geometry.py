@@ -58,7 +58,9 @@ class Wheel:
     def __post_init__(self) -> None:
         r, b = float(self.radius_m), float(self.width_m)
         if not (np.isfinite(r) and r > 0 and np.isfinite(b) and b > 0):
-            raise ValueError(f"wheel radius and width must be positive lengths in m, got r={r!r}, b={b!r}")
+            raise ValueError(
+                f"wheel radius and width must be positive lengths in m, got r={r!r}, b={b!r}"
+            )
         rs = r if self.shear_radius_m is None else float(self.shear_radius_m)
         if not (np.isfinite(rs) and rs >= r):
             raise ValueError(f"shear_radius_m must be >= radius_m = {r} m, got {rs!r}")

@@ -93,7 +93,8 @@ def sample_priors(priors: Mapping[str, tuple], size: int, seed: int) -> dict[str
         if np.any(bad):
             raise ValueError(
                 f"the prior {name} ~ {describe_prior(priors[name])} puts {bad.sum()} of {size} "
-                f"draws outside the support of {name} ({'[' if closed else '('}{low:g}, {high:g}); use a truncnormal, "
+                f"draws outside the support of {name} ({'[' if closed else '('}{low:g}, {high:g}); "
+                "use a truncnormal, "
                 "uniform or lognormal prior that stays inside it"
             )
         out[name] = x

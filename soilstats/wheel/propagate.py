@@ -273,7 +273,8 @@ def _notes(state, slips, load, wheel: Wheel, law, unpredictable) -> list[str]:
             idx = np.flatnonzero(bad[:, j])
             shown = ", ".join(map(str, idx[:10])) + (", …" if idx.size > 10 else "")
             tail = (
-                f"the load W = {load[j]:g} N within θ1 < 90° (sinkage {1e3 * wheel.contact_radius_m:g} mm)"
+                f"the load W = {load[j]:g} N within θ1 < 90° "
+                f"(sinkage {1e3 * wheel.contact_radius_m:g} mm)"
                 if code == 1
                 else f"the load W = {load[j]:g} N"
             )

@@ -1,4 +1,4 @@
-"""The frozen result of a wheel prediction over draws: bands, sources, what could not be predicted."""
+"""The frozen result of a wheel prediction: bands, parameter sources, what is not predicted."""
 
 from __future__ import annotations
 
@@ -130,7 +130,9 @@ class WheelPrediction:
             text = f"{s:>7.3g} {first['load_N']:>7.3g}"
             for q in cols:
                 r = rows.loc[q]
-                text += f" | {_fmt(r['median']):>10} [{_fmt(r['lower'])}, {_fmt(r['upper'])}]".ljust(33)
+                text += (
+                    f" | {_fmt(r['median']):>10} [{_fmt(r['lower'])}, {_fmt(r['upper'])}]".ljust(33)
+                )
             lines.append(text + f" | {int(first['n_used']):>5}")
         lines.append("-" * width)
         for q, reason in self.unpredictable.items():

@@ -93,10 +93,9 @@ def solve_entry_angle(
         with np.errstate(divide="ignore", invalid="ignore"):
             xi = (a[i] - b[i]) / (c[i] - b[i])
             phi = (fa[i] - fb[i]) / (fc[i] - fb[i])
-            iqi = (
-                fa[i] / (fb[i] - fa[i]) * fc[i] / (fb[i] - fc[i])
-                + (c[i] - a[i]) / (b[i] - a[i]) * fa[i] / (fc[i] - fa[i]) * fb[i] / (fc[i] - fb[i])
-            )
+            iqi = fa[i] / (fb[i] - fa[i]) * fc[i] / (fb[i] - fc[i]) + (c[i] - a[i]) / (
+                b[i] - a[i]
+            ) * fa[i] / (fc[i] - fa[i]) * fb[i] / (fc[i] - fb[i])
         use_iqi = (phi**2 < xi) & ((1.0 - phi) ** 2 < 1.0 - xi)
         t[i] = np.clip(np.where(use_iqi, iqi, 0.5), tl, 1.0 - tl)
         active = i
@@ -133,10 +132,14 @@ class WheelState:
 def model_cases(params: Mapping, wheel: Wheel, slip, law: str, angles: StressAngles):
     """(Cases, shape) for the parameter arrays × the slips (outer product, slips last)."""
     if law not in SINKAGE_LAWS:
-        raise ValueError(f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
+        raise ValueError(
+            f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}"
+        )
     missing = [k for k in SINKAGE_LAWS[law] if k not in params]
     if missing:
-        raise ValueError(f"the {law} law needs parameters {list(SINKAGE_LAWS[law])}; missing {missing}")
+        raise ValueError(
+            f"the {law} law needs parameters {list(SINKAGE_LAWS[law])}; missing {missing}"
+        )
     given = [k for k in SHEAR_PARAMS if k in params]
     if given and len(given) < len(SHEAR_PARAMS):
         raise ValueError(

@@ -169,7 +169,10 @@ def displacement(behind, ahead, speed_ratio, wheel):
     finite = np.isfinite(speed_ratio)
     if np.all(finite):
         return wheel.contact_radius_m * behind - speed_ratio * wheel.radius_m * ahead
-    j = wheel.contact_radius_m * behind - np.where(finite, speed_ratio, 0.0) * wheel.radius_m * ahead
+    j = (
+        wheel.contact_radius_m * behind
+        - np.where(finite, speed_ratio, 0.0) * wheel.radius_m * ahead
+    )
     return np.where(finite | (ahead <= 0), j, -np.inf)
 
 
