@@ -19,10 +19,10 @@ Gauss–Legendre nodes in v.  The substitution turns the end behaviour (θ1 − 
 v^(2n+1), which Gauss–Legendre integrates accurately with few nodes, and it makes Wong and
 Reece's equivalent angle of the rear node v the front node v itself, so σ is evaluated once
 for both pieces.  With 16 nodes a piece, W, DP and T agree with adaptive quadrature (scipy
-``quad``) to < 1e-9 of W when j keeps one sign over the contact (driving, s ≥ 0, and the
+``quad``) to < 1e-8 of W when j keeps one sign over the contact (driving, s ≥ 0, and the
 locked wheel).  In skid (−1 < s < 0) j changes sign at an interior angle, where τ turns from
 backward to forward within a displacement ~K: a near-kink that the rule does not resolve;
-the error there stays below 0.5 % of W down to K/r = 0.03 at θ1 = 86°, and below 1e-4 of W
+the error there stays below 1 % of W down to K/r = 0.03 at θ1 = 86°, and below 1e-4 of W
 for K/r ≥ 0.3 (``tests/test_wheel_model.py``).
 """
 
@@ -39,6 +39,8 @@ __all__ = ["N_NODES", "Cases", "ContactForces", "contact_forces", "gauss_rule"]
 
 #: Gauss–Legendre nodes on each piece of the contact (front and rear).
 N_NODES = 16
+#: Cases integrated in one block (temporaries of BLOCK × N_NODES floats stay in cache).
+BLOCK = 2048
 
 
 def gauss_rule(n_nodes: int = N_NODES) -> tuple[np.ndarray, np.ndarray]:
@@ -111,10 +113,33 @@ def contact_forces(theta1, cases: Cases, wheel: Wheel, rule=None, *, load_only: 
 
     Returns :class:`ContactForces`, or only the load W [N] (an array) with ``load_only``.
     The hot loop of the load solver: one sine per node (cos θ = √(1 − sin²θ) on |θ| ≤ 90°),
-    the node sums as matrix–vector products with the weights.
+    the node sums as matrix–vector products with the weights, and the cases in blocks of
+    :data:`BLOCK` so that the temporaries stay in the CPU cache.
     """
-    v, w = gauss_rule() if rule is None else rule
-    t1 = np.asarray(theta1, dtype=float)[:, None]
+    rule = gauss_rule() if rule is None else rule
+    theta1 = np.asarray(theta1, dtype=float)
+    if len(cases) <= BLOCK:
+        return _contact_forces(theta1, cases, wheel, rule, load_only)
+    parts = [
+        _contact_forces(
+            theta1[i : i + BLOCK], cases.take(slice(i, i + BLOCK)), wheel, rule, load_only
+        )
+        for i in range(0, len(cases), BLOCK)
+    ]
+    if load_only:
+        return np.concatenate(parts)
+    return ContactForces(
+        *(np.concatenate(x) for x in zip(*(_astuple(p) for p in parts), strict=True))
+    )
+
+
+def _astuple(f: ContactForces):
+    return f.load_N, f.thrust_N, f.resistance_N, f.torque_Nm
+
+
+def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
+    v, w = rule
+    t1 = theta1[:, None]
     a, b = cases.a[:, None], cases.b[:, None]
     v2, w = v * v, 2.0 * v * w  # θ = θ1 − (θ1 − θm)v² in front, θ2 + (θm − θ2)v² behind
     u_front = 1.0 - (1.0 - a) * v2

@@ -95,8 +95,6 @@ def predict_wheel(
     NotImplementedError
         ``slip_angle_deg`` ≠ 0.
     """
-    if slip_angle_deg != 0:
-        raise NotImplementedError(LONGITUDINAL_ONLY + " Pass slip_angle_deg=0.")
     if not 0 < prob < 1:
         raise ValueError(f"prob must be in (0, 1), got {prob!r}")
     priors = dict(priors or {})
@@ -119,7 +117,14 @@ def predict_wheel(
     load = np.broadcast_to(np.asarray(load_N, dtype=float), s.shape).astype(float)
     angles = StressAngles() if angles is None else angles
     state = wheel_forces(
-        values, wheel, s, law=law, load_N=load[None, :], angles=angles, n_nodes=n_nodes
+        values,
+        wheel,
+        s,
+        law=law,
+        load_N=load[None, :],
+        angles=angles,
+        slip_angle_deg=slip_angle_deg,
+        n_nodes=n_nodes,
     )
     unpredictable = {} if state.with_shear else _no_shear_reasons(columns, priors)
     outputs = {

@@ -167,6 +167,7 @@ def wheel_forces(
     load_N=None,
     sinkage_m=None,
     angles: StressAngles | None = None,
+    slip_angle_deg: float = 0.0,
     n_nodes: int = N_NODES,
 ) -> WheelState:
     """The Wong–Reece rigid wheel at a given load or a given sinkage, over parameter sets × slips.
@@ -187,12 +188,21 @@ def wheel_forces(
         arccos(1 − h/r_s)).
     angles : StressAngles, optional
         θm and θ2 as fractions of θ1 (default a0 = 0.4, a1 = 0.15, b0 = b1 = 0).
+    slip_angle_deg : float
+        Must be 0: the model is longitudinal only (no lateral shear or side-wall force yet;
+        a lateral term would add the lateral displacement and τ_y of Ishigami et al. 2007 to
+        :mod:`.forces`).
 
     Returns
     -------
     WheelState
         Arrays of shape P + S.
     """
+    if slip_angle_deg != 0:
+        raise NotImplementedError(
+            "only the longitudinal model (slip angle β = 0) is implemented: no lateral shear, "
+            "side-wall or bulldozing force; pass slip_angle_deg=0"
+        )
     if (load_N is None) == (sinkage_m is None):
         raise ValueError("give exactly one of load_N (load-controlled) or sinkage_m")
     angles = StressAngles() if angles is None else angles
