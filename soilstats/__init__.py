@@ -64,6 +64,10 @@ _LAZY: dict[str, str] = {
     "run_study": "soilstats.study",
     "sample_posterior": "soilstats.bayes",
     "sample_population": "soilstats.bayes",
+    "Wheel": "soilstats.wheel",
+    "WheelPrediction": "soilstats.wheel",
+    "predict_wheel": "soilstats.wheel",
+    "wheel_forces": "soilstats.wheel",
 }
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
@@ -76,6 +80,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .simulation import simulate
     from .statistics import anova_oneway
     from .study import run_study
+    from .wheel import Wheel, WheelPrediction, predict_wheel, wheel_forces
 
 
 __getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())
@@ -97,6 +102,8 @@ __all__ = [
     "Model",
     "SoilstatsError",
     "SoilstatsWarning",
+    "Wheel",
+    "WheelPrediction",
     "anova_oneway",
     "bundled_campaigns",
     "discover",
@@ -108,8 +115,10 @@ __all__ = [
     "linear_least_squares",
     "load_campaign",
     "parameter_table",
+    "predict_wheel",
     "run_study",
     "sample_population",
     "sample_posterior",
     "simulate",
+    "wheel_forces",
 ]
