@@ -317,3 +317,13 @@ def test_bad_requests_are_refused(kwargs, match):
 def test_partial_shear_parameters_are_refused():
     with pytest.raises(ValueError, match="all three"):
         wheel_forces({"k": 8e6, "n": 1.46, "phi": 30.0}, SMOOTH, 0.0, law="bernstein", load_N=22.0)
+
+
+def test_a_solve_that_does_not_converge_is_flagged():
+    from soilstats.wheel.solve import solve_entry_angle
+
+    cases, _ = model_cases(CMU_SOIL, SMOOTH, [0.0, 0.5], "bernstein", StressAngles())
+    theta1, status = solve_entry_angle(22.0, cases, SMOOTH, max_iter=1)
+    assert status.tolist() == [2, 2] and np.isnan(theta1).all()
+    theta1, status = solve_entry_angle(22.0, cases, SMOOTH)
+    assert status.tolist() == [0, 0] and np.all((theta1 > 0) & (theta1 < np.pi / 2))

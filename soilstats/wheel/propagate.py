@@ -272,21 +272,19 @@ def _notes(state, slips, load, wheel: Wheel, law, unpredictable) -> list[str]:
     status = state.status
     for code, what in ((1, "cannot carry"), (2, "did not converge at")):
         bad = status == code
-        if not np.any(bad):
-            continue
+        groups: dict[tuple, list[int]] = {}  # the same failing draws at several slips: one note
         for j in np.flatnonzero(bad.any(0)):
-            idx = np.flatnonzero(bad[:, j])
-            shown = ", ".join(map(str, idx[:10])) + (", …" if idx.size > 10 else "")
-            tail = (
-                f"the load W = {load[j]:g} N within θ1 < 90° "
-                f"(sinkage {1e3 * wheel.contact_radius_m:g} mm)"
-                if code == 1
-                else f"the load W = {load[j]:g} N"
-            )
+            groups.setdefault((tuple(np.flatnonzero(bad[:, j])), load[j]), []).append(j)
+        for (idx, w), cols in groups.items():
+            shown = ", ".join(map(str, idx[:10])) + (", …" if len(idx) > 10 else "")
+            where = ", ".join(f"{slips[j]:g}" for j in cols)
+            tail = f"the load W = {w:g} N"
+            if code == 1:
+                tail += f" within θ1 < 90° (sinkage < {1e3 * wheel.contact_radius_m:g} mm)"
             notes.append(
-                f"At slip {slips[j]:g}, {idx.size} of {status.shape[0]} draws {what} {tail}: "
-                f"draws {shown}. They have no outputs (samples status '{STATUS[code]}'); the bands "
-                "at this slip are over the other draws only."
+                f"At slip {where}: {len(idx)} of {status.shape[0]} draws {what} {tail}: "
+                f"draws {shown}. They have no outputs (samples status '{STATUS[code]}'); the "
+                "bands there are over the other draws only."
             )
     if unpredictable:
         notes.append(

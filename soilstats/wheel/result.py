@@ -127,7 +127,7 @@ class WheelPrediction:
         for s, rows in self.bands.groupby("slip", sort=True):
             rows = rows.set_index("quantity")
             first = rows.iloc[0]
-            text = f"{s:>7.3g} {first['load_N']:>7.3g}"
+            text = f"{s + 0.0:>7.3f} {first['load_N']:>7.3g}"
             for q in cols:
                 r = rows.loc[q]
                 text += (
