@@ -72,6 +72,10 @@ _LAZY: dict[str, str] = {
     "run_study": "soilstats.study",
     "sample_posterior": "soilstats.bayes",
     "sample_population": "soilstats.bayes",
+    "Wheel": "soilstats.wheel",
+    "WheelPrediction": "soilstats.wheel",
+    "predict_wheel": "soilstats.wheel",
+    "wheel_forces": "soilstats.wheel",
 }
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
@@ -94,6 +98,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .simulation import simulate
     from .statistics import anova_oneway
     from .study import run_study
+    from .wheel import Wheel, WheelPrediction, predict_wheel, wheel_forces
 
 
 __getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())
@@ -116,6 +121,8 @@ __all__ = [
     "ModelError",
     "SoilstatsError",
     "SoilstatsWarning",
+    "Wheel",
+    "WheelPrediction",
     "anova_oneway",
     "bundled_campaigns",
     "discover",
@@ -128,9 +135,11 @@ __all__ = [
     "load_campaign",
     "models_of_kind",
     "parameter_table",
+    "predict_wheel",
     "register_model",
     "run_study",
     "sample_population",
     "sample_posterior",
     "simulate",
+    "wheel_forces",
 ]

@@ -19,6 +19,7 @@ from soilstats.identification.result import CampaignFit
 from soilstats.statistics.analysis_of_covariance import AncovaResult, ancova
 from soilstats.statistics.result import TestResult
 from soilstats.study.result import StudyResult
+from soilstats.wheel.result import WheelPrediction
 
 RESULTS = (
     AncovaResult,
@@ -33,6 +34,7 @@ RESULTS = (
     PosteriorResult,
     StudyResult,
     TestResult,
+    WheelPrediction,
 )
 
 

@@ -189,7 +189,8 @@ def _rezero_sensitivity(
         return []
     logged = windowed(report.unseated(), window)
     other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)
-    alt = identify(spec, spec.x_from(other.x), other.y, p0, weights=other.weights, on_failure="warn")
+    x = spec.x_from(other.x)
+    alt = identify(spec, x, other.y, p0, weights=other.weights, on_failure="warn")
     if not alt.converged:
         return []
     sigma = bootstrap.stderr if bootstrap is not None else result.stderr

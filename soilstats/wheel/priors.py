@@ -1,0 +1,101 @@
+"""User-stated priors for parameters that no test measured (c, φ, K without a shear test).
+
+soilstats never invents a parameter: one that is neither in the draws nor given here is not
+used, and what needs it is not predicted (:func:`soilstats.wheel.predict_wheel`).  A prior is
+a tuple, in the parameter's documented unit (c Pa, φ deg, K m, kc N/m^(n+1), kφ and k
+N/m^(n+2), k1 Pa, k2 Pa/m, n -):
+
+* ``("normal", mean, sd)``
+* ``("truncnormal", mean, sd, low, high)`` — normal restricted to [low, high]
+* ``("uniform", low, high)``
+* ``("lognormal", median, sigma_log)`` — ln x ~ Normal(ln median, sigma_log)
+
+Draws come from one seeded :class:`numpy.random.Generator`, one parameter after another in
+sorted name order, so the same seed gives the same draws.  A draw outside the parameter's
+physical support (c ≥ 0, 0 < φ < 90°, K > 0, n > 0) is an error naming the prior, never
+silently clipped.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from scipy.special import ndtr, ndtri
+
+__all__ = ["SUPPORT", "describe_prior", "sample_priors"]
+
+#: Physical support of the parameters: (low, high, whether low itself is allowed).
+SUPPORT: dict[str, tuple[float, float, bool]] = {
+    "c": (0.0, np.inf, True),
+    "phi": (0.0, 90.0, False),
+    "K": (0.0, np.inf, False),
+    "n": (0.0, np.inf, False),
+    "kphi": (0.0, np.inf, True),
+    "k": (0.0, np.inf, False),
+    "k2": (0.0, np.inf, True),
+}
+
+_ARITY = {"normal": 2, "truncnormal": 4, "uniform": 2, "lognormal": 2}
+
+
+def describe_prior(spec) -> str:
+    """``normal(30, 3)`` for ``("normal", 30, 3)``."""
+    return f"{spec[0]}({', '.join(f'{float(v):g}' for v in spec[1:])})"
+
+
+def _check(name: str, spec) -> tuple[str, tuple[float, ...]]:
+    if not isinstance(spec, tuple | list) or not spec or spec[0] not in _ARITY:
+        raise ValueError(
+            f"prior for {name!r} must be a tuple (kind, *args) with kind one of "
+            f"{sorted(_ARITY)}, got {spec!r}"
+        )
+    kind, args = spec[0], tuple(float(v) for v in spec[1:])
+    if len(args) != _ARITY[kind]:
+        raise ValueError(f"prior {kind!r} for {name!r} takes {_ARITY[kind]} numbers, got {spec!r}")
+    if not all(np.isfinite(args)):
+        raise ValueError(f"prior for {name!r} has a non-finite number: {spec!r}")
+    checks = {
+        "normal": lambda: args[1] > 0,
+        "truncnormal": lambda: args[1] > 0 and args[2] < args[3],
+        "uniform": lambda: args[0] < args[1],
+        "lognormal": lambda: args[0] > 0 and args[1] > 0,
+    }
+    if not checks[kind]():
+        raise ValueError(f"prior for {name!r} is degenerate or inverted: {spec!r}")
+    return kind, args
+
+
+def _draw(kind: str, args, size: int, rng: np.random.Generator) -> np.ndarray:
+    if kind == "normal":
+        return rng.normal(args[0], args[1], size)
+    if kind == "uniform":
+        return rng.uniform(args[0], args[1], size)
+    if kind == "lognormal":
+        return args[0] * np.exp(args[1] * rng.standard_normal(size))
+    mean, sd, low, high = args  # truncnormal by inversion of the normal CDF
+    lo, hi = ndtr((low - mean) / sd), ndtr((high - mean) / sd)
+    return np.clip(mean + sd * ndtri(rng.uniform(lo, hi, size)), low, high)
+
+
+def sample_priors(priors: Mapping[str, tuple], size: int, seed: int) -> dict[str, np.ndarray]:
+    """``size`` independent draws of each prior (seeded; sorted name order).
+
+    Raises ValueError for an unknown kind, a degenerate prior, or draws outside the support.
+    """
+    rng = np.random.default_rng(seed)
+    out = {}
+    for name in sorted(priors):
+        kind, args = _check(name, priors[name])
+        x = _draw(kind, args, size, rng)
+        low, high, closed = SUPPORT.get(name, (-np.inf, np.inf, False))
+        bad = ~(((x >= low) if closed else (x > low)) & (x < high))
+        if np.any(bad):
+            raise ValueError(
+                f"the prior {name} ~ {describe_prior(priors[name])} puts {bad.sum()} of {size} "
+                f"draws outside the support of {name} ({'[' if closed else '('}{low:g}, {high:g}); "
+                "use a truncnormal, "
+                "uniform or lognormal prior that stays inside it"
+            )
+        out[name] = x
+    return out

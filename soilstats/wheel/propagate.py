@@ -1,0 +1,303 @@
+"""Posterior or population draws through the wheel model: predictive bands against slip.
+
+Each row of the draws is one joint parameter set and is used as a whole, so the correlations
+of the draws (kc–kφ–n, c–φ–K) reach the predictions unchanged; the model runs on all
+draws × slips at once (:func:`soilstats.wheel.solve.wheel_forces`), with no Python loop per
+draw.  Parameters that no draw carries are taken from user-stated priors
+(:mod:`soilstats.wheel.priors`) or not at all: without c, φ and K the sinkage is still
+predicted (from the normal stress alone) and the drawbar pull and torque are reported as not
+predictable, with the reason.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from ..errors import SoilstatsWarning
+from .forces import N_NODES
+from .geometry import Wheel
+from .priors import describe_prior, sample_priors
+from .result import QUANTITIES, WheelPrediction
+from .solve import STATUS, wheel_forces
+from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
+
+__all__ = ["predict_wheel"]
+
+LONGITUDINAL_ONLY = (
+    "Longitudinal model only (slip angle β = 0): no lateral shear, side-wall or bulldozing "
+    "force (Ishigami et al. 2007) is modelled."
+)
+
+
+def predict_wheel(
+    draws: pd.DataFrame | None,
+    wheel: Wheel,
+    load_N,
+    slips,
+    *,
+    law: str | None = None,
+    priors: Mapping[str, tuple] | None = None,
+    angles: StressAngles | None = None,
+    n_samples: int | None = None,
+    seed: int = 0,
+    prob: float = 0.9,
+    draws_source: str = "posterior draws",
+    slip_angle_deg: float = 0.0,
+    n_nodes: int = N_NODES,
+) -> WheelPrediction:
+    """Predictive bands (median, ``prob`` band) of sinkage, drawbar pull and torque vs slip.
+
+    Parameters
+    ----------
+    draws : DataFrame or None
+        Joint draws, one row per parameter set, columns named by parameter in SI units with φ
+        in degrees (:meth:`PosteriorResult.draws`, :func:`soilstats.bayes.joint_draws`).
+        Columns the model does not use are ignored.  None: every parameter from ``priors``.
+    wheel : Wheel
+    load_N : float or array of len(slips)
+        Normal load W [N], per slip if an array.
+    slips : array
+        Slips s = (rω − V)/max(rω, V) in [−1, 1].
+    law : {"bekker", "bernstein", "reece"}, optional
+        Pressure–sinkage law; by default the one whose parameters the draws and priors hold.
+    priors : mapping, optional
+        Parameter → prior tuple for parameters not in the draws, e.g.
+        ``{"phi": ("normal", 30, 3), "c": ("uniform", 0, 1000), "K": ("lognormal", 0.01, 0.5)}``
+        (c Pa, φ deg, K m; :mod:`soilstats.wheel.priors`), sampled with ``seed`` and attached
+        to the draws row by row (independent of them).
+    angles : StressAngles, optional
+        θm, θ2 coefficients (default a0 = 0.4, a1 = 0.15, b0 = b1 = 0).
+    n_samples : int, optional
+        Number of prior draws when ``draws`` is None.
+    seed : int
+        Seed of the prior draws.
+    prob : float
+        Probability of the equal-tailed band (0.9: 5 %–95 %).
+    draws_source : str
+        How the draws' parameters are labelled in :attr:`WheelPrediction.sources`
+        (``"posterior draws"``, ``"population draws"`` …).
+    slip_angle_deg : float
+        Must be 0: only the longitudinal model is implemented.
+
+    Returns
+    -------
+    WheelPrediction
+
+    Raises
+    ------
+    ValueError
+        A parameter the law needs is in neither the draws nor the priors; a prior is given for
+        a parameter the draws already hold or the model does not use; non-finite draws.
+    NotImplementedError
+        ``slip_angle_deg`` ≠ 0.
+    """
+    if not 0 < prob < 1:
+        raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+    priors = dict(priors or {})
+    columns = [] if draws is None else list(draws.columns)
+    law = _law(law, columns, priors)
+    used = list(SINKAGE_LAWS[law]) + [k for k in SHEAR_PARAMS if k in columns or k in priors]
+    _check_priors(priors, columns, used, law)
+    size = _size(draws, n_samples)
+    values = {k: np.asarray(draws[k], dtype=float) for k in used if k in columns}
+    for k, v in values.items():
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"draws column {k!r} has {np.sum(~np.isfinite(v))} non-finite values")
+    values.update(sample_priors(priors, size, seed))
+    sources = {
+        k: draws_source if k in columns else f"user prior {describe_prior(priors[k])}" for k in used
+    }
+    s = np.atleast_1d(np.asarray(slips, dtype=float))
+    if s.ndim != 1 or s.size == 0:
+        raise ValueError(f"slips must be a 1-D array of slips, got {slips!r}")
+    load = np.broadcast_to(np.asarray(load_N, dtype=float), s.shape).astype(float)
+    angles = StressAngles() if angles is None else angles
+    state = wheel_forces(
+        values,
+        wheel,
+        s,
+        law=law,
+        load_N=load[None, :],
+        angles=angles,
+        slip_angle_deg=slip_angle_deg,
+        n_nodes=n_nodes,
+    )
+    unpredictable = {} if state.with_shear else _no_shear_reasons(columns, priors)
+    outputs = {
+        "sinkage_m": state.sinkage_m,
+        "drawbar_pull_N": state.drawbar_pull_N,
+        "torque_Nm": state.torque_Nm,
+    }
+    bands = _bands(outputs, state.status, s, load, prob, unpredictable)
+    samples = _samples(outputs, state.status, s)
+    notes = _notes(state, s, load, wheel, law, unpredictable)
+    _warn(state.status, unpredictable)
+    return WheelPrediction(
+        wheel=wheel,
+        law=law,
+        slips=tuple(float(v) for v in s),
+        load_N=tuple(float(v) for v in load),
+        prob=float(prob),
+        bands=bands,
+        samples=samples,
+        sources=sources,
+        unpredictable=unpredictable,
+        angles=angles,
+        n_draws=size,
+        seed=int(seed),
+        notes=tuple(notes),
+    )
+
+
+def _law(law, columns, priors) -> str:
+    have = set(columns) | set(priors)
+    if law is not None:
+        if law not in SINKAGE_LAWS:
+            raise ValueError(f"unknown law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
+        missing = [k for k in SINKAGE_LAWS[law] if k not in have]
+        if missing:
+            raise ValueError(
+                f"the {law} law needs {list(SINKAGE_LAWS[law])}; {missing} are in neither the "
+                f"draws (columns {columns}) nor the priors: soilstats does not invent them"
+            )
+        return law
+    fits = [name for name, p in SINKAGE_LAWS.items() if set(p) <= have]
+    if len(fits) != 1:
+        raise ValueError(
+            f"cannot tell the pressure-sinkage law from the draws' columns {columns} and priors "
+            f"{sorted(priors)} (laws that fit: {fits}); pass law='bekker', 'bernstein' or 'reece'"
+        )
+    return fits[0]
+
+
+def _check_priors(priors, columns, used, law) -> None:
+    clash = sorted(set(priors) & set(columns))
+    if clash:
+        raise ValueError(f"{clash} are in the draws and also given a prior: give each one once")
+    unused = sorted(set(priors) - set(used))
+    if unused:
+        raise ValueError(
+            f"priors for {unused} are not parameters of the {law} law + Janosi–Hanamoto shear "
+            f"({list(SINKAGE_LAWS[law]) + list(SHEAR_PARAMS)})"
+        )
+    partial = [k for k in SHEAR_PARAMS if k in used]
+    if partial and len(partial) < len(SHEAR_PARAMS):
+        missing = [k for k in SHEAR_PARAMS if k not in used]
+        raise ValueError(
+            f"the shear needs c [Pa], phi [deg] and K [m]; {partial} are given but {missing} are "
+            "in neither the draws nor the priors: state a prior for them too, or give none"
+        )
+
+
+def _size(draws, n_samples) -> int:
+    if draws is not None:
+        if n_samples is not None and n_samples != len(draws):
+            raise ValueError("n_samples is for prior-only predictions; the draws set the size")
+        if len(draws) == 0:
+            raise ValueError("draws has no rows")
+        return len(draws)
+    if n_samples is None or n_samples < 1:
+        raise ValueError("without draws, give n_samples (the number of prior draws)")
+    return int(n_samples)
+
+
+def _no_shear_reasons(columns, priors) -> dict[str, str]:
+    reason = (
+        "needs the Janosi–Hanamoto shear parameters c [Pa], phi [deg] and K [m], which are in "
+        f"neither the draws (columns {columns}) nor the priors ({sorted(priors)}): no shear "
+        "test measured them. State them as priors with their uncertainty, e.g. "
+        "priors={'c': ('uniform', 0, 1000), 'phi': ('normal', 30, 3), "
+        "'K': ('lognormal', 0.01, 0.5)}, to predict it"
+    )
+    return {"drawbar_pull_N": reason, "torque_Nm": reason}
+
+
+def _bands(outputs, status, slips, load, prob, unpredictable) -> pd.DataFrame:
+    q = [(1 - prob) / 2, 0.5, (1 + prob) / 2]
+    ok = status == 0
+    n_used = ok.sum(0)
+    rows = []
+    for name, values in outputs.items():
+        if name in unpredictable:
+            continue
+        quant = np.full((3, len(slips)), np.nan)
+        some = n_used > 0
+        if np.any(some):
+            quant[:, some] = np.nanquantile(values[:, some], q, axis=0)
+        for j, s in enumerate(slips):
+            rows.append(
+                {
+                    "slip": float(s),
+                    "load_N": float(load[j]),
+                    "quantity": name,
+                    "unit": QUANTITIES[name],
+                    "median": quant[1, j],
+                    "lower": quant[0, j],
+                    "upper": quant[2, j],
+                    "n_used": int(n_used[j]),
+                    "n_not_carried": int(np.sum(status[:, j] == 1)),
+                    "n_not_converged": int(np.sum(status[:, j] == 2)),
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def _samples(outputs, status, slips) -> pd.DataFrame:
+    n, m = status.shape
+    frame = {"draw": np.repeat(np.arange(n), m), "slip": np.tile(slips, n)}
+    frame.update({k: v.reshape(-1) for k, v in outputs.items()})
+    frame["status"] = pd.Categorical.from_codes(status.reshape(-1), list(STATUS.values()))
+    return pd.DataFrame(frame)
+
+
+def _warn(status, unpredictable) -> None:
+    """One SoilstatsWarning for what the result cannot give: loud, details in its notes."""
+    parts = []
+    if unpredictable:
+        parts.append("drawbar pull and torque are not predicted (no c, phi, K in draws or priors)")
+    for code, what in ((1, "cannot carry the load within θ1 < 90°"), (2, "did not converge")):
+        k = int(np.sum(np.any(status == code, axis=1)))
+        if k:
+            parts.append(f"{k} of {status.shape[0]} draws {what} at some slip")
+    if parts:
+        warnings.warn("; ".join(parts) + " (see the result's notes)", SoilstatsWarning, 3)
+
+
+def _notes(state, slips, load, wheel: Wheel, law, unpredictable) -> list[str]:
+    notes = [LONGITUDINAL_ONLY]
+    status = state.status
+    for code, what in ((1, "cannot carry"), (2, "did not converge at")):
+        bad = status == code
+        groups: dict[tuple, list[int]] = {}  # the same failing draws at several slips: one note
+        for j in np.flatnonzero(bad.any(0)):
+            groups.setdefault((tuple(np.flatnonzero(bad[:, j])), load[j]), []).append(j)
+        for (idx, w), cols in groups.items():
+            shown = ", ".join(map(str, idx[:10])) + (", …" if len(idx) > 10 else "")
+            where = ", ".join(f"{slips[j]:g}" for j in cols)
+            tail = f"the load W = {w:g} N"
+            if code == 1:
+                tail += f" within θ1 < 90° (sinkage < {1e3 * wheel.contact_radius_m:g} mm)"
+            notes.append(
+                f"At slip {where}: {len(idx)} of {status.shape[0]} draws {what} {tail}: "
+                f"draws {shown}. They have no outputs (samples status '{STATUS[code]}'); the "
+                "bands there are over the other draws only."
+            )
+    if unpredictable:
+        notes.append(
+            "Drawbar pull and torque are NOT predicted: c, phi and K (Janosi–Hanamoto) are in "
+            "neither the draws nor the priors, and soilstats does not invent them."
+        )
+        notes.append(
+            "Sinkage without shear parameters: the load is carried by the normal stress alone "
+            "(the vertical component of the shear stress, τ·sin θ, is left out of W)."
+        )
+    notes.append(
+        f"Normal stress from the {law} law on a plate of the wheel's width b = "
+        f"{1e3 * wheel.width_m:g} mm (Wong & Reece 1967); sinkage measured on the contact "
+        f"circle of radius {1e3 * wheel.contact_radius_m:g} mm."
+    )
+    return notes

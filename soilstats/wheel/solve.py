@@ -1,0 +1,221 @@
+"""The wheel's state at a given load (entry angle θ1 solved) or at a given sinkage.
+
+:func:`wheel_forces` is the model of :mod:`soilstats.wheel` for one parameter set or arrays of
+them (draws) at one or many slips.  Load-controlled: the entry angle θ1 is the root of
+W(θ1) = W_target on 0 < θ1 ≤ 90° (Wong & Reece 1967; the CMU model's ``find_sinkage.m`` does
+the same by bisection on the sinkage).  The root is found for all cases at once by a
+bracketed secant on ln W against ln θ1 (:func:`solve_entry_angle`), vectorised over the cases
+that have not converged yet (about five evaluations of W per case).  A case whose W at
+θ1 = 90° (sinkage r_s) is still below the load cannot be carried by the soil in this model:
+it is flagged ``not_carried`` and its outputs are NaN, never a number.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from .forces import N_NODES, Cases, ContactForces, contact_forces, gauss_rule
+from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
+from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles, pressure_modulus
+
+__all__ = ["STATUS", "WheelState", "solve_entry_angle", "wheel_forces"]
+
+#: Status codes of each case.
+STATUS = {0: "ok", 1: "not_carried", 2: "not_converged"}
+OK, NOT_CARRIED, NOT_CONVERGED = 0, 1, 2
+
+THETA1_MAX = 0.5 * np.pi
+
+
+def solve_entry_angle(
+    load_N,
+    cases: Cases,
+    wheel: Wheel,
+    rule=None,
+    *,
+    xtol: float = 1e-10,
+    rtol_load: float = 1e-10,
+    max_iter: int = 100,
+):
+    """θ1 [rad] with W(θ1) = load for every case, and a status code per case (:data:`STATUS`).
+
+    A safeguarded secant on ln W against ln θ1 (W grows about as θ1^(2n+1)), inside a bracket
+    that starts as (0, π/2] and shrinks with every evaluation; a step that leaves the bracket,
+    and every step after 30, is a bisection.  The first point is the power law W ∝ θ1^(2n+1)
+    through W(π/2).  Stops per case when |W − load| ≤ ``rtol_load``·load or the bracket is
+    narrower than ``xtol`` rad.
+    """
+    rule = gauss_rule() if rule is None else rule
+    target = np.broadcast_to(np.asarray(load_N, dtype=float), (len(cases),)).copy()
+    if np.any(~(target > 0)):
+        raise ValueError(f"the load must be a positive force in N, got {load_N!r}")
+    theta1 = np.full(len(cases), np.nan)
+    status = np.full(len(cases), OK, dtype=np.int8)
+    top = contact_forces(np.full(len(cases), THETA1_MAX), cases, wheel, rule, load_only=True)
+    carried = top >= target
+    status[~carried] = NOT_CARRIED
+    lo, hi = np.zeros(len(cases)), np.full(len(cases), THETA1_MAX)
+    x_prev, w_prev = hi.copy(), top
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = THETA1_MAX * (target / top) ** (1.0 / (2.0 * cases.n + 1.0))
+    active = np.flatnonzero(carried)
+    for iteration in range(max_iter):
+        if active.size == 0:
+            break
+        i = active
+        w = contact_forces(x[i], cases.take(i), wheel, rule, load_only=True)
+        below = w < target[i]
+        lo[i] = np.where(below, x[i], lo[i])
+        hi[i] = np.where(below, hi[i], x[i])
+        done = (np.abs(w - target[i]) <= rtol_load * target[i]) | (hi[i] - lo[i] <= xtol)
+        theta1[i[done]] = x[i[done]]
+        i, w = i[~done], w[~done]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            slope = np.log(w / w_prev[i]) / np.log(x[i] / x_prev[i])
+            step = x[i] * np.exp(np.log(target[i] / w) / slope)
+        bisect = ~((step > lo[i]) & (step < hi[i])) | (iteration >= 30)
+        x_prev[i], w_prev[i] = x[i], w
+        x[i] = np.where(bisect, 0.5 * (lo[i] + hi[i]), step)
+        active = i
+    status[active] = NOT_CONVERGED
+    return theta1, status
+
+
+@dataclass(frozen=True)
+class WheelState:
+    """The wheel at each case: arrays of the broadcast shape (parameters × slips).
+
+    Lengths in m, angles in rad, forces in N, torque in N·m.  ``load_N`` is the load the
+    model carries (the target when solved for a load; the integrated W at a given sinkage).
+    ``drawbar_pull_N`` = ``thrust_N`` − ``resistance_N`` (+ forward); ``torque_Nm`` is the
+    torque the axle applies (+ driving).  Entries whose ``status`` is not 0 (:data:`STATUS`)
+    are NaN.  Without shear parameters ``thrust_N``, ``drawbar_pull_N`` and ``torque_Nm`` are
+    NaN and the load is carried by the normal stress alone (``with_shear`` False).
+    """
+
+    slip: np.ndarray
+    sinkage_m: np.ndarray
+    theta1_rad: np.ndarray
+    theta_m_rad: np.ndarray
+    theta2_rad: np.ndarray
+    load_N: np.ndarray
+    thrust_N: np.ndarray
+    resistance_N: np.ndarray
+    drawbar_pull_N: np.ndarray
+    torque_Nm: np.ndarray
+    status: np.ndarray
+    with_shear: bool
+
+
+def model_cases(params: Mapping, wheel: Wheel, slip, law: str, angles: StressAngles):
+    """(Cases, shape) for the parameter arrays × the slips (outer product, slips last)."""
+    if law not in SINKAGE_LAWS:
+        raise ValueError(
+            f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}"
+        )
+    missing = [k for k in SINKAGE_LAWS[law] if k not in params]
+    if missing:
+        raise ValueError(
+            f"the {law} law needs parameters {list(SINKAGE_LAWS[law])}; missing {missing}"
+        )
+    given = [k for k in SHEAR_PARAMS if k in params]
+    if given and len(given) < len(SHEAR_PARAMS):
+        raise ValueError(
+            f"shear needs all of c [Pa], phi [deg], K [m]; got only {given}: give all three or none"
+        )
+    names = list(SINKAGE_LAWS[law]) + given
+    values = np.broadcast_arrays(*(np.asarray(params[k], dtype=float) for k in names))
+    pshape = values[0].shape
+    p = {k: v[..., None] for k, v in zip(names, (v.reshape(-1) for v in values), strict=True)}
+    s = np.asarray(slip, dtype=float)
+    a, b = angles.ratios(s.reshape(-1))
+    nu = speed_ratio(s.reshape(-1))
+    prefactor = pressure_modulus(law, p, wheel.width_m) * wheel.stress_radius_power(p["n"])
+    shear = {"c": p["c"], "phi_deg": p["phi"], "K": p["K"]} if given else {}
+    cases = Cases.build(prefactor=prefactor, n=p["n"], a=a, b=b, nu=nu, **shear)
+    return cases, pshape + s.shape
+
+
+def wheel_forces(
+    params: Mapping,
+    wheel: Wheel,
+    slip,
+    *,
+    law: str,
+    load_N=None,
+    sinkage_m=None,
+    angles: StressAngles | None = None,
+    slip_angle_deg: float = 0.0,
+    n_nodes: int = N_NODES,
+) -> WheelState:
+    """The Wong–Reece rigid wheel at a given load or a given sinkage, over parameter sets × slips.
+
+    Parameters
+    ----------
+    params : mapping
+        The law's parameters (Bekker ``kc`` N/m^(n+1), ``kphi`` N/m^(n+2), ``n``; Bernstein
+        ``k`` N/m^(n+2), ``n``; Reece ``k1`` Pa, ``k2`` Pa/m, ``n``) and optionally the shear
+        parameters ``c`` [Pa], ``phi`` [deg], ``K`` [m] — floats or arrays of one shape P
+        (e.g. the columns of a DataFrame of draws).
+    wheel : Wheel
+    slip : float or array of shape S
+        s = (rω − V)/max(rω, V) in [−1, 1].
+    law : {"bekker", "bernstein", "reece"}
+    load_N, sinkage_m : float or array broadcastable to P + S
+        Exactly one: the normal load W [N] (θ1 solved), or the sinkage h [m] (θ1 =
+        arccos(1 − h/r_s)).
+    angles : StressAngles, optional
+        θm and θ2 as fractions of θ1 (default a0 = 0.4, a1 = 0.15, b0 = b1 = 0).
+    slip_angle_deg : float
+        Must be 0: the model is longitudinal only (no lateral shear or side-wall force yet;
+        a lateral term would add the lateral displacement and τ_y of Ishigami et al. 2007 to
+        :mod:`.forces`).
+
+    Returns
+    -------
+    WheelState
+        Arrays of shape P + S.
+    """
+    if slip_angle_deg != 0:
+        raise NotImplementedError(
+            "only the longitudinal model (slip angle β = 0) is implemented: no lateral shear, "
+            "side-wall or bulldozing force; pass slip_angle_deg=0"
+        )
+    if (load_N is None) == (sinkage_m is None):
+        raise ValueError("give exactly one of load_N (load-controlled) or sinkage_m")
+    angles = StressAngles() if angles is None else angles
+    cases, shape = model_cases(params, wheel, slip, law, angles)
+    rule = gauss_rule(n_nodes)
+    rc = wheel.contact_radius_m
+    if load_N is not None:
+        load = np.broadcast_to(np.asarray(load_N, dtype=float), shape).reshape(-1)
+        theta1, status = solve_entry_angle(load, cases, wheel, rule)
+    else:
+        h = np.broadcast_to(np.asarray(sinkage_m, dtype=float), shape).reshape(-1)
+        theta1, status = entry_angle(h, rc), np.zeros(h.shape, dtype=np.int8)
+    ok = status == 0
+    forces = contact_forces(np.where(ok, theta1, 0.0), cases, wheel, rule)
+    out = _state_arrays(forces, theta1, cases, ok, rc)
+    out = {k: v.reshape(shape) for k, v in out.items()}
+    slip_b = np.broadcast_to(np.asarray(slip, dtype=float), shape)
+    return WheelState(slip=slip_b, status=status.reshape(shape), with_shear=cases.with_shear, **out)
+
+
+def _state_arrays(forces: ContactForces, theta1, cases: Cases, ok, rc) -> dict:
+    nan = np.where(ok, 1.0, np.nan)
+    shear_nan = nan if cases.with_shear else np.full(nan.shape, np.nan)
+    theta1 = theta1 * nan
+    return {
+        "sinkage_m": sinkage_from_entry_angle(theta1, rc),
+        "theta1_rad": theta1,
+        "theta_m_rad": cases.a * theta1,
+        "theta2_rad": cases.b * theta1,
+        "load_N": forces.load_N * nan,
+        "thrust_N": forces.thrust_N * shear_nan,
+        "resistance_N": forces.resistance_N * nan,
+        "drawbar_pull_N": forces.drawbar_pull_N * shear_nan,
+        "torque_Nm": forces.torque_Nm * shear_nan,
+    }

@@ -1,0 +1,186 @@
+"""Stresses on the contact of a rigid wheel: Wong & Reece's normal stress, Janosi–Hanamoto shear.
+
+Sources: J.Y. Wong, A.R. Reece, "Prediction of rigid wheel performance based on the analysis of
+soil-wheel stresses, Part I. Performance of driven rigid wheels", J. Terramechanics 4(1),
+81–98, 1967; J.Y. Wong, *Theory of Ground Vehicles*, 4th ed., Wiley 2008, ch. 2;
+G. Ishigami, A. Miwa, K. Nagatani, K. Yoshida, "Terramechanics-based model for steering
+maneuver of planetary exploration rovers on loose soil", J. Field Robotics 24(3), 233–250, 2007.
+
+Angles θ in rad from the downward vertical, + towards the front (see :mod:`.geometry`).
+
+**Normal stress.**  Each pressure–sinkage law of soilstats is a power law p = k_eq·z^n on a
+plate of width b (:func:`pressure_modulus`), and the wheel of width b carries at angle θ the
+pressure of a plate sunk to the local depth R(cos θ − cos θ1):
+
+* Bekker:    σ(θ) = (kc/b + kφ)·R^n·(cos θ − cos θ1)^n
+* Bernstein: σ(θ) = k·R^n·(cos θ − cos θ1)^n
+* Reece:     σ(θ) = (k1 + k2·b)·(R/b)^n·(cos θ − cos θ1)^n
+
+in front of the maximum-stress angle θm ≤ θ ≤ θ1.  Behind it, θ2 ≤ θ < θm, Wong & Reece mirror
+the front distribution onto the rear arc with the equivalent angle
+θe = θ1 − (θ − θ2)/(θm − θ2)·(θ1 − θm), σ(θ) = σ_front(θe), so that σ is continuous at θm
+and zero at θ2.  R^n is r_s^n for a smooth wheel or a wheel sheared on its grouser tips, or
+μ r_s^n + (1 − μ) r^n with CMU's area ratio μ (:meth:`Wheel.stress_radius_power`).
+
+**Stress angles.**  θm = (a0 + a1·s)·θ1 (Wong & Reece 1967: θm/θ1 = c1 + c2·i) and
+θ2 = (b0 + b1·s)·θ1 (CMU's θr; b0 = b1 = 0 puts the exit at the bottom dead centre, the classical
+assumption of no rebound).  The defaults a0 = 0.4, a1 = 0.15 are the values of Ishigami et al.
+(2007, Table of soil parameters for Toyoura sand) and of CMU's ``K10_mini_legacy_ICRA`` soil;
+Wong & Reece's measured c1, c2 depend on the soil (their loose sand ≈ 0.18, 0.32; compact sand
+≈ 0.43, 0.32, as transcribed from their Table 1 in jcmadsen/pyTerramechanics).  For skid the
+same straight line in s is used (CMU's model holds θm constant in skid instead).
+
+**Shear.**  Janosi–Hanamoto, τ = (c + σ tan φ)(1 − exp(−j/K)), with the shear displacement of
+the soil along the shearing cylinder (Wong & Reece 1967; Wong 2008, ch. 2)
+
+    j(θ) = r_s(θ1 − θ) − (V/ω)(sin θ1 − sin θ) = r_s(θ1 − θ) − ν·r·(sin θ1 − sin θ)
+
+with ν = V/(rω).  Driving (s ≥ 0, ν = 1 − s, r_s = r): j = r[θ1 − θ − (1 − s)(sin θ1 − sin θ)].
+Skid (−1 < s < 0, ν = 1/(1 + s)): j = r[θ1 − θ − (sin θ1 − sin θ)/(1 + s)] (Ishigami et al.
+2007), negative over most of the contact, and τ takes the sign of j:
+τ = sign(j)(c + σ tan φ)(1 − exp(−|j|/K)).  A locked wheel (s = −1) is the limit j → −∞:
+τ = −(c + σ tan φ) over the whole contact (fully mobilised backward shear).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "SHEAR_PARAMS",
+    "SINKAGE_LAWS",
+    "StressAngles",
+    "normal_stress",
+    "pressure_modulus",
+    "shear_displacement",
+    "shear_stress",
+]
+
+RAD_PER_DEG = np.pi / 180.0
+
+#: Parameters of each pressure–sinkage law (names and SI units as in soilstats.models).
+SINKAGE_LAWS: dict[str, tuple[str, ...]] = {
+    "bekker": ("kc", "kphi", "n"),
+    "bernstein": ("k", "n"),
+    "reece": ("k1", "k2", "n"),
+}
+#: Janosi–Hanamoto parameters: c [Pa], φ [deg], K [m].
+SHEAR_PARAMS: tuple[str, ...] = ("c", "phi", "K")
+
+PARAM_UNITS: dict[str, str] = {
+    "kc": "N/m^(n+1)",
+    "kphi": "N/m^(n+2)",
+    "k": "N/m^(n+2)",
+    "k1": "Pa",
+    "k2": "Pa/m",
+    "n": "-",
+    "c": "Pa",
+    "phi": "deg",
+    "K": "m",
+}
+
+
+def pressure_modulus(law: str, params, width_m: float):
+    """k_eq [N/m^(n+2)] with which the law reads p = k_eq·z^n on a plate of width b [m].
+
+    Bekker kc/b + kφ; Bernstein k; Reece (k1 + k2·b)·b^(−n).  ``params`` maps the law's
+    parameter names to floats or arrays (broadcast together).
+    """
+    if law == "bekker":
+        return np.asarray(params["kc"], float) / width_m + np.asarray(params["kphi"], float)
+    if law == "bernstein":
+        return np.asarray(params["k"], float)
+    if law == "reece":
+        k1, k2, n = (np.asarray(params[k], float) for k in ("k1", "k2", "n"))
+        return (k1 + k2 * width_m) * width_m ** (-n)
+    raise ValueError(f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
+
+
+@dataclass(frozen=True)
+class StressAngles:
+    """θm = (a0 + a1·s)·θ1 and θ2 = (b0 + b1·s)·θ1 (dimensionless coefficients).
+
+    Defaults a0 = 0.4, a1 = 0.15 (Ishigami et al. 2007) and b0 = b1 = 0 (exit at the bottom
+    dead centre).  CMU's tuned values for their wheels (``wheel.md``) have b0 < 0.
+    For every slip used, θ2/θ1 ≤ θm/θ1 ≤ 1 and θ2/θ1 ≥ −1 must hold.
+    """
+
+    a0: float = 0.4
+    a1: float = 0.15
+    b0: float = 0.0
+    b1: float = 0.0
+
+    def ratios(self, slip):
+        """(θm/θ1, θ2/θ1) at slip s; ValueError naming the slip where they are not ordered."""
+        s = np.asarray(slip, dtype=float)
+        a = self.a0 + self.a1 * s
+        b = self.b0 + self.b1 * s
+        bad = ~((b <= a) & (a <= 1.0) & (b >= -1.0))
+        if np.any(bad):
+            s_bad = np.atleast_1d(s)[np.atleast_1d(bad)][0]
+            raise ValueError(
+                f"stress angles out of order at slip {s_bad:g}: need -1 <= θ2/θ1 <= θm/θ1 <= 1, "
+                f"got θm/θ1 = {self.a0} + {self.a1}·s, θ2/θ1 = {self.b0} + {self.b1}·s"
+            )
+        return a, b
+
+    def to_dict(self) -> dict:
+        return {"a0": self.a0, "a1": self.a1, "b0": self.b0, "b1": self.b1}
+
+
+def depth_factor(theta_e, theta1, n):
+    """(cos θe − cos θ1)^n, computed as (2 sin((θ1+θe)/2) sin((θ1−θe)/2))^n (no cancellation)."""
+    d = 2.0 * np.sin(0.5 * (theta1 + theta_e)) * np.sin(0.5 * (theta1 - theta_e))
+    d = np.maximum(d, 0.0)
+    with np.errstate(divide="ignore"):
+        return np.where(d > 0, np.exp(n * np.log(np.where(d > 0, d, 1.0))), 0.0)
+
+
+def equivalent_angle(theta, theta1, theta_m, theta2):
+    """θ in front of θm; Wong & Reece's mirrored θe = θ1 − (θ − θ2)/(θm − θ2)(θ1 − θm) behind."""
+    theta = np.asarray(theta, dtype=float)
+    span = np.where(theta_m > theta2, theta_m - theta2, 1.0)
+    rear = theta1 - (theta - theta2) / span * (theta1 - theta_m)
+    return np.where(theta >= theta_m, theta, rear)
+
+
+def normal_stress(theta, theta1, theta_m, theta2, k_eq, n, radius_power):
+    """σ(θ) [Pa] of Wong & Reece (1967) for a law p = k_eq·z^n (see :func:`pressure_modulus`).
+
+    ``radius_power`` is R^n [m^n] (:meth:`Wheel.stress_radius_power`).  Zero outside
+    θ2 ≤ θ ≤ θ1.  All arguments broadcast.
+    """
+    theta = np.asarray(theta, dtype=float)
+    theta_e = equivalent_angle(theta, theta1, theta_m, theta2)
+    sigma = k_eq * radius_power * depth_factor(theta_e, theta1, n)
+    return np.where((theta >= theta2) & (theta <= theta1), sigma, 0.0)
+
+
+def shear_displacement(theta, theta1, speed_ratio, wheel):
+    """j(θ) = r_s(θ1 − θ) − ν·r·(sin θ1 − sin θ) [m]; −∞ behind θ1 for a locked wheel (ν = ∞)."""
+    theta = np.asarray(theta, dtype=float)
+    return displacement(theta1 - theta, np.sin(theta1) - np.sin(theta), speed_ratio, wheel)
+
+
+def displacement(behind, ahead, speed_ratio, wheel):
+    """j from θ1 − θ (``behind``) and sin θ1 − sin θ (``ahead``): the one formula of j."""
+    finite = np.isfinite(speed_ratio)
+    if np.all(finite):
+        return wheel.contact_radius_m * behind - speed_ratio * wheel.radius_m * ahead
+    j = (
+        wheel.contact_radius_m * behind
+        - np.where(finite, speed_ratio, 0.0) * wheel.radius_m * ahead
+    )
+    return np.where(finite | (ahead <= 0), j, -np.inf)
+
+
+def janosi(sigma, j, c, tan_phi, K):
+    """τ = sign(j)(c + σ tan φ)(1 − exp(−|j|/K)) [Pa] (Janosi–Hanamoto, signed)."""
+    return (c + sigma * tan_phi) * np.copysign(1.0 - np.exp(-np.abs(j) / K), j)
+
+
+def shear_stress(sigma, j, c, phi_deg, K):
+    """Janosi–Hanamoto τ = sign(j)(c + σ tan φ)(1 − exp(−|j|/K)) [Pa]; c Pa, φ deg, K m."""
+    return janosi(sigma, j, c, np.tan(np.asarray(phi_deg, float) * RAD_PER_DEG), K)
