@@ -192,7 +192,12 @@ def _reference(campaign: Campaign, mode: str) -> list[tuple]:
             out.append((tid, code, rows(labels, good[positions]), None))
         contact = next((p.start for p in phases.phases if p.name != "approach"), good.size)
         loaded = good[~excluded]
-        weak = records.find_contact(z[loaded], force[loaded], ratio=records.CONTACT_WEAK_RATIO)
+        weak = records.find_contact(
+            z[loaded],
+            force[loaded],
+            ratio=records.CONTACT_WEAK_RATIO,
+            min_travel=records.CONTACT_WEAK_TRAVEL,
+        )
         staged.append((tid, labels, z, force, loaded, contact, weak))
     found = {k: item[6] for k, item in enumerate(staged) if item[6] is not None}
 

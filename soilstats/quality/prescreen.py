@@ -20,9 +20,9 @@ from .blocks import Blocks, BoolArray, FloatArray, IntArray, _py_max, _quantum, 
 from .records import (
     CONTACT_EARLY_FRACTION,
     CONTACT_LAW_EXCESS,
-    CONTACT_MIN_TRAVEL,
     CONTACT_NOISE_WIDTHS,
     CONTACT_WEAK_RATIO,
+    CONTACT_WEAK_TRAVEL,
     RUNAWAY_EXCESS,
     RUNAWAY_FLAT_GAIN,
     RUNAWAY_MIN_TRAVEL,
@@ -107,7 +107,7 @@ def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
     free = (local < blocks.spread(first)) & (z > 0)
     alive &= (blocks.total_of(free) >= 3) & (travel > 0)
     z_free = blocks.max(z, where=free)
-    alive &= ~(z_free < CONTACT_MIN_TRAVEL * travel)
+    alive &= ~(z_free < CONTACT_WEAK_TRAVEL * travel)
     # The loaded part of the surviving blocks, for the power-law comparison.
     loaded = blocks.spread(alive) & (local >= blocks.spread(first))
     lb, li = blocks.keep(loaded)

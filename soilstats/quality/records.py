@@ -48,6 +48,10 @@ CONTACT_RESIDUAL_RATIO = 0.5
 #: no more. Weak evidence re-zeroes a test only where most tests of its soil show a toe
 #: (:func:`soilstats.quality.screen`: one rule for the same toe in every test).
 CONTACT_WEAK_RATIO = 0.8
+#: The weak pass looks for toes down to this share of the travel: whether a soil's toe is
+#: material (CONTACT_MIN_TRAVEL) is decided on the soil's median, so that tests whose own
+#: travel puts the same toe just above or below 2 % are treated alike.
+CONTACT_WEAK_TRAVEL = 0.01
 #: ... or, for a curve that no shift of origin fits better (near-linear), how far above the
 #: noise-floor threshold a power law measured from z = 0 puts the force at the deepest free
 #: sample, as a multiple of the threshold: a curve loaded from z = 0 would have risen that far
@@ -306,8 +310,8 @@ class ContactPoint:
         if self.evidence == "soil":
             return (
                 "the record cannot place its own contact; most tests of its soil show a toe, "
-                "and it is re-zeroed at their median contact, where its force is still at the "
-                "floor"
+                "and it is re-zeroed at their median contact (or where its own force leaves "
+                "the floor, if that comes first)"
             )
         strength = "" if self.residual_ratio <= CONTACT_RESIDUAL_RATIO else " (weak: most tests "
         strength += "of its soil show a toe)" if strength else ""
@@ -356,7 +360,11 @@ def _clean_rise(zl: np.ndarray, fl: np.ndarray, early: int) -> bool:
 
 
 def find_contact(
-    z: np.ndarray, force: np.ndarray, *, ratio: float = CONTACT_RESIDUAL_RATIO
+    z: np.ndarray,
+    force: np.ndarray,
+    *,
+    ratio: float = CONTACT_RESIDUAL_RATIO,
+    min_travel: float = CONTACT_MIN_TRAVEL,
 ) -> ContactPoint | None:
     """A pre-contact segment (force at its noise floor while z > 0 grows), or None.
 
@@ -401,7 +409,7 @@ def find_contact(
     if free.size < 3 or travel <= 0:
         return None
     z_free = float(z[free].max())
-    if z_free < CONTACT_MIN_TRAVEL * travel:
+    if z_free < min_travel * travel:
         return None
     loaded = np.arange(z.size) >= first
     zl, fl = z[loaded], force[loaded] - base
@@ -458,7 +466,7 @@ def find_contact(
         else:
             fun, z_contact = _power_law_residual(zl, fl, upper), upper
         contact = (z_contact, fun / from_zero, "floor")
-    if contact is None or contact[0] < CONTACT_MIN_TRAVEL * travel:
+    if contact is None or contact[0] < min_travel * travel:
         return None
     z_contact, ratio, evidence = contact
     before = np.flatnonzero((z > 0) & (z <= z_contact))

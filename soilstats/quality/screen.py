@@ -169,7 +169,9 @@ def _sinkage_findings(
     found_contacts: dict[int, records.ContactPoint] = {}
     for k in candidates:
         zk, fk, _ = record(k)
-        contact = records.find_contact(zk, fk, ratio=records.CONTACT_WEAK_RATIO)
+        contact = records.find_contact(
+            zk, fk, ratio=records.CONTACT_WEAK_RATIO, min_travel=records.CONTACT_WEAK_TRAVEL
+        )
         if bar is not None:
             bar.update()
         if contact is not None:
@@ -288,14 +290,18 @@ def seating_per_soil(found: dict, record, soils: list) -> dict:
     a soil.
 
     ``found`` holds each record's contact with at least weak evidence
-    (:data:`~.records.CONTACT_WEAK_RATIO`). A soil *shows a toe* when the median of its
-    sinkage tests' residual ratios is at most CONTACT_WEAK_RATIO (a test without evidence
-    counts as 1; ``floor`` evidence as 0). There, every test with evidence is re-zeroed at
-    its own contact, and one without it at the soil's median contact where its force is
-    still at the floor there (:func:`~.records.floor_end`) and that contact is material
-    (:data:`~.records.CONTACT_MIN_TRAVEL` of its travel). Elsewhere only strong evidence
-    re-zeroes a test (``floor``, or a ratio at most :data:`~.records.CONTACT_RESIDUAL_RATIO`):
-    a seating offset of its own.
+    (:data:`~.records.CONTACT_WEAK_RATIO`, toes down to :data:`~.records.CONTACT_WEAK_TRAVEL`
+    of the travel). A soil *shows a toe* when the median of its sinkage tests' residual
+    ratios is at most CONTACT_WEAK_RATIO (a test without evidence counts as 1; ``floor``
+    evidence as 0) and its median contact is material: at least
+    :data:`~.records.CONTACT_MIN_TRAVEL` of its median travel. There, every test with
+    evidence is re-zeroed at its own contact, and one without it at the soil's median
+    contact, or where its force leaves the floor if that comes first
+    (:func:`~.records.floor_end`) — unless its force leaves the floor before half the median
+    contact: that record shows no such toe; a shared toe shorter than that is left alone in every
+    test of the soil. In a soil without a shared toe only strong evidence re-zeroes a test
+    (``floor``, or a ratio at most :data:`~.records.CONTACT_RESIDUAL_RATIO`, with a contact
+    at CONTACT_MIN_TRAVEL of its own travel at least): a seating offset of its own.
     """
 
     def ratio(k: int) -> float:
@@ -304,25 +310,40 @@ def seating_per_soil(found: dict, record, soils: list) -> dict:
             return 1.0
         return 0.0 if c.evidence == "floor" else c.residual_ratio
 
+    def travel(k: int) -> float:
+        z = record(k)[0]
+        return float(z.max() - max(z.min(), 0.0)) if z.size else 0.0
+
     by_soil: dict = {}
     for k, soil in enumerate(soils):
         by_soil.setdefault(soil, []).append(k)
-    chosen = {k: c for k, c in found.items() if c.strong}
+    chosen = {}
     for members in by_soil.values():
         if np.median([ratio(k) for k in members]) > records.CONTACT_WEAK_RATIO:
+            # No toe shared by the soil's tests: a test's own strong evidence decides.
+            chosen |= {
+                k: found[k]
+                for k in members
+                if k in found
+                and found[k].strong
+                and found[k].z_contact >= records.CONTACT_MIN_TRAVEL * travel(k)
+            }
             continue
-        chosen.update({k: found[k] for k in members if k in found})
         median = float(np.median([found[k].z_contact for k in members if k in found]))
+        reach = float(np.median([travel(k) for k in members]))
+        if median < records.CONTACT_MIN_TRAVEL * reach:
+            continue  # a toe too short to matter: left alone in every test of the soil
+        chosen.update({k: found[k] for k in members if k in found})
         for k in members:
             if k in found:
                 continue
             z, force, _ = record(k)
             end = records.floor_end(z, force)
-            travel = float(z.max() - max(z.min(), 0.0))
-            if end is None or end < median or median < records.CONTACT_MIN_TRAVEL * travel:
-                continue
-            before = np.flatnonzero((z > 0) & (z <= median))
-            chosen[k] = records.ContactPoint(median, before, np.nan, evidence="soil")
+            if end is None or end < 0.5 * median:
+                continue  # its force left the floor well before: it shows no such toe
+            contact = min(median, end)
+            before = np.flatnonzero((z > 0) & (z <= contact))
+            chosen[k] = records.ContactPoint(contact, before, np.nan, evidence="soil")
     return chosen
 
 
