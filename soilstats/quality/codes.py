@@ -80,7 +80,11 @@ CODES: dict[str, QualityCode] = {
             "rise). The contact is never placed past a sample held 5 noise widths off the "
             "floor. A record that starts under load (its first samples above 5 % of its peak "
             "force and 5 noise widths) or climbing (its first four samples rising by more "
-            "than 5 noise widths) is not searched.",
+            "than 5 noise widths) is not searched. One rule per soil: where most of a soil's "
+            "tests show a toe (median residual ratio at most 0.8), the soil's median contact "
+            "decides whether it is material (2 % of the median travel) and every test is "
+            "treated alike: re-zeroed at its own contact, or at the soil's median where its "
+            "own record cannot place it; elsewhere a test needs the evidence above on its own.",
             "Bekker's and Bernstein's z is the sinkage below the surface. An offset zero bends "
             "the curve and biases n and k; the free travel adds samples with p ~ 0.",
             "Nothing by default: samples before the contact are excluded and z is re-zeroed "
