@@ -92,19 +92,9 @@ def _spike_findings(rec: _Records, kind: str, columns: tuple[str, str], clean: b
     out: list[list[QualityFlag]] = [[] for _ in rec.ids]
     drop: list[np.ndarray] = []
     for k, hits in _hits_by_block(rec.blocks, spiked).items():
-        rows = rec.labels[hits]
-        out[k].append(
-            QualityFlag(
-                rec.ids[k],
-                kind,
-                "spike",
-                _rows(rows),
-                f"{hits.size} isolated spiked sample(s) in {columns[0]} or {columns[1]}",
-                excluded=clean,
-            )
-        )
-        if clean:
-            drop.append(rows)
+        message = f"{hits.size} isolated spiked sample(s) in {columns[0]} or {columns[1]}"
+        flag = QualityFlag(rec.ids[k], kind, "spike", _rows(rec.labels[hits]), message)
+        staging.leave_out(out[k], drop, flag, clean)
     return out, drop, spiked
 
 

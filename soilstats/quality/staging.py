@@ -13,7 +13,7 @@ those arrays, ``labels`` the 0-based data rows of the sample file.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -115,20 +115,22 @@ def burst_flags(
         mask[blocks.starts[k] + found] = True
         rows = labels[at][found]
         where = ", ".join(f"{h.size} in {name}" for name, h in hits.items() if h.size)
-        out[k].append(
-            QualityFlag(
-                ids[k],
-                "sinkage",
-                "burst",
-                _rows(rows),
-                f"{found.size} samples in bursts of 1-5 samples off the record's local "
-                f"trend and back ({where}); rule: burst",
-                excluded=clean,
-            )
+        message = (
+            f"{found.size} samples in bursts of 1-5 samples off the record's local trend and "
+            f"back ({where}); rule: burst"
         )
-        if clean:
-            drop.append(rows)
+        leave_out(
+            out[k], drop, QualityFlag(ids[k], "sinkage", "burst", _rows(rows), message), clean
+        )
     return out, drop, mask
+
+
+def leave_out(flags: list, drop: list, flag: QualityFlag, clean: bool) -> None:
+    """Add ``flag`` of a code whose samples leave the fits: marked excluded, and its rows
+    (1-based) added to the labels to drop, in mode ``clean``."""
+    flags.append(replace(flag, excluded=clean))
+    if clean:
+        drop.append(np.asarray(flag.rows, dtype=np.int64) - 1)
 
 
 def stage(
@@ -149,9 +151,7 @@ def stage(
         loading[at] = ~excluded
         contact[k] = _contact_of(found)
         for flag in _event_flags(ids[k], found, z[at], force[at], labels[at], clean):
-            out[k].append(flag)
-            if clean:
-                drop.append(np.asarray([r - 1 for r in flag.rows]))
+            leave_out(out[k], drop, flag, clean)
     staged = Staged(good, z, force, labels, phases, loading, contact)
     return staged, out, drop
 
