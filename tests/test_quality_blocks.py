@@ -369,3 +369,34 @@ def test_empty_records_have_no_candidates():
     assert contact_candidates(empty, nothing, nothing).size == 0
     assert runaway_candidates(empty, nothing, nothing).size == 0
     assert late_zero_candidates(empty, nothing, nothing).size == 0
+
+
+def test_block_running_medians_and_noise_widths_are_the_per_record_ones_exactly():
+    """The staging computes the burst rule's running median of 11, the phases' running
+    median of 5 and their force-noise width across all records at once: the same numbers
+    as scipy's median_filter and phases._noise on each record (ties, plateaus of repeated
+    readings, empty and one-sample records included)."""
+    from soilstats.quality.phases import _noise
+    from soilstats.quality.staging import noise_widths
+
+    rng = np.random.default_rng(5)
+    parts = []
+    for i in range(400):
+        n = int(rng.integers(0, 80))
+        kind = i % 4
+        if kind == 0:
+            x = rng.normal(size=n)
+        elif kind == 1:
+            x = np.round(rng.normal(size=n) * 3) / 3  # quantised
+        elif kind == 2:
+            x = np.r_[np.linspace(0, 1, n // 2), np.full(n - n // 2, 1.0)]  # a hold
+        else:
+            x = np.repeat(rng.integers(0, 3, n // 3).astype(float), 3)  # ties everywhere
+        parts.append(x)
+    blocks = Blocks.of_sizes([p.size for p in parts])
+    values = np.concatenate(parts)
+    for size in (5, 11):
+        got = _split(blocks, blocks.rolling_median(values, size))
+        for g, p in zip(got, parts, strict=True):
+            np.testing.assert_array_equal(g, median_filter(p, size=size, mode="nearest"))
+    np.testing.assert_array_equal(noise_widths(blocks, values), [_noise(p) for p in parts])

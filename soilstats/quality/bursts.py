@@ -25,9 +25,14 @@ A channel of a record is judged when it has :data:`BURST_MIN_SAMPLES` samples or
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import median_filter
 
-from .records import SPIKE_NOISE_WIDTHS, SPIKE_SPAN_FRACTION, _resolution, _robust_width
+from .records import (
+    SPIKE_NOISE_WIDTHS,
+    SPIKE_SPAN_FRACTION,
+    _resolution,
+    _robust_width,
+    _running_median,
+)
 
 __all__ = [
     "ANCHOR_SAMPLES",
@@ -62,13 +67,15 @@ def find_bursts(values: np.ndarray) -> np.ndarray:
     n = x.size
     if n < BURST_MIN_SAMPLES or not np.isfinite(x).all():
         return np.array([], int)
-    trend = median_filter(x, size=BURST_WINDOW, mode="nearest")
+    trend = _running_median(x, BURST_WINDOW)
     span = float(trend.max() - trend.min())
     if span <= 0:
         return np.array([], int)
+    departure = np.abs(x - trend)
+    if not (departure > SPIKE_SPAN_FRACTION * span).any():
+        return np.array([], int)  # the threshold is at least this: nothing can be off
     width = max(_robust_width(np.diff(x, 2)) / np.sqrt(6.0), _resolution(x), 1e-9 * span)
     threshold = max(SPIKE_NOISE_WIDTHS * width, SPIKE_SPAN_FRACTION * span)
-    departure = np.abs(x - trend)
     off = np.flatnonzero(departure > threshold)
     if not off.size:
         return np.array([], int)

@@ -42,9 +42,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
 
-from .records import _resolution, _robust_width
+from .records import _resolution, _robust_width, _running_median
 
 __all__ = [
     "EXCLUDED_PHASES",
@@ -183,6 +182,8 @@ def find_phases(
     *,
     surface: float = 0.0,
     failure_onset: int | None = None,
+    smooth: np.ndarray | None = None,
+    noise: float | None = None,
 ) -> RecordPhases:
     """The phases of one record (module docstring).
 
@@ -198,12 +199,17 @@ def find_phases(
         Position of the last sample before bearing failure (``find_runaway``'s onset on the
         loading branch, mapped to this record): the loading samples after it form the
         ``failure`` phase.
+    smooth : array, optional
+        The force's running median of five (``median_filter(force, 5, mode="nearest")``),
+        where the caller has it for many records at once.
+    noise : float, optional
+        The force's noise width (:func:`_noise`), likewise.
     """
     z, force = np.asarray(z, float), np.asarray(force, float)
     n = z.size
     if n == 0:
         return RecordPhases((), 0)
-    sigma_f = _noise(force)
+    sigma_f = _noise(force) if noise is None else noise
     rise = _held_rise(force, sigma_f)
     deeper = np.flatnonzero(z > surface)
     contact = min(int(deeper[0]) if deeper.size else n, rise) if rise else 0
@@ -214,7 +220,9 @@ def find_phases(
     labels[contact:rise] = "contact"
     changes: dict[int, float] = {}  # phase start -> relative force change
     if rise < n - 1 and np.isfinite(z).all() and np.isfinite(force).all():
-        _label_excursions(z, force, sigma_f, rise, labels, changes)
+        if smooth is None:
+            smooth = _running_median(force, 5)
+        _label_excursions(z, smooth, sigma_f, rise, labels, changes)
     if failure_onset is not None:
         tail = np.arange(n) > failure_onset
         labels[tail & (labels == "loading")] = "failure"
@@ -223,7 +231,7 @@ def find_phases(
 
 def _label_excursions(
     z: np.ndarray,
-    force: np.ndarray,
+    smooth: np.ndarray,
     sigma_f: float,
     start: int,
     labels: np.ndarray,
@@ -232,7 +240,6 @@ def _label_excursions(
     """Label the force's excursions below its running maximum from ``start`` on: holds,
     unload–reload branches, steps and the release (module docstring)."""
     n = z.size
-    smooth = median_filter(force, size=5, mode="nearest")
     after = np.arange(n) >= start
     envelope = np.maximum.accumulate(np.where(after, smooth, -np.inf))
     deficit = envelope - smooth

@@ -136,24 +136,36 @@ def _quantum(values: np.ndarray) -> float:
     return float(steps.min()) if steps.size else 0.0
 
 
+def _running_median(x: np.ndarray, size: int) -> np.ndarray:
+    """``scipy.ndimage.median_filter(x, size, mode="nearest")`` for an odd ``size``: the
+    middle of each window of the edge-padded record (one value of it, so exactly the
+    filter's), without the filter's overhead on short records."""
+    half = size // 2
+    windows = np.lib.stride_tricks.sliding_window_view(np.pad(x, half, mode="edge"), size)
+    return np.partition(windows, half, axis=1)[:, half]
+
+
 def _resolution(x: np.ndarray) -> float:
     """The sensor's step where the record is visibly quantised (10 % or more of its steps
     repeat a reading), else 0 — counting only repeats in runs of at most
     :data:`PLATEAU_RUN`: a hold repeats z for many samples without any quantisation, and
     its ramp's step is then no noise width."""
     steps = np.abs(np.diff(x))
-    if not steps.size:
-        return 0.0
     zero = steps == 0
+    if not zero.any():
+        return 0.0  # nothing repeats: no quantisation shows
     edges = np.flatnonzero(np.diff(np.r_[0, zero.astype(np.int8), 0]))
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):
-        if stop - start > PLATEAU_RUN:
-            zero[start:stop] = False
-            steps[start:stop] = np.nan  # a plateau: neither a repeat nor a step
-    counted = np.isfinite(steps)
-    if not counted.any() or zero.sum() < 0.1 * counted.sum():
+    starts, stops = edges[::2], edges[1::2]
+    # Each step's run length (0 for a step that moves): a long run is a plateau, neither a
+    # repeat nor a step.
+    length = np.zeros(steps.size, dtype=np.int64)
+    length[zero] = np.repeat(stops - starts, stops - starts)
+    plateau = length > PLATEAU_RUN
+    repeats = int((zero & ~plateau).sum())
+    counted = steps.size - int(plateau.sum())
+    if not counted or repeats < 0.1 * counted:
         return 0.0
-    moving = steps[counted & ~zero]
+    moving = steps[~zero]
     return float(moving.min()) if moving.size else 0.0
 
 

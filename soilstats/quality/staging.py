@@ -17,9 +17,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .blocks import Blocks
-from .bursts import find_bursts
+from .blocks import Blocks, _unfinite
+from .bursts import BURST_MIN_SAMPLES, BURST_WINDOW, find_bursts
 from .phases import EXCLUDED_PHASES, Phase, RecordPhases, find_phases
+from .records import PLATEAU_RUN, SPIKE_SPAN_FRACTION
 from .report import QualityFlag
 
 __all__ = ["PhaseSpan", "Staged", "TestPhases", "stage"]
@@ -106,7 +107,7 @@ def burst_flags(
     mask = np.zeros(blocks.total, dtype=bool)
     out: list[list[QualityFlag]] = [[] for _ in ids]
     drop: list[np.ndarray] = []
-    for k in range(blocks.count):
+    for k in _burst_candidates(blocks, columns):
         at = slice(blocks.starts[k], blocks.starts[k] + blocks.sizes[k])
         hits = {name: find_bursts(values[at]) for name, values in columns.items()}
         found = np.unique(np.concatenate(list(hits.values()))).astype(int)
@@ -123,6 +124,50 @@ def burst_flags(
             out[k], drop, QualityFlag(ids[k], "sinkage", "burst", _rows(rows), message), clean
         )
     return out, drop, mask
+
+
+def noise_widths(blocks: Blocks, values: np.ndarray) -> np.ndarray:
+    """:func:`~.phases._noise` of every block, across all blocks at once (the same
+    operations in the same order, so the same numbers): the robust width of the second
+    differences over sqrt(6), floored at the sensor's step (:func:`~.records._resolution`,
+    whose plateaus of repeated readings do not count)."""
+    out = np.zeros(blocks.count)
+    second, sb = blocks.diff(values, 2)
+    with np.errstate(invalid="ignore"):
+        centre = sb.median(second)
+        mad = sb.median(np.abs(second - sb.spread(centre)))
+    width = np.where(sb.sizes > 0, 1.4826 * mad / np.sqrt(6.0), 0.0)
+    steps, st = blocks.diff(values, 1)
+    steps = np.abs(steps)
+    zero = steps == 0
+    start, stop = st.runs(zero)
+    run = np.zeros(steps.size, dtype=np.int64)
+    run[zero] = np.repeat(stop - start, stop - start)
+    plateau = run > PLATEAU_RUN
+    repeats = st.total_of(zero & ~plateau)
+    counted = st.sizes - st.total_of(plateau)
+    smallest = st.min(steps, where=~zero)
+    quantised = (st.total_of(zero) > 0) & (counted > 0) & ~(repeats < 0.1 * counted)
+    resolution = np.where(quantised & np.isfinite(smallest), smallest, 0.0)
+    out[:] = np.where(blocks.sizes >= 3, np.maximum(width, resolution), 0.0)
+    return out
+
+
+def _burst_candidates(blocks: Blocks, columns: dict[str, np.ndarray]) -> np.ndarray:
+    """The records in which :func:`~.bursts.find_bursts` can find a burst; it finds none in
+    the others. A burst sample departs from the running median of BURST_WINDOW by more
+    than its threshold, which is at least SPIKE_SPAN_FRACTION of the median's span: a record
+    with no such departure in either channel (computed across all records at once) has
+    none. Records too short for the rule, or holding a non-finite value, are left to it."""
+    keep = np.zeros(blocks.count, dtype=bool)
+    for values in columns.values():
+        with np.errstate(invalid="ignore"):
+            trend = blocks.rolling_median(values, BURST_WINDOW)
+            span = blocks.max(trend) - blocks.min(trend)
+            off = np.abs(values - trend) > SPIKE_SPAN_FRACTION * blocks.spread(span)
+        keep |= blocks.total_of(off) > 0
+    keep &= blocks.sizes >= BURST_MIN_SAMPLES
+    return np.union1d(np.flatnonzero(keep), _unfinite(blocks, *columns.values()))
 
 
 def leave_out(flags: list, drop: list, flag: QualityFlag, clean: bool) -> None:
@@ -143,9 +188,11 @@ def stage(
     contact = np.zeros(good.count, dtype=np.int64)
     out: list[list[QualityFlag]] = [[] for _ in ids]
     drop: list[np.ndarray] = []
+    smooth = good.rolling_median5(force)
+    noise = noise_widths(good, force)
     for k in range(good.count):
         at = slice(good.starts[k], good.starts[k] + good.sizes[k])
-        found = find_phases(z[at], force[at])
+        found = find_phases(z[at], force[at], smooth=smooth[at], noise=float(noise[k]))
         phases.append(found)
         excluded = found.mask(*EXCLUDED_PHASES)
         loading[at] = ~excluded
