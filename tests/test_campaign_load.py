@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import soilstats
 from soilstats.campaign import Campaign, bundled_campaigns, load_campaign
 from soilstats.campaign._cells import _parse_decimals
 from soilstats.data import DATA_DIR
@@ -283,3 +284,22 @@ def test_fit_time_errors_name_the_parquet_file_read(tmp_path, campaign_frames):
     memory = Campaign.from_frames(campaign.tests, campaign.sinkage, campaign.shear)
     with pytest.raises(CampaignError, match=r"file 'sinkage\.csv'"):
         soilstats.fit_sinkage(memory)
+
+
+def test_a_parquet_campaign_without_pyarrow_names_the_extra(tmp_path, monkeypatch, capsys):
+    """pyarrow is the optional ``parquet`` extra (170 MB that a CSV user does not need):
+    without it, reading or writing a .parquet table is one line naming the extra."""
+    import sys
+
+    from soilstats.cli.main import main
+
+    campaign = soilstats.load_campaign("grc1-oravec2009")
+    folder = campaign.save(tmp_path / "pq", format="parquet")
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # as if not installed
+    with pytest.raises(CampaignError, match=r"pip install 'soilstats\[parquet\]'"):
+        soilstats.load_campaign(folder)
+    assert main(["check", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert "soilstats[parquet]" in err and "Traceback" not in err and len(err.splitlines()) == 1
+    with pytest.raises(CampaignError, match="needs pyarrow"):
+        campaign.save(tmp_path / "pq2", format="parquet")

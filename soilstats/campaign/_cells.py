@@ -256,10 +256,13 @@ class Numbers:
         million zeros is common; a Python loop over it would add a second to a load)."""
         if not rows.size:
             return rows
-        import pyarrow as pa
-        import pyarrow.compute as pc
-
         sub = self._series.iloc[rows]
+        try:
+            import pyarrow as pa
+            import pyarrow.compute as pc
+        except ImportError:  # pyarrow is the optional `parquet` extra: Python's re then
+            regex = re.compile(pattern)
+            return rows[[regex.search(cell) is not None for cell in texts(sub)]]
         cells = pa.array(
             sub.array if isinstance(sub.dtype, pd.StringDtype) else list(texts(sub)),
             type=pa.large_string(),

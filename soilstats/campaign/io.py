@@ -352,6 +352,19 @@ def _parse_error(fh: BinaryIO, name: str, exc: Exception) -> CampaignError:
     )
 
 
+def require_parquet(name: str) -> None:
+    """A one-line :class:`CampaignError` naming the ``parquet`` extra when pyarrow, which
+    reads and writes Parquet, is not installed (it is 170 MB, and CSV needs none of it)."""
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        raise CampaignError(
+            f"{name} is a Parquet table, and Parquet needs pyarrow, which is not installed: "
+            "pip install 'soilstats[parquet]' (or save the table as CSV)",
+            file=name,
+        ) from None
+
+
 def read_table(path: Path) -> pd.DataFrame:
     """Read one campaign file; CSV cells as text (``""`` where empty), Parquet as stored.
 
@@ -362,6 +375,8 @@ def read_table(path: Path) -> pd.DataFrame:
         never closed, a row longer than the header, a cell beyond the csv module's limit),
         is empty, a column name appears twice or a column has no name.
     """
+    if path.suffix == ".parquet":
+        require_parquet(path.name)
     with _open(path) as fh:
         if path.suffix == ".parquet":
             try:
@@ -489,6 +504,7 @@ def write_table(frame: pd.DataFrame, path: Path, fmt: Format) -> None:
     :func:`read_table`): no spreadsheet-formula escaping here, unlike the report CSVs.
     """
     if fmt == "parquet":
+        require_parquet(path.name)
         frame.to_parquet(path, index=False)
     else:
         _csv_ready(frame).to_csv(path, index=False, na_rep="", lineterminator="\n")
