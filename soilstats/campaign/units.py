@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import warnings
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -152,13 +153,34 @@ class UnitsFinding:
     fatal: bool  # a length that cannot be right (stops a load), or a warning
 
 
+#: The findings of the last few campaigns judged, by the identity of their tables: loading
+#: judges a campaign's units and screening reports them, on the same (read-only by contract)
+#: tables, so the rule runs once.
+_JUDGED: dict[int, tuple] = {}
+
+
 def implausible_units(
     tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame
 ) -> list[UnitsFinding]:
     """Every column and test whose values' size suggests a unit other than SI (thresholds
     above). The one home of the rule: loading stops or warns on it
     (:func:`check_plausible_units`), and screening reports it as ``units``
-    (:mod:`soilstats.quality`)."""
+    (:mod:`soilstats.quality`) — from the same run where the tables are the same objects."""
+    tables = (tests, sinkage, shear)
+    seen = _JUDGED.get(id(tests))
+    if seen is not None and all(r() is t for r, t in zip(seen[0], tables, strict=True)):
+        return list(seen[1])
+    found = _implausible_units(tests, sinkage, shear)
+    if len(_JUDGED) >= 8:
+        _JUDGED.pop(next(iter(_JUDGED)))
+    refs = tuple(weakref.ref(t) for t in tables)
+    _JUDGED[id(tests)] = (refs, tuple(found))
+    return found
+
+
+def _implausible_units(
+    tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame
+) -> list[UnitsFinding]:
     found: list[UnitsFinding] = []
 
     def add(mask: pd.Series, values: pd.Series, file, column, what, fatal=False) -> None:

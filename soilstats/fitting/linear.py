@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy import linalg, stats
+from scipy import linalg
+from scipy.special import fdtrc, stdtrit
 
 __all__ = ["LinearFit", "linear_least_squares"]
 
@@ -80,7 +81,7 @@ class LinearFit:
         )
 
     def conf_int(self, alpha: float = 0.05) -> pd.DataFrame:
-        t = stats.t.ppf(1 - alpha / 2, self.dof)
+        t = stdtrit(self.dof, 1 - alpha / 2)
         return pd.DataFrame(
             {"lower": self.params - t * self.stderr, "upper": self.params + t * self.stderr}
         )
@@ -168,7 +169,7 @@ def linear_least_squares(
     r2 = 1.0 - rss / tss if tss > 0 else np.nan
     if df_model > 0 and dof > 0:
         fvalue = ((tss - rss) / df_model) / s2 if s2 > 0 else np.inf
-        f_pvalue = float(stats.f.sf(fvalue, df_model, dof)) if np.isfinite(fvalue) else 0.0
+        f_pvalue = float(fdtrc(df_model, dof, fvalue)) if np.isfinite(fvalue) else 0.0
     else:
         fvalue, f_pvalue = np.nan, np.nan
     return LinearFit(

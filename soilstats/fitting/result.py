@@ -7,7 +7,7 @@ from functools import cached_property
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy.special import stdtrit
 
 from ..report.files import json_safe
 from ..report.text import notes_block
@@ -183,7 +183,7 @@ class FitResult:
         """Two-sided (1 − alpha) Student-t intervals θ̂ ± t(1−α/2, dof)·σ."""
         if not 0 < alpha < 1:
             raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
-        t = stats.t.ppf(1 - alpha / 2, self.dof)
+        t = stdtrit(self.dof, 1 - alpha / 2)
         return pd.DataFrame(
             {"lower": self.params - t * self.stderr, "upper": self.params + t * self.stderr}
         )

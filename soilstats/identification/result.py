@@ -7,7 +7,7 @@ from functools import cached_property
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy.special import stdtrit
 
 from .._text import plural
 from ..fitting.result import FitResult, HealthFlag
@@ -97,7 +97,7 @@ class CampaignFit(FitResult):
             )
         if not 0 < alpha < 1:
             raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
-        t = stats.t.ppf(1 - alpha / 2, max(self.bootstrap.n_tests - 1, 1))
+        t = stdtrit(max(self.bootstrap.n_tests - 1, 1), 1 - alpha / 2)
         half = t * self.stderr_tests
         return pd.DataFrame({"lower": self.params - half, "upper": self.params + half})
 
