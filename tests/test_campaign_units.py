@@ -269,3 +269,24 @@ def test_unit_messages_name_the_file_as_it_was_read(tmp_path):
     with pytest.raises(CampaignError, match="radius_m") as info:
         soilstats.load_campaign(folder)
     assert "tests.parquet" in str(info.value) and "tests.csv" not in str(info.value)
+
+
+def test_import_skips_a_preamble_and_writes_round_numbers(tmp_path, capsys):
+    """A logger's preamble above the header is skipped (``skip_rows``), and numbers in mm and
+    kN come out as the round SI numbers they are: the saved sinkage.csv holds 0.0051, never
+    float's 5.1 * 0.001 = 0.0050999999999999995."""
+    mapping = _lab_export(tmp_path)
+    raw = tmp_path / "raw.csv"
+    body = raw.read_text().replace("T1;5.0;", "T1;5.1;")
+    raw.write_text("Logger 7 export\nDate: 2026-11-26\nchannel map v2\n" + body)
+    mapping.write_text(
+        mapping.read_text().replace('file = "raw.csv"', 'file = "raw.csv"\nskip_rows = 3')
+    )
+    assert 5.1 * 0.001 != 0.0051  # the float noise the decimal conversion avoids
+    assert main(["import", str(mapping), "--out", str(tmp_path / "campaign")]) == 0
+    text = (tmp_path / "campaign" / "sinkage.csv").read_text()
+    assert "T1,0.0051," in text and "0.0050999999999999995" not in text
+    assert all(len(cell) < 16 for line in text.splitlines()[1:] for cell in line.split(",")[1:2])
+    mapping.write_text(mapping.read_text().replace("skip_rows = 3", "skip_rows = -1"))
+    with pytest.raises(CampaignError, match=r"sinkage.skip_rows.*whole number >= 0"):
+        import_campaign(mapping)

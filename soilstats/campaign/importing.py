@@ -19,6 +19,7 @@ any campaign (and for implausible units) before anything is written. Format:
 
     [sinkage]
     file = "raw.csv"
+    skip_rows = 3                    # a logger's preamble above the header line
     [sinkage.columns]
     test_id = "Test"
     z_m = { column = "Sinkage", unit = "mm" }
@@ -40,7 +41,7 @@ from .units import to_si
 
 __all__ = ["import_campaign"]
 
-_TABLE_KEYS = {"file", "columns", "constant", "separator", "decimal"}
+_TABLE_KEYS = {"file", "columns", "constant", "separator", "decimal", "skip_rows"}
 _COLUMN_KEYS = {"column", "unit", "diameter"}
 
 
@@ -53,6 +54,13 @@ def _read(folder: Path, mapping: Path, stem: str, table: dict) -> pd.DataFrame:
     if not isinstance(name, str) or not name:
         raise _fail(mapping, f"{stem}.file", "is required: the lab's CSV file for this table")
     separator = table.get("separator", ",")
+    skip = table.get("skip_rows", 0)
+    if isinstance(skip, bool) or not isinstance(skip, int) or skip < 0:
+        raise _fail(
+            mapping,
+            f"{stem}.skip_rows",
+            f"must be a whole number >= 0 (the lines above the header), got {skip!r}",
+        )
     path = folder / name
     if not path.is_file():
         raise _fail(mapping, f"{stem}.file", f"{str(path)!r} is not a file")
@@ -60,6 +68,7 @@ def _read(folder: Path, mapping: Path, stem: str, table: dict) -> pd.DataFrame:
         return pd.read_csv(
             path,
             sep=separator,
+            skiprows=skip,
             dtype=str,
             keep_default_na=False,
             na_filter=False,

@@ -19,6 +19,8 @@ import warnings
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
+from decimal import Decimal, InvalidOperation, localcontext
+from fractions import Fraction
 
 import numpy as np
 import pandas as pd
@@ -48,6 +50,27 @@ _TORQUE = {"N*m": 1.0, "N*mm": 1e-3, "kN*m": 1e3}
 _ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
 _VELOCITY = {"m/s": 1.0, "mm/s": 1e-3, "mm/min": 1e-3 / 60.0, "cm/s": 1e-2}
 _ROTATION = {"rpm": 1.0, "deg/s": 60.0 / 360.0, "rad/s": 60.0 / (2.0 * math.pi)}
+
+#: The factors that are rational, exactly: a conversion by one of them is done in decimal
+#: arithmetic, so a round number in the lab's unit stays round in SI (to_si).
+_EXACT: dict[str, Fraction] = {
+    "m": Fraction(1),
+    "cm": Fraction(1, 100),
+    "mm": Fraction(1, 1000),
+    "in": Fraction(254, 10_000),
+    "N": Fraction(1),
+    "kN": Fraction(1000),
+    "lbf": Fraction("4.4482216152605"),
+    "N*m": Fraction(1),
+    "N*mm": Fraction(1, 1000),
+    "kN*m": Fraction(1000),
+    "m/s": Fraction(1),
+    "mm/s": Fraction(1, 1000),
+    "mm/min": Fraction(1, 60_000),
+    "cm/s": Fraction(1, 100),
+    "rpm": Fraction(1),
+    "deg/s": Fraction(1, 6),
+}
 
 #: Format column → {unit: factor to the column's SI unit}.
 UNITS: dict[str, dict[str, float]] = {
@@ -112,8 +135,27 @@ def to_si(values: pd.Series, column: str, unit: str, *, file: str = "") -> pd.Se
     numbers = pd.to_numeric(values, errors="coerce")
     out = values.astype(object).copy()
     parsed = numbers.notna()
-    out[parsed] = numbers[parsed].to_numpy(dtype=float) * factor
+    exact = _EXACT.get(_canonical(unit))
+    if exact is None:  # an irrational factor (degrees, rad/s): one rounding is the best
+        out[parsed] = numbers[parsed].to_numpy(dtype=float) * factor
+        return out
+    # In decimal arithmetic, then rounded once: 12.3 mm is 0.0123 m, where float's 12.3 *
+    # 0.001 writes 0.012300000000000002 into the saved campaign.
+    with localcontext() as context:
+        context.prec = 40
+        out[parsed] = [_scaled(cell, exact) for cell in values[parsed].astype(str)]
     return out
+
+
+def _scaled(cell: str, factor: Fraction) -> float:
+    """The number written in ``cell`` times the exact ``factor``, rounded to float once."""
+    try:
+        value = Decimal(cell.strip())
+    except InvalidOperation:  # a form pandas reads and Decimal does not
+        return float(cell) * factor.numerator / factor.denominator
+    if not value.is_finite():
+        return float(value)
+    return float(value * factor.numerator / factor.denominator)
 
 
 # --- plausibility --------------------------------------------------------------------------
