@@ -25,26 +25,15 @@ import json
 import sys
 from pathlib import Path
 
-#: SetSoilParameters' arguments, in order (the first eight columns of the CSV).
-ARGUMENTS = (
-    "Bekker_Kphi",
-    "Bekker_Kc",
-    "Bekker_n",
-    "Mohr_cohesion",
-    "Mohr_friction",
-    "Janosi_shear",
-    "elastic_K",
-    "damping_R",
-)
-
 
 def read_export(folder: Path) -> tuple[dict, list[dict[str, float]]]:
-    """The JSON record and the CSV rows (``#`` lines are the provenance and the sources)."""
+    """The JSON record and the CSV rows (``#`` lines are the provenance and the sources).
+    The record's ``arguments`` are SetSoilParameters' arguments in order."""
     record = json.loads((folder / "chrono-scm.json").read_text(encoding="utf-8"))
     with open(folder / "chrono-scm.csv", newline="", encoding="utf-8") as handle:
         lines = (line for line in handle if not line.startswith("#"))
         rows = [{k: float(v) for k, v in row.items()} for row in csv.DictReader(lines)]
-    missing = [name for name in ARGUMENTS if rows and name not in rows[0]]
+    missing = [name for name in record["arguments"] if rows and name not in rows[0]]
     if missing:
         raise SystemExit(f"chrono-scm.csv lacks the columns {missing}")
     return record, rows
@@ -83,16 +72,18 @@ def main(argv: list[str] | None = None) -> int:
         print("WARNING: FORCED export: " + "; ".join(record.get("failures", [])), file=sys.stderr)
 
     terrain = scm_terrain()
-    print("pychrono: " + ("calling SCMTerrain.SetSoilParameters" if terrain else "not installed"))
+    print(
+        "pychrono: "
+        + ("not installed" if terrain is None else "calling SCMTerrain.SetSoilParameters")
+    )
     chosen = rows if args.rows <= 0 else rows[: args.rows]
     skipped = 0
     for i, row in enumerate(chosen):
-        values = [row[name] for name in ARGUMENTS]
+        values = [row[name] for name in record["arguments"]]
         if not row["elastic_K"] > row["Bekker_Kphi"]:
             skipped += 1  # Chrono would raise elastic_K silently: never pass such a row on
-            print(
-                f"row {i}: SKIPPED, elastic_K <= Bekker_Kphi ({values[6]:.6g} <= {values[0]:.6g})"
-            )
+            kphi, elastic = row["Bekker_Kphi"], row["elastic_K"]
+            print(f"row {i}: SKIPPED, elastic_K <= Bekker_Kphi ({elastic:.6g} <= {kphi:.6g})")
             continue
         repaired = "  # elastic_K repaired" if row.get("elastic_K_repaired") else ""
         print(f"row {i}: SetSoilParameters({', '.join(f'{v:.6g}' for v in values)}){repaired}")

@@ -392,6 +392,7 @@ class SimulatorExport:
         out = {
             "simulator": self.simulator,
             "call": "SCMTerrain::SetSoilParameters(" + ", ".join(_COLUMNS) + ")",
+            "arguments": list(_COLUMNS),
             "columns": {name: unit for name, unit in spec.values()}
             | {name: unit for name, (_, unit, _) in self.stated.items()}
             | {REPAIRED: "1 where elastic_K was repaired, else 0"},
@@ -621,30 +622,14 @@ def missing_message(simulator: str, missing: Iterable[str], available: Iterable[
     )
 
 
-def simulator_parameters(
-    draws: pd.DataFrame,
-    simulator: str = "chrono-scm",
-    *,
-    elastic_K: float | None = None,
-    damping_R: float | None = None,
-    priors: Mapping[str, tuple] | None = None,
-    seed: int | None = None,
-    repair: float | None = None,
-) -> pd.DataFrame:
-    """Joint draws as a simulator's parameter table (:func:`export_simulator`'s ``table``).
+def simulator_parameters(draws: pd.DataFrame, simulator: str = "chrono-scm", **options):
+    """Joint draws as a simulator's parameter table (:func:`export_simulator`'s ``table``;
+    ``options`` are its keywords: elastic_K, damping_R, priors, seed, repair, ...).
 
     Raises :class:`SimulatorConstraintError` when a row breaks SCM's constraints (a table
     Chrono would silently change is never returned); ``repair`` repairs elastic_K.
     """
-    export = export_simulator(
-        draws,
-        simulator,
-        elastic_K=elastic_K,
-        damping_R=damping_R,
-        priors=priors,
-        seed=seed,
-        repair=repair,
-    )
+    export = export_simulator(draws, simulator, **options)
     if not export.check.passed:
         raise SimulatorConstraintError("; ".join(export.check.problems()), export.check)
     return export.table
@@ -654,26 +639,14 @@ def simulator_record(
     draws: pd.DataFrame,
     simulator: str = "chrono-scm",
     *,
-    elastic_K: float | None = None,
-    damping_R: float | None = None,
     support=None,
     context: dict | None = None,
-    priors: Mapping[str, tuple] | None = None,
-    seed: int | None = None,
-    repair: float | None = None,
+    **options,
 ) -> dict:
     """The JSON record beside a simulator's CSV (:meth:`SimulatorExport.record`).
 
     ``support``: the :class:`~soilstats.bayes.support.SupportCheck` of the draws; ``context``:
-    seed, soil, selection, version and any other facts of the run, copied in.
+    seed, soil, selection, version and any other facts of the run, copied in; ``options``:
+    the keywords of :func:`export_simulator`.
     """
-    export = export_simulator(
-        draws,
-        simulator,
-        elastic_K=elastic_K,
-        damping_R=damping_R,
-        priors=priors,
-        seed=seed,
-        repair=repair,
-    )
-    return export.record(support, context)
+    return export_simulator(draws, simulator, **options).record(support, context)
