@@ -2,26 +2,64 @@
 
 ``chrono-scm``: Project Chrono's SCM deformable terrain,
 ``SCMTerrain::SetSoilParameters(Bekker_Kphi, Bekker_Kc, Bekker_n, Mohr_cohesion,
-Mohr_friction, Janosi_shear, elastic_K, damping_R)``. Bevameter tests give the first six.
-The last two are *not* Bevameter parameters — SCM's elastic unloading stiffness per unit area
-[Pa/m] and its damping [Pa s/m] — so they are stated inputs: by default the values of
-Chrono's own SCM demos (elastic_K = 4e7 Pa/m, damping_R = 3e4 Pa s/m), replaced by
-``--scm-elastic-K`` / ``--scm-damping-R`` where a lab has measured unloading curves. SCM
-requires elastic_K > Bekker_Kphi; a draw that breaks it is counted in the record.
+Mohr_friction, Janosi_shear, elastic_K, damping_R)``, one row per joint draw in that order.
+SCM's pressure is σ = (Kc/b + Kφ)·z^n, τ = (c + σ tan φ)(1 − e^(−j/K)): in SI units Kφ
+[Pa/m^n] is Bekker's kφ [N/m^(n+2)] and Kc [Pa/m^(n−1)] Bekker's kc [N/m^(n+1)], so the
+draws are copied, not converted (``Model.scm`` of each model's record names the column).
 
-Each export is a CSV (one row per joint draw) and a JSON record: the simulator, units, the
-stated inputs and where they came from, seed, soil, selection, soilstats version, the
-physical-support check, and — where kc < 0 — the contact width below which Bekker's modulus
-kc/b + kφ turns negative (a simulator must not use the draws below it).
+Where each column comes from (:attr:`SimulatorExport.sources`, written into the files):
+
+* **the draws** — Bekker kφ, kc, n; c, φ (Janosi or Mohr–Coulomb), K (Janosi);
+* **the Bernstein mapping** — Bernstein's p = k·z^n is Bekker's law without its plate-size
+  term: Bekker_Kphi = k, Bekker_Kc = 0. SCM's pressure then ignores the contact patch's size,
+  which is right only near the plate size(s) k was measured on (say so, the record does);
+* **user priors** (:mod:`soilstats.wheel.priors`, the one implementation of stated priors)
+  for what no test measured — c, φ, K of a campaign without shear-ring tests. They are drawn
+  from their own seeded generator, independently of the posterior draws: no correlation
+  between them and the measured parameters is invented;
+* **stated inputs** — elastic_K [Pa/m] and damping_R [Pa s/m] are not Bevameter parameters
+  (SCM's elastic unloading stiffness and damping): by default the values of Chrono's own SCM
+  demos (4e7 Pa/m, 3e4 Pa s/m), or the user's.
+
+SCM's own constraints (:data:`SCM_CONSTRAINTS`, read from Chrono's source) are checked on
+every row. Chrono does not refuse a set that breaks them: ``SetSoilParameters`` silently
+raises elastic_K to Bekker_Kphi, and the rest it computes with. Here a row that breaks one is
+never handed out silently: the check fails (the caller refuses), or, with ``repair=M``, a row
+whose elastic_K ≤ Bekker_Kphi gets elastic_K = M·Bekker_Kphi and is marked in the column
+``elastic_K_repaired``.
+
+Chrono references are to ``src/chrono_vehicle/terrain/SCMTerrain.cpp`` / ``SCMTerrain.h`` of
+projectchrono/chrono at commit 7689fbc02d12 (August 2026).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
 import pandas as pd
 
+from ..errors import SoilstatsError
 from .support import negative_modulus_width
 
-__all__ = ["SCM_DEFAULTS", "SIMULATOR_FORMATS", "simulator_parameters", "simulator_record"]
+__all__ = [
+    "CHRONO_SOURCE",
+    "SCM_CONSTRAINTS",
+    "SCM_DEFAULTS",
+    "SIMULATOR_FORMATS",
+    "ConstraintCheck",
+    "SimulatorConstraintError",
+    "SimulatorExport",
+    "check_scm",
+    "export_simulator",
+    "missing_message",
+    "parse_stated_prior",
+    "scm_plan",
+    "simulator_parameters",
+    "simulator_record",
+    "stated_inputs",
+]
 
 
 def _scm_format() -> dict[str, tuple[str, str]]:
@@ -49,93 +87,566 @@ SCM_DEFAULTS = {
     "damping_R": (3e4, "Pa s/m", "Chrono SCM demos (SetSoilParameters(..., 4e7, 3e4))"),
 }
 
+#: Where the constraints below were read.
+CHRONO_SOURCE = (
+    "projectchrono/chrono 7689fbc02d12, src/chrono_vehicle/terrain/SCMTerrain.cpp and SCMTerrain.h"
+)
 
-def simulator_parameters(
+#: Bernstein's p = k z^n as Bekker's law: Kphi = k, Kc = 0 (no plate-size term).
+_BERNSTEIN = {"kphi": "k", "kc": 0.0}
+#: The sinkage parameters SCM takes (Bekker's); the rest are shear parameters.
+_SINKAGE = ("kphi", "kc", "n")
+#: Marks of the column that records a repair of elastic_K, row by row.
+REPAIRED = "elastic_K_repaired"
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One of SCM's conditions on a parameter set (a row).
+
+    ``holds(table)`` gives, per row, whether it holds; ``chrono`` says where Chrono states or
+    uses it; ``otherwise`` what Chrono does with a row that breaks it.
+    """
+
+    label: str
+    holds: Callable[[pd.DataFrame], np.ndarray] = field(repr=False)
+    chrono: str
+    otherwise: str
+
+
+def _finite(table: pd.DataFrame) -> np.ndarray:
+    return np.isfinite(table[list(_COLUMNS)].to_numpy(float)).all(axis=1)
+
+
+_COLUMNS = (
+    "Bekker_Kphi",
+    "Bekker_Kc",
+    "Bekker_n",
+    "Mohr_cohesion",
+    "Mohr_friction",
+    "Janosi_shear",
+    "elastic_K",
+    "damping_R",
+)
+
+#: SCM's conditions on each row, read from Chrono's source (:data:`CHRONO_SOURCE`). Chrono
+#: checks none of them: it clamps the first silently and computes with the others.
+SCM_CONSTRAINTS: tuple[Constraint, ...] = (
+    Constraint(
+        "elastic_K > Bekker_Kphi",
+        lambda t: t["elastic_K"].to_numpy(float) > t["Bekker_Kphi"].to_numpy(float),
+        "SCMTerrain.h:141 (elastic_K 'must be larger than Kphi'); SCMTerrain.cpp:193 "
+        "m_elastic_K = std::max(elastic_K, Bekker_Kphi)",
+        "Chrono would silently raise their elastic_K to Bekker_Kphi (through a "
+        "SoilParametersCallback, SCMTerrain.cpp:1721, not even that)",
+    ),
+    Constraint(
+        "finite",
+        _finite,
+        "SCMTerrain.cpp:1729-1780 (every value enters the node forces)",
+        "Chrono would compute non-finite forces",
+    ),
+    Constraint(
+        "Bekker_Kphi > 0",
+        lambda t: t["Bekker_Kphi"].to_numpy(float) > 0,
+        "SCMTerrain.cpp:1668-1671 (1/b = 0 on contact patches under 1e-6 m^2, so the pressure "
+        "there is Kphi z^n)",
+        "Chrono would give zero or negative pressure on small patches",
+    ),
+    Constraint(
+        "Bekker_n > 0",
+        lambda t: t["Bekker_n"].to_numpy(float) > 0,
+        "SCMTerrain.cpp:1761 ((Kc/b + Kphi) * pow(z, n))",
+        "Chrono's pressure would not grow with sinkage",
+    ),
+    Constraint(
+        "Mohr_cohesion >= 0",
+        lambda t: t["Mohr_cohesion"].to_numpy(float) >= 0,
+        "SCMTerrain.cpp:1777 (tau_max = c + sigma tan(phi))",
+        "Chrono would give a negative shear strength at low pressure",
+    ),
+    Constraint(
+        "0 <= Mohr_friction < 90",
+        lambda t: (t["Mohr_friction"] >= 0).to_numpy() & (t["Mohr_friction"] < 90).to_numpy(),
+        "SCMTerrain.cpp:191 (tan(Mohr_friction in degrees))",
+        "Chrono would use an infinite or negative friction coefficient",
+    ),
+    Constraint(
+        "Janosi_shear > 0",
+        lambda t: t["Janosi_shear"].to_numpy(float) > 0,
+        "SCMTerrain.cpp:1780 (1 - exp(-j / Janosi_shear))",
+        "Chrono would divide by zero, or let the shear stress grow without bound",
+    ),
+)
+
+#: The constraint a repair may fix (elastic_K is a stated input, not a measured parameter).
+REPAIRABLE = "elastic_K > Bekker_Kphi"
+
+
+class SimulatorConstraintError(SoilstatsError, ValueError):
+    """Parameter sets break a simulator's constraints; ``check`` says which rows and why."""
+
+    def __init__(self, message: str, check: ConstraintCheck) -> None:
+        super().__init__(message)
+        self.check = check
+
+
+@dataclass(frozen=True)
+class ConstraintCheck:
+    """Which rows of a parameter table break SCM's constraints, and which were repaired.
+
+    Attributes
+    ----------
+    broken : dict
+        Constraint label -> bool per row: broken *before* any repair.
+    repaired : ndarray of bool
+        Rows whose elastic_K was set to ``repair_multiple`` × Bekker_Kphi.
+    repair_multiple : float or None
+        The stated multiple (None: no repair asked for).
+    largest_kphi : float
+        The largest Bekker_Kphi of the rows [Pa/m^n] (an elastic_K above it passes).
+    """
+
+    broken: dict[str, np.ndarray]
+    repaired: np.ndarray
+    repair_multiple: float | None
+    largest_kphi: float
+
+    @property
+    def rows(self) -> int:
+        return len(self.repaired)
+
+    def still_broken(self, label: str) -> np.ndarray:
+        """Rows that break the constraint ``label`` after the repair."""
+        rows = self.broken[label]
+        return rows & ~self.repaired if label == REPAIRABLE else rows
+
+    @property
+    def failing(self) -> np.ndarray:
+        """Rows that still break a constraint after the repair."""
+        out = np.zeros(self.rows, bool)
+        for label in self.broken:
+            out |= self.still_broken(label)
+        return out
+
+    @property
+    def passed(self) -> bool:
+        return not self.failing.any()
+
+    def counts(self) -> dict[str, int]:
+        return {label: int(rows.sum()) for label, rows in self.broken.items()}
+
+    def problems(self) -> list[str]:
+        """One sentence per constraint still broken (empty when the check passed)."""
+        out = []
+        for c in SCM_CONSTRAINTS:
+            rows = self.still_broken(c.label)
+            if rows.any():
+                out.append(
+                    f"{int(rows.sum())} of {self.rows} parameter sets break SCM's {c.label} "
+                    f"({c.chrono}): {c.otherwise}"
+                )
+        return out
+
+    def repair_sentence(self) -> str:
+        """What the repair did, or '' when nothing was repaired."""
+        n = int(self.repaired.sum())
+        if not n:
+            return ""
+        return (
+            f"elastic_K repaired in {n} of {self.rows} parameter sets: they broke SCM's "
+            f"{REPAIRABLE}, so elastic_K = {self.repair_multiple:g} x Bekker_Kphi there "
+            f"(column {REPAIRED} = 1), instead of the stated value"
+        )
+
+    def describe(self) -> str:
+        """One line: passed, repaired or broken, with counts."""
+        said = [s for s in (*self.problems(), self.repair_sentence()) if s]
+        return "; ".join(said) or f"all {self.rows} parameter sets meet SCM's constraints"
+
+    def to_dict(self) -> dict:
+        return {
+            "rows": self.rows,
+            "passed": self.passed,
+            "broken": self.counts(),
+            "repaired": int(self.repaired.sum()),
+            "repair_multiple": self.repair_multiple,
+            "largest_Bekker_Kphi": self.largest_kphi,
+            "constraints": {
+                c.label: {"chrono": c.chrono, "otherwise": c.otherwise} for c in SCM_CONSTRAINTS
+            },
+            "chrono_source": CHRONO_SOURCE,
+        }
+
+
+def check_scm(
+    table: pd.DataFrame, repair: float | None = None
+) -> tuple[pd.DataFrame, ConstraintCheck]:
+    """Check every row of an SCM table against :data:`SCM_CONSTRAINTS`; with ``repair`` (a
+    multiple > 1), set elastic_K = repair × Bekker_Kphi in the rows where elastic_K ≤
+    Bekker_Kphi, and mark them. Returns the (repaired) table and the check."""
+    if repair is not None and not (np.isfinite(repair) and repair > 1):
+        raise ValueError(
+            f"the elastic_K repair multiple must be a number above 1 (elastic_K = multiple x "
+            f"Bekker_Kphi must exceed Bekker_Kphi), got {repair!r}"
+        )
+    with np.errstate(invalid="ignore"):
+        broken = {c.label: ~np.asarray(c.holds(table), bool) for c in SCM_CONSTRAINTS}
+    kphi = table["Bekker_Kphi"].to_numpy(float)
+    repaired = broken[REPAIRABLE] & (kphi > 0) if repair is not None else np.zeros(len(table), bool)
+    table = table.copy()
+    if repaired.any():
+        table.loc[repaired, "elastic_K"] = repair * kphi[repaired]
+    table[REPAIRED] = repaired.astype(int)
+    largest = float(np.nanmax(kphi)) if len(kphi) else float("nan")
+    return table, ConstraintCheck(broken, repaired, repair, largest)
+
+
+def scm_plan(available: Iterable[str], priors: Iterable[str] = ()) -> dict[str, str]:
+    """Where each SCM parameter will come from: ``"draws"``, ``"bernstein"`` (the Bernstein
+    mapping), ``"prior"`` (a user prior) or ``"missing"``.
+
+    ``available``: the parameter names of the draws (or of the models to be sampled);
+    ``priors``: the names given user priors. A prior is taken only for a parameter the draws
+    lack; a sinkage parameter the Bernstein mapping gives takes none.
+    """
+    have, stated = set(available), set(priors)
+    bernstein = "kphi" not in have and {"k", "n"} <= have
+    out = {}
+    for key in SIMULATOR_FORMATS["chrono-scm"]:
+        if key in have:
+            out[key] = "draws"
+        elif bernstein and key in _BERNSTEIN:
+            out[key] = "bernstein"
+        elif key in stated:
+            out[key] = "prior"
+        else:
+            out[key] = "missing"
+    return out
+
+
+_STATED_FORMS = (
+    "uniform:LO:HI (or LO:HI), normal:MU:SD, normal:MU:SD:LO:HI (truncated), "
+    "lognormal:MEDIAN:SIGMA_LOG"
+)
+
+
+def parse_stated_prior(text: str) -> tuple:
+    """A user prior's text form -> the tuple of :mod:`soilstats.wheel.priors`.
+
+    ``uniform:LO:HI`` (or ``LO:HI``), ``normal:MU:SD``, ``normal:MU:SD:LO:HI`` (truncated:
+    ``truncnormal``), ``lognormal:MEDIAN:SIGMA_LOG`` (ln x ~ Normal(ln MEDIAN, SIGMA_LOG)), in
+    the parameter's unit (c Pa, φ deg, K m). The numbers are checked by
+    :func:`soilstats.wheel.priors.sample_priors` when drawn.
+    """
+    parts = [p.strip() for p in str(text).split(":")]
+    kind = parts[0].lower()
+    try:
+        if kind == "normal" and len(parts) == 5:
+            kind = "truncnormal"
+        if kind in ("uniform", "normal", "lognormal", "truncnormal"):
+            return (kind, *(float(p) for p in parts[1:]))
+        if len(parts) == 2:
+            return ("uniform", float(parts[0]), float(parts[1]))
+    except ValueError:
+        pass
+    raise ValueError(f"cannot read the prior {text!r}: write {_STATED_FORMS}, e.g. normal:30:3")
+
+
+@dataclass(frozen=True)
+class SimulatorExport:
+    """A simulator's parameter sets, where each column came from, and SCM's check.
+
+    Attributes
+    ----------
+    simulator : str
+    table : DataFrame
+        One row per draw: the simulator's columns in its argument order, then
+        ``elastic_K_repaired`` (1 where a repair set elastic_K).
+    sources : dict
+        Column -> where its values came from (draws, mapping, user prior, stated input).
+    stated : dict
+        elastic_K, damping_R -> (value, unit, source).
+    check : ConstraintCheck
+    notes : tuple of str
+        What the user of the sets must know (negative modulus, Bernstein mapping, priors).
+    negative_modulus_below_m : float or None
+        Where kc < 0: the contact width below which Kc/b + Kphi turns negative (99 % of rows).
+    """
+
+    simulator: str
+    table: pd.DataFrame
+    sources: dict[str, str]
+    stated: dict
+    check: ConstraintCheck
+    notes: tuple[str, ...]
+    negative_modulus_below_m: float | None = None
+
+    def from_priors(self) -> list[str]:
+        """The columns drawn from user priors."""
+        return [k for k, v in self.sources.items() if v.startswith("user prior")]
+
+    def record(self, support=None, context: Mapping | None = None) -> dict:
+        """The JSON record beside the CSV (module docstring)."""
+        spec = SIMULATOR_FORMATS[self.simulator]
+        out = {
+            "simulator": self.simulator,
+            "call": "SCMTerrain::SetSoilParameters(" + ", ".join(_COLUMNS) + ")",
+            "arguments": list(_COLUMNS),
+            "columns": {name: unit for name, unit in spec.values()}
+            | {name: unit for name, (_, unit, _) in self.stated.items()}
+            | {REPAIRED: "1 where elastic_K was repaired, else 0"},
+            "sources": dict(self.sources),
+            "stated_inputs": {
+                name: {"value": value, "unit": unit, "source": source}
+                for name, (value, unit, source) in self.stated.items()
+            },
+            "draws": len(self.table),
+            "constraints": self.check.to_dict(),
+            **dict(context or {}),
+        }
+        if support is not None:
+            out["support"] = support.to_dict()
+        if self.negative_modulus_below_m is not None:
+            out["negative_modulus_below_m"] = self.negative_modulus_below_m
+        out["notes"] = list(self.notes)
+        return out
+
+    def comment_lines(self) -> list[str]:
+        """``key: value`` lines for the CSV's comment header: the call, each column's
+        source, SCM's check and the repair."""
+        lines = [
+            f"simulator: {self.simulator}, columns 1-8 are the arguments of "
+            f"SCMTerrain::SetSoilParameters in order"
+        ]
+        lines += [f"source {name}: {source}" for name, source in self.sources.items()]
+        lines.append(f"scm constraints: {self.check.describe()}")
+        lines += [f"note: {note}" for note in self.notes]
+        return lines
+
+
+def stated_inputs(elastic_K: float | None = None, damping_R: float | None = None) -> dict:
+    """SCM's stated inputs: name -> (value, unit, source), the defaults where None.
+
+    Raises ValueError unless elastic_K > 0 (SCM divides by it) and damping_R >= 0 (0 is
+    Chrono's own default, the original SCM).
+    """
+    given = {"elastic_K": elastic_K, "damping_R": damping_R}
+    out = {}
+    for name, value in given.items():
+        default, unit, source = SCM_DEFAULTS[name]
+        if value is not None:
+            # elastic_K divides (SCMTerrain.cpp:1764); a negative damping adds energy (:1773).
+            ok = value > 0 if name == "elastic_K" else value >= 0
+            if not (ok and np.isfinite(value)):
+                need = "positive" if name == "elastic_K" else "zero or positive"
+                raise ValueError(f"{name} must be {need} and finite, got {value!r}")
+        out[name] = (default, unit, source) if value is None else (value, unit, "stated by user")
+    return out
+
+
+def _source_of(key: str, plan: str, draws_source: Mapping, priors: Mapping) -> str:
+    from ..wheel.priors import describe_prior
+
+    if plan == "draws":
+        return draws_source.get(key, "posterior draws")
+    if plan == "bernstein" and key == "kc":
+        return "0 by the Bernstein mapping (p = k z^n is Bekker's law with Kc = 0)"
+    if plan == "bernstein":
+        taken = draws_source.get("k", "posterior draws")
+        return f"{taken} of Bernstein's k (Bernstein mapping: Kphi = k)"
+    unit = SIMULATOR_FORMATS["chrono-scm"][key][1]
+    return (
+        f"user prior {describe_prior(priors[key])} {unit}, drawn independently of the "
+        "posterior draws (not measured)"
+    )
+
+
+def _column(key: str, plan: str, draws: pd.DataFrame, drawn: Mapping) -> np.ndarray:
+    if plan == "draws":
+        return draws[key].to_numpy(float)
+    if plan == "prior":
+        return np.asarray(drawn[key], float)
+    value = _BERNSTEIN[key]
+    return draws[value].to_numpy(float) if isinstance(value, str) else np.full(len(draws), value)
+
+
+def _widths(plate_widths) -> str:
+    if plate_widths is None:
+        return "the data's size"
+    lo, hi = plate_widths
+    return f"b = {lo:g} m" if lo == hi else f"b = {lo:g}-{hi:g} m"
+
+
+def _notes(table, draws, plan, priors, width, seed, plate_widths) -> tuple[str, ...]:
+    from ..wheel.priors import describe_prior
+
+    notes = []
+    if width is not None:
+        share = float((draws["kc"] < 0).mean())
+        notes.append(
+            f"kc < 0 in {share:.0%} of the draws: SCM's pressure (Kc/b + Kphi) z^n turns "
+            f"negative on contact patches with b below {width:.3g} m (99 % of draws), where "
+            "SCM takes 1/b = perimeter / (2 area) of the patch (SCMTerrain.cpp:1671; a circle's "
+            "radius, l w / (l + w) for an l x w rectangle) and does not guard the sign "
+            "(SCMTerrain.cpp:1761): do not use these sets for narrower contacts"
+        )
+    if "bernstein" in plan.values():
+        notes.append(
+            "Bernstein mapping: Bekker_Kphi = k, Bekker_Kc = 0, so SCM's pressure does not "
+            f"depend on the contact patch's size; k was measured on plates of "
+            f"{_widths(plate_widths)} and holds for contacts of about that size only"
+        )
+    spec = SIMULATOR_FORMATS["chrono-scm"]
+    taken = [
+        f"{spec[k][0]} ~ {describe_prior(priors[k])} {spec[k][1]}"
+        for k, v in plan.items()
+        if v == "prior"
+    ]
+    if taken:
+        notes.append(
+            f"user priors, not tests: {', '.join(taken)}; drawn (seed {seed}) independently "
+            "of the posterior draws, so no correlation with the measured parameters is carried"
+        )
+    n = table["Bekker_n"].to_numpy(float)
+    unusual = int(((n < 0.6) | (n > 1.8)).sum())
+    if unusual:
+        notes.append(
+            f"Bekker_n outside 0.6-1.8 ('usually', SCMTerrain.h:137) in {unusual} of {len(n)} "
+            "sets: not a constraint of SCM, but outside the range its authors had in mind"
+        )
+    return tuple(notes)
+
+
+def export_simulator(
     draws: pd.DataFrame,
     simulator: str = "chrono-scm",
     *,
     elastic_K: float | None = None,
     damping_R: float | None = None,
-) -> pd.DataFrame:
-    """Joint draws renamed to a simulator's parameters, with its stated inputs as columns.
+    priors: Mapping[str, tuple] | None = None,
+    seed: int | None = None,
+    repair: float | None = None,
+    draws_source: str | Mapping[str, str] = "posterior draws",
+    plate_widths: tuple[float, float] | None = None,
+) -> SimulatorExport:
+    """The draws as a simulator's parameter sets, with their sources and SCM's check.
 
-    ``elastic_K`` [Pa/m] and ``damping_R`` [Pa s/m]: SCM's elastic stiffness and damping
-    (default :data:`SCM_DEFAULTS`).
+    Parameters
+    ----------
+    draws : DataFrame
+        Joint draws (columns named as the models' parameters, SI, φ in degrees): Bekker's
+        (kc, kphi, n) or Bernstein's (k, n), and c, phi, K where a shear test measured them.
+    elastic_K, damping_R : float, optional
+        SCM's elastic stiffness [Pa/m] (> 0) and damping [Pa s/m] (>= 0); default
+        :data:`SCM_DEFAULTS`.
+    priors : mapping, optional
+        User priors for the parameters the draws lack, as :mod:`soilstats.wheel.priors`
+        tuples (``{"c": ("uniform", 0, 2000), "phi": ("normal", 30, 3), "K": ("lognormal",
+        0.02, 0.5)}``; c Pa, φ deg, K m). A prior for a parameter the draws hold is an error.
+    seed : int, optional
+        Seed of the prior draws (required with ``priors``); give one independent of the
+        posterior's.
+    repair : float, optional
+        A multiple M > 1: rows with elastic_K ≤ Bekker_Kphi get elastic_K = M·Bekker_Kphi,
+        marked in ``elastic_K_repaired``. Without it such rows fail the check.
+    draws_source : str or mapping
+        How the draws' columns are described in ``sources`` (per parameter if a mapping).
+    plate_widths : (b_min, b_max), optional
+        The plate sizes [m] the sinkage draws were measured on (named in the Bernstein note).
+
+    Raises
+    ------
+    ValueError
+        A parameter SCM needs is neither in the draws nor given a prior; a prior for a
+        parameter the draws hold; bad stated inputs or prior draws outside the support.
     """
+    from ..wheel.priors import sample_priors
+
     try:
         spec = SIMULATOR_FORMATS[simulator]
     except KeyError:
         raise ValueError(
             f"unknown simulator {simulator!r}; choose one of {sorted(SIMULATOR_FORMATS)}"
         ) from None
-    missing = [k for k in spec if k not in draws.columns]
+    priors = dict(priors or {})
+    plan = scm_plan(draws.columns, priors)
+    missing = [k for k, v in plan.items() if v == "missing"]
     if missing:
+        raise ValueError(missing_message(simulator, missing, draws.columns))
+    unused = sorted(set(priors) - {k for k, v in plan.items() if v == "prior"})
+    if unused:
         raise ValueError(
-            f"{simulator} needs {list(spec)}; the draws lack {missing} — use a "
-            "Bekker sinkage posterior and a Janosi shear posterior (bekker+janosi)"
+            f"priors given for {unused}, which the draws already carry or {simulator} does not "
+            "take; user priors are for the parameters no test measured"
         )
-    table = pd.DataFrame({name: draws[key].to_numpy() for key, (name, _) in spec.items()})
-    stated = _stated(elastic_K, damping_R)
-    for name, (value, _, _) in stated.items():
-        table[name] = value
-    return table
+    if priors and seed is None:
+        raise ValueError("user priors need a seed (give one independent of the posterior's)")
+    stated = stated_inputs(elastic_K, damping_R)
+    drawn = sample_priors(priors, len(draws), int(seed)) if priors else {}
+    if not isinstance(draws_source, Mapping):
+        draws_source = dict.fromkeys(draws.columns, str(draws_source))
+    columns = {name: _column(key, plan[key], draws, drawn) for key, (name, _) in spec.items()}
+    sources = {
+        name: _source_of(key, plan[key], draws_source, priors) for key, (name, _) in spec.items()
+    }
+    for name, (value, _, source) in stated.items():
+        columns[name] = np.full(len(draws), float(value))
+        sources[name] = f"stated input {value:g} ({source})"
+    table, check = check_scm(pd.DataFrame(columns), repair)
+    if check.repaired.any():
+        sources["elastic_K"] += (
+            f"; {repair:g} x Bekker_Kphi in the {int(check.repaired.sum())} rows repaired"
+        )
+    width = negative_modulus_width(draws) if plan["kc"] == "draws" else None
+    notes = _notes(table, draws, plan, priors, width, seed, plate_widths)
+    return SimulatorExport(simulator, table, sources, stated, check, notes, width)
 
 
-def _stated(elastic_K, damping_R) -> dict:
-    given = {"elastic_K": elastic_K, "damping_R": damping_R}
-    out = {}
-    for name, value in given.items():
-        default, unit, source = SCM_DEFAULTS[name]
-        if value is not None and not value > 0:
-            raise ValueError(f"{name} must be positive, got {value!r}")
-        out[name] = (default, unit, source) if value is None else (value, unit, "stated by user")
-    return out
+def missing_message(simulator: str, missing: Iterable[str], available: Iterable[str]) -> str:
+    """Says what a simulator lacks and how to give it (one line)."""
+    spec = SIMULATOR_FORMATS[simulator]
+    missing = list(missing)
+    named = ", ".join(f"{spec[k][0]} ({k} [{spec[k][1]}])" for k in missing)
+    shear = [k for k in missing if k not in _SINKAGE]
+    example = {"c": "c=uniform:0:2000", "phi": "phi=normal:30:3", "K": "K=lognormal:0.02:0.5"}
+    hint = " ".join(f"--prior {example.get(k, k + '=...')}" for k in missing)
+    fix = (
+        f"add a shear model (e.g. --model bekker+janosi) or state user priors: {hint}"
+        if shear
+        else f"add a Bekker or Bernstein sinkage model, or state user priors: {hint}"
+    )
+    return (
+        f"{simulator} needs {named}, which the draws ({', '.join(available) or 'none'}) lack "
+        f"and no prior gives: {fix}"
+    )
+
+
+def simulator_parameters(draws: pd.DataFrame, simulator: str = "chrono-scm", **options):
+    """Joint draws as a simulator's parameter table (:func:`export_simulator`'s ``table``;
+    ``options`` are its keywords: elastic_K, damping_R, priors, seed, repair, ...).
+
+    Raises :class:`SimulatorConstraintError` when a row breaks SCM's constraints (a table
+    Chrono would silently change is never returned); ``repair`` repairs elastic_K.
+    """
+    export = export_simulator(draws, simulator, **options)
+    if not export.check.passed:
+        raise SimulatorConstraintError("; ".join(export.check.problems()), export.check)
+    return export.table
 
 
 def simulator_record(
     draws: pd.DataFrame,
     simulator: str = "chrono-scm",
     *,
-    elastic_K: float | None = None,
-    damping_R: float | None = None,
     support=None,
     context: dict | None = None,
+    **options,
 ) -> dict:
-    """The JSON record beside a simulator's CSV (module docstring).
+    """The JSON record beside a simulator's CSV (:meth:`SimulatorExport.record`).
 
     ``support``: the :class:`~soilstats.bayes.support.SupportCheck` of the draws; ``context``:
-    seed, soil, selection, version and any other facts of the run, copied in.
+    seed, soil, selection, version and any other facts of the run, copied in; ``options``:
+    the keywords of :func:`export_simulator`.
     """
-    spec = SIMULATOR_FORMATS[simulator]
-    stated = _stated(elastic_K, damping_R)
-    record = {
-        "simulator": simulator,
-        "columns": {name: unit for _, (name, unit) in spec.items()}
-        | {name: unit for name, (_, unit, _) in stated.items()},
-        "stated_inputs": {
-            name: {"value": value, "unit": unit, "source": source}
-            for name, (value, unit, source) in stated.items()
-        },
-        "draws": len(draws),
-        **(context or {}),
-    }
-    if support is not None:
-        record["support"] = support.to_dict()
-    notes = []
-    width = negative_modulus_width(draws)
-    if width is not None:
-        share = float((draws["kc"] < 0).mean())
-        record["negative_modulus_below_m"] = width
-        notes.append(
-            f"kc < 0 in {share:.0%} of the draws: Bekker's modulus kc/b + kphi turns negative "
-            f"for contact widths below {width:.3g} m (99 % of draws); do not use these draws "
-            "for narrower contacts"
-        )
-    stiff = int((draws["kphi"] >= stated["elastic_K"][0]).sum()) if "kphi" in draws else 0
-    if stiff:
-        notes.append(
-            f"{stiff} draws have Bekker_Kphi >= elastic_K = {stated['elastic_K'][0]:g} Pa/m, "
-            "which SCM requires to be larger; state a larger --scm-elastic-K"
-        )
-    record["notes"] = notes
-    return record
+    return export_simulator(draws, simulator, **options).record(support, context)

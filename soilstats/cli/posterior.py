@@ -7,11 +7,21 @@ record: priors, convergence, physical support, pooling warnings, provenance), re
 (trace, pair and posterior-predictive plots) and, with --simulator, the draws as a
 simulator's parameter sets (CSV) with their record (JSON).
 
+--simulator chrono-scm writes Chrono SCM's SetSoilParameters arguments per draw. What no test
+measured (c, phi, K of a campaign without shear-ring tests) comes from user priors
+(--prior c=uniform:0:2000 --prior phi=normal:30:3 --prior K=lognormal:0.02:0.5), drawn
+independently of the posterior draws and marked as such in both files; without them the
+command refuses and says which are missing. A Bernstein posterior maps onto SCM as
+Kphi = k, Kc = 0 (marked). SCM's own constraints are checked on every set: a set Chrono
+would silently change (elastic_K <= Bekker_Kphi) is refused, or with --scm-repair M given
+elastic_K = M x Bekker_Kphi and marked.
+
 Nothing is written until the draws pass: every sampler converged (R-hat, ESS), at most 1 %
 of the draws fall outside the physical support at the stated contact widths
-(soilstats.bayes.support), and a population's least-squares start is not flagged
-plate-exponents (plates that disagree on n). Otherwise exit 2 with the reasons, unless --force
-(exit 1, every file marked). Draws outside the support are never written.
+(soilstats.bayes.support), a population's least-squares start is not flagged
+plate-exponents (plates that disagree on n), and with --simulator every parameter set meets
+the simulator's constraints (or was repaired with --scm-repair). Otherwise exit 2 with the
+reasons, unless --force (exit 1, every file marked). Draws outside the support are never written.
 
 --model takes one model (bekker, bernstein, reece, mohr-coulomb, janosi) or a sinkage and a
 shear model joined by '+' (e.g. bekker+janosi): their posteriors are combined as
@@ -49,7 +59,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "into DIR (only when the checks pass, or with --force)",
     )
     add_data_options(parser)
-    parser.add_argument("--soil", required=True, help="soil name (the soil column of tests.csv)")
+    parser.add_argument(
+        "--soil",
+        help="soil name (the soil column of tests.csv); may be left out when the campaign "
+        "(after --select) has one soil",
+    )
     parser.add_argument(
         "--model", required=True, help="model, or sinkage+shear (e.g. bekker+janosi)"
     )
@@ -66,7 +80,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=SPEC",
         help="prior of one parameter: LO:HI (flat), normal:MU:SD or normal:MU:SD:LO:HI, SI "
-        "units, phi in degrees (repeatable; replaces the physics default)",
+        "units, phi in degrees (repeatable; replaces the physics default). With --simulator, "
+        "a parameter the simulator needs and no model identifies (c [Pa], phi [deg], K [m] "
+        "without a shear model) takes a user prior instead: uniform:LO:HI, normal:MU:SD, "
+        "normal:MU:SD:LO:HI or lognormal:MEDIAN:SIGMA_LOG, drawn independently of the "
+        "posterior and marked in the export",
     )
     parser.add_argument(
         "--priors",
@@ -95,31 +113,72 @@ def configure(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="PA_PER_M",
         help="Chrono SCM elastic stiffness [Pa/m] (default 4e7, Chrono's demos; not a "
-        "Bevameter parameter)",
+        "Bevameter parameter); SCM needs it above every set's Bekker_Kphi",
     )
     parser.add_argument(
         "--scm-damping-R",
         type=float,
         metavar="PA_S_PER_M",
-        help="Chrono SCM damping [Pa s/m] (default 3e4, Chrono's demos)",
+        help="Chrono SCM damping [Pa s/m], >= 0 (default 3e4, Chrono's demos; 0 is the "
+        "original SCM)",
     )
+    parser.add_argument(
+        "--scm-repair",
+        type=float,
+        metavar="MULTIPLE",
+        help="where a set breaks SCM's elastic_K > Bekker_Kphi, set its elastic_K to MULTIPLE "
+        "x Bekker_Kphi (MULTIPLE > 1), marked per row (column elastic_K_repaired), in the "
+        "JSON and on page 1 of the report; without it such sets are refused",
+    )
+
+
+def split_prior_items(args, models) -> tuple[list[str], dict[str, tuple]]:
+    """``--prior`` items for the sampled models' parameters, and user priors: with
+    ``--simulator``, items naming a parameter the simulator needs that no model identifies
+    (c, phi, K without a shear model), as :mod:`soilstats.wheel.priors` tuples."""
+    from ..bayes.export import parse_stated_prior, scm_plan
+
+    params = {n for m in models for n in _checked_model(m).param_names}
+    unmeasured = set()
+    if getattr(args, "simulator", None):
+        unmeasured = {k for k, v in scm_plan(params).items() if v == "missing"}
+    posterior, stated = [], {}
+    for item in args.prior or ():
+        name, eq, spec = str(item).partition("=")
+        if eq and name.strip() in unmeasured:
+            try:
+                stated[name.strip()] = parse_stated_prior(spec)
+            except ValueError as err:
+                raise ValueError(f"--prior {item}: {err}") from None
+        else:
+            posterior.append(item)
+    return posterior, stated
 
 
 def priors_by_model(args, models) -> dict[str, dict]:
     """Each model's priors, read once: its ``[MODEL]`` table of ``--priors``, then the
     ``--prior`` items naming its parameters (they win). A name that belongs to no model — or,
-    in a file, not to its table's model — is an error before any sampling."""
+    in a file, not to its table's model — is an error before any sampling. Items that are
+    user priors for ``--simulator`` (:func:`split_prior_items`) are not the models'."""
     from ..bayes.priors import priors_from_items, priors_from_toml
 
-    items = priors_from_items(args.prior)
+    raw = split_prior_items(args, models)[0]
     params = {m: _checked_model(m).param_names for m in models}
     known = {n for names in params.values() for n in names}
-    unknown = sorted(set(items) - known)
+    named = {str(item).partition("=")[0].strip() for item in raw if "=" in str(item)}
+    unknown = sorted(named - known)
     if unknown:
+        hint = (
+            ""
+            if getattr(args, "simulator", None)
+            else "; with --simulator chrono-scm, the shear parameters a sinkage-only campaign "
+            "lacks take user priors (e.g. --prior c=uniform:0:2000)"
+        )
         raise ValueError(
             f"--prior names {unknown}, not parameters of {'+'.join(models)} "
-            f"(parameters: {sorted(known)})"
+            f"(parameters: {sorted(known)}){hint}"
         )
+    items = priors_from_items(raw)
     out = {}
     for model, names in params.items():
         table = priors_from_toml(args.priors, model) if args.priors else {}
@@ -188,20 +247,42 @@ def _run(campaign, model, priors, args, index=0):
     return sample_posterior(campaign, model, **kw)
 
 
-def _check_simulator(args, models) -> None:
-    """--simulator needs the parameters it writes: refuse before sampling, not after."""
-    from ..bayes import SIMULATOR_FORMATS
-    from ..models import get_model
+def _check_simulator(args, models, stated: dict) -> None:
+    """--simulator needs every parameter it writes, from the models, the Bernstein mapping or
+    user priors, and valid stated inputs: refuse before sampling, not after."""
+    from ..bayes.export import missing_message, scm_plan, stated_inputs
+    from ..wheel.priors import sample_priors
 
     if not args.simulator:
+        if args.scm_repair is not None:
+            raise ValueError("--scm-repair repairs a simulator export: give --simulator too")
         return
-    have = {n for m in models for n in get_model(m).param_names}
-    missing = [k for k in SIMULATOR_FORMATS[args.simulator] if k not in have]
-    if missing:
+    params = [n for m in models for n in _checked_model(m).param_names]
+    plan = scm_plan(params, stated)
+    sinkage = [m for m in models if _checked_model(m).kind == "sinkage"]
+    if sinkage and plan["kphi"] == "missing":
         raise ValueError(
-            f"--simulator {args.simulator} needs {list(SIMULATOR_FORMATS[args.simulator])}; "
-            f"{'+'.join(models)} lacks {missing}: use --model bekker+janosi"
+            f"--simulator {args.simulator} takes Bekker's law p = (kc/b + kphi) z^n; "
+            f"{sinkage[0]} ({_checked_model(sinkage[0]).equation}) has no such form: use "
+            "--model bekker, or bernstein (mapped as Kphi = k, Kc = 0)"
         )
+    missing = [k for k, v in plan.items() if v == "missing"]
+    if missing:
+        raise ValueError(f"--simulator {missing_message(args.simulator, missing, params)}")
+    stated_inputs(args.scm_elastic_K, args.scm_damping_R)
+    if args.scm_repair is not None and not args.scm_repair > 1:
+        raise ValueError(
+            f"--scm-repair takes a multiple above 1 (elastic_K = MULTIPLE x Bekker_Kphi must "
+            f"exceed Bekker_Kphi), got {args.scm_repair:g}"
+        )
+    if stated:  # a prior that cannot be drawn, or leaves the support: say so now
+        sample_priors(stated, 10_000, prior_seed(args.seed, models))
+
+
+def prior_seed(seed: int, models) -> int:
+    """The seed of the user priors' draws: one stream of its own after the models'
+    (``SeedSequence([seed, len(models)])``), so they are independent of the posterior."""
+    return model_seed(seed, len(models))
 
 
 def _check_draws(args) -> None:
@@ -304,14 +385,102 @@ def pooling_warnings(campaign, soil: str, models) -> list[str]:
     return out
 
 
+def _soil(args, campaign) -> str:
+    """--soil, or the campaign's only soil when it was left out."""
+    soils = sorted({str(s) for s in campaign.tests["soil"].dropna()})
+    if args.soil is not None:
+        return args.soil
+    if len(soils) == 1:
+        return soils[0]
+    raise ValueError(f"--soil is needed: the campaign has {len(soils)} soils ({', '.join(soils)})")
+
+
+def _export(args, models, results, kept, stated, campaign):
+    """The draws handed out as the simulator's parameter sets (checked, not yet written)."""
+    from ..bayes.export import export_simulator
+
+    taken = {
+        name: f"posterior draws ({r.model_name}, {r.kind})"
+        for r in results
+        for name in r.param_names
+    }
+    return export_simulator(
+        kept,
+        args.simulator,
+        elastic_K=args.scm_elastic_K,
+        damping_R=args.scm_damping_R,
+        priors=stated,
+        seed=prior_seed(args.seed, models),
+        repair=args.scm_repair,
+        draws_source=taken,
+        plate_widths=_tested_widths(args, campaign),
+    )
+
+
+def _export_failures(simulator: str, check) -> list[str]:
+    """The failed constraints, each with its fix (a larger elastic_K or --scm-repair)."""
+    from ..bayes.export import REPAIRABLE
+
+    fix = (
+        f". Fix: state --scm-elastic-K above {check.largest_kphi:.3g} Pa/m (the largest "
+        "Bekker_Kphi; best a measured unloading stiffness), or pass --scm-repair MULTIPLE to set "
+        "elastic_K = MULTIPLE x Bekker_Kphi in each such set (marked per row)"
+    )
+    return [
+        f"{simulator}: {problem}{fix if REPAIRABLE in problem else ''}"
+        for problem in check.problems()
+    ]
+
+
+class _Annotated:
+    """A provenance whose CSV comment header carries more ``key: value`` lines."""
+
+    def __init__(self, provenance, extra: list[str]) -> None:
+        self._provenance, self._extra = provenance, extra
+
+    def lines(self) -> list[str]:
+        return [*self._provenance.lines(), *self._extra]
+
+
+def _write_export(out: Path, export, record: dict, support, provenance, args) -> None:
+    """``<simulator>.csv`` (each column's source and SCM's check in its comment lines) and
+    ``<simulator>.json``; the check, repairs and notes also to stderr."""
+    import json
+
+    from ..report import json_safe, output_path, write_atomic, write_csv
+
+    name = export.simulator
+    extra = export.comment_lines()
+    if record["forced"]:
+        extra.append("FORCED: written although: " + "; ".join(record["failures"]))
+    write_csv(
+        out / f"{name}.csv",
+        export.table,
+        _Annotated(provenance, extra),
+        overwrite=True,
+        float_format="%.10g",
+    )
+    context = {k: record[k] for k in ("soil", "models", "kind", "forced", "failures", "selection")}
+    context |= {"seed": args.seed, "version": provenance.to_dict().get("soilstats_version")}
+    write_atomic(
+        output_path(out, f"{name}.json", overwrite=True),
+        json.dumps(json_safe(export.record(support, context)), indent=2) + "\n",
+    )
+    repaired = export.check.repair_sentence()
+    if repaired:
+        print(f"WARNING: {name}: {repaired}", file=sys.stderr)
+    for note in export.notes:
+        print(f"note: {name}: {note}", file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     """Sample, check, and only then write; exit 2 (nothing written) when a check fails."""
     import json
 
     import pandas as pd
 
-    from ..bayes import joint_draws, simulator_parameters, simulator_record
-    from ..bayes.support import check_support
+    from ..bayes import joint_draws
+    from ..bayes.support import check_support, negative_modulus_width
     from ..errors import ConvergenceWarning
     from ..report import json_safe, output_path, write_atomic, write_csv
     from ..report.posterior_pdf import write_report
@@ -319,9 +488,11 @@ def run(args: argparse.Namespace) -> int:
     models = args.model.split("+")
     _check_models(models)
     priors = priors_by_model(args, models)
-    _check_simulator(args, models)
+    stated = split_prior_items(args, models)[1]
+    _check_simulator(args, models, stated)
     _check_draws(args)
     campaign, provenance = prepared(args)
+    args.soil = _soil(args, campaign)
     out = Path(args.out)
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]
@@ -357,6 +528,9 @@ def run(args: argparse.Namespace) -> int:
     ]
     if not support.passed:
         failures.append(support.describe())
+    export = _export(args, models, results, kept, stated, campaign) if args.simulator else None
+    if export is not None and not export.check.passed:
+        failures += _export_failures(args.simulator, export.check)
     from ..errors import SoilstatsWarning
 
     ours = [str(w.message) for w in caught if issubclass(w.category, SoilstatsWarning)]
@@ -397,6 +571,14 @@ def run(args: argparse.Namespace) -> int:
     if failures and not args.force:
         for text in failures:
             print(f"error: {text}", file=sys.stderr)
+        if export is not None and len(failures) == len(export.check.problems()):
+            print(
+                f"error: nothing written to {out}: the posterior draws passed their checks, but "
+                f"their {args.simulator} parameter sets break the simulator's constraints. "
+                "Apply the fix above, or pass --force to write them anyway (marked FORCED)",
+                file=sys.stderr,
+            )
+            return 2
         advice = (
             "select fewer conditions, window the data (--z-max), state narrower --prior "
             "ranges, or pass --force to write them anyway (marked FORCED; unphysical draws are "
@@ -430,6 +612,7 @@ def run(args: argparse.Namespace) -> int:
             "failures": failures,
             "support": support.to_dict(),
             "draws_written": len(kept),
+            "negative_modulus_below_m": negative_modulus_width(kept),
             "priors": {r.model_name: r.idata.posterior.attrs.get("priors", "") for r in results},
             "pooling_warnings": pooled_warnings,
             "least_squares_health": health,
@@ -437,6 +620,7 @@ def run(args: argparse.Namespace) -> int:
             "selection": list(args.select or []),
             "provenance": provenance.to_dict(),
         }
+        | ({"simulator": export.record()} if export is not None else {})
     )
     prov = provenance.to_dict() | {"forced": forced}
     for i, res in enumerate(results):
@@ -454,23 +638,8 @@ def run(args: argparse.Namespace) -> int:
         output_path(out, "posterior.json", overwrite=True), json.dumps(record, indent=2) + "\n"
     )
     write_report(results, out / "report.pdf", record=record, provenance=provenance, handed_out=kept)
-    if args.simulator:
-        stated = {"elastic_K": args.scm_elastic_K, "damping_R": args.scm_damping_R}
-        sim = simulator_parameters(kept, args.simulator, **stated)
-        write_csv(
-            out / f"{args.simulator}.csv", sim, provenance, overwrite=True, float_format="%.10g"
-        )
-        context = {k: record[k] for k in ("soil", "models", "kind", "forced", "selection")}
-        context |= {"seed": args.seed, "version": provenance.to_dict().get("soilstats_version")}
-        sim_record = simulator_record(
-            kept, args.simulator, support=support, context=context, **stated
-        )
-        write_atomic(
-            output_path(out, f"{args.simulator}.json", overwrite=True),
-            json.dumps(json_safe(sim_record), indent=2) + "\n",
-        )
-        for note in sim_record["notes"]:
-            print(f"note: {note}", file=sys.stderr)
+    if export is not None:
+        _write_export(out, export, record, support, provenance, args)
     if args.json:
         print(
             json.dumps(

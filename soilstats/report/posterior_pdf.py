@@ -2,7 +2,10 @@
 
 Page 1: the question, the data, and the answer — the posterior mean ± sd and interval of
 each physical parameter in its unit, convergence, the physical-support check, every warning
-and the health flags of the least-squares fit the sampler started from. Then the methods
+and the health flags of the least-squares fit the sampler started from, and with a simulator
+export its constraint check (broken, repaired), the columns from user priors or a mapping,
+and where Bekker's modulus turns negative. "The draws pass every check" is said only when
+every one of these passed; otherwise page 1 says which did not. Then the methods
 (the paper's equations, the likelihood, the sampler), the full diagnostics table, and per
 model the start fit's flags and the trace, pair and posterior-predictive figures
 (:mod:`.posterior_figures`, physical units). Everything in ``posterior.json`` is in the PDF.
@@ -42,6 +45,80 @@ def _estimates(res: PosteriorResult, prob: float, handed_out=None) -> list:
     return parts
 
 
+def _caveats(results, record: dict) -> list[str]:
+    """What keeps "the draws pass every check" from being true, though nothing was refused:
+    flagged start fits, warnings, repaired simulator constraints."""
+    out = []
+    flagged = [r.model_name for r in results if r.least_squares_health()]
+    if flagged:
+        out.append(f"the least-squares start of {', '.join(flagged)} is flagged")
+    said = len(record.get("warnings", [])) + len(record.get("pooling_warnings", []))
+    if said:
+        out.append(f"{said} warning{'s' if said > 1 else ''}")
+    repaired = ((record.get("simulator") or {}).get("constraints") or {}).get("repaired", 0)
+    if repaired:
+        out.append(f"SCM's elastic_K > Bekker_Kphi repaired in {repaired} parameter sets")
+    return out
+
+
+def _verdict(results, record: dict) -> list:
+    """The one sentence on whether the draws can be used; "pass every check" only when
+    every check passed (support, convergence, the start fits' health, warnings, and the
+    simulator's constraints unrepaired)."""
+    written = record.get("draws_written")
+    if record.get("forced"):
+        return [
+            strong("FORCED: "),
+            "these draws failed a check and were written only because --force was given: "
+            + "; ".join(record.get("failures", [])),
+        ]
+    if record.get("failures"):
+        return [strong("Not fit for use: "), "; ".join(record["failures"])]
+    caveats = _caveats(results, record)
+    if not caveats:
+        return [
+            f"The draws pass every check: {written} joint draws written for a rover Monte "
+            "Carlo (draws.csv), correlations kept."
+        ]
+    stops = "convergence, physical support" + (
+        ", the simulator's constraints" if record.get("simulator") else ""
+    )
+    return [
+        strong("Not every check passed: "),
+        f"{written} joint draws written (draws.csv), correlations kept; they pass the checks "
+        f"that stop the output ({stops}), but {'; '.join(caveats)} (below).",
+    ]
+
+
+def _simulator_lines(record: dict) -> list:
+    """Page 1 on the simulator export: its constraint check (broken, repaired) and its notes
+    (the columns that come from user priors or a mapping rather than from tests, where the
+    modulus turns negative)."""
+    sim = record.get("simulator")
+    if not sim:
+        return []
+    check = sim.get("constraints") or {}
+    broken = {k: v for k, v in (check.get("broken") or {}).items() if v}
+    rows = check.get("rows", sim.get("draws"))
+    name = sim.get("simulator", "simulator")
+    if not broken:
+        status = f"all {rows} parameter sets meet SCM's constraints (Chrono's source, below)."
+    else:
+        parts = [f"{label}: broken in {count} of {rows} sets" for label, count in broken.items()]
+        if check.get("repaired"):
+            parts.append(
+                f"elastic_K repaired to {check.get('repair_multiple'):g} x Bekker_Kphi in "
+                f"{check['repaired']} sets (column elastic_K_repaired = 1), as --scm-repair "
+                "asked; Chrono would otherwise have raised it to Bekker_Kphi silently"
+            )
+        verdict = "PASSED after repair" if check.get("passed") else "FAILED"
+        status = f"SCM's constraints {verdict}: " + "; ".join(parts) + "."
+    out: list = [[strong(f"Simulator export ({name}.csv): "), status]]
+    for note in sim.get("notes", []):  # the mapping, the user priors, a negative modulus
+        out.append([strong("Simulator note: "), note])
+    return out
+
+
 def _conclusion(results, record: dict, prob: float, handed_out=None) -> list:
     out: list = []
     for res in results:
@@ -67,34 +144,78 @@ def _conclusion(results, record: dict, prob: float, handed_out=None) -> list:
                     f"(messages under {res.model_name}, Health of the start fit).",
                 ]
             )
-    if record:
-        support = record.get("support") or {}
-        if record.get("forced"):
-            out.append(
-                [
-                    strong("FORCED: "),
-                    "these draws failed a check and were written only because --force was "
-                    "given: " + "; ".join(record.get("failures", [])),
-                ]
-            )
-        elif record.get("failures"):
-            out.append([strong("Not fit for use: "), "; ".join(record["failures"])])
-        else:
-            out.append(
-                f"The draws pass every check: {record.get('draws_written')} joint draws written "
-                "for a rover Monte Carlo (draws.csv), correlations kept."
-            )
-        if support:
-            lo, hi = (support.get("contact_widths_m") or [float("nan")] * 2)[:2]
-            out.append(
-                f"Physical support at contact widths {lo:g}–{hi:g} m: {support['outside']} of "
-                f"{support['draws']} draws outside ({support['share_outside']:.1%}, at most "
-                f"{support['max_share']:.0%} allowed) — "
-                + ("passed." if support["passed"] else "FAILED.")
-            )
-        for w in [*record.get("warnings", []), *record.get("pooling_warnings", [])]:
-            out.append([strong("Warning: "), w])
+    if not record:
+        return out
+    out.append(_verdict(results, record))
+    out += _simulator_lines(record)
+    width = record.get("negative_modulus_below_m")
+    if width is not None and not record.get("simulator"):  # the simulator's note says it
+        out.append(
+            [
+                strong("Negative modulus: "),
+                f"kc < 0 in some draws: Bekker's modulus kc/b + kphi turns negative for contact "
+                f"widths below {width:.3g} m (99 % of draws); do not use the draws for narrower "
+                "contacts.",
+            ]
+        )
+    support = record.get("support") or {}
+    if support:
+        lo, hi = (support.get("contact_widths_m") or [float("nan")] * 2)[:2]
+        out.append(
+            f"Physical support at contact widths {lo:g}–{hi:g} m: {support['outside']} of "
+            f"{support['draws']} draws outside ({support['share_outside']:.1%}, at most "
+            f"{support['max_share']:.0%} allowed) — "
+            + ("passed." if support["passed"] else "FAILED.")
+        )
+    for w in [*record.get("warnings", []), *record.get("pooling_warnings", [])]:
+        out.append([strong("Warning: "), w])
     return out
+
+
+def _simulator_section(doc: Document, sim: dict) -> None:
+    """Every column's unit and source, SCM's constraints as read in Chrono's source with the
+    sets that broke each, the stated inputs and the notes (all of the export's record)."""
+    import pandas as pd
+
+    doc.heading(f"Simulator export: {sim.get('simulator')}")
+    doc.paragraph(
+        f"{sim.get('draws')} parameter sets, one per draw handed out, for {sim.get('call')}. "
+        "Where each column comes from:"
+    )
+    columns = sim.get("columns") or {}
+    doc.table(
+        pd.DataFrame(
+            [(c, columns.get(c, ""), src) for c, src in (sim.get("sources") or {}).items()],
+            columns=["column", "unit", "source"],
+        ),
+        caption="Columns of the export in SetSoilParameters' order, their units and sources.",
+    )
+    check = sim.get("constraints") or {}
+    rules = check.get("constraints") or {}
+    doc.table(
+        pd.DataFrame(
+            [
+                (
+                    label,
+                    (check.get("broken") or {}).get(label, 0),
+                    rule["chrono"],
+                    rule["otherwise"],
+                )
+                for label, rule in rules.items()
+            ],
+            columns=["constraint", "sets breaking it", "where in Chrono", "what Chrono does"],
+        ),
+        caption=f"SCM's constraints, read from {check.get('chrono_source')}; "
+        f"{check.get('repaired', 0)} sets repaired (elastic_K = "
+        f"{check.get('repair_multiple') or '-'} x Bekker_Kphi), check "
+        + ("passed." if check.get("passed") else "FAILED."),
+    )
+    stated = sim.get("stated_inputs") or {}
+    doc.key_values(
+        (name, f"{v['value']:g} {v['unit']} ({v['source']})") for name, v in stated.items()
+    )
+    if sim.get("notes"):
+        doc.numbered(sim["notes"])
 
 
 def _diagnostics_table(doc: Document, res: PosteriorResult, prob: float, handed_out) -> None:
@@ -197,6 +318,8 @@ def write_report(
         for make in (trace_figure, pair_figure, predictive_figure):
             fig, caption = make(res)
             doc.figure(fig, caption)
+    if record.get("simulator"):
+        _simulator_section(doc, record["simulator"])
     if record.get("support"):
         doc.heading("Physical support of the draws")
         support = record["support"]
