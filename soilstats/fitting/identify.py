@@ -292,6 +292,8 @@ def identify(
         condition_number=cond,
         residuals=out.residuals,
         extra_flags=tuple(flags),
+        model_func=f,
+        model_jac=jac,
     )
     if not converged:
         text = f"{name}: identification did not converge — {message}"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -90,6 +91,10 @@ class FitResult:
     #: (soilstats.identification.centring).
     correlation_basis: np.ndarray | None = field(default=None, repr=False)
     notes: tuple[str, ...] = ()
+    #: The model ``f(x, *θ)`` and its Jacobian ``jac(x, *θ) -> (N, p)`` (what :meth:`eval`
+    #: and :meth:`eval_uncertainty` use; None for a result built without them).
+    model_func: Callable | None = field(default=None, repr=False, compare=False)
+    model_jac: Callable | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def closed_form(
@@ -133,6 +138,8 @@ class FitResult:
             method=method,
             condition_number=condition_number,
             residuals=resid,
+            model_func=getattr(model, "func", None),
+            model_jac=getattr(model, "jac", None),
         )
 
     # -- named views, built on first use (pandas construction costs more than a whole fit) --
@@ -187,6 +194,37 @@ class FitResult:
         return pd.DataFrame(
             {"lower": self.params - t * self.stderr, "upper": self.params + t * self.stderr}
         )
+
+    # -- the fitted curve, as lmfit's ModelResult gives it --------------------------------
+    def eval(self, x) -> np.ndarray:
+        """The fitted model f(x, θ̂) at the inputs ``x``, in the form the fit took them: sinkage
+        z [m] (N,) for Bernstein, the (b [m], z [m]) rows (2, N) for Bekker and Reece, σ [Pa]
+        for Mohr–Coulomb, (σ [Pa], j [m]) for Janosi–Hanamoto; pressure or stress in Pa."""
+        if self.model_func is None:
+            raise ValueError(
+                f"this {self.model_name} result carries no model to evaluate (it was built "
+                "without one); fit it with soilstats.identify or a fit_* function"
+            )
+        return np.asarray(self.model_func(x, *self.values), dtype=float)
+
+    def eval_uncertainty(self, x, sigma: float = 1.0) -> np.ndarray:
+        """``sigma`` standard deviations of the fitted curve at ``x`` (as :meth:`eval` takes
+        it), from the parameter covariance by the delta method: sigma·√diag(J Cov Jᵀ), J the
+        model's Jacobian at θ̂ (lmfit's ``ModelResult.eval_uncertainty``). Cov is Eq. 4's
+        here; a fit over tests uses the test-level one (:class:`CampaignFit`)."""
+        return self._band(x, sigma, self.covariance)
+
+    def _band(self, x, sigma: float, covariance: np.ndarray) -> np.ndarray:
+        if self.model_jac is None:
+            raise ValueError(
+                f"this {self.model_name} result carries no model Jacobian; fit it with "
+                "soilstats.identify or a fit_* function"
+            )
+        if not sigma > 0:
+            raise ValueError(f"sigma must be positive, got {sigma!r}")
+        jac = np.atleast_2d(np.asarray(self.model_jac(x, *self.values), dtype=float))
+        variance = np.einsum("ij,jk,ik->i", jac, covariance, jac)
+        return sigma * np.sqrt(np.maximum(variance, 0.0))
 
     @cached_property
     def flags(self) -> tuple[HealthFlag, ...]:
@@ -301,3 +339,38 @@ class FitResult:
 
     def __str__(self) -> str:
         return self.summary()
+
+    def _parameter_table(self) -> pd.DataFrame:
+        """Value, σ (Eq. 3), the 95 % interval and the unit of every parameter."""
+        ci = self.conf_int(0.05)
+        return pd.DataFrame(
+            {
+                "param": list(self.param_names),
+                "value": [f"{v:.6g}" for v in self.values],
+                "stderr (Eq. 3)": [f"{s:.4g}" for s in self.stderr_values],
+                "95% CI (t)": [
+                    f"[{ci.loc[n, 'lower']:.5g}, {ci.loc[n, 'upper']:.5g}]"
+                    for n in self.param_names
+                ],
+                "unit": [self.units.get(n, "") for n in self.param_names],
+            }
+        )
+
+    def _repr_html_(self) -> str:
+        """The summary as tables, for notebooks."""
+        from .._html import facts_html, notes_html, result_html, table_html
+
+        facts = {
+            "method": self.method,
+            "converged": f"{self.converged} ({self.message})",
+            "observations": self.nobs,
+            "epsilon (Eq. 2)": f"{self.epsilon:.4f}",
+        }
+        health = [str(f) for f in self.flags] or ["OK"]
+        return result_html(
+            f"{self.model_name} fit",
+            facts_html(facts),
+            table_html(self._parameter_table()),
+            notes_html(health, "Health"),
+            notes_html(self.notes),
+        )

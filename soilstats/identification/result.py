@@ -101,6 +101,41 @@ class CampaignFit(FitResult):
         half = t * self.stderr_tests
         return pd.DataFrame({"lower": self.params - half, "upper": self.params + half})
 
+    def _parameter_table(self) -> pd.DataFrame:
+        """The fit's table with the test-level σ beside Eq. 4's where the bootstrap ran."""
+        table = super()._parameter_table()
+        if self.bootstrap is not None:
+            sd = self.stderr_tests
+            table.insert(3, "stderr (tests)", [f"{sd[n]:.4g}" for n in self.param_names])
+        return table
+
+    @property
+    def covariance_tests(self) -> np.ndarray | None:
+        """Test-level covariance of the parameters: that of the test bootstrap's estimates
+        (the scatter between repeated tests), or None without the bootstrap."""
+        if self.bootstrap is None or len(self.bootstrap.draws) < 2:
+            return None
+        return np.atleast_2d(np.cov(self.bootstrap.draws, rowvar=False))
+
+    def eval_uncertainty(self, x, sigma: float = 1.0, *, level: str = "auto") -> np.ndarray:
+        """``sigma`` standard deviations of the fitted curve at ``x`` (:meth:`eval`'s inputs)
+        by the delta method, from the test-level covariance (``level="tests"``: what a new
+        test of the soil scatters by, as the fit's stderr says) or Eq. 4's
+        (``"samples"``); ``"auto"`` (default): the test-level one where the fit rests on
+        :data:`~soilstats.identification.bootstrap.MIN_TESTS` tests or more and the test
+        bootstrap ran, else Eq. 4's."""
+        if level not in ("auto", "tests", "samples"):
+            raise ValueError(f"level must be 'auto', 'tests' or 'samples', got {level!r}")
+        tests = self.covariance_tests
+        if level == "tests" and tests is None:
+            raise ValueError(
+                "no test-level band without the test bootstrap: fit with test_resamples > 0"
+            )
+        use_tests = level == "tests" or (
+            level == "auto" and tests is not None and self.n_tests >= MIN_TESTS
+        )
+        return self._band(x, sigma, tests if use_tests else self.covariance)
+
     @property
     def n_tests(self) -> int:
         """Tests that contributed samples to the fit."""

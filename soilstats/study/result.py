@@ -165,3 +165,23 @@ class StudyResult:
 
     def __str__(self) -> str:
         return self.summary()
+
+    def _repr_html_(self) -> str:
+        """The verdicts, the criteria (preparation) and the notes as tables, for notebooks."""
+        from .._html import facts_html, notes_html, result_html, table_html
+
+        verdicts = pd.DataFrame()
+        if not self.effects.empty:
+            keep = ["soil", "response", "statistic", "p_value", "p_adjusted", "verdict"]
+            verdicts = self.effects[[c for c in keep if c in self.effects.columns]]
+        parts = [facts_html({"data": self.source})]
+        if not verdicts.empty:
+            parts.append(table_html(verdicts, caption="Verdicts (F, raw and Holm p)"))
+        if self.criteria is not None and not self.criteria.empty:
+            parts.append(table_html(self.criteria, caption="Criteria of Table 1 per method"))
+        if self.best is not None:
+            parts.append(
+                facts_html({"best preparation": f"{self.best.get('best')}: {self.best['reason']}"})
+            )
+        parts.append(notes_html(self.notes))
+        return result_html(f"Study {self.name!r}: {self.spec.title}", *parts)
