@@ -20,12 +20,27 @@ ArviZ 0.17–0.23 (the 0.x ``InferenceData`` API) is supported.
 
 from __future__ import annotations
 
-from .export import SCM_DEFAULTS, SIMULATOR_FORMATS, simulator_parameters, simulator_record
-from .joint import joint_draws
-from .population import sample_population
-from .posterior import sample_posterior
-from .priors import DEFAULT_PRIORS, Normal, Prior, Uniform
-from .result import ESS_MIN, RHAT_MAX, PosteriorResult
+from .._lazy import lazy_names
+
+# Names load their module on first use: a refusal before sampling (soilstats.bayes.handout)
+# must not pay ArviZ's two seconds of import.
+_NAMES = {
+    "SCM_DEFAULTS": ".export",
+    "SIMULATOR_FORMATS": ".export",
+    "simulator_parameters": ".export",
+    "simulator_record": ".export",
+    "joint_draws": ".joint",
+    "sample_population": ".population",
+    "sample_posterior": ".posterior",
+    "DEFAULT_PRIORS": ".priors",
+    "Normal": ".priors",
+    "Prior": ".priors",
+    "Uniform": ".priors",
+    "ESS_MIN": ".result",
+    "RHAT_MAX": ".result",
+    "PosteriorResult": ".result",
+}
+__getattr__, __dir__ = lazy_names(__name__, _NAMES, globals())
 
 __all__ = [
     "DEFAULT_PRIORS",

@@ -223,6 +223,14 @@ class PosteriorResult:
             }
         )
 
+    def handout(self, contact_widths: tuple[float, float], *, seed: int | None = 0):
+        """Whether this posterior's draws are fit for a rover Monte Carlo, and the draws a
+        Monte Carlo may be given: :func:`soilstats.bayes.handout.hand_out` of this result
+        alone (``contact_widths`` (b_min, b_max) [m]: where the draws will be used)."""
+        from .handout import hand_out
+
+        return hand_out([self], contact_widths, seed=seed)
+
     def least_squares_health(self) -> list[dict]:
         """The health flags (``code``, ``message``) of the least-squares fit the sampler
         started from: its data-quality codes (bearing failure, spikes …) and the model's

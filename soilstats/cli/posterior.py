@@ -292,11 +292,13 @@ def _check_draws(args) -> None:
     :data:`~soilstats.bayes.result.ESS_MIN` fail the check and exit 2 after all the
     sampling; with --force the user has accepted unconverged (FORCED) draws.
     """
+    if args.draws is None or args.force:
+        return  # (the bayes modules cost seconds to import: not for a refusal before sampling)
     from ..bayes.population import POPULATION_DRAWS
     from ..bayes.posterior import DEFAULT_DRAWS
     from ..bayes.result import ESS_MIN
 
-    if args.draws is not None and args.draws < ESS_MIN and not args.force:
+    if args.draws < ESS_MIN:
         raise ValueError(
             f"--draws {args.draws} is below {ESS_MIN}, the effective sample size (bulk and "
             f"tail ESS) per parameter the convergence check needs: {args.draws} draws can "
@@ -474,16 +476,10 @@ def _write_export(out: Path, export, record: dict, support, provenance, args) ->
 
 
 def run(args: argparse.Namespace) -> int:
-    """Sample, check, and only then write; exit 2 (nothing written) when a check fails."""
-    import json
-
-    import pandas as pd
-
-    from ..bayes import joint_draws
-    from ..bayes.support import check_support, negative_modulus_width
-    from ..errors import ConvergenceWarning
-    from ..report import json_safe, output_path, write_atomic, write_csv
-    from ..report.posterior_pdf import write_report
+    """Check what can be checked, sample, let the library decide (:mod:`soilstats.bayes
+    .handout`), and only then write; exit 2 (nothing written, no folder made) when a check
+    fails."""
+    from ..bayes.handout import preflight
 
     models = args.model.split("+")
     _check_models(models)
@@ -494,43 +490,87 @@ def run(args: argparse.Namespace) -> int:
     campaign, provenance = prepared(args)
     args.soil = _soil(args, campaign)
     out = Path(args.out)
+    _check_outputs(out, models, args)
+    widths = _contact_widths(args, campaign)
+    pooled_warnings = pooling_warnings(campaign, args.soil, models)
+    # Refusals knowable before sampling are made before it (in the time of a least-squares
+    # fit), so no sampling is spent on draws that would be refused.
+    early, _ = preflight(campaign, models, population=args.population, soil=args.soil)
+    if early and not args.force:
+        return _refuse(early, out, args, sampled=False)
+    results, caught = _sample(campaign, models, priors, args)
+    return _decide_and_write(
+        args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance
+    )
+
+
+def _check_outputs(out: Path, models, args) -> None:
+    """Refuse before sampling, not after minutes of work, an output that may not be written
+    (an existing file without --overwrite, a link); no folder is made yet."""
+    from ..report import output_path
+
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]
     names += [f"{args.simulator}.csv", f"{args.simulator}.json"] if args.simulator else []
-    for name in names:  # refuse before sampling, not after minutes of work
-        output_path(out, name, overwrite=args.overwrite)
-    widths = _contact_widths(args, campaign)
-    pooled_warnings = pooling_warnings(campaign, args.soil, models)
+    for name in names:
+        output_path(out, name, overwrite=args.overwrite, create=False)
+
+
+def _sample(campaign, models, priors, args):
+    """The posterior of every model, and the warnings sampling raised."""
+    from ..errors import ConvergenceWarning
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
         results = [_run(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
-    # Rows in random order (so any first N rows are a fair sample, not one walker's run);
-    # unconverged draws are taken here and refused below unless --force.
-    n = min(r.idata.posterior.sizes["chain"] * r.idata.posterior.sizes["draw"] for r in results)
-    draws = (
-        joint_draws(results[0], results[1], n, seed=args.seed, allow_unconverged=True)
-        if len(results) == 2
-        else results[0].draws(n, seed=args.seed, allow_unconverged=True)
+    return results, caught
+
+
+def _refuse(failures, out: Path, args, *, sampled: bool, simulator_only: bool = False) -> int:
+    """Print why the draws are not handed out; exit 2 (nothing written)."""
+    for text in failures:
+        print(f"error: {text}", file=sys.stderr)
+    if simulator_only:
+        print(
+            f"error: nothing written to {out}: the posterior draws passed their checks, but "
+            f"their {args.simulator} parameter sets break the simulator's constraints. "
+            "Apply the fix above, or pass --force to write them anyway (marked FORCED)",
+            file=sys.stderr,
+        )
+        return 2
+    advice = (
+        "select fewer conditions, window the data (--z-max), state narrower --prior "
+        "ranges, or pass --force to write them anyway (marked FORCED; unphysical draws are "
+        "left out)"
     )
-    support = check_support(draws, widths, models)
-    kept = draws[support.inside].reset_index(drop=True)
-    # What a user is handed (draws.csv) is what the summary describes; diagnostics stay the
-    # chains' (a review: k's interval started at a draw with n < 0 that draws.csv left out).
-    table = pd.concat(
-        [r.summary_table(0.9, kept).assign(model=r.model_name, kind=r.kind) for r in results]
+    if args.population and sampled:
+        # Where the tests agree to within their noise, the scatter sds (sd_p_ref, sd_n;
+        # sd_strength, sd_lnK) pile up at 0, the boundary of their support, and the chains
+        # mix badly there (a review: R-hat up to 2.0 on zero-scatter data).
+        advice = (
+            "With --population: if the tests agree to within their noise, the scatter "
+            "sds sit at 0 and the chains cannot mix there; the pooled posterior (without "
+            f"--population) is then the model the data support. Otherwise {advice}"
+        )
+    elif not sampled:
+        advice = (
+            "Refused before sampling. Fit each plate size on its own (--select radius_m=…), "
+            "or use the pooled posterior (without --population), or pass --force to sample "
+            "and write anyway (marked FORCED)"
+        )
+    else:
+        advice = advice[0].upper() + advice[1:]
+    print(
+        f"error: nothing written to {out}: these draws are not fit for a rover Monte Carlo. "
+        f"{advice}",
+        file=sys.stderr,
     )
-    table.index.name = "quantity"
-    converged = all(r.converged for r in results)
-    failures = [
-        f"{r.model_name} {r.kind}: not converged ({'; '.join(r.problems)})"
-        for r in results
-        if not r.converged
-    ]
-    if not support.passed:
-        failures.append(support.describe())
-    export = _export(args, models, results, kept, stated, campaign) if args.simulator else None
-    if export is not None and not export.check.passed:
-        failures += _export_failures(args.simulator, export.check)
+    return 2
+
+
+def _warnings(caught, widths, args, campaign, models, handout, pooled_warnings) -> list[str]:
+    """The warnings of a run, printed one line each: the library's own, numerical ones
+    summed up, extrapolation, pooling and the flagged least-squares starts."""
     from ..errors import SoilstatsWarning
 
     ours = [str(w.message) for w in caught if issubclass(w.category, SoilstatsWarning)]
@@ -541,12 +581,9 @@ def run(args: argparse.Namespace) -> int:
             "sampler reached extreme parameter values (an improper or very wide posterior)"
         )
     ours += extrapolation_warnings(widths, _tested_widths(args, campaign), models)
-    for text in ours:
+    for text in [*ours, *pooled_warnings]:
         print(f"WARNING: {text}", file=sys.stderr)
-    for text in pooled_warnings:
-        print(f"WARNING: {text}", file=sys.stderr)
-    health = {r.model_name: r.least_squares_health() for r in results}
-    for model, flags in health.items():
+    for model, flags in handout.least_squares_health.items():
         if flags:
             codes = ", ".join(sorted({f["code"] for f in flags}))
             print(
@@ -555,74 +592,83 @@ def run(args: argparse.Namespace) -> int:
                 "posterior.json, least_squares_health; soilstats identify --verbose)",
                 file=sys.stderr,
             )
-    if args.population:
-        # A population's scatter takes up what differs between tests and the model cannot
-        # follow: plates that disagree on n would be handed out as scatter between
-        # preparations (GRC-1's Bekker: a stiffness sd of 5.8x). A residual pattern every
-        # test shares moves the mean curve, not the scatter: that stays a warning.
-        failures += [
-            f"{model}: its least-squares fit is flagged plate-exponents, so the population's "
-            "scatter would take up the model's misfit between plate sizes as scatter between "
-            f"preparations ({f['message']})"
-            for model, flags in health.items()
-            for f in flags
-            if f["code"] == "plate-exponents"
-        ]
+    return ours
+
+
+def _decide_and_write(
+    args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance
+) -> int:
+    """The library's decision on the draws, printed; the files written where it allows."""
+    import pandas as pd
+
+    from ..bayes.handout import hand_out
+
+    out = Path(args.out)
+    handout = hand_out(results, widths, seed=args.seed, population=args.population)
+    kept = handout.draws
+    # What a user is handed (draws.csv) is what the summary describes; diagnostics stay the
+    # chains' (a review: k's interval started at a draw with n < 0 that draws.csv left out).
+    table = pd.concat(
+        [r.summary_table(0.9, kept).assign(model=r.model_name, kind=r.kind) for r in results]
+    )
+    table.index.name = "quantity"
+    failures = list(handout.failures)
+    export = _export(args, models, results, kept, stated, campaign) if args.simulator else None
+    if export is not None and not export.check.passed:
+        failures += _export_failures(args.simulator, export.check)
+    ours = _warnings(caught, widths, args, campaign, models, handout, pooled_warnings)
     if failures and not args.force:
-        for text in failures:
-            print(f"error: {text}", file=sys.stderr)
-        if export is not None and len(failures) == len(export.check.problems()):
-            print(
-                f"error: nothing written to {out}: the posterior draws passed their checks, but "
-                f"their {args.simulator} parameter sets break the simulator's constraints. "
-                "Apply the fix above, or pass --force to write them anyway (marked FORCED)",
-                file=sys.stderr,
-            )
-            return 2
-        advice = (
-            "select fewer conditions, window the data (--z-max), state narrower --prior "
-            "ranges, or pass --force to write them anyway (marked FORCED; unphysical draws are "
-            "left out)"
-        )
-        if args.population:
-            # Where the tests agree to within their noise, the scatter sds (sd_p_ref,
-            # sd_n; sd_strength, sd_lnK) pile up at 0, the boundary of their support, and
-            # the chains mix badly there (a review: R-hat up to 2.0 on zero-scatter data).
-            advice = (
-                "With --population: if the tests agree to within their noise, the scatter "
-                "sds sit at 0 and the chains cannot mix there; the pooled posterior (without "
-                f"--population) is then the model the data support. Otherwise {advice}"
-            )
-        else:
-            advice = advice[0].upper() + advice[1:]
-        print(
-            f"error: nothing written to {out}: these draws are not fit for a rover Monte Carlo. "
-            f"{advice}",
-            file=sys.stderr,
-        )
-        return 2
-    forced = bool(failures)
-    record = json_safe(
+        simulator_only = export is not None and len(failures) == len(export.check.problems())
+        return _refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
+    from ..report import json_safe
+
+    record = _record(args, models, results, handout, failures, ours, pooled_warnings, provenance)
+    if export is not None:
+        record = json_safe(record | {"simulator": export.record()})
+    _write(out, args, results, record, table, kept, provenance)
+    if export is not None:
+        _write_export(out, export, record, handout.support, provenance, args)
+    _print(args, out, results, record, table, handout)
+    if failures:
+        print("WARNING: FORCED — written although: " + "; ".join(failures), file=sys.stderr)
+        return 1
+    return 0
+
+
+def _record(args, models, results, handout, failures, ours, pooled_warnings, provenance) -> dict:
+    """posterior.json: the run, the decision and what it rests on."""
+    from ..report import json_safe
+
+    decision = handout.to_dict()
+    return json_safe(
         {
             "soil": args.soil,
             "models": models,
             "kind": [r.kind for r in results],
-            "converged": converged,
-            "forced": forced,
+            "converged": all(r.converged for r in results),
+            "forced": bool(failures),
             "failures": failures,
-            "support": support.to_dict(),
-            "draws_written": len(kept),
-            "negative_modulus_below_m": negative_modulus_width(kept),
+            "support": decision["support"],
+            "draws_written": decision["draws_written"],
+            "negative_modulus_below_m": decision["negative_modulus_below_m"],
             "priors": {r.model_name: r.idata.posterior.attrs.get("priors", "") for r in results},
             "pooling_warnings": pooled_warnings,
-            "least_squares_health": health,
+            "least_squares_health": decision["least_squares_health"],
             "warnings": ours,
             "selection": list(args.select or []),
             "provenance": provenance.to_dict(),
         }
-        | ({"simulator": export.record()} if export is not None else {})
     )
-    prov = provenance.to_dict() | {"forced": forced}
+
+
+def _write(out: Path, args, results, record: dict, table, kept, provenance) -> None:
+    """posterior*.nc, draws.csv, summary.csv, posterior.json and report.pdf."""
+    import json
+
+    from ..report import json_safe, output_path, write_atomic, write_csv
+    from ..report.posterior_pdf import write_report
+
+    prov = provenance.to_dict() | {"forced": record["forced"]}
     for i, res in enumerate(results):
         name = "posterior.nc" if i == 0 else f"posterior_{res.model_name}.nc"
         # netCDF attributes take no None: the record travels as JSON strings.
@@ -638,8 +684,14 @@ def run(args: argparse.Namespace) -> int:
         output_path(out, "posterior.json", overwrite=True), json.dumps(record, indent=2) + "\n"
     )
     write_report(results, out / "report.pdf", record=record, provenance=provenance, handed_out=kept)
-    if export is not None:
-        _write_export(out, export, record, support, provenance, args)
+
+
+def _print(args, out: Path, results, record: dict, table, handout) -> None:
+    """The summary on stdout (or one JSON object with --json), and the notes on stderr."""
+    import json
+
+    from ..report import json_safe
+
     if args.json:
         print(
             json.dumps(
@@ -651,19 +703,15 @@ def run(args: argparse.Namespace) -> int:
         )
     else:
         for res in results:
-            print(res.summary(handed_out=kept))
-        print(f"Physical support: {support.describe()}")
-    pooled_only = [m for m in models if not _has_population(m)]
+            print(res.summary(handed_out=handout.draws))
+        print(f"Physical support: {handout.support.describe()}")
+    pooled_only = [m for m in record["models"] if not _has_population(m)]
     if args.population and pooled_only:
         print(
             f"note: {', '.join(pooled_only)} has no population model (no per-test curve to "
             "scatter); its block is the pooled posterior",
             file=sys.stderr,
         )
-    if forced:
-        print("WARNING: FORCED — written although: " + "; ".join(failures), file=sys.stderr)
-        return 1
-    return 0
 
 
 def main(argv: list[str] | None = None) -> int:

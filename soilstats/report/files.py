@@ -85,8 +85,11 @@ def _refuse_link(path: Path) -> None:
         )
 
 
-def output_path(folder: str | Path, filename: str, *, overwrite: bool = False) -> Path:
-    """The path ``folder/filename``, checked and with ``folder`` created.
+def output_path(
+    folder: str | Path, filename: str, *, overwrite: bool = False, create: bool = True
+) -> Path:
+    """The path ``folder/filename``, checked and with ``folder`` created (``create=False``:
+    checked only, so that a command refused later leaves no empty folder behind).
 
     ``folder`` itself may be a link to a folder (the user named it); the file in it may not
     be a link at all.
@@ -114,7 +117,8 @@ def output_path(folder: str | Path, filename: str, *, overwrite: bool = False) -
         )
     if folder.exists() and not folder.is_dir():
         raise NotADirectoryError(20, "not a folder", str(folder))
-    folder.mkdir(parents=True, exist_ok=True)
+    if create:
+        folder.mkdir(parents=True, exist_ok=True)
     path = folder / filename
     _refuse_link(path)
     if path.is_dir():
