@@ -81,3 +81,20 @@ def test_draws_refused_after_sampling_leave_no_folder(tmp_path, monkeypatch, cap
     assert main(argv) == 2
     assert "a planted failure" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_the_same_posterior_run_writes_a_byte_identical_netcdf(tmp_path, monkeypatch):
+    """No clock in posterior.nc (ArviZ's created_at only with SOURCE_DATE_EPOCH)."""
+    out = tmp_path / "nc"
+    argv = ["posterior", "--data", "grc1-oravec2009", "--model", "bernstein"]
+    argv += ["--select", "radius_m=0.051", "--out", str(out), "--progress", "off", "--overwrite"]
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    assert main(argv) == 0
+    first = (out / "posterior.nc").read_bytes()
+    time.sleep(1.1)  # a clock read would now differ
+    assert main(argv) == 0
+    assert (out / "posterior.nc").read_bytes() == first
+    assert b"created_at" not in first
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
+    assert main(argv) == 0
+    assert b"2026-01-01T00:00:00+00:00" in (out / "posterior.nc").read_bytes()

@@ -5,7 +5,6 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import replace
-from datetime import UTC, datetime
 
 import numpy as np
 import xarray as xr
@@ -283,8 +282,12 @@ def _check_start_in_prior(spec, theta0: np.ndarray, problem: PooledProblem) -> N
 
 
 def _attrs(problem: PooledProblem) -> dict:
-    return {
-        "created_at": datetime.now(UTC).isoformat(timespec="seconds"),
+    """The posterior group's attributes. No clock is read: ``created_at`` only where
+    ``SOURCE_DATE_EPOCH`` sets it, so that the same run writes a byte-identical file."""
+    from ..report.provenance import source_date
+
+    date = source_date()
+    return ({"created_at": date} if date else {}) | {
         "inference_library": "emcee",
         "model": problem.model.name,
         "equation": problem.model.equation,
