@@ -75,3 +75,13 @@ def test_fits_and_studies_show_their_summary_as_tables_in_a_notebook():
     study = run_study(load_spec("velocity"), load_campaign("simulated-paper"))
     page = study._repr_html_()
     assert "Verdicts" in page and all(v in page for v in study.effects["verdict"])
+
+
+def test_numbers_are_printed_on_a_scale_that_shows_them():
+    """A σ larger than the value no longer hides it: once '(0.0 ± 1.4)e13'."""
+    from soilstats.identification.table import format_value
+
+    assert format_value(1.0e11, 1.4e13) == "1e11 ± 1.4e13"
+    assert format_value(-2.5e-4, 3.1e-2) == "-0.00025 ± 0.031"
+    assert format_value(1.2e6, 3.0e4) == "(1.200 ± 0.030)e6"
+    assert format_value(0.8251, 0.0077) == "0.8251 ± 0.0077"

@@ -12,10 +12,24 @@ from ..fitting.result import FitResult
 __all__ = ["format_parameter_table", "format_value", "parameter_table", "shown_stderr"]
 
 
+def _sci(x: float, digits: int) -> str:
+    """``x`` with ``digits`` significant digits, ``1.2e11`` rather than ``1.2e+11``."""
+    text = f"{x:.{digits}g}"
+    if "e" in text:
+        mantissa, exp = text.split("e")
+        text = f"{mantissa}e{int(exp)}"
+    return text
+
+
 def format_value(value: float, sigma: float) -> str:
-    """``value ± σ`` with σ to two significant digits and the value to the same decimal."""
+    """``value ± σ`` with σ to two significant digits and the value to the same decimal.
+
+    Where σ exceeds the value's size, each is printed on its own scale (``1.0e11 ± 1.4e13``):
+    on the σ's decimal the value would read ``(0.0 ± 1.4)e13``, hiding it."""
     if not np.isfinite(sigma) or sigma <= 0:
         return f"{value:.4g} ± {sigma:.2g}"
+    if sigma > abs(value) and value != 0:
+        return f"{_sci(value, 2)} ± {_sci(sigma, 2)}"
     exponent = int(np.floor(np.log10(max(abs(value), sigma))))
     if -3 <= exponent < 5:
         decimals = max(0, 1 - int(np.floor(np.log10(sigma))))

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from ..bayes.result import PosteriorResult
 from ..identification.table import format_value
 from ..models import get_model
@@ -37,12 +39,27 @@ def _estimates(res: PosteriorResult, prob: float, handed_out=None) -> list:
         row = table.loc[name]
         unit = res.units.get(name, "")
         unit = "" if unit in ("", "-") else f" {unit}"
+        if row[lo] > 0 and row[hi] > DECADES * row[lo]:
+            # Spanning decades: mean ± sd says nothing there (a review: "(0.0 ± 1.4)e13");
+            # the median and the interval on the log scale do.
+            median = float(np.sqrt(row[lo] * row[hi])) if "median" not in row else row["median"]
+            parts += [
+                parameter_symbol(name),
+                f" spans {np.log10(row[hi] / row[lo]):.1f} decades: log10 of it "
+                f"{np.log10(row[lo]):.2f} to {np.log10(row[hi]):.2f} ({prob:.0%} interval, "
+                f"{row[lo]:.2g} to {row[hi]:.2g}{unit}; geometric middle {median:.2g}); ",
+            ]
+            continue
         parts += [
             parameter_symbol(name),
             f" = {format_value(row['mean'], row['sd'])}{unit} "
             f"({prob:.0%} interval {row[lo]:.4g} to {row[hi]:.4g}); ",
         ]
     return parts
+
+
+#: An interval whose ends are more than this factor apart is shown on the log scale.
+DECADES = 100.0
 
 
 def _caveats(results, record: dict) -> list[str]:
