@@ -198,7 +198,10 @@ def test_check_cli_json_and_identify_json_schema(capsys):
     assert set(first) == {"test_id", "kind", "flags", "phases"}
     assert [p["phase"] for p in first["phases"]] == ["approach", "contact", "loading", "failure"]
     assert {"code", "rows", "message"} <= set(first["flags"][0])
-    assert set(document["codes"]) == set(CODES)
+    assert set(document["codes"]) == set(document["counts"]) and set(document["codes"]) <= set(
+        CODES
+    )
+    assert document["documentation"] == "docs/quality.md"
     assert main(["identify", "--data", "grc1-oravec2009", "--json", "--test-resamples", "20"]) == 0
     fits = json.loads(capsys.readouterr().out)["fits"]
     need = {"soil", "condition", "model", "params", "stderr", "stderr_tests", "health"}

@@ -256,7 +256,14 @@ class QualityReport:
                 "excluded_samples": len(self.excluded),
                 "proposed_windows": self.proposed_windows().to_dict("records"),
                 "proposed_z_max": " ".join(self.proposed_windows()["z_max_item"]).split(),
-                "codes": {c.code: {"what": c.what, "action": c.action} for c in CODES.values()},
+                # The codes found, with what each means and what to do; every rule, its
+                # thresholds and measured rates: docs/quality.md.
+                "codes": {
+                    c.code: {"what": c.what, "action": c.action}
+                    for c in CODES.values()
+                    if c.code in self.counts
+                },
+                "documentation": "docs/quality.md",
             }
         )
 
