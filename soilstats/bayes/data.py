@@ -40,7 +40,9 @@ def pooled_problem(
     """
     spec = get_model(model)
     if spec.kind == "sinkage":
-        fit = fit_sinkage(campaign, spec, points_per_test=points_per_test, **selection)
+        fit = fit_sinkage(
+            campaign, spec, points_per_test=points_per_test, test_resamples=0, **selection
+        )
         pooled = pool_sinkage(campaign, points_per_test=points_per_test, **selection)
         problem = PooledProblem(
             model=spec,
@@ -55,7 +57,7 @@ def pooled_problem(
         )
         return problem, fit
     if spec.kind == "shear":
-        fit = fit_shear(campaign, spec, **selection)
+        fit = fit_shear(campaign, spec, test_resamples=0, **selection)
         pooled = pool_shear(
             campaign,
             steady_only=spec.steady_state,

@@ -135,7 +135,9 @@ def sample_population(
         fits = shear_tests(problem)
     else:
         pooled = pool_sinkage(campaign, points_per_test=points_per_test, **selection)
-        lsq = fit_sinkage(campaign, spec, points_per_test=points_per_test, **selection)
+        lsq = fit_sinkage(
+            campaign, spec, points_per_test=points_per_test, test_resamples=0, **selection
+        )
         fits = sinkage_tests(pooled, spec)
     t = len(fits.test_ids)
     if t < 3:

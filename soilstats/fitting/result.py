@@ -191,9 +191,9 @@ class FitResult:
         if not 0 < alpha < 1:
             raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
         t = stdtrit(self.dof, 1 - alpha / 2)
-        return pd.DataFrame(
-            {"lower": self.params - t * self.stderr, "upper": self.params + t * self.stderr}
-        )
+        # Eq. 4's σ with the samples' degrees of freedom (a subclass's stderr may be another)
+        sigma = pd.Series(self.stderr_values, index=self._index)
+        return pd.DataFrame({"lower": self.params - t * sigma, "upper": self.params + t * sigma})
 
     # -- the fitted curve, as lmfit's ModelResult gives it --------------------------------
     def eval(self, x) -> np.ndarray:
@@ -289,6 +289,23 @@ class FitResult:
             }
         )
 
+    def _summary_parameters(self) -> list[str]:
+        """The parameter lines of :meth:`summary`: value, σ (Eq. 3), relative σ, the 95 %
+        t-interval and the unit."""
+        lines = [
+            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} "
+            f"{'95% CI (t)':>25}  unit"
+        ]
+        ci = self.conf_int(0.05)
+        for name, v, s in zip(self.param_names, self.values, self.stderr_values, strict=True):
+            rel = abs(s / v) if v != 0 else np.inf
+            lines.append(
+                f"{name:>8} {v:>14.6g} {s:>14.4g} {rel:>8.2%} "
+                f"[{ci.loc[name, 'lower']:>11.5g},{ci.loc[name, 'upper']:>11.5g}]  "
+                f"{self.units.get(name, '')}"
+            )
+        return lines
+
     def summary(self) -> str:
         """A fit report in the manner of lmfit and statsmodels, ending with numbered notes."""
         width = 78
@@ -303,18 +320,8 @@ class FitResult:
             f"{'Jacobian:':<18}{self.jacobian_method:<12}{'cond(J):':<14}"
             f"{self.condition_number:.3g}",
             "-" * width,
-            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} "
-            f"{'95% CI (t)':>25}  unit",
+            *self._summary_parameters(),
         ]
-        ci = self.conf_int(0.05)
-        for name in self.param_names:
-            v, s = self.params[name], self.stderr[name]
-            rel = abs(s / v) if v != 0 else np.inf
-            lines.append(
-                f"{name:>8} {v:>14.6g} {s:>14.4g} {rel:>8.2%} "
-                f"[{ci.loc[name, 'lower']:>11.5g},{ci.loc[name, 'upper']:>11.5g}]  "
-                f"{self.units.get(name, '')}"
-            )
         if len(self.params) > 1:
             lines.append("-" * width)
             lines.append("Correlations:")

@@ -35,6 +35,9 @@ __all__ = ["TestBootstrap", "bootstrap_tests", "test_bootstrap"]
 #: Below this many tests a bootstrap over tests says little (and resamples often hold a
 #: single plate size); the fit says so instead of reporting a number.
 MIN_TESTS = 5
+#: Resamples of the test bootstrap a fit runs by default (``test_resamples="auto"``): the
+#: test-level stderr's own sd is then within ~5 % (√(1/(2·200))), at ~10 ms a fit.
+DEFAULT_RESAMPLES = 200
 
 #: A resample whose tests span less than this share of the campaign's range of the design
 #: input (plate size b for Bekker and Reece, normal pressure σ for shear) cannot separate
@@ -211,12 +214,18 @@ def _spans_design(design, test_index, n_tests: int, counts: np.ndarray) -> np.nd
     return highest - lowest >= MIN_DESIGN_SPREAD * full
 
 
-def test_bootstrap(model, x, pooled, fit, n_resamples: int, seed: int, notes: list):
+def test_bootstrap(model, x, pooled, fit, n_resamples, seed: int, notes: list):
     """The bootstrap of a pooled fit, or None (0 resamples, or too few tests: said in
-    ``notes``).  Resamples start from the fit's estimate."""
+    ``notes`` when resamples were asked for).  Resamples start from the fit's estimate.
+
+    ``n_resamples="auto"``: :data:`DEFAULT_RESAMPLES` where the fit rests on
+    :data:`MIN_TESTS` tests or more — its stderr is then the test-level one
+    (docs/conventions.md) — and none below (the fit's ``few-tests`` flag says why)."""
+    n_tests = np.unique(pooled.test_index).size
+    if n_resamples == "auto":
+        n_resamples = DEFAULT_RESAMPLES if n_tests >= MIN_TESTS else 0
     if n_resamples <= 0:
         return None
-    n_tests = np.unique(pooled.test_index).size
     if n_tests < MIN_TESTS:
         notes.append(
             f"no test-level stderr: {plural(n_tests, 'test')} {'is' if n_tests == 1 else 'are'} "

@@ -77,15 +77,40 @@ class CampaignFit(FitResult):
         """Test-level standard errors (cluster bootstrap over tests), or None if not run."""
         return None if self.bootstrap is None else self.bootstrap.stderr
 
-    def conf_int(self, alpha: float = 0.05, *, level: str = "samples") -> pd.DataFrame:
+    @property
+    def stderr_level(self) -> str:
+        """``"tests"`` where :attr:`stderr` is the test-level σ (the fit rests on
+        :data:`~.bootstrap.MIN_TESTS` tests or more and the test bootstrap ran), else
+        ``"eq4"``."""
+        usable = self.bootstrap is not None and len(self.bootstrap.draws) > 1
+        return "tests" if usable and self.n_tests >= MIN_TESTS else "eq4"
+
+    @cached_property
+    def stderr(self) -> pd.Series:
+        """σ of each parameter: the test-level one (``stderr_tests``) where the fit rests on
+        five tests or more and the bootstrap ran — what a new campaign of the same design
+        would scatter by — else Eq. 4's (``stderr_eq4``). docs/conventions.md."""
+        if self.stderr_level == "tests":
+            return self.stderr_tests.rename("stderr")
+        return self.stderr_eq4
+
+    @cached_property
+    def stderr_eq4(self) -> pd.Series:
+        """Eq. 4's σ (Eq. 3 from the covariance of Eqs. 4–5): the samples as the unit of
+        replication. Printed beside :attr:`stderr` where the paper's tables are reproduced."""
+        return pd.Series(self.stderr_values, index=self._index, name="stderr_eq4")
+
+    def conf_int(self, alpha: float = 0.05, *, level: str = "auto") -> pd.DataFrame:
         """Two-sided (1 − alpha) intervals θ̂ ± t·σ.
 
         ``level="samples"``: Eq. 4's σ with t(N − Np), as :meth:`FitResult.conf_int` — right
         when the samples are the unit of replication.  ``level="tests"``: the test-level σ
         (``stderr_tests``, cluster bootstrap) with t(T − 1) for T tests, the usual small-
-        sample allowance for a cluster-level standard error — the interval to quote when
-        ``test-scatter`` is flagged.  Needs ``test_resamples`` > 0.
+        sample allowance for a cluster-level standard error.  ``"auto"`` (default): the
+        level of :attr:`stderr`.
         """
+        if level == "auto":
+            level = "tests" if self.stderr_level == "tests" else "samples"
         if level == "samples":
             return super().conf_int(alpha)
         if level != "tests":
@@ -148,6 +173,9 @@ class CampaignFit(FitResult):
 
     def to_dict(self) -> dict:
         out = super().to_dict() | {"tests": self.n_tests, "stderr_tests": None}
+        out["stderr"] = json_safe(dict(self.stderr))
+        out["stderr_eq4"] = json_safe(dict(self.stderr_eq4))
+        out["stderr_level"] = self.stderr_level
         if self.bootstrap is not None:
             out["stderr_tests"] = json_safe(dict(self.stderr_tests))
         out["quality"] = self.data.get("quality")
@@ -155,28 +183,48 @@ class CampaignFit(FitResult):
         out["excluded"] = self.data.get("excluded", [])
         return out
 
+    def _summary_parameters(self) -> list[str]:
+        """The parameter lines: value, ``stderr`` (test-level where the fit rests on five
+        tests or more, else Eq. 4's, said in the header), Eq. 4's beside a test-level one,
+        and the 95 % t-interval of ``stderr``'s level."""
+        if self.stderr_level != "tests":
+            return super()._summary_parameters()
+        bs = self.bootstrap
+        lines = [
+            f"{'param':>8} {'value':>14} {'stderr':>11} {'Eq. 4':>11} {'rel.':>8} "
+            f"{f'95% CI (t, {bs.n_tests - 1} dof)':>27}  unit"
+        ]
+        ci = self.conf_int(0.05)
+        for name in self.param_names:
+            v, s, e = self.params[name], self.stderr[name], self.stderr_eq4[name]
+            rel = abs(s / v) if v != 0 else np.inf
+            lines.append(
+                f"{name:>8} {v:>14.6g} {s:>11.4g} {e:>11.4g} {rel:>8.2%} "
+                f"[{ci.loc[name, 'lower']:>12.5g},{ci.loc[name, 'upper']:>12.5g}]  "
+                f"{self.units.get(name, '')}"
+            )
+        return lines
+
     def summary(self) -> str:
         text = super().summary()
         head, _, tail = text.rpartition("Health:")
         text = head + f"Window: {self.window}\n" + "Health:" + tail
-        if self.bootstrap is None:
-            return text
-        bs = self.bootstrap
-        lines = [
-            f"Test-level stderr (cluster bootstrap: {bs.n_resamples} resamples of "
-            f"{bs.n_tests} tests, seed {bs.seed}, {bs.n_failed} failed: not converged or "
-            "not determined):"
-        ]
-        ratio = self.stderr_tests / self.stderr
-        ci = self.conf_int(0.05, level="tests")
-        lines += [
-            f"  {name:>8} {self.stderr_tests[name]:>14.4g}   {ratio[name]:5.2f} × Eq. 4   "
-            f"95% CI (t, {bs.n_tests - 1} dof) [{ci.loc[name, 'lower']:.5g}, "
-            f"{ci.loc[name, 'upper']:.5g}]"
-            for name in self.param_names
-        ]
-        head, _, tail = text.rpartition("Health:")
-        return head + "\n".join(lines) + "\nHealth:" + tail
+        if self.stderr_level == "tests":
+            bs = self.bootstrap
+            sigma = (
+                f"stderr: the test-level σ, sd of the estimates over {bs.n_resamples} "
+                f"resamples of the {bs.n_tests} tests (cluster bootstrap, seed {bs.seed}, "
+                f"{bs.n_failed} failed); Eq. 4's σ (samples as the unit) beside it."
+            )
+        elif self.n_tests < MIN_TESTS:
+            sigma = (
+                f"stderr: Eq. 4's σ: {plural(self.n_tests, 'test')} cannot measure the scatter "
+                "between repeated tests, which it leaves out."
+            )
+        else:
+            sigma = "stderr: Eq. 4's σ (no test bootstrap was run: test_resamples=0)."
+        head, _, tail = text.rpartition("Notes:")
+        return f"{head}{sigma}\nNotes:{tail}" if tail else f"{text}\n{sigma}"
 
 
 #: Screening codes that are findings of a fit (the samples of the excluded codes are left out
@@ -337,6 +385,28 @@ def _few_tests(pooled: PooledData) -> list[HealthFlag]:
     ]
 
 
+def _sign_decided_by_eq4_only(fit: FitResult, sd: pd.Series, n_tests: int) -> list[str]:
+    """The signed parameters whose sign Eq. 4's 95 % interval decides and the test-level
+    one does not (both intervals in words), where the test-level σ is the larger by more
+    than :data:`DISAGREEMENT`: the one conclusion the two σ can differ on for a fit."""
+    eq4 = fit.conf_int(0.05)
+    t = stdtrit(max(n_tests - 1, 1), 0.975)
+    out = []
+    for name in fit.param_names:
+        if name not in _signed() or not np.isfinite(sd[name]):
+            continue
+        if not sd[name] > DISAGREEMENT * fit.stderr[name]:
+            continue
+        lo, hi = eq4.loc[name, "lower"], eq4.loc[name, "upper"]
+        v = fit.params[name]
+        t_lo, t_hi = v - t * sd[name], v + t * sd[name]
+        if (lo > 0 or hi < 0) and t_lo <= 0 <= t_hi:
+            out.append(
+                f"{name} ({lo:.3g} to {hi:.3g}), the tests do not ({t_lo:.3g} to {t_hi:.3g})"
+            )
+    return out
+
+
 def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], list[HealthFlag]]:
     notes = [
         f"stderr_tests: sd of the estimates over {bs.n_resamples} resamples of the "
@@ -352,12 +422,18 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
         if np.isfinite(r) and r > DISAGREEMENT
     ]
     if off:
+        notes.append(
+            f"The tests scatter more than their samples say: the test-level σ is more than "
+            f"{DISAGREEMENT:g}× Eq. 4's ({', '.join(off)})"
+            + ("; stderr is the test-level σ." if bs.n_tests >= MIN_TESTS else ".")
+        )
+    decided = _sign_decided_by_eq4_only(fit, sd, bs.n_tests)
+    if decided:
         flags.append(
             HealthFlag(
                 "test-scatter",
-                "the test-level stderr exceeds Eq. 4's by more than "
-                f"{DISAGREEMENT:g}× ({', '.join(off)}): the tests scatter more than their "
-                "samples say; quote stderr_tests, not stderr",
+                f"Eq. 4's σ would decide the sign of {'; '.join(decided)}: quote stderr (the "
+                "test-level σ), never stderr_eq4, for that sign",
             )
         )
     stability = bs.sign_stability()

@@ -28,7 +28,7 @@ def fit_shear(
     weighting: Literal["none", "max-stress"] | None = None,
     p0=None,
     on_failure: Literal["raise", "warn"] = "raise",
-    test_resamples: int = 0,
+    test_resamples: int | Literal["auto"] = "auto",
     seed: int = 0,
     quality: Literal["off", "flag", "clean"] = "clean",
     **selection,
@@ -44,8 +44,9 @@ def fit_shear(
     whether it fits the steady-state parts (``Model.steady_state``, solved in closed form
     through ``Model.linear_form``) or whole records (weighted LM from ``Model.start``), and
     its default weighting.
-    ``test_resamples`` and ``seed`` run the cluster bootstrap over tests behind
-    ``stderr_tests``, as in :func:`fit_sinkage`; ``quality`` as there.
+    ``test_resamples`` and ``seed`` run the cluster bootstrap over tests that gives the
+    test-level ``stderr`` of a fit on five tests or more, as in :func:`fit_sinkage`;
+    ``quality`` as there.
     """
     spec = get_model(model, "shear")
     if weighting is None:

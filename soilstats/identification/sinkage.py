@@ -75,7 +75,7 @@ def fit_sinkage(
     weighting: Literal["max-pressure", "none"] = "max-pressure",
     p0=None,
     on_failure: Literal["raise", "warn"] = "raise",
-    test_resamples: int = 0,
+    test_resamples: int | Literal["auto"] = "auto",
     seed: int = 0,
     quality: Literal["off", "flag", "clean"] = "clean",
     window: FitWindow | None = None,
@@ -98,10 +98,12 @@ def fit_sinkage(
         See :func:`pool_sinkage`.
     p0 : sequence, optional
         Starting values; by default Wong's estimate (a closed-form linear solve).
-    test_resamples : int, default 0
-        Resamples of the cluster bootstrap over tests that gives ``stderr_tests`` (and the
-        ``test-scatter`` flag when it exceeds Eq. 4's stderr by more than 2×); 0: none.
-        1000 is a good choice; it costs well under a second for a paper-size problem.
+    test_resamples : int or "auto", default "auto"
+        Resamples of the cluster bootstrap over tests. Where the fit rests on five tests or
+        more, ``stderr`` is the test-level σ this gives (Eq. 4's stays as ``stderr_eq4``;
+        docs/conventions.md); "auto" runs 200 resamples there (~10 ms) and none below five
+        tests (``stderr`` is then Eq. 4's, and the ``few-tests`` flag says the scatter
+        between tests was not measured); 0: never (``stderr`` is Eq. 4's).
     seed : int, default 0
         Seed of the bootstrap.
     quality : {"off", "flag", "clean"}, default "clean"

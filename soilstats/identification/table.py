@@ -39,8 +39,9 @@ def format_value(value: float, sigma: float) -> str:
     return f"({value / scale:.{digits}f} ± {sigma / scale:.{digits}f})e{exponent}"
 
 
-#: Marks a cell whose ± is the test-level σ (see :func:`shown_stderr`).
-TEST_LEVEL_MARK = "*"
+#: Marks a cell whose ± is Eq. 4's σ: its fit rests on fewer than five tests, so the scatter
+#: between repeated tests could not be measured (see :func:`shown_stderr`).
+EQ4_MARK = "†"
 #: Marks a cell whose fit is flagged ``bootstrap-unstable``: no σ of it may be quoted.
 UNSTABLE_MARK = "!"
 
@@ -54,18 +55,14 @@ def _stderr_tests(fit: FitResult) -> pd.Series | None:
 
 
 def shown_stderr(fit: FitResult) -> tuple[pd.Series, bool]:
-    """The σ a table shows beside the estimates, and whether it is the test-level one.
-
-    Eq. 4's σ, unless the fit is flagged ``test-scatter`` (its tests scatter more than its
-    samples say): then ``stderr_tests``, the σ that flag tells the user to quote."""
-    tests = _stderr_tests(fit)
-    if tests is not None and any(f.code == "test-scatter" for f in fit.flags):
-        return tests, True
-    return fit.stderr, False
+    """The σ a table shows beside the estimates (the fit's ``stderr``: test-level where it
+    rests on five tests or more, docs/conventions.md), and whether it is Eq. 4's."""
+    return fit.stderr, getattr(fit, "stderr_level", "eq4") != "tests"
 
 
 def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
-    """Tidy table: one row per condition and parameter (value, stderr, stderr_tests where a
+    """Tidy table: one row per condition and parameter (value, stderr — test-level where
+    the fit rests on five tests or more —, stderr_eq4, stderr_level, stderr_tests where a
     test bootstrap ran, unit, epsilon, tests, flags)."""
     rows = []
     for label, fit in fits.items():
@@ -77,6 +74,8 @@ def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
                     "parameter": name,
                     "value": fit.params[name],
                     "stderr": fit.stderr[name],
+                    "stderr_eq4": fit.stderr_values[fit.param_names.index(name)],
+                    "stderr_level": getattr(fit, "stderr_level", "eq4"),
                     "stderr_tests": np.nan if tests_sd is None else tests_sd[name],
                     "unit": fit.units.get(name, ""),
                     "epsilon": fit.epsilon,
@@ -90,9 +89,10 @@ def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
 def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> str:
     """Render ``fits`` as the paper's Table 5: parameters in rows, conditions in columns.
 
-    Each cell is value ± Eq. 4's σ, or ± the test-level σ marked ``*`` where the fit is
-    flagged ``test-scatter`` (:func:`shown_stderr`; a footnote says so); ``!`` marks the
-    cells of a fit flagged ``bootstrap-unstable``, whose σ that flag says not to quote."""
+    Each cell is value ± the fit's ``stderr``: the test-level σ where it rests on five tests
+    or more, else Eq. 4's, marked ``†`` (:func:`shown_stderr`; a footnote says so); ``!``
+    marks the cells of a fit flagged ``bootstrap-unstable``, whose σ that flag says not to
+    quote."""
     labels = list(fits)
     first = next(iter(fits.values()))
     names = first.param_names
@@ -106,7 +106,7 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
                 f"{name} [{unit}]",
                 *(
                     format_value(fits[c].params[name], shown[c][0][name])
-                    + (f" {TEST_LEVEL_MARK}" if shown[c][1] else "")
+                    + (f" {EQ4_MARK}" if shown[c][1] else "")
                     + (f" {UNSTABLE_MARK}" if _unstable(fits[c]) else "")
                     for c in labels
                 ),
@@ -136,11 +136,17 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
     out.extend(
         "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)) for row in body
     )
-    if any(test_level for _, test_level in shown.values()):
-        out.append(
-            f"{TEST_LEVEL_MARK} ± the test-level σ (stderr_tests: bootstrap over tests), as "
-            "test-scatter advises; other cells ± Eq. 4's σ"
+    eq4 = [c for c in labels if shown[c][1]]
+    out.append(
+        "± the test-level σ (bootstrap over the tests: what a new campaign of the same design "
+        "scatters by)"
+        + (
+            f"; {EQ4_MARK} ± Eq. 4's σ: fewer than five tests, so the scatter between repeated "
+            "tests could not be measured"
+            if eq4
+            else ""
         )
+    )
     if any(_unstable(fits[c]) for c in labels):
         out.append(
             f"{UNSTABLE_MARK} bootstrap-unstable: the estimate depends on which tests are in the "
