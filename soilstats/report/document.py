@@ -40,6 +40,7 @@ __all__ = ["Document", "Markup", "esc", "math", "strong"]
 PAGE = "a4"
 BODY_PT = 10
 TABLE_PT = 8
+SMALL_PT = 7  # appendix tables and lists: complete, but the reader's last stop
 # Long unbroken tokens (test ids, file paths, column names) get break opportunities after
 # these characters, so that a narrow table cell wraps them instead of overflowing the page.
 _BREAK_AFTER = re.compile(r"([_/.:=,;|\\-])(?=\S)")
@@ -151,9 +152,14 @@ class Document:
         """A bulleted list; an item is text, markup, or a sequence of both."""
         self._list(items, "-", "")
 
-    def numbered(self, items: Iterable[Markup | str | Sequence[Markup | str]]) -> None:
-        """A numbered list ([1], [2], … as in the summaries)."""
-        self._list(items, "+", '#set enum(numbering: "[1]")\n')
+    def numbered(
+        self, items: Iterable[Markup | str | Sequence[Markup | str]], *, small: bool = False
+    ) -> None:
+        """A numbered list ([1], [2], … as in the summaries); ``small`` in appendix print."""
+        setup = '#set enum(numbering: "[1]")\n'
+        if small:
+            setup += f"#set text(size: {SMALL_PT}pt)\n"
+        self._list(items, "+", setup)
 
     def _list(self, items, marker: str, setup: str) -> None:
         lines = []
@@ -192,13 +198,16 @@ class Document:
         labels: dict[str, str | Markup] | None = None,
         formats: dict[str, str] | None = None,
         align_numbers: bool = True,
+        small: bool = False,
+        widths: Sequence[str] | None = None,
     ) -> None:
         """A table of ``frame``: every row, every column, never clipped.
 
         Long tables continue on the next page with the header repeated; wide ones wrap their
         cells. ``labels`` renames columns for the reader (human names with units); ``formats``
         gives a format spec per column (default: 4 significant digits for floats); missing
-        values print as an en dash.
+        values print as an en dash. ``small`` sets it in appendix print (``SMALL_PT``);
+        ``widths`` gives Typst column widths (``"auto"``, ``"1fr"``, ``"22%"``), one per column.
         """
         import pandas as pd
 
@@ -216,12 +225,12 @@ class Document:
                 body.append(f"[{cell.text}]")
         align = ", ".join("right" if numeric[c] and align_numbers else "left" for c in columns)
         table = (
-            f"#table(columns: {len(columns)}, align: ({align},), inset: 3pt, "
+            f"#table(columns: {_columns(widths, len(columns))}, align: ({align},), inset: 3pt, "
             "stroke: (x, y) => if y == 0 { (bottom: 0.6pt) } "
             "else { (bottom: 0.2pt + luma(200)) }, "
             f"table.header({head}), " + ", ".join(body) + ")"
         )
-        table = f"#[#set text(size: {TABLE_PT}pt)\n{table}]"
+        table = f"#[#set text(size: {SMALL_PT if small else TABLE_PT}pt)\n{table}]"
         if caption:
             table = (
                 f"#figure(kind: table, supplement: [Table], caption: {_typst_caption(caption)}, "
@@ -338,6 +347,14 @@ def _close(fig) -> None:
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+def _columns(widths: Sequence[str] | None, n: int) -> str:
+    if widths is None:
+        return str(n)
+    if len(widths) != n:
+        raise ValueError(f"{len(widths)} column widths for {n} columns")
+    return "(" + ", ".join(widths) + ",)"
 
 
 def _typst_caption(caption: str) -> str:

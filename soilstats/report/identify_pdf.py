@@ -1,57 +1,191 @@
 """The PDF report of ``soilstats identify``: parameters per soil and condition, and whether
 each can be used.
 
-Page 1 lists every identified parameter set with σ and fit quality, and says plainly which
-fits carry health flags (and so must not be used as they are). Then the methods with the
-paper's equations, one table per soil and kind (the paper's Tables 5 and 6), every health
-flag with its message, every note and every condition that could not be identified.
-Everything in identify.json is in the PDF.
+Page 1 answers in a few sentences: how many parameter sets, which σ they carry (the
+test-level σ where a set rests on five tests or more, Eq. 4's otherwise), how many carry
+health flags and which. Then one figure per soil and kind (each condition's fitted curve with
+its band), the paper's Tables 5 and 6 (value ± σ, Eq. 4's σ beside it), the methods with the
+paper's equations, and one appendix table each for the health flags and for the notes (the
+notes every fit shares printed once, numbered). Everything in identify.json is in the PDF.
 """
 
 from __future__ import annotations
 
+import re
+from collections import Counter
 from pathlib import Path
 
-from ..identification.table import format_value
+import numpy as np
+
+from .._text import plural
+from ..identification.table import EQ4_MARK, format_value
 from .document import Document, strong
 from .files import output_path
 from .front import data_origin, front_page
-from .labels import natural_key, parameter_symbol
+from .labels import natural_key, parameter_label, parameter_symbol
 from .methods import write_equations
-from .parameters import condition_table
 
 __all__ = ["write_report"]
+
+
+def condition_text(record: dict) -> str:
+    """A condition in words: ``preparation = 1``, or ``all tests``."""
+    condition = record.get("condition")
+    if not condition:
+        return "all tests"
+    if isinstance(condition, dict):
+        return f"{condition.get('column')} = {condition.get('value')}"
+    return str(condition)
 
 
 def _where(record: dict) -> str:
     parts = [record["soil"]]
     if record.get("series"):
         parts.append(f"series {record['series']}")
-    parts.append(f"condition {record['condition']}" if record.get("condition") else "all tests")
+    parts.append(condition_text(record))
     return ", ".join(parts)
 
 
-def _parameter_sentence(record: dict) -> list:
-    values = []
-    for name, value in record["params"].items():
-        unit = record["units"].get(name, "")
-        values += [
-            parameter_symbol(name),
-            f" = {format_value(value, record['stderr'][name])}"
-            + (f" {unit}" if unit and unit != "-" else ""),
-            ", ",
-        ]
-    health = [h["code"] for h in record["health"]]
-    verdict = (
-        "no health flag."
-        if not health
-        else f"health flags {', '.join(health)} — not to be used as it is (see below)."
-    )
-    return [
-        strong(f"{record['kind']} / {_where(record)} ({record['model']}): "),
-        *values,
-        f"ε = {record['epsilon']:.3f} over {record['tests']} tests; {verdict}",
+def _conclusion(records: list[dict], failures: int) -> list:
+    n = len(records)
+    tests_level = sum(d.get("stderr_level") == "tests" for d in records)
+    codes = Counter(h["code"] for d in records for h in d["health"])
+    clean = sum(not d["health"] for d in records)
+    soils = sorted({d["soil"] for d in records}, key=natural_key)
+    out: list = [
+        [
+            strong(f"{plural(n, 'parameter set')} of {plural(len(soils), 'soil')}"),
+            f" ({', '.join(soils)}), identified by the paper's weighted Levenberg–Marquardt "
+            "fit (Eq. 1). ",
+            f"The ± of {tests_level} of them is the test-level σ — the sd over a bootstrap of "
+            "their tests, what a new campaign of the same design would scatter by"
+            + (
+                f"; the other {n - tests_level} rest on fewer than five tests and carry Eq. 4's "
+                f"σ (marked {EQ4_MARK}), which leaves the scatter between tests out."
+                if n > tests_level
+                else "."
+            ),
+        ],
+        (
+            [
+                strong(f"{n - clean} of {n} sets carry health flags: "),
+                ", ".join(f"{code} ({count})" for code, count in codes.most_common())
+                + ". The table of flags at the end says what each means for its set; "
+                "docs/identification.md says what to do.",
+            ]
+            if codes
+            else [strong("No set carries a health flag: "), "each can be used as it is."]
+        ),
     ]
+    if failures:
+        out.append(f"{plural(failures, 'condition')} could not be identified (listed at the end).")
+    return out
+
+
+def _soil_figure(soil: str, pairs: list):
+    """One figure per soil: a panel per kind (sinkage, shear) with every condition's fitted
+    curve and its band (eval_uncertainty: the test-level band where the fit rests on five
+    tests or more), over the depth or stress its data span; each panel's title says how far
+    the conditions' curves lie apart mid-range."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kinds = list(dict.fromkeys(record["kind"] for record, _ in pairs))
+    fig, axes = plt.subplots(1, len(kinds), figsize=(6.4, 2.7), squeeze=False)
+    for ax, kind in zip(axes[0], kinds, strict=True):
+        mine = [(r, f) for r, f in pairs if r["kind"] == kind]
+        series = list(dict.fromkeys(r.get("series") for r, _ in mine))
+        cmap = plt.get_cmap("tab10")
+        middle = []
+        label = ""
+        for record, fit in mine:
+            colour = cmap(series.index(record.get("series")) % 10)
+            # A lone plate-size fit is drawn at each plate it rests on, several at the median.
+            curves = _curve_inputs(kind, fit, every_plate=len(mine) == 1)
+            label = curves[0][3] if curves else label
+            for (x, grid, scale, _), style in zip(curves, ("-", "--", ":", "-."), strict=False):
+                y, band = fit.eval(x), fit.eval_uncertainty(x)
+                ax.plot(grid * scale, y / 1e3, color=colour, lw=0.8, ls=style)
+                ax.fill_between(
+                    grid * scale, (y - band) / 1e3, (y + band) / 1e3, color=colour, alpha=0.08
+                )
+                middle.append(float(y[grid.size // 2]))
+        for i, name in enumerate(series):
+            ax.plot([], [], color=cmap(i % 10), label=name or "all tests")
+        ax.legend(fontsize=5.5, frameon=False)
+        ax.set_xlabel(label, fontsize=7)
+        ax.set_ylabel("p [kPa]" if kind == "sinkage" else "τ [kPa]", fontsize=7)
+        ax.tick_params(labelsize=6)
+        finding = f"{kind}: {plural(len(middle), 'curve')}"
+        if len(mine) == 1 and len(middle) > 1 and min(middle) > 0:
+            trend = "rises" if middle[-1] > middle[0] else "falls"  # plates narrow to wide
+            finding = (
+                f"{kind}: pressure {trend} {max(middle) / min(middle):.2g}× from the "
+                "narrowest plate to the widest"
+            )
+        elif len(middle) > 1 and min(middle) > 0:
+            finding += f" within a factor {max(middle) / min(middle):.2g} mid-range"
+        ax.set_title(finding, fontsize=7)
+    fig.suptitle(soil, fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def _curve_inputs(kind: str, fit, *, every_plate: bool = False) -> list[tuple]:
+    """[(x for ``fit.eval``, the grid plotted, its scale to display units, axis label)]: one
+    curve, or for a plate-size model with ``every_plate`` one per plate width (at most four)."""
+    tests = fit.tests
+    if tests is None or fit.model_func is None:
+        return []
+    if kind == "sinkage":
+        z_max = float(np.nanmax(tests["z_max_m"])) if "z_max_m" in tests else 0.03
+        grid = np.linspace(z_max / 50, z_max, 60)
+        if "b_m" in tests and fit.param_names[0] in ("kc", "k1"):
+            plates = np.unique(tests["b_m"].to_numpy(dtype=float))
+            if not every_plate or plates.size > 4:
+                plates = [float(np.median(tests["b_m"]))]
+            sizes = ", ".join(f"{b * 1e3:.3g}" for b in plates)
+            label = f"sinkage z [mm] (plate b = {sizes} mm: " + (
+                "solid, dashed, …)" if len(plates) > 1 else "the median plate)"
+            )
+            return [(np.vstack([np.full(grid.size, b), grid]), grid, 1e3, label) for b in plates]
+        return [(grid, grid, 1e3, "sinkage z [mm]")]
+    if fit.param_names == ("c", "phi"):
+        top = float(np.nanmax(tests["sigma_mean_Pa"])) if "sigma_mean_Pa" in tests else 2e4
+        grid = np.linspace(0, top, 60)
+        return [(grid, grid, 1e-3, "normal pressure σ [kPa]")]
+    return []
+
+
+def _short(value: float) -> str:
+    """Two significant digits without a plus or leading zeros in the exponent: 8.7e3."""
+    return re.sub(r"e\+?(-?)0*(\d)", r"e\1\2", f"{value:.2g}")
+
+
+def _table_rows(group: list) -> list[dict]:
+    """One row per condition: value ± stderr (Eq. 4's σ in brackets where stderr is the
+    test-level one; † where it is Eq. 4's), ε, tests, health."""
+    rows = []
+    for record, _ in group:
+        row = {"condition": condition_text(record), "model": record["model"]}
+        level = record.get("stderr_level")
+        for name, value in record["params"].items():
+            cell = format_value(value, record["stderr"][name])
+            eq4 = (record.get("stderr_eq4") or {}).get(name)
+            if level == "tests" and eq4 is not None:
+                cell += f" [{_short(eq4)}]"
+            elif level != "tests":
+                cell += f" {EQ4_MARK}"
+            row[name] = cell
+        row |= {
+            "epsilon": record["epsilon"],
+            "tests": record["tests"],
+            "health": ", ".join(h["code"] for h in record["health"]) or "ok",
+        }
+        rows.append(row)
+    return rows
 
 
 def write_report(results, campaign, path: Path, *, provenance=None, overwrite: bool = False) -> int:
@@ -59,21 +193,21 @@ def write_report(results, campaign, path: Path, *, provenance=None, overwrite: b
 
     Returns the number of pages; an existing file is an error unless ``overwrite``.
     """
+    import pandas as pd
+
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
-    records = [f.to_dict() for r in results for f in r.fits]
-    records.sort(key=lambda d: (d["kind"], natural_key(d["soil"]), natural_key(d["condition"])))
+    pairs = [(f.to_dict(), f.fit) for r in results for f in r.fits]
+    pairs.sort(
+        key=lambda p: (p[0]["kind"], natural_key(p[0]["soil"]), natural_key(condition_text(p[0])))
+    )
+    records = [record for record, _ in pairs]
+    failures = [f for r in results for f in r.failures]
     doc = Document(
         "Soil parameters identified from Bevameter tests",
         subtitle="soilstats identify — weighted Levenberg–Marquardt after Apfelbeck et al. (2011)",
         provenance=provenance,
     )
     kinds = tuple(dict.fromkeys(d["kind"] for d in records))
-    flagged = [d for d in records if d["health"]]
-    conclusion: list = [_parameter_sentence(d) for d in records]
-    conclusion.append(
-        f"{len(records) - len(flagged)} of {len(records)} parameter sets carry no health flag"
-        + ("." if not flagged else "; the others must not be used without reading their flags.")
-    )
     front_page(
         doc,
         question=[
@@ -85,52 +219,135 @@ def write_report(results, campaign, path: Path, *, provenance=None, overwrite: b
             data_origin(campaign.source),
             f": {len(campaign.tests)} tests; kinds identified: {', '.join(kinds)}.",
         ],
-        conclusion=conclusion,
+        conclusion=_conclusion(records, len(failures)),
     )
-    doc.page_break()
+    doc.heading("Parameters per soil and condition")
+    doc.note(
+        "In the tables: value ± stderr, the test-level σ, with Eq. 4's σ (the paper's Eqs. "
+        f"3–5) in brackets; {EQ4_MARK}: the set rests on fewer than five tests and its ± is "
+        "Eq. 4's σ, which leaves the scatter between tests out. ε: fit quality (Eq. 2). The "
+        "paper's Tables 5 (sinkage) and 6 (shear) in this form."
+    )
+    for soil, mine in _by_soil(pairs).items():
+        doc.heading(soil, level=2)
+        doc.figure(
+            _soil_figure(soil, mine),
+            f"{soil}: each condition's fitted curve with its one-σ band (the test-level band "
+            "where the fit rests on five tests or more, Eq. 4's otherwise), coloured by series; "
+            "a plate-size model at the plate widths named on its axis.",
+        )
+        for (kind, _, series, model), group in _groups(mine).items():
+            rows = _table_rows(group)
+            names = list(dict.fromkeys(n for row, _ in group for n in row["params"]))
+            units = {n: u for row, _ in group for n, u in row["units"].items()}
+            labels = {n: parameter_label(n, units.get(n, "")) for n in names}
+            labels["epsilon"] = parameter_symbol("epsilon")
+            where = f"{kind} / {soil}" + (f", series {series}" if series else "") + f" ({model})"
+            doc.table(
+                pd.DataFrame(rows),
+                caption=where,
+                labels=labels,
+                formats={"epsilon": ".3f", "tests": ".0f"},
+                align_numbers=False,
+            )
     doc.heading("Methods")
     write_equations(doc, kinds)
-    doc.heading("Parameters per soil and condition")
-    for (kind, soil), group in _groups(records).items():
-        condition_table(
-            doc,
-            (
-                {
-                    "condition": d["condition"] or "all",
-                    "model": d["model"],
-                    **{k: d[k] for k in ("params", "stderr", "units", "epsilon", "tests")},
-                    "converged": d["converged"],
-                    "health": ", ".join(h["code"] for h in d["health"]) or "ok",
-                }
-                for d in group
-            ),
-            caption=f"{kind} / {soil}: value ± σ (Eqs. 3–5), fit quality ε (Eq. 2).",
-        )
-    doc.heading("Health flags and notes per fit")
-    for d in records:
-        doc.heading(f"{d['kind']} / {_where(d)} ({d['model']})", level=2)
-        doc.paragraph(
-            f"{d['method']}; {d['nobs']} samples of {d['tests']} tests; screening "
-            f"{d.get('quality') or 'off'}; window {d.get('window') or 'none'}; converged: "
-            f"{'yes' if d['converged'] else 'NO'}."
-        )
-        if d["health"]:
-            doc.bullets([strong(f"{h['code']}: "), h["message"]] for h in d["health"])
-        if d["notes"]:
-            doc.numbered(d["notes"])
-        if d.get("excluded"):
-            doc.paragraph("Excluded tests: ", ", ".join(map(str, d["excluded"])), ".")
-    failures = [f for r in results for f in r.failures]
-    notes = [n for r in results for n in r.notes]
-    if failures or notes:
-        doc.heading("Conditions not identified and notes")
-        doc.numbered([*failures, *notes])
+    _flags_and_notes(doc, records, failures, [n for r in results for n in r.notes])
     doc.provenance_section()
     return doc.render(path)
 
 
-def _groups(records: list[dict]) -> dict[tuple, list[dict]]:
-    out: dict[tuple, list[dict]] = {}
-    for d in records:
-        out.setdefault((d["kind"], d["soil"]), []).append(d)
+def _flags_and_notes(doc: Document, records: list[dict], failures: list, notes: list) -> None:
+    """One appendix table of every health flag and one of every set's notes: a note two
+    sets or more share is printed once, numbered, and referred to by its number; the method,
+    screening and window are said once where every set shares them."""
+    import pandas as pd
+
+    flags = [
+        {"set": f"{d['kind']} / {_where(d)}", "code": h["code"], "message": h["message"]}
+        for d in records
+        for h in d["health"]
+    ]
+    doc.heading("Appendix: health flags")
+    if flags:
+        doc.table(
+            pd.DataFrame(flags),
+            caption="Every health flag of every parameter set (what to do: "
+            "docs/identification.md).",
+            align_numbers=False,
+            small=True,
+            widths=["26%", "auto", "1fr"],
+        )
+    else:
+        doc.paragraph("No parameter set carries a health flag.")
+    counts = Counter(note for d in records for note in dict.fromkeys(d["notes"]))
+    shared = {note: k for k, note in enumerate((n for n in counts if counts[n] > 1), 1)}
+    settings = {
+        "method": [d["method"] for d in records],
+        "screening": [d.get("quality") or "off" for d in records],
+        "window": [d.get("window") or "none" for d in records],
+    }
+    common = {key: values[0] for key, values in settings.items() if len(set(values)) == 1}
+    rows = []
+    for i, d in enumerate(records):
+        numbers = sorted({shared[n] for n in d["notes"] if n in shared})
+        own = [n for n in d["notes"] if n not in shared]
+        row = {
+            "set": f"{d['kind']} / {_where(d)}",
+            "notes": "; ".join(([f"[{', '.join(map(str, numbers))}]"] if numbers else []) + own)
+            or "–",
+            "samples": d["nobs"],
+        }
+        row |= {key: values[i] for key, values in settings.items() if key not in common}
+        if d.get("excluded"):
+            row["notes"] += "; excluded by screening: " + "; ".join(
+                map(_excluded_text, d["excluded"])
+            )
+        rows.append(row)
+    frame = pd.DataFrame(rows)
+    wide = {"set": "22%", "notes": "1fr", "method": "16%"}
+    doc.heading("Appendix: notes")
+    if shared:
+        doc.paragraph("Notes shared by several parameter sets:")
+        doc.numbered(list(shared), small=True)
+    said = "; ".join(f"{key} {value}" for key, value in common.items())
+    doc.table(
+        frame,
+        caption="The notes of each parameter set ([numbers] of the list above, then its own)"
+        + (f"; every set: {said}." if said else "."),
+        formats={"samples": ".0f"},
+        align_numbers=False,
+        small=True,
+        widths=[wide.get(c, "auto") for c in frame.columns],
+    )
+    if failures or notes:
+        doc.heading("Conditions not identified and notes")
+        doc.numbered([*failures, *notes], small=True)
+
+
+def _excluded_text(entry) -> str:
+    """``method1-test3 unload-reload: 60 samples (rows 6291–6350)`` from an identify.json
+    ``excluded`` entry (test, screening code, data-file rows)."""
+    if not isinstance(entry, dict):
+        return str(entry)
+    rows = entry.get("rows") or []
+    span = ""
+    if rows:
+        within = "" if max(rows) - min(rows) + 1 == len(set(rows)) else "within "
+        span = f" ({within}rows {min(rows)}–{max(rows)})"
+    return f"{entry.get('test_id')} {entry.get('code')} {plural(len(rows), 'sample')}{span}"
+
+
+def _by_soil(pairs: list) -> dict[str, list]:
+    out: dict[str, list] = {}
+    for record, fit in pairs:
+        out.setdefault(record["soil"], []).append((record, fit))
+    return out
+
+
+def _groups(pairs: list) -> dict[tuple, list]:
+    out: dict[tuple, list] = {}
+    for record, fit in pairs:
+        key = (record["kind"], record["soil"], record.get("series"), record["model"])
+        out.setdefault(key, []).append((record, fit))
     return out
