@@ -37,7 +37,9 @@ their mean; the β condition is ``beta_cmd_deg`` (else ``beta_deg``) rounded to 
     grouser_area_ratio = 0.1  # CMU's mu (optional, default 1)
 
 A ``wheels.toml`` beside the runs file is read when no other geometry is given (the bundled
-CMU campaign carries one, from its ``wheel.md``).
+CMU campaign carries one, from its ``wheel.md``).  Its optional top-level
+``caveats = ["...", ...]`` states what a reader of the data must know (an assumed sinkage
+datum, unchecked forces …); reports print them (:func:`read_caveats`).
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ __all__ = [
     "REQUIRED_COLUMNS",
     "STEADY_RATE_M_S",
     "WheelDataError",
+    "read_caveats",
     "read_runs",
     "read_wheels",
     "wheel_geometry",
@@ -257,6 +260,8 @@ def read_wheels(path) -> dict[str, dict]:
         raise WheelDataError(f"not valid TOML: {err}", file=path.name) from None
     out = {}
     for name, entry in table.items():
+        if name == "caveats":
+            continue
         if not isinstance(entry, dict):
             raise WheelDataError(
                 f"{name!r} must be a table [{name}] with radius_m and width_m", file=path.name
@@ -270,6 +275,15 @@ def read_wheels(path) -> dict[str, dict]:
             )
         out[str(name)] = dict(entry)
     return out
+
+
+def read_caveats(path) -> list[str]:
+    """The data's caveats a ``wheels.toml`` states (``caveats = ["...", ...]``), in order."""
+    table = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    caveats = table.get("caveats", [])
+    if not isinstance(caveats, list) or not all(isinstance(c, str) for c in caveats):
+        raise WheelDataError("caveats must be a list of sentences", file=Path(path).name)
+    return caveats
 
 
 def wheel_geometry(
