@@ -28,9 +28,6 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..discovery.ftests import interaction_test, strata_codes, strata_test
-from ..statistics import verdicts
-
 __all__ = ["CANDIDATES", "READINGS", "residual_tests"]
 
 #: name → (column, categorical, strata columns)
@@ -69,6 +66,7 @@ READINGS: dict[str, str] = {
 
 
 def _codes(frame: pd.DataFrame, column: str) -> np.ndarray:
+    """Level codes 0…k−1 of a column (dates as text)."""
     return pd.factorize(frame[column].astype(str) if column == "date" else frame[column])[0]
 
 
@@ -82,6 +80,10 @@ def residual_tests(
     tested), ``significant``, ``effect_size`` (partial η²), ``reason`` (why a candidate
     could not be tested; those rows have no p-value and are not in the family).
     """
+    # loaded when a test is made: the discovery package and statsmodels are heavy imports
+    from ..discovery.ftests import interaction_test, strata_codes, strata_test
+    from ..statistics import verdicts
+
     y = runs[residual].to_numpy(float)
     rows = []
     for name, (column, categorical, within) in CANDIDATES.items():

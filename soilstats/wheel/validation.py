@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..discovery.crossval import Gain
 from .discovery import READINGS, residual_tests
 from .geometry import Wheel
 from .priors import describe_prior, sample_priors
@@ -126,28 +125,30 @@ def validate_wheel(
     angles = StressAngles() if angles is None else angles
     priors = dict(priors or {})
     check_priors(priors)
-    steps = 4 + bool(extension) + bool(sensitivity)
-    bar = tqdm(total=steps, desc="wheel validation", disable=not progress, leave=False)
+    bar = tqdm(
+        total=_steps(table, wheels, extension, sensitivity),
+        desc="wheel validation",
+        unit="step",
+        disable=not progress,
+        leave=False,
+    )
     notes: list[str] = []
     plate = _plate(campaign, draws, soil, law, n_draws, seed, progress)
     bar.update()
     params = _parameters(plate, priors, seed)
     law = plate.law
     checks = _moduli(params, law, wheels, notes)
-    predicted = _predict_all(table, params, wheels, law, angles, prob, checks)
-    bar.update()
+    predicted = _predict_all(table, params, wheels, law, angles, prob, checks, bar)
     frame, excluded = _runs_frame(table, predicted, notes)
     unpredictable = {} if _has_shear(params) else _no_shear_reasons()
     groups = _groups(frame, with_dp="drawbar_pull_median_N" in frame)
     coverage, bias = _headline(frame, groups)
-    bar.update()
     tests = residual_tests(frame[frame["predicted"]], alpha=alpha)
     bar.update()
     disc = None
     if extension:
-        disc = _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha)
+        disc = _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, bar)
         frame = frame.merge(disc.runs, on="run_id", how="left")
-        bar.update()
     sens = _sensitivity(frame, params, wheels, law, angles, seed) if sensitivity else []
     bar.update(bool(sensitivity))
     bar.close()
@@ -173,6 +174,19 @@ def validate_wheel(
         notes=tuple(notes),
         caveats=(*caveats, *_caveats(frame)),
     )
+
+
+def _steps(table, wheels, extension, sensitivity) -> int:
+    """Progress steps: the plates, each wheel's prediction, the tests, each wheel's extension
+    and each held-out fold, the sensitivity checks."""
+    steps = 2 + len(wheels) + bool(sensitivity)
+    if extension:
+        scope = table[table["beta_level"] == 0]
+        folds = scope.groupby("wheel")["slip_level"].nunique().sum()
+        if "date" in scope:
+            folds += scope.groupby("wheel")["date"].nunique().sum()
+        steps += len(wheels) + int(folds)
+    return steps
 
 
 # -- inputs ------------------------------------------------------------------------------------
@@ -329,12 +343,13 @@ def predict_runs(values, wheel, slip, load, law, angles, prob, shift=None) -> di
     return out
 
 
-def _predict_all(table, params, wheels, law, angles, prob, checks) -> pd.DataFrame:
+def _predict_all(table, params, wheels, law, angles, prob, checks, bar) -> pd.DataFrame:
     parts = []
     for name, rows in table.groupby("wheel", sort=True):
         values = _subset(params, checks[name]["use"])
         band = predict_runs(values, wheels[name], rows["slip"], rows["W_N"], law, angles, prob)
         parts.append(pd.DataFrame(band, index=rows.index))
+        bar.update()
     return pd.concat(parts).loc[table.index]
 
 
@@ -569,7 +584,7 @@ def _fit(rows, values, wheel, law, angles) -> SlipExponent:
     )
 
 
-def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha) -> WheelDiscovery:
+def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, bar):
     scope = frame[frame["in_scope"]]
     fits: dict[str, SlipExponent] = {}
     extended = []
@@ -584,8 +599,10 @@ def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha) ->
             values, wheel, every["slip"], every["W_N"], law, angles, prob, fit.shift(every["slip"])
         )
         extended.append(_band_frame(every["run_id"], band, "sinkage_extended"))
+        bar.update()
         for scheme, column in (("slip", "slip_level"), ("day", "date")):
             if column not in mine or mine[column].nunique() < 2:
+                bar.update(mine[column].nunique() if column in mine else 0)
                 continue
             for level, out in mine.groupby(column, sort=True):
                 train = mine[mine[column] != level]
@@ -595,6 +612,7 @@ def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha) ->
                 )
                 part = _band_frame(out["run_id"], b, "ext")
                 held.append(part.assign(scheme=scheme, fold=f"{name}|{level}", n1=f.n1, n2=f.n2))
+                bar.update()
     runs = pd.concat(extended, ignore_index=True)
     held = pd.concat(held, ignore_index=True) if held else pd.DataFrame()
     gains, cv = _gains(scope, held)
@@ -645,7 +663,7 @@ SCHEMES = {
 METRIC = "mean absolute error of the median sinkage [m], held-out β = 0 runs"
 
 
-def _gains(scope: pd.DataFrame, held: pd.DataFrame) -> tuple[dict[str, Gain], pd.DataFrame]:
+def _gains(scope: pd.DataFrame, held: pd.DataFrame) -> tuple[dict, pd.DataFrame]:
     if held.empty:
         return {}, held
     cv = held.merge(
@@ -667,7 +685,11 @@ def _gains(scope: pd.DataFrame, held: pd.DataFrame) -> tuple[dict[str, Gain], pd
     return gains, cv
 
 
-def _gain(rows: pd.DataFrame, scheme: str) -> Gain:
+def _gain(rows: pd.DataFrame, scheme: str):
+    """The held-out comparison of one scheme as discover's :class:`~soilstats.discovery.
+    crossval.Gain` (metric, folds, runs, base, extended, relative, difference ± SE, real)."""
+    from ..discovery.crossval import Gain
+
     d = rows["base_error"] - rows["ext_error"]
     by_fold = d.groupby(rows["fold"])
     n, total = len(rows), float(d.sum())
