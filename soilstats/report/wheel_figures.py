@@ -58,6 +58,32 @@ def _jitter(frame, width=0.025):
     return frame["slip"].to_numpy() + width * (rank - rank.max() / 2 if rank.size else 0)
 
 
+def _band(ax, x, sub, quantity: str, unit: str, scale: float, what: str = "") -> None:
+    """A run-by-run predicted band (bar), its median (tick) and the measured value (dot)."""
+    lo, hi = sub[f"{quantity}_q05_{unit}"] * scale, sub[f"{quantity}_q95_{unit}"] * scale
+    ax.vlines(x, lo, hi, color=BAND, lw=2.2, alpha=0.55, label=f"{what}90 % band")
+    median = sub[f"{quantity}_median_{unit}"] * scale
+    ax.plot(x, median, "_", color=BAND, ms=7, mew=1.5, label=f"{what}median")
+    measured = f"{quantity}_measured_{unit}"
+    if measured in sub:
+        ax.plot(x, sub[measured] * scale, "o", color=MEASURED, ms=3, label="measured", zorder=3)
+
+
+def _finish(fig, axes, ylabel: str, title: str, *, zero=True, legend="axes", grid="both"):
+    """The common end of every figure: zero line, grid, y label, legend, the finding title."""
+    for ax in axes:
+        if zero:
+            ax.axhline(0, color="k", lw=0.6)
+        ax.grid(alpha=0.3, axis=grid)
+    axes[0].set_ylabel(ylabel)
+    if legend == "axes":
+        axes[0].legend(frameon=False)
+    elif legend == "figure":
+        handles, labels = axes[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside lower center", ncol=4, frameon=False)
+    fig.suptitle(title)
+
+
 def predicted_title(result) -> str:
     runs = result.runs[result.runs["in_scope"]]
     near = runs[runs["slip_level"].abs() <= 0.05]
@@ -86,27 +112,13 @@ def predicted_figure(result) -> tuple[Figure, str]:
         for ax, wheel in zip(axes, wheels, strict=True):
             sub = runs[runs["wheel"] == wheel].sort_values("slip")
             x = _jitter(sub)
-            lo, hi = sub["sinkage_q05_m"] * 1e3, sub["sinkage_q95_m"] * 1e3
-            med = sub["sinkage_median_m"] * 1e3
-            ax.vlines(x, lo, hi, color=BAND, lw=2.2, alpha=0.55, label="plates: 90 % band")
-            ax.plot(x, med, "_", color=BAND, ms=7, mew=1.5, label="plates: median")
+            _band(ax, x, sub, "sinkage", "m", 1e3, "plates: ")
             if held:
-                ax.plot(
-                    x,
-                    sub["sinkage_heldout_median_m"] * 1e3,
-                    "d",
-                    color=EXTENDED,
-                    ms=3.5,
-                    label="slip exponent, held out",
-                )
-            ax.plot(x, sub["sinkage_measured_m"] * 1e3, "o", color=MEASURED, ms=3, label="measured")
+                extended = sub["sinkage_heldout_median_m"] * 1e3
+                ax.plot(x, extended, "d", color=EXTENDED, ms=3.5, label="slip exponent, held out")
             w = result.wheels[wheel]
             ax.set(title=f"{wheel} ({w.describe().split(': ', 1)[1]})", xlabel="slip s")
-            ax.grid(alpha=0.3)
-        axes[0].set_ylabel("sinkage (mm)")
-        handles, labels = axes[0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="outside lower center", ncol=4, frameon=False)
-        fig.suptitle(predicted_title(result))
+        _finish(fig, axes, "sinkage (mm)", predicted_title(result), zero=False, legend="figure")
     caption = (
         "Sinkage of every β = 0 run against its slip (repeats offset slightly): measured "
         "(black), and predicted at the run's own measured load from the plate tests alone "
@@ -145,14 +157,11 @@ def beta_figure(result) -> tuple[Figure, str]:
             sub = runs[runs["wheel"] == wheel]
             x = sub["beta_deg"] + 1.2 * (sub["slip_level"] - 0) / max(1, len(levels))
             ax.scatter(x, sub["residual_m"] * 1e3, c=sub["slip_level"], cmap=cmap, norm=norm, s=9)
-            ax.axhline(0, color="k", lw=0.6)
             ax.set(
                 title=wheel, xlabel="slip angle β (°)", xticks=sorted(sub["beta_level"].unique())
             )
-            ax.grid(alpha=0.3)
-        axes[0].set_ylabel("measured − predicted sinkage (mm)")
         fig.colorbar(mpl.cm.ScalarMappable(norm=norm, cmap=cmap), ax=axes[-1], label="slip s")
-        fig.suptitle(title)
+        _finish(fig, axes, "measured − predicted sinkage (mm)", title, legend=None)
     caption = (
         "Every run's sinkage error (measured minus the predicted median, mm) against its slip "
         "angle β, coloured by slip. Runs with β ≠ 0 are predicted with the longitudinal model "
@@ -195,13 +204,9 @@ def day_figure(result) -> tuple[Figure, str]:
             day_mean = means.loc[wheel] * 1e3
             ax.plot([pos[d] for d in day_mean.index], day_mean.to_numpy(), "_", color=MEASURED,
                     ms=14, mew=2, label="day mean")  # fmt: skip
-            ax.axhline(0, color="k", lw=0.6)
             ax.set_xticks(range(len(days)), [d[5:] for d in days], rotation=60)
             ax.set(title=wheel, xlabel="day (month-day)")
-            ax.grid(alpha=0.3)
-        axes[0].set_ylabel("error − its condition's mean (mm)")
-        axes[0].legend(frameon=False)
-        fig.suptitle(title)
+        _finish(fig, axes, "error − its condition's mean (mm)", title)
     caption = (
         "The sinkage error of every run less the mean error of its condition (wheel, slip, "
         "slip angle), by the day the run was made: the day-to-day structure the residual "
@@ -234,10 +239,7 @@ def extension_figure(result) -> tuple[Figure, str]:
             ax.bar(x + 0.2, table["ext_error"], 0.4, color=EXTENDED, label="slip exponent")
             ax.set_xticks(x, [f"{v:g}" for v in table.index])
             ax.set(title=wheel, xlabel="slip condition held out")
-            ax.grid(alpha=0.3, axis="y")
-        axes[0].set_ylabel("mean absolute error (mm)")
-        axes[0].legend(frameon=False)
-        fig.suptitle(title)
+        _finish(fig, axes, "mean absolute error (mm)", title, zero=False, grid="y")
     caption = (
         "Mean absolute sinkage error of the β = 0 runs of each slip condition, predicted by "
         "the plates alone (blue) and with N = n + n1·s (s ≥ 0), n + n2·|s| (s < 0), n1 and "
@@ -260,18 +262,9 @@ def drawbar_figure(result) -> tuple[Figure, str]:
         for ax, wheel in zip(axes, wheels, strict=True):
             sub = runs[runs["wheel"] == wheel].sort_values("slip")
             x = _jitter(sub)
-            ax.vlines(x, sub["drawbar_pull_q05_N"], sub["drawbar_pull_q95_N"], color=BAND, lw=2.2,
-                      alpha=0.55, label="90 % band")  # fmt: skip
-            ax.plot(x, sub["drawbar_pull_median_N"], "_", color=BAND, ms=7, mew=1.5)
-            if "drawbar_pull_measured_N" in sub:
-                ax.plot(x, sub["drawbar_pull_measured_N"], "o", color=MEASURED, ms=3,
-                        label="measured")  # fmt: skip
-            ax.axhline(0, color="k", lw=0.6)
+            _band(ax, x, sub, "drawbar_pull", "N", 1.0)
             ax.set(title=wheel, xlabel="slip s")
-            ax.grid(alpha=0.3)
-        axes[0].set_ylabel("drawbar pull (N)")
-        axes[0].legend(frameon=False)
-        fig.suptitle(title)
+        _finish(fig, axes, "drawbar pull (N)", title)
     caption = (
         "Drawbar pull of the β = 0 runs: measured (black) and the predicted 90 % band and "
         "median (blue), with c, φ and K drawn from the user's stated priors (not measured: "

@@ -52,7 +52,7 @@ import numpy as np
 import pandas as pd
 
 from .._text import shown
-from ..errors import SoilstatsError
+from ..errors import SoilstatsError, located
 from .geometry import Wheel
 
 __all__ = [
@@ -103,16 +103,7 @@ class WheelDataError(SoilstatsError, ValueError):
         row: int | None = None,
     ) -> None:
         self.file, self.column, self.run_id, self.row = file, column, run_id, row
-        where = []
-        if file is not None:
-            where.append(f"file {file!r}")
-        if column is not None:
-            where.append(f"column {column!r}")
-        if run_id is not None:
-            where.append(f"run {str(run_id)[:60]!r}")
-        if row is not None:
-            where.append(f"row {row}")
-        super().__init__(f"{', '.join(where)}: {message}" if where else message)
+        super().__init__(located(message, file=file, column=column, run=run_id, row=row))
 
 
 def read_runs(source, *, slip_gap: float = SLIP_GAP) -> pd.DataFrame:
