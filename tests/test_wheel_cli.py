@@ -6,6 +6,9 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
+import time
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -18,17 +21,45 @@ from soilstats.data import bundled_path
 CMU = "cmu-3d-terramechanics"
 
 
-@pytest.fixture(scope="module")
-def cmu(tmp_path_factory):
-    """The default command on the CMU runs, once: its JSON document (stdout) and folder."""
-    out = tmp_path_factory.mktemp("wheel") / "w"
+def _run_cmu(out: Path) -> str:
     buffer = io.StringIO()
     with contextlib.redirect_stdout(buffer):
-        assert main(["wheel", CMU, "--json", "--out", str(out), "--progress", "off"]) == 0
-    return json.loads(buffer.getvalue()), out
+        code = main(["wheel", CMU, "--json", "--out", str(out), "--progress", "off"])
+    if code != 0:
+        raise RuntimeError(f"soilstats wheel {CMU} exited with {code}")
+    return buffer.getvalue()
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
+def cmu(tmp_path_factory, worker_id):
+    """The default command on the CMU runs, ONCE for all xdist workers (it takes ~15 s): the
+    first worker to take the lock runs it into the shared temporary root, the others wait
+    for its JSON. Returns the JSON document (stdout) and the output folder."""
+    root = tmp_path_factory.getbasetemp()
+    if worker_id != "master":
+        root = root.parent  # shared by the workers of this run
+    out, done, failed = root / "wheel-cmu", root / "wheel-cmu.json", root / "wheel-cmu.failed"
+    try:
+        os.close(os.open(root / "wheel-cmu.lock", os.O_CREAT | os.O_EXCL))
+    except FileExistsError:  # another worker runs it
+        deadline = time.monotonic() + 900
+        while not (done.exists() or failed.exists()) and time.monotonic() < deadline:
+            time.sleep(0.5)
+    else:
+        try:
+            text = _run_cmu(out)
+        except BaseException:
+            failed.touch()
+            raise
+        tmp = done.with_suffix(".tmp")
+        tmp.write_text(text)
+        tmp.replace(done)
+    if not done.exists():
+        pytest.fail("the CMU wheel run failed or timed out in another worker")
+    return json.loads(done.read_text()), out
+
+
+@pytest.fixture(scope="session")
 def reports(cmu):
     """The wheel report in the shape test_reports' checks take."""
     doc, folder = cmu
