@@ -193,6 +193,9 @@ def run(args: argparse.Namespace) -> int:
         runs["wheel"].unique(), tables, overrides, source=str(toml) if tables else "--wheel-*"
     )
     campaign, provenance = prepared(args)
+    pooled = _pooling(campaign, args)
+    for text in pooled:
+        print(f"WARNING: {text}", file=sys.stderr)
     result = validate_wheel(
         campaign,
         runs,
@@ -207,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress=progress_enabled(args.progress),
         extension=not args.no_extension,
-        caveats=read_caveats(toml) if tables else [],
+        caveats=[*(read_caveats(toml) if tables else []), *pooled],
     )
     document = result.to_dict() | {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
     if args.out:
@@ -230,6 +233,16 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(result.summary())
     return 0
+
+
+def _pooling(campaign, args) -> list[str]:
+    """The posterior command's warning when the plates pool conditions (preparations,
+    velocities, shapes …): the draws then describe their mixture, not one sand state."""
+    from ..wheel.soil import choose_law, soil_tests
+    from .posterior import pooling_warnings
+
+    soil, tests = soil_tests(campaign, args.soil)
+    return pooling_warnings(campaign, soil, [choose_law(tests, args.law)])
 
 
 def _sha256(path: Path) -> str:

@@ -20,7 +20,7 @@ import pandas as pd
 
 from ..errors import SoilstatsError
 
-__all__ = ["PlateDraws", "choose_law", "plate_draws"]
+__all__ = ["PlateDraws", "choose_law", "plate_draws", "soil_tests"]
 
 KINDS = ("auto", "population", "pooled")
 
@@ -67,7 +67,8 @@ class PlateDraws:
         }
 
 
-def _soil_tests(campaign, soil: str | None) -> tuple[str, pd.DataFrame]:
+def soil_tests(campaign, soil: str | None) -> tuple[str, pd.DataFrame]:
+    """The soil whose plate tests are used (the only one, or the one named) and its tests."""
     tests = campaign.tests
     sinkage = tests[tests["kind"] == "sinkage"]
     soils = sorted(sinkage["soil"].astype(str).unique())
@@ -127,7 +128,7 @@ def plate_draws(
 
     if kind not in KINDS:
         raise ValueError(f"draws kind must be one of {KINDS}, got {kind!r}")
-    soil, tests = _soil_tests(campaign, soil)
+    soil, tests = soil_tests(campaign, soil)
     law = choose_law(tests, law)
     sizes = tuple(float(b) for b in sorted(tests["b_m"].dropna().round(9).unique()))
     seeds = np.random.SeedSequence([int(seed), 0x5701]).generate_state(2, np.uint32)
@@ -162,7 +163,13 @@ def plate_draws(
                 "preparation of the sand"
             )
     if post is None:
-        post = sample_posterior(campaign, law, seed=int(seeds[0]), progress=progress, soil=soil)
+        try:
+            post = sample_posterior(campaign, law, seed=int(seeds[0]), progress=progress, soil=soil)
+        except (SoilstatsError, ValueError) as err:
+            raise SoilstatsError(
+                f"the {law} posterior of the plate tests of {soil!r} cannot be sampled: {err}. "
+                "For the wheel, choose another law (--law bernstein) or fewer tests (--select)"
+            ) from None
     draws = post.draws(n_draws, seed=int(seeds[1]))
     return PlateDraws(
         draws=draws.reset_index(drop=True),
