@@ -21,6 +21,7 @@ __all__ = [
     "SpecError",
     "StatisticsInputError",
     "StudyDataError",
+    "located",
 ]
 
 
@@ -58,17 +59,23 @@ class CampaignError(SoilstatsError, ValueError):
         self.column = column
         self.test_id = test_id
         self.row = row
-        where = []
-        if file is not None:
-            where.append(f"file {file!r}")
-        if column is not None:
-            where.append(f"column {shown(column)}")
-        if test_id is not None:
-            where.append(f"test {shown(test_id)}")
-        if row is not None:
-            where.append(f"row {row}")
-        prefix = ", ".join(where)
-        super().__init__(f"{prefix}: {message}" if prefix else message)
+        super().__init__(located(message, file=file, column=column, test=test_id, row=row))
+
+
+def located(message: str, *, file=None, column=None, row=None, **unit) -> str:
+    """``message`` prefixed by where it applies: ``file 'x.csv', column 'z_m', test 't1', row
+    4: …`` (the parts given, in that order; ``unit`` is one keyword naming the unit, e.g.
+    ``test=`` or ``run=``, whose value is cut short when it is of hostile length)."""
+    where = []
+    if file is not None:
+        where.append(f"file {file!r}")
+    if column is not None:
+        where.append(f"column {shown(column)}")
+    where += [f"{kind} {shown(value)}" for kind, value in unit.items() if value is not None]
+    if row is not None:
+        where.append(f"row {row}")
+    prefix = ", ".join(where)
+    return f"{prefix}: {message}" if prefix else message
 
 
 class IdentifiabilityError(SoilstatsError, ValueError):

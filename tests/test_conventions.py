@@ -20,6 +20,7 @@ from soilstats.statistics.analysis_of_covariance import AncovaResult, ancova
 from soilstats.statistics.result import TestResult
 from soilstats.study.result import StudyResult
 from soilstats.wheel.result import WheelPrediction
+from soilstats.wheel.validation_result import WheelDiscovery, WheelValidation
 
 RESULTS = (
     AncovaResult,
@@ -34,7 +35,9 @@ RESULTS = (
     PosteriorResult,
     StudyResult,
     TestResult,
+    WheelDiscovery,
     WheelPrediction,
+    WheelValidation,
 )
 
 

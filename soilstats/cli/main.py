@@ -21,6 +21,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "check": ("check", "screen the records for spikes, wrong units, seating offsets, failure"),
     "identify": ("identify", "identify soil parameters per soil and condition (Tables 5-6)"),
     "posterior": ("posterior", "sample parameter posteriors; joint draws for rover Monte Carlo"),
+    "wheel": ("wheel", "predict measured wheel runs from plate tests: coverage, bias, what fails"),
     "simulate": ("simulate", "simulate a campaign from a specification, with its truth"),
     "import": ("import_campaign", "convert a lab's export into the campaign format (TOML map)"),
 }

@@ -5,6 +5,9 @@
   parameter sets × slips at once: sinkage, drawbar pull, torque.
 * :func:`predict_wheel` — posterior/population draws (plus stated priors for what no test
   measured) through the model: predictive bands against slip, a :class:`WheelPrediction`.
+* :func:`validate_wheel` — measured runs (:func:`read_runs`) against their prediction from
+  plate tests only: coverage, bias, what the model gets wrong and the held-out gain of a
+  slip-sinkage extension, a :class:`WheelValidation`.
 
 Units SI (φ in degrees); conventions and equations in ``docs/wheel.md``.
 
@@ -23,6 +26,9 @@ from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
 from .priors import sample_priors
 from .propagate import predict_wheel
 from .result import QUANTITIES, WheelPrediction
+from .runs import WheelDataError, read_runs, read_wheels
+from .slipsinkage import SlipExponent, fit_slip_exponent
+from .soil import PlateDraws, plate_draws
 from .solve import STATUS, WheelState, wheel_forces
 from .stress import (
     SHEAR_PARAMS,
@@ -33,6 +39,8 @@ from .stress import (
     shear_displacement,
     shear_stress,
 )
+from .validation import validate_wheel
+from .validation_result import WheelDiscovery, WheelValidation
 
 __all__ = [
     "N_NODES",
@@ -40,19 +48,29 @@ __all__ = [
     "SHEAR_PARAMS",
     "SINKAGE_LAWS",
     "STATUS",
+    "PlateDraws",
+    "SlipExponent",
     "StressAngles",
     "Wheel",
+    "WheelDataError",
+    "WheelDiscovery",
     "WheelPrediction",
     "WheelState",
+    "WheelValidation",
     "contact_forces",
     "entry_angle",
+    "fit_slip_exponent",
     "normal_stress",
+    "plate_draws",
     "predict_wheel",
     "pressure_modulus",
+    "read_runs",
+    "read_wheels",
     "sample_priors",
     "shear_displacement",
     "shear_stress",
     "sinkage_from_entry_angle",
     "speed_ratio",
+    "validate_wheel",
     "wheel_forces",
 ]

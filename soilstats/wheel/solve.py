@@ -110,8 +110,14 @@ class WheelState:
     with_shear: bool
 
 
-def model_cases(params: Mapping, wheel: Wheel, slip, law: str, angles: StressAngles):
-    """(Cases, shape) for the parameter arrays × the slips (outer product, slips last)."""
+def model_cases(
+    params: Mapping, wheel: Wheel, slip, law: str, angles: StressAngles, exponent_shift=None
+):
+    """(Cases, shape) for the parameter arrays × the slips (outer product, slips last).
+
+    ``exponent_shift`` (broadcast to P + S) is added to each case's exponent n: a slip-
+    dependent exponent n + Δn(s) (Ding et al. 2010; :mod:`soilstats.wheel.slipsinkage`).
+    """
     if law not in SINKAGE_LAWS:
         raise ValueError(
             f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}"
@@ -133,6 +139,9 @@ def model_cases(params: Mapping, wheel: Wheel, slip, law: str, angles: StressAng
     s = np.asarray(slip, dtype=float)
     a, b = angles.ratios(s.reshape(-1))
     nu = speed_ratio(s.reshape(-1))
+    if exponent_shift is not None:
+        shift = np.broadcast_to(np.asarray(exponent_shift, dtype=float), pshape + s.shape)
+        p["n"] = p["n"] + shift.reshape(p["n"].shape[0], -1)
     prefactor = pressure_modulus(law, p, wheel.width_m) * wheel.stress_radius_power(p["n"])
     shear = {"c": p["c"], "phi_deg": p["phi"], "K": p["K"]} if given else {}
     cases = Cases.build(prefactor=prefactor, n=p["n"], a=a, b=b, nu=nu, **shear)
@@ -150,6 +159,7 @@ def wheel_forces(
     angles: StressAngles | None = None,
     slip_angle_deg: float = 0.0,
     n_nodes: int = N_NODES,
+    exponent_shift=None,
 ) -> WheelState:
     """The Wong–Reece rigid wheel at a given load or a given sinkage, over parameter sets × slips.
 
@@ -173,6 +183,9 @@ def wheel_forces(
         Must be 0: the model is longitudinal only (no lateral shear or side-wall force yet;
         a lateral term would add the lateral displacement and τ_y of Ishigami et al. 2007 to
         :mod:`.forces`).
+    exponent_shift : float or array broadcastable to P + S, optional
+        Δn added to the exponent n of every case: a slip-dependent exponent n + Δn(s)
+        (:func:`soilstats.wheel.slipsinkage.exponent_shift`). Default none.
 
     Returns
     -------
@@ -187,7 +200,7 @@ def wheel_forces(
     if (load_N is None) == (sinkage_m is None):
         raise ValueError("give exactly one of load_N (load-controlled) or sinkage_m")
     angles = StressAngles() if angles is None else angles
-    cases, shape = model_cases(params, wheel, slip, law, angles)
+    cases, shape = model_cases(params, wheel, slip, law, angles, exponent_shift)
     rule = gauss_rule(n_nodes)
     rc = wheel.contact_radius_m
     if load_N is not None:

@@ -1,0 +1,258 @@
+"""Validate a wheel model on measured wheel runs, with the soil identified on plates only.
+
+Identifies the pressure-sinkage law on the campaign's plate tests (population draws of a new
+preparation where the plates support them, else pooled posterior draws: it says which and
+why), predicts every measured run at its own measured load W with the Wong-Reece rigid wheel,
+and compares: coverage of the 90 % band and bias (predicted - measured) per wheel type, slip
+condition, slip angle and day. Then, as `soilstats discover` does for plates: the residuals
+tested against slip, slip angle, wheel type, day and load (Holm), the slip-dependent exponent
+N = n + n1*s (Ding et al. 2010; n + n2*|s| in skid) fitted per wheel on the beta = 0 runs,
+and its gain measured on held-out runs (whole slip conditions, whole days left out).
+
+The runs file (--runs, default wheel.csv in the campaign folder) needs the columns run_id,
+wheel, slip, W_N [N], sinkage_m [m]; optional beta_deg, beta_cmd_deg, date, drawbar_pull_N,
+torque_Nm, sinkage_rate_m_s (docs/wheel.md). Wheel geometry: --wheels FILE.toml (default
+wheels.toml beside the runs file), or per type --wheel-radius TYPE=R --wheel-width TYPE=B
+--shear-radius TYPE=RS (metres; without TYPE= for every type).
+
+Parameters no test measured are never invented: without shear tests, drawbar pull and torque
+are predicted only from priors you state, e.g. --prior phi=normal:29:4 --prior c=uniform:0:1500
+--prior K=lognormal:0.01:0.8 (c Pa, phi deg, K m; kinds normal:MEAN:SD,
+truncnormal:MEAN:SD:LOW:HIGH, uniform:LOW:HIGH, lognormal:MEDIAN:SIGMA_LOG).
+
+--json prints {"runs": [...], "coverage_90", "bias", "params", "notes", ...}; --out DIR
+writes wheel.json, wheel_runs.csv and the report wheel.pdf.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .common import add_common_options, add_data_options, prepared, progress_enabled
+
+OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
+_GEOMETRY = {
+    "wheel_radius": "radius_m",
+    "wheel_width": "width_m",
+    "shear_radius": "shear_radius_m",
+    "grouser_area_ratio": "grouser_area_ratio",
+}
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    """The wheel subcommand's options."""
+    add_common_options(parser, out_help="write wheel.json, wheel_runs.csv and wheel.pdf into DIR")
+    add_data_options(parser, window=False)
+    parser.add_argument(
+        "--runs",
+        metavar="FILE",
+        default="wheel.csv",
+        help="the measured runs (CSV or Parquet; a path, or a file of the campaign folder; "
+        "default wheel.csv)",
+    )
+    parser.add_argument(
+        "--wheels",
+        metavar="FILE.toml",
+        help="wheel geometry per type, [TYPE] radius_m, width_m, shear_radius_m, "
+        "grouser_area_ratio (default: wheels.toml beside the runs file)",
+    )
+    for option, key in _GEOMETRY.items():
+        parser.add_argument(
+            f"--{option.replace('_', '-')}",
+            action="append",
+            default=[],
+            metavar="[TYPE=]VALUE",
+            help=f"{key} of wheel TYPE (or of every type), replacing the file's (repeatable)",
+        )
+    parser.add_argument("--soil", help="soil of the plate tests (when the campaign has several)")
+    parser.add_argument(
+        "--law",
+        choices=("bekker", "bernstein", "reece"),
+        help="pressure-sinkage law (default bekker with two or more plate sizes, else bernstein)",
+    )
+    parser.add_argument(
+        "--draws",
+        choices=("auto", "population", "pooled"),
+        default="auto",
+        help="population draws (a new preparation) or pooled posterior draws; auto: "
+        "population where the plates support it (default)",
+    )
+    parser.add_argument(
+        "--n-draws", type=int, default=2000, help="draws through the wheel model (default 2000)"
+    )
+    parser.add_argument(
+        "--prior",
+        action="append",
+        default=[],
+        metavar="NAME=KIND:ARGS",
+        help="prior of a parameter no test measured (c Pa, phi deg, K m), e.g. phi=normal:29:4 "
+        "(repeatable; all three or none)",
+    )
+    parser.add_argument(
+        "--angles",
+        metavar="A0,A1,B0,B1",
+        help="stress angles: theta_m/theta_1 = A0 + A1*s, theta_2/theta_1 = B0 + B1*s "
+        "(default 0.4,0.15,0,0: Ishigami et al. 2007)",
+    )
+    parser.add_argument(
+        "--alpha", type=float, default=0.05, help="family-wise error rate of the residual tests"
+    )
+    parser.add_argument(
+        "--no-extension",
+        action="store_true",
+        help="skip the slip-sinkage extension and its held-out gain",
+    )
+
+
+def parse_prior(item: str) -> tuple[str, tuple]:
+    """``phi=normal:29:4`` → ``("phi", ("normal", 29.0, 4.0))``; ValueError naming the item."""
+    name, sep, spec = item.partition("=")
+    kind, *numbers = spec.split(":")
+    try:
+        values = tuple(float(x) for x in numbers)
+    except ValueError:
+        values = ()
+    if not sep or not name.strip() or not kind or not values:
+        raise ValueError(
+            f"--prior takes NAME=KIND:ARGS (e.g. phi=normal:29:4, c=uniform:0:1500, "
+            f"K=lognormal:0.01:0.8), got {item!r}"
+        )
+    return name.strip(), (kind.strip(), *values)
+
+
+def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
+    """The --wheel-radius … options as {type or "*": {key: value}}."""
+    out: dict[str, dict[str, float]] = {}
+    for option, key in _GEOMETRY.items():
+        for item in getattr(args, option):
+            wheel, sep, text = item.rpartition("=")
+            try:
+                value = float(text)
+            except ValueError:
+                raise ValueError(
+                    f"--{option.replace('_', '-')} takes [TYPE=]VALUE in SI units, got {item!r}"
+                ) from None
+            out.setdefault(wheel.strip() if sep else "*", {})[key] = value
+    return out
+
+
+def parse_angles(text: str | None):
+    from ..wheel import StressAngles
+
+    if text is None:
+        return None
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 4:
+        raise ValueError(f"--angles takes four numbers A0,A1,B0,B1, got {text!r}")
+    return StressAngles(*values)
+
+
+def runs_path(args: argparse.Namespace) -> Path:
+    """--runs as given, else inside the campaign's folder; an error names both places."""
+    from ..campaign.io import resolve
+
+    given = Path(args.runs)
+    if given.is_file():
+        return given
+    folder, _ = resolve(args.data)
+    inside = folder / args.runs
+    if inside.is_file():
+        return inside
+    raise FileNotFoundError(
+        2, f"no runs file here nor in the campaign folder ({inside})", str(given)
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validate, print the summary (or JSON), write the files asked for."""
+    import json
+
+    from ..report import json_safe, output_path, write_csv, write_json
+    from ..wheel.runs import read_caveats, read_runs, read_wheels, wheel_geometry
+    from ..wheel.validation import check_priors, validate_wheel
+
+    if args.n_draws < 100:
+        raise ValueError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
+    priors = dict(parse_prior(p) for p in args.prior)
+    check_priors(priors)
+    angles = parse_angles(args.angles)
+    overrides = parse_geometry(args)
+    path = runs_path(args)
+    if args.out:  # refuse before the work, not after
+        for name in OUTPUTS:
+            output_path(Path(args.out), name, overwrite=args.overwrite)
+    runs = read_runs(path)
+    toml = Path(args.wheels) if args.wheels else path.with_name("wheels.toml")
+    tables = read_wheels(toml) if (args.wheels or toml.is_file()) else {}
+    wheels = wheel_geometry(
+        runs["wheel"].unique(), tables, overrides, source=str(toml) if tables else "--wheel-*"
+    )
+    campaign, provenance = prepared(args)
+    pooled = _pooling(campaign, args)
+    for text in pooled:
+        print(f"WARNING: {text}", file=sys.stderr)
+    result = validate_wheel(
+        campaign,
+        runs,
+        wheels=wheels,
+        soil=args.soil,
+        law=args.law,
+        draws=args.draws,
+        n_draws=args.n_draws,
+        priors=priors,
+        angles=angles,
+        alpha=args.alpha,
+        seed=args.seed,
+        progress=progress_enabled(args.progress),
+        extension=not args.no_extension,
+        caveats=[*(read_caveats(toml) if tables else []), *pooled],
+    )
+    document = result.to_dict() | {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
+    if args.out:
+        from ..report.wheel_pdf import write_report
+
+        folder = Path(args.out)
+        write_json(folder / "wheel.json", document, provenance, overwrite=args.overwrite)
+        write_csv(
+            folder / "wheel_runs.csv",
+            result.runs,
+            provenance,
+            overwrite=args.overwrite,
+            float_format="%.6g",
+        )
+        write_report(result, folder / "wheel.pdf", provenance=provenance, overwrite=args.overwrite)
+        print(f"wrote {', '.join(str(folder / n) for n in OUTPUTS)}", file=sys.stderr)
+    if args.json:
+        document |= {"provenance": provenance.to_dict()}
+        print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
+    else:
+        print(result.summary())
+    return 0
+
+
+def _pooling(campaign, args) -> list[str]:
+    """The posterior command's warning when the plates pool conditions (preparations,
+    velocities, shapes …): the draws then describe their mixture, not one sand state."""
+    from ..wheel.soil import choose_law, soil_tests
+    from .posterior import pooling_warnings
+
+    soil, tests = soil_tests(campaign, args.soil)
+    return pooling_warnings(campaign, soil, [choose_law(tests, args.law)])
+
+
+def _sha256(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m soilstats.cli.wheel ...``: the same as ``soilstats wheel ...``."""
+    from .main import run_subcommand
+
+    return run_subcommand("wheel", argv)

@@ -1,0 +1,321 @@
+"""Measured wheel runs: the runs file (``wheel.csv``) and the wheels' geometry (``wheels.toml``).
+
+**The runs file** is a CSV (or Parquet) with one row per run (docs/wheel.md, "Runs file"):
+
+=====================  ======  ==========================================================
+column                 unit    meaning
+=====================  ======  ==========================================================
+``run_id``             –       unique name of the run (required)
+``wheel``              –       wheel type, a name of the geometry table (required)
+``slip``               –       s = (rω − V)/max(rω, V) in [−1, 1] (required)
+``W_N``                N       measured normal load, > 0 (required)
+``sinkage_m``          m       measured sinkage, ≥ 0 (required)
+``beta_deg``           deg     slip angle β, |β| ≤ 90 (optional; 0 when absent)
+``beta_cmd_deg``       deg     commanded slip angle; when given it names the β condition
+``date``               –       day of the run, ISO ``YYYY-MM-DD`` (optional)
+``drawbar_pull_N``     N       measured drawbar pull, + forward (optional, may be empty)
+``torque_Nm``          N·m     measured driving torque (optional, may be empty)
+``sinkage_rate_m_s``   m/s     sinkage rate in the averaging window (optional): a run
+                               sinking faster than 0.1 mm/s is marked not steady
+=====================  ======  ==========================================================
+
+Other columns are kept and ignored.  Every violation is a :class:`WheelDataError` naming the
+file, the column, the run and the 1-based data row (the header not counted).
+
+**Conditions.**  The slip conditions of a file are found from the slips themselves: sorted,
+a new level where two consecutive slips differ by more than ``slip_gap`` (0.1), labelled by
+their mean; the β condition is ``beta_cmd_deg`` (else ``beta_deg``) rounded to 1°.
+
+**Geometry** (:func:`read_wheels`): a TOML table per wheel type,
+
+.. code-block:: toml
+
+    [grouser]
+    radius_m = 0.058          # rim radius r (slip is defined with it)
+    width_m = 0.050           # width b, also Bekker's b of the plate law
+    shear_radius_m = 0.063    # grouser tips (optional, default r)
+    grouser_area_ratio = 0.1  # CMU's mu (optional, default 1)
+
+A ``wheels.toml`` beside the runs file is read when no other geometry is given (the bundled
+CMU campaign carries one, from its ``wheel.md``).  Its optional top-level
+``caveats = ["...", ...]`` states what a reader of the data must know (an assumed sinkage
+datum, unchecked forces …); reports print them (:func:`read_caveats`).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._text import shown
+from ..errors import SoilstatsError, located
+from .geometry import Wheel
+
+__all__ = [
+    "OPTIONAL_COLUMNS",
+    "REQUIRED_COLUMNS",
+    "STEADY_RATE_M_S",
+    "WheelDataError",
+    "read_caveats",
+    "read_runs",
+    "read_wheels",
+    "wheel_geometry",
+]
+
+#: Required columns of a runs file and their units.
+REQUIRED_COLUMNS: dict[str, str] = {
+    "run_id": "-",
+    "wheel": "-",
+    "slip": "-",
+    "W_N": "N",
+    "sinkage_m": "m",
+}
+#: Optional columns soilstats reads (others are kept and ignored).
+OPTIONAL_COLUMNS: dict[str, str] = {
+    "beta_deg": "deg",
+    "beta_cmd_deg": "deg",
+    "date": "YYYY-MM-DD",
+    "drawbar_pull_N": "N",
+    "torque_Nm": "N·m",
+    "sinkage_rate_m_s": "m/s",
+}
+#: A run still sinking faster than this [m/s] in its averaging window is not steady.
+STEADY_RATE_M_S = 1e-4
+#: Slips further apart than this start a new slip condition.
+SLIP_GAP = 0.1
+_WHEEL_KEYS = ("radius_m", "width_m", "shear_radius_m", "grouser_area_ratio")
+
+
+class WheelDataError(SoilstatsError, ValueError):
+    """A runs file or a wheel geometry breaks a rule; the message names file, column, run, row."""
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | None = None,
+        column: str | None = None,
+        run_id: str | None = None,
+        row: int | None = None,
+    ) -> None:
+        self.file, self.column, self.run_id, self.row = file, column, run_id, row
+        super().__init__(located(message, file=file, column=column, run=run_id, row=row))
+
+
+def read_runs(source, *, slip_gap: float = SLIP_GAP) -> pd.DataFrame:
+    """Read and validate a runs file (a path to CSV/Parquet, or a DataFrame).
+
+    Returns a new DataFrame: the file's columns, ``beta_deg`` filled with 0 when absent, and
+    the derived ``row`` (1-based data row), ``slip_level``, ``beta_level`` and ``steady``.
+    Raises :class:`WheelDataError` for a missing column, a bad value (with its row) or a
+    duplicate ``run_id``; ``OSError`` for a file that cannot be read.
+    """
+    if isinstance(source, pd.DataFrame):
+        frame, name = source.copy(), "<DataFrame>"
+    else:
+        path = Path(source)
+        name = path.name
+        if path.suffix.lower() == ".parquet":
+            frame = pd.read_parquet(path)
+        else:
+            try:
+                frame = pd.read_csv(path, comment=None)
+            except pd.errors.EmptyDataError:
+                raise WheelDataError("the file is empty", file=name) from None
+    if frame.empty:
+        raise WheelDataError("no runs in the file", file=name)
+    frame.columns = [str(c).strip() for c in frame.columns]
+    missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
+    if missing:
+        raise WheelDataError(
+            f"missing required column(s) {missing}; a runs file needs "
+            f"{', '.join(f'{c} [{u}]' for c, u in REQUIRED_COLUMNS.items())} "
+            "(docs/wheel.md, Runs file)",
+            file=name,
+            column=missing[0],
+        )
+    frame = frame.reset_index(drop=True)
+    frame["row"] = np.arange(1, len(frame) + 1)
+    _text(frame, "run_id", name)
+    _text(frame, "wheel", name)
+    duplicated = frame["run_id"].duplicated()
+    if duplicated.any():
+        i = int(np.flatnonzero(duplicated)[0])
+        raise WheelDataError(
+            "run_id repeats an earlier run; every run needs its own name",
+            file=name,
+            column="run_id",
+            run_id=frame.at[i, "run_id"],
+            row=i + 1,
+        )
+    _number(frame, "slip", name, lambda x: (x >= -1) & (x <= 1), "a slip in [-1, 1]")
+    _number(frame, "W_N", name, lambda x: x > 0, "a positive load in N")
+    _number(frame, "sinkage_m", name, lambda x: x >= 0, "a sinkage >= 0 in m")
+    big = frame["sinkage_m"] > 1.0
+    if big.any():
+        i = int(np.flatnonzero(big)[0])
+        raise WheelDataError(
+            f"sinkage {frame.at[i, 'sinkage_m']:g} m is more than a metre: is it in mm? "
+            "Give sinkage_m in metres",
+            file=name,
+            column="sinkage_m",
+            run_id=frame.at[i, "run_id"],
+            row=i + 1,
+        )
+    for column in ("beta_deg", "beta_cmd_deg"):
+        if column in frame:
+            _number(
+                frame, column, name, lambda x: np.abs(x) <= 180, "a slip angle in [-180, 180] deg"
+            )
+    if "beta_deg" not in frame:
+        frame["beta_deg"] = 0.0
+    for column in ("drawbar_pull_N", "torque_Nm", "sinkage_rate_m_s"):
+        if column in frame:
+            _number(frame, column, name, lambda x: np.isfinite(x), "a finite number", empty=True)
+    if "date" in frame:
+        _dates(frame, name)
+    frame["slip_level"] = slip_levels(frame["slip"].to_numpy(float), slip_gap)
+    beta = frame["beta_cmd_deg"] if "beta_cmd_deg" in frame else frame["beta_deg"]
+    frame["beta_level"] = np.round(beta.to_numpy(float)).astype(int)
+    rate = frame.get("sinkage_rate_m_s")
+    frame["steady"] = True if rate is None else ~(rate.abs() > STEADY_RATE_M_S).to_numpy()
+    return frame
+
+
+def _bad(frame, column, name, mask, what) -> None:
+    if mask.any():
+        i = int(np.flatnonzero(mask)[0])
+        raise WheelDataError(
+            f"{_cell(frame.at[i, column])} is not {what}"
+            + (f" ({int(mask.sum())} rows)" if mask.sum() > 1 else ""),
+            file=name,
+            column=column,
+            run_id=frame.at[i, "run_id"] if column != "run_id" else None,
+            row=i + 1,
+        )
+
+
+def _cell(value) -> str:
+    if isinstance(value, float | np.floating):
+        return "an empty cell" if np.isnan(value) else f"{float(value):g}"
+    return shown(value)
+
+
+def _text(frame, column, name) -> None:
+    values = frame[column]
+    blank = values.isna().to_numpy() | (values.astype(str).str.strip() == "").to_numpy()
+    _bad(frame, column, name, blank, "a name (empty cell)")
+    frame[column] = values.astype(str).str.strip()
+
+
+def _number(frame, column, name, valid, what, *, empty=False) -> None:
+    raw = frame[column]
+    values = pd.to_numeric(raw, errors="coerce").to_numpy(float)
+    blank = raw.isna().to_numpy() | (raw.astype(str).str.strip() == "").to_numpy()
+    with np.errstate(invalid="ignore"):
+        good = np.isfinite(values) & np.asarray(valid(values), bool)
+    _bad(frame, column, name, ~(good | (blank & empty)), what)
+    frame[column] = values
+
+
+def _dates(frame, name) -> None:
+    text = frame["date"].astype(str).str.strip()
+    parsed = pd.to_datetime(text, format="%Y-%m-%d", errors="coerce")
+    _bad(frame, "date", name, parsed.isna().to_numpy(), "a date YYYY-MM-DD")
+    frame["date"] = parsed.dt.strftime("%Y-%m-%d")
+
+
+def slip_levels(slip: np.ndarray, gap: float = SLIP_GAP) -> np.ndarray:
+    """Each run's slip condition: slips sorted, a new level after a gap > ``gap``; the label
+    is the level's mean slip rounded to 2 decimals (−1 stays −1: a locked wheel)."""
+    order = np.argsort(slip, kind="stable")
+    s = slip[order]
+    level = np.concatenate([[0], np.cumsum(np.diff(s) > gap)])
+    means = np.bincount(level, weights=s) / np.bincount(level)
+    out = np.empty(slip.size)
+    out[order] = np.round(means[level], 2) + 0.0  # no −0
+    return out
+
+
+# -- geometry ----------------------------------------------------------------------------------
+def read_wheels(path) -> dict[str, dict]:
+    """The wheel geometry of a TOML file: wheel type → {radius_m, width_m, ...} (module doc)."""
+    path = Path(path)
+    try:
+        table = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as err:
+        raise WheelDataError(f"not valid TOML: {err}", file=path.name) from None
+    out = {}
+    for name, entry in table.items():
+        if name == "caveats":
+            continue
+        if not isinstance(entry, dict):
+            raise WheelDataError(
+                f"{name!r} must be a table [{name}] with radius_m and width_m", file=path.name
+            )
+        unknown = sorted(set(entry) - set(_WHEEL_KEYS))
+        if unknown:
+            raise WheelDataError(
+                f"[{name}] has unknown keys {unknown}; allowed: {list(_WHEEL_KEYS)}",
+                file=path.name,
+                column=unknown[0],
+            )
+        out[str(name)] = dict(entry)
+    return out
+
+
+def read_caveats(path) -> list[str]:
+    """The data's caveats a ``wheels.toml`` states (``caveats = ["...", ...]``), in order."""
+    table = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    caveats = table.get("caveats", [])
+    if not isinstance(caveats, list) or not all(isinstance(c, str) for c in caveats):
+        raise WheelDataError("caveats must be a list of sentences", file=Path(path).name)
+    return caveats
+
+
+def wheel_geometry(
+    types,
+    tables: Mapping[str, Mapping] | None = None,
+    overrides: Mapping[str, Mapping[str, float]] | None = None,
+    *,
+    source: str = "the wheel geometry",
+) -> dict[str, Wheel]:
+    """A :class:`Wheel` for every wheel type in ``types``.
+
+    ``tables`` (from :func:`read_wheels`) gives each type's geometry; ``overrides`` maps a
+    type (or ``"*"``: every type) to keys of the table that replace it (the CLI's
+    ``--wheel-radius`` …).  A type without a radius and a width is an error that says how to
+    give them.
+    """
+    tables = {k: dict(v) for k, v in (tables or {}).items()}
+    overrides = overrides or {}
+    out = {}
+    for name in sorted(set(types)):
+        entry = dict(tables.get(name, {}))
+        entry.update(overrides.get("*", {}))
+        entry.update(overrides.get(name, {}))
+        missing = [k for k in ("radius_m", "width_m") if k not in entry]
+        if missing:
+            raise WheelDataError(
+                f"wheel type {name!r} has no {' and no '.join(missing)} in {source}: give "
+                f"--wheel-radius {name}=R --wheel-width {name}=B (m), or a [{name}] table in "
+                "--wheels FILE.toml (docs/wheel.md)",
+                column="wheel",
+            )
+        try:
+            out[name] = Wheel(
+                radius_m=float(entry["radius_m"]),
+                width_m=float(entry["width_m"]),
+                shear_radius_m=None
+                if entry.get("shear_radius_m") is None
+                else float(entry["shear_radius_m"]),
+                grouser_area_ratio=float(entry.get("grouser_area_ratio", 1.0)),
+                name=name,
+            )
+        except (TypeError, ValueError) as err:
+            raise WheelDataError(f"wheel type {name!r}: {err}", column="wheel") from None
+    return out
