@@ -11,19 +11,19 @@ notes every fit shares printed once, numbered). Everything in identify.json is i
 
 from __future__ import annotations
 
-import re
 from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
 from .._text import plural
-from ..identification.table import EQ4_MARK, format_value
+from ..identification.table import EQ4_MARK
 from .document import Document, strong
 from .files import output_path
 from .front import data_origin, front_page
-from .labels import natural_key, parameter_label, parameter_symbol
+from .labels import natural_key
 from .methods import write_equations
+from .parameters import EQ4_NOTE, condition_table
 
 __all__ = ["write_report"]
 
@@ -159,33 +159,20 @@ def _curve_inputs(kind: str, fit, *, every_plate: bool = False) -> list[tuple]:
     return []
 
 
-def _short(value: float) -> str:
-    """Two significant digits without a plus or leading zeros in the exponent: 8.7e3."""
-    return re.sub(r"e\+?(-?)0*(\d)", r"e\1\2", f"{value:.2g}")
-
-
-def _table_rows(group: list) -> list[dict]:
-    """One row per condition: value ± stderr (Eq. 4's σ in brackets where stderr is the
-    test-level one; † where it is Eq. 4's), ε, tests, health."""
-    rows = []
-    for record, _ in group:
-        row = {"condition": condition_text(record), "model": record["model"]}
-        level = record.get("stderr_level")
-        for name, value in record["params"].items():
-            cell = format_value(value, record["stderr"][name])
-            eq4 = (record.get("stderr_eq4") or {}).get(name)
-            if level == "tests" and eq4 is not None:
-                cell += f" [{_short(eq4)}]"
-            elif level != "tests":
-                cell += f" {EQ4_MARK}"
-            row[name] = cell
-        row |= {
-            "epsilon": record["epsilon"],
-            "tests": record["tests"],
-            "health": ", ".join(h["code"] for h in record["health"]) or "ok",
-        }
-        rows.append(row)
-    return rows
+def _condition(record: dict) -> dict:
+    """An identify.json record as a row of :func:`condition_table`."""
+    return {
+        "condition": condition_text(record),
+        "model": record["model"],
+        "params": record["params"],
+        "stderr": record["stderr"],
+        "stderr_eq4": record.get("stderr_eq4"),
+        "stderr_level": record.get("stderr_level"),
+        "units": record["units"],
+        "epsilon": record["epsilon"],
+        "tests": record["tests"],
+        "health": ", ".join(h["code"] for h in record["health"]) or "ok",
+    }
 
 
 def write_report(results, campaign, path: Path, *, provenance=None, overwrite: bool = False) -> int:
@@ -193,7 +180,6 @@ def write_report(results, campaign, path: Path, *, provenance=None, overwrite: b
 
     Returns the number of pages; an existing file is an error unless ``overwrite``.
     """
-    import pandas as pd
 
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     pairs = [(f.to_dict(), f.fit) for r in results for f in r.fits]
@@ -223,10 +209,8 @@ def write_report(results, campaign, path: Path, *, provenance=None, overwrite: b
     )
     doc.heading("Parameters per soil and condition")
     doc.note(
-        "In the tables: value ± stderr, the test-level σ, with Eq. 4's σ (the paper's Eqs. "
-        f"3–5) in brackets; {EQ4_MARK}: the set rests on fewer than five tests and its ± is "
-        "Eq. 4's σ, which leaves the scatter between tests out. ε: fit quality (Eq. 2). The "
-        "paper's Tables 5 (sinkage) and 6 (shear) in this form."
+        f"In the tables: {EQ4_NOTE} ε: fit quality (Eq. 2). The paper's Tables 5 (sinkage) "
+        "and 6 (shear) in this form."
     )
     for soil, mine in _by_soil(pairs).items():
         doc.heading(soil, level=2)
@@ -237,19 +221,8 @@ def write_report(results, campaign, path: Path, *, provenance=None, overwrite: b
             "a plate-size model at the plate widths named on its axis.",
         )
         for (kind, _, series, model), group in _groups(mine).items():
-            rows = _table_rows(group)
-            names = list(dict.fromkeys(n for row, _ in group for n in row["params"]))
-            units = {n: u for row, _ in group for n, u in row["units"].items()}
-            labels = {n: parameter_label(n, units.get(n, "")) for n in names}
-            labels["epsilon"] = parameter_symbol("epsilon")
             where = f"{kind} / {soil}" + (f", series {series}" if series else "") + f" ({model})"
-            doc.table(
-                pd.DataFrame(rows),
-                caption=where,
-                labels=labels,
-                formats={"epsilon": ".3f", "tests": ".0f"},
-                align_numbers=False,
-            )
+            condition_table(doc, [_condition(record) for record, _ in group], caption=where)
     doc.heading("Methods")
     write_equations(doc, kinds)
     _flags_and_notes(doc, records, failures, [n for r in results for n in r.notes])

@@ -132,15 +132,51 @@ def relative(result, campaign=None) -> plt.Figure:
             )
         if ratio:
             ax.axhline(1.0, color="grey", lw=0.8)
-            ax.set(title=f"{name} / {name}({ref or 'first'})", ylabel="ratio")
+            spread = _spread(g)
+            ax.set(
+                title=f"{name} / {name}({ref or 'first'}): up to ×{spread:.2g}",
+                ylabel="ratio",
+            )
         else:
             ax.axhline(0.0, color="grey", lw=0.8)
-            ax.set(title=f"{name} (changes sign)", ylabel=f"{name} ({unit})")
+            ax.set(title=f"{name} changes sign", ylabel=f"{name} ({unit})")
         ax.set(xlabel=column_label(spec.factor))
         ax.tick_params(axis="x", rotation=45, labelsize=7)
         ax.legend(fontsize=7)
     fig.tight_layout()
     return fig
+
+
+def _spread(g) -> float:
+    """The largest ratio of one soil's pooled values across conditions (≥ 1; inf where a
+    value is zero or the sign changes)."""
+    out = 1.0
+    for _, gs in g.groupby("soil"):
+        v = gs["value"].to_numpy(dtype=float)
+        if not ((v > 0).all() or (v < 0).all()):
+            return float("inf")
+        out = max(out, float(np.abs(v).max() / np.abs(v).min()))
+    return out
+
+
+def moves_without_effect(result, factor_of: float = 2.0) -> list[str]:
+    """Pooled parameters that move by more than ``factor_of`` (or change sign) in a soil whose
+    verdicts all say no effect: ``["soil02 kphi ×95", …]``. The figure shows them beside a
+    "no effect" verdict, so its caption must say why."""
+    params, effects = result.parameters, result.effects
+    if params.empty or effects.empty:
+        return []
+    out = []
+    for (soil, name), g in params.groupby(["soil", "parameter"], sort=False):
+        verdicts = effects.loc[effects["soil"] == soil, "verdict"]
+        if verdicts.empty or (verdicts == "effect").any():
+            continue
+        spread = _spread(g)
+        if spread > factor_of:
+            out.append(
+                f"{soil} {name} " + ("changes sign" if np.isinf(spread) else f"×{spread:.2g}")
+            )
+    return out
 
 
 def mohr_coulomb(result, campaign=None) -> plt.Figure:
@@ -210,14 +246,28 @@ def caption(name: str, result) -> str:
             if spec.reference is not None
             else "first level"
         )
-        + " with ± σ error bars (Eq. 3; cf. Figs. 15 and 16). Parameters that change sign are "
-        "drawn as values in their unit, since their ratios mean nothing.",
+        + " with ± stderr error bars (the test-level σ; cf. Figs. 15 and 16). Parameters that "
+        "change sign are drawn as values in their unit, since their ratios mean nothing."
+        + _why_no_effect(result),
         "mohr-coulomb": f"Steady-state shear stress τ_ss (kPa) against normal pressure σ (kPa), "
         f"one point per test, with the Mohr–Coulomb line (Eq. 15) of each {factor} level "
         "(cf. Figs. 11–14).",
         "epsilon": "Fit quality ε (Eq. 2) of the pooled identification per preparation method "
         "and soil: criterion 3 of Table 1 (cf. Fig. 6).",
     }[name]
+
+
+def _why_no_effect(result) -> str:
+    moved = moves_without_effect(result)
+    if not moved:
+        return ""
+    return (
+        f" Large moves beside a 'no effect' verdict ({', '.join(moved)}): the verdicts test the "
+        "per-test responses (the pressure at the reference sinkage and the exponent), which "
+        "did not change beyond their margins; a pooled parameter alone can move a lot while "
+        "the curve does not, because the parameters trade off against each other (kc against "
+        "kφ above all: see each fit's correlation and its high-correlation flag)."
+    )
 
 
 def make_figures(result, campaign) -> list[tuple[str, plt.Figure, str]]:

@@ -19,7 +19,7 @@ from .files import output_path
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
-from .parameters import condition_table
+from .parameters import EQ4_NOTE, condition_table
 from .provenance import Provenance
 from .study_figures import make_figures
 
@@ -207,9 +207,9 @@ def _parameter_tables(doc: Document, result) -> None:
         doc.paragraph("No pooled identification (the study needs per-test responses only).")
         return
     doc.paragraph(
-        "Pooled weighted least-squares identification per soil and condition (Eq. 9); value ± σ "
-        "from the covariance (Eqs. 3–5), fit quality ε (Eq. 2), and the fit's health codes "
-        "(docs/identification.md, health flags: what each means and what to do)."
+        f"Pooled weighted least-squares identification per soil and condition (Eq. 9): {EQ4_NOTE} "
+        "Fit quality ε (Eq. 2), and the fit's health codes (docs/identification.md, health "
+        "flags: what each means and what to do)."
     )
     factor = column_label(result.spec.factor)
     for soil in natural_sorted(params["soil"].unique()):
@@ -224,6 +224,8 @@ def _parameter_tables(doc: Document, result) -> None:
                     "model": ", ".join(sorted(set(gc["model"]))),
                     "params": gc["value"].to_dict(),
                     "stderr": gc["stderr"].to_dict(),
+                    "stderr_eq4": gc["stderr_eq4"].to_dict() if "stderr_eq4" in gc else None,
+                    "stderr_level": first.get("stderr_level"),
                     "units": gc["unit"].to_dict(),
                     "epsilon": first["epsilon"],
                     "tests": first["tests"],

@@ -1,0 +1,119 @@
+"""One σ on every face (issue #36): where a fit rests on five tests or more its ``stderr`` is
+the test-level σ, and the API, JSON, CSV, console and PDF all carry that same number.
+
+The campaign has real test-to-test scatter (stiffness cv 0.2, n sd 0.05), so the test-level
+σ of kc is several times Eq. 4's and a writer that printed Eq. 4's would be caught."""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+import re
+
+import pytest
+from posterior_calibration import population_spec
+from pypdf import PdfReader
+
+import soilstats
+from soilstats.cli.main import main
+from soilstats.identification.table import format_value
+from soilstats.report.parameters import stderr_cell
+from soilstats.simulation import simulate
+
+VELOCITIES = (4.8e-4, 4.8e-3)
+
+
+def _squeeze(text: str) -> str:
+    return re.sub(r"[\s\u200b\u00ad]+", "", text)
+
+
+def _pdf(path) -> str:
+    return _squeeze("".join(page.extract_text() for page in PdfReader(path).pages))
+
+
+def _velocity(value) -> float:
+    """The simulated velocity a written condition (number or text) stands for."""
+    (v,) = [v for v in VELOCITIES if abs(float(value) - v) < 1e-12]
+    return v
+
+
+def _csv_rows(path) -> list[dict]:
+    lines = [line for line in path.read_text().splitlines() if not line.startswith("#")]
+    return list(csv.DictReader(lines))
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    """A scattered two-velocity campaign, identified and studied by the CLI with --out."""
+    root = tmp_path_factory.mktemp("sigma")
+    spec = population_spec(6, stiffness_cv=0.2, n_sd=0.05, points=60)
+    spec["series"][0] |= {"name": "velocity", "velocity_m_s": list(VELOCITIES)}
+    folder = simulate(spec, seed=3).campaign.save(root / "campaign")
+    consoles = {}
+    for name, argv in {
+        "identify": ["identify", str(folder)],
+        "study": ["study", "velocity", "--data", str(folder)],
+    }.items():
+        buffer = io.StringIO()
+        with contextlib.redirect_stdout(buffer):
+            assert main([*argv, "--out", str(root / name), "--progress", "off"]) == 0
+        consoles[name] = buffer.getvalue()
+    return soilstats.load_campaign(folder), root, consoles
+
+
+@pytest.fixture(scope="module")
+def fits(written):
+    campaign, _, _ = written
+    return {v: soilstats.fit_sinkage(campaign, "bekker", velocity_m_s=v) for v in VELOCITIES}
+
+
+def test_the_api_stderr_is_the_test_level_sigma_and_differs_from_eq4(fits):
+    for fit in fits.values():
+        assert fit.stderr_level == "tests"
+        assert fit.stderr.equals(fit.stderr_tests)
+    # The scatter makes the two σ differ, so a writer with Eq. 4's would fail below.
+    assert max(f.stderr["kc"] / f.stderr_eq4["kc"] for f in fits.values()) > 2
+
+
+def test_identify_writes_the_api_sigma_in_json_csv_console_and_pdf(written, fits):
+    _, root, consoles = written
+    records = json.loads((root / "identify" / "identify.json").read_text())["fits"]
+    rows = _csv_rows(root / "identify" / "identify.csv")
+    pdf = _pdf(root / "identify" / "identify.pdf")
+    assert len(records) == len(fits)
+    for record in records:
+        velocity = _velocity(record["condition"]["value"])
+        fit = fits[velocity]
+        assert record["stderr_level"] == "tests"
+        for name in fit.param_names:
+            value, sigma = fit.params[name], fit.stderr[name]
+            assert record["stderr"][name] == pytest.approx(sigma, rel=1e-12), name
+            assert record["stderr_eq4"][name] == pytest.approx(fit.stderr_eq4[name], rel=1e-12)
+            (row,) = [
+                r
+                for r in rows
+                if r["parameter"] == name and _velocity(r["condition"]) == velocity
+            ]
+            assert float(row["stderr"]) == pytest.approx(sigma, rel=1e-12), name
+            assert format_value(value, sigma) in consoles["identify"], name
+            cell = stderr_cell(value, sigma, fit.stderr_eq4[name], "tests")
+            assert _squeeze(cell) in pdf, cell
+
+
+def test_study_writes_the_api_sigma_in_json_csv_and_pdf(written, fits):
+    _, root, _ = written
+    params = json.loads((root / "study" / "velocity.json").read_text())["parameters"]
+    rows = _csv_rows(root / "study" / "velocity_parameters.csv")
+    pdf = _pdf(root / "study" / "velocity.pdf")
+    assert len(params) == len(rows) == 3 * len(fits)
+    for record, row in zip(params, rows, strict=True):
+        fit = fits[_velocity(record["condition"])]
+        name = record["parameter"]
+        sigma = fit.stderr[name]
+        assert record["stderr_level"] == row["stderr_level"] == "tests"
+        assert record["stderr"] == pytest.approx(sigma, rel=1e-12), name
+        assert float(row["stderr"]) == pytest.approx(sigma, rel=1e-12), name
+        cell = stderr_cell(fit.params[name], sigma, fit.stderr_eq4[name], "tests")
+        assert _squeeze(cell) in pdf, cell
