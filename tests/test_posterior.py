@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 
 import numpy as np
@@ -55,6 +56,8 @@ def test_result_groups_summary_and_convergence(campaign):
     assert post.diagnostics[["ess_bulk", "ess_tail"]].min().min() >= 400
     doc = json.loads(json.dumps(post.to_dict(), allow_nan=False))
     assert doc["converged"] is True and set(doc["params"]) == set(post.param_names)
+    page = post._repr_html_()  # a notebook's view: the same table and verdict
+    assert "convergence</b>: OK" in page and all(f"<td>{n}</td>" in page for n in post.var_names)
     assert doc["stderr"]["K"] == pytest.approx(post.diagnostics.loc["K", "sd"])
 
 
@@ -86,7 +89,8 @@ def test_not_converged_is_loud(campaign):
     with pytest.warns(ConvergenceWarning, match="NOT converged"):
         post = sample_posterior(campaign, "bekker", seed=3, draws=64)
     assert not post.converged
-    assert "NOT CONVERGED" in post.summary()
+    assert "NOT CONVERGED" in post.summary() and "NOT CONVERGED" in post._repr_html_()
+    assert all(html.escape(p) in post._repr_html_() for p in post.problems)
     # Its numbers are refused, not handed out quietly; asked for explicitly, they come.
     from soilstats.errors import ConvergenceError
 

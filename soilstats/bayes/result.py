@@ -292,3 +292,27 @@ class PosteriorResult:
 
     def __str__(self) -> str:
         return self.summary()
+
+    def _repr_html_(self) -> str:
+        """The summary as tables, for notebooks: sampler, estimates with diagnostics,
+        convergence (and every failed check), the least-squares start's health and the notes."""
+        from .._html import facts_html, notes_html, result_html, table_html
+
+        s = self.sampler
+        facts = {
+            "sampler": f"emcee, {s['walkers']} walkers, {s['steps']} steps, burn-in "
+            f"{s['burn']}, {s['kept']} draws kept",
+            "convergence": "OK"
+            if self.converged
+            else f"NOT CONVERGED ({len(self.problems)} failed checks): do not use these draws",
+        }
+        table = self.summary_table().rename_axis("quantity").reset_index()
+        health = pd.DataFrame(self.least_squares_health())
+        return result_html(
+            f"{self.model_name} posterior ({self.kind})",
+            facts_html(facts),
+            table_html(table, caption="Estimates (90 % equal-tailed intervals) and diagnostics"),
+            notes_html(self.problems, "Failed checks"),
+            table_html(health, caption="Health of the least-squares start") if len(health) else "",
+            notes_html(self.notes),
+        )
