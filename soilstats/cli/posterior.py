@@ -250,13 +250,13 @@ def _run(campaign, model, priors, args, index=0):
 def _check_simulator(args, models, stated: dict) -> None:
     """--simulator needs every parameter it writes, from the models, the Bernstein mapping or
     user priors, and valid stated inputs: refuse before sampling, not after."""
-    from ..bayes.export import missing_message, scm_plan, stated_inputs
-    from ..wheel.priors import sample_priors
-
     if not args.simulator:
         if args.scm_repair is not None:
             raise ValueError("--scm-repair repairs a simulator export: give --simulator too")
         return
+    from ..bayes.export import missing_message, scm_plan, stated_inputs
+    from ..wheel.priors import sample_priors
+
     params = [n for m in models for n in _checked_model(m).param_names]
     plan = scm_plan(params, stated)
     sinkage = [m for m in models if _checked_model(m).kind == "sinkage"]
