@@ -95,6 +95,12 @@ def test_the_same_posterior_run_writes_a_byte_identical_netcdf(tmp_path, monkeyp
     assert main(argv) == 0
     assert (out / "posterior.nc").read_bytes() == first
     assert b"created_at" not in first
+
+
+def test_source_date_epoch_sets_the_posterior_date(monkeypatch):
+    from soilstats.report.provenance import source_date
+
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    assert source_date() is None
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")
-    assert main(argv) == 0
-    assert b"2026-01-01T00:00:00+00:00" in (out / "posterior.nc").read_bytes()
+    assert source_date() == "2026-01-01T00:00:00+00:00"

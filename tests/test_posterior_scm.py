@@ -282,6 +282,7 @@ SOIL02 = [
 ]
 
 
+@pytest.mark.slow  # two population runs of two models: ~20 s
 def test_soil02_with_the_demo_elastic_K_is_refused_and_then_forced_loudly(tmp_path, capsys):
     # soil02's n is about 3.2, so Kphi [Pa/m^n] is ~1e10 against the demos' elastic_K 4e7.
     out = tmp_path / "refused"

@@ -16,7 +16,7 @@ from soilstats.cli.main import main
 IDENTIFY_MAX_PAGES = 8
 
 CAMPAIGNS = [
-    "simulated-paper",
+    pytest.param("simulated-paper", marks=pytest.mark.slow),  # 38 fits and their bootstraps
     "cmu-3d-terramechanics",
     pytest.param("cullinan-sand", marks=pytest.mark.slow),
     pytest.param("grc1-oravec2009", marks=pytest.mark.slow),
