@@ -256,21 +256,45 @@ class PopulationModel:
 
     def _mean_cov(self, v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h_t (W, T, 2) and M_t = B Σ Bᵀ + C_t (W, T, 2, 2) of the marginal likelihood."""
+        h0, g, (m00, m01, m11) = self._moments(v, theta)
+        h = np.stack([h0, np.broadcast_to(g[:, None], h0.shape)], axis=-1)
+        m = np.empty((*h0.shape, 2, 2))
+        m[..., 0, 0], m[..., 1, 1] = m00, m11
+        m[..., 0, 1] = m[..., 1, 0] = m01
+        return h, m
+
+    def _moments(self, v: np.ndarray, theta: np.ndarray):
+        """h_t's first row (W, T), g (W,) and the three entries of M_t = B Σ Bᵀ + C_t, each
+        broadcast to (W, T): the 2×2 algebra written out, no (W, T, 2, 2) stack."""
         kb = self.layout.linear(theta) @ self.design.T  # (W, T)
         g = self.layout.second(theta)
-        h0 = np.log(np.where(kb > 0, kb, np.nan)) + g[:, None] * self.ln_zref
-        h = np.stack([h0, np.broadcast_to(g[:, None], h0.shape)], axis=-1)
-        bsb = self.b @ self.sigma(v) @ self.b.T  # (W, 2, 2)
-        return h, bsb[:, None] + self.cov[None]
+        h0 = np.log(np.where(kb > 0, kb, np.nan)) + (g * self.ln_zref)[:, None]
+        se, sd, rho = self.scatter(v)
+        # B Σ Bᵀ with B = [[1, c], [0, 1]], c = ln z_ref − ln z_s.
+        c = self.b[0, 1]
+        s01 = rho * se * sd
+        a00 = se**2 + 2 * c * s01 + c**2 * sd**2
+        a01 = s01 + c * sd**2
+        a11 = sd**2
+        cov = self.cov
+        return (
+            h0,
+            g,
+            (
+                a00[:, None] + cov[None, :, 0, 0],
+                a01[:, None] + cov[None, :, 0, 1],
+                a11[:, None] + cov[None, :, 1, 1],
+            ),
+        )
 
     def _marginal(self, v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """det M_t and the quadratic form (η̂_t − h_t)ᵀ M_t⁻¹ (η̂_t − h_t) → (W, T) each;
         closed-form 2×2 algebra."""
-        h, m = self._mean_cov(v, theta)
-        r0 = self.eta[None, :, 0] - h[..., 0]
-        r1 = self.eta[None, :, 1] - h[..., 1]
-        det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
-        quad = (m[..., 1, 1] * r0**2 - 2 * m[..., 0, 1] * r0 * r1 + m[..., 0, 0] * r1**2) / det
+        h0, g, (m00, m01, m11) = self._moments(v, theta)
+        r0 = self.eta[None, :, 0] - h0
+        r1 = self.eta[None, :, 1] - g[:, None]
+        det = m00 * m11 - m01 * m01
+        quad = (m11 * r0 * r0 - 2 * m01 * r0 * r1 + m00 * r1 * r1) / det
         return det, quad
 
     def _from_eta(self, eta: np.ndarray) -> np.ndarray:
