@@ -219,7 +219,11 @@ def sample_population(
         which :meth:`~PosteriorResult.draws` returns.  ``observed_data``,
         ``posterior_predictive`` and ``log_likelihood`` hold ``eta_hat``, each test's own fit
         (one log-likelihood term per test), ``constant_data`` the measured curves
-        (:mod:`soilstats.bayes.predictive`).
+        (:mod:`soilstats.bayes.predictive`).  For sinkage, ``posterior.attrs["calibration"]``
+        holds the band check of the result (:class:`BandCalibration`, read with
+        :func:`band_calibration`): the 90 % band of a new preparation against the tests it
+        was learned from (importance-weighted leave-one-test-out coverage, width against
+        their own scatter), which criterion fails and why; its sentence is the last note.
     """
     setup = population_setup(
         campaign, model, priors=priors, points_per_test=points_per_test, **selection
