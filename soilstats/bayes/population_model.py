@@ -157,6 +157,11 @@ class PopulationModel:
     ):
         self.model, self.layout, self.eta, self.cov, self.priors = model, layout, eta, cov, priors
         self.coords, self.ln_zref, self.design = coords, ln_zref, design
+        # Tests share few design rows (one per plate size or normal pressure): the log of
+        # a_tᵀm is taken once per row and walker, then spread over the tests.
+        rows, self._row_of_test = np.unique(np.asarray(design, float), axis=0, return_inverse=True)
+        self._rows = rows
+        self._row_of_test = np.asarray(self._row_of_test).reshape(-1)
         # Σ sits on (ln p at z_s, n); B carries it to η's (ln p at z_ref, n).  Shear: z_s = z_ref.
         self.ln_zs = ln_zref if ln_zs is None else ln_zs
         self.b = np.array([[1.0, ln_zref - self.ln_zs], [0.0, 1.0]])
@@ -266,9 +271,10 @@ class PopulationModel:
     def _moments(self, v: np.ndarray, theta: np.ndarray):
         """h_t's first row (W, T), g (W,) and the three entries of M_t = B Σ Bᵀ + C_t, each
         broadcast to (W, T): the 2×2 algebra written out, no (W, T, 2, 2) stack."""
-        kb = self.layout.linear(theta) @ self.design.T  # (W, T)
+        kb = self.layout.linear(theta) @ self._rows.T  # (W, rows)
         g = self.layout.second(theta)
         h0 = np.log(np.where(kb > 0, kb, np.nan)) + (g * self.ln_zref)[:, None]
+        h0 = h0[:, self._row_of_test]  # (W, T)
         se, sd, rho = self.scatter(v)
         # B Σ Bᵀ with B = [[1, c], [0, 1]], c = ln z_ref − ln z_s.
         c = self.b[0, 1]
