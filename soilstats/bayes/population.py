@@ -461,10 +461,11 @@ def _measured_ln_p(z_sorted, ln_p_sorted, z):
     return np.where((z >= z_sorted[0]) & (z <= z_sorted[-1]), out, np.nan)
 
 
-def _band_quantiles(values: np.ndarray, weights: np.ndarray, q) -> np.ndarray:
+def _band_quantiles(values: np.ndarray, weights: np.ndarray, q, order=None) -> np.ndarray:
     """Quantiles ``q`` of each column of ``values`` (S, M) under the weights ``weights``
-    (S, M) (non-negative; a non-finite value must have weight 0) → (len(q), M)."""
-    order = np.argsort(values, axis=0)
+    (S, M) (non-negative; a non-finite value must have weight 0) → (len(q), M); ``order``:
+    ``np.argsort(values, axis=0)`` if already at hand."""
+    order = np.argsort(values, axis=0) if order is None else order
     cum = np.cumsum(np.take_along_axis(weights, order, axis=0), axis=0)
     cum /= cum[-1]
     idx = np.stack([np.argmax(cum >= x, axis=0) for x in q])
@@ -534,8 +535,10 @@ def _band_check(
     w = np.minimum(w, np.sqrt(w.shape[0]) * np.mean(w, axis=0))
     w = np.repeat(w, k_depths, axis=1) * finite
     enough = finite.sum(axis=0).reshape(depths.shape) >= 10
-    lo, hi = _band_quantiles(ln_p, finite.astype(float), (0.05, 0.95)).reshape(2, *depths.shape)
-    lo_loo, hi_loo = _band_quantiles(ln_p, w, (0.05, 0.95)).reshape(2, *depths.shape)
+    order = np.argsort(ln_p, axis=0)
+    lo, hi = _band_quantiles(ln_p, finite.astype(float), (0.05, 0.95), order)
+    lo_loo, hi_loo = _band_quantiles(ln_p, w, (0.05, 0.95), order)
+    lo, hi, lo_loo, hi_loo = (x.reshape(depths.shape) for x in (lo, hi, lo_loo, hi_loo))
     inside = np.isfinite(measured) & enough & np.isfinite(lo_loo) & np.isfinite(hi_loo)
     points = int(inside.sum())
 
