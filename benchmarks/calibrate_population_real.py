@@ -88,6 +88,7 @@ class Row:
     points: int
     coverage: float  # share of held-out measured points inside the 90 % band (nan: no folds)
     coverage_power_law: float  # the same for the held-out test's own Bernstein curve
+    by_depth: list  # coverage at each of QUANTILES (the shallowest first)
     width: float  # band width / (3.29 × the tests' own sd of ln p), mean over points
     sd_ratio: float  # sd of ln p over new-preparation draws / the tests' own sd
     not_converged: int
@@ -155,6 +156,7 @@ def check_group(campaign, group: Group, *, draws: int, seed: int, bar) -> Row:
     test_ids = list(tests.loc[mask, "test_id"].astype(str))
     curves = _curves(campaign, test_ids)
     hits = hits_pl = points = folds = not_converged = 0
+    depth_hits, depth_points = np.zeros(len(QUANTILES)), np.zeros(len(QUANTILES))
     band_w, own_w, band_sd, own_sd = [], [], [], []
     failed = []
 
@@ -188,6 +190,8 @@ def check_group(campaign, group: Group, *, draws: int, seed: int, bar) -> Row:
             hits += int(np.sum((lo[ok] <= y[ok]) & (y[ok] <= hi[ok])))
             hits_pl += int(np.sum((lo[ok] <= own[ok]) & (own[ok] <= hi[ok])))
             points += int(np.sum(ok))
+            depth_hits += ok & (lo <= y) & (y <= hi)
+            depth_points += ok
             widths(lo[ok], hi[ok], sd[ok], z[ok])
             folds += 1
             bar.update(1)
@@ -214,6 +218,7 @@ def check_group(campaign, group: Group, *, draws: int, seed: int, bar) -> Row:
         points=points,
         coverage=hits / points if points else float("nan"),
         coverage_power_law=hits_pl / points if points else float("nan"),
+        by_depth=list(depth_hits / np.maximum(depth_points, 1)) if points else [],
         width=mean(band_w) / mean(own_w) if own_w else float("nan"),
         sd_ratio=mean(band_sd) / mean(own_sd) if own_sd else float("nan"),
         not_converged=not_converged,
@@ -244,7 +249,7 @@ def _pct(x: float) -> str:
 def table(rows: list[Row]) -> str:
     head = (
         f"{'group':<29} {'tests':>5} {'points':>6} {'cover':>6} {'curve':>6} {'width':>6} "
-        f"{'sd':>5} | {'cover':>6} {'width':>6} {'s':>4}  verdict"
+        f"{'sd':>5} | {'cover':>6} {'width':>6} {'s':>4}  {'by sinkage, %':<19} verdict"
     )
     lines = [
         f"{'':<29} {'':>5} {'':>6} {'--- leave-one-test-out ---':^33} | {'-- result --':^13}",
@@ -255,7 +260,8 @@ def table(rows: list[Row]) -> str:
         lines.append(
             f"{r.group:<29} {r.tests:>5} {r.points:>6} {_pct(r.coverage)} "
             f"{_pct(r.coverage_power_law)} {r.width:6.2f} {r.sd_ratio:5.2f} | "
-            f"{_pct(r.own_coverage)} {r.own_width:6.2f} {r.seconds:4.0f}  {verdict(r)}"
+            f"{_pct(r.own_coverage)} {r.own_width:6.2f} {r.seconds:4.0f}  "
+            f"{'/'.join(f'{100 * x:.0f}' for x in r.by_depth) or '-':<19} {verdict(r)}"
             + (f" [{r.not_converged} fits not converged]" if r.not_converged else "")
         )
         lines.extend(f"{'':<29} failed: {f}" for f in r.failed_folds)
@@ -296,7 +302,8 @@ def main(argv: list[str] | None = None) -> list[Row]:
         "curve: the held-out test's own Bernstein curve inside; width: band width in ln p / "
         "(3.29 x the tests' own sd of ln p) (target <= 3); sd: sd over draws / own sd; "
         "result: what sample_population on all the group's tests reports itself "
-        "(importance-weighted leave-one-out coverage, in-sample width)"
+        "(importance-weighted leave-one-out coverage, in-sample width); by sinkage: "
+        "coverage at the 10/30/50/70/90 % quantiles of the held-out tests' sinkages"
     )
     print(table(rows))
     print("\nWhat sample_population says (posterior.attrs['calibration'], its last note):")

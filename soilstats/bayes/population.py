@@ -24,7 +24,13 @@ from ._arviz import az
 from .data import pooled_problem
 from .population_model import POPULATION_MODELS, PopulationModel, reference_rows
 from .posterior import _attrs, finish
-from .predictive import PREDICTIVE_DRAWS, measured_dataset, response_dataset, spread_draws
+from .predictive import (
+    LOG_LIKELIHOOD_VALUES,
+    PREDICTIVE_DRAWS,
+    measured_dataset,
+    response_dataset,
+    spread_draws,
+)
 from .priors import resolve_priors
 from .reduction import (
     PerTestFits,
@@ -361,15 +367,18 @@ def _population_idata(pops: PopulationModel, run, rng, fits: PerTestFits, curves
         coords={"chain": np.arange(chains), "draw": sub, "eta": per_test} | test_coords,
         attrs={"draws_of_posterior": draws, "model": "eta_hat_t ~ N(h_t, B Sigma B' + C_t)"},
     )
+    # Every posterior draw unless draws × tests exceed LOG_LIKELIHOOD_VALUES, as the pooled
+    # model's (soilstats.bayes.predictive): then thinned evenly within each chain.
+    keep = spread_draws(draws, chains, LOG_LIKELIHOOD_VALUES // max(len(test_ids), 1))
+    ll = pops.log_likelihood(run.chain[:, keep].reshape(-1, dim), fits.params)
     log_lik = xr.Dataset(
-        {
-            "eta_hat": (
-                ("chain", "draw", "test"),
-                pops.log_likelihood(flat, fits.params).reshape(chains, draws, -1),
-            )
+        {"eta_hat": (("chain", "draw", "test"), ll.reshape(chains, keep.size, -1))},
+        coords={"chain": np.arange(chains), "draw": keep} | test_coords,
+        attrs={
+            "model": "one term per test (leave-one-test-out)",
+            "draws_of_posterior": draws,
+            "thinned": int(keep.size < draws),
         },
-        coords=coords | test_coords,
-        attrs={"model": "one term per test (leave-one-test-out)", "thinned": 0},
     )
     groups = {"observed_data": observed, "posterior_predictive": ppc, "log_likelihood": log_lik}
     if curves is not None:
