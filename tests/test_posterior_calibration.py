@@ -252,6 +252,8 @@ def test_band_check_says_which_criterion_fails_and_why():
         width_floor=2.05,
         misfit=0.01,
         half_width=0.3,
+        pareto_k_max=0.5,
+        unreliable_tests=0,
     )
     flat = np.zeros((3, 5))
     failures, sentence = _band_verdict(base, flat, flat, np.zeros((3, 5), bool))
@@ -266,7 +268,10 @@ def test_band_check_says_which_criterion_fails_and_why():
     missed[:, 0] = True
     failures, sentence = _band_verdict(misfit, measured, np.zeros((6, 5)), missed)
     assert failures == ("coverage",)
-    assert "within-test misfit" in sentence and "shallowest" in sentence
+    assert (
+        "within-test misfit" in sentence
+        and "6 of the 6 misses at each test's shallowest" in sentence
+    )
     assert "median 1.00 in ln p" in sentence
     # Many tests that scatter more than a normal population: not the misfit's fault.
     wide = dict(base, tests=40, width=5.0, width_floor=1.02, coverage=0.6, coverage_power_law=0.6)
