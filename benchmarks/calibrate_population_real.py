@@ -9,9 +9,11 @@ tests of one soil on one plate:
    others (``sample_population(..., test_id=rest)``, ``--draws`` kept draws, seed
    ``seed·1000 + fold``);
 2. draw a NEW test's curve ln p(z) = ln k + n ln z from every new-preparation draw;
-3. at 5 sinkages of the held-out test — the 10, 30, 50, 70 and 90 % quantiles of its screened
-   samples' z — ask whether its measured ln p (linear interpolation of its record, sorted by
-   z) lies inside the pointwise equal-tailed 90 % band.
+3. at 5 sinkages of the held-out test — the 10, 30, 50, 70 and 90 % quantiles of the z of
+   the samples its fit uses (``pool_sinkage``: 100 equidistant in z) — ask whether its
+   measured ln p (linear interpolation of those samples, sorted by z) lies inside the
+   pointwise equal-tailed 90 % band; also whether its own Bernstein curve does ("curve":
+   what a power-law draw can reach at all), and the coverage at each of the 5 sinkages.
 
 Coverage = the share of (held-out test, sinkage) points inside (target 80–97 %).  Width =
 the band's width in ln p divided by 3.29 × the tests' own scatter: the sd of the measured
@@ -27,6 +29,10 @@ each plate size pooled over its two boxes (6), and each plate × box (3 tests: l
 out leaves 2, below the population model's minimum of 3, so those rows are the in-sample
 band of all 3 tests — width only, no held-out coverage).  Data are screened as the CLI
 screens them (``soilstats.quality.screen``, mode ``clean``).  A few minutes on 2 cores.
+
+Beside each group: what ``sample_population`` on all of its tests says about its own band
+(``soilstats.bayes.population.BandCalibration``: Pareto-smoothed importance-weighted
+leave-one-out coverage, in-sample width, which criterion fails and why).
 """
 
 from __future__ import annotations
