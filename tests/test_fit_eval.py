@@ -48,7 +48,7 @@ def test_a_campaign_fit_band_is_test_level_where_it_rests_on_five_tests():
     fit = fit_sinkage(campaign, "bernstein", radius_m=0.051, test_resamples=200)
     assert fit.n_tests == 5
     tests, samples = fit.eval_uncertainty(z), fit.eval_uncertainty(z, level="samples")
-    jac = np.column_stack([z ** fit.values[1], fit.values[0] * z ** fit.values[1] * np.log(z)])
+    jac = np.column_stack([z**fit.values[1], fit.values[0] * z ** fit.values[1] * np.log(z)])
     want = np.sqrt(np.einsum("ij,jk,ik->i", jac, fit.covariance_tests, jac))
     np.testing.assert_allclose(tests, want, rtol=1e-9)
     assert (tests > 2 * samples).all()
