@@ -20,12 +20,27 @@ and the InferenceData).  Also: how the cost of sample_posterior grows from 3 000
 kept draws.
 
     python benchmarks/bench_posterior.py            # one run, prints ratios (~1–2 min)
+    python benchmarks/bench_posterior.py --population   # the population part only (~3 min)
+
+Population posteriors (issue #39): for every bundled real campaign and simulated-paper soil01,
+the wall and CPU time of the whole ``soilstats posterior --population`` command (imports,
+screening, sampling, report, files; target ≤ 10 s on two cores), and in process
+``sample_population``'s ESS/s (min bulk ESS over the soil-level parameters and the scatter,
+over the whole call) beside plain emcee (stretch move, 32 walkers × 3 000 steps, 500 burn-in,
+``vectorize=True``) sampling the same log-density (``population_setup(...).pops.log_prob``)
+from the same Laplace start.  CPU time is given beside wall time because the machine is
+shared: on an idle one they agree.
 
 Ratios from one run on this machine; not a unit test.
 """
 
 from __future__ import annotations
 
+import os
+import resource
+import subprocess
+import sys
+import tempfile
 import time
 import warnings
 
@@ -34,9 +49,12 @@ import numpy as np
 import pandas as pd
 from bench_identify import paper_size_campaign
 
-from soilstats.bayes import sample_posterior
+from soilstats import load_campaign
+from soilstats.bayes import sample_population, sample_posterior
 from soilstats.bayes._arviz import az
 from soilstats.bayes.data import pooled_problem
+from soilstats.bayes.population import population_setup
+from soilstats.quality import screen
 
 WALKERS = 32
 STEPS = 3000  # per walker for the plain emcee runs
@@ -120,6 +138,136 @@ def pymc_nuts(problem, fit) -> dict | None:
     }
 
 
+#: (label, CLI arguments, in-process runs: (campaign, model, selection)).
+POPULATION_CASES = (
+    (
+        "GRC-1 51 mm, bernstein",
+        "--data grc1-oravec2009 --soil GRC-1 --model bernstein --select radius_m=0.051",
+        (("grc1-oravec2009", "bernstein", {"radius_m": 0.051}),),
+    ),
+    (
+        "GRC-1 95 mm, bernstein",
+        "--data grc1-oravec2009 --soil GRC-1 --model bernstein --select radius_m=0.095",
+        (("grc1-oravec2009", "bernstein", {"radius_m": 0.095}),),
+    ),
+    (
+        "Cullinan prep. 1, bernstein",
+        "--data cullinan-sand --soil cullinan-sand --model bernstein "
+        "--select sinkage:preparation=1",
+        (("cullinan-sand", "bernstein", {"preparation": "1"}),),
+    ),
+    (
+        "CMU all plates, bekker",
+        "--data cmu-3d-terramechanics --model bekker",
+        (("cmu-3d-terramechanics", "bekker", {}),),
+    ),
+    (
+        "simulated soil01, bekker+janosi",
+        "--data simulated-paper --soil soil01 --model bekker+janosi",
+        (
+            ("simulated-paper", "bekker", {"soil": "soil01"}),
+            ("simulated-paper", "janosi", {"soil": "soil01"}),
+        ),
+    ),
+)
+
+
+def cli_seconds(args: str) -> tuple[float, float]:
+    """(wall, CPU) seconds of one ``soilstats posterior ARGS --population`` in a new process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with tempfile.TemporaryDirectory() as out:
+        t0 = time.perf_counter()
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "soilstats",
+                "posterior",
+                *args.split(),
+                "--population",
+                "--out",
+                os.path.join(out, "o"),
+            ],
+            capture_output=True,
+            text=True,
+        )
+        wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        raise RuntimeError(f"soilstats posterior {args} failed: {done.stderr[-500:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def population_ours(campaign, model: str, selection: dict, seed: int = 0) -> dict:
+    t0 = time.perf_counter()
+    result = sample_population(campaign, model, seed=seed, **selection)
+    seconds = time.perf_counter() - t0
+    names = [v for v in result.var_names if v not in result.param_names]
+    d = result.diagnostics.loc[names]
+    return {
+        "seconds": seconds,
+        "kept": result.sampler["kept"],
+        "ess": float(d["ess_bulk"].min()),
+        "rhat": float(d["r_hat"].max()),
+        "converged": result.converged,
+    }
+
+
+def population_emcee(campaign, model: str, selection: dict, seed: int = 0) -> dict:
+    """Plain emcee (stretch, vectorised) on the same density, from the same start."""
+    t0 = time.perf_counter()
+    setup = population_setup(campaign, model, **selection)
+    pops = setup.pops
+    rng = np.random.default_rng(seed)
+    start = rng.multivariate_normal(setup.centre, setup.cov * 1e-2, size=WALKERS)
+    sampler = emcee.EnsembleSampler(WALKERS, start.shape[1], pops.log_prob, vectorize=True)
+    state = emcee.State(start, random_state=np.random.RandomState(seed).get_state())
+    sampler.run_mcmc(state, STEPS)
+    seconds = time.perf_counter() - t0
+    summaries = pops.summaries(np.swapaxes(sampler.get_chain(discard=BURN), 0, 1))
+    ess = az.ess(summaries, method="bulk")
+    rhat = az.rhat(summaries)
+    return {
+        "seconds": seconds,
+        "kept": WALKERS * (STEPS - BURN),
+        "ess": min(float(ess[n]) for n in summaries),
+        "rhat": max(float(rhat[n]) for n in summaries),
+        "converged": None,
+    }
+
+
+def population_main() -> pd.DataFrame:
+    """Population posteriors: CLI times and ESS/s against plain emcee (module docstring)."""
+    campaigns = {}
+    rows, cli = [], []
+    sample_population(load_campaign("cullinan-sand"), "bernstein", draws=2000, preparation="1")
+    for label, args, runs in POPULATION_CASES:
+        wall, cpu = cli_seconds(args)
+        cli.append({"command": label, "wall s": wall, "CPU s": cpu, "<= 10 s": cpu <= 10})
+        for name, model, selection in runs:
+            if name not in campaigns:
+                campaigns[name] = screen(load_campaign(name), "clean").campaign
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ours = population_ours(campaigns[name], model, selection)
+                plain = population_emcee(campaigns[name], model, selection)
+            for who, r in (("sample_population", ours), ("emcee stretch", plain)):
+                rows.append({"case": f"{label.split(',')[0]}: {model}", "sampler": who, **r})
+    cli = pd.DataFrame(cli).set_index("command")
+    print("soilstats posterior ... --population (whole command, new process; target <= 10 s):")
+    print(cli.to_string(float_format=lambda v: f"{v:.2f}"))
+    table = pd.DataFrame(rows)
+    table["ESS/s"] = table["ess"] / table["seconds"]
+    print(
+        "\nIn process: min bulk ESS over mu_*, sd_*, corr_* per second of the whole call "
+        f"(plain emcee: {WALKERS} walkers x {STEPS} steps, {BURN} burn-in, vectorize=True)"
+    )
+    cols = ["case", "sampler", "seconds", "kept", "ess", "rhat", "ESS/s"]
+    print(table[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    return table
+
+
 def main() -> pd.DataFrame:
     campaign = paper_size_campaign()
     problem, fit = pooled_problem(campaign, "bekker")
@@ -161,4 +309,9 @@ def main() -> pd.DataFrame:
 
 
 if __name__ == "__main__":
-    main()
+    if "--population" in sys.argv[1:]:
+        population_main()
+    else:
+        main()
+        print()
+        population_main()

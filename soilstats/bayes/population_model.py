@@ -157,6 +157,11 @@ class PopulationModel:
     ):
         self.model, self.layout, self.eta, self.cov, self.priors = model, layout, eta, cov, priors
         self.coords, self.ln_zref, self.design = coords, ln_zref, design
+        # Tests share few design rows (one per plate size or normal pressure): the log of
+        # a_tᵀm is taken once per row and walker, then spread over the tests.
+        rows, self._row_of_test = np.unique(np.asarray(design, float), axis=0, return_inverse=True)
+        self._rows = rows
+        self._row_of_test = np.asarray(self._row_of_test).reshape(-1)
         # Σ sits on (ln p at z_s, n); B carries it to η's (ln p at z_ref, n).  Shear: z_s = z_ref.
         self.ln_zs = ln_zref if ln_zs is None else ln_zs
         self.b = np.array([[1.0, ln_zref - self.ln_zs], [0.0, 1.0]])
@@ -256,21 +261,46 @@ class PopulationModel:
 
     def _mean_cov(self, v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """h_t (W, T, 2) and M_t = B Σ Bᵀ + C_t (W, T, 2, 2) of the marginal likelihood."""
-        kb = self.layout.linear(theta) @ self.design.T  # (W, T)
-        g = self.layout.second(theta)
-        h0 = np.log(np.where(kb > 0, kb, np.nan)) + g[:, None] * self.ln_zref
+        h0, g, (m00, m01, m11) = self._moments(v, theta)
         h = np.stack([h0, np.broadcast_to(g[:, None], h0.shape)], axis=-1)
-        bsb = self.b @ self.sigma(v) @ self.b.T  # (W, 2, 2)
-        return h, bsb[:, None] + self.cov[None]
+        m = np.empty((*h0.shape, 2, 2))
+        m[..., 0, 0], m[..., 1, 1] = m00, m11
+        m[..., 0, 1] = m[..., 1, 0] = m01
+        return h, m
+
+    def _moments(self, v: np.ndarray, theta: np.ndarray):
+        """h_t's first row (W, T), g (W,) and the three entries of M_t = B Σ Bᵀ + C_t, each
+        broadcast to (W, T): the 2×2 algebra written out, no (W, T, 2, 2) stack."""
+        kb = self.layout.linear(theta) @ self._rows.T  # (W, rows)
+        g = self.layout.second(theta)
+        h0 = np.log(np.where(kb > 0, kb, np.nan)) + (g * self.ln_zref)[:, None]
+        h0 = h0[:, self._row_of_test]  # (W, T)
+        se, sd, rho = self.scatter(v)
+        # B Σ Bᵀ with B = [[1, c], [0, 1]], c = ln z_ref − ln z_s.
+        c = self.b[0, 1]
+        s01 = rho * se * sd
+        a00 = se**2 + 2 * c * s01 + c**2 * sd**2
+        a01 = s01 + c * sd**2
+        a11 = sd**2
+        cov = self.cov
+        return (
+            h0,
+            g,
+            (
+                a00[:, None] + cov[None, :, 0, 0],
+                a01[:, None] + cov[None, :, 0, 1],
+                a11[:, None] + cov[None, :, 1, 1],
+            ),
+        )
 
     def _marginal(self, v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """det M_t and the quadratic form (η̂_t − h_t)ᵀ M_t⁻¹ (η̂_t − h_t) → (W, T) each;
         closed-form 2×2 algebra."""
-        h, m = self._mean_cov(v, theta)
-        r0 = self.eta[None, :, 0] - h[..., 0]
-        r1 = self.eta[None, :, 1] - h[..., 1]
-        det = m[..., 0, 0] * m[..., 1, 1] - m[..., 0, 1] * m[..., 1, 0]
-        quad = (m[..., 1, 1] * r0**2 - 2 * m[..., 0, 1] * r0 * r1 + m[..., 0, 0] * r1**2) / det
+        h0, g, (m00, m01, m11) = self._moments(v, theta)
+        r0 = self.eta[None, :, 0] - h0
+        r1 = self.eta[None, :, 1] - g[:, None]
+        det = m00 * m11 - m01 * m01
+        quad = (m11 * r0 * r0 - 2 * m01 * r0 * r1 + m00 * r1 * r1) / det
         return det, quad
 
     def _from_eta(self, eta: np.ndarray) -> np.ndarray:

@@ -84,6 +84,7 @@ def run_ensemble(
     description: str = "sampling",
     accept: Callable[[np.ndarray], bool] | None = None,
     max_extend: int = 2,
+    proposal_dof: float = 10.0,
 ) -> EnsembleRun:
     """Sample ``log_prob`` (vectorised over walkers) with emcee; see the module docstring.
 
@@ -109,6 +110,10 @@ def run_ensemble(
         verdict is the caller's, and a failure stays a failure.
     max_extend : int
         Most doublings of the kept part.
+    proposal_dof : float
+        Degrees of freedom ν of the Student-t independence proposal (``moves="laplace"``):
+        at most those of the target's tails, so that the importance ratio stays bounded
+        (the population model gives T − 1 for T tests).
     """
     centre = np.asarray(centre, float)
     cov = np.asarray(cov, float)
@@ -120,7 +125,7 @@ def run_ensemble(
     rng = np.random.default_rng(seed)
     independent = None
     if moves == "laplace":
-        independent = StudentIndependenceMove(centre, cov)
+        independent = StudentIndependenceMove(centre, cov, dof=proposal_dof)
         mix = [
             (independent, 0.7),
             (emcee.moves.DEMove(), 0.2),
