@@ -8,6 +8,9 @@ scatter moves the coverage outside the stated band.
 
 from __future__ import annotations
 
+import json
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -17,6 +20,7 @@ from posterior_calibration import (
     population_coverage,
     shear_population_coverage,
 )
+from pypdf import PdfReader
 
 import soilstats
 from soilstats.bayes import sample_population, sample_posterior
@@ -176,7 +180,33 @@ def test_cli_population_with_select_on_real_data(tmp_path):
     assert summary["r_hat"].max() <= 1.01
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert idata.posterior.attrs["converged"] == 1
+    # The band's own check travels to posterior.json and page 1 (issue #36).
+    check = json.loads((out / "posterior.json").read_text())["band_check"]["bernstein"]
+    assert 0 <= check["coverage"] <= 1 and check["width"] > 0
+    assert _squeeze(check["sentence"]) in _squeeze(
+        PdfReader(out / "report.pdf").pages[0].extract_text()
+    )
     assert main([*args, "--select", "nosuchcolumn=1", "--out", str(tmp_path / "o2")]) == 2
+
+
+def _squeeze(text: str) -> str:
+    return re.sub(r"[\s\u200b\u00ad]+", "", text)
+
+
+def test_a_failed_band_check_keeps_pass_every_check_off_page_one():
+    from soilstats.report.posterior_pdf import _verdict
+
+    class Clean:
+        model_name = "bernstein"
+
+        def least_squares_health(self):
+            return []
+
+    record = {"draws_written": 10, "failures": [], "warnings": [], "pooling_warnings": []}
+    assert "pass every check" in "".join(map(str, _verdict([Clean()], record)))
+    record["band_check"] = {"bernstein": {"failures": ["width"], "sentence": "WIDTH FAILS"}}
+    text = "".join(map(str, _verdict([Clean()], record)))
+    assert "pass every check" not in text and "band check of bernstein fails (width)" in text
 
 
 def _crossing_campaign(rng, *, tests=6, z_ref=0.01, sd_p=0.05, sd_n=0.15, b=0.05):

@@ -637,9 +637,13 @@ def _decide_and_write(
 
 def _record(args, models, results, handout, failures, ours, pooled_warnings, provenance) -> dict:
     """posterior.json: the run, the decision and what it rests on."""
+    import json
+
+    from ..bayes.population import band_calibration
     from ..report import json_safe
 
     decision = handout.to_dict()
+    checks = {r.model_name: band_calibration(r) for r in results if r.kind == "population"}
     return json_safe(
         {
             "soil": args.soil,
@@ -654,6 +658,10 @@ def _record(args, models, results, handout, failures, ours, pooled_warnings, pro
             "priors": {r.model_name: r.idata.posterior.attrs.get("priors", "") for r in results},
             "pooling_warnings": pooled_warnings,
             "least_squares_health": decision["least_squares_health"],
+            # The population band against its own tests (issue #36): which criterion fails.
+            "band_check": {
+                name: json.loads(check.to_json()) for name, check in checks.items() if check
+            },
             "warnings": ours,
             "selection": list(args.select or []),
             "provenance": provenance.to_dict(),

@@ -505,6 +505,39 @@ def _thinned(index: np.ndarray) -> np.ndarray:
     return index[np.unique(np.linspace(0, index.size - 1, MAX_DRAWN_SAMPLES).round().astype(int))]
 
 
+def _nan_quantiles(curves: np.ndarray, q: list[float]) -> np.ndarray:
+    """``np.nanquantile(curves, q, axis=0)`` (linear interpolation) in one sort: numpy falls
+    back to a Python loop over the columns as soon as one NaN is present (3 s for soil01's
+    44,640 samples)."""
+    ordered = np.sort(curves.T, axis=1)  # NaN sorts last; rows contiguous for the sort
+    valid = (~np.isnan(ordered)).sum(axis=1)
+    rows = np.arange(ordered.shape[0])
+    out = np.full((len(q), ordered.shape[0]), np.nan)
+    has = valid > 0
+    for k, p in enumerate(q):
+        position = (valid - 1).clip(0) * p
+        below = np.floor(position).astype(int)
+        above = np.minimum(below + 1, (valid - 1).clip(0))
+        t = position - below
+        a, b = ordered[rows, below], ordered[rows, above]
+        out[k, has] = (a + (b - a) * t)[has]
+    return out
+
+
+def _drawn(measured) -> np.ndarray:
+    """The samples the predictive check draws: :func:`_thinned` per test. Only their band is
+    computed (soil01's 372 tests × 1000 draws: seconds of quantiles for points not drawn)."""
+    tests = measured["test"].to_numpy().astype(str)
+    return np.sort(np.concatenate([_thinned(np.flatnonzero(tests == t)) for t in set(tests)]))
+
+
+def _spread_out(bounds: np.ndarray, keep: np.ndarray, measured) -> np.ndarray:
+    """(2, kept) band bounds as (2, all samples), NaN where a sample is not drawn."""
+    out = np.full((2, measured["y"].size), np.nan)
+    out[:, keep] = bounds
+    return out
+
+
 def _same(a: float, b: float) -> bool:
     return (np.isnan(a) and np.isnan(b)) or a == b
 
@@ -525,12 +558,13 @@ def _band(post: _Posterior, prob: float, draws: int):
         step = max(1, math.ceil(len(theta) / max(draws, 1)))
         theta = theta[::step]
         inputs = [input_name(label) for label in post.model.inputs]
-        x = [measured[name].to_numpy() for name in inputs]
+        keep = _drawn(measured)
+        x = [measured[name].to_numpy()[keep] for name in inputs]
         x = x[0] if len(x) == 1 else np.vstack(x)
         cols = [theta[:, i : i + 1] for i in range(theta.shape[1])]
         with np.errstate(all="ignore"):
             curves = np.asarray(post.model.func(x, *cols), float)
-        lo, hi = np.nanquantile(curves, q, axis=0)
+        lo, hi = _spread_out(_nan_quantiles(curves, q), keep, measured)
         where = "normal pressure" if post.shear else "plate size"
         words = (
             f"the curve a new preparation of the soil gives at that test's {where} "
@@ -545,7 +579,8 @@ def _band(post: _Posterior, prob: float, draws: int):
     measured = idata.observed_data
     rep = idata.posterior_predictive["y"]
     flat = rep.to_numpy().reshape(-1, rep.sizes["obs"])
-    lo, hi = np.quantile(flat, q, axis=0)
+    keep = _drawn(measured)
+    lo, hi = _spread_out(np.quantile(flat[:, keep], q, axis=0), keep, measured)
     words = (
         f"the replicated data ({flat.shape[0]} data sets drawn from the weighted Gaussian "
         f"likelihood at joint posterior draws of the parameters and the noise scale σ_w, "

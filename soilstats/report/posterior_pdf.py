@@ -72,6 +72,12 @@ def _caveats(results, record: dict) -> list[str]:
     said = len(record.get("warnings", [])) + len(record.get("pooling_warnings", []))
     if said:
         out.append(f"{said} warning{'s' if said > 1 else ''}")
+    failed = [
+        f"the band check of {name} fails ({', '.join(check['failures'])})"
+        for name, check in (record.get("band_check") or {}).items()
+        if check.get("failures")
+    ]
+    out += failed
     repaired = ((record.get("simulator") or {}).get("constraints") or {}).get("repaired", 0)
     if repaired:
         out.append(f"SCM's elastic_K > Bekker_Kphi repaired in {repaired} parameter sets")
@@ -164,6 +170,9 @@ def _conclusion(results, record: dict, prob: float, handed_out=None) -> list:
     if not record:
         return out
     out.append(_verdict(results, record))
+    for name, check in (record.get("band_check") or {}).items():
+        fails = ", band check FAILS" if check.get("failures") else ""
+        out.append([strong(f"{name}{fails}: "), check["sentence"]])
     out += _simulator_lines(record)
     width = record.get("negative_modulus_below_m")
     if width is not None and not record.get("simulator"):  # the simulator's note says it
