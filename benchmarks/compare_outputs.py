@@ -20,10 +20,11 @@
   ``--out`` so the command line in the provenance is the same in every capture; what each
   prints to stdout and stderr goes to ``console/``.
 
-``compare`` lists every file of either capture as identical or different; for a PDF that
-differs it also compares the extracted text page by page (pypdf) and the document metadata,
-to tell a rendering difference from a changed number.  Exit status 1 when any JSON or CSV
-file differs or is missing.
+``compare`` lists every file of either capture as identical or different (console text also
+as identical but for the wall-clock times it prints); for a PDF that differs it also compares
+the extracted text page by page (pypdf) and the document metadata, to tell a rendering
+difference from a changed number.  Exit status 1 when any file but a PDF differs or is
+missing.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import filecmp
 import importlib
 import json
 import math
+import re
 import subprocess
 import sys
 import warnings
@@ -278,6 +280,11 @@ def _pdf_differences(a: Path, b: Path) -> str:
     return "; ".join(parts)
 
 
+def _untimed(path: Path) -> str:
+    """A console text with its wall-clock times ("runtime 0.2 s", "3.1 s") masked."""
+    return re.sub(r"\b\d+(\.\d+)? s\b", "<t> s", path.read_text())
+
+
 def compare(base: Path, new: Path) -> int:
     files = sorted(
         {p.relative_to(base) for p in base.rglob("*") if p.is_file()}
@@ -293,6 +300,8 @@ def compare(base: Path, new: Path) -> int:
             status = "identical"
         elif rel.suffix == ".pdf":
             status = "DIFFERS (" + _pdf_differences(a, b) + ")"
+        elif rel.parts[0] == "console" and _untimed(a) == _untimed(b):
+            status = "identical but for wall-clock times"
         else:
             status = "DIFFERS"
             failures += 1
