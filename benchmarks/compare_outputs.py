@@ -16,9 +16,9 @@
   hands to the covariance).  Floats are written with ``repr`` (shortest round-trip form), so
   equal text means equal bits.
 - ``out/``: the bundled command outputs (``identify`` on every bundled campaign, ``study
-  velocity``, ``discover grc1-oravec2009``), each command run from DIR with a relative
-  ``--out`` so the command line in the provenance is the same in every capture; what each
-  prints to stdout and stderr goes to ``console/``.
+  velocity``, ``discover grc1-oravec2009``, a ``posterior`` and a ``wheel`` run), each
+  command run from DIR with a relative ``--out`` so the command line in the provenance is
+  the same in every capture; what each prints to stdout and stderr goes to ``console/``.
 
 ``compare`` lists every file of either capture as identical or different (console text also
 as identical but for the wall-clock times it prints); for a PDF that differs it also compares
@@ -45,9 +45,19 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = ("simulated-paper", "cullinan-sand", "grc1-oravec2009", "cmu-3d-terramechanics")
 COMMANDS = [
-    *(["identify", c, "--out", f"out/identify-{c}", "--progress", "off"] for c in BUNDLED),
-    ["study", "velocity", "--out", "out/study-velocity"],
-    ["discover", "grc1-oravec2009", "--out", "out/discover-grc1-oravec2009"],
+    *(f"identify {c} --out out/identify-{c} --progress off".split() for c in BUNDLED),
+    "study velocity --out out/study-velocity".split(),
+    "discover grc1-oravec2009 --out out/discover-grc1-oravec2009".split(),
+    # The posterior and wheel reports draw the figures of report/posterior_figures.py and
+    # report/wheel_figures.py.
+    [
+        *("posterior", "cullinan-sand", "--model", "bernstein", "--draws", "400"),
+        *("--progress", "off", "--out", "out/posterior-cullinan-sand"),
+    ],
+    [
+        *("wheel", "cmu-3d-terramechanics", "--progress", "off"),
+        *("--out", "out/wheel-cmu-3d-terramechanics"),
+    ],
 ]
 
 
@@ -238,13 +248,22 @@ def capture_fits(path: Path) -> None:
     path.write_text(json.dumps(records, indent=1, sort_keys=True) + "\n")
 
 
-def capture(directory: Path) -> None:
+def capture(directory: Path, only: set[str] | None = None) -> None:
+    """Write the fits and the command outputs (only the commands named in ``only``)."""
     directory.mkdir(parents=True)
     capture_fits(directory / "fits.json")
     for argv in COMMANDS:
+        if only is not None and argv[0] not in only:
+            continue
         print("soilstats", " ".join(argv), flush=True)
         run = subprocess.run(
-            [sys.executable, "-m", "soilstats", *argv],
+            [
+                sys.executable,
+                "-m",
+                "soilstats",
+                *argv,
+                *(["--progress", "off"] * (argv[0] != "study")),
+            ],
             cwd=directory,
             check=True,
             capture_output=True,
@@ -280,6 +299,16 @@ def _pdf_differences(a: Path, b: Path) -> str:
     return "; ".join(parts)
 
 
+def _first_difference(a: Path, b: Path) -> str:
+    """The first line that differs between two text files, both versions, cut short."""
+    lines_a = a.read_text(errors="replace").splitlines()
+    lines_b = b.read_text(errors="replace").splitlines()
+    for number, (x, y) in enumerate(zip(lines_a, lines_b, strict=False), start=1):
+        if x != y:
+            return f" (line {number}: {x.strip()[:80]!r} vs {y.strip()[:80]!r})"
+    return f" ({len(lines_a)} vs {len(lines_b)} lines)"
+
+
 def _untimed(path: Path) -> str:
     """A console text with its wall-clock times ("runtime 0.2 s", "3.1 s") masked."""
     return re.sub(r"\b\d+(\.\d+)? s\b", "<t> s", path.read_text())
@@ -303,7 +332,7 @@ def compare(base: Path, new: Path) -> int:
         elif rel.parts[0] == "console" and _untimed(a) == _untimed(b):
             status = "identical but for wall-clock times"
         else:
-            status = "DIFFERS"
+            status = "DIFFERS" + _first_difference(a, b)
             failures += 1
         print(f"{status:>10}  {rel}")
     print(f"{len(files)} files, {failures} JSON/CSV/text file(s) differ or are missing")
@@ -313,13 +342,19 @@ def compare(base: Path, new: Path) -> int:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="action", required=True)
-    sub.add_parser("capture").add_argument("directory", type=Path)
+    take = sub.add_parser("capture")
+    take.add_argument("directory", type=Path)
+    take.add_argument(
+        "--only",
+        type=lambda text: set(text.split(",")),
+        help="comma-separated commands to run (default: all of them)",
+    )
     both = sub.add_parser("compare")
     both.add_argument("base", type=Path)
     both.add_argument("new", type=Path)
     args = parser.parse_args(argv)
     if args.action == "capture":
-        capture(args.directory)
+        capture(args.directory, args.only)
         return 0
     return compare(args.base, args.new)
 
