@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from .spec import PARAMS, Effect, SpecError
+from .records import PARAMS, Effect, SpecError
 
 __all__ = ["apparent_shear", "check_effect", "parameter_factors", "soften"]
 
