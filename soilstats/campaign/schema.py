@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from ..kinds import TEST_KINDS
+
 __all__ = [
     "DERIVED_COLUMNS",
     "FILES",
@@ -29,7 +31,7 @@ __all__ = [
 FORMAT_VERSION = "1"
 
 #: Values of ``kind``; the samples of a test of kind K are in the sample file K (.csv/.parquet).
-KINDS: tuple[str, ...] = ("sinkage", "shear")
+KINDS: tuple[str, ...] = TEST_KINDS
 
 #: Values of ``shape`` (plate shape of a sinkage test).
 SHAPES: tuple[str, ...] = ("circle", "rectangle")
