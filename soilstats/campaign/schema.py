@@ -19,6 +19,7 @@ __all__ = [
     "FORMAT_VERSION",
     "KINDS",
     "MAX_CELL_CHARS",
+    "MIN_SAMPLES",
     "MISSING_TOKENS",
     "SHAPES",
     "SPECS",
@@ -32,6 +33,12 @@ FORMAT_VERSION = "1"
 
 #: Values of ``kind``; the samples of a test of kind K are in the sample file K (.csv/.parquet).
 KINDS: tuple[str, ...] = TEST_KINDS
+
+#: Fewest samples in contact a test's record needs to enter a fit (three: a power law has two
+#: parameters, and one residual degree of freedom is the least that says anything). Pooling
+#: (:mod:`soilstats.identification.pooling`) refuses a test with fewer; the unit check judges
+#: a record's load only from this many on.
+MIN_SAMPLES = 3
 
 #: Values of ``shape`` (plate shape of a sinkage test).
 SHAPES: tuple[str, ...] = ("circle", "rectangle")
