@@ -16,6 +16,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from ..errors import refuse_unknown_keys
 from . import records
 from .records import (
     EFFECT_KINDS,
@@ -50,13 +51,15 @@ def _check_keys(table: dict, allowed: tuple[str, ...], where: str, extra_ok: boo
         raise _fail(where, f"must be a table, got {type(table).__name__} {table!r}")
     if extra_ok:
         return
-    unknown = [k for k in table if k not in allowed]
-    if unknown:
-        raise _fail(
+
+    def unknown_key(unknown: list[str]) -> SpecError:
+        return _fail(
             f"{where}.{unknown[0]}",
             f"unknown key {unknown[0]!r}; valid keys are {list(allowed)} — check the spelling "
             "(docs/simulator.md lists every key)",
         )
+
+    refuse_unknown_keys(table, allowed, unknown_key)
 
 
 def _number(value: Any, where: str, *, positive=False, nonneg=False) -> float:
