@@ -261,12 +261,8 @@ def pair_figure(
 
     Lower triangle: joint draws as points (at most ``max_points``, evenly spaced over the
     stored draws — no random subsampling), with Pearson's r of *all* draws printed in the
-    panel; diagonal: marginal densities.  Parameters as :func:`trace_figure`.
-
-    Returns
-    -------
-    (Figure, str)
-        The figure and its caption.
+    panel; diagonal: marginal densities.  Parameters (``max_points`` aside) and the returned
+    (figure, caption) as :func:`trace_figure`.
     """
     post, names, capped = _shown(posterior, max_params)
     data = post.idata.posterior
