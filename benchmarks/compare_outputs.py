@@ -257,13 +257,7 @@ def capture(directory: Path, only: set[str] | None = None) -> None:
             continue
         print("soilstats", " ".join(argv), flush=True)
         run = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "soilstats",
-                *argv,
-                *(["--progress", "off"] * (argv[0] != "study")),
-            ],
+            [sys.executable, "-m", "soilstats", *argv],
             cwd=directory,
             check=True,
             capture_output=True,
