@@ -7,6 +7,8 @@ already catch ``ValueError`` keep working; every warning derives from
 
 from __future__ import annotations
 
+from collections.abc import Callable, Collection, Iterable
+
 from ._text import shown
 
 __all__ = [
@@ -22,6 +24,7 @@ __all__ = [
     "StatisticsInputError",
     "StudyDataError",
     "located",
+    "refuse_unknown_keys",
 ]
 
 
@@ -76,6 +79,22 @@ def located(message: str, *, file=None, column=None, row=None, **unit) -> str:
         where.append(f"row {row}")
     prefix = ", ".join(where)
     return f"{prefix}: {message}" if prefix else message
+
+
+def refuse_unknown_keys(
+    table: Iterable[str], allowed: Collection[str], error: Callable[[list[str]], Exception]
+) -> None:
+    """Raise ``error(unknown)`` when ``table`` (a TOML table) holds keys outside ``allowed``.
+
+    The one rule of every TOML file soilstats reads (a SPEC, a study specification, an import
+    mapping, a wheels file): a misspelled key is refused, never ignored, as ignoring it would
+    leave in force the default it meant to change.  ``unknown`` lists the offending keys in
+    the table's order; each format words its own message (the key, what it allows, where its
+    documentation is).
+    """
+    unknown = [key for key in table if key not in allowed]
+    if unknown:
+        raise error(unknown)
 
 
 class IdentifiabilityError(SoilstatsError, ValueError):

@@ -193,6 +193,54 @@ def test_spare_row_jacobian_gives_the_same_fit():
     assert spare.jacobian.shape == plain.jacobian.shape == (b.size, 3)
 
 
+def test_every_stopping_rule_of_the_lm_says_why_it_stopped():
+    """Each way out of the loop gives its own reason and converged flag, and hands Eq. 4 the
+    Gram matrix and decomposition only where they belong to the end point."""
+    from soilstats.fitting.levenberg_marquardt import levenberg_marquardt
+
+    x = np.linspace(0.1, 1.0, 20)
+    y = 3 * x + 0.01 * np.sin(40 * x)
+
+    def rows(theta):
+        return x[None, :].copy()
+
+    def line(theta):
+        return y - theta[0] * x
+
+    exact = levenberg_marquardt(lambda t: 3 * x - t[0] * x, rows, [3.0])
+    assert (exact.reason, exact.converged, exact.nfev) == ("zero residual", True, 1)
+    flat = levenberg_marquardt(line, rows, [1.0], gtol=1.0)
+    assert (flat.reason, flat.converged, flat.nfev) == ("gradient below gtol=1", True, 1)
+    # Converged without a last step: the end point's JᵀJ and decomposition go to Eq. 4.
+    done = levenberg_marquardt(line, rows, [1.0])
+    assert done.reason == "predicted cost reduction below ftol=1e-14" and done.converged
+    assert done.gram is not None and done.scaled is not None
+    assert done.params[0] == pytest.approx(float(x @ y / (x @ x)), rel=1e-9)
+    small = levenberg_marquardt(line, rows, [1.0], ftol=0.0)
+    assert small.reason == "step below xtol=1e-12" and small.converged
+    # Stopped after a step: the Gram matrix of the point before it is not handed on.
+    curve = levenberg_marquardt(
+        lambda t: y - t[0] * np.exp(t[1] * x),
+        lambda t: np.vstack([np.exp(t[1] * x), t[0] * x * np.exp(t[1] * x)]),
+        [1.0, 0.0],
+        max_iter=1,
+    )
+    assert curve.reason == "iteration limit (1) reached" and not curve.converged
+    assert (curve.niter, curve.njev, curve.gram, curve.scaled) == (1, 2, None, None)
+    nan_jac = levenberg_marquardt(line, lambda t: np.full((1, x.size), np.nan), [1.0])
+    assert nan_jac.reason == "the Jacobian is not finite" and not nan_jac.converged
+    start = levenberg_marquardt(lambda t: np.full(x.size, np.nan), rows, [1.0])
+    assert start.reason == "the model is not finite at the starting values"
+    assert (start.converged, start.njev, start.cost) == (False, 0, np.inf)
+
+    def finite_at_one_only(theta):  # every trial step leaves the model's domain
+        return 1e140 * y - (x if theta[0] == 1.0 else np.nan)
+
+    stuck = levenberg_marquardt(finite_at_one_only, rows, [1.0], xtol=0.0, ftol=0.0)
+    assert stuck.reason == "no step reduces the cost (damping exhausted)"
+    assert not stuck.converged and stuck.params[0] == 1.0 and stuck.nfev > 10
+
+
 def test_eigh_without_numpys_wrapper_matches_numpy():
     from soilstats.fitting.levenberg_marquardt import _eigh
 

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..errors import CampaignError
+from ..errors import CampaignError, refuse_unknown_keys
 from .campaign import Campaign
 from .schema import FILES
 from .units import to_si
@@ -154,9 +154,11 @@ def import_campaign(mapping: str | os.PathLike[str]) -> Campaign:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise CampaignError(f"not valid TOML: {err}", file=path.name) from None
-    unknown = sorted(set(doc) - set(FILES))
-    if unknown:
-        raise _fail(path, unknown[0], f"unknown table; a mapping has {list(FILES)}")
+    refuse_unknown_keys(
+        doc,
+        FILES,
+        lambda unknown: _fail(path, min(unknown), f"unknown table; a mapping has {list(FILES)}"),
+    )
     if "tests" not in doc:
         raise _fail(path, "tests", "is required: the lab's test log")
     frames = {}
@@ -164,9 +166,13 @@ def import_campaign(mapping: str | os.PathLike[str]) -> Campaign:
         table = doc.get(stem)
         if table is None:
             continue
-        extra = sorted(set(table) - _TABLE_KEYS)
-        if extra:
-            raise _fail(path, f"{stem}.{extra[0]}", f"unknown key; allowed: {sorted(_TABLE_KEYS)}")
+        refuse_unknown_keys(
+            table,
+            _TABLE_KEYS,
+            lambda unknown, stem=stem: _fail(
+                path, f"{stem}.{min(unknown)}", f"unknown key; allowed: {sorted(_TABLE_KEYS)}"
+            ),
+        )
         raw = _read(path.parent, path, stem, table)
         frames[stem] = _map_table(raw, path, stem, table)
     return Campaign.from_frames(**frames, source=str(path))

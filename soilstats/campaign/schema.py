@@ -11,12 +11,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from ..kinds import TEST_KINDS
+
 __all__ = [
     "DERIVED_COLUMNS",
     "FILES",
     "FORMAT_VERSION",
     "KINDS",
     "MAX_CELL_CHARS",
+    "MIN_SAMPLES",
     "MISSING_TOKENS",
     "SHAPES",
     "SPECS",
@@ -29,7 +32,13 @@ __all__ = [
 FORMAT_VERSION = "1"
 
 #: Values of ``kind``; the samples of a test of kind K are in the sample file K (.csv/.parquet).
-KINDS: tuple[str, ...] = ("sinkage", "shear")
+KINDS: tuple[str, ...] = TEST_KINDS
+
+#: Fewest samples in contact a test's record needs to enter a fit (three: a power law has two
+#: parameters, and one residual degree of freedom is the least that says anything). Pooling
+#: (:mod:`soilstats.identification.pooling`) refuses a test with fewer; the unit check judges
+#: a record's load only from this many on.
+MIN_SAMPLES = 3
 
 #: Values of ``shape`` (plate shape of a sinkage test).
 SHAPES: tuple[str, ...] = ("circle", "rectangle")

@@ -26,9 +26,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError, SoilstatsWarning
-
-#: Samples a record needs before its size is judged (the fitting minimum, pooling.MIN_SAMPLES).
-MIN_SAMPLES = 3
+from .schema import MIN_SAMPLES
 
 __all__ = [
     "UNITS",

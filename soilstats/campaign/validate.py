@@ -551,7 +551,7 @@ def validate(frames: Frames) -> Tables:
             log.setdefault(tid, (kind, i + 1))
     samples: dict[str, pd.DataFrame] = {}
     late: list[Issue] = []
-    for stem in ("sinkage", "shear"):
+    for stem in KINDS:  # the sample file of each kind
         frame, name = frames[stem]
         if frame is None:
             samples[stem] = empty_samples(stem)

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from .._text import plural
+from ..kinds import TEST_KINDS
 
 if TYPE_CHECKING:
     from ..campaign import Campaign
@@ -63,8 +64,6 @@ EXIT_OK, EXIT_INTERNAL, EXIT_INPUT = 0, 1, 2
 #: The campaign a command uses when ``--data`` is not given: the bundled simulation of the
 #: paper's full design (the only bundled campaign with every test series the studies need).
 DEFAULT_CAMPAIGN = "simulated-paper"
-
-_KINDS = ("sinkage", "shear")
 
 
 def _bundled() -> str:
@@ -271,7 +270,7 @@ def parse_selection(items: Sequence[str]) -> list[Criterion]:
     for item in items:
         kind = None
         prefix, colon, rest = item.partition(":")
-        if colon and prefix in _KINDS:
+        if colon and prefix in TEST_KINDS:
             kind, item = prefix, rest
         column, sep, text = item.partition("=")
         if not sep or not column:

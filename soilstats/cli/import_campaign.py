@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from ..kinds import TEST_KINDS
 from .common import add_common_options
 
 
@@ -34,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
     campaign = import_campaign(args.mapping)
     folder = campaign.save(args.out, overwrite=args.overwrite)
     kinds = campaign.tests["kind"].value_counts()
-    counts = {k: int(kinds.get(k, 0)) for k in ("sinkage", "shear")}
+    counts = {k: int(kinds.get(k, 0)) for k in TEST_KINDS}
     if args.json:
         print(json.dumps({"out": str(folder), "tests": counts}))
     else:

@@ -5,14 +5,14 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 
 from ..errors import ConvergenceError, ConvergenceWarning
 from ..models import Model
 from .jacobian import make_jacobian
-from .levenberg_marquardt import _eigh, gram_matrix, levenberg_marquardt, scaled_svd
+from .levenberg_marquardt import LMOutcome, _eigh, gram_matrix, levenberg_marquardt, scaled_svd
 from .result import FitResult, HealthFlag, epsilon
 from .separable import _refine_power_law, refine_exponent
 
@@ -132,27 +132,108 @@ def identify(
     """
     if on_failure not in ("raise", "warn"):
         raise ValueError(f"on_failure must be 'raise' or 'warn', got {on_failure!r}")
-    fast = False
-    if isinstance(model, Model):
-        if jac is None:
-            fast = True
-        f, jac = model.func, jac or model.jac
-        param_names = param_names or model.param_names
-        units = dict(units) if units else model.unit_of  # a fresh dict either way
-        bounds = dict(bounds) if bounds else model.bounds_of
-        name = name or model.name
-    else:
-        f = model
-        name = name or getattr(model, "__name__", "model")
-        units, bounds = dict(units or {}), dict(bounds or {})
+    fast, f, jac, param_names, units, bounds, name = _model_parts(
+        model, jac, param_names, units, bounds, name
+    )
     y = np.asarray(y, dtype=float).ravel()
     p0 = np.asarray(p0, dtype=float).ravel()
-    n_obs, n_par = y.size, p0.size
+    param_names = _checked_names(param_names, y.size, p0.size)
+    data = _weighted_data(y, weights, p0.size)
+    jacobian_method = "analytic"
+    if jac is None:
+        jac, jacobian_method = make_jacobian(f, x, p0)
+    terms = model.power_terms(x, data.w) if fast else None
+    residual, jacobian, p0 = _objective(model if fast else None, terms, f, jac, x, data, p0, ftol)
+    out = _minimise(residual, jacobian, p0, terms, data, xtol, ftol, gtol, max_iter)
+    rss, dof = 2.0 * out.cost, data.n_used - p0.size
+    end = _judge_end_point(out, rss, dof, param_names)
+    result = FitResult(
+        model_name=name,
+        param_names=param_names,
+        values=out.params,
+        stderr_values=end.stderr,
+        covariance=end.cov,
+        epsilon=(
+            epsilon(out.residuals, data.wy, rss=rss)
+            if data.kept is None
+            else epsilon(out.residuals[data.kept], data.wy[data.kept], rss=rss)
+        ),
+        rss=rss,
+        nobs=data.n_used,
+        dof=dof,
+        nfev=out.nfev,
+        niter=out.niter,
+        converged=end.converged,
+        message=end.message,
+        units=units,
+        bounds=bounds,
+        jacobian_method=jacobian_method,
+        condition_number=end.cond,
+        residuals=out.residuals,
+        extra_flags=end.flags,
+        model_func=f,
+        model_jac=jac,
+    )
+    if not result.converged:
+        text = f"{name}: identification did not converge — {result.message}"
+        if on_failure == "raise":
+            raise ConvergenceError(text, result=result)
+        warnings.warn(text, ConvergenceWarning, stacklevel=2)
+    return result
+
+
+def _model_parts(model, jac, param_names, units, bounds, name) -> tuple:
+    """(fast, f, jac, param_names, units, bounds, name) of what the caller passed.
+
+    A :class:`~soilstats.Model` fills what the caller left out (its Jacobian, names, SI
+    units, plausible bounds); ``fast`` is True when it brings its own Jacobian too, so its
+    precomputed closures (``evaluators``, ``power_terms``) may replace ``func``/``jac``.
+    ``units`` and ``bounds`` come back as fresh dicts either way (the result owns them).
+    """
+    if isinstance(model, Model):
+        return (
+            jac is None,
+            model.func,
+            jac or model.jac,
+            param_names or model.param_names,
+            dict(units) if units else model.unit_of,
+            dict(bounds) if bounds else model.bounds_of,
+            name or model.name,
+        )
+    name = name or getattr(model, "__name__", "model")
+    return False, model, jac, param_names, dict(units or {}), dict(bounds or {}), name
+
+
+def _checked_names(param_names, n_obs: int, n_par: int) -> tuple[str, ...]:
+    """The parameter names (``p0``, ``p1`` … by default), refusing a problem that cannot be
+    solved: a name per starting value, and more observations than parameters."""
     param_names = tuple(param_names or (f"p{i}" for i in range(n_par)))
     if len(param_names) != n_par:
         raise ValueError(f"{len(param_names)} parameter names given for {n_par} starting values")
     if n_obs <= n_par:
         raise ValueError(f"{n_obs} observations cannot determine {n_par} parameters")
+    return param_names
+
+
+class _Weighted(NamedTuple):
+    """The measurements with Eq. 1's weights: w (N,), w·y (N,), ‖w·y‖², the number of
+    samples of non-zero weight and, when some weights are zero, the mask of the others."""
+
+    w: np.ndarray
+    wy: np.ndarray
+    yy: float
+    n_used: int
+    kept: np.ndarray | None
+
+
+def _weighted_data(y: np.ndarray, weights, n_par: int) -> _Weighted:
+    """Check y and the weighting vector w_r of Eq. 1 (unit weights by default) and weight y.
+
+    A sample of weight zero is left out: it counts in neither the degrees of freedom of
+    Eq. 4's s² nor the N of Eq. 2 (counted, half the samples at weight zero made σ 0.70×
+    curve_fit's on the kept ones, and 95 % intervals covered ~60 %).
+    """
+    n_obs = y.size
     if weights is None:
         w = np.ones(n_obs)
     else:
@@ -160,10 +241,26 @@ def identify(
         if w.shape != y.shape:
             w = np.broadcast_to(w, y.shape)
     wy = w * y
-    # One reduction per check, in C (ndarray.min goes through a Python wrapper): ‖w·y‖²
-    # (which the variable projection needs anyway) is finite when y and w are, unless it
-    # overflows, and a NaN of y meets even a zero weight as NaN.  The elementwise tests run
-    # only when it is not, to tell overflow from a NaN and to say which input is at fault.
+    yy = _finite_norm(y, w, wy)
+    # The minimum is NaN if a weight is, and the comparison then fails as it should.
+    if weights is not None and not np.minimum.reduce(w) >= 0:
+        raise ValueError("weights must be finite and non-negative")
+    n_used = n_obs if weights is None else int(np.count_nonzero(w))
+    if n_used < n_obs and n_used <= n_par:
+        raise ValueError(
+            f"{n_used} observations of non-zero weight cannot determine {n_par} parameters"
+        )
+    return _Weighted(w, wy, yy, n_used, None if n_used == n_obs else w != 0)
+
+
+def _finite_norm(y: np.ndarray, w: np.ndarray, wy: np.ndarray) -> float:
+    """‖w·y‖², refusing a NaN or inf in y or w with a message that says which.
+
+    One reduction per check, in C (ndarray.min goes through a Python wrapper): ‖w·y‖² (which
+    the variable projection needs anyway) is finite when y and w are, unless it overflows,
+    and a NaN of y meets even a zero weight as NaN.  The elementwise tests run only when it
+    is not, to tell overflow from a NaN and to say which input is at fault.
+    """
     yy = float(wy @ wy)
     if not math.isfinite(yy):
         if not np.isfinite(y).all():
@@ -171,58 +268,62 @@ def identify(
             raise ValueError(f"y holds non-finite values (first at indices {bad.tolist()})")
         if not np.isfinite(w).all():
             raise ValueError("weights must be finite and non-negative")
-    # The minimum is NaN if a weight is, and the comparison then fails as it should.
-    if weights is not None and not np.minimum.reduce(w) >= 0:
-        raise ValueError("weights must be finite and non-negative")
-    # A sample of weight zero is left out: it counts in neither the degrees of freedom of
-    # Eq. 4's s² nor the N of Eq. 2 (counted, half the samples at weight zero made σ 0.70×
-    # curve_fit's on the kept ones, and 95 % intervals covered ~60 %).
-    n_used = n_obs if weights is None else int(np.count_nonzero(w))
-    kept = None if n_used == n_obs else w != 0
-    if n_used < n_obs and n_used <= n_par:
-        raise ValueError(
-            f"{n_used} observations of non-zero weight cannot determine {n_par} parameters"
-        )
+    return yy
 
-    jacobian_method = "analytic"
-    if jac is None:
-        jac, jacobian_method = make_jacobian(f, x, p0)
 
-    terms = model.power_terms(x, w) if fast else None
+def _objective(
+    model: Model | None, terms, f: Callable, jac: Callable, x, data: _Weighted, p0, ftol: float
+) -> tuple[Callable, Callable, np.ndarray]:
+    """(θ ↦ r(θ) = w·(y − f(x, θ)), θ ↦ (∂(w·f)/∂θ)ᵀ as (p, N) rows, start): Eq. 1's
+    residuals and Eq. 5's Jacobian as the optimiser wants them.
+
+    ``terms`` (a power law: Bekker, Bernstein): ln z taken once, shared by the variable
+    projection that finds the start and by the LM's closures.  ``model`` (a Model without a
+    caller's Jacobian): its own closures, with the weights folded into precomputed arrays, f
+    and J sharing their common factors, J built row-wise; a separable model's start is moved
+    to its best exponent first.  Otherwise wrappers of the caller's ``f`` and ``jac``.
+    """
     if terms is not None:
-        # A power law (Bekker, Bernstein): ln z taken once, shared by the variable projection
-        # that finds the start and by the LM's closures.
-        f_weighted, jacobian = terms.f, terms.jacobian_block
-
-        def residual(theta: np.ndarray) -> np.ndarray:
-            return wy - f_weighted(theta)
-
-    elif fast:
-        # The model's own closures: weights folded into precomputed arrays, f and J sharing
-        # their common factors, J built row-wise as the optimiser wants it.
-        f_weighted, jacobian = model.evaluators(x, w)
+        return _residual_of(data.wy, terms.f), terms.jacobian_block, p0
+    if model is not None:
+        f_weighted, jacobian = model.evaluators(x, data.w)
         if model.separable is not None:
-            basis, log_z = model.separable(x, w)
-            p0, _ = refine_exponent(basis, log_z, wy, p0, ftol=ftol)
+            basis, log_z = model.separable(x, data.w)
+            p0, _ = refine_exponent(basis, log_z, data.wy, p0, ftol=ftol)
+        return _residual_of(data.wy, f_weighted), jacobian, p0
+    w, wy, n_obs, n_par = data.w, data.wy, data.w.size, p0.size
+    w_col = w[:, None]
 
-        def residual(theta: np.ndarray) -> np.ndarray:
-            return wy - f_weighted(theta)
+    def residual(theta: np.ndarray) -> np.ndarray:
+        return wy - w * np.asarray(f(x, *theta), float).ravel()
 
-    else:
-        w_col = w[:, None]
+    def jacobian(theta: np.ndarray) -> np.ndarray:
+        return (w_col * np.asarray(jac(x, *theta), float).reshape(n_obs, n_par)).T
 
-        def residual(theta: np.ndarray) -> np.ndarray:
-            return wy - w * np.asarray(f(x, *theta), float).ravel()
+    return residual, jacobian, p0
 
-        def jacobian(theta: np.ndarray) -> np.ndarray:
-            return (w_col * np.asarray(jac(x, *theta), float).reshape(n_obs, n_par)).T
 
-    # Trial steps may leave the model's domain (overflow, log of a negative): that is a
-    # rejected step, handled by the optimiser, not a warning for the user.
+def _residual_of(wy: np.ndarray, f_weighted: Callable) -> Callable:
+    """θ ↦ w·y − w·f(x, θ), from the weighted model θ ↦ w·f(x, θ)."""
+
+    def residual(theta: np.ndarray) -> np.ndarray:
+        return wy - f_weighted(theta)
+
+    return residual
+
+
+def _minimise(
+    residual, jacobian, p0, terms, data: _Weighted, xtol, ftol, gtol, max_iter
+) -> LMOutcome:
+    """The LM of Eq. 1 from ``p0`` (for a power law, from its variable-projection optimum).
+
+    Trial steps may leave the model's domain (overflow, log of a negative): that is a
+    rejected step, handled by the optimiser, not a warning for the user.
+    """
     with np.errstate(all="ignore"):
         if terms is not None:
-            p0, _ = _refine_power_law(terms, wy, p0, ftol=ftol, yy=yy)
-        out = levenberg_marquardt(
+            p0, _ = _refine_power_law(terms, data.wy, p0, ftol=ftol, yy=data.yy)
+        return levenberg_marquardt(
             residual,
             jacobian,
             p0,
@@ -232,23 +333,34 @@ def identify(
             max_iter=max_iter,
             spare_row=terms is not None,
         )
-    rss = 2.0 * out.cost
-    dof = n_used - n_par
-    converged = out.converged
-    message = out.reason
+
+
+class _EndPoint(NamedTuple):
+    """The verdict on the optimiser's end point: whether it stands, why, the health flags
+    raised, cond(J D⁻¹), the covariance (Eq. 4) and σ (Eq. 3)."""
+
+    converged: bool
+    message: str
+    flags: tuple[HealthFlag, ...]
+    cond: float
+    cov: np.ndarray
+    stderr: np.ndarray
+
+
+def _judge_end_point(
+    out: LMOutcome, rss: float, dof: int, param_names: tuple[str, ...]
+) -> _EndPoint:
+    """Covariance and σ at the end point, and whether the parameters are determined there.
+
+    A parameter with σ > 1e8·|θ| (:func:`_undetermined`) or a rank-deficient Jacobian
+    (cond > ``RANK_CONDITION_LIMIT`` after column scaling; then no covariance at all) marks
+    the fit as not converged, with a message and a health flag saying why.
+    """
+    converged, message = out.converged, out.reason
     cond, cov = _covariance(out.jacobian, rss, dof, out.gram, out.scaled)
     stderr = np.sqrt(cov.diagonal())
     flags: list[HealthFlag] = []
-    # Column scaling makes cond(J) blind to a parameter whose column has vanished (BoxBOD
-    # from start 1 runs b2 to where exp(−b2·x) ≈ 0): its σ then dwarfs its value.  A
-    # product, not σ/|θ|, so the common case needs no errstate; the exact test (finite
-    # ratio, as before) runs only when something is that large.
-    undetermined = []
-    if any(s > 1e8 * abs(v) for s, v in zip(stderr.tolist(), out.params.tolist(), strict=True)):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            relative_sd = stderr / np.abs(out.params)
-        big = np.isfinite(relative_sd) & (relative_sd > 1e8)
-        undetermined = [param_names[k] for k in np.flatnonzero(big)]
+    undetermined = _undetermined(stderr, out.params, param_names)
     if undetermined and cond <= RANK_CONDITION_LIMIT:
         converged = False
         message = (
@@ -266,38 +378,22 @@ def identify(
             "infinity); try other starting values"
         )
         flags.append(HealthFlag("rank-deficient", f"cond(J) = {cond:.3g}"))
-        cov = np.full((n_par, n_par), np.nan)
+        cov = np.full((len(param_names), len(param_names)), np.nan)
         stderr = cov.diagonal().copy()
-    result = FitResult(
-        model_name=name,
-        param_names=param_names,
-        values=out.params,
-        stderr_values=stderr,
-        covariance=cov,
-        epsilon=(
-            epsilon(out.residuals, wy, rss=rss)
-            if kept is None
-            else epsilon(out.residuals[kept], wy[kept], rss=rss)
-        ),
-        rss=rss,
-        nobs=n_used,
-        dof=dof,
-        nfev=out.nfev,
-        niter=out.niter,
-        converged=converged,
-        message=message,
-        units=units,
-        bounds=bounds,
-        jacobian_method=jacobian_method,
-        condition_number=cond,
-        residuals=out.residuals,
-        extra_flags=tuple(flags),
-        model_func=f,
-        model_jac=jac,
-    )
-    if not converged:
-        text = f"{name}: identification did not converge — {message}"
-        if on_failure == "raise":
-            raise ConvergenceError(text, result=result)
-        warnings.warn(text, ConvergenceWarning, stacklevel=2)
-    return result
+    return _EndPoint(converged, message, tuple(flags), cond, cov, stderr)
+
+
+def _undetermined(stderr: np.ndarray, values: np.ndarray, param_names) -> list[str]:
+    """Names of the parameters whose σ exceeds 1e8 × |θ|.
+
+    Column scaling makes cond(J) blind to a parameter whose column has vanished (BoxBOD
+    from start 1 runs b2 to where exp(−b2·x) ≈ 0): its σ then dwarfs its value.  A
+    product, not σ/|θ|, so the common case needs no errstate; the exact test (finite
+    ratio) runs only when something is that large.
+    """
+    if not any(s > 1e8 * abs(v) for s, v in zip(stderr.tolist(), values.tolist(), strict=True)):
+        return []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        relative_sd = stderr / np.abs(values)
+    big = np.isfinite(relative_sd) & (relative_sd > 1e8)
+    return [param_names[k] for k in np.flatnonzero(big)]

@@ -179,144 +179,271 @@ def levenberg_marquardt(
         the optimiser may overwrite (with r, so that JᵀJ and Jᵀr come from one product
         without copying J; see :meth:`soilstats.models.base.PowerLawTerms.jacobian_block`).
     """
-    tiny = _TINY
     theta = np.array(p0, dtype=float)
     r = residual(theta)
-    nfev = 1
     cost = 0.5 * float(r @ r)  # finite exactly when r is (barring overflow of the square)
     if not math.isfinite(cost) and not np.all(np.isfinite(r)):
-        return LMOutcome(
-            theta,
-            r,
-            np.full((r.size, theta.size), np.nan),
-            None,
-            None,
-            np.inf,
-            nfev,
-            0,
-            0,
-            False,
-            "the model is not finite at the starting values",
-        )
-    n_par = theta.size
-    block = jacobian(theta) if spare_row else None
-    Jt = jacobian(theta) if block is None else block[:n_par]
-    njev = 1
-    diag = None
-    scaled = None
-    lam = None
-    nu = 2.0
-    reason = f"iteration limit ({max_iter}) reached"
-    converged = False
-    niter = 0
-    gram = None
+        return _not_finite_at_start(theta, r)
+    state = _first_iterate(theta, r, cost, jacobian, spare_row)
+    converged, reason, niter = False, f"iteration limit ({max_iter}) reached", 0
     for niter in range(1, max_iter + 1):  # noqa: B007 (niter is reported after the loop)
-        # Everything below works on the p×p Gram matrix G = JᵀJ; J itself (N×p) is touched
-        # only by these two products, which is what keeps an iteration cheap for large N.
-        gram, g = _gram_and_gradient(Jt, r, block)
-        # Scalars on p numbers in Python floats: each numpy call on them costs ~0.5 µs.
-        g_list, col_sq = g.tolist(), gram.diagonal().tolist()
-        # One scalar test first: a NaN or inf in J reaches the diagonal of JᵀJ (and, as
-        # |Gᵢⱼ| ≤ √(GᵢᵢGⱼⱼ), nothing off it overflows while that is finite), and a sum of
-        # finite numbers is finite unless it overflows; the elementwise check runs only
-        # when that fails.
-        if not math.isfinite(sum(col_sq) + sum(g_list)) and not (
-            np.isfinite(gram).all() and np.isfinite(g).all()
-        ):
-            reason = "the Jacobian is not finite"
+        stop = _iteration(state, residual, jacobian, spare_row, xtol, ftol, gtol)
+        if stop is not None:
+            converged, reason = stop
             break
-        # The p×p algebra below is on Python floats: p is a handful, and each numpy call
-        # on p numbers costs ~0.5 µs (several when the caches are cold), more than the
-        # arithmetic.  Only the eigen/singular decompositions go to LAPACK.
-        col_norm = [math.sqrt(c) for c in col_sq]
-        if diag is None:
-            diag = [max(c, tiny) for c in col_norm]
-        else:
-            diag = [max(d, c) for d, c in zip(diag, col_norm, strict=True)]
-        rnorm = math.sqrt(2 * cost)
-        if rnorm == 0.0:
-            converged, reason = True, "zero residual"
-            break
-        # Scaled gradient: cosine of the angle between r and each column of J (MINPACK gtol).
-        cosine = max(abs(gk) / (ck * rnorm + tiny) for gk, ck in zip(g_list, col_norm, strict=True))
-        if cosine <= gtol:
-            converged, reason = True, f"gradient below gtol={gtol:g}"
-            break
-        gs = [gk / dk for gk, dk in zip(g_list, diag, strict=True)]
-        d = np.array(diag)
-        eig, vecs = _eigh(gram / (d[:, None] * d))
-        svd = None
-        if eig[0] > eig[-1] / _NORMAL_EQUATIONS_COND**2:
-            # (JᵀJ + λD²)⁻¹Jᵀr in the eigenbasis; ``directions`` are the eigenvectors.
-            s2, directions = eig.tolist(), vecs.T.tolist()
-        else:
-            svd = sv, vt = scaled_svd(Jt, d)
-            s2, directions = [x * x for x in sv.tolist()], vt.tolist()
-        proj = [sum(map(operator.mul, v, gs)) for v in directions]
-        if lam is None:
-            lam = 1e-3 * max(s2)
-        step_accepted = False
-        step_small = False
-        theta_list = theta.tolist()
-        theta_norm = math.sqrt(sum((dk * tk) ** 2 for dk, tk in zip(diag, theta_list, strict=True)))
-        while True:
-            # The step in the scaled eigen/singular basis.
-            coef = [pk / (sk + lam) for pk, sk in zip(proj, s2, strict=True)]
-            # Predicted reduction of the linear model, ½(‖r‖² − ‖r − Jδ‖²), in that basis:
-            # Σ c²(½s² + λ) — a sum of non-negative terms, free of the cancellation of the
-            # direct form near the optimum, and no N-length product.  When it or the step is
-            # already below tolerance, the trial evaluation could only measure rounding
-            # noise: stop here rather than spend evaluations on it.
-            predicted = sum(c * c * (0.5 * sk + lam) for c, sk in zip(coef, s2, strict=True))
-            # ‖Dδ‖ = ‖basis·c‖ = ‖c‖: the basis is orthonormal.
-            step_small = math.sqrt(sum(c * c for c in coef)) <= xtol * (theta_norm + xtol)
-            if step_small or predicted <= ftol * cost:
-                break
-            scaled_step = [0.0] * len(diag)
-            for c, v in zip(coef, directions, strict=True):
-                scaled_step = [x + c * vk for x, vk in zip(scaled_step, v, strict=True)]
-            trial = np.array(
-                [t + x / dk for t, x, dk in zip(theta_list, scaled_step, diag, strict=True)]
-            )
-            r_trial = residual(trial)
-            nfev += 1
-            cost_trial = 0.5 * float(r_trial @ r_trial)
-            if not math.isfinite(cost_trial):  # NaN or overflow: outside the model's domain
-                cost_trial = math.inf
-            actual = cost - cost_trial
-            rho = actual / predicted if predicted > 0 else -1.0
-            if rho > 1e-4:
-                theta, r, old_cost, cost = trial, r_trial, cost, cost_trial
-                lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
-                nu = 2.0
-                step_accepted = True
-                break
-            lam *= nu
-            nu *= 2.0
-            if not math.isfinite(lam) or lam > 1e300:
-                break
-        if not step_accepted:
-            if diag == col_norm:  # D⁻¹GD⁻¹ at params is what was decomposed
-                scaled = (eig, vecs, svd)
-            if step_small:
-                converged, reason = True, f"step below xtol={xtol:g}"
-            elif predicted <= ftol * cost:
-                converged, reason = True, f"predicted cost reduction below ftol={ftol:g}"
-            else:
-                reason = "no step reduces the cost (damping exhausted)"
-            break
-        if spare_row:
-            block = jacobian(theta)
-            Jt = block[:n_par]
-        else:
-            Jt = jacobian(theta)
-        njev += 1
-        gram = None
-        if step_small:
-            converged, reason = True, f"step below xtol={xtol:g}"
-            break
-        scale = max(old_cost, tiny)
-        if (old_cost - cost) / scale <= ftol and predicted / scale <= ftol:
-            converged, reason = True, f"relative cost reduction below ftol={ftol:g}"
-            break
-    return LMOutcome(theta, r, Jt.T, gram, scaled, cost, nfev, njev, niter, converged, reason)
+    s = state
+    return LMOutcome(
+        s.theta, s.r, s.rows.T, s.gram, s.scaled, s.cost, s.nfev, s.njev, niter, converged, reason
+    )
+
+
+@dataclass(slots=True)
+class _Iterate:
+    """The state the LM loop carries from one iteration to the next (mutated in place).
+
+    ``rows`` is Jᵀ (p, N) at ``theta`` (``block[:p]`` when the Jacobian comes with a spare
+    row); ``gram`` is JᵀJ at ``theta`` once this iteration has formed it, None after a step
+    moved ``theta``; ``diag`` is D, the running maximum column norms of J (None before the
+    first iteration); ``lam`` and ``nu`` are Nielsen's damping λ and its growth factor ν.
+    """
+
+    theta: np.ndarray
+    r: np.ndarray
+    cost: float  # ½‖r‖²
+    rows: np.ndarray
+    block: np.ndarray | None
+    nfev: int = 1
+    njev: int = 1
+    gram: np.ndarray | None = None
+    scaled: tuple | None = None
+    diag: list | None = None
+    lam: float | None = None
+    nu: float = 2.0
+
+
+def _not_finite_at_start(theta: np.ndarray, r: np.ndarray) -> LMOutcome:
+    """The outcome when r(p0) holds a NaN or inf: nothing to minimise, no Jacobian taken."""
+    return LMOutcome(
+        theta,
+        r,
+        np.full((r.size, theta.size), np.nan),
+        None,
+        None,
+        np.inf,
+        1,
+        0,
+        0,
+        False,
+        "the model is not finite at the starting values",
+    )
+
+
+def _first_iterate(
+    theta: np.ndarray, r: np.ndarray, cost: float, jacobian: Callable, spare_row: bool
+) -> _Iterate:
+    """The loop's state at p0: one residual evaluation done, the Jacobian taken once."""
+    block = jacobian(theta) if spare_row else None
+    rows = jacobian(theta) if block is None else block[: theta.size]
+    return _Iterate(theta, r, cost, rows, block)
+
+
+def _iteration(
+    state: _Iterate,
+    residual: Callable,
+    jacobian: Callable,
+    spare_row: bool,
+    xtol: float,
+    ftol: float,
+    gtol: float,
+) -> tuple[bool, str] | None:
+    """One LM iteration on ½‖r(θ)‖² (the paper's Eq. 1, J of its Eq. 5): test for
+    convergence at θ, then find and take a damped step.
+
+    Returns (converged, reason) when the loop stops at this iteration, else None.  Everything
+    works on the p×p Gram matrix G = JᵀJ; J itself (N×p) is touched only by the two products
+    of :func:`_gram_and_gradient` (and by the SVD when G is too ill-conditioned), which is
+    what keeps an iteration cheap for large N.
+    """
+    state.gram, g = _gram_and_gradient(state.rows, state.r, state.block)
+    # Scalars on p numbers in Python floats: each numpy call on them costs ~0.5 µs.
+    g_list, col_sq = g.tolist(), state.gram.diagonal().tolist()
+    if not _finite_normal_equations(state.gram, g, g_list, col_sq):
+        return False, "the Jacobian is not finite"
+    col_norm = [math.sqrt(c) for c in col_sq]
+    state.diag = _column_scale(state.diag, col_norm)
+    stop = _first_order_stop(state.cost, g_list, col_norm, gtol)
+    if stop is not None:
+        return stop
+    gs = [gk / dk for gk, dk in zip(g_list, state.diag, strict=True)]
+    eig, vecs, svd, s2, directions = _scaled_basis(state.gram, state.rows, state.diag)
+    proj = [sum(map(operator.mul, v, gs)) for v in directions]
+    if state.lam is None:
+        state.lam = 1e-3 * max(s2)
+    old_cost = state.cost
+    accepted, step_small, predicted = _damped_step(
+        state, residual, s2, directions, proj, xtol, ftol
+    )
+    if not accepted:
+        if state.diag == col_norm:  # D⁻¹GD⁻¹ at params is what was decomposed
+            state.scaled = (eig, vecs, svd)
+        return _why_no_step(step_small, predicted, state.cost, xtol, ftol)
+    _take_jacobian(state, jacobian, spare_row)
+    # MINPACK's ftol on the step just taken: actual and predicted relative reductions both
+    # below it.  (The step was not below xtol: that ends _damped_step before any trial.)
+    scale = max(old_cost, _TINY)
+    if (old_cost - state.cost) / scale <= ftol and predicted / scale <= ftol:
+        return True, f"relative cost reduction below ftol={ftol:g}"
+    return None
+
+
+def _finite_normal_equations(
+    gram: np.ndarray, g: np.ndarray, g_list: list[float], col_sq: list[float]
+) -> bool:
+    """Whether JᵀJ and Jᵀr are finite (a NaN or inf in J stops the loop).
+
+    One scalar test first: a NaN or inf in J reaches the diagonal of JᵀJ (and, as
+    |Gᵢⱼ| ≤ √(GᵢᵢGⱼⱼ), nothing off it overflows while that is finite), and a sum of finite
+    numbers is finite unless it overflows; the elementwise check runs only when that fails.
+    """
+    return math.isfinite(sum(col_sq) + sum(g_list)) or bool(
+        np.isfinite(gram).all() and np.isfinite(g).all()
+    )
+
+
+def _column_scale(diag: list | None, col_norm: list[float]) -> list:
+    """D: the running maximum of J's column norms (MINPACK's scale-invariant choice).
+
+    The p×p algebra of an iteration is on Python floats: p is a handful, and each numpy call
+    on p numbers costs ~0.5 µs (several when the caches are cold), more than the arithmetic.
+    A zero first column norm is raised to the smallest normal float, so D⁻¹ exists.
+    """
+    if diag is None:
+        return [max(c, _TINY) for c in col_norm]
+    return [max(d, c) for d, c in zip(diag, col_norm, strict=True)]
+
+
+def _first_order_stop(
+    cost: float, g_list: list[float], col_norm: list[float], gtol: float
+) -> tuple[bool, str] | None:
+    """(True, reason) when θ is already a stationary point, else None.
+
+    A zero residual is an exact fit.  Otherwise MINPACK's gtol test: the largest cosine of
+    the angle between r and a column of J, |Jⱼᵀr| / (‖Jⱼ‖·‖r‖), is at most ``gtol``.
+    """
+    rnorm = math.sqrt(2 * cost)
+    if rnorm == 0.0:
+        return True, "zero residual"
+    cosine = max(abs(gk) / (ck * rnorm + _TINY) for gk, ck in zip(g_list, col_norm, strict=True))
+    if cosine <= gtol:
+        return True, f"gradient below gtol={gtol:g}"
+    return None
+
+
+def _scaled_basis(gram: np.ndarray, rows: np.ndarray, diag: list) -> tuple:
+    """The orthonormal basis a step is solved in: decompose the scaled normal equations, or
+    J D⁻¹ itself when they are ill-conditioned.
+
+    (JᵀJ + λD²)⁻¹Jᵀr is solved in the eigenbasis of D⁻¹JᵀJD⁻¹ while cond(J D⁻¹) stays
+    below ``_NORMAL_EQUATIONS_COND``; beyond it forming JᵀJ squares the condition number
+    and would spoil the step, so the SVD of J D⁻¹ is taken instead (:func:`scaled_svd`).
+
+    Returns (eig, vecs, svd, s2, directions): the eigen-decomposition of D⁻¹JᵀJD⁻¹; (σ, Vᵀ)
+    of J D⁻¹ when it was taken, else None; the squared singular values (the eigenvalues, or
+    σ²) and the matching right singular vectors, both as Python lists.  A plain tuple: a
+    named one costs ~0.25 µs per iteration to build.
+    """
+    d = np.array(diag)
+    eig, vecs = _eigh(gram / (d[:, None] * d))
+    svd = None
+    if eig[0] > eig[-1] / _NORMAL_EQUATIONS_COND**2:
+        s2, directions = eig.tolist(), vecs.T.tolist()
+    else:
+        svd = sv, vt = scaled_svd(rows, d)
+        s2, directions = [x * x for x in sv.tolist()], vt.tolist()
+    return eig, vecs, svd, s2, directions
+
+
+def _damped_step(
+    state: _Iterate,
+    residual: Callable,
+    s2: list[float],
+    directions: list[list[float]],
+    proj: list[float],
+    xtol: float,
+    ftol: float,
+) -> tuple[bool, bool, float]:
+    """Raise the damping λ until a step reduces the cost, and take it (Moré 1978, Nielsen).
+
+    ``proj`` holds the scaled gradient D⁻¹Jᵀr in the basis ``directions`` of
+    :func:`_scaled_basis`; the step there is cₖ = projₖ / (sₖ² + λ).  A step is accepted
+    when the gain ratio ρ = actual / predicted reduction exceeds 1e-4; λ then shrinks by
+    max(1/3, 1 − (2ρ − 1)³) and ν resets to 2, else λ grows by ν and ν doubles.
+
+    Returns (accepted, step_small, predicted): whether ``state`` moved to the new point,
+    whether the last step was below ``xtol``, and the last predicted reduction
+    ½(‖r‖² − ‖r − Jδ‖²).
+    """
+    diag, cost = state.diag, state.cost
+    theta_list = state.theta.tolist()
+    theta_norm = math.sqrt(sum((dk * tk) ** 2 for dk, tk in zip(diag, theta_list, strict=True)))
+    while True:
+        lam = state.lam
+        coef = [pk / (sk + lam) for pk, sk in zip(proj, s2, strict=True)]
+        # Predicted reduction of the linear model in that basis: Σ c²(½s² + λ) — a sum of
+        # non-negative terms, free of the cancellation of the direct form near the optimum,
+        # and no N-length product.  When it or the step is already below tolerance, the
+        # trial evaluation could only measure rounding noise: stop rather than spend
+        # evaluations on it.
+        predicted = sum(c * c * (0.5 * sk + lam) for c, sk in zip(coef, s2, strict=True))
+        # ‖Dδ‖ = ‖basis·c‖ = ‖c‖: the basis is orthonormal.
+        step_small = math.sqrt(sum(c * c for c in coef)) <= xtol * (theta_norm + xtol)
+        if step_small or predicted <= ftol * cost:
+            return False, step_small, predicted
+        trial = _trial_point(theta_list, coef, directions, diag)
+        r_trial = residual(trial)
+        state.nfev += 1
+        cost_trial = 0.5 * float(r_trial @ r_trial)
+        if not math.isfinite(cost_trial):  # NaN or overflow: outside the model's domain
+            cost_trial = math.inf
+        rho = (cost - cost_trial) / predicted if predicted > 0 else -1.0
+        if rho > 1e-4:
+            state.theta, state.r, state.cost = trial, r_trial, cost_trial
+            state.lam = lam * max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+            state.nu = 2.0
+            return True, False, predicted
+        state.lam = lam * state.nu
+        state.nu *= 2.0
+        if not math.isfinite(state.lam) or state.lam > 1e300:
+            return False, False, predicted
+
+
+def _trial_point(
+    theta_list: list[float], coef: list[float], directions: list[list[float]], diag: list
+) -> np.ndarray:
+    """θ + δ with Dδ = Σₖ cₖ·vₖ: the step from its coefficients in the scaled basis."""
+    scaled_step = [0.0] * len(diag)
+    for c, v in zip(coef, directions, strict=True):
+        scaled_step = [x + c * vk for x, vk in zip(scaled_step, v, strict=True)]
+    return np.array([t + x / dk for t, x, dk in zip(theta_list, scaled_step, diag, strict=True)])
+
+
+def _why_no_step(
+    step_small: bool, predicted: float, cost: float, xtol: float, ftol: float
+) -> tuple[bool, str]:
+    """(converged, reason) when no step was taken: below a tolerance, or damping exhausted."""
+    if step_small:
+        return True, f"step below xtol={xtol:g}"
+    if predicted <= ftol * cost:
+        return True, f"predicted cost reduction below ftol={ftol:g}"
+    return False, "no step reduces the cost (damping exhausted)"
+
+
+def _take_jacobian(state: _Iterate, jacobian: Callable, spare_row: bool) -> None:
+    """Jᵀ at the new θ (after an accepted step); the Gram matrix of the old θ is dropped."""
+    if spare_row:
+        state.block = jacobian(state.theta)
+        state.rows = state.block[: state.theta.size]
+    else:
+        state.rows = jacobian(state.theta)
+    state.njev += 1
+    state.gram = None

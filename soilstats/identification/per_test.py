@@ -25,6 +25,7 @@ import pandas as pd
 
 from ..errors import CampaignError, ConvergenceError, ConvergenceWarning
 from ..fitting.identify import identify
+from ..kinds import TEST_KINDS
 from ..models import BERNSTEIN, SHEAR_CURVE
 from ..parallel import effective_jobs, parallel_map
 from ..quality import screened
@@ -71,7 +72,7 @@ def fit_per_test(
         test never reaches a steady state), ``steady``; and for both ``epsilon`` (Eq. 2 on
         the 1/max-weighted data), ``nobs``, ``converged``, ``message``.
     """
-    if kind not in ("sinkage", "shear"):
+    if kind not in TEST_KINDS:
         raise ValueError(f"kind must be 'sinkage' or 'shear', got {kind!r}")
     chosen = screened(campaign, "clean", **selection)
     tests = chosen.tests[chosen.tests["kind"] == kind].reset_index(drop=True)

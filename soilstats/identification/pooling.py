@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..campaign.index import campaign_index, grouped_by_code
+from ..campaign.schema import MIN_SAMPLES  # re-exported: the rule below applies it
 from ..errors import CampaignError
 from ..quality import screened
 
@@ -30,10 +31,6 @@ __all__ = [
     "pool_sinkage",
     "select_one_soil",
 ]
-
-#: Fewest samples in contact a test needs to enter a fit (three: a power law has two
-#: parameters, and one residual degree of freedom is the least that says anything).
-MIN_SAMPLES = 3
 
 _CONTACT = {"sinkage": "z > 0", "shear": "j >= 0"}
 

@@ -17,6 +17,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import ModelError
+from ..kinds import MODEL_KINDS
 
 __all__ = [
     "KINDS",
@@ -35,7 +36,7 @@ __all__ = [
 
 #: What a soil model describes: a sinkage (plate) test, a shear-ring campaign, or one
 #: shear test at one normal pressure (the per-test fit).
-KINDS = ("sinkage", "shear", "shear-test")
+KINDS = MODEL_KINDS
 
 
 class PowerLawTerms:

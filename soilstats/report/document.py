@@ -41,6 +41,19 @@ PAGE = "a4"
 BODY_PT = 10
 TABLE_PT = 8
 SMALL_PT = 7  # appendix tables and lists: complete, but the reader's last stop
+#: matplotlib rc of the report figures (``rc_context(FIGURE_STYLE)``): 9 pt text and titles,
+#: 8 pt ticks and legends at print width, a step below the body, and no top or right spine.
+FIGURE_STYLE = {
+    "font.size": 9,
+    "axes.titlesize": 9,
+    "axes.labelsize": 9,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
+    "legend.fontsize": 8,
+    "figure.titlesize": 9,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+}
 # Long unbroken tokens (test ids, file paths, column names) get break opportunities after
 # these characters, so that a narrow table cell wraps them instead of overflowing the page.
 _BREAK_AFTER = re.compile(r"([_/.:=,;|\\-])(?=\S)")

@@ -38,6 +38,7 @@ from matplotlib.ticker import MaxNLocator
 from ..bayes._arviz import az
 from ..bayes.predictive import input_name
 from ..models import MODELS, Model, get_model
+from .document import FIGURE_STYLE
 
 __all__ = [
     "FIGSIZE",
@@ -79,18 +80,6 @@ class _Parameters(Mapping):
 
 #: Display of each parameter (see :class:`_Parameters`), read from the model records.
 PARAMETERS: Mapping[str, tuple] = _Parameters()
-
-_STYLE = {
-    "font.size": 9,
-    "axes.titlesize": 9,
-    "axes.labelsize": 9,
-    "xtick.labelsize": 8,
-    "ytick.labelsize": 8,
-    "legend.fontsize": 8,
-    "figure.titlesize": 9,
-    "axes.spines.top": False,
-    "axes.spines.right": False,
-}
 
 
 def parameter_label(name: str, unit: str | None = None) -> str:
@@ -152,6 +141,13 @@ def _posterior(obj) -> _Posterior:
     return _Posterior(idata, model, kind, names, units)
 
 
+def _shown(posterior, most: int) -> tuple[_Posterior, tuple[str, ...], str]:
+    """(the posterior, the parameters a figure shows, the caption's note when some are left
+    out): the first ``most`` of the model's parameters (:func:`_capped`)."""
+    post = _posterior(posterior)
+    return post, *_capped(post.names, most)
+
+
 def _capped(names, most: int) -> tuple[tuple[str, ...], str]:
     names = tuple(names)
     if most < 1:
@@ -189,10 +185,9 @@ def trace_figure(
     (Figure, str)
         The figure and its caption.
     """
-    post = _posterior(posterior)
-    names, capped = _capped(post.names, max_params)
+    post, names, capped = _shown(posterior, max_params)
     data = post.idata.posterior
-    with rc_context(_STYLE):
+    with rc_context(FIGURE_STYLE):
         fig = Figure(figsize=figsize, layout="constrained")
         grid = fig.add_gridspec(len(names), 2, width_ratios=(3.2, 1.0))
         for row, name in enumerate(names):
@@ -266,15 +261,10 @@ def pair_figure(
 
     Lower triangle: joint draws as points (at most ``max_points``, evenly spaced over the
     stored draws — no random subsampling), with Pearson's r of *all* draws printed in the
-    panel; diagonal: marginal densities.  Parameters as :func:`trace_figure`.
-
-    Returns
-    -------
-    (Figure, str)
-        The figure and its caption.
+    panel; diagonal: marginal densities.  Parameters (``max_points`` aside) and the returned
+    (figure, caption) as :func:`trace_figure`.
     """
-    post = _posterior(posterior)
-    names, capped = _capped(post.names, max_params)
+    post, names, capped = _shown(posterior, max_params)
     data = post.idata.posterior
     values = {n: data[n].to_numpy().ravel() * _scale(n) for n in names}
     total = next(iter(values.values())).size
@@ -282,7 +272,7 @@ def pair_figure(
     shown = np.arange(0, total, step)
     k = len(names)
     corr = np.corrcoef(np.vstack([values[n] for n in names])) if k > 1 else np.ones((1, 1))
-    with rc_context(_STYLE):
+    with rc_context(FIGURE_STYLE):
         fig = Figure(figsize=figsize, layout="constrained")
         axes = fig.subplots(k, k, squeeze=False)
         for i in range(k):
@@ -434,7 +424,7 @@ def predictive_figure(
     drawn, skipped = 0, 0
     ncols = len(panels) if len(panels) <= 3 else (2 if len(panels) == 4 else 3)
     nrows = math.ceil(len(panels) / ncols)
-    with rc_context(_STYLE):
+    with rc_context(FIGURE_STYLE):
         fig = Figure(figsize=figsize, layout="constrained")
         axes = fig.subplots(nrows, ncols, squeeze=False)
         for ax in axes.ravel()[len(panels) :]:

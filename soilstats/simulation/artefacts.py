@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import refuse_unknown_keys
 from .records import SpecError
 
 __all__ = ["ARTEFACT_KINDS", "check_artefact", "plant"]
@@ -72,12 +73,14 @@ def check_artefact(kind: str, options: dict[str, Any], where: str) -> dict[str, 
             f"{where}.kind: unknown artefact {kind!r}; choose one of {list(ARTEFACT_KINDS)}"
         )
     defaults = ARTEFACT_KINDS[kind]
-    unknown = sorted(set(options) - set(defaults) - {"share"})
-    if unknown:
-        raise SpecError(
-            f"{where}: unknown option(s) {unknown} for artefact {kind!r}; it takes "
+    refuse_unknown_keys(
+        options,
+        {*defaults, "share"},
+        lambda unknown: SpecError(
+            f"{where}: unknown option(s) {sorted(unknown)} for artefact {kind!r}; it takes "
             f"{sorted(defaults)} and share"
-        )
+        ),
+    )
     out = {**defaults, **options}
     out["share"] = _fraction(out.get("share", 1.0), f"{where}.share")
     for key in ("drop", "backoff", "relaxation", "to", "size"):

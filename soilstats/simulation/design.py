@@ -18,7 +18,7 @@ import numpy as np
 
 from ..campaign.derived import aspect_ratio, bekker_b, plate_area
 from .effects import parameter_factors
-from .spec import PARAMS, Series, Spec
+from .records import PARAMS, Series, Spec
 
 __all__ = ["draw_parameters", "expand", "operator_biases"]
 

@@ -33,7 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from .spec import PARAMS, Effect, SpecError
+from ..errors import refuse_unknown_keys
+from .records import PARAMS, Effect, SpecError
 
 __all__ = ["apparent_shear", "check_effect", "parameter_factors", "soften"]
 
@@ -79,12 +80,14 @@ def check_effect(kind: str, options: dict[str, Any], where: str) -> dict[str, An
     SpecError
         For an unknown key, a missing or out-of-range value.
     """
-    for key in options:
-        if key not in _ALLOWED[kind]:
-            raise SpecError(
-                f"SPEC {where}.{key}: unknown key for a {kind!r} effect; valid keys "
-                f"are {[*_ALLOWED[kind], 'soils', 'series']}"
-            )
+    refuse_unknown_keys(
+        options,
+        _ALLOWED[kind],
+        lambda unknown: SpecError(
+            f"SPEC {where}.{unknown[0]}: unknown key for a {kind!r} effect; valid keys "
+            f"are {[*_ALLOWED[kind], 'soils', 'series']}"
+        ),
+    )
     if kind == "covariate":
         column = options.get("column")
         if not isinstance(column, str) or not column:

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import SpecError
+from ..kinds import TEST_KINDS
 
 __all__ = [
     "EFFECT_KINDS",
@@ -35,7 +36,7 @@ SINKAGE_PARAMS: tuple[str, ...] = ("kc", "kphi", "n")
 #: Soil parameters of the shear law (Janosi–Hanamoto, Eq. 13): c [Pa], φ [deg], K [m].
 SHEAR_PARAMS: tuple[str, ...] = ("c", "phi", "K")
 PARAMS: tuple[str, ...] = SINKAGE_PARAMS + SHEAR_PARAMS
-KINDS = ("sinkage", "shear")
+KINDS = TEST_KINDS  # the kinds of series a SPEC simulates: a campaign's test kinds
 EFFECT_KINDS = ("covariate", "velocity", "softening", "size", "side-walls")
 
 

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..campaign.derived import ring_area, ring_torque
+from .records import Noise, Resolution
 from .sinkage import quantise
-from .spec import Noise, Resolution
 
 __all__ = ["shear_samples"]
 

@@ -22,9 +22,10 @@ from ..models.shear import side_wall_ratio
 from .artefacts import plant
 from .design import draw_parameters, expand, operator_biases
 from .effects import apparent_shear, side_wall_K0, softening_of
+from .records import SHEAR_PARAMS, SINKAGE_PARAMS, Spec
 from .shear import shear_samples
 from .sinkage import quantise, sinkage_samples
-from .spec import SHEAR_PARAMS, SINKAGE_PARAMS, Spec, load_spec, parse_spec
+from .spec import load_spec, parse_spec
 
 __all__ = ["SimulatedCampaign", "simulate"]
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..models import BEKKER
 from .effects import soften
-from .spec import Noise, Resolution
+from .records import Noise, Resolution
 
 __all__ = ["quantise", "sinkage_samples"]
 

@@ -16,6 +16,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from ..errors import refuse_unknown_keys
+from . import records
 from .records import (
     EFFECT_KINDS,
     KINDS,
@@ -34,20 +36,9 @@ from .records import (
     SpecError,
 )
 
-__all__ = [
-    "SHEAR_PARAMS",
-    "SINKAGE_PARAMS",
-    "Noise",
-    "Preparation",
-    "Resolution",
-    "Scatter",
-    "Series",
-    "Soil",
-    "Spec",
-    "SpecError",
-    "load_spec",
-    "parse_spec",
-]
+# The SPEC's whole API from one import: its records and constants (their home is records.py)
+# and the two readers.
+__all__ = [*records.__all__, "load_spec", "parse_spec"]
 
 
 # --------------------------------------------------------------------------- checked access
@@ -60,13 +51,15 @@ def _check_keys(table: dict, allowed: tuple[str, ...], where: str, extra_ok: boo
         raise _fail(where, f"must be a table, got {type(table).__name__} {table!r}")
     if extra_ok:
         return
-    unknown = [k for k in table if k not in allowed]
-    if unknown:
-        raise _fail(
+
+    def unknown_key(unknown: list[str]) -> SpecError:
+        return _fail(
             f"{where}.{unknown[0]}",
             f"unknown key {unknown[0]!r}; valid keys are {list(allowed)} — check the spelling "
             "(docs/simulator.md lists every key)",
         )
+
+    refuse_unknown_keys(table, allowed, unknown_key)
 
 
 def _number(value: Any, where: str, *, positive=False, nonneg=False) -> float:

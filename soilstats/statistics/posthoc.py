@@ -124,20 +124,14 @@ def tukey_lsmeans(
 
     Parameters
     ----------
-    data : pandas.DataFrame
-        Tidy data, one row per observation.  Not modified.
-    response, factor : str
-        Numeric response column and grouping column.
+    data, response, factor, alpha, dropna
+        As :func:`tukey_hsd`.
     blocks : str or sequence of str, optional
         Blocking factors of the model (additive, fixed).
-    alpha : float, default 0.05
-        Family-wise error rate of the simultaneous (1 − α) intervals.
     error : (mean square, degrees of freedom), optional
         Error term instead of the model's residual: e.g. the factor × operator mean square
         and its df when operators are random (:func:`anova_random_block`), so that the pairs
         face the same error as the factor's F-test.
-    dropna : bool, default False
-        Drop rows with missing values (counted in ``attrs["n_dropped"]``) instead of raising.
 
     Returns
     -------

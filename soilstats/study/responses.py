@@ -23,6 +23,7 @@ import pandas as pd
 
 from ..errors import ConvergenceWarning
 from ..identification import fit_per_test
+from ..kinds import TEST_KINDS
 
 __all__ = ["PerTestCache", "pressure_at"]
 
@@ -69,7 +70,7 @@ class PerTestCache:
         on its own samples only, so the rows are the ones :meth:`fits` would compute one
         study at a time)."""
         tests = self.campaign.tests
-        for kind in ("sinkage", "shear"):
+        for kind in TEST_KINDS:
             have = set() if self._fits.get(kind) is None else set(self._fits[kind]["test_id"])
             ids = [str(t) for t in tests.loc[tests["kind"] == kind, "test_id"]]
             ids = [t for t in ids if t not in have]

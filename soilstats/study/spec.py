@@ -19,7 +19,7 @@ from pathlib import Path
 
 import soilstats
 
-from ..errors import SpecError
+from ..errors import SpecError, refuse_unknown_keys
 from ..report.files import safe_stem
 
 __all__ = [
@@ -237,14 +237,16 @@ def _names(kinds) -> str:
 
 
 def _check_keys(raw: dict, allowed: set, path, where: str) -> None:
-    unknown = sorted(set(raw) - allowed)
-    if unknown:
-        raise _fail(
+    refuse_unknown_keys(
+        raw,
+        allowed,
+        lambda unknown: _fail(
             path,
-            f"{where}{unknown[0]}",
+            f"{where}{min(unknown)}",
             f"unknown key; valid keys here are {sorted(allowed)} (a misspelled key must not be "
             "silently ignored)",
-        )
+        ),
+    )
 
 
 def _responses(raw, study_type: str, path) -> tuple[Response, ...]:

@@ -52,7 +52,7 @@ import numpy as np
 import pandas as pd
 
 from .._text import shown
-from ..errors import SoilstatsError, located
+from ..errors import SoilstatsError, located, refuse_unknown_keys
 from .geometry import Wheel
 
 __all__ = [
@@ -257,13 +257,15 @@ def read_wheels(path) -> dict[str, dict]:
             raise WheelDataError(
                 f"{name!r} must be a table [{name}] with radius_m and width_m", file=path.name
             )
-        unknown = sorted(set(entry) - set(_WHEEL_KEYS))
-        if unknown:
-            raise WheelDataError(
-                f"[{name}] has unknown keys {unknown}; allowed: {list(_WHEEL_KEYS)}",
+        refuse_unknown_keys(
+            entry,
+            _WHEEL_KEYS,
+            lambda unknown, name=name: WheelDataError(
+                f"[{name}] has unknown keys {sorted(unknown)}; allowed: {list(_WHEEL_KEYS)}",
                 file=path.name,
-                column=unknown[0],
-            )
+                column=min(unknown),
+            ),
+        )
         out[str(name)] = dict(entry)
     return out
 
