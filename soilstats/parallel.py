@@ -27,7 +27,13 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
 
-__all__ = ["effective_jobs", "one_blas_thread", "parallel_map", "warm_workers"]
+__all__ = [
+    "effective_jobs",
+    "in_this_backend",
+    "one_blas_thread",
+    "parallel_map",
+    "warm_workers",
+]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -127,6 +133,30 @@ def parallel_map(
     return list(results)
 
 
+def in_this_backend(target: Callable[..., R]) -> Callable[..., R]:
+    """``target`` wrapped to run under the joblib backend active in the calling thread.
+
+    joblib's ``parallel_config`` is per thread: a thread started inside
+    ``parallel_config(backend="dask")`` would otherwise send its :func:`parallel_map` work
+    to local loky workers while the cluster idles. Wrap every thread's target with this
+    when the thread is started (discovery's group threads do).
+    """
+    import sys
+
+    if "joblib" not in sys.modules:  # nothing configured: no joblib import on the serial path
+        return target
+    from joblib import parallel_config
+    from joblib.parallel import get_active_backend
+
+    backend, n_jobs = get_active_backend()
+
+    def run(*args, **kwargs):
+        with parallel_config(backend=backend, n_jobs=n_jobs):
+            return target(*args, **kwargs)
+
+    return run
+
+
 def _import(modules: tuple[str, ...]) -> int:
     """Import ``modules`` in a worker (its first real task need not wait for them)."""
     for name in modules:
@@ -151,6 +181,6 @@ def warm_workers(jobs: int | None, modules: Sequence[str] = ()) -> threading.Thr
         except Exception:  # the real tasks will meet (and report) whatever went wrong
             pass
 
-    thread = threading.Thread(target=start, daemon=True)
+    thread = threading.Thread(target=in_this_backend(start), daemon=True)
     thread.start()
     return thread
