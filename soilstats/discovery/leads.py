@@ -15,7 +15,14 @@ import pandas as pd
 
 from ..errors import ConvergenceError, IdentifiabilityError
 from .candidates import candidate_values, trend_on_log
-from .crossval import FoldFits, compare, cross_validation, information_criteria, make_folds
+from .crossval import (
+    SAME,
+    FoldFits,
+    compare,
+    cross_validation,
+    information_criteria,
+    make_folds,
+)
 from .diagnose import conditional_responses, retest
 from .extensions import base_model, library
 from .nested import fold_choices, fold_extensions
@@ -108,21 +115,41 @@ def _physical_name(lead: str, extension: str, relations) -> str:
     return lead
 
 
+def _search_plan(ext, choices, library_args):
+    """fold → what the whole search fits there for ``ext`` (:mod:`.nested`): None where the
+    fold's training tests do not choose the lead (the base model predicts), :data:`SAME`
+    where they choose the very extension the cause-fixed plan fits on that fold (its fold
+    fit is shared), else the fold's own extension."""
+    out = {}
+    for fold, chosen in fold_extensions(ext, choices, **library_args).items():
+        out[fold] = SAME if chosen == ext else chosen
+    return out
+
+
 def _try_extensions(
     group, rows, lead, confounded, numeric, responses, levels, rng, log_scale, lead_table
 ):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
 
-    Nested: each fold repeats, on its training tests, the choice of the lead and of the
-    responses it frees (:mod:`.nested`, from ``lead_table``, the lead's diagnosis rows); a
-    fold where the lead is not significant is predicted by the base model.
+    Two gains per extension, on the same folds (:mod:`.crossval`, whole tests left out):
+
+    * **cause fixed** — the named cause and the responses it showed in (both established by
+      the Holm-controlled test on all tests) stay fixed; every fold fits the extension on
+      its training tests and predicts its held-out tests.  This is the gain of the named
+      cause's extension, and it decides what is kept (:func:`.crossval.compare`'s rule,
+      whose false-keep rate on null leads docs/discover.md states);
+    * **whole search** — each fold repeats the choice of the lead on its training tests
+      (:mod:`.nested`, from ``lead_table``, the lead's diagnosis rows): a fold where the lead
+      is not significant predicts with the base model.  The gain of the whole search,
+      reported beside the other, never deciding.  Folds that choose what the cause-fixed
+      plan fits share its fold fit.
 
     Preference: a physical extension with a real gain and physically plausible parameters
-    (no value outside its range, e.g. K0 > 1), else the generic one with a real gain, else the
-    best gain (not kept).  Returns ``(base, base fitted, chosen, tried)``, chosen being
-    ``(extension, gain, fitted, implausible)`` (the reasons it is not physical, empty when it
-    is) or None.
+    (no value outside its range, e.g. K0 > 1), else the generic one with a real gain, else
+    the best gain (not kept).  Returns ``(base, base fitted, chosen, tried)``, chosen being
+    ``(extension, gain, fitted, implausible, search gain)`` (the reasons it is not
+    physical, empty when it is; the search gain None when a fold of its own failed) or None.
 
     A process (:mod:`.work`): the fits go out in two waves, the base model on all tests and
     without each fold, then every extension without each fold (started from the base
@@ -155,36 +182,41 @@ def _try_extensions(
     if base_failure is None:
         choices = fold_choices(group, lead_table, rows, folds, starts)
         for i, ext in enumerate(extensions):  # chain i: the folds, then all tests
-            plan = FoldFits(
+            fixed = FoldFits(rows, ext, folds, scheme="tests", starts=starts, chain=i)
+            search = FoldFits(
                 rows,
-                fold_extensions(ext, choices, **library_args),
+                _search_plan(ext, choices, library_args),
                 folds,
                 scheme="tests",
                 starts=starts,
-                chain=i,
+                chain=(i, "search"),
                 base_errors=e_base,
             )
-            plans.append(plan)
-            tasks += [*plan.tasks, FitTask(ext, rows, base_fitted, chain=i)]
+            plans.append((fixed, search))
+            tasks += [*fixed.tasks, FitTask(ext, rows, base_fitted, chain=i), *search.tasks]
     outcomes = iter((yield Wave(group, tasks, probe=True)))
     tried, options = [], []
     for i, ext in enumerate(extensions):
         entry = {"extension": ext.name, "physical": ext.physical, "description": ext.description}
+        search_gain = None
         try:
             if base_failure is not None:
                 raise base_failure
-            plan = plans[i]
-            folds_out = [next(outcomes) for _ in plan.tasks]
+            fixed, search = plans[i]
+            folds_out = [next(outcomes) for _ in fixed.tasks]
             full = next(outcomes)
-            gain = compare(
-                e_base,
-                plan.collect(folds_out)[1],
-                scheme="tests",
-                folds=folds,
-                selected_folds=plan.extended,
-            )
+            search_out = [next(outcomes) for _ in search.tasks]
+            e_ext = fixed.collect(folds_out)[1]
+            gain = compare(e_base, e_ext, scheme="tests", folds=folds)
             full.raise_error()
             fitted = full.fitted
+            try:
+                e_search = search.collect(search_out, same_errors=e_ext)[1]
+                search_gain = compare(
+                    e_base, e_search, scheme="tests", folds=folds, selected_folds=search.extended
+                )
+            except FIT_ERRORS as exc:
+                entry["search_error"] = str(exc)[:400]
         except FIT_ERRORS as exc:
             entry["error"] = str(exc)[:400]
             tried.append(entry)
@@ -193,15 +225,18 @@ def _try_extensions(
         entry.update(
             relative=gain.relative,
             real=gain.real,
+            z=gain.z,
             base=gain.base,
             extended=gain.extended,
+            relative_search=None if search_gain is None else search_gain.relative,
+            selected_folds=None if search_gain is None else search_gain.selected_folds,
             implausible=reasons,
         )
         tried.append(entry)
         # An implausible extension is never kept, however much it gains.
         plausible = gain.real and not reasons
         rank = (plausible, plausible and ext.physical, gain.relative)
-        options.append((rank, ext, gain, fitted, reasons))
+        options.append((rank, ext, gain, fitted, reasons, search_gain))
     if not options:
         return base_ext, base_fitted, None, tried
     return base_ext, base_fitted, max(options, key=lambda o: o[0])[1:], tried
@@ -332,6 +367,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng, rows
         fit=fit if kept else None,
         base_fit=base_fit,
         gain=chosen[1] if chosen is not None else None,
+        gain_search=chosen[4] if chosen is not None else None,
         gain_conditions=gain_cond,
         information=info,
         tried=tuple(tried),

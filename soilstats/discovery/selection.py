@@ -7,9 +7,10 @@ tests held out, :mod:`.crossval`, one set of folds for every step):
 
 1. start from the base model (Eq. 7/8 or Eq. 13);
 2. add, of the extensions the findings kept, the one whose addition gives the largest real
-   gain over the current model (mean paired difference > 2 SE) **and** leaves the combined
-   fit physically plausible (:mod:`.plausibility`) and determined (it converges, no rank
-   deficiency: an interaction's cells already carry its main effect, say);
+   gain over the current model (mean paired difference > ``Z_KEEP`` SE, :mod:`.crossval`)
+   **and** leaves the combined fit physically plausible (:mod:`.plausibility`) and
+   determined (it converges, no rank deficiency: an interaction's cells already carry its
+   main effect, say);
 3. repeat until no remaining extension adds a real gain; report the final model's
    parameters ± σ (Eq. 3) fitted to all tests and its gain over the base model.
 
