@@ -24,7 +24,14 @@ from .candidates import spans_log
 #: they carry entirely is rounding noise, ~1e-16 of its length.
 _RANK_TOLERANCE = 1e-9
 
-__all__ = ["cell_codes", "interaction_test", "strata_codes", "strata_test", "trend_regressor"]
+__all__ = [
+    "cell_codes",
+    "interaction_test",
+    "strata_codes",
+    "strata_test",
+    "trend_regressor",
+    "trend_slope",
+]
 
 
 def trend_regressor(x: np.ndarray, *, log_scale: bool = True) -> np.ndarray:
@@ -251,3 +258,19 @@ def cell_codes(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     if a.dtype.kind in "iu" and b.dtype.kind in "iu" and a.size and min(a.min(), b.min()) >= 0:
         return pd.factorize(a.astype(np.int64) * (int(b.max()) + 1) + b)[0]
     return pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
+
+
+def trend_slope(y, x, *, strata, log_scale: bool = True) -> float:
+    """The slope of y on a continuous X within strata (the estimate :func:`strata_test`
+    tests: within-stratum centring, on the strata in which X varies), per unit of the
+    regressor (:func:`trend_regressor`); NaN when X varies within no stratum."""
+    y, x, strata = np.asarray(y, float), np.asarray(x, float), np.asarray(strata)
+    varies = pd.Series(x).groupby(strata).transform("nunique").to_numpy() >= 2
+    if int(varies.sum()) < 3:
+        return float("nan")
+    g = trend_regressor(x[varies], log_scale=log_scale)
+    s = pd.factorize(strata[varies])[0]
+    yc = y[varies] - (np.bincount(s, weights=y[varies]) / np.bincount(s))[s]
+    gc = g - (np.bincount(s, weights=g) / np.bincount(s))[s]
+    den = float(gc @ gc)
+    return float(gc @ yc / den) if den > 0 else float("nan")

@@ -39,6 +39,7 @@ from ..parallel import one_blas_thread
 from ..quality import screened
 from ..report import Provenance
 from .artefacts import quality_record, split_artefacts, with_quality_caveat
+from .candidates import relation_text
 from .crossval import group_rng
 from .data import build_groups
 from .diagnose import diagnose_groups
@@ -292,7 +293,7 @@ def _group_leads(d, rows, leads, quality, *, alpha, rng, max_leads):
     found, why_not = yield from discover_group(
         d, rows, leads, alpha=alpha, rng=rng, max_leads=max_leads
     )
-    found, residues = split_artefacts(d.group, found, quality)
+    found, residues = split_artefacts(d.group, found, quality, rows)
     # Every finding's best plausible extension is offered, kept alone or not: measured
     # alone, each gain had the other effects in its noise (two causes in one soil).
     kept = [(f.cause, f.fitted.extension) for f in found if _offered(f)]
@@ -348,11 +349,7 @@ def _confounding_records(diag) -> list[dict]:
     g = diag.group
     out = []
     for r in diag.relations:
-        text = (
-            f"{r.finer} and {r.coarser} are aliased (the same partition of the tests)"
-            if r.kind == "aliased"
-            else f"{r.finer} determines {r.coarser} (each {r.finer} has one {r.coarser})"
-        )
+        text = relation_text(r, g.tests)
         out.append(
             {
                 "kind": g.kind,

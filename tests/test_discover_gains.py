@@ -1,0 +1,154 @@
+"""Issue #35: name the cause, extend the model and measure the gain — with the cause fixed.
+
+Truth comes from the simulator's spec (tests/discover_situations.py), never from the code
+under test; the bundled CMU plates are real data with a known box/day design.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from discover_situations import (
+    CRITERIA,
+    SINGLE_LEVEL,
+    TWO_LEVELS,
+    combined_beats_each,
+    flagged_drift_campaign,
+    kept,
+    raw_frames,
+    seated_late,
+)
+
+import soilstats
+from soilstats.campaign import Campaign
+from soilstats.discovery import discover
+from soilstats.discovery.candidates import (
+    Relation,
+    candidate_values,
+    determines,
+    level_codes,
+    relation_text,
+)
+from soilstats.simulation import simulate
+
+
+def test_a_level_effect_is_kept_with_the_cause_fixed_and_the_search_reported():
+    """A +14 % bin in 30 tests: named, its extension measured with the cause fixed and kept
+    with a positive held-out gain; the whole search's gain is reported beside it."""
+    result = discover(simulate(SINGLE_LEVEL, seed=0).campaign, seed=0)
+    assert kept(result, "bin"), result.summary()
+    finding = next(f for f in result.findings if f.cause == "bin")
+    assert finding.gain.selected_folds is None and finding.gain.real
+    assert finding.gain_search is not None and 0 <= finding.gain_search.selected_folds <= 5
+    doc = finding.to_dict()
+    assert doc["gain"]["z"] == pytest.approx(finding.gain.z)
+    assert doc["gain_search"]["selected_folds"] == finding.gain_search.selected_folds
+    assert "cause fixed" in result.summary() and "whole search" in result.summary()
+
+
+def test_two_causes_end_in_one_model_better_than_either():
+    result = discover(simulate(TWO_LEVELS, seed=1).campaign, seed=0)
+    assert {"operator", "bin"} <= {f.cause for f in result.findings}, result.summary()
+    assert combined_beats_each(result, ("operator", "bin")), result.summary()
+
+
+def test_drift_with_two_flagged_tests_is_named_not_an_artefact():
+    """Stiffness +3 %/h over a day, ISO start times, two tests seated late (flagged
+    pre-contact): each start time is a level of its own, so any flag used to line up 100 %
+    and the drift was filed as an artefact.  The trend is compared with and without the
+    flagged tests instead, and stands."""
+    result = discover(flagged_drift_campaign(0), seed=0)
+    assert result.quality["counts"].get("pre-contact") == 2
+    assert not result.artefacts, result.summary()
+    drift = next(f for f in result.findings if f.cause == "started_at")
+    assert drift.extension == "started_at (linear)"
+    assert any("stands without the flagged tests" in c for c in drift.caveats)
+
+
+def _trend_group(y, flagged):
+    """A one-group stand-in for :func:`soilstats.discovery.artefacts._flagged_trend`."""
+    hours = np.arange(y.size, dtype=float)
+    tests = pd.DataFrame({"started_at": hours, "_dev_level": y})
+    labels = pd.Series(np.where(flagged, "pre-contact", "clean"))
+    rows = pd.DataFrame(
+        [
+            {
+                "candidate": "started_at",
+                "response": "level",
+                "p_value": 1e-4,
+                "blocks": "",
+                "role": "time/order",
+            }
+        ]
+    )
+    return SimpleNamespace(tests=tests), rows, labels
+
+
+def test_a_trend_the_flagged_tests_carry_is_a_residue_and_one_beside_them_stands():
+    from soilstats.discovery.artefacts import _flagged_trend
+
+    rng = np.random.default_rng(2)
+    n = 30
+    flagged = np.zeros(n, bool)
+    flagged[[26, 28, 29]] = True
+    # nothing but an offset screening did not remove, in three late tests
+    residue = rng.normal(0, 0.02, n) + 0.3 * flagged
+    why, caveat = _flagged_trend(*_trend_group(residue, flagged))
+    assert why is not None and "rests on the flagged tests" in why and caveat is None
+    # a drift of every test, two of them flagged
+    drift = 0.01 * np.arange(n) + rng.normal(0, 0.02, n)
+    why, caveat = _flagged_trend(*_trend_group(drift, flagged))
+    assert why is None and "stands without the flagged tests" in caveat
+
+
+def test_a_determines_claim_is_checked_against_the_data():
+    table = pd.DataFrame({"box": ["s", "s", "s", "l", "l", "l"], "t": [1, 2, 3, 400, 401, 402]})
+    text = relation_text(Relation("nested", "box", "t", 0.9999), table)
+    assert "determines" not in text and "box explains more than 99.9 %" in text
+    table["day"] = ["mon"] * 3 + ["tue"] * 3
+    assert relation_text(Relation("nested", "box", "day"), table) == (
+        "box determines day (each box has one day)"
+    )
+
+
+def _cmu_seated_late(ids):
+    campaign = soilstats.load_campaign("cmu-3d-terramechanics")
+    tests, sinkage = raw_frames(campaign)
+    rng = np.random.default_rng(0)
+    parts = [
+        seated_late(tid, g[g["z_m"] > 0], 1.5e-3, rng) if tid in ids else g
+        for tid, g in sinkage.groupby("test_id", sort=False)
+    ]
+    return Campaign.from_frames(tests, pd.concat(parts, ignore_index=True))
+
+
+@pytest.mark.parametrize("late", [(), ("small-D60-1", "large-D100-2")])
+def test_cmu_box_day_effect_is_a_finding_and_no_claim_of_determination_is_false(late):
+    """The CMU plates: the two boxes were tested on two days, and n differs between them.
+    The box/day effect is a finding (named box or start_time, the other confounded), never
+    an artefact — also with two tests seated late — and every 'determines' printed holds."""
+    campaign = _cmu_seated_late(late) if late else "cmu-3d-terramechanics"
+    result = discover(campaign, seed=0)
+    day = [f for f in result.findings if f.cause in ("box", "start_time")]
+    assert day and {"box", "start_time"} <= {day[0].cause, *day[0].confounded_with}
+    assert not result.artefacts, result.summary()
+    tests = soilstats.load_campaign("cmu-3d-terramechanics").tests
+    tests = soilstats.discovery.candidates.with_time_hours(tests)[0]
+    for record in result.confounded:
+        if "determines" in record["text"]:
+            a, b = record["columns"]
+            codes = [level_codes(candidate_values(tests, c)) for c in (a, b)]
+            assert determines(*codes), record["text"]
+    assert not any("box determines" in r["text"] for r in result.confounded)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", list(CRITERIA))
+def test_issue35_criteria_over_20_seeds(name):
+    """Issue #35's criteria (docs/discover.md, "Issue #35"): each over seeds 0-19."""
+    build, judge, minimum = CRITERIA[name]
+    good = sum(bool(judge(discover(build(seed), seed=0))) for seed in range(20))
+    assert good >= minimum, f"{name}: {good} of 20"
