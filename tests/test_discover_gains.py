@@ -152,3 +152,21 @@ def test_issue35_criteria_over_20_seeds(name):
     build, judge, minimum = CRITERIA[name]
     good = sum(bool(judge(discover(build(seed), seed=0))) for seed in range(20))
     assert good >= minimum, f"{name}: {good} of 20"
+
+
+def test_power_statements_are_capped_to_what_the_data_can_express():
+    """An effect larger than the tests' whole spread in the response is 'not testable here',
+    not '±86 %' (the CMU test_number trend across 1..9, each plate block spanning three)."""
+    from soilstats.discovery.power import describe
+
+    assert describe("sinkage", "level", 0.2, "for one level", observed=0.5).startswith("±22.1 %")
+    text = describe("sinkage", "level", 3.4, "for one level", observed=0.5)
+    assert text.startswith("not testable here") and "64.9 %" in text and "2900" not in text
+    result = discover("cmu-3d-terramechanics", seed=0)
+    power = {p["candidate"]: p["responses"] for p in result.power}
+    order = power["test_number"]["level"]
+    assert not order["testable"] and order["mde"] is None
+    assert order["mde_uncapped"] > order["observed_range"] > 0
+    assert order["statement"].startswith("not testable here")
+    assert power["repetition"]["level"]["testable"]  # the same tests, a range they span
+    assert "not testable here" in result.summary()

@@ -258,6 +258,7 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     singleton_levels=", ".join(singles),
                     pair="",
                     span=_span(x_all[ok][res["used"]], cand.categorical),
+                    y_range=_range(y_all[ok][res["used"]]),
                     rows=used,
                 )
             )
@@ -279,6 +280,14 @@ def _span(x: np.ndarray, categorical: bool) -> str:
         return ""
     x = np.asarray(x, float)
     return f"{np.nanmin(x):.4g} to {np.nanmax(x):.4g}"
+
+
+def _range(y: np.ndarray) -> float:
+    """The observed range (max − min) of a response over the tests a candidate is tested on:
+    no effect larger than it shows in these data (:mod:`.power` caps its statements)."""
+    y = np.asarray(y, float)
+    y = y[np.isfinite(y)]
+    return float(np.ptp(y)) if y.size else float("nan")
 
 
 def _labels(values: pd.Series) -> pd.Series:
@@ -346,6 +355,7 @@ def _interactions(group, table, cands, related, eligible, codes, values_of):
                     singleton_levels="",
                     pair=f"{a}|{b}",
                     span="",
+                    y_range=_range(y_all[ok]),
                     rows=np.flatnonzero(ok),
                 )
             )
