@@ -233,6 +233,26 @@ ONE_CELL = spec(
 )
 
 
+#: Three plates, each its own series of eight tests in run order; the soil under the
+#: middle plate stiffens 5 % per test (a drift inside one plate block), the others do not.
+BLOCK_DRIFT = spec(
+    [
+        sink(name=name, plates=[plate], repetitions=8)
+        for name, plate in zip(("small", "mid", "large"), PLATES3, strict=True)
+    ],
+    [
+        {
+            "kind": "covariate",
+            "column": "repetition",
+            "parameters": ["kc", "kphi"],
+            "slope": 0.05,
+            "reference": 4.5,
+            "series": ["mid"],
+        }
+    ],
+)
+
+
 def flagged_drift_campaign(seed: int, flagged: int = 2) -> Campaign:
     """:data:`DRIFT_DAY` with ISO start times (``started_at``, minutes at random) and a
     1.5 mm seating offset in ``flagged`` tests at random: screening flags them pre-contact

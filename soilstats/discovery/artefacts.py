@@ -142,10 +142,16 @@ def _flagged_trend(group, rows, labels) -> tuple[str | None, str | None]:
     table = group.tests
     blocks = [b for b in row["blocks"].split(", ") if b]
     strata = strata_codes([level_codes(candidate_values(table, b)) for b in blocks], len(table))
-    x = candidate_values(table, column).to_numpy(float)
     y = table[f"_dev_{response}"].to_numpy(float)
+    if row.get("within"):
+        # a drift inside one block: its slope there, with and without the flagged tests
+        x = candidate_values(table, row["within"]).to_numpy(float)
+        inside = (candidate_values(table, column).astype(str) == row["deviating"]).to_numpy()
+        y = np.where(inside, y, np.nan)
+    else:
+        x = candidate_values(table, column).to_numpy(float)
     ok = np.isfinite(y) & np.isfinite(x)
-    log_scale = trend_on_log(row["role"])
+    log_scale = False if row.get("within") else trend_on_log(row["role"])
     slope = trend_slope(y[ok], x[ok], strata=strata[ok], log_scale=log_scale)
     rest = ok & ~flagged
     without = trend_slope(y[rest], x[rest], strata=strata[rest], log_scale=log_scale)
@@ -189,7 +195,7 @@ def split_artefacts(group, found, quality, table=None) -> tuple[list, list[dict]
         trend = _trend_rows(table, f)
         if trend is not None:
             why, caveat = _flagged_trend(group, trend, labels)
-            if why is None and f.cause in order:
+            if why is None and (f.cause in order or trend.iloc[0].get("within") in order):
                 pattern = _drifting(labels.iloc[rows])
                 if pattern is not None:
                     why = (

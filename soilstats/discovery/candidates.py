@@ -43,6 +43,7 @@ from ..campaign import times
 __all__ = [
     "FIT_COLUMNS",
     "ROLES",
+    "WITHIN",
     "Candidate",
     "ColumnRole",
     "Relation",
@@ -105,6 +106,10 @@ MAX_LEVELS = 8
 #: variance is confounded with it (:func:`relations`).
 EXPLAINED_SHARE = 0.95
 MISSING = "<not recorded>"
+#: Joins a time/order candidate and the blocks a drift inside one of them is tested in
+#: (``repetition within b_m``): the name of the candidate and of its block-label column
+#: (:func:`soilstats.discovery.diagnose._within_blocks`).
+WITHIN = " within "
 
 
 @dataclass(frozen=True)

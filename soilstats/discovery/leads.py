@@ -88,6 +88,13 @@ def _caveats(lead_rows: pd.DataFrame, lead: str, confounded: list[str]) -> list[
             f"{lead} cannot be separated from {', '.join(confounded)} in this design; the named "
             "cause is the coarsest of them with the smallest p, not a proven mechanism"
         )
+    top = lead_rows.sort_values(["p_adjusted", "p_value"]).iloc[0]
+    if top.get("deviating"):
+        what = "block that drifts" if top["role"] == "drift within blocks" else "cell that deviates"
+        out.append(
+            f"the {what} most: {top['deviating']} (the largest of "
+            f"{int(top['patterns'])} one-degree-of-freedom tests, Bonferroni-adjusted)"
+        )
     singles = [s for s in lead_rows["singleton_levels"] if s]
     if singles:
         out.append(
@@ -400,8 +407,8 @@ def _condition_gain(g, scope, base_ext, ext, levels, rng, caveats: list):
     whether the other conditions alone would have shown the lead (without one of three
     velocities the rest often do not), and it never decides what is kept.
     """
-    if np.unique(levels).size < 3 or ext.name == "softening":
-        return None
+    if np.unique(levels).size < 3 or ext.name == "softening" or "per block" in ext.name:
+        return None  # softening has no level, an unseen block no drift of its own
     if not (ext.physical or "linear" in ext.name):
         return None
     try:

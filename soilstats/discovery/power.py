@@ -11,11 +11,17 @@ main effects) are taken out and σ the residual standard deviation of the respon
 MDE solves P(F(df1, df2, λ) > F_crit) = power for λ and returns δ = σ·√(λ/‖r‖²).  The
 patterns (:func:`soilstats.discovery.ftests.strata_test`):
 
-* levels — one level (or, for an interaction, one cell) shifted by δ against the others;
-  the hardest level to detect (fewest tests), so that *any* level shifted by δ or more
-  would have been found;
+* levels — one level (or, for an interaction, one cell against the additive model)
+  shifted by δ against the others; the hardest level to detect (fewest tests), so that
+  *any* level shifted by δ or more would have been found;
+* a drift within blocks — a change of δ across one block's own range of a time/order
+  candidate, against the common trend (the hardest block);
 * trend — a change of δ across the observed range of the candidate (on ln x when x spans
   more than a factor four, except for time/order candidates, as they are tested).
+
+The one-cell test of an interaction and the test of a drift within blocks take the largest
+of K one-degree-of-freedom tests, Bonferroni-adjusted (:func:`.ftests.interaction_test`,
+:func:`.ftests.within_blocks_test`): their MDE is at α/(m·K) with one degree of freedom.
 
 δ is in the response's units: ln of pressure (sinkage ``level``) or plateau stress (shear
 ``level``), the exponent n (``shape``), ln K (``K``).  :func:`describe` turns it into a
@@ -137,6 +143,8 @@ def power_records(table, alpha: float) -> list[dict]:
         first = rows[0]
         if first["role"] == "interaction":
             pattern = "for one cell against the additive model"
+        elif first["role"] == "drift within blocks":
+            pattern = "for a drift across one block's own range, against the common trend"
         elif first["categorical"]:
             pattern = "for one level against the others"
         else:

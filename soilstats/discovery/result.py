@@ -327,8 +327,14 @@ class DiscoveryResult:
 
     @property
     def tests_run(self) -> int:
-        """Significance tests with a p-value (the m of Holm's method)."""
-        return int(self.tests["p_value"].notna().sum()) if len(self.tests) else 0
+        """Distinct hypotheses with a p-value (the m of Holm's method: aliased candidates,
+        one test under several names, count once)."""
+        if not len(self.tests):
+            return 0
+        tested = self.tests[self.tests["p_value"].notna()]
+        if "hypothesis" in tested:
+            return int(tested["hypothesis"].nunique())
+        return len(tested)
 
     def to_dict(self) -> dict:
         """JSON-ready content (no run time: outputs are byte-identical between runs)."""

@@ -62,7 +62,7 @@ def _all_groups_words(g) -> str:
 
 def _conclusion(result, all_groups) -> list:
     out: list = []
-    n_tests = int(result.tests["p_value"].notna().sum()) if len(result.tests) else 0
+    n_tests = result.tests_run
     if not result.findings:
         out.append(
             [
