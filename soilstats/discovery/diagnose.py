@@ -44,7 +44,7 @@ from .candidates import (
     trend_on_log,
 )
 from .candidates import relations as find_relations
-from .extensions import ModelExtension, SinkageExtension, base_model
+from .extensions import ModelExtension, SinkageExtension, base_model, bekker_refused
 from .ftests import (
     cell_codes,
     interaction_test,
@@ -107,6 +107,10 @@ def add_responses(group):
     table = group.tests.copy()
     notes: list[str] = []
     model = base_model(group, rows)
+    if group.kind == "sinkage" and isinstance(model, SinkageExtension) and not model.bekker:
+        why = bekker_refused(group, rows)
+        if why is not None and table["b_m"].iloc[rows].nunique() > 1:
+            notes.append(f"{group.label}: base model Bernstein (Eq. 8), as identify decides: {why}")
     try:
         base = model.fit(group, rows)
     except ConvergenceError as exc:

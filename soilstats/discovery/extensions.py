@@ -55,6 +55,7 @@ __all__ = [
     "SinkageExtension",
     "Term",
     "base_model",
+    "bekker_refused",
     "check_own_model",
     "combine",
     "library",
@@ -506,9 +507,10 @@ def shear_inputs_a(group, rows) -> np.ndarray:
 
 # ------------------------------------------------------------------------------ the library
 def base_model(group, rows) -> Extension:
-    """The paper's base model for these tests: Bekker (Eq. 7) with two or more plate sizes,
-    else Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear — or the group's own
-    registered model (``Group.model``, from ``discover(model=...)``)."""
+    """The paper's base model for these tests: Bekker (Eq. 7) where ``identify`` would fit
+    it (two or more plate sizes at least 1.5× apart, :func:`bekker_refused`), else
+    Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear — or the group's own registered
+    model (``Group.model``, from ``discover(model=...)``)."""
     own = getattr(group, "model", None)
     if own is not None and own.kind == group.kind:
         return ModelExtension(
@@ -519,10 +521,23 @@ def base_model(group, rows) -> Extension:
         )
     if group.kind == "shear":
         return ShearExtension("janosi (base)", False, "Eq. 13, one c, φ, K for all tests")
-    sizes = np.unique(np.round(group.tests["b_m"].to_numpy(float)[np.asarray(rows, int)], 9))
-    if sizes.size >= 2:
+    if bekker_refused(group, rows) is None:
         return SinkageExtension("bekker (base)", False, "Eq. 7, one kc, kφ, n", bekker=True)
     return SinkageExtension("bernstein (base)", False, "Eq. 8, one k, n", bekker=False)
+
+
+def bekker_refused(group, rows) -> str | None:
+    """Why Bekker (Eq. 7) cannot be the base of these sinkage tests, in ``identify``'s words,
+    or None when it can: ``identify`` decides (:func:`soilstats.identification.conditions
+    ._model_for`: one plate size, or plate sizes closer than ``MIN_SIZE_RATIO`` = 1.5×, leave
+    kc and kφ apart undetermined), and discovery follows — until issue #35 it fitted Bekker
+    to any two sizes, and plates of 20 and 22.5 mm gave kc–kφ collinearity red flags where
+    ``identify`` refused the design."""
+    from ..identification.conditions import _model_for
+
+    tests = group.tests.iloc[np.asarray(rows, int)]
+    model, why = _model_for("sinkage", "auto", None, tests)
+    return None if model == "bekker" else why
 
 
 _SIZE = {"b_m", "area_m2", "tool"}
