@@ -134,7 +134,7 @@ def _search_plan(ext, choices, library_args):
 
 
 def _try_extensions(
-    group, rows, lead, confounded, numeric, responses, levels, rng, log_scale, lead_table
+    group, rows, lead, confounded, numeric, responses, folds, log_scale, lead_table
 ):
     """Cross-validate every applicable extension on the same folds and fit it on all tests
     in scope.
@@ -165,7 +165,6 @@ def _try_extensions(
     fold or full fit of an extension is that extension's ``error``.
     """
     base_ext = base_model(group, rows)
-    folds = make_folds(levels, "tests", rng)
     library_args = dict(
         group=group,
         rows=rows,
@@ -249,10 +248,10 @@ def _try_extensions(
     return base_ext, base_fitted, max(options, key=lambda o: o[0])[1:], tried
 
 
-def discover_group(diag, rows, leads, *, alpha, rng, max_leads):
+def discover_group(diag, rows, leads, *, alpha, folds, max_leads):
     """Process (:mod:`.work`) of the findings of one (kind, soil), leads strongest first, and
     the leads that an extension kept before them already explains: ``(findings,
-    explained)``."""
+    explained)``.  ``folds``: the group's folds (:class:`.crossval.GroupFolds`)."""
     g = diag.group
     findings, explained = [], []
     accepted = None  # (name, fitted) of the latest kept extension in this group
@@ -267,7 +266,7 @@ def discover_group(diag, rows, leads, *, alpha, rng, max_leads):
                 explained.append(why)
                 continue
         finding = yield from _examine_lead(
-            g, diag.relations, lead_rows, top, lead, confounded_with, rng, rows
+            g, diag.relations, lead_rows, top, lead, confounded_with, folds, rows
         )
         findings.append(finding)
         if finding.extension is not None:
@@ -302,7 +301,7 @@ def _explained_by(g, accepted, lead, top, responses, *, n_leads, alpha) -> dict 
     }
 
 
-def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng, rows):
+def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, rows):
     """Process (:mod:`.work`) of one finding: try the library's extensions on the tests in
     scope, keep one only where its cross-validated gain is real, and state every caveat.
     ``rows``: the group's diagnosis rows (each fold repeats the lead's test, :mod:`.nested`)."""
@@ -323,8 +322,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng, rows
                 confounded_with,
                 numeric,
                 set(responses),
-                levels,
-                rng,
+                folds.of(scope),
                 log_scale=trend_on_log(top["role"]),
                 lead_table=lead_table,
             )
@@ -350,9 +348,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, rng, rows
         if chosen[3]:  # the reasons decided in _try_extensions, not recomputed
             caveats.append(f"{chosen[0].name}: physically implausible: " + "; ".join(chosen[3]))
         if kept:
-            gain_cond = yield from _condition_gain(
-                g, scope, base_ext, chosen[0], levels, rng, caveats
-            )
+            gain_cond = yield from _condition_gain(g, scope, base_ext, chosen[0], levels, caveats)
         elif chosen[1].real:
             caveats.append(
                 "no plausible extension gives a real out-of-sample gain; the base model is kept"
@@ -398,7 +394,7 @@ def _information(base_fit, fit) -> dict:
     }
 
 
-def _condition_gain(g, scope, base_ext, ext, levels, rng, caveats: list):
+def _condition_gain(g, scope, base_ext, ext, levels, caveats: list):
     """Leave-one-condition-out gain: does the extension predict a condition it never saw?
 
     Only for trends a formula can carry to a new level (physical or linear extensions, three
@@ -412,7 +408,7 @@ def _condition_gain(g, scope, base_ext, ext, levels, rng, caveats: list):
     if not (ext.physical or "linear" in ext.name):
         return None
     try:
-        folds = make_folds(levels, "conditions", rng)
+        folds = make_folds(levels, "conditions", None)
         return (yield from cross_validation(g, scope, base_ext, ext, folds, scheme="conditions"))
     except (ConvergenceError, IdentifiabilityError) as exc:
         caveats.append(f"leave-one-condition-out failed: {exc}")

@@ -40,7 +40,7 @@ from ..quality import screened
 from ..report import Provenance
 from .artefacts import quality_record, split_artefacts, with_quality_caveat
 from .candidates import relation_text
-from .crossval import group_rng
+from .crossval import group_folds, group_rng
 from .data import build_groups
 from .diagnose import diagnose_groups
 from .extensions import check_own_model
@@ -290,8 +290,10 @@ def _group_leads(d, rows, leads, quality, *, alpha, rng, max_leads):
     """Process of one group's leads (:func:`discover_group`), then the folds of its
     forward selection drawn (:func:`.selection.prepare_selection`).  Returns ``(findings,
     artefacts, explained, prepared selection or None, note or None)``."""
+    # One set of folds for the group: every finding and forward selection share it.
+    folds = group_folds(d.group, [lead for lead, _ in leads[:max_leads]], rng)
     found, why_not = yield from discover_group(
-        d, rows, leads, alpha=alpha, rng=rng, max_leads=max_leads
+        d, rows, leads, alpha=alpha, folds=folds, max_leads=max_leads
     )
     found, residues = split_artefacts(d.group, found, quality, rows)
     # Every named cause's best plausible extension is offered, kept alone or not: measured
@@ -299,7 +301,7 @@ def _group_leads(d, rows, leads, quality, *, alpha, rng, max_leads):
     # selection adds each only where it really gains over the model so far.
     kept = [(f.cause, f.fitted.extension) for f in found if _offered(f)]
     try:
-        prepared, note = prepare_selection(d.group, kept, rng, base=d.base), None
+        prepared, note = prepare_selection(d.group, kept, folds, base=d.base), None
     except (ConvergenceError, IdentifiabilityError) as exc:
         prepared, note = None, _no_model_note(d.group, exc)
     return found, residues, why_not, prepared, note
