@@ -157,12 +157,17 @@ def test_null_campaigns_false_positive_rate():
     100 seeds more than 9 false campaigns would be evidence against that (binomial, p < 3 %).
     Measured: 7 of seeds 0–99, 40 of 1000 over seeds 0–999 (4.0 %, 95 % CI 2.9–5.4 %;
     ``python benchmarks/discover_power.py --null 1000``)."""
-    false = 0
+    false = kept = 0
     for seed in range(100):
         result = discover(simulate(NULL, seed=seed).campaign, seed=0)
         false += bool(result.findings)
+        kept += any(f.extension for f in result.findings) or any(
+            m.extensions for m in result.models
+        )
         assert all(f.p_adjusted < 0.05 for f in result.findings)
     assert false <= 9, f"{false} of 100 null campaigns gave a finding"
+    # issue #35: null data keep no extension in at least 95 % of campaigns
+    assert kept <= 5, f"{kept} of 100 null campaigns kept an extension"
 
 
 #: Nothing planted: 16 sinkage tests on one plate, a two-level ``bin`` with no effect.
@@ -179,18 +184,20 @@ NULL_BIN = _spec(
 
 @pytest.mark.slow
 def test_gain_of_a_null_lead_is_not_inflated_by_its_selection():
-    """A null ``bin`` selected by its F-test (lenient alpha, so that it is selected often:
-    43 leads in 300 campaigns) has nothing to predict: its honest held-out gain is at most zero
-    on median.  Measured on the same tests that selected it, without repeating the choice
-    in each fold, the median was +3.9 %; nested (:mod:`soilstats.discovery.nested`),
-    −2.6 %.  None may be called real."""
-    gains = []
+    """A null ``bin`` selected by its F-test (lenient alpha, so that it is selected often)
+    has nothing to predict.  The whole search's gain (each fold re-selecting the lead,
+    :mod:`soilstats.discovery.nested`) is at most zero on median; the gain that decides (the
+    cause fixed) shares the chance pattern that selected the lead, and the keep rule
+    (``Z_KEEP`` = 1 SE) keeps some of these false leads: docs/discover.md states the rate
+    (``benchmarks/discover_nested_null.py``); here at most 40 % of them."""
+    found = []
     for seed in range(300):
         result = discover(simulate(NULL_BIN, seed=seed).campaign, seed=0, alpha=0.3)
-        gains += [f.gain for f in result.findings if f.cause == "bin" and f.gain is not None]
-    assert len(gains) >= 30
-    assert np.median([g.relative for g in gains]) < 0.0
-    assert not any(g.real for g in gains)
+        found += [f for f in result.findings if f.cause == "bin" and f.gain is not None]
+    assert len(found) >= 30
+    assert np.median([f.gain_search.relative for f in found if f.gain_search]) < 0.0
+    kept = sum(f.extension is not None for f in found)
+    assert kept <= 0.4 * len(found), f"{kept} of {len(found)} null leads kept"
 
 
 def test_strata_test_matches_two_way_anova():

@@ -519,7 +519,9 @@ def _hypotheses(table: pd.DataFrame, diags) -> np.ndarray:
     """One id per row of the diagnosis table: rows of aliased candidates (the same partition
     of the tests, :class:`~.candidates.Relation` ``aliased``) of one (kind, soil) and
     response whose tests came out identical (the same F and degrees of freedom) share it:
-    one hypothesis, however many names the design gives it."""
+    one hypothesis, however many names the design gives it.  So do two trends tested in the
+    same strata with the same F: within the strata their regressors are the same (CMU's
+    ``repetition`` and ``test_number``, which counts on across the plate blocks)."""
     root: dict[tuple, str] = {}
 
     def find(key):
@@ -536,14 +538,13 @@ def _hypotheses(table: pd.DataFrame, diags) -> np.ndarray:
                     root[max(a, b)] = min(a, b)
     ids: dict[tuple, int] = {}
     out = np.empty(len(table), int)
-    for i, r in enumerate(
-        table[["kind", "soil", "candidate", "response", "statistic", "df1", "df2"]].itertuples(
-            index=False
-        )
-    ):
+    columns = ["kind", "soil", "candidate", "response", "statistic", "df1", "df2"]
+    columns += ["categorical", "role", "blocks"]
+    for i, r in enumerate(table[columns].itertuples(index=False)):
         stat = float(r.statistic)
+        trend = not r.categorical and r.role not in ("interaction", "drift within blocks")
         key = (
-            find((r.kind, r.soil, r.candidate)),
+            ("trend", r.kind, r.soil, r.blocks) if trend else find((r.kind, r.soil, r.candidate)),
             r.response,
             round(stat, 9 - int(np.floor(np.log10(abs(stat)))))
             if np.isfinite(stat) and stat
