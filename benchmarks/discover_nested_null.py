@@ -60,7 +60,8 @@ def _one(args) -> list[tuple]:
         g, s = f.gain, f.gain_search
         gain = (np.nan, False) if g is None else (g.relative, g.real)
         search = (np.nan, None) if s is None else (s.relative, s.selected_folds)
-        out.append((seed, f.cause, f.p_value, *gain, f.extension is not None, *search))
+        strict = g is not None and g.relative > 0 and g.z > 2.0  # the rule at 2 SE
+        out.append((seed, f.cause, f.p_value, *gain, f.extension is not None, *search, strict))
     return out
 
 
@@ -78,10 +79,12 @@ def _line(label: str, rows: list[tuple]) -> str:
     kept = sum(r[5] for r in rows)
     chosen = [r[7] for r in rows if r[7] is not None]
     folds = f", the lead chosen in {np.mean(chosen):.1f} of 5 folds on average" if chosen else ""
+    strict = sum(r[8] for r in rows)
     return (
         f"  {label}: {len(rows)} leads; gain with the cause fixed {fixed} ({failed} without "
         f"a gain: a fold's fit failed); real {real} ({real / max(len(rows), 1):.1%}), kept "
-        f"{kept} ({kept / max(len(rows), 1):.1%}); whole search {search}{folds}"
+        f"{kept} ({kept / max(len(rows), 1):.1%}; at 2 SE instead: {strict}); whole search "
+        f"{search}{folds}"
     )
 
 

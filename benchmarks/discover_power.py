@@ -41,8 +41,9 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from discover_situations import iso_times, raw_frames, seated_late
+
 from soilstats.campaign import Campaign
-from soilstats.campaign.schema import DERIVED_COLUMNS
 from soilstats.discovery import discover
 from soilstats.simulation import simulate
 
@@ -76,25 +77,6 @@ def _spec(series, effects=(), preparations=None) -> dict:
 def _stiffer(column, level, factor, **kw) -> dict:
     out = {"kind": "covariate", "column": column, "parameters": ["kc", "kphi"]}
     return {**out, "levels": {level: factor}, **kw}
-
-
-def _raw(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
-    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
-    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
-    return tests, sinkage.reset_index(drop=True)
-
-
-def _late(tid, record, offset, rng) -> pd.DataFrame:
-    """A record whose plate touched ``offset`` m late: free travel at zero force first."""
-    free = pd.DataFrame(
-        {
-            "test_id": tid,
-            "z_m": np.linspace(0.0, offset, 15, endpoint=False),
-            "force_N": rng.normal(0.0, 0.2, 15),
-        }
-    )
-    moved = record.assign(z_m=record["z_m"].clip(lower=0.0) + offset)
-    return pd.concat([free, moved[moved["z_m"] > offset]])
 
 
 #: One tray of three 16 % stiffer; 36 tests (2 plates × 3 trays × 6).
@@ -150,16 +132,12 @@ NULL = _spec(
 
 def day_campaign(seed: int) -> Campaign:
     """:data:`DAY` logged as ISO times (``logged_at``), three tests seated 2 mm late."""
-    tests, sinkage = _raw(simulate(DAY, seed=seed).campaign)
+    tests, sinkage = raw_frames(simulate(DAY, seed=seed).campaign)
     rng = np.random.default_rng(seed + 7)
-    start = pd.Timestamp("2026-09-14T07:30")
-    tests["logged_at"] = [
-        (start + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
-        for h, m in zip(tests["hour"], rng.integers(0, 50, len(tests)), strict=True)
-    ]
+    tests["logged_at"] = iso_times(tests["hour"], "2026-09-14T07:30", rng, minutes=50)
     late = set(rng.choice(tests["test_id"].to_numpy(), 3, replace=False))
     parts = [
-        _late(tid, g, 2e-3, rng) if tid in late else g
+        seated_late(tid, g, 2e-3, rng) if tid in late else g
         for tid, g in sinkage.groupby("test_id", sort=False)
     ]
     return Campaign.from_frames(tests.drop(columns=["hour"]), pd.concat(parts, ignore_index=True))

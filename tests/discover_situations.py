@@ -130,16 +130,21 @@ def raw_frames(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
     return tests, sinkage.reset_index(drop=True)
 
 
+def iso_times(hours, start: str, rng, minutes: int) -> list[str]:
+    """ISO times ``start`` + each of ``hours`` + up to ``minutes`` minutes at random."""
+    at = pd.Timestamp(start)
+    late = rng.integers(0, minutes, len(hours))
+    return [
+        (at + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
+        for h, m in zip(hours, late, strict=True)
+    ]
+
+
 def drift_campaign(seed: int) -> Campaign:
     """:data:`DRIFT` with the hour replaced by an ISO start time (minutes at random)."""
     tests, sinkage = raw_frames(simulate(DRIFT, seed=seed).campaign)
     rng = np.random.default_rng(seed)
-    start = pd.Timestamp("2026-05-04T08:00")
-    minutes = rng.integers(0, 50, len(tests))
-    tests["start_time"] = [
-        (start + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
-        for h, m in zip(tests["hours"], minutes, strict=True)
-    ]
+    tests["start_time"] = iso_times(tests["hours"], "2026-05-04T08:00", rng, minutes=50)
     return Campaign.from_frames(tests.drop(columns=["hours"]), sinkage)
 
 
@@ -259,12 +264,7 @@ def flagged_drift_campaign(seed: int, flagged: int = 2) -> Campaign:
     and re-zeroes them, so the flags are on tests that carry no trend of their own."""
     tests, sinkage = raw_frames(simulate(DRIFT_DAY, seed=seed).campaign)
     rng = np.random.default_rng(seed)
-    start = pd.Timestamp("2026-06-01T08:00")
-    minutes = rng.integers(0, 55, len(tests))
-    tests["started_at"] = [
-        (start + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
-        for h, m in zip(tests["hours"], minutes, strict=True)
-    ]
+    tests["started_at"] = iso_times(tests["hours"], "2026-06-01T08:00", rng, minutes=55)
     bad = set(rng.choice(tests["test_id"].to_numpy(), flagged, replace=False))
     parts = [
         seated_late(tid, g, 1.5e-3, rng) if tid in bad else g

@@ -283,3 +283,21 @@ def test_a_design_identify_refuses_bekker_for_is_discovered_and_sampled_as_berns
     header = (out / "draws.csv").read_text().splitlines()
     columns = next(line for line in header if not line.startswith("#")).split(",")
     assert {"k", "n"} <= set(columns) and "kc" not in columns
+
+
+def test_a_drift_in_one_grc1_plate_block_is_beyond_what_its_tests_can_show():
+    """GRC-1 (real): a drift of +8 % per test planted in the 51 mm plate's five tests (ρ = 0.8
+    with run order there) is not named — the plates' own tests scatter too much (σ of the
+    level response 0.18) — and the power statement says so instead of quoting a number."""
+    campaign = soilstats.load_campaign("grc1-oravec2009")
+    tests, sinkage = raw_frames(campaign)
+    repetition = dict(zip(tests["test_id"], tests["repetition"], strict=True))
+    factor = sinkage["test_id"].map(
+        lambda t: 1 + 0.08 * (repetition[t] - 3) if t.startswith("medium") else 1.0
+    )
+    planted = Campaign.from_frames(tests, sinkage.assign(force_N=sinkage["force_N"] * factor))
+    result = discover(planted, seed=0)
+    assert [f.cause for f in result.findings] == ["b_m"]
+    power = {p["candidate"]: p["responses"] for p in result.power}
+    within = power["repetition within area_m2"]["level"]
+    assert not within["testable"] and within["statement"].startswith("not testable here")

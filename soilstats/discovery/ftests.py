@@ -109,6 +109,18 @@ class _Within:
         rows = self._scaled(a)
         return float(np.sqrt(np.max(np.sum(rows**2, axis=0), initial=0.0)))
 
+    def left(self, design, nuisance=None):
+        """``(y, design, rank of the nuisance)``: the response and the columns of ``design``
+        (per test) as the test sees them — at :meth:`rows`, centred within strata, and
+        with what the ``nuisance`` columns carry taken out."""
+        design = self.rows(design)
+        yc, dc = self.centre(self.y), self.centre(design)
+        if nuisance is None or not nuisance.shape[1]:
+            return yc, dc, 0
+        nuisance = self.rows(nuisance)
+        q = _basis(self.centre(nuisance), self.length(nuisance))
+        return yc - q @ (q.T @ yc), dc - q @ (q.T @ dc), q.shape[1]
+
 
 def _basis(a, scale):
     """Orthonormal basis of the columns of ``a``: the left singular vectors whose singular
@@ -145,18 +157,10 @@ def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
     """
     n = y.size
     w = _Within(y, strata, cells)
-    design = w.rows(design)
-    nuisance = None if nuisance is None else w.rows(nuisance)
     out = {"p_value": np.nan, "statistic": np.nan, "df1": 0, "df2": 0, "reason": ""}
     out.update(effect_size=np.nan, sigma=np.nan, norm2=np.full(design.shape[1], np.nan))
-    yc, dc = w.centre(w.y), w.centre(design)
-    r0 = 0
-    if nuisance is not None and nuisance.shape[1]:
-        q = _basis(w.centre(nuisance), w.length(nuisance))
-        r0 = q.shape[1]
-        yc = yc - q @ (q.T @ yc)
-        dc = dc - q @ (q.T @ dc)
-    u = _basis(dc, w.length(design))
+    yc, dc, r0 = w.left(design, nuisance)
+    u = _basis(dc, w.length(w.rows(design)))
     rank = u.shape[1]
     df2 = n - w.n_strata - r0 - rank
     if rank < 1:
@@ -204,18 +208,11 @@ def _contrast_f(y, contrasts, strata, nuisance=None, cells=None) -> dict:
     pattern) and ``patterns`` (the distinct patterns counted)."""
     n = y.size
     w = _Within(y, strata, cells)
-    contrasts = w.rows(contrasts)
-    nuisance = None if nuisance is None else w.rows(nuisance)
     out = {"p_value": np.nan, "statistic": np.nan, "df1": 0, "df2": 0, "reason": ""}
     out.update(effect_size=np.nan, sigma=np.nan, norm2=np.full(contrasts.shape[1], np.nan))
     out.update(index=None, same=[], patterns=0)
-    yc, dc = w.centre(w.y), w.centre(contrasts)
-    r0 = 0
-    if nuisance is not None and nuisance.shape[1]:
-        q = _basis(w.centre(nuisance), w.length(nuisance))
-        r0 = q.shape[1]
-        yc = yc - q @ (q.T @ yc)
-        dc = dc - q @ (q.T @ dc)
+    yc, dc, r0 = w.left(contrasts, nuisance)
+    contrasts = w.rows(contrasts)
     df2 = n - w.n_strata - r0 - 1
     rss0 = w.within + float(yc @ yc)
     kept: list[np.ndarray] = []

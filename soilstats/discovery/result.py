@@ -21,8 +21,9 @@ METHOD_NOTES = (
     "Each candidate is tested within strata of the other design candidates not confounded with "
     "it (F-test); Holm's method controls the chance of any false cause.",
     "Gain: cross-validation leaving out whole tests; each finding's extension is measured "
-    "against the base model alone, the combined model by forward selection on all tests of its "
-    "kind and soil.",
+    "against the base model alone with the named cause fixed (kept when the paired difference "
+    "exceeds 1 SE), the whole search's gain (each fold re-selecting the lead) beside it; the "
+    "combined model by forward selection on all tests of its kind and soil, on the same folds.",
     "AIC/BIC treat samples as independent; samples of one test are not, so they overstate the "
     "evidence — the cross-validated gain decides.",
 )
