@@ -116,8 +116,8 @@ def describe(
     what, relative = _RESPONSE_TEXT[(kind, response)]
     if not testable(delta, observed):
         return (
-            f"not testable here: the smallest effect this design detects {pattern} exceeds "
-            f"the tests' whole spread in {what} ({_size(relative, observed).lstrip('±')})"
+            f"not testable here: the smallest detectable effect {pattern} exceeds the tests' "
+            f"whole spread in {what} ({_size(relative, observed).lstrip('±')})"
         )
     return f"{_size(relative, delta)} in {what} {pattern}"
 
@@ -144,7 +144,7 @@ def power_records(table, alpha: float) -> list[dict]:
         if first["role"] == "interaction":
             pattern = "for one cell against the additive model"
         elif first["role"] == "drift within blocks":
-            pattern = "for a drift across one block's own range, against the common trend"
+            pattern = "for one block's drift beside the common trend"
         elif first["categorical"]:
             pattern = "for one level against the others"
         else:
