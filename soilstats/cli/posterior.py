@@ -282,29 +282,6 @@ def _pooled_columns(kind: str, models) -> tuple[str, ...]:
     return DEFAULT_CONDITION_COLUMNS[kind] + setup[kind]
 
 
-def identifiable_models(campaign, soil: str, models) -> tuple[list[str], list[str]]:
-    """``models`` as ``identify`` would fit them to the soil's tests, and why any changed: a
-    sinkage model whose record needs several plate sizes (Bekker, Reece) on a design that
-    cannot separate its size terms (one plate size, or sizes closer than 1.5×:
-    :func:`soilstats.identification.conditions._model_for`) is sampled as Bernstein, the
-    reason stated (until issue #35 it was sampled as asked, with a collinearity warning)."""
-    from ..identification.conditions import _model_for
-    from ..models import get_model
-
-    tests = campaign.tests
-    sinkage = tests[(tests["kind"] == "sinkage") & (tests["soil"].astype(str) == soil)]
-    out, why = [], []
-    for model in models:
-        if get_model(model).kind != "sinkage" or sinkage.empty:
-            out.append(model)
-            continue
-        chosen, reason = _model_for("sinkage", model, "bernstein", sinkage)
-        out.append(chosen)
-        if chosen != model:
-            why.append(f"--model {model}: {reason} (as identify decides); {chosen} sampled instead")
-    return out, why
-
-
 def pooling_warnings(campaign, soil: str, models) -> list[str]:
     """Say when a posterior pools plate sizes (Bernstein) or test conditions."""
     tests = campaign.tests[campaign.tests["soil"].astype(str) == soil]
@@ -345,13 +322,6 @@ def run(args: argparse.Namespace) -> int:
     _check_simulator(args, models)
     _check_draws(args)
     campaign, provenance = prepared(args)
-    models, refused = identifiable_models(campaign, args.soil, models)
-    if refused:  # what the sampled model takes, checked again
-        try:
-            priors = priors_by_model(args, models)
-            _check_simulator(args, models)
-        except ValueError as exc:
-            raise ValueError(f"{'; '.join(refused)}: {exc}") from exc
     out = Path(args.out)
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]
@@ -396,7 +366,7 @@ def run(args: argparse.Namespace) -> int:
             f"{numeric} numerical warnings (overflow, invalid values) while sampling: the "
             "sampler reached extreme parameter values (an improper or very wide posterior)"
         )
-    ours += refused + extrapolation_warnings(widths, _tested_widths(args, campaign), models)
+    ours += extrapolation_warnings(widths, _tested_widths(args, campaign), models)
     for text in ours:
         print(f"WARNING: {text}", file=sys.stderr)
     for text in pooled_warnings:
