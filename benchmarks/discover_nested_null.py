@@ -1,13 +1,15 @@
-"""Selection bias of discovery's cross-validated gain: nothing planted, or a weak effect.
+"""Selection bias of discovery's cross-validated gain, and the false-keep rate of its rule.
 
 The review's toy (docs/discover.md, "Gain"): small sinkage campaigns (two plates, a two-level
 ``bin`` column with no effect, 16, 20 or 24 tests) are simulated and discovered at a
 lenient ``alpha`` so that the null ``bin`` (or another candidate) is selected often
-enough to study.  Every finding is false, so its honest held-out gain is ≤ 0 and "real"
-(paired difference > 2 SE) should be about as rare as without selection.  Prints the number
-of selected leads, the median and quartiles of their reported gain and the share called
-real or kept.  ``--effect F`` plants instead a ``bin`` F times stiffer in bin ``s`` (kc and
-kφ): how often it is named, kept (real gain), and its gain.
+enough to study.  Every finding is false: the share of them whose extension is kept is the
+false-keep rate of the keep rule (:data:`soilstats.discovery.crossval.Z_KEEP`) given a
+falsely named cause.  Prints the number of selected leads, the median and quartiles of the
+gain that decides (the cause fixed) and of the whole search's gain (each fold re-selecting
+the lead), and the share called real or kept.  ``--effect F`` plants instead a ``bin`` F
+times stiffer in bin ``s`` (kc and kφ): how often it is named, kept (real gain), and its
+gain.
 
 ``--replica`` runs the review's toy in plain numbers instead: 16 normal values in two
 groups of 8, selected at p < 0.01 (t-test), gain of the group means over the grand mean on
@@ -55,25 +57,34 @@ def _one(args) -> list[tuple]:
     result = discover(campaign(seed, effect).campaign, seed=0, alpha=alpha)
     out = []
     for f in result.findings:
-        g = f.gain
-        gain = (np.nan, False, None) if g is None else (g.relative, g.real)
-        chosen = None if g is None else getattr(g, "selected_folds", None)
-        out.append((seed, f.cause, f.p_value, *gain[:2], f.extension is not None, chosen))
+        g, s = f.gain, f.gain_search
+        gain = (np.nan, False) if g is None else (g.relative, g.real)
+        search = (np.nan, None) if s is None else (s.relative, s.selected_folds)
+        strict = g is not None and g.relative > 0 and g.z > 2.0  # the rule at 2 SE
+        out.append((seed, f.cause, f.p_value, *gain, f.extension is not None, *search, strict))
     return out
 
 
-def _line(label: str, rows: list[tuple]) -> str:
-    gains = np.array([r[3] for r in rows], float)
+def _quartiles(values) -> tuple[str, int]:
+    gains = np.array(values, float)
     ok = np.isfinite(gains)
+    q = np.percentile(gains[ok], [25, 50, 75]) if ok.any() else [np.nan] * 3
+    return f"median {q[1]:+.1%} (quartiles {q[0]:+.1%}, {q[2]:+.1%})", int((~ok).sum())
+
+
+def _line(label: str, rows: list[tuple]) -> str:
+    fixed, failed = _quartiles([r[3] for r in rows])
+    search, _ = _quartiles([r[6] for r in rows])
     real = sum(r[4] for r in rows)
     kept = sum(r[5] for r in rows)
-    q = np.percentile(gains[ok], [25, 50, 75]) if ok.any() else [np.nan] * 3
-    chosen = [r[6] for r in rows if r[6] is not None]
-    folds = f"; chosen in {np.mean(chosen):.1f} of 5 folds on average" if chosen else ""
+    chosen = [r[7] for r in rows if r[7] is not None]
+    folds = f", the lead chosen in {np.mean(chosen):.1f} of 5 folds on average" if chosen else ""
+    strict = sum(r[8] for r in rows)
     return (
-        f"  {label}: {len(rows)} leads, gain median {q[1]:+.1%} (quartiles {q[0]:+.1%}, "
-        f"{q[2]:+.1%}; {int((~ok).sum())} without a gain: a fold's fit failed); real {real} "
-        f"({real / max(len(rows), 1):.1%}), kept {kept}{folds}"
+        f"  {label}: {len(rows)} leads; gain with the cause fixed {fixed} ({failed} without "
+        f"a gain: a fold's fit failed); real {real} ({real / max(len(rows), 1):.1%}), kept "
+        f"{kept} ({kept / max(len(rows), 1):.1%}; at 2 SE instead: {strict}); whole search "
+        f"{search}{folds}"
     )
 
 

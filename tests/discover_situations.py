@@ -130,16 +130,21 @@ def raw_frames(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
     return tests, sinkage.reset_index(drop=True)
 
 
+def iso_times(hours, start: str, rng, minutes: int) -> list[str]:
+    """ISO times ``start`` + each of ``hours`` + up to ``minutes`` minutes at random."""
+    at = pd.Timestamp(start)
+    late = rng.integers(0, minutes, len(hours))
+    return [
+        (at + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
+        for h, m in zip(hours, late, strict=True)
+    ]
+
+
 def drift_campaign(seed: int) -> Campaign:
     """:data:`DRIFT` with the hour replaced by an ISO start time (minutes at random)."""
     tests, sinkage = raw_frames(simulate(DRIFT, seed=seed).campaign)
     rng = np.random.default_rng(seed)
-    start = pd.Timestamp("2026-05-04T08:00")
-    minutes = rng.integers(0, 50, len(tests))
-    tests["start_time"] = [
-        (start + pd.Timedelta(hours=float(h), minutes=int(m))).isoformat()
-        for h, m in zip(tests["hours"], minutes, strict=True)
-    ]
+    tests["start_time"] = iso_times(tests["hours"], "2026-05-04T08:00", rng, minutes=50)
     return Campaign.from_frames(tests.drop(columns=["hours"]), sinkage)
 
 
@@ -181,6 +186,114 @@ def load_terminated_campaign(seed: int) -> Campaign:
     preparations run deeper, so the depth reached is the test's own stiffness."""
     tests, sinkage = raw_frames(simulate(SCATTERED, seed=seed).campaign)
     return Campaign.from_frames(tests, sinkage[sinkage["force_N"] <= 60.0])
+
+
+# ------------------------------------------------------------------------------ issue #35
+#: Three plates (25, 37.5, 50 mm) of the issue's campaigns.
+PLATES3 = [{"shape": "circle", "radius_m": r} for r in (0.025, 0.0375, 0.05)]
+
+
+def _stiffer(column: str, level: str, factor: float) -> dict:
+    return {
+        "kind": "covariate",
+        "column": column,
+        "parameters": ["kc", "kphi"],
+        "levels": {level: factor},
+    }
+
+
+#: One level effect: bin b 14 % stiffer, 30 tests (3 plates × 2 bins × 5).
+SINGLE_LEVEL = spec(
+    [sink(plates=PLATES3, covariates={"bin": ["a", "b"]}, repetitions=5)],
+    [_stiffer("bin", "b", 1.14)],
+)
+#: Two causes of +12 % (operator B) and +15 % (bin s), 64 tests (2 plates × 2 × 2 × 8).
+TWO_LEVELS = {
+    **spec(
+        [sink(operators=["A", "B"], covariates={"bin": ["n", "s"]}, repetitions=16)],
+        [_stiffer("operator", "B", 1.12), _stiffer("bin", "s", 1.15)],
+    ),
+    "scatter": {**SCATTER, "stiffness_cv": 0.08},
+}
+#: The soil stiffens 3 % per hour over a day of 30 tests (3 plates × 10 hours).
+DRIFT_DAY = spec(
+    [sink(plates=PLATES3, covariates={"hours": list(range(10))}, repetitions=1)],
+    [{"kind": "covariate", "column": "hours", "parameters": ["kc", "kphi"], "slope": 0.03}],
+)
+#: Operator C with preparation p2 leaves the soil 18 % stiffer: one cell of six, 54 tests
+#: (3 operators × 2 preparations × 3 plates × 3 repetitions).
+ONE_CELL = spec(
+    [
+        sink(
+            name=p,
+            plates=PLATES3,
+            preparations=[p],
+            operators=["A", "B", "C"],
+            repetitions=9,
+        )
+        for p in ("p1", "p2")
+    ],
+    [{**_stiffer("operator", "C", 1.18), "series": ["p2"]}],
+    preparations={"p1": {}, "p2": {}},
+)
+
+
+#: Three plates, each its own series of eight tests in run order; the soil under the
+#: middle plate stiffens 5 % per test (a drift inside one plate block), the others do not.
+BLOCK_DRIFT = spec(
+    [
+        sink(name=name, plates=[plate], repetitions=8)
+        for name, plate in zip(("small", "mid", "large"), PLATES3, strict=True)
+    ],
+    [
+        {
+            "kind": "covariate",
+            "column": "repetition",
+            "parameters": ["kc", "kphi"],
+            "slope": 0.05,
+            "reference": 4.5,
+            "series": ["mid"],
+        }
+    ],
+)
+
+
+def flagged_drift_campaign(seed: int, flagged: int = 2) -> Campaign:
+    """:data:`DRIFT_DAY` with ISO start times (``started_at``, minutes at random) and a
+    1.5 mm seating offset in ``flagged`` tests at random: screening flags them pre-contact
+    and re-zeroes them, so the flags are on tests that carry no trend of their own."""
+    tests, sinkage = raw_frames(simulate(DRIFT_DAY, seed=seed).campaign)
+    rng = np.random.default_rng(seed)
+    tests["started_at"] = iso_times(tests["hours"], "2026-06-01T08:00", rng, minutes=55)
+    bad = set(rng.choice(tests["test_id"].to_numpy(), flagged, replace=False))
+    parts = [
+        seated_late(tid, g, 1.5e-3, rng) if tid in bad else g
+        for tid, g in sinkage.groupby("test_id", sort=False)
+    ]
+    return Campaign.from_frames(tests.drop(columns=["hours"]), pd.concat(parts, ignore_index=True))
+
+
+def one_cell_campaign(seed: int) -> Campaign:
+    """:data:`ONE_CELL`, with the operators assigned in turn by repetition."""
+    return simulate(ONE_CELL, seed=seed).campaign
+
+
+def kept(result, cause: str) -> bool:
+    """Whether ``cause`` is named with a kept extension and a positive held-out gain."""
+    return any(
+        f.cause == cause and f.extension is not None and f.gain.relative > 0
+        for f in result.findings
+    )
+
+
+def combined_beats_each(result, causes) -> bool:
+    """Whether one combined model carries an extension of every cause in ``causes`` and its
+    held-out gain exceeds that of each cause's extension alone."""
+    for m in result.models:
+        if set(causes) <= set(m.causes) and m.gain is not None:
+            alone = [f.gain.relative for f in result.findings if f.gain is not None]
+            return m.gain.real and all(m.gain.relative > g for g in alone)
+    return False
 
 
 @dataclass(frozen=True)
@@ -246,4 +359,31 @@ SITUATIONS = {
             False,
         ),
     )
+}
+
+#: Issue #35's criteria, each over 20 seeds (the slow test_issue35_criteria): a success
+#: count of at least ``minimum`` is required.
+CRITERIA = {
+    "+14 % level effect in 30 tests, kept with a positive gain": (
+        lambda seed: simulate(SINGLE_LEVEL, seed=seed).campaign,
+        lambda r: kept(r, "bin"),
+        16,
+    ),
+    "two causes, combined model better than either": (
+        lambda seed: simulate(TWO_LEVELS, seed=seed).campaign,
+        lambda r: combined_beats_each(r, ("operator", "bin")),
+        16,
+    ),
+    "drift with ISO times, 2 of 30 tests flagged, named": (
+        flagged_drift_campaign,
+        lambda r: "started_at" in _names(r) and not r.artefacts,
+        18,
+    ),
+    "null campaign, no extension kept": (
+        lambda seed: simulate(NULL, seed=seed).campaign,
+        lambda r: (
+            not any(f.extension for f in r.findings) and not any(m.extensions for m in r.models)
+        ),
+        19,
+    ),
 }

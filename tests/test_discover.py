@@ -128,8 +128,11 @@ def test_planted_effect_is_named_extended_and_gains(effect):
     assert top.p_adjusted < 1e-3 and top.p_value <= top.p_adjusted
     assert top.extension == extension, result.summary()
     assert top.gain.real and top.gain.relative > 0.1 and top.gain.difference > 2 * top.gain.stderr
-    # nested: a planted effect this strong is significant on every fold's training tests
-    assert top.gain.selected_folds == top.gain.folds == 5
+    # the cause fixed decides; the whole search re-selects the lead in each fold, and a planted
+    # effect this strong is significant on every fold's training tests: the same gain
+    assert top.gain.selected_folds is None
+    assert top.gain_search.selected_folds == top.gain_search.folds == 5
+    assert top.gain_search.relative == pytest.approx(top.gain.relative, rel=1e-12)
     params = dict(zip(top.fit.param_names, top.fit.values, strict=True))
     if effect == "side-walls":
         assert params["K0"] == pytest.approx(0.4, abs=0.05)
@@ -152,14 +155,20 @@ def test_planted_effect_is_named_extended_and_gains(effect):
 def test_null_campaigns_false_positive_rate():
     """No effect planted: any finding is false.  Holm keeps the family-wise rate ≤ 5 %; over
     100 seeds more than 9 false campaigns would be evidence against that (binomial, p < 3 %).
-    Measured: 7 of seeds 0–99, 40 of 1000 over seeds 0–999 (4.0 %, 95 % CI 2.9–5.4 %;
-    ``python benchmarks/discover_power.py --null 1000``)."""
-    false = 0
+    Measured: 8 of seeds 0–99 (3 kept an extension), 46 of 1000 over seeds 0–999 (4.6 %,
+    95 % CI 3.4–6.1 %; 21 kept an extension; ``python benchmarks/discover_power.py --null
+    1000``)."""
+    false = kept = 0
     for seed in range(100):
         result = discover(simulate(NULL, seed=seed).campaign, seed=0)
         false += bool(result.findings)
+        kept += any(f.extension for f in result.findings) or any(
+            m.extensions for m in result.models
+        )
         assert all(f.p_adjusted < 0.05 for f in result.findings)
     assert false <= 9, f"{false} of 100 null campaigns gave a finding"
+    # issue #35: null data keep no extension in at least 95 % of campaigns
+    assert kept <= 5, f"{kept} of 100 null campaigns kept an extension"
 
 
 #: Nothing planted: 16 sinkage tests on one plate, a two-level ``bin`` with no effect.
@@ -176,18 +185,22 @@ NULL_BIN = _spec(
 
 @pytest.mark.slow
 def test_gain_of_a_null_lead_is_not_inflated_by_its_selection():
-    """A null ``bin`` selected by its F-test (lenient alpha, so that it is selected often:
-    43 leads in 300 campaigns) has nothing to predict: its honest held-out gain is at most zero
-    on median.  Measured on the same tests that selected it, without repeating the choice
-    in each fold, the median was +3.9 %; nested (:mod:`soilstats.discovery.nested`),
-    −2.6 %.  None may be called real."""
-    gains = []
+    """A null ``bin`` selected by its F-test (lenient alpha, so that it is selected often)
+    has nothing to predict.  The whole search's gain (each fold re-selecting the lead,
+    :mod:`soilstats.discovery.nested`) is at most zero on median; the gain that decides (the
+    cause fixed) shares the chance pattern that selected the lead, and the keep rule
+    (``Z_KEEP`` = 1 SE) keeps some of these false leads: docs/discover.md states the rate
+    (``benchmarks/discover_nested_null.py``); here at most 40 % of them.  Measured: 28 leads
+    in 300 campaigns, the search's gain −2.4 % on median, the cause-fixed gain +6.8 %, 7 of
+    the 28 kept (25 %)."""
+    found = []
     for seed in range(300):
         result = discover(simulate(NULL_BIN, seed=seed).campaign, seed=0, alpha=0.3)
-        gains += [f.gain for f in result.findings if f.cause == "bin" and f.gain is not None]
-    assert len(gains) >= 30
-    assert np.median([g.relative for g in gains]) < 0.0
-    assert not any(g.real for g in gains)
+        found += [f for f in result.findings if f.cause == "bin" and f.gain is not None]
+    assert len(found) >= 20
+    assert np.median([f.gain_search.relative for f in found if f.gain_search]) < 0.0
+    kept = sum(f.extension is not None for f in found)
+    assert kept <= 0.4 * len(found), f"{kept} of {len(found)} null leads kept"
 
 
 def test_strata_test_matches_two_way_anova():
@@ -479,7 +492,12 @@ def test_undetectable_plate_size_gets_a_power_statement_not_silence():
     power = {(p["candidate"]): p for p in json.loads(result.to_json())["power"]}
     size = power.get("b_m") or power["area_m2"]
     level = size["responses"]["level"]
-    assert level["mde"] > 0 and "% in pressure" in level["statement"]
+    assert level["mde_uncapped"] > 0 and "in pressure" in level["statement"]
+    # capped to what the data can express: beyond the tests' whole spread, "not testable"
+    if level["testable"]:
+        assert level["mde"] == level["mde_uncapped"] <= level["observed_range"]
+    else:
+        assert level["mde"] is None and level["statement"].startswith("not testable here")
     assert size["power"] == 0.8 and size["alpha_level"] < 0.05
     assert "Not found" in result.summary()
 

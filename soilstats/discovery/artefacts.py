@@ -15,8 +15,9 @@ import numpy as np
 import pandas as pd
 
 from ..quality import ARTEFACT_CODES, CODES, PHASE_CODES, STOP_CODES
-from .candidates import candidate_values, classify_columns
+from .candidates import candidate_values, classify_columns, level_codes, trend_on_log
 from .diagnose import INTERACTION
+from .ftests import strata_codes, trend_slope
 from .result import Finding
 
 __all__ = ["quality_record", "split_artefacts", "with_quality_caveat"]
@@ -99,11 +100,86 @@ def _drifting(labels: pd.Series) -> str | None:
     return "; ".join(out) or None
 
 
-def split_artefacts(group, found, quality) -> tuple[list, list[dict]]:
-    """Findings whose cause lines up with the data-quality artefacts of the tests
-    (:func:`_aligned`) are data problems, not causes: screening removes what it finds of an
-    artefact, but what remains (an offset it did not find, a spike's neighbours) can still
-    follow the tests it sits in."""
+def _trend_rows(table, finding) -> pd.DataFrame | None:
+    """The significant diagnosis rows of a finding whose cause is a trend (a continuous or
+    time/order candidate), or None (a categorical cause, or no rows to read)."""
+    if table is None or not len(table):
+        return None
+    rows = table[(table["candidate"] == finding.cause) & table["significant"]]
+    if rows.empty or bool(rows.iloc[0]["categorical"]) or rows.iloc[0]["pair"]:
+        return None
+    return rows
+
+
+#: A trend stands against the flagged tests when, without them, it keeps its sign and at
+#: least this share of its slope (:func:`_flagged_trend`).
+TREND_KEPT = 0.5
+
+
+def _flagged_trend(group, rows, labels) -> tuple[str | None, str | None]:
+    """``(residue reason, caveat)`` of a trend cause against the tests' artefact flags.
+
+    A trend has no levels to line up with flags (each start time is a "level" of its own,
+    so any flag would line up 100 %, as it did until issue #35): instead the trend's slope
+    is compared with and without the flagged tests, in its strongest response, within the
+    strata it was tested in.  Where the tests without a flag keep its sign and at least
+    :data:`TREND_KEPT` of its slope, the flagged tests do not make it, and it stands (the
+    caveat says so); otherwise what screening left of the artefacts may make it, and it is
+    a residue."""
+    present = [
+        c
+        for c in ARTEFACT_CODES
+        if c not in ORDER_CODES and labels.str.contains(c, regex=False).any()
+    ]
+    if not present:
+        return None, None
+    flagged = np.zeros(len(labels), bool)
+    for c in present:
+        flagged |= labels.str.contains(c, regex=False).to_numpy()
+    counts = ", ".join(f"{c} in {int(labels.str.contains(c, regex=False).sum())}" for c in present)
+    row = rows.sort_values(["p_value"]).iloc[0]
+    column, response = row["candidate"], row["response"]
+    table = group.tests
+    blocks = [b for b in row["blocks"].split(", ") if b]
+    strata = strata_codes([level_codes(candidate_values(table, b)) for b in blocks], len(table))
+    y = table[f"_dev_{response}"].to_numpy(float)
+    if row.get("within"):
+        # a drift inside one block: its slope there, with and without the flagged tests
+        x = candidate_values(table, row["within"]).to_numpy(float)
+        inside = (candidate_values(table, column).astype(str) == row["deviating"]).to_numpy()
+        y = np.where(inside, y, np.nan)
+    else:
+        x = candidate_values(table, column).to_numpy(float)
+    ok = np.isfinite(y) & np.isfinite(x)
+    log_scale = False if row.get("within") else trend_on_log(row["role"])
+    slope = trend_slope(y[ok], x[ok], strata=strata[ok], log_scale=log_scale)
+    rest = ok & ~flagged
+    without = trend_slope(y[rest], x[rest], strata=strata[rest], log_scale=log_scale)
+    ratio = without / slope if np.isfinite(without) and slope != 0 else np.nan
+    compared = (
+        f"its {response} slope is {slope:.3g} on all tests and {without:.3g} without the "
+        f"{int((ok & flagged).sum())} flagged ones ({counts})"
+    )
+    if np.isfinite(ratio) and ratio >= TREND_KEPT:
+        return None, f"the trend in {column} stands without the flagged tests: {compared}"
+    return (
+        f"the trend in {column} rests on the flagged tests: {compared}; the pattern may be "
+        "what is left of the artefacts after screening, not a cause; inspect the flagged "
+        "records (soilstats check) and re-test",
+        None,
+    )
+
+
+def split_artefacts(group, found, quality, table=None) -> tuple[list, list[dict]]:
+    """Findings whose cause lines up with the data-quality artefacts of the tests are data
+    problems, not causes: screening removes what it finds of an artefact, but what remains
+    (an offset it did not find, a spike's neighbours) can still follow the tests it sits in.
+
+    A categorical cause lines up when a code flags at least half the tests of one of its
+    levels and none of another's (:func:`_aligned`); a trend (continuous or time/order
+    cause, read from its rows of the diagnosis ``table``) when the flagged tests carry it
+    (:func:`_flagged_trend`); a time/order cause also when a third of its tests drift
+    (:func:`_drifting`)."""
     labels = _artefact_labels(group, quality)
     if labels is None:
         return found, []
@@ -115,8 +191,20 @@ def split_artefacts(group, found, quality) -> tuple[list, list[dict]]:
     kept, residues = [], []
     for f in found:
         rows = f.scope_rows if f.scope_rows is not None else np.arange(len(labels))
-        why = None
-        for column in f.cause.split(INTERACTION):
+        why, caveat = None, None
+        trend = _trend_rows(table, f)
+        if trend is not None:
+            why, caveat = _flagged_trend(group, trend, labels)
+            if why is None and (f.cause in order or trend.iloc[0].get("within") in order):
+                pattern = _drifting(labels.iloc[rows])
+                if pattern is not None:
+                    why = (
+                        f"{f.cause} follows the test order, and so do the data-quality flags "
+                        f"({pattern}): the pattern may be what is left of the artefacts after "
+                        "screening, not a cause; inspect the flagged records (soilstats "
+                        "check) and re-test"
+                    )
+        for column in [] if trend is not None else f.cause.split(INTERACTION):
             values = candidate_values(group.tests, column).astype(str).iloc[rows]
             pattern = _aligned(values, labels.iloc[rows])
             if pattern is None and column in order:
@@ -129,7 +217,7 @@ def split_artefacts(group, found, quality) -> tuple[list, list[dict]]:
                 )
                 break
         if why is None:
-            kept.append(f)
+            kept.append(f if caveat is None else replace(f, caveats=(*f.caveats, caveat)))
             continue
         residues.append(
             {

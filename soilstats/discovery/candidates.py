@@ -43,6 +43,7 @@ from ..campaign import times
 __all__ = [
     "FIT_COLUMNS",
     "ROLES",
+    "WITHIN",
     "Candidate",
     "ColumnRole",
     "Relation",
@@ -51,6 +52,7 @@ __all__ = [
     "determines",
     "enumerate_candidates",
     "level_codes",
+    "relation_text",
     "relations",
     "spans_log",
     "trend_on_log",
@@ -100,7 +102,14 @@ _DERIVED = {
 }
 #: Numeric columns with at most this many distinct, replicated values are tested as levels.
 MAX_LEVELS = 8
+#: A categorical candidate whose levels carry at least this share of a continuous one's
+#: variance is confounded with it (:func:`relations`).
+EXPLAINED_SHARE = 0.95
 MISSING = "<not recorded>"
+#: Joins a time/order candidate and the blocks a drift inside one of them is tested in
+#: (``repetition within b_m``): the name of the candidate and of its block-label column
+#: (:func:`soilstats.discovery.diagnose._within_blocks`).
+WITHIN = " within "
 
 
 @dataclass(frozen=True)
@@ -146,12 +155,22 @@ class ColumnRole:
 
 @dataclass(frozen=True)
 class Relation:
-    """Confounding between two candidates: ``aliased`` or ``nested`` (``finer`` determines
-    ``coarser``)."""
+    """Confounding between two candidates (:func:`relations`), as the data show it:
+
+    * ``aliased`` — the same partition of the tests (each determines the other);
+    * ``nested`` — ``finer`` determines ``coarser`` (each level of it holds one of the other);
+    * ``explains`` — the levels of the categorical ``finer`` carry ``share`` (≥ 95 %) of the
+      variance of the continuous ``coarser``: it varies little within them, but it does vary
+      (a start time within each test day), so neither determines the other;
+    * ``correlated`` — two continuous candidates with |r| = ``share`` ≥ 0.98.
+
+    :func:`relation_text` says which in words, checked against the data.
+    """
 
     kind: str
     finer: str
     coarser: str
+    share: float | None = None
 
 
 def _rounded(values: pd.Series) -> pd.Series:
@@ -334,8 +353,9 @@ def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation
 
     Categorical pairs: aliased when each determines the other, nested when one determines the
     other.  A continuous candidate is confounded with a categorical one when the latter
-    explains ≥ 95 % of its variance (it hardly varies within the levels); two continuous ones
-    when |r| ≥ 0.98.
+    explains ≥ 95 % of its variance (``explains``: it hardly varies within the levels;
+    ``nested`` only when it does not vary within them at all); two continuous ones when
+    |r| ≥ 0.98 (``correlated``).
     """
     out: list[Relation] = []
     cols = {c.name: candidate_values(table, c.name) for c in candidates}
@@ -361,13 +381,48 @@ def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation
                 groups = pd.Series(xs).groupby(codes[cat.name][ok])
                 ss_tot = float(((xs - xs.mean()) ** 2).sum())
                 ss_within = float(groups.transform(lambda g: (g - g.mean()) ** 2).sum())
-                if ss_tot > 0 and 1.0 - ss_within / ss_tot >= 0.95:
-                    out.append(Relation("nested", cat.name, con.name))
+                if ss_tot > 0 and 1.0 - ss_within / ss_tot >= EXPLAINED_SHARE:
+                    share = 1.0 - ss_within / ss_tot
+                    # Determined only when it does not vary within any level at all.
+                    kind = "nested" if ss_within <= 1e-12 * ss_tot else "explains"
+                    out.append(Relation(kind, cat.name, con.name, float(share)))
             else:
                 x = cols[a.name].astype(float)
                 y = cols[b.name].astype(float)
                 ok = (x.notna() & y.notna()).to_numpy()
                 if ok.sum() >= 3 and np.std(x[ok]) > 0 and np.std(y[ok]) > 0:
-                    if abs(np.corrcoef(x[ok], y[ok])[0, 1]) >= 0.98:
-                        out.append(Relation("aliased", a.name, b.name))
+                    r = abs(float(np.corrcoef(x[ok], y[ok])[0, 1]))
+                    if r >= 0.98:
+                        out.append(Relation("correlated", a.name, b.name, r))
     return out
+
+
+def relation_text(relation: Relation, table: pd.DataFrame | None = None) -> str:
+    """A confounding relation in words.  A claim that one column determines another is
+    checked against ``table`` (the tests it was found in) before it is made: where the
+    finer column's levels do not each hold one value of the other, the text says how much
+    of the other's variance they carry instead (until issue #35 a box that explained 99.9 %
+    of the start times was printed as "box determines start_time (each box has one
+    start_time)", which was false)."""
+    a, b = relation.finer, relation.coarser
+    if relation.kind == "aliased":
+        return f"{a} and {b} are aliased (the same partition of the tests)"
+    if relation.kind == "correlated":
+        return (
+            f"{a} and {b} are correlated (|r| = {relation.share:.3f}): their trends cannot be "
+            "told apart in this design"
+        )
+    if relation.kind == "nested" and table is not None and a in table and b in table:
+        if not determines(
+            level_codes(candidate_values(table, a)), level_codes(candidate_values(table, b))
+        ):
+            relation = Relation("explains", a, b, relation.share)
+    if relation.kind == "nested":
+        return f"{a} determines {b} (each {a} has one {b})"
+    share = ""
+    if relation.share is not None:
+        share = "more than 99.9 % of " if relation.share > 0.999 else f"{relation.share:.1%} of "
+    return (
+        f"{a} explains {share}the variance of {b} ({b} varies little within each {a}, but "
+        f"{a} does not determine it)"
+    )

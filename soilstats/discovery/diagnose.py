@@ -32,6 +32,7 @@ from ..statistics import verdicts
 from .candidates import (
     FIT_COLUMNS,
     MISSING,
+    WITHIN,
     Candidate,
     ColumnRole,
     Relation,
@@ -43,8 +44,14 @@ from .candidates import (
     trend_on_log,
 )
 from .candidates import relations as find_relations
-from .extensions import ModelExtension, SinkageExtension, base_model
-from .ftests import interaction_test, strata_codes, strata_test
+from .extensions import ModelExtension, SinkageExtension, base_model, bekker_refused
+from .ftests import (
+    cell_codes,
+    interaction_test,
+    strata_codes,
+    strata_test,
+    within_blocks_test,
+)
 from .power import minimum_detectable
 
 __all__ = [
@@ -100,6 +107,10 @@ def add_responses(group):
     table = group.tests.copy()
     notes: list[str] = []
     model = base_model(group, rows)
+    if group.kind == "sinkage" and isinstance(model, SinkageExtension) and not model.bekker:
+        why = bekker_refused(group, rows)
+        if why is not None and table["b_m"].iloc[rows].nunique() > 1:
+            notes.append(f"{group.label}: base model Bernstein (Eq. 8), as identify decides: {why}")
     try:
         base = model.fit(group, rows)
     except ConvergenceError as exc:
@@ -200,8 +211,9 @@ def _row(group, name, response, res, **kw) -> dict:
         effect_size=res["effect_size"],
         sigma=res["sigma"],
         mde_norm2=res["mde_norm2"],
+        patterns=int(res.get("patterns", 1)),
         reason=res["reason"],
-        **kw,
+        **{"deviating": "", "within": "", **kw},
     )
 
 
@@ -258,6 +270,7 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     singleton_levels=", ".join(singles),
                     pair="",
                     span=_span(x_all[ok][res["used"]], cand.categorical),
+                    y_range=_range(y_all[ok][res["used"]]),
                     rows=used,
                 )
             )
@@ -265,6 +278,8 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
         group, table, cands, related, eligible, codes, values_of
     )
     rows_out += inter_rows
+    table, within_rows = _within_blocks(group, table, cands, related, eligible, codes, values_of)
+    rows_out += within_rows
     roles = tuple(
         r for r in all_roles if r.column not in FIT_COLUMNS and sub[r.column].nunique() > 1
     )
@@ -273,12 +288,89 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
     return diag, rows_out
 
 
+def _within_blocks(group, table, cands, related, eligible, codes, values_of):
+    """A drift inside one block of the design (:func:`.ftests.within_blocks_test`) per
+    time/order candidate: its strata are those of its own trend test (one per aliased
+    partition), and the candidate ``T within B`` is a column of block labels (for the folds
+    and the per-block extension).  Two order columns that differ within every block by one
+    scale (``repetition`` and a ``test_number`` counting on across blocks) make one test:
+    only the first enters.  Returns the table with the label columns and the rows."""
+    rows_out, columns, seen = [], {}, []
+    partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
+    for cand in cands:
+        if cand.categorical or cand.role != "time/order":
+            continue
+        blocks, partitions = [], set()
+        for b in sorted(eligible):
+            if b == cand.name or b in related[cand.name] or partition_of[b] in partitions:
+                continue
+            partitions.add(partition_of[b])
+            blocks.append(b)
+        if not blocks:
+            continue
+        strata = strata_codes([codes[b] for b in blocks], len(table))
+        x = values_of[cand.name].to_numpy(float)
+        # one test per scale-equivalent order column (centred within the blocks)
+        known = np.isfinite(x)
+        centred = x - pd.Series(np.where(known, x, 0)).groupby(strata).transform("mean").to_numpy()
+        centred = np.where(known, centred, 0.0)
+        norm = float(np.linalg.norm(centred))
+        if norm == 0 or any(abs(float(centred @ v)) / norm > 1 - 1e-9 for v in seen):
+            continue
+        seen.append(centred / norm)
+        name = f"{cand.name}{WITHIN}{', '.join(blocks)}"
+        shown = [f"{b}=" + _labels(values_of[b]) for b in blocks]
+        label = shown[0]
+        for more in shown[1:]:
+            label = label + ", " + more
+        columns[name] = label.where(known, np.nan)
+        for response in RESPONSES[group.kind]:
+            y_all = table[f"_dev_{response}"].to_numpy(float)
+            ok = np.isfinite(y_all) & known
+            res = within_blocks_test(y_all[ok], x[ok], strata=strata[ok])
+            deviating = ""
+            if res["block"] is not None:
+                at = np.flatnonzero(strata[ok] == res["block"])[0]
+                deviating = str(label[ok].to_numpy()[at])
+            used = np.flatnonzero(ok)[res["used"]]
+            rows_out.append(
+                _row(
+                    group,
+                    name,
+                    response,
+                    res,
+                    categorical=False,
+                    numeric=True,
+                    role="drift within blocks",
+                    n_tests=int(used.size),
+                    blocks=", ".join(blocks),
+                    confounded_with="",
+                    singleton_levels="",
+                    pair="",
+                    span=_span(x[ok][res["used"]], False),
+                    y_range=_range(y_all[ok][res["used"]]),
+                    deviating=deviating,
+                    within=cand.name,
+                    rows=used,
+                )
+            )
+    return (table.assign(**columns) if columns else table), rows_out
+
+
 def _span(x: np.ndarray, categorical: bool) -> str:
     """The observed range of a trend candidate, for the power statement ("" for levels)."""
     if categorical or x.size == 0:
         return ""
     x = np.asarray(x, float)
     return f"{np.nanmin(x):.4g} to {np.nanmax(x):.4g}"
+
+
+def _range(y: np.ndarray) -> float:
+    """The observed range (max − min) of a response over the tests a candidate is tested on:
+    no effect larger than it shows in these data (:mod:`.power` caps its statements)."""
+    y = np.asarray(y, float)
+    y = y[np.isfinite(y)]
+    return float(np.ptp(y)) if y.size else float("nan")
 
 
 def _labels(values: pd.Series) -> pd.Series:
@@ -331,6 +423,13 @@ def _interactions(group, table, cands, related, eligible, codes, values_of):
             y_all = table[f"_dev_{response}"].to_numpy(float)
             ok = np.isfinite(y_all) & recorded
             res = interaction_test(y_all[ok], codes[a][ok], codes[b][ok], strata=strata[ok])
+            deviating = ""
+            if res["cell"] is not None:
+                cell_of = cell_codes(codes[a][ok], codes[b][ok])
+                shown = label[ok].to_numpy()
+                deviating = " or ".join(
+                    str(shown[np.flatnonzero(cell_of == c)[0]]) for c in res["cells"]
+                )
             rows_out.append(
                 _row(
                     group,
@@ -346,6 +445,8 @@ def _interactions(group, table, cands, related, eligible, codes, values_of):
                     singleton_levels="",
                     pair=f"{a}|{b}",
                     span="",
+                    y_range=_range(y_all[ok]),
+                    deviating=deviating,
                     rows=np.flatnonzero(ok),
                 )
             )
@@ -381,8 +482,13 @@ def diagnose_groups(groups, *, alpha: float = 0.05) -> tuple[list[Diagnosis], pd
     testable = table["p_value"].notna()
     table["p_adjusted"] = np.nan
     table["significant"] = False
-    if testable.any():
-        family = table.loc[testable].assign(
+    # Aliased candidates (tool and b_m: the same partition) make one test, not two: one
+    # hypothesis in Holm's family, its verdict shared (until issue #35 each counted).
+    hypothesis = _hypotheses(table, diags)
+    table["hypothesis"] = hypothesis
+    first = ~pd.Series(hypothesis).duplicated().to_numpy() & testable.to_numpy()
+    if first.any():
+        family = table.loc[first].assign(
             soil=lambda t: t["kind"] + " / " + t["soil"],
             factor=table["candidate"],
             test="F within strata",
@@ -391,18 +497,65 @@ def diagnose_groups(groups, *, alpha: float = 0.05) -> tuple[list[Diagnosis], pd
             family[["soil", "response", "factor", "statistic", "p_value", "effect_size", "test"]],
             alpha=alpha,
         )
-        table.loc[testable, "p_adjusted"] = v["p_adjusted"].to_numpy()
-        table.loc[testable, "significant"] = v["significant"].to_numpy()
+        of = dict(zip(hypothesis[first], v["p_adjusted"].to_numpy(), strict=True))
+        sig = dict(zip(hypothesis[first], v["significant"].to_numpy(), strict=True))
+        table.loc[testable, "p_adjusted"] = [of[h] for h in hypothesis[testable.to_numpy()]]
+        table.loc[testable, "significant"] = [sig[h] for h in hypothesis[testable.to_numpy()]]
     # Silence is not evidence: the effect each test would have found (80 % power) at the
     # strictest Holm level α/m, in the response's units (:mod:`.power`).
-    level = alpha / max(int(testable.sum()), 1)
-    table["holm_level"] = _holm_levels(table["p_value"].to_numpy(float), alpha)
+    level = alpha / max(int(first.sum()), 1)
+    holm = _holm_levels(np.where(first, table["p_value"].to_numpy(float), np.nan), alpha)
+    by_hypothesis = dict(zip(hypothesis[first], holm[first], strict=True))
+    table["holm_level"] = [by_hypothesis.get(h, np.nan) for h in hypothesis]
     table["alpha_level"] = level
     table["mde"] = [
-        minimum_detectable(r.sigma, r.mde_norm2, r.df1, r.df2, level) if ok else np.nan
+        minimum_detectable(r.sigma, r.mde_norm2, r.df1, r.df2, level / r.patterns) if ok else np.nan
         for r, ok in zip(table.itertuples(), testable, strict=True)
     ]
     return diags, table
+
+
+def _hypotheses(table: pd.DataFrame, diags) -> np.ndarray:
+    """One id per row of the diagnosis table: rows of aliased candidates (the same partition
+    of the tests, :class:`~.candidates.Relation` ``aliased``) of one (kind, soil) and
+    response whose tests came out identical (the same F and degrees of freedom) share it:
+    one hypothesis, however many names the design gives it.  So do two trends tested in the
+    same strata with the same F: within the strata their regressors are the same (CMU's
+    ``repetition`` and ``test_number``, which counts on across the plate blocks)."""
+    root: dict[tuple, str] = {}
+
+    def find(key):
+        while root.get(key, key) != key:
+            key = root[key]
+        return key
+
+    for d in diags:
+        g = d.group
+        for r in d.relations:
+            if r.kind == "aliased":
+                a, b = find((g.kind, g.soil, r.finer)), find((g.kind, g.soil, r.coarser))
+                if a != b:
+                    root[max(a, b)] = min(a, b)
+    ids: dict[tuple, int] = {}
+    out = np.empty(len(table), int)
+    columns = ["kind", "soil", "candidate", "response", "statistic", "df1", "df2"]
+    columns += ["categorical", "role", "blocks"]
+    for i, r in enumerate(table[columns].itertuples(index=False)):
+        stat = float(r.statistic)
+        trend = not r.categorical and r.role not in ("interaction", "drift within blocks")
+        key = (
+            ("trend", r.kind, r.soil, r.blocks) if trend else find((r.kind, r.soil, r.candidate)),
+            r.response,
+            round(stat, 9 - int(np.floor(np.log10(abs(stat)))))
+            if np.isfinite(stat) and stat
+            else stat,
+            r.df1,
+            r.df2,
+        )
+        if not np.isfinite(stat):
+            key = (r.kind, r.soil, r.candidate, r.response, "untested")
+        out[i] = ids.setdefault(key, len(ids))
+    return out
 
 
 def _holm_levels(p: np.ndarray, alpha: float) -> np.ndarray:
@@ -518,6 +671,14 @@ def retest(group, table, row) -> dict[str, float]:
             y_all = table[f"_dev_{response}"].to_numpy(float)
             ok = np.isfinite(y_all) & recorded
             res = interaction_test(y_all[ok], ca[ok], cb[ok], strata=strata[ok])
+            out[response] = res["p_value"]
+        return out
+    if row.get("within"):
+        x_all = candidate_values(table, row["within"]).to_numpy(float)
+        for response in RESPONSES[group.kind]:
+            y_all = table[f"_dev_{response}"].to_numpy(float)
+            ok = np.isfinite(y_all) & np.isfinite(x_all)
+            res = within_blocks_test(y_all[ok], x_all[ok], strata=strata[ok])
             out[response] = res["p_value"]
         return out
     categorical = bool(row["categorical"])

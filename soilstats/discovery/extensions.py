@@ -42,7 +42,7 @@ from ..models.extended import (
     shear_family,
     sinkage_family,
 )
-from .candidates import MISSING, candidate_values, spans_log
+from .candidates import MISSING, WITHIN, candidate_values, spans_log
 from .separable import check_shear_terms, sinkage_keeps_bekker
 
 __all__ = [
@@ -55,6 +55,7 @@ __all__ = [
     "SinkageExtension",
     "Term",
     "base_model",
+    "bekker_refused",
     "check_own_model",
     "combine",
     "library",
@@ -68,15 +69,29 @@ _SINK_BOUNDS = {**BEKKER.bounds_of, **BERNSTEIN.bounds_of}
 
 @dataclass(frozen=True)
 class Features:
-    """How a covariate becomes per-test features: ``velocity``, ``linear`` or ``levels``."""
+    """How a covariate becomes per-test features: ``velocity``, ``linear``, ``levels`` or
+    ``block-linear`` (a linear trend in ``column`` of its own in each block named by the
+    labels of column ``by``: a drift inside one block of the design)."""
 
     column: str
-    how: str  # "velocity" | "linear" | "levels"
+    how: str  # "velocity" | "linear" | "levels" | "block-linear"
     log_scale: bool = True  # "linear" may use ln x (not for time/order: a drift)
+    by: str | None = None  # "block-linear": the column of block labels
 
     def prepare(self, group, rows) -> dict:
         """Reference values from the training tests only (no peeking at held-out tests)."""
         values = group.values(self.column).iloc[rows]
+        if self.how == "block-linear":
+            blocks = group.values(self.by).iloc[rows].astype(object).fillna(MISSING)
+            x = values.astype(float)
+            state = {"blocks": [], "mean": [], "sd": []}
+            for lv in dict.fromkeys(blocks):
+                xb = x[(blocks == lv).to_numpy()].dropna().to_numpy()
+                if xb.size >= 2 and np.ptp(xb) > 0:
+                    state["blocks"].append(lv)
+                    state["mean"].append(float(xb.mean()))
+                    state["sd"].append(float(xb.std()))
+            return state
         if self.how == "levels":
             counts = values.astype(object).fillna(MISSING).value_counts(sort=False)
             levels = list(counts.index)
@@ -91,6 +106,8 @@ class Features:
         return {"log": use_log, "mean": float(g.mean()), "sd": float(g.std()) or 1.0}
 
     def names(self, state) -> list[str]:
+        if self.how == "block-linear":
+            return [f"{self.column} drift in {lv}" for lv in state["blocks"]]
         if self.how == "levels":
             return [f"{self.column}={lv}" for lv in state["levels"]]
         if self.how == "velocity":
@@ -99,6 +116,20 @@ class Features:
 
     def matrix(self, group, state) -> np.ndarray:
         """(n_tests, m) features of every test of the group (unseen levels → reference)."""
+        if self.how == "block-linear":
+            x = group.memo(
+                ("float", self.column), lambda: group.values(self.column).astype(float).to_numpy()
+            )
+            blocks = group.memo(
+                ("levels", self.by),
+                lambda: group.values(self.by).astype(object).fillna(MISSING).to_numpy(),
+            )
+            cols = [
+                np.where(blocks == lv, (x - m) / sd, 0.0)
+                for lv, m, sd in zip(state["blocks"], state["mean"], state["sd"], strict=True)
+            ]
+            out = np.column_stack(cols) if cols else np.zeros((x.size, 0))
+            return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
         if self.how == "levels":
             v = group.memo(
                 ("levels", self.column),
@@ -476,9 +507,10 @@ def shear_inputs_a(group, rows) -> np.ndarray:
 
 # ------------------------------------------------------------------------------ the library
 def base_model(group, rows) -> Extension:
-    """The paper's base model for these tests: Bekker (Eq. 7) with two or more plate sizes,
-    else Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear — or the group's own
-    registered model (``Group.model``, from ``discover(model=...)``)."""
+    """The paper's base model for these tests: Bekker (Eq. 7) where ``identify`` would fit
+    it (two or more plate sizes at least 1.5× apart, :func:`bekker_refused`), else
+    Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear — or the group's own registered
+    model (``Group.model``, from ``discover(model=...)``)."""
     own = getattr(group, "model", None)
     if own is not None and own.kind == group.kind:
         return ModelExtension(
@@ -489,10 +521,23 @@ def base_model(group, rows) -> Extension:
         )
     if group.kind == "shear":
         return ShearExtension("janosi (base)", False, "Eq. 13, one c, φ, K for all tests")
-    sizes = np.unique(np.round(group.tests["b_m"].to_numpy(float)[np.asarray(rows, int)], 9))
-    if sizes.size >= 2:
+    if bekker_refused(group, rows) is None:
         return SinkageExtension("bekker (base)", False, "Eq. 7, one kc, kφ, n", bekker=True)
     return SinkageExtension("bernstein (base)", False, "Eq. 8, one k, n", bekker=False)
+
+
+def bekker_refused(group, rows) -> str | None:
+    """Why Bekker (Eq. 7) cannot be the base of these sinkage tests, in ``identify``'s words,
+    or None when it can: ``identify`` decides (:func:`soilstats.identification.conditions
+    ._model_for`: one plate size, or plate sizes closer than ``MIN_SIZE_RATIO`` = 1.5×, leave
+    kc and kφ apart undetermined), and discovery follows — until issue #35 it fitted Bekker
+    to any two sizes, and plates of 20 and 22.5 mm gave kc–kφ collinearity red flags where
+    ``identify`` refused the design."""
+    from ..identification.conditions import _model_for
+
+    tests = group.tests.iloc[np.asarray(rows, int)]
+    model, why = _model_for("sinkage", "auto", None, tests)
+    return None if model == "bekker" else why
 
 
 _SIZE = {"b_m", "area_m2", "tool"}
@@ -527,6 +572,11 @@ def library(
     tests = group.tests.iloc[np.asarray(rows, int)]
     out: list[Extension] = []
     base = base_model(group, rows)
+    trend = cause.split(WITHIN)[0] if WITHIN in cause else None
+    if trend is not None and trend in tests and cause in tests:
+        # A drift inside one block: a trend of its own in each block, on the parameters
+        # whose response showed it (the generic extension's targets).
+        return [_within_extension(group, base, cause, trend, responses)]
     if isinstance(base, ModelExtension):
         return _own_library(base, group, tests, cause, names, numeric, responses, log_scale)
     if group.kind == "sinkage":
@@ -629,6 +679,36 @@ def _own_library(base, group, tests, cause, names, numeric, responses, log_scale
     how = "linear" if numeric else "levels"
     out.append(_generic(ModelExtension, cause, how, stiffness, exponent, log_scale, model=model))
     return out
+
+
+def _within_extension(group, base, cause, trend, responses) -> Extension:
+    """The extension of a drift inside blocks: per block its own linear trend in the
+    time/order column ``trend`` (features centred within each block), on the parameters of
+    the responses that showed it."""
+    features = Features(trend, "block-linear", log_scale=False, by=cause)
+    description = f"{{}} drift linearly in {trend}, at a rate of their own in each block"
+    if group.kind == "shear":
+        targets = (("c", "tan_phi") if "level" in responses or not responses else ()) + (
+            ("K",) if "K" in responses else ()
+        )
+        return ShearExtension(
+            f"{cause} (linear per block)",
+            False,
+            description.format(", ".join(targets)),
+            terms=(Term(features, targets),),
+        )
+    stiffness = "level" in responses or not responses
+    exponent = "shape" in responses or not responses
+    targets = ("k",) * stiffness + ("n",) * exponent
+    form = dict(model=base.model) if isinstance(base, ModelExtension) else dict(bekker=base.bekker)
+    kind = ModelExtension if isinstance(base, ModelExtension) else SinkageExtension
+    return kind(
+        f"{cause} (linear per block)",
+        False,
+        description.format(" and ".join(targets)),
+        terms=(Term(features, targets),),
+        **form,
+    )
 
 
 def _generic(kind, cause, how, stiffness, exponent, log_scale, **form) -> Extension:

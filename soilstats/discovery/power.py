@@ -11,15 +11,29 @@ main effects) are taken out and σ the residual standard deviation of the respon
 MDE solves P(F(df1, df2, λ) > F_crit) = power for λ and returns δ = σ·√(λ/‖r‖²).  The
 patterns (:func:`soilstats.discovery.ftests.strata_test`):
 
-* levels — one level (or, for an interaction, one cell) shifted by δ against the others;
-  the hardest level to detect (fewest tests), so that *any* level shifted by δ or more
-  would have been found;
+* levels — one level (or, for an interaction, one cell against the additive model)
+  shifted by δ against the others; the hardest level to detect (fewest tests), so that
+  *any* level shifted by δ or more would have been found;
+* a drift within blocks — a change of δ across one block's own range of a time/order
+  candidate, against the common trend (the hardest block);
 * trend — a change of δ across the observed range of the candidate (on ln x when x spans
   more than a factor four, except for time/order candidates, as they are tested).
+
+The one-cell test of an interaction and the test of a drift within blocks take the largest
+of K one-degree-of-freedom tests, Bonferroni-adjusted (:func:`.ftests.interaction_test`,
+:func:`.ftests.within_blocks_test`): their MDE is at α/(m·K) with one degree of freedom.
 
 δ is in the response's units: ln of pressure (sinkage ``level``) or plateau stress (shear
 ``level``), the exponent n (``shape``), ln K (``K``).  :func:`describe` turns it into a
 sentence with physical units.
+
+**Capped to what the data can express.**  An MDE larger than the observed range of the
+response over the tests the candidate was tested on (max − min of the per-test responses)
+says nothing: the tests themselves never differed that much, so no effect the data show
+could have been that large.  Such a statement reads "not testable here" with the range,
+and its ``mde`` is null in JSON (``mde_uncapped`` keeps the number): on the CMU plates the
+trend in ``test_number`` across 1..9 read "±86 % in pressure", on small campaigns up to
+"±2860 %".
 """
 
 from __future__ import annotations
@@ -33,6 +47,7 @@ __all__ = [
     "minimum_detectable",
     "noncentrality_for_power",
     "power_records",
+    "testable",
 ]
 
 #: Power at which the minimum detectable effect is stated.
@@ -78,14 +93,33 @@ _RESPONSE_TEXT = {
 }
 
 
-def describe(kind: str, response: str, delta: float, pattern: str) -> str:
+def _size(relative: bool, delta: float) -> str:
+    return f"±{100 * np.expm1(delta):.3g} %" if relative else f"±{delta:.3g}"
+
+
+def testable(delta: float, observed: float | None) -> bool:
+    """Whether an MDE ``delta`` lies within the ``observed`` range of the response (module
+    docstring; an unknown range caps nothing)."""
+    if observed is None or not np.isfinite(observed):
+        return True
+    return bool(np.isfinite(delta) and delta <= observed)
+
+
+def describe(
+    kind: str, response: str, delta: float, pattern: str, observed: float | None = None
+) -> str:
     """The MDE as a sentence fragment with physical units, e.g. ``"±9.4 % in pressure for
-    one level against the others"``; ``pattern`` says what δ shifts."""
+    one level against the others"``; ``pattern`` says what δ shifts.  Beyond the
+    ``observed`` range of the response: "not testable here" (module docstring)."""
     if not np.isfinite(delta):
         return "not computable (no residual degrees of freedom)"
     what, relative = _RESPONSE_TEXT[(kind, response)]
-    size = f"±{100 * np.expm1(delta):.3g} %" if relative else f"±{delta:.3g}"
-    return f"{size} in {what} {pattern}"
+    if not testable(delta, observed):
+        return (
+            f"not testable here: the smallest detectable effect {pattern} exceeds the tests' "
+            f"whole spread in {what} ({_size(relative, observed).lstrip('±')})"
+        )
+    return f"{_size(relative, delta)} in {what} {pattern}"
 
 
 def power_records(table, alpha: float) -> list[dict]:
@@ -95,6 +129,7 @@ def power_records(table, alpha: float) -> list[dict]:
         return []
     columns = ["kind", "soil", "candidate", "response", "significant", "p_value", "mde"]
     columns += ["role", "categorical", "span", "n_tests", "alpha_level"]
+    columns += ["y_range"] if "y_range" in table else []
     # Plain records, grouped in order of first appearance (the table's per-test arrays stay
     # behind: iterating the frame itself costs more than all that follows).
     by_candidate: dict[tuple, list[dict]] = {}
@@ -108,6 +143,8 @@ def power_records(table, alpha: float) -> list[dict]:
         first = rows[0]
         if first["role"] == "interaction":
             pattern = "for one cell against the additive model"
+        elif first["role"] == "drift within blocks":
+            pattern = "for one block's drift beside the common trend"
         elif first["categorical"]:
             pattern = "for one level against the others"
         else:
@@ -116,10 +153,15 @@ def power_records(table, alpha: float) -> list[dict]:
         for r in rows:
             if not np.isfinite(r["p_value"]):
                 continue
+            observed = r.get("y_range")
+            ok = testable(r["mde"], observed)
             responses[r["response"]] = {
-                "mde": float(r["mde"]) if np.isfinite(r["mde"]) else None,
+                "mde": float(r["mde"]) if np.isfinite(r["mde"]) and ok else None,
+                "mde_uncapped": float(r["mde"]) if np.isfinite(r["mde"]) else None,
+                "observed_range": None if observed is None else float(observed),
+                "testable": ok,
                 "p_value": float(r["p_value"]),
-                "statement": describe(kind, r["response"], r["mde"], pattern),
+                "statement": describe(kind, r["response"], r["mde"], pattern, observed),
             }
         out.append(
             {

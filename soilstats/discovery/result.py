@@ -21,8 +21,9 @@ METHOD_NOTES = (
     "Each candidate is tested within strata of the other design candidates not confounded with "
     "it (F-test); Holm's method controls the chance of any false cause.",
     "Gain: cross-validation leaving out whole tests; each finding's extension is measured "
-    "against the base model alone, the combined model by forward selection on all tests of its "
-    "kind and soil.",
+    "against the base model alone with the named cause fixed (kept when the paired difference "
+    "exceeds 1 SE), the whole search's gain (each fold re-selecting the lead) beside it; the "
+    "combined model by forward selection on all tests of its kind and soil, on the same folds.",
     "AIC/BIC treat samples as independent; samples of one test are not, so they overstate the "
     "evidence — the cross-validated gain decides.",
 )
@@ -102,7 +103,14 @@ class Finding:
         The test-level σ of ``fit`` (cluster-robust over tests, :mod:`.testlevel`); where it
         exceeds Eq. 4's by more than 2× a ``TEST-SCATTER`` caveat names the parameters.
     gain : Gain or None
-        Cross-validated gain of the kept (or, if none is kept, the best tried) extension.
+        Cross-validated gain of the kept (or, if none is kept, the best tried) extension with
+        the named cause held fixed (whole tests left out): the gain of this cause's extension,
+        which decides whether it is kept.
+    gain_search : Gain or None
+        The same extension's gain when each fold repeats the choice of the lead on its
+        training tests (:mod:`.nested`): the gain of the whole search (find a cause, then
+        extend), reported beside ``gain``, never deciding; ``selected_folds`` says in how
+        many folds the lead was chosen.
     gain_conditions : Gain or None
         Leave-one-condition-out gain, for extensions that can extrapolate to a new level.
     information : dict
@@ -126,6 +134,7 @@ class Finding:
     fit: object | None = field(default=None, repr=False)
     base_fit: object | None = field(default=None, repr=False)
     gain: object | None = None
+    gain_search: object | None = None
     gain_conditions: object | None = None
     information: dict = field(default_factory=dict)
     tried: tuple[dict, ...] = ()
@@ -158,6 +167,9 @@ class Finding:
             "tried": [json_safe(t) for t in self.tried],
             "caveats": list(self.caveats),
         }
+        out["gain_search"] = (
+            json_safe(self.gain_search.to_dict()) if self.gain_search is not None else None
+        )
         if self.gain_conditions is not None:
             out["gain_conditions"] = json_safe(self.gain_conditions.to_dict())
         out["parameters"] = parameter_table(self.fit, self.test_level)
@@ -176,13 +188,18 @@ class Finding:
         ]
         if self.gain is not None:
             g = self.gain
-            chosen = "" if g.selected_folds is None else f", lead chosen in {g.selected_folds}"
             lines.append(
-                f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds"
-                f"{chosen}): "
-                f"base {g.base:.4f} -> extended {g.extended:.4f} (gain {g.relative:+.1%}, paired "
-                f"difference {g.difference:.3g} +/- {g.stderr:.2g})"
+                f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds, "
+                f"cause fixed): base {g.base:.4f} -> extended {g.extended:.4f} (gain "
+                f"{g.relative:+.1%}, paired difference {g.difference:.3g} +/- {g.stderr:.2g}, "
+                f"{g.z:.1f} SE: {'real' if g.real else 'not real'})"
             )
+            s = self.gain_search
+            if s is not None:
+                lines.append(
+                    f"  whole search (the lead re-selected in each fold, chosen in "
+                    f"{s.selected_folds} of {s.folds}): gain {s.relative:+.1%}"
+                )
         else:
             lines.append("  extension: none (no extension could be cross-validated)")
         if self.gain_conditions is not None:
@@ -311,8 +328,14 @@ class DiscoveryResult:
 
     @property
     def tests_run(self) -> int:
-        """Significance tests with a p-value (the m of Holm's method)."""
-        return int(self.tests["p_value"].notna().sum()) if len(self.tests) else 0
+        """Distinct hypotheses with a p-value (the m of Holm's method: aliased candidates,
+        one test under several names, count once)."""
+        if not len(self.tests):
+            return 0
+        tested = self.tests[self.tests["p_value"].notna()]
+        if "hypothesis" in tested:
+            return int(tested["hypothesis"].nunique())
+        return len(tested)
 
     def to_dict(self) -> dict:
         """JSON-ready content (no run time: outputs are byte-identical between runs)."""

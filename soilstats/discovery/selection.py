@@ -7,9 +7,10 @@ tests held out, :mod:`.crossval`, one set of folds for every step):
 
 1. start from the base model (Eq. 7/8 or Eq. 13);
 2. add, of the extensions the findings kept, the one whose addition gives the largest real
-   gain over the current model (mean paired difference > 2 SE) **and** leaves the combined
-   fit physically plausible (:mod:`.plausibility`) and determined (it converges, no rank
-   deficiency: an interaction's cells already carry its main effect, say);
+   gain over the current model (mean paired difference > ``Z_KEEP`` SE, :mod:`.crossval`)
+   **and** leaves the combined fit physically plausible (:mod:`.plausibility`) and
+   determined (it converges, no rank deficiency: an interaction's cells already carry its
+   main effect, say);
 3. repeat until no remaining extension adds a real gain; report the final model's
    parameters ± σ (Eq. 3) fitted to all tests and its gain over the base model.
 
@@ -24,8 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..report import json_safe
-from .candidates import candidate_values
-from .crossval import FoldFits, compare, make_folds
+from .crossval import FoldFits, GroupFolds, compare
 from .extensions import base_model, combine
 from .plausibility import implausible
 from .result import parameter_lines, parameter_table
@@ -133,16 +133,6 @@ def _failure(exc: Exception) -> str:
     return f"the combined fit fails: {text[:240]}"
 
 
-def _fold_labels(group, rows, causes) -> np.ndarray:
-    """Stratify the folds by the joint level of the categorical causes (trends: none)."""
-    labels = np.full(rows.size, "", dtype=object)
-    for cause in causes:
-        values = candidate_values(group.tests, cause).iloc[rows]
-        if values.nunique() <= max(8, rows.size // 4):
-            labels = labels + "|" + np.array([str(v) for v in values], dtype=object)
-    return labels.astype(str)
-
-
 @dataclass(frozen=True, eq=False)
 class PreparedSelection:
     """What forward selection starts from: the candidates, the tests, the base model fitted
@@ -154,21 +144,20 @@ class PreparedSelection:
     folds: np.ndarray
 
 
-def prepare_selection(group, kept, rng: np.random.Generator, base=None) -> PreparedSelection | None:
-    """Forward selection up to its random step: ``kept`` reduced to one ``(cause,
+def prepare_selection(group, kept, folds: GroupFolds, base=None) -> PreparedSelection | None:
+    """Forward selection up to its first fit: ``kept`` reduced to one ``(cause,
     Extension)`` per extension (the strongest finding names it), the base model fitted to
-    all tests if ``base`` is None, and the folds drawn from ``rng``.  None when ``kept`` is
-    empty (nothing drawn)."""
+    all tests if ``base`` is None, on the group's ``folds`` (those its findings were
+    measured on, :class:`.crossval.GroupFolds`).  None when ``kept`` is empty."""
     first: dict[str, tuple] = {}
     for cause, ext in kept:  # one extension kept by several findings: the strongest names it
         first.setdefault(ext.name, (cause, ext))
     kept = list(first.values())
     if not kept:
         return None
-    rows = np.unique(group.owner)
+    rows = folds.rows
     base_full = base if base is not None else base_model(group, rows).fit(group, rows)
-    folds = make_folds(_fold_labels(group, rows, [c for c, _ in kept]), "tests", rng)
-    return PreparedSelection(kept, rows, base_full, folds)
+    return PreparedSelection(kept, rows, base_full, folds.folds)
 
 
 def selection_steps(group, prepared: PreparedSelection):
