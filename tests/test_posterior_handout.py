@@ -15,6 +15,36 @@ from soilstats.cli.main import main
 from soilstats.errors import ConvergenceWarning
 
 
+def test_plates_too_close_to_separate_kc_and_kphi_refuse_bekker_before_sampling(
+    tmp_path, monkeypatch, capsys
+):
+    """identify's decision holds for the posterior (issue #35): plates 50 and 60 mm apart by
+    less than 1.5x leave kc/b and kphi one ridge; Bekker is refused, never swapped silently,
+    and Bernstein on the same tests is not."""
+    from posterior_calibration import population_spec
+
+    import soilstats.bayes.posterior as posterior
+    from soilstats.simulation import simulate
+
+    spec = population_spec(4, points=40)
+    spec["series"][0]["plates"] = [{"shape": "circle", "radius_m": b} for b in (0.05, 0.06)]
+    folder = simulate(spec, seed=5).campaign.save(tmp_path / "close")
+    campaign = load_campaign(folder)
+    failures, _ = preflight(campaign, ["bekker"], population=False)
+    assert len(failures) == 1 and "differ by less than 1.5x" in failures[0]
+    assert "--model bernstein" in failures[0]
+    assert preflight(campaign, ["bernstein"], population=False, b_m=0.05)[0] == []
+
+    def never(*args, **kwargs):
+        raise AssertionError("sampled although the refusal was known before")
+
+    monkeypatch.setattr(posterior, "sample_posterior", never)
+    out = tmp_path / "never-made"
+    argv = ["posterior", "--data", str(folder), "--model", "bekker", "--out", str(out)]
+    assert main([*argv, "--progress", "off"]) == 2
+    assert "differ by less than 1.5x" in capsys.readouterr().err and not out.exists()
+
+
 def test_plates_that_disagree_refuse_a_population_before_any_sampling(
     tmp_path, monkeypatch, capsys
 ):

@@ -104,16 +104,25 @@ def preflight(campaign, models, *, population: bool, **selection) -> tuple[list[
     will use; a fit that cannot be made at all raises its own error here, as sampling would.
     """
     from ..identification import fit_shear, fit_sinkage
+    from ..identification.conditions import _model_for
     from ..models import get_model
 
-    health = {}
+    health, unidentifiable = {}, []
     for name in models:
         spec = get_model(name)
         # The very fit the sampler starts from (the same defaults: bayes.data, .population).
         fitter = fit_sinkage if spec.kind == "sinkage" else fit_shear
         fit = fitter(campaign, spec, test_resamples=0, **selection)
         health[name] = [{"code": f.code, "message": f.message} for f in fit.flags]
-    return lsq_refusals(health, population), health
+        # identify's decision (plates closer than 1.5x cannot separate kc/b from kphi): the
+        # posterior of such a design is its prior's shape along the ridge, not the soil's.
+        kept, why = _model_for(spec.kind, name, None, fit.tests)
+        if kept is None:
+            unidentifiable.append(
+                f"{name}: {why} (identify would not fit it); sample --model bernstein per "
+                "plate size instead, or add tests with plates further apart"
+            )
+    return unidentifiable + lsq_refusals(health, population), health
 
 
 def hand_out(

@@ -35,7 +35,7 @@ from .._text import plural
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..models import get_model
-from ..parallel import one_blas_thread
+from ..parallel import in_this_backend, one_blas_thread
 from ..quality import screened
 from ..report import Provenance
 from .artefacts import quality_record, split_artefacts, with_quality_caveat
@@ -254,8 +254,10 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
                 bar.update()
 
     if pool.parallel:
+        # Each thread takes this thread's joblib backend (Dask's inside its parallel_config).
+        target = in_this_backend(extend)
         threads = [
-            threading.Thread(target=extend, args=(k,), daemon=True) for k in range(len(work))
+            threading.Thread(target=target, args=(k,), daemon=True) for k in range(len(work))
         ]
         for thread in threads:
             thread.start()
