@@ -134,24 +134,42 @@ def parallel_map(
 
 
 def in_this_backend(target: Callable[..., R]) -> Callable[..., R]:
-    """``target`` wrapped to run under the joblib backend active in the calling thread.
+    """``target`` wrapped to run under the joblib configuration of the calling thread.
 
     joblib's ``parallel_config`` is per thread: a thread started inside
     ``parallel_config(backend="dask")`` would otherwise send its :func:`parallel_map` work
     to local loky workers while the cluster idles. Wrap every thread's target with this
     when the thread is started (discovery's group threads do).
+
+    Each thread gets its own copy of the backend object: joblib configures and terminates
+    the instance it is given, so threads sharing one (a loky backend shared by discovery's
+    group threads) pull its pool from under each other (``'NoneType' object has no attribute
+    'submit'``, or a hang). Where the caller set nothing, the thread keeps joblib's default,
+    a fresh backend for every call.
     """
     import sys
 
     if "joblib" not in sys.modules:  # nothing configured: no joblib import on the serial path
         return target
-    from joblib import parallel_config
-    from joblib.parallel import get_active_backend
+    import copy
 
-    backend, n_jobs = get_active_backend()
+    from joblib import parallel_config
+    from joblib.parallel import _backend, default_parallel_config
+
+    config = getattr(_backend, "config", default_parallel_config)
+    chosen = {
+        key: value
+        for key, value in config.items()
+        if key in default_parallel_config and value is not default_parallel_config[key]
+    }
+    if not chosen:
+        return target
 
     def run(*args, **kwargs):
-        with parallel_config(backend=backend, n_jobs=n_jobs):
+        mine = dict(chosen)
+        if "backend" in mine:
+            mine["backend"] = copy.copy(mine["backend"])
+        with parallel_config(**mine):
             return target(*args, **kwargs)
 
     return run

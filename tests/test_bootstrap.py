@@ -98,7 +98,8 @@ def test_stderr_tests_matches_the_spread_of_repeated_campaigns():
         spread = np.std([f.params[name] for f in fits], ddof=1)
         tests = np.mean([f.stderr_tests[name] for f in fits])
         assert tests == pytest.approx(spread, rel=0.3), name
-    eq4_kc = np.mean([f.stderr["kc"] for f in fits])
+    assert all(f.stderr["kc"] == f.stderr_tests["kc"] for f in fits)  # >= 5 tests: test level
+    eq4_kc = np.mean([f.stderr_eq4["kc"] for f in fits])
     assert eq4_kc < 0.5 * np.std([f.params["kc"] for f in fits], ddof=1)
 
 

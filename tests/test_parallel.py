@@ -40,6 +40,64 @@ def test_overlapping_calls_from_threads_with_any_item_count_finish():
     assert results == {n: [_seeded_mean(s) for s in range(n)] for n in (1, 2, 3, 17, 30)}
 
 
+def _threads_in_backend(sizes, jobs):
+    """parallel_map from one thread per size, each started with in_this_backend, as
+    discovery starts its group threads; returns {size: results}, asserting none hung."""
+    import threading
+
+    from soilstats.parallel import in_this_backend
+
+    results: dict[int, list] = {}
+
+    def call(n: int) -> None:
+        results[n] = parallel_map(_seeded_mean, list(range(n)), jobs=jobs, single_in_process=False)
+
+    threads = [
+        threading.Thread(target=in_this_backend(call), args=(n,), daemon=True) for n in sizes
+    ]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=120)
+    assert not any(thread.is_alive() for thread in threads), "parallel_map hung"
+    return results
+
+
+@pytest.mark.parametrize("configured", [False, True], ids=["default", "parallel_config"])
+def test_threads_started_in_this_backend_each_get_their_own_backend(configured):
+    """Threads carrying the caller's joblib configuration must not share its backend object:
+    joblib configures and terminates the instance it is given, and discovery's group threads
+    sharing one loky backend pulled its pool from under each other ("'NoneType' object has no
+    attribute 'submit'", or CI hanging for 90 minutes)."""
+    import threading
+
+    import joblib
+    from joblib.parallel import get_active_backend
+
+    from soilstats.parallel import in_this_backend
+
+    sizes = (2, 5, 9, 2, 5, 9)
+    context = joblib.parallel_config("loky", n_jobs=2) if configured else _nothing()
+    with context:
+        caller = get_active_backend()[0]
+        seen = []
+        probe = threading.Thread(
+            target=in_this_backend(lambda: seen.append(get_active_backend()[0]))
+        )
+        probe.start()
+        probe.join()
+        assert type(seen[0]) is type(caller) and seen[0] is not caller
+        for _ in range(3):  # the race showed within a few rounds
+            results = _threads_in_backend(sizes, jobs=2)
+            assert results == {n: [_seeded_mean(s) for s in range(n)] for n in sizes}
+
+
+def _nothing():
+    import contextlib
+
+    return contextlib.nullcontext()
+
+
 def test_effective_jobs_follows_joblib_convention():
     import os
 
