@@ -9,6 +9,7 @@ and the assertions compare the named cause and, where the extension has a physic
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -294,7 +295,8 @@ def test_cli_json_and_pdf(tmp_path, capsys):
     # the combined model, the power statements and the data-quality section are in the PDF
     assert doc["model"]["extensions"] == ["shear / s: side-walls"]
     assert "Combined model" in text and "Data quality" in text
-    assert all(p["candidate"] in text for p in doc["power"])
+    squeezed = re.sub(r"[\s\u200b]+", "", text)  # a table cell wraps a name anywhere
+    assert all(re.sub(r"\s+", "", p["candidate"]) in squeezed for p in doc["power"])
 
 
 def test_cli_null_prints_empty_findings(tmp_path, capsys):
@@ -708,3 +710,22 @@ def test_folds_are_seeded_and_stratified():
     }
     assert len(assignments) > 10
     assert all(np.bincount(np.array(a), minlength=5).min() == 4 for a in assignments)
+
+
+def test_a_discovery_shows_its_summary_as_tables_in_a_notebook():
+    """``_repr_html_``: the findings, the combined model and the not-found candidates as
+    tables, the flags and notes (escaped), as the other results show theirs."""
+    import html
+
+    result = discover("grc1-oravec2009")
+    page = result._repr_html_()
+    assert page.startswith("<div>") and "<table" in page
+    for f in result.findings:
+        assert f"<td>{html.escape(f.cause)}</td>" in page and html.escape(f.extension) in page
+    for m in result.models:
+        assert html.escape(" + ".join(m.extensions)) in page
+    for p in result.power:
+        assert html.escape(p["candidate"]) in page
+    assert all(html.escape(fl["message"]) in page for fl in result.flags)
+    assert all(html.escape(c) in page for f in result.findings for c in f.caveats)
+    assert "<td>n</td>" in page  # the parameters, with the σ the summary quotes

@@ -76,8 +76,10 @@ def test_test_scatter_gives_the_test_level_sigma_and_a_caveat(seed):
     assert f"{name} {level.stderr[j]:.3g} = " in caveat
     row = finding.to_dict()["parameters"][name]
     assert row["stderr_tests"] == pytest.approx(level.stderr[j])
+    assert row["stderr"] == row["stderr_tests"] and row["stderr_level"] == "tests"
+    assert row["stderr_eq4"] == pytest.approx(finding.fit.stderr_values[j])
     assert row["test_scatter"] is True
-    assert "test-level +/- " in finding.summary()
+    assert f"+/- {level.stderr[j]:<10.3g}" in finding.summary()  # the ± quoted is the test-level σ
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -104,9 +106,12 @@ def test_cullinan_baseline_sigma_is_test_level_and_single_tests_have_none():
     params = finding.to_dict()["parameters"]
     assert params["n"]["test_scatter"] is True
     assert 0.085 < params["n"]["stderr_tests"] < 0.34
-    assert params["n"]["stderr_tests"] > 2 * params["n"]["stderr"]
+    assert params["n"]["stderr_tests"] > 2 * params["n"]["stderr_eq4"]
+    assert params["n"]["stderr"] == params["n"]["stderr_tests"]  # five tests or more: quoted
     for single in ("3", "4", "5"):
-        assert params[f"n-offset[preparation={single}]"]["stderr_tests"] is None
+        row = params[f"n-offset[preparation={single}]"]
+        assert row["stderr_tests"] is None
+        assert row["stderr_level"] == "eq4" and row["stderr"] == row["stderr_eq4"]
     assert any(c.startswith("TEST-SCATTER") for c in finding.caveats)
     (model,) = result.models
     assert model.to_dict()["parameters"]["n"]["test_scatter"] is True
@@ -114,11 +119,12 @@ def test_cullinan_baseline_sigma_is_test_level_and_single_tests_have_none():
 
 
 def test_discovery_pdf_prints_the_test_level_sigma(tmp_path):
-    """The PDF's parameter tables carry the test-level σ and the caveat."""
+    """The PDF's parameter tables carry the test-level σ (Eq. 4's in brackets) and the
+    caveat."""
     from pypdf import PdfReader
 
     from soilstats.report.discovery_pdf import write_report
 
     path = write_report(soilstats.discover("cullinan-sand"), tmp_path)
     text = "".join(p.extract_text() for p in PdfReader(path).pages)
-    assert "Test-level" in text and "TEST-SCATTER" in text
+    assert "test-level σ" in text and "TEST-SCATTER" in text

@@ -1,5 +1,6 @@
 """Reports of publishable length on the bundled campaigns (issue #36): identify at most 8
-pages with a figure per soil, check with no fixed glossary. The figures count soils and the
+pages with a figure per soil, discover at most 12 with its findings as a grid of figures,
+check with no fixed glossary. The figures count soils and the
 pages count what a reader must turn; the completeness of each report (every flag and note of
 its JSON in the PDF) is tests/test_reports.py's."""
 
@@ -47,3 +48,28 @@ def test_check_report_links_the_documentation_instead_of_a_glossary(tmp_path):
     assert "docs/quality.md" in text
     assert "Glossary" not in text and "glossary" not in text
     assert len(reader.pages) <= 6, len(reader.pages)
+
+
+DISCOVER_MAX_PAGES = 12
+
+DISCOVER_CAMPAIGNS = [
+    pytest.param("simulated-paper", marks=pytest.mark.slow),  # 12 findings, 104 not found
+    "cmu-3d-terramechanics",
+    "cullinan-sand",
+    "grc1-oravec2009",
+]
+
+
+@pytest.mark.parametrize("campaign", DISCOVER_CAMPAIGNS)
+def test_discover_report_fits_in_twelve_pages_with_its_findings_drawn(campaign, tmp_path):
+    """The findings as a grid of figures (at most eight findings a figure), every exhaustive
+    list in one appendix table; the completeness is tests/test_reports.py's."""
+    _run(["discover", "--data", campaign], tmp_path)
+    reader = PdfReader(tmp_path / "discover.pdf")
+    assert len(reader.pages) <= DISCOVER_MAX_PAGES, len(reader.pages)
+    findings = json.loads((tmp_path / "discover.json").read_text())["findings"]
+    text = re.sub(r"\s+", "", "".join(page.extract_text() for page in reader.pages))
+    figures = -(-len(findings) // 8)
+    assert all(f"Figure{k}:" in text for k in range(1, figures + 1))
+    assert f"Figure{figures + 1}:" not in text  # a grid, not a figure per finding
+    assert "Appendix" in text

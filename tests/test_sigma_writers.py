@@ -92,9 +92,7 @@ def test_identify_writes_the_api_sigma_in_json_csv_console_and_pdf(written, fits
             assert record["stderr"][name] == pytest.approx(sigma, rel=1e-12), name
             assert record["stderr_eq4"][name] == pytest.approx(fit.stderr_eq4[name], rel=1e-12)
             (row,) = [
-                r
-                for r in rows
-                if r["parameter"] == name and _velocity(r["condition"]) == velocity
+                r for r in rows if r["parameter"] == name and _velocity(r["condition"]) == velocity
             ]
             assert float(row["stderr"]) == pytest.approx(sigma, rel=1e-12), name
             assert format_value(value, sigma) in consoles["identify"], name
@@ -117,3 +115,57 @@ def test_study_writes_the_api_sigma_in_json_csv_and_pdf(written, fits):
         assert float(row["stderr"]) == pytest.approx(sigma, rel=1e-12), name
         cell = stderr_cell(fit.params[name], sigma, fit.stderr_eq4[name], "tests")
         assert _squeeze(cell) in pdf, cell
+
+
+@pytest.fixture(scope="module")
+def discovered(tmp_path_factory):
+    """Cullinan's discovery (real tests that scatter: a TEST-SCATTER finding with levels of
+    one test), by the API and by the CLI with --out (JSON, PDF and console)."""
+    from soilstats.discovery import discover
+
+    root = tmp_path_factory.mktemp("discover")
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        argv = ["discover", "--data", "cullinan-sand", "--out", str(root), "--progress", "off"]
+        assert main(argv) == 0
+    document = json.loads((root / "discover.json").read_text())
+    return discover("cullinan-sand"), document, buffer.getvalue(), _pdf(root / "discover.pdf")
+
+
+def test_discover_writes_the_test_level_sigma_in_json_console_and_pdf(discovered):
+    """Where five tests or more inform a parameter, the ± of discover's JSON ("stderr"),
+    console summary and PDF is the test-level σ (Eq. 4's in brackets in the PDF and beside it
+    in the JSON); where fewer do (here: a level of one test) it is Eq. 4's, marked † and said
+    so. No CSV is written by discover."""
+    from soilstats.discovery.testlevel import quoted_sigma
+
+    result, document, console, pdf = discovered
+    (finding,) = result.findings
+    fits = [(finding, document["findings"][0]["parameters"])]
+    groups = document["model"]["groups"]
+    fits += [(m, g["parameters"]) for m, g in zip(result.models, groups, strict=True)]
+    levels = set()
+    for owner, records in fits:
+        fit, level = owner.fit, owner.test_level
+        stderr, eq4, kinds = quoted_sigma(fit, level)
+        for j, name in enumerate(fit.param_names):
+            record = records[name]
+            levels.add(record["stderr_level"])
+            assert record["stderr_level"] == kinds[j], name
+            assert record["stderr"] == pytest.approx(stderr[j], rel=1e-12), name
+            assert record["stderr_eq4"] == pytest.approx(fit.stderr_values[j], rel=1e-12)
+            if kinds[j] == "tests":
+                assert record["stderr"] == pytest.approx(level.stderr[j], rel=1e-12)
+                assert level.informed_by[j] >= 5
+            else:
+                assert record["stderr"] == pytest.approx(fit.stderr_values[j], rel=1e-12)
+            line = next(ln for ln in console.splitlines() if ln.strip().startswith(f"{name} ="))
+            assert f"+/- {stderr[j]:.3g} " in line, line
+            assert ("[Eq. 4: " in line) == (kinds[j] == "tests"), line
+            cell = stderr_cell(fit.values[j], stderr[j], eq4[j], kinds[j])
+            assert _squeeze(cell) in pdf, cell
+    assert levels == {"tests", "eq4"}  # both cases are on the page
+    n = records["n"]
+    assert n["stderr"] > 2 * n["stderr_eq4"]  # the scatter makes the two σ differ
+    said = "thescatterbetweentestscouldnotbemeasured"
+    assert said in pdf and said in _squeeze(console)

@@ -12,7 +12,14 @@ from .._text import plural
 from ..report import Provenance, json_safe
 from ..report.text import notes_block
 
-__all__ = ["METHOD_NOTES", "DiscoveryResult", "Finding", "parameter_lines", "parameter_table"]
+__all__ = [
+    "METHOD_NOTES",
+    "SIGMA_NOTE",
+    "DiscoveryResult",
+    "Finding",
+    "parameter_lines",
+    "parameter_table",
+]
 
 #: How discovery reaches its findings, in four sentences (the summary's and the PDF's notes).
 METHOD_NOTES = (
@@ -30,17 +37,30 @@ METHOD_NOTES = (
 
 
 def parameter_table(fit, level=None) -> dict | None:
-    """``{name: {"value", "stderr", "unit"}}`` of a fit (JSON-ready), or None.
+    """``{name: {"value", "stderr", "unit", "stderr_eq4", "stderr_level"}}`` of a fit
+    (JSON-ready), or None.
 
-    With ``level`` (a :class:`~.testlevel.TestLevel`) each entry also carries
-    ``stderr_tests`` (the cluster-robust σ over tests, in the parameter's unit; null where
-    the parameter rests on one test) and ``test_scatter`` (it exceeds ``stderr`` by more
-    than 2×, judged on five or more tests: quote ``stderr_tests``)."""
+    ``stderr`` is the σ to quote (issue #36, :func:`~.testlevel.quoted_sigma`): the test-level
+    σ where five tests or more inform the parameter (``stderr_level`` ``"tests"``), Eq. 4's
+    otherwise (``"eq4"``); ``stderr_eq4`` is Eq. 4's. With ``level`` (a
+    :class:`~.testlevel.TestLevel`) each entry also carries ``stderr_tests`` (the
+    cluster-robust σ over tests, in the parameter's unit; null where the parameter rests on
+    one test) and ``test_scatter`` (it exceeds Eq. 4's by more than 2×, judged on five or
+    more tests)."""
     if fit is None:
         return None
+    from .testlevel import quoted_sigma
+
+    stderr, eq4, levels = quoted_sigma(fit, level)
     out = {
-        name: {"value": json_safe(v), "stderr": json_safe(s), "unit": fit.units.get(name, "")}
-        for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
+        name: {
+            "value": json_safe(v),
+            "stderr": json_safe(s),
+            "unit": fit.units.get(name, ""),
+            "stderr_eq4": json_safe(e),
+            "stderr_level": lv,
+        }
+        for name, v, s, e, lv in zip(fit.param_names, fit.values, stderr, eq4, levels, strict=True)
     }
     if level is not None:
         for name, st, hit in zip(fit.param_names, level.stderr, level.flagged(), strict=True):
@@ -48,27 +68,37 @@ def parameter_table(fit, level=None) -> dict | None:
     return out
 
 
+#: What the ``+/-`` of discovery's parameter lines is (the console's legend, said once).
+SIGMA_NOTE = (
+    "Parameters: value +/- stderr, the test-level σ (cluster-robust over tests, the "
+    "linearised form of identify's bootstrap) where five tests or more inform the parameter, "
+    "with Eq. 4's σ (the paper's Eqs. 3–5) in brackets; † marks Eq. 4's σ where fewer inform "
+    "it (or one test alone sets it): there the scatter between tests could not be measured; "
+    "* the test-level σ exceeds Eq. 4's by more than 2× (TEST-SCATTER)."
+)
+
+
 def parameter_lines(fit, indent: str = "    ", level=None) -> list[str]:
-    """A fit's parameters as aligned ``name = value +/- stderr unit`` lines; with ``level``
-    (a :class:`~.testlevel.TestLevel`) each line adds the test-level σ, ``*`` where it is
-    the one to quote (``test-scatter``) and ``n/a`` where one test alone sets the
-    parameter."""
+    """A fit's parameters as aligned ``name = value +/- stderr unit [Eq. 4: σ]`` lines:
+    ``stderr`` the test-level σ where five tests or more inform the parameter, with Eq. 4's
+    in brackets (``*`` where it exceeds Eq. 4's by more than 2×: ``test-scatter``); else
+    Eq. 4's, marked ``†`` with the reason the test scatter could not be measured
+    (:data:`SIGMA_NOTE`)."""
     if fit is None:
         return []
+    from .testlevel import eq4_reason, quoted_sigma
+
+    stderr, eq4, levels = quoted_sigma(fit, level)
+    flagged = np.zeros(len(levels), bool) if level is None else level.flagged()
     out = []
-    flagged = None if level is None else level.flagged()
-    for j, (name, v, s) in enumerate(
-        zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
-    ):
-        line = f"{indent}{name:>34} = {v:>12.5g} +/- {s:<10.3g} {fit.units.get(name, ''):<10}"
-        if level is not None:
-            st = level.stderr[j]
-            mark = " *" if flagged[j] else ""
-            line += (
-                f" test-level +/- {st:.3g}{mark}"
-                if np.isfinite(st)
-                else " test-level n/a (one test)"
-            )
+    for j, (name, v) in enumerate(zip(fit.param_names, fit.values, strict=True)):
+        line = (
+            f"{indent}{name:>34} = {v:>12.5g} +/- {stderr[j]:<10.3g} {fit.units.get(name, ''):<10}"
+        )
+        if levels[j] == "tests":
+            line += f" [Eq. 4: {eq4[j]:.3g}]{' *' if flagged[j] else ''}"
+        else:
+            line += f" † Eq. 4's σ: {eq4_reason(level, j)}"
         out.append(line.rstrip())
     return out
 
@@ -98,7 +128,9 @@ class Finding:
     extension : str or None
         The extended model kept (None when no extension gives a real out-of-sample gain).
     fit : FitResult or None
-        The kept extension fitted to all tests in scope: parameters ± σ (Eq. 3).
+        The kept extension fitted to all tests in scope: parameters ± Eq. 4's σ (Eq. 3); the
+        σ printed and in JSON is the test-level one where five tests or more inform a
+        parameter (:func:`~.testlevel.quoted_sigma`).
     test_level : TestLevel or None
         The test-level σ of ``fit`` (cluster-robust over tests, :mod:`.testlevel`); where it
         exceeds Eq. 4's by more than 2× a ``TEST-SCATTER`` caveat names the parameters.
@@ -411,7 +443,9 @@ class DiscoveryResult:
             for c in self.confounded:
                 lines.append(f"  {c['kind']} / {c['soil']}: {c['text']}")
         lines.append("-" * width)
-        lines.extend(notes_block([*METHOD_NOTES, *self.notes]))
+        fits = [*self.findings, *self.models]
+        sigma = [SIGMA_NOTE] if any(f.fit is not None for f in fits) else []
+        lines.extend(notes_block([*METHOD_NOTES, *sigma, *self.notes]))
         lines.append("=" * width)
         return "\n".join(lines)
 
@@ -485,3 +519,100 @@ class DiscoveryResult:
 
     def __str__(self) -> str:
         return self.summary()
+
+    def _repr_html_(self) -> str:
+        """The summary as tables, for notebooks: the findings, the combined models with
+        their parameters (± the σ the summary quotes), the red flags, what was not found,
+        and the caveats and notes."""
+        from .._html import facts_html, notes_html, result_html, table_html
+        from .testlevel import quoted_sigma
+
+        facts = {
+            "campaign": self.source,
+            "alpha": f"{self.alpha} (Holm over {self.tests_run} tests)",
+            "seed": self.seed,
+        }
+        if not self.findings:
+            facts["findings"] = self.no_finding_text()
+        findings = pd.DataFrame(
+            [
+                {
+                    "#": i,
+                    "group": f"{f.kind} / {f.soil}",
+                    "cause": f.cause,
+                    "confounded with": ", ".join(f.confounded_with),
+                    "shows in": ", ".join(f.responses),
+                    "F": f"{f.statistic:.4g}",
+                    "p (Holm)": f"{f.p_adjusted:.3g}",
+                    "tests": f.n_tests,
+                    "extension": f.extension or "none",
+                    "gain": "" if f.gain is None else f"{f.gain.relative:+.1%}",
+                }
+                for i, f in enumerate(self.findings, 1)
+            ]
+        )
+        models = pd.DataFrame(
+            [
+                {
+                    "group": f"{m.kind} / {m.soil}",
+                    "model": " + ".join(m.extensions) or "base model",
+                    "causes": ", ".join(m.causes),
+                    "gain": "" if m.gain is None else f"{m.gain.relative:+.1%}",
+                    "tests": m.n_tests,
+                }
+                for m in self.models
+            ]
+        )
+        rows = []
+        for m in self.models:
+            if m.fit is None:
+                continue
+            stderr, eq4, levels = quoted_sigma(m.fit, m.test_level)
+            for j, name in enumerate(m.fit.param_names):
+                rows.append(
+                    {
+                        "group": f"{m.kind} / {m.soil}",
+                        "parameter": name,
+                        "value": f"{m.fit.values[j]:.6g}",
+                        "stderr": f"{stderr[j]:.3g}",
+                        "Eq. 4": f"{eq4[j]:.3g}",
+                        "σ level": levels[j],
+                        "unit": m.fit.units.get(name, ""),
+                    }
+                )
+        flags = pd.DataFrame(list(self.flags))
+        power = pd.DataFrame(
+            [
+                {
+                    "group": f"{p['kind']} / {p['soil']}",
+                    "candidate": p["candidate"],
+                    "role": p["role"],
+                    "tests": p["n_tests"],
+                    "smallest detectable effect": "; ".join(
+                        f"{r}: {v['statement']}" for r, v in p["responses"].items()
+                    ),
+                }
+                for p in self.power
+            ]
+        )
+        caveats = [f"[{i}] {c}" for i, f in enumerate(self.findings, 1) for c in f.caveats]
+        caveats += [f"{m.kind} / {m.soil} model: {c}" for m in self.models for c in m.caveats]
+        return result_html(
+            "Discovery: what the soil model gets wrong",
+            facts_html(facts),
+            table_html(findings, caption="Findings (strongest first)") if len(findings) else "",
+            table_html(models, caption="Combined model per group") if len(models) else "",
+            table_html(
+                pd.DataFrame(rows),
+                caption="Combined-model parameters: stderr the test-level σ where five tests "
+                "or more inform the parameter (σ level 'tests'), Eq. 4's otherwise",
+            )
+            if rows
+            else "",
+            table_html(flags, caption="Physical red flags") if len(flags) else "",
+            table_html(power, caption="Not found: the smallest effect the design would have found")
+            if len(power)
+            else "",
+            notes_html(caveats, "Caveats"),
+            notes_html([*METHOD_NOTES, *self.notes]),
+        )

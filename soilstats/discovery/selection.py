@@ -54,7 +54,8 @@ class CombinedModel:
     causes : tuple of str
         The finding (cause) each selected extension came from, in the same order.
     fit : FitResult or None
-        The combined model fitted to all tests of the group: parameters ± σ (Eq. 3).
+        The combined model fitted to all tests of the group: parameters ± Eq. 4's σ (Eq. 3);
+        printed and in JSON with the test-level σ (:func:`~.testlevel.quoted_sigma`).
     test_level : TestLevel or None
         Test-level σ of ``fit`` (cluster-robust over tests, :mod:`.testlevel`).
     caveats : tuple of str

@@ -29,7 +29,7 @@ import numpy as np
 from ..identification.bootstrap import MIN_TESTS
 from ..identification.result import DISAGREEMENT
 
-__all__ = ["TestLevel", "scatter_caveat", "test_level"]
+__all__ = ["TestLevel", "eq4_reason", "quoted_sigma", "scatter_caveat", "test_level"]
 
 # A test's influence on a parameter below this share of the largest test's is rounding
 # (the score of a test that alone sets a parameter is zero at the optimum, up to the fit's
@@ -132,6 +132,33 @@ def _resting_on_one(jac: np.ndarray, idx: np.ndarray, n_tests: int) -> np.ndarra
     eig, vecs = np.linalg.eigh((gram - own) / np.outer(scale, scale))  # one per test left out
     null = eig < _NULL_TOL * eig[:, -1:]  # (tests, directions)
     return ((np.abs(vecs) > 0.1) & null[:, None, :]).any(axis=(0, 2))
+
+
+def quoted_sigma(fit, level: TestLevel | None) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """The σ to print of each parameter of ``fit`` (issue #36, docs/conventions.md):
+    ``(stderr, stderr_eq4, stderr_level)`` per parameter, in the fit's order.
+
+    ``stderr`` is the test-level σ (``level.stderr``) where five tests or more inform the
+    parameter (``MIN_TESTS``, as identify decides per fit) and the σ could be formed —
+    ``stderr_level`` ``"tests"`` — and Eq. 4's σ otherwise (``"eq4"``: fewer than five tests
+    inform it, one test alone sets it, or no test-level σ exists for the model, e.g.
+    Reece's): there the scatter between tests could not be measured."""
+    eq4 = np.asarray(fit.stderr_values, float)
+    tests = np.zeros(eq4.size, bool)
+    if level is not None:
+        st = np.asarray(level.stderr, float)
+        tests = np.isfinite(st) & (np.asarray(level.informed_by) >= MIN_TESTS)
+    stderr = np.where(tests, level.stderr if level is not None else eq4, eq4)
+    return stderr, eq4, ["tests" if t else "eq4" for t in tests]
+
+
+def eq4_reason(level: TestLevel | None, j: int) -> str:
+    """Why parameter ``j`` carries Eq. 4's σ (``quoted_sigma`` gave ``"eq4"``), in words."""
+    if level is None:
+        return "no test-level σ for this model"
+    if not np.isfinite(level.stderr[j]):
+        return "one test alone sets it"
+    return f"{level.informed_by[j]} tests inform it, fewer than five"
 
 
 def scatter_caveat(fit, level: TestLevel | None) -> str | None:

@@ -1,16 +1,24 @@
 """The PDF report of a discovery, typeset: what the model gets wrong, the cause, the gain.
 
-Page 1 answers in sentences (causes, kept extensions and their held-out gain, the combined
-model, what the data cannot tell). Then: methods; one section per finding (its evidence, a
-figure of the misfit per test and on the curves, the extended parameters ± σ, what else was
-tried, caveats); the combined model per kind and soil; physical red flags; candidates lined
-up with data-quality artefacts; what the design could not detect (power); the data-quality
-screening; every column's role; confounded candidates; notes; provenance. Everything the
+Of publishable length (issue #36: at most 12 pages on every bundled campaign). The main body
+says the conclusion, shows the evidence in figures and short tables, and ends: page 1
+answers (one short table of the findings, the combined models and what else the reader must
+know); then the findings as a grid of figures (per finding its per-test deviations against
+the cause and one measured curve per level with both models; titles state the effect and
+the gain), the combined model per kind and soil with its parameters (value ± the test-level
+σ, Eq. 4's in brackets), the red flags and data problems, and the methods. Every exhaustive
+list goes to ONE appendix table in small print: the statistics of each finding, the
+parameters of each finding's extension, every extension tried, the selection steps, the
+caveats (each printed once), what the design could not detect, the screening, the columns,
+the confounded candidates (aliases in one line each), and the notes. Everything the
 discovery JSON holds is in the PDF. Reads a :class:`DiscoveryResult` only.
 """
 
 from __future__ import annotations
 
+import math
+import re
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -20,30 +28,39 @@ from matplotlib.figure import Figure
 from .._text import plural
 from ..discovery.candidates import candidate_values
 from ..discovery.result import METHOD_NOTES
-from .document import Document, strong
+from .document import GRID_STYLE, Document, strong
 from .files import output_path
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
-from .parameters import fit_table
+from .parameters import EQ4_NOTE, fit_rows, fit_table
 
 __all__ = ["write_report"]
 
-_RESPONSES = {
-    "level": "level (ln of the test's pressure over the base model's)",
-    "shape": "shape (the test's exponent n minus the base n)",
-    "K": "K (ln of the test's shear modulus over the base K)",
-}
+#: Findings per figure (two per row: deviations and curves side by side).
+_PER_FIGURE = 8
+#: Levels drawn in a finding's curve panel (spread over its sorted levels).
+_CURVES = 4
+#: Above this many distinct values a numeric cause is drawn on its own axis, with a trend.
+_MAX_LEVELS = 12
+
+_SIGMA_NOTE = (
+    f"{EQ4_NOTE} In discovery the test-level σ is the bootstrap's linearised form, "
+    "cluster-robust over tests and judged per parameter (docs/discover.md §4a): † where fewer "
+    "than five tests inform the parameter or one test alone sets it — there the scatter "
+    "between tests could not be measured; * where it exceeds Eq. 4's by more than 2× "
+    "(TEST-SCATTER)."
+)
 
 
 def _shows_in(f) -> str:
     """The responses in physical words: level → stiffness (or shear strength), shape → n."""
     words = {
-        "level": "the stiffness (pressure level)" if f.kind == "sinkage" else "the shear strength",
-        "shape": "the exponent n",
-        "K": "the shear modulus K",
+        "level": "stiffness" if f.kind == "sinkage" else "shear strength",
+        "shape": "exponent n",
+        "K": "shear modulus K",
     }
-    return " and ".join(words.get(r, r) for r in f.responses)
+    return ", ".join(words.get(r, r) for r in f.responses)
 
 
 def _gain_words(g) -> str:
@@ -60,6 +77,13 @@ def _all_groups_words(g) -> str:
     )
 
 
+def _group(record) -> str:
+    return f"{record['kind']} / {record['soil']}"
+
+
+# -- page 1 ---------------------------------------------------------------------------------
+
+
 def _conclusion(result, all_groups) -> list:
     out: list = []
     n_tests = result.tests_run
@@ -68,193 +92,275 @@ def _conclusion(result, all_groups) -> list:
             [
                 strong("No cause found. "),
                 f"No candidate passes its test at α = {result.alpha:g} (Holm over {n_tests} "
-                "tests). Silence is not proof of no effect: the section on power gives the "
-                f"smallest effect the design would have found for each of the {len(result.power)} "
+                "tests). Silence is not proof of no effect: the appendix gives the smallest "
+                f"effect the design would have found for each of the {len(result.power)} "
                 "candidates not found.",
             ]
         )
-    for i, f in enumerate(result.findings, 1):
-        conf = f" (confounded with {', '.join(f.confounded_with)})" if f.confounded_with else ""
-        parts: list = [
-            strong(f"[{i}] {f.kind} / {f.soil}: "),
-            f"{_shows_in(f)} change{'' if len(f.responses) > 1 else 's'} with "
-            f"{column_label(f.cause)}{conf}"
-            f" (F = {f.statistic:.3g}, Holm-adjusted p = "
-            f"{f.p_adjusted:.2g}, {f.n_tests} tests). ",
-        ]
-        if f.extension and f.gain is not None:
-            parts.append(f"Kept extension: {f.extension}, gain {_gain_words(f.gain)}.")
-        else:
-            parts.append("No extension was kept (none gained on held-out tests and was plausible).")
-        if f.caveats:
-            parts.append(f" {len(f.caveats)} caveat(s) below.")
-        out.append(parts)
-    for m in result.models:
-        if m.extensions and m.gain is not None:
-            out.append(
-                [
-                    strong(f"Combined model, {m.kind} / {m.soil}: "),
-                    " + ".join(m.extensions),
-                    f", gain {_gain_words(m.gain)}.",
-                ]
-            )
-    if all_groups is not None:
-        out.append(_all_groups_words(all_groups))
-    if result.artefacts:
+    else:
+        kept = sum(f.extension is not None and f.gain is not None for f in result.findings)
+        groups = len({(f.kind, f.soil) for f in result.findings})
         out.append(
+            [
+                strong(
+                    f"{plural(len(result.findings), 'cause')} of misfit in "
+                    f"{plural(groups, 'group')}: "
+                ),
+                f"each passes its F-test at α = {result.alpha:g} (Holm over {n_tests} tests); "
+                f"{kept} keep an extension that predicts held-out tests better (Table 1; "
+                "the evidence in the figures of the next pages).",
+            ]
+        )
+    extended = [m for m in result.models if m.extensions and m.gain is not None]
+    if extended:
+        parts: list = [strong("Combined model: ")]
+        parts.append(
+            "; ".join(
+                f"{m.kind} / {m.soil}: {' + '.join(m.extensions)} "
+                f"({m.gain.relative:+.1%} in held-out error, {m.gain.n_tests} tests)"
+                for m in extended
+            )
+            + ". "
+        )
+        if all_groups is not None:
+            parts.append(_all_groups_words(all_groups))
+        out.append(parts)
+    said = []
+    caveats = sum(len(f.caveats) for f in result.findings)
+    if caveats:
+        said.append(f"{plural(caveats, 'caveat')} on the findings (appendix)")
+    if result.flags:
+        said.append(f"{len(result.flags)} physical red flag(s) on the fits")
+    if result.artefacts:
+        said.append(
             f"{len(result.artefacts)} significant candidate(s) line up with data-quality "
-            "artefacts and are reported as data problems, never as causes."
+            "artefacts: data problems, never causes"
         )
     q = result.quality or {}
     if q.get("tests"):
-        out.append(
-            f"Data quality: {len(q['tests'])} test(s) carry screening codes "
+        said.append(
+            f"{len(q['tests'])} test(s) carry screening codes "
             f"({', '.join(f'{c} in {n}' for c, n in q['counts'].items())}); "
-            f"{q['excluded_samples']} samples were left out of every fit."
+            f"{q['excluded_samples']} samples were left out of every fit"
         )
-    if result.flags:
-        out.append(f"{len(result.flags)} physical red flag(s) on the fits (section below).")
+    if result.untested:
+        said.append(f"{plural(len(result.untested), 'group')} could not be tested (notes)")
+    if said:
+        out.append([strong("Also: "), "; ".join(said) + "."])
     return out
 
 
-def _finding_figure(f) -> Figure | None:
-    """Per-test deviations against the cause, and one test per level with both models."""
-    g, rows = f.group, f.scope_rows
-    if g is None or rows is None:
+def _findings_table(doc: Document, result) -> None:
+    rows = [
+        {
+            "#": f"[{i}]",
+            "group": _group({"kind": f.kind, "soil": f.soil}),
+            "cause": f.cause
+            + (f" (confounded with {', '.join(f.confounded_with)})" if f.confounded_with else ""),
+            "shows in": _shows_in(f),
+            "Holm p": f.p_adjusted,
+            "tests": f.n_tests,
+            "extension kept": f.extension or "none",
+            "gain": f.gain.relative if f.extension and f.gain is not None else None,
+        }
+        for i, f in enumerate(result.findings, 1)
+    ]
+    doc.table(
+        pd.DataFrame(rows),
+        caption="The causes found, strongest first: where the per-test responses change with "
+        "the cause, and the extension kept with its gain in held-out error (tests left out, "
+        "the cause fixed).",
+        formats={"Holm p": ".2g", "gain": "+.1%", "tests": ".0f"},
+        align_numbers=False,
+        widths=["auto", "auto", "1fr", "auto", "auto", "auto", "1fr", "auto"],
+    )
+
+
+# -- the findings' figures ------------------------------------------------------------------
+
+
+def _numeric(labels: list[str]) -> list[float] | None:
+    try:
+        return [float(v) for v in labels]
+    except ValueError:
         return None
-    fig = Figure(figsize=(6.5, 6.2), layout="constrained")
-    ax1, ax2 = fig.subplots(2, 1, height_ratios=(1, 1.3))
+
+
+def _response_words(f, response: str) -> str:
+    if response == "level":
+        return "pressure" if f.kind == "sinkage" else "shear strength"
+    return {"shape": "n", "K": "K"}.get(response, response)
+
+
+def _change(f, response: str, delta: float) -> str:
+    """A change of the per-test response in physical words: a factor on the log responses
+    (level, K), a difference in n (shape)."""
+    if response == "shape":
+        return f"{_response_words(f, response)} {delta:+.2g}"
+    return f"{_response_words(f, response)} ×{math.exp(delta):.2g}"
+
+
+def _short(text: str, n: int = 14) -> str:
+    return text if len(text) <= n else text[: n - 1] + "…"
+
+
+def _deviation_panel(ax, f) -> str:
+    """Each test's deviation against the cause (means per level, or a trend on a numeric
+    cause of many values); returns the effect in words, for the title."""
+    g, rows = f.group, f.scope_rows
     response = f.responses[0] if f.responses else "level"
     dev = g.tests[f"_dev_{response}"].to_numpy(float)[rows]
     values = candidate_values(g.tests, f.cause).to_numpy()[rows]
     labels = natural_sorted({str(v) for v in values})
-    pos = {lv: i for i, lv in enumerate(labels)}
-    xs = np.array([pos[str(v)] for v in values], float)
-    jitter = np.random.default_rng(0).uniform(-0.15, 0.15, xs.size)  # display only
-    ax1.scatter(xs + jitter, dev, s=12, alpha=0.7)
-    for i in pos.values():
-        m = dev[xs == i]
-        if m.size:
-            ax1.hlines(np.nanmean(m), i - 0.3, i + 0.3, color="k")
-    ax1.axhline(0, color="0.6", lw=0.8)
-    ax1.set_xticks(range(len(labels)), labels, fontsize=7, rotation=30 if len(labels) > 6 else 0)
-    ax1.set_xlabel(column_label(f.cause))
-    ax1.set_ylabel(f"deviation in {response}")
-    if f.base_fitted is not None and f.fitted is not None:
-        colours = [f"C{i}" for i in range(10)]
-        for colour, lv in zip(colours, labels[:8], strict=False):
-            pick = rows[[str(v) == lv for v in values]]
-            if not pick.size:
-                continue
-            one = pick[:1]
-            mask = g.samples_of(one)
-            xk = "z" if g.kind == "sinkage" else "j"
-            x = g.x[xk][mask]
-            order = np.argsort(x)
-            ax2.plot(x[order] * 1e3, g.y[mask][order] / 1e3, ".", ms=2, color=colour, label=f"{lv}")
-            yb = f.base_fitted.extension.predict(f.base_fitted, g, one)
-            ye = f.fitted.extension.predict(f.fitted, g, one)
-            ax2.plot(x[order] * 1e3, yb[order] / 1e3, "--", color=colour, lw=0.9)
-            ax2.plot(x[order] * 1e3, ye[order] / 1e3, "-", color=colour, lw=1.2)
-        ax2.set_xlabel("sinkage z (mm)" if g.kind == "sinkage" else "shear displacement j (mm)")
-        ax2.set_ylabel("pressure p (kPa)" if g.kind == "sinkage" else "shear stress τ (kPa)")
-        ax2.legend(title=column_label(f.cause), fontsize=7, title_fontsize=7, ncol=2)
+    numbers = _numeric(labels)
+    if numbers is not None and len(labels) > _MAX_LEVELS:
+        x = values.astype(float)
+        ax.scatter(x, dev, s=4, alpha=0.6)
+        ok = np.isfinite(x) & np.isfinite(dev)
+        slope, icept = np.polyfit(x[ok], dev[ok], 1)
+        span = np.array([x[ok].min(), x[ok].max()])
+        ax.plot(span, icept + slope * span, color="k", lw=0.9)
+        effect = f"{_change(f, response, slope * (span[1] - span[0]))} over its range"
     else:
-        ax2.text(0.5, 0.5, "no extended model could be fitted", ha="center")
-        ax2.set_axis_off()
+        xs = np.array([labels.index(str(v)) for v in values], float)
+        jitter = np.random.default_rng(0).uniform(-0.15, 0.15, xs.size)  # display only
+        ax.scatter(xs + jitter, dev, s=4, alpha=0.6)
+        means = np.array(
+            [np.nanmean(dev[xs == k]) if (xs == k).any() else np.nan for k in range(len(labels))]
+        )
+        for k, m in enumerate(means):
+            if np.isfinite(m):
+                ax.hlines(m, k - 0.3, k + 0.3, color="k", lw=1.1)
+        many = len(labels) > 4 or sum(map(len, labels)) > 24
+        ax.set_xticks(
+            range(len(labels)),
+            [_short(lv, 10) for lv in labels],
+            rotation=40 if many else 0,
+            ha="right" if many else "center",
+            rotation_mode="anchor",
+        )
+        if numbers is not None and len(labels) > 1:
+            effect = (
+                f"{_change(f, response, means[-1] - means[0])} from {labels[0]} to {labels[-1]}"
+            )
+        else:
+            spread = float(np.nanmax(means) - np.nanmin(means))
+            effect = f"{_change(f, response, spread)} between its {len(labels)} levels"
+    ax.axhline(0, color="0.6", lw=0.6)
+    ax.set_xlabel(_short(column_label(f.cause), 44))
+    ax.set_ylabel(f"deviation in {response}")
+    return effect
+
+
+def _curve_panel(ax, f) -> str:
+    """One test per level (at most four, spread over the levels): measured samples, base
+    model (dashed), extension (solid); returns the gain in words, for the title."""
+    g, rows = f.group, f.scope_rows
+    name = f.extension or "no extension kept"
+    gain = (
+        f"held-out error {f.gain.base:.3f} → {f.gain.extended:.3f} ({f.gain.relative:+.0%})"
+        if f.gain is not None
+        else "no held-out gain measured"
+    )
+    if f.base_fitted is None or f.fitted is None:
+        ax.text(
+            0.5,
+            0.5,
+            "no extended model\ncould be fitted",
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+        )
+        ax.set_axis_off()
+        return f"{name}: {gain}"
+    values = candidate_values(g.tests, f.cause).to_numpy()[rows]
+    labels = natural_sorted({str(v) for v in values})
+    if len(labels) > _CURVES:
+        labels = [labels[k] for k in np.linspace(0, len(labels) - 1, _CURVES).round().astype(int)]
+    xk = "z" if g.kind == "sinkage" else "j"
+    for k, lv in enumerate(labels):
+        pick = rows[[str(v) == lv for v in values]]
+        if not pick.size:
+            continue
+        one, colour = pick[:1], f"C{k}"
+        mask = g.samples_of(one)
+        x = g.x[xk][mask]
+        order = np.argsort(x)
+        ax.plot(x[order] * 1e3, g.y[mask][order] / 1e3, ".", ms=1.5, color=colour, label=_short(lv))
+        yb = f.base_fitted.extension.predict(f.base_fitted, g, one)
+        ye = f.fitted.extension.predict(f.fitted, g, one)
+        ax.plot(x[order] * 1e3, yb[order] / 1e3, "--", color=colour, lw=0.8)
+        ax.plot(x[order] * 1e3, ye[order] / 1e3, "-", color=colour, lw=1.1)
+    ax.set_xlabel("sinkage z (mm)" if g.kind == "sinkage" else "shear displacement j (mm)")
+    ax.set_ylabel("p (kPa)" if g.kind == "sinkage" else "τ (kPa)")
+    ax.legend(ncol=2, frameon=False, handletextpad=0.2, columnspacing=0.6, markerscale=3)
+    return f"{name}: {gain}"
+
+
+def _findings_figure(numbered: list[tuple[int, object]]) -> Figure:
+    """A grid of findings, two per row: each its deviation and curve panels under a title
+    that states the effect and the gain."""
+    import matplotlib as mpl
+
+    per_row = 2 if len(numbered) > 1 else 1
+    rows = math.ceil(len(numbered) / per_row)
+    with mpl.rc_context(GRID_STYLE):
+        fig = Figure(figsize=(6.7, 2.1 * rows + (0.5 if rows == 1 else 0)), layout="constrained")
+        subs = np.atleast_1d(fig.subfigures(rows, per_row, wspace=0.03, hspace=0.02)).ravel()
+        for k, sub in enumerate(subs):
+            if k >= len(numbered):
+                continue
+            i, f = numbered[k]
+            ax1, ax2 = sub.subplots(1, 2)
+            effect = _deviation_panel(ax1, f)
+            gain = _curve_panel(ax2, f)
+            head = f"[{i}] {f.kind} / {f.soil}, {_short(f.cause, 30)}: {effect}"
+            title = "\n".join(textwrap.wrap(head, 58) + textwrap.wrap(gain, 58))
+            sub.suptitle(title, x=0.02, ha="left")
+        fig.canvas.draw()  # lay out under the style's fonts before the rc context ends
     return fig
 
 
-def _finding_section(doc: Document, i: int, f) -> None:
-    doc.heading(f"[{i}] {f.kind} / {f.soil}: {f.cause}", level=2)
-    rows = [
-        ("cause", f"{f.cause} ({column_label(f.cause)})"),
-        ("confounded with", ", ".join(f.confounded_with) or "nothing"),
-        ("shows in", "; ".join(_RESPONSES.get(r, r) for r in f.responses)),
-        (
-            "test",
-            f"F = {f.statistic:.4g}, partial η² = {f.effect_size:.3f}, p = "
-            f"{f.p_value:.3g}, Holm-adjusted p = {f.p_adjusted:.3g}, {f.n_tests} tests",
-        ),
-        ("extension kept", f.extension or "none"),
-    ]
-    if f.gain is not None:
-        g = f.gain
-        rows.append(
-            (
-                "gain (tests left out, cause fixed)",
-                f"{_gain_words(g)}; paired difference "
-                f"{g.difference:.3g} ± {g.stderr:.2g} ({g.z:.1f} SE); real: {g.real}",
+def _findings_section(doc: Document, result) -> None:
+    doc.heading("Findings")
+    if not result.findings:
+        doc.paragraph(result.no_finding_text())
+    drawn = [(i, f) for i, f in enumerate(result.findings, 1) if f.group is not None]
+    drawn = [(i, f) for i, f in drawn if f.scope_rows is not None]
+    if drawn:
+        for k in range(math.ceil(len(drawn) / _PER_FIGURE)):
+            chunk = drawn[k * _PER_FIGURE : (k + 1) * _PER_FIGURE]
+            which = (
+                f"Finding {chunk[0][0]}"
+                if len(chunk) == 1
+                else f"Findings {chunk[0][0]}–{chunk[-1][0]}"
             )
-        )
-    if f.gain_search is not None:
-        g = f.gain_search
-        rows.append(
-            (
-                "gain of the whole search",
-                f"{g.relative:+.1%} when each fold re-selects the lead on its training tests "
-                f"(chosen in {g.selected_folds} of {g.folds} folds; reported, not deciding)",
+            if k:
+                doc.figure(_findings_figure(chunk), f"{which}, drawn as in the figure before.")
+                continue
+            doc.figure(
+                _findings_figure(chunk),
+                f"{which}: each title states the effect (from the level means: a factor on "
+                "pressure, strength or K, a difference in n) and the held-out error of the base "
+                "model and of the extension (tests left out, the cause fixed). Left: each test's "
+                "deviation from the base model in the response named on the axis, against the "
+                "cause (black bars: level means; a line: the trend of a numeric cause of many "
+                "values). Right: one test per level (at most four, spread over the levels): "
+                "measured samples (dots), base model (dashed), extension (solid).",
             )
+    if result.explained:
+        doc.paragraph(
+            strong("Explained by a stronger finding: "),
+            "; ".join(
+                f"{e['kind']} / {e['soil']}: {e['candidate']} (by {e['by']}; p after = "
+                f"{e['p_after']:.3g})"
+                for e in result.explained
+            )
+            + ".",
         )
-    if f.gain_conditions is not None:
-        g = f.gain_conditions
-        rows.append(("gain (conditions left out)", f"{_gain_words(g)}; real: {g.real}"))
-    for key, value in f.information.items():
-        rows.append((key.replace("_", " "), f"{value:.6g}" if isinstance(value, float) else value))
-    doc.key_values(rows)
-    fig = _finding_figure(f)
-    if fig is not None:
-        doc.figure(
-            fig,
-            f"{f.kind} / {f.soil}, cause {f.cause}. Top: each test's deviation in "
-            f"{f.responses[0] if f.responses else 'level'} from the base model (black bars: "
-            "level means) — the structure the base model leaves. Bottom: one test per level "
-            "(at most eight): measured samples (dots), base model (dashed) and "
-            f"{f.extension or 'extension'} (solid).",
-        )
-    fit_table(doc, f.fit, f"Parameters of {f.extension} ± σ (Eqs. 3–5).", f.test_level)
-    if f.tried:
-        tried = pd.DataFrame(
-            [
-                {
-                    "extension": t.get("extension"),
-                    "description": t.get("description", ""),
-                    "gain": t.get("relative"),
-                    "search": t.get("relative_search"),
-                    "real": t.get("real"),
-                    "physical": t.get("physical"),
-                    "outcome": t.get("error")
-                    or (
-                        "kept" if t.get("extension") == f.extension else t.get("reason", "not kept")
-                    ),
-                }
-                for t in f.tried
-            ]
-        )
-        doc.table(
-            tried,
-            caption="Every extension tried for this cause: its gain with the cause fixed "
-            "(deciding) and that of the whole search (each fold re-selecting the lead).",
-            formats={"gain": "+.1%", "search": "+.1%"},
-        )
-    if f.caveats:
-        doc.paragraph(strong("Caveats:"))
-        doc.bullets(f.caveats)
 
 
-def _record_table(doc: Document, records, columns, caption, labels=None) -> None:
-    frame = pd.DataFrame([{c: r.get(c) for c in columns} for r in records])
-    if not frame.empty:
-        doc.table(frame, caption=caption, labels=labels, align_numbers=False)
-
-
-def _record_section(doc: Document, title, records, columns, caption, *, empty, labels=None):
-    """A section of records as a table, or the sentence ``empty`` when there are none."""
-    doc.heading(title)
-    if records:
-        _record_table(doc, records, columns, caption, labels)
-    else:
-        doc.paragraph(empty)
+# -- combined model, red flags --------------------------------------------------------------
 
 
 def _model_section(doc: Document, result, all_groups) -> None:
@@ -264,118 +370,484 @@ def _model_section(doc: Document, result, all_groups) -> None:
         return
     doc.paragraph(
         "Forward selection over each finding's best plausible extension, on all tests of each "
-        "kind and soil with one fold set for every step: an extension is added only on a real "
-        "cross-validated gain over the model before it, and only if the combined fit is "
-        "physically plausible and its parameters are determined."
+        "kind and soil with one fold set for every step (steps: appendix): an extension is "
+        "added only on a real cross-validated gain over the model before it, and only if the "
+        "combined fit is physically plausible and its parameters are determined."
     )
-    for m in result.models:
-        doc.heading(f"{m.kind} / {m.soil}", level=2)
-        if not m.extensions:
-            doc.paragraph("Base model: no extension adds a real gain on all tests.")
-        else:
-            doc.paragraph(
-                " + ".join(m.extensions),
-                f" (causes: {', '.join(m.causes)}); gain ",
-                _gain_words(m.gain) if m.gain is not None else "not measured",
-                ".",
-            )
-        fit_table(doc, m.fit, f"{m.kind} / {m.soil}: combined model parameters ± σ.", m.test_level)
-        if m.caveats:
-            doc.paragraph(strong("Caveats:"))
-            doc.bullets(m.caveats)
-        if m.steps:
-            steps = pd.DataFrame(
-                [
-                    {
-                        "extension": s["extension"],
-                        "cause": s.get("cause"),
-                        "added": s["added"],
-                        "gain": s.get("relative"),
-                        "reason": s["reason"],
-                    }
-                    for s in m.steps
-                ]
-            )
-            doc.table(steps, caption="Selection steps, in order.", formats={"gain": "+.1%"})
+    doc.note(f"In the parameter tables: {_SIGMA_NOTE}")
+    with doc.columns(2):
+        for m in result.models:
+            _model_table(doc, m)
     if all_groups is not None:
         doc.paragraph(_all_groups_words(all_groups))
 
 
-def _power_section(doc: Document, result) -> None:
-    doc.heading("What the design could not detect")
+def _model_table(doc: Document, m) -> None:
+    """One combined model: its parameters, the caption naming its extensions and gain."""
+    if not m.extensions:
+        doc.paragraph(
+            strong(f"{m.kind} / {m.soil}: "),
+            "base model: no extension adds a real gain on all tests.",
+        )
+        return
+    gain = _gain_words(m.gain) if m.gain is not None else "not measured"
+    caption = (
+        f"{m.kind} / {m.soil}: {' + '.join(m.extensions)} (causes: {', '.join(m.causes)}); "
+        f"gain {gain}."
+    )
+    if m.fit is None:
+        doc.paragraph(caption)
+    fit_table(doc, m.fit, caption, m.test_level, units="name", widths=["1fr", "auto"])
+
+
+def _problems_section(doc: Document, result) -> None:
+    doc.heading("Red flags and data quality")
+    if result.flags:
+        doc.table(
+            pd.DataFrame(
+                [
+                    {"group": _group(f), **{k: f[k] for k in ("scope", "code", "message")}}
+                    for f in result.flags
+                ]
+            ),
+            caption="Physical red flags on the fits (docs/identification.md, health flags): "
+            "not findings.",
+            align_numbers=False,
+            widths=["auto", "auto", "auto", "1fr"],
+        )
+    else:
+        doc.paragraph("No red flags on the fits.")
+    if result.artefacts:
+        doc.table(
+            pd.DataFrame(
+                [
+                    {
+                        "group": _group(a),
+                        "candidate": a["candidate"],
+                        "p (Holm)": a["p_adjusted"],
+                        "reason": a["reason"],
+                    }
+                    for a in result.artefacts
+                ]
+            ),
+            caption="Significant candidates whose levels line up with artefact flags: data "
+            "problems, not causes.",
+            formats={"p (Holm)": ".3g"},
+            align_numbers=False,
+            widths=["auto", "auto", "auto", "1fr"],
+        )
+    else:
+        doc.paragraph("No significant candidate lines up with data-quality artefacts.")
+    q = result.quality
+    if not q:
+        doc.paragraph("Data quality: no screening record.")
+    elif q["mode"] == "off":
+        doc.paragraph("Data quality: screening was off, nothing was checked.")
+    else:
+        counts = (
+            ", ".join(f"{c} in {plural(n, 'test')}" for c, n in q["counts"].items())
+            or "no findings"
+        )
+        doc.paragraph(
+            f"Data quality: screening in {q['mode']} mode (docs/quality.md: what each code "
+            f"means and what to do): {counts}; {q['excluded_samples']} samples left out of "
+            "every fit (the tests: appendix). These are data problems, never causes."
+        )
+
+
+# -- appendix -------------------------------------------------------------------------------
+
+
+def _small_table(doc: Document, frame: pd.DataFrame, caption: str, widths, **kw) -> None:
+    doc.table(frame, caption=caption, small=True, align_numbers=False, widths=widths, **kw)
+
+
+def _gain_cell(g, name: str) -> str:
+    if g is None:
+        return ""
+    if g.selected_folds is not None and name == "whole search":
+        return f"{name}: {g.relative:+.1%} (lead chosen in {g.selected_folds} of {g.folds} folds)"
+    return (
+        f"{name}: {g.relative:+.1%} ({g.base:.4f} → {g.extended:.4f}; paired difference "
+        f"{g.difference:.3g} ± {g.stderr:.2g}, {g.z:.1f} SE; real: {g.real}; {g.scheme} CV, "
+        f"{g.folds} folds, {g.n_tests} tests)"
+    )
+
+
+def _statistics_appendix(doc: Document, result) -> None:
+    rows = []
+    for i, f in enumerate(result.findings, 1):
+        gains = [
+            _gain_cell(f.gain, "cause fixed"),
+            _gain_cell(f.gain_search, "whole search"),
+            _gain_cell(f.gain_conditions, "conditions left out"),
+        ]
+        rows.append(
+            {
+                "#": f"[{i}]",
+                "test": f"F = {f.statistic:.4g}, partial η² = {f.effect_size:.3f}, p = "
+                f"{f.p_value:.3g}, Holm p = {f.p_adjusted:.3g}; shows in "
+                + ", ".join(f.responses)
+                + f"; {_information(f.information)}",
+                "gain in held-out error": "; ".join(g for g in gains if g) or "–",
+            }
+        )
+    _small_table(
+        doc,
+        pd.DataFrame(rows),
+        "Each finding's test (responses as defined in the methods) and gains: the gain with the "
+        "cause fixed (tests left out) decides "
+        "what is kept; that of the whole search (each fold re-selecting the lead) and with "
+        "whole conditions left out are reported beside it; AIC/BIC treat samples as "
+        "independent.",
+        ["auto", "30%", "1fr"],
+    )
+
+
+def _information(info: dict) -> str:
+    """AIC and BIC of the base and the extended fit: ``AIC a → b; BIC c → d``."""
+    parts, keys = [], list(info)
+    for name in ("aic", "bic"):
+        base, ext = f"{name}_base", f"{name}_extended"
+        if base in info and ext in info:
+            parts.append(f"{name.upper()} {info[base]:.6g} → {info[ext]:.6g}")
+            keys = [k for k in keys if k not in (base, ext)]
+    parts += [
+        f"{k.replace('_', ' ')} {info[k]:.6g}" if isinstance(info[k], float) else f"{k} {info[k]}"
+        for k in keys
+    ]
+    return "; ".join(parts) or "–"
+
+
+def _same_fit(a, b) -> bool:
+    """Whether two fits are one: the same parameters at the same values (a finding whose
+    extension alone makes its group's combined model, fitted to the same tests)."""
+    if a is None or b is None or tuple(a.param_names) != tuple(b.param_names):
+        return False
+    return bool(np.allclose(a.values, b.values, rtol=1e-12, atol=0, equal_nan=True))
+
+
+def _parameters_appendix(doc: Document, result) -> None:
+    rows = []
+    for i, f in enumerate(result.findings, 1):
+        same = [m for m in result.models if _same_fit(f.fit, m.fit)]
+        if same:
+            m = same[0]
+            rows.append(
+                {
+                    "finding": f"[{i}] {f.extension}",
+                    "parameter": f"the combined model of {m.kind} / {m.soil} (its table above)",
+                    "value ± σ": "",
+                }
+            )
+            continue
+        rows += [
+            {"finding": f"[{i}] {f.extension}", **r}
+            for r in fit_rows(f.fit, f.test_level, units="name")
+        ]
+    if rows:
+        with doc.columns(2):
+            _small_table(
+                doc,
+                pd.DataFrame(rows),
+                "Parameters of each finding's extension, fitted to the tests in its scope "
+                "(value ± σ as in the combined model's tables); a fit that is its group's "
+                "combined model is printed there.",
+                ["1fr", "auto"],
+                sections="finding",
+            )
+
+
+def _tried_appendix(doc: Document, result) -> None:
+    said: set = set()
+
+    def described(t) -> str:
+        """An extension's description the first time it is tried, then a pointer to it."""
+        text = t.get("description", "")
+        key = (t.get("extension"), text)
+        if key in said and text:
+            return "as above"
+        said.add(key)
+        return text
+
+    rows = [
+        {
+            "finding": f"[{i}]",
+            "extension": t.get("extension"),
+            "description": described(t),
+            "gain": t.get("relative"),
+            "search": t.get("relative_search"),
+            "real": t.get("real"),
+            "physical": t.get("physical"),
+            "outcome": t.get("error")
+            or ("kept" if t.get("extension") == f.extension else t.get("reason", "not kept")),
+        }
+        for i, f in enumerate(result.findings, 1)
+        for t in f.tried
+    ]
+    if rows:
+        _small_table(
+            doc,
+            pd.DataFrame(rows),
+            "Every extension tried per finding: its gain with the cause fixed (deciding) and "
+            "that of the whole search (each fold re-selecting the lead); an extension tried "
+            "again is described where it first appears.",
+            ["auto", "20%", "1fr", "auto", "auto", "auto", "auto", "20%"],
+            formats={"gain": "+.1%", "search": "+.1%"},
+        )
+
+
+def _steps_appendix(doc: Document, result) -> None:
+    rows = [
+        {
+            "group": f"{m.kind} / {m.soil}",
+            "extension": s["extension"],
+            "cause": s.get("cause"),
+            "added": s["added"],
+            "gain": s.get("relative"),
+            "reason": s["reason"],
+        }
+        for m in result.models
+        for s in m.steps
+    ]
+    if rows:
+        _small_table(
+            doc,
+            pd.DataFrame(rows),
+            "The combined models' selection steps, in order per group; gain over the model "
+            "before the step.",
+            ["auto", "22%", "auto", "auto", "auto", "1fr"],
+            formats={"gain": "+.1%"},
+        )
+
+
+def _common_start(texts: list[str]) -> str:
+    first = min(texts)
+    last = max(texts)
+    k = next((k for k, (a, b) in enumerate(zip(first, last, strict=False)) if a != b), None)
+    return first if k is None else first[:k]
+
+
+def _shared_text(texts: list[str]) -> tuple[str, str]:
+    """The beginning (up to a ": ") and the end (from a ". ") that all ``texts`` share."""
+    head = _common_start(texts)
+    head = head[: head.rfind(": ") + 2] if ": " in head else ""
+    tail = _common_start([t[::-1] for t in texts])[::-1]
+    tail = tail[tail.find(". ") :] if ". " in tail else ""
+    if any(len(head) + len(tail) > len(t) for t in texts):
+        return head, ""
+    return head, tail
+
+
+def _caveats_appendix(doc: Document, result) -> None:
+    """Every caveat once, with what it is on; caveats of one code (``TEST-SCATTER: …``)
+    that share their wording print it once, in the row before them, and their own part."""
+    owners: dict[str, list[str]] = {}
+    for i, f in enumerate(result.findings, 1):
+        for c in f.caveats:
+            owners.setdefault(c, []).append(f"[{i}]")
+    for m in result.models:
+        for c in m.caveats:
+            owners.setdefault(c, []).append(f"model {m.kind} / {m.soil}")
+    if not owners:
+        return
+    codes: dict[str, list[str]] = {}
+    for c in owners:
+        code = re.match(r"([A-Z][A-Z-]+): ", c)
+        codes.setdefault(code.group(1) if code else c, []).append(c)
+    rows = []
+    for code, texts in codes.items():
+        head, tail = _shared_text(texts) if len(texts) > 1 else ("", "")
+        if len(head) + len(tail) <= len(code) + 2:
+            rows += [{"of": ", ".join(dict.fromkeys(owners[c])), "caveat": c} for c in texts]
+            continue
+        rows.append(
+            {
+                "of": f"{len(texts)} caveats",
+                "caveat": f"{code} caveats all read “{head}…{tail}”, … as in the rows below:",
+            }
+        )
+        rows += [
+            {
+                "of": ", ".join(dict.fromkeys(owners[c])),
+                "caveat": f"{code}: …{c[len(head) : len(c) - len(tail)]}…",
+            }
+            for c in texts
+        ]
+    _small_table(
+        doc,
+        pd.DataFrame(rows),
+        "The caveats of the findings ([number]) and of the combined models, each printed "
+        "once (the wording several share, once before them).",
+        ["auto", "1fr"],
+    )
+
+
+def _power_appendix(doc: Document, result) -> None:
     if not result.power:
         doc.paragraph("Every candidate tested was either found or not testable (see the notes).")
         return
     first = result.power[0]
-    doc.paragraph(
-        "For each candidate tested and not found: the smallest effect the design would have "
-        f"found with {first['power']:.0%} power at Holm's strictest level α/m = "
-        f"{first['alpha_level']:.2g} (noncentral F), in physical units."
-    )
-    rows = [
-        {
-            "group": f"{p['kind']} / {p['soil']}",
-            "candidate": p["candidate"],
-            "role": p["role"],
-            "tests": p["n_tests"],
-            "response": r,
-            "p": v.get("p_value"),
-            "smallest detectable effect": v["statement"],
-        }
-        for p in result.power
-        for r, v in p["responses"].items()
-    ]
-    doc.table(
-        pd.DataFrame(rows),
-        caption="Minimum detectable effects.",
-        formats={"p": ".3g"},
-        align_numbers=False,
-    )
-
-
-def _quality_section(doc: Document, result) -> None:
-    q = result.quality
-    doc.heading("Data quality")
-    if not q:
-        doc.paragraph("No screening record.")
-        return
-    if q["mode"] == "off":
-        doc.paragraph("Screening was off: nothing was checked.")
-        return
-    counts = (
-        ", ".join(f"{c} in {plural(n, 'test')}" for c, n in q["counts"].items()) or "no findings"
-    )
-    doc.paragraph(
-        f"Screening in {q['mode']} mode (docs/quality.md: what each code means and what to "
-        f"do): {counts}; {q['excluded_samples']} samples left out of every fit. These are data "
-        "problems, never causes."
-    )
-    if q["tests"]:
-        frame = pd.DataFrame(
-            [
-                {"kind": t["kind"], "test": t["test_id"], "codes": ", ".join(t["codes"])}
-                for t in q["tests"]
-            ]
+    slots = max(len(p["responses"]) for p in result.power)
+    labels = {
+        f"r{j}": " / ".join(
+            dict.fromkeys(list(p["responses"])[j] for p in result.power if len(p["responses"]) > j)
         )
-        frame = frame.iloc[
-            sorted(range(len(frame)), key=lambda i: natural_key(frame["test"].iloc[i]))
-        ]
-        doc.table(frame, caption="Tests with screening codes.")
-
-
-def _columns_section(doc: Document, result) -> None:
-    doc.heading("Columns and their roles")
-    doc.paragraph(
-        "Every varying column of the log, classified as a design factor, covariate, time/order, "
-        "outcome or bookkeeping (docs/discover.md). Outcomes — quantities the test's own result "
-        "determines — never enter as causes."
-    )
-    _record_table(
+        + " (raw p)"
+        for j in range(slots)
+    }
+    rows = []
+    for p in result.power:
+        row = {
+            "group": _group(p),
+            "candidate": f"{p['candidate']} ({p['role']}, {p['n_tests']} tests)",
+        }
+        items = list(p["responses"].values())
+        for j in range(slots):
+            v = items[j] if j < len(items) else None
+            row[f"r{j}"] = (
+                None
+                if v is None
+                else v["statement"]
+                + (f" (p {v['p_value']:.2g})" if v.get("p_value") is not None else "")
+            )
+        rows.append(row)
+    _small_table(
         doc,
-        result.columns,
-        ("kind", "soil", "column", "role", "tested", "reason"),
-        "Candidate columns per kind and soil.",
+        pd.DataFrame(rows),
+        "What the design could not detect: for each candidate tested and not found, the "
+        f"smallest effect it would have found with {first['power']:.0%} power at Holm's "
+        f"strictest level α/m = {first['alpha_level']:.2g} (noncentral F), in physical units, "
+        "per response, with the test's raw p.",
+        ["17%", *(["1fr"] * slots)],
+        labels=labels,
+        sections="group",
     )
+
+
+def _quality_appendix(doc: Document, result) -> None:
+    q = result.quality
+    if not q or not q.get("tests"):
+        return
+    groups: dict[tuple, list[str]] = {}
+    for t in q["tests"]:
+        groups.setdefault((t["kind"], ", ".join(t["codes"])), []).append(t["test_id"])
+    rows = [
+        {"kind": kind, "codes": codes, "tests": ", ".join(sorted(ids, key=natural_key))}
+        for (kind, codes), ids in sorted(groups.items())
+    ]
+    _small_table(
+        doc,
+        pd.DataFrame(rows),
+        "The tests with screening codes, by their codes (docs/quality.md).",
+        ["auto", "30%", "1fr"],
+    )
+
+
+def _columns_appendix(doc: Document, result) -> None:
+    """Every column by role: one row per role and reason, the columns of each group in it
+    (a reason is said once, not once per column)."""
+    if not result.columns:
+        return
+    order = ("design", "covariate", "time/order", "outcome", "bookkeeping")
+    rows: dict[tuple, dict[str, list[str]]] = {}
+    for c in result.columns:
+        key = (c["role"], "yes" if c.get("tested") else "no", c["reason"])
+        rows.setdefault(key, {}).setdefault(_group(c), []).append(c["column"])
+    ranked = sorted(rows, key=lambda k: (order.index(k[0]) if k[0] in order else len(order), k))
+    frame = pd.DataFrame(
+        [
+            {
+                "role": role,
+                "tested": tested,
+                "reason": reason,
+                "columns": "; ".join(
+                    f"{g}: {', '.join(rows[(role, tested, reason)][g])}"
+                    for g in natural_sorted(rows[(role, tested, reason)])
+                ),
+            }
+            for role, tested, reason in ranked
+        ]
+    )
+    _small_table(
+        doc,
+        frame,
+        "Every varying column of the log by its role (docs/discover.md): a design factor, "
+        "covariate, time/order, outcome or bookkeeping, with the columns of each group. "
+        "Outcomes — quantities the test's own result determines — never enter as causes.",
+        ["auto", "auto", "25%", "1fr"],
+    )
+
+
+def _merged(records: list[dict]) -> list[str]:
+    """The confounded pairs of one group in as few sentences as they allow: aliased columns
+    in one class each, the columns one column determines in one sentence. A relation whose
+    text is not the standard one is printed as it is; one that stands alone keeps its own
+    text (the merged sentence of one pair is that text)."""
+
+    def alias(a, b):
+        return f"{a} and {b} are aliased (the same partition of the tests)"
+
+    def nest(a, b):
+        return f"{a} determines {b} (each {a} has one {b})"
+
+    classes: list[list[str]] = []
+    nested: dict[str, list[str]] = {}
+    out: list[str] = []
+    for r in records:
+        cols = r.get("columns") or []
+        if r.get("relation") == "aliased" and len(cols) == 2 and r["text"] == alias(*cols):
+            hit = [c for c in classes if cols[0] in c or cols[1] in c]
+            merged = [x for c in hit for x in c] + list(cols)
+            classes = [c for c in classes if c not in hit] + [list(dict.fromkeys(merged))]
+        elif r.get("relation") == "nested" and len(cols) == 2 and r["text"] == nest(*cols):
+            nested.setdefault(cols[0], []).append(cols[1])
+        else:
+            out.append(r["text"])
+    for c in classes:
+        if len(c) == 2:
+            out.append(alias(*c))
+        else:
+            out.append(
+                f"{', '.join(c[:-1])} and {c[-1]} are aliased (the same partition of the tests)"
+            )
+    for a, bs in nested.items():
+        if len(bs) == 1:
+            out.append(nest(a, bs[0]))
+        else:
+            out.append(f"{a} determines {', '.join(bs)} (each {a} has one of each)")
+    return out
+
+
+def _confounded_appendix(doc: Document, result) -> None:
+    if not result.confounded:
+        doc.paragraph(
+            "Confounded candidates: none — every pair of candidates can be told apart by this "
+            "design."
+        )
+        return
+    by_group: dict[str, list[dict]] = {}
+    for c in result.confounded:
+        by_group.setdefault(_group(c), []).append(c)
+    rows = [
+        {"group": g, "cannot be told apart": text}
+        for g, records in by_group.items()
+        for text in _merged(records)
+    ]
+    _small_table(
+        doc,
+        pd.DataFrame(rows),
+        f"Confounded candidates: the {plural(len(result.confounded), 'pair')} of columns "
+        "(and their interactions) whose effects this design cannot separate, the pairs that "
+        "share a column said together.",
+        ["1fr"],
+        sections="group",
+    )
+
+
+def _notes_appendix(doc: Document, result) -> None:
+    untested = [f"{u['kind']} / {u['soil']}: {u['reason']}" for u in result.untested]
+    doc.numbered([*untested, *result.notes] or ["No further notes."], small=True)
 
 
 def write_report(
@@ -413,53 +885,31 @@ def write_report(
         ],
         conclusion=_conclusion(result, all_groups),
     )
+    if result.findings:
+        _findings_table(doc, result)
     doc.page_break()
-    doc.heading("Methods")
-    write_equations(
-        doc, tuple(natural_sorted({c["kind"] for c in result.columns})) or ("sinkage", "shear")
-    )
-    doc.bullets(METHOD_NOTES)
-    doc.heading("Findings")
-    if not result.findings:
-        doc.paragraph(result.no_finding_text())
-    for i, f in enumerate(result.findings, 1):
-        _finding_section(doc, i, f)
-    if result.explained:
-        doc.heading("Explained by a stronger finding", level=2)
-        doc.bullets(
-            f"{e['kind']} / {e['soil']}: {e['candidate']} (by {e['by']}; p after = "
-            f"{e['p_after']:.3g})"
-            for e in result.explained
-        )
+    _findings_section(doc, result)
     _model_section(doc, result, all_groups)
-    _record_section(
-        doc,
-        "Physical red flags",
-        result.flags,
-        ("kind", "soil", "scope", "code", "message"),
-        "Red flags on the fits (docs/identification.md, health flags).",
-        empty="No red flags.",
-    )
-    _record_section(
-        doc,
-        "Lined up with data-quality artefacts",
-        result.artefacts,
-        ("kind", "soil", "candidate", "p_adjusted", "reason"),
-        "Significant candidates whose levels line up with artefact flags: data problems, "
-        "not causes.",
-        empty="No significant candidate lines up with data-quality artefacts.",
-        labels={"p_adjusted": "p (Holm)"},
-    )
-    _power_section(doc, result)
-    _quality_section(doc, result)
-    _columns_section(doc, result)
-    doc.heading("Confounded candidates")
-    if result.confounded:
-        doc.bullets(f"{c['kind']} / {c['soil']}: {c['text']}" for c in result.confounded)
-    else:
-        doc.paragraph("None: every pair of candidates can be told apart by this design.")
+    _problems_section(doc, result)
+    doc.heading("Methods")
+    kinds = tuple(natural_sorted({c["kind"] for c in result.columns})) or ("sinkage", "shear")
+    write_equations(doc, kinds, columns=2)
+    doc.paragraph(strong("How discovery reaches its findings:"))
+    doc.numbered(METHOD_NOTES, small=True)
+    doc.heading("Appendix: the findings in full")
+    if result.findings:
+        _statistics_appendix(doc, result)
+        _parameters_appendix(doc, result)
+        _tried_appendix(doc, result)
+    _steps_appendix(doc, result)
+    _caveats_appendix(doc, result)
+    doc.heading("Appendix: what was not found, and why")
+    _power_appendix(doc, result)
+    _confounded_appendix(doc, result)
+    _columns_appendix(doc, result)
+    _quality_appendix(doc, result)
     doc.heading("Notes")
-    doc.numbered(list(result.notes) or ["No further notes."])
-    doc.provenance_section()
+    _notes_appendix(doc, result)
+    doc.provenance_section(new_page=False)
     doc.render(path)
     return path

@@ -23,6 +23,7 @@ import io
 import re
 import tempfile
 from collections.abc import Iterable, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -53,6 +54,18 @@ FIGURE_STYLE = {
     "figure.titlesize": 9,
     "axes.spines.top": False,
     "axes.spines.right": False,
+}
+#: FIGURE_STYLE for a grid of small panels, several to a row (discover's findings): 7 pt
+#: text and titles, 6 pt ticks and 5.5 pt legends.
+GRID_STYLE = {
+    **FIGURE_STYLE,
+    "font.size": 7,
+    "axes.titlesize": 7,
+    "axes.labelsize": 7,
+    "xtick.labelsize": 6,
+    "ytick.labelsize": 6,
+    "legend.fontsize": 5.5,
+    "figure.titlesize": 7,
 }
 # Long unbroken tokens (test ids, file paths, column names) get break opportunities after
 # these characters, so that a narrow table cell wraps them instead of overflowing the page.
@@ -192,6 +205,21 @@ class Document:
             )
         self._block(body)
 
+    def equations(self, rows: Iterable[tuple[str, str, str]], *, columns: int = 2) -> None:
+        """Displayed equations side by side, ``columns`` to a row: each ``(what, expression,
+        tag)`` as its description over the equation (Typst math) and its tag."""
+        cells = [
+            f"[{esc(what).text}\n#grid(columns: (1fr, auto), align: (center + horizon, "
+            f"right + horizon), [$ {expression} $], [({tag})])]"
+            for what, expression, tag in rows
+        ]
+        if cells:
+            self._block(
+                f"#grid(columns: {int(columns)}, column-gutter: 18pt, row-gutter: 10pt, "
+                + ", ".join(cells)
+                + ")"
+            )
+
     def key_values(self, rows: Iterable[tuple[str, object]]) -> None:
         """A two-column list of labels and values (no rules), e.g. the provenance."""
         cells = []
@@ -213,43 +241,70 @@ class Document:
         align_numbers: bool = True,
         small: bool = False,
         widths: Sequence[str] | None = None,
+        sections: str | None = None,
     ) -> None:
         """A table of ``frame``: every row, every column, never clipped.
 
         Long tables continue on the next page with the header repeated; wide ones wrap their
         cells. ``labels`` renames columns for the reader (human names with units); ``formats``
         gives a format spec per column (default: 4 significant digits for floats); missing
-        values print as an en dash. ``small`` sets it in appendix print (``SMALL_PT``);
+        values print as an en dash. ``small`` sets it in appendix print (``SMALL_PT``, rows
+        closer together);
         ``widths`` gives Typst column widths (``"auto"``, ``"1fr"``, ``"22%"``), one per column.
+        ``sections`` names a column printed not as a column but as a row across the table
+        wherever its value changes (``sinkage / soil01``, then that group's rows); ``widths``
+        then omits it.
         """
         import pandas as pd
 
         labels = labels or {}
         formats = formats or {}
-        columns = list(frame.columns)
+        every = list(frame.columns)
+        columns = [c for c in every if c != sections]
         if not columns:
             return
         numeric = {c: pd.api.types.is_numeric_dtype(frame[c]) for c in columns}
         head = ", ".join(f"[#strong[{_markup(labels.get(c, c)).text}]]" for c in columns)
         body = []
-        for row in frame.itertuples(index=False, name=None):
+        current = object()
+        for values in frame.itertuples(index=False, name=None):
+            if sections is not None and values[every.index(sections)] != current:
+                current = values[every.index(sections)]
+                body.append(f"table.cell(colspan: {len(columns)})[{strong(current).text}]")
+            row = [v for c, v in zip(every, values, strict=True) if c != sections]
             for c, value in zip(columns, row, strict=True):
                 cell = esc(format_cell(value, formats.get(c)), breakable=True)
                 body.append(f"[{cell.text}]")
         align = ", ".join("right" if numeric[c] and align_numbers else "left" for c in columns)
+        inset = "(x: 3pt, y: 1.3pt)" if small else "3pt"  # appendix rows: closer together
         table = (
-            f"#table(columns: {_columns(widths, len(columns))}, align: ({align},), inset: 3pt, "
+            f"#table(columns: {_columns(widths, len(columns))}, align: ({align},), "
+            f"inset: {inset}, "
             "stroke: (x, y) => if y == 0 { (bottom: 0.6pt) } "
             "else { (bottom: 0.2pt + luma(200)) }, "
             f"table.header({head}), " + ", ".join(body) + ")"
         )
-        table = f"#[#set text(size: {SMALL_PT if small else TABLE_PT}pt)\n{table}]"
+        size = f"#set text(size: {SMALL_PT if small else TABLE_PT}pt)"
+        if small:
+            size += "\n#set par(leading: 0.4em)"
+        table = f"#[{size}\n{table}]"
         if caption:
             table = (
                 f"#figure(kind: table, supplement: [Table], caption: {_typst_caption(caption)}, "
                 f"{table[1:]})"
             )
         self._block(table)
+
+    @contextmanager
+    def columns(self, n: int = 2):
+        """Set the blocks added inside ``with doc.columns(2):`` in ``n`` columns (narrow
+        tables side by side: a long one flows on into the next column)."""
+        start = len(self._blocks)
+        yield self
+        inner = self._blocks[start:]
+        del self._blocks[start:]
+        if inner:
+            self._block(f"#columns({int(n)}, gutter: 14pt)[\n" + "\n\n".join(inner) + "\n]")
 
     def figure(self, fig: Figure, caption: str, *, width: str = "100%") -> None:
         """A matplotlib figure (closed afterwards) as vector graphics with a numbered caption."""
@@ -267,11 +322,13 @@ class Document:
         """Start the next block on a new page."""
         self._block("#pagebreak(weak: true)")
 
-    def provenance_section(self) -> None:
-        """The last page: soilstats version, input hash, command, seed, method citation."""
+    def provenance_section(self, *, new_page: bool = True) -> None:
+        """The last page: soilstats version, input hash, command, seed, method citation
+        (``new_page=False``: the last section, on the page where the report ends)."""
         if self.provenance is None:
             return
-        self.page_break()
+        if new_page:
+            self.page_break()
         self.heading("Provenance")
         self.paragraph(
             "Everything in this report follows from the input below with the command and seed "

@@ -60,8 +60,11 @@ _QUALITY = (
 )
 
 
-def write_equations(doc: Document, kinds: tuple[str, ...] = ("sinkage", "shear")) -> None:
-    """The paper's model equations for ``kinds`` and the fit-quality equations, with a citation."""
+def write_equations(
+    doc: Document, kinds: tuple[str, ...] = ("sinkage", "shear"), *, columns: int = 1
+) -> None:
+    """The paper's model equations for ``kinds`` and the fit-quality equations, with a
+    citation; ``columns`` > 1 sets them side by side (a compact methods section)."""
     doc.paragraph(
         "The soil models, the identification and the fit quality follow ",
         CITATION,
@@ -72,6 +75,12 @@ def write_equations(doc: Document, kinds: tuple[str, ...] = ("sinkage", "shear")
         rows += _SINKAGE
     if "shear" in kinds:
         rows += _SHEAR
+    if columns > 1:
+        doc.equations(
+            ((what.capitalize() + ":", e, tag) for e, tag, what in (*rows, *_QUALITY)),
+            columns=columns,
+        )
+        return
     for expression, tag, what in (*rows, *_QUALITY):
         doc.paragraph(what.capitalize() + ":")
         doc.equation(expression, tag)

@@ -3,7 +3,7 @@
 One home for the two shapes every report prints: the paper's Table 5 (one row per
 condition, one column per parameter) and one fit's parameters (one row per parameter).
 ``stderr`` is the test-level σ where a fit rests on five tests or more, Eq. 4's σ (the
-paper's Eqs. 3–5) otherwise (docs/conventions.md); Table 5 prints Eq. 4's beside it.
+paper's Eqs. 3–5) otherwise (docs/conventions.md); both shapes print Eq. 4's beside it.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from ..identification.table import EQ4_MARK, format_value
 from .document import Document, Markup
 from .labels import natural_key, parameter_label, parameter_symbol
 
-__all__ = ["EQ4_NOTE", "condition_table", "fit_table", "stderr_cell"]
+__all__ = ["EQ4_NOTE", "condition_table", "fit_rows", "fit_table", "stderr_cell"]
 
 #: What the cells of :func:`condition_table` mean, said once per report.
 EQ4_NOTE = (
@@ -90,24 +90,39 @@ def condition_table(
     )
 
 
-def fit_table(doc: Document, fit, caption: str, level=None) -> None:
-    """One fit's parameters as ``value ± σ`` with units (nothing without a fit).
-
-    With ``level`` (discovery's :class:`~soilstats.discovery.testlevel.TestLevel`) a
-    column gives the test-level σ (cluster-robust over tests, in the parameter's unit),
-    ``*`` where it exceeds Eq. 4's by more than 2× (``test-scatter``: quote it), ``n/a``
-    where one test alone sets the parameter."""
+def fit_rows(fit, level=None, *, units: str = "column") -> list[dict]:
+    """One fit's parameters as rows ``{"parameter", "value ± σ", "unit"}`` (none without a
+    fit; ``units="name"``: no unit column, the unit in brackets after the name): each cell
+    a :func:`stderr_cell` of the σ discovery quotes
+    (:func:`~soilstats.discovery.testlevel.quoted_sigma`: the test-level σ with Eq. 4's in
+    brackets where five tests or more inform the parameter, Eq. 4's marked † otherwise), ``*``
+    after it where the test-level σ exceeds Eq. 4's by more than 2× (``test-scatter``)."""
     if fit is None:
-        return
-    rows = [
-        {"parameter": name, "value ± σ": format_value(v, s), "unit": fit.units.get(name, "") or "–"}
-        for name, v, s in zip(fit.param_names, fit.values, fit.stderr_values, strict=True)
-    ]
-    if level is not None:
-        for row, st, hit in zip(rows, level.stderr, level.flagged(), strict=True):
-            row["test-level σ"] = f"{st:.3g}{' *' if hit else ''}" if np.isfinite(st) else "n/a"
-        caption += (
-            " Test-level σ: cluster-robust over tests; * exceeds Eq. 4's σ by more than 2× "
-            "(test-scatter): quote it instead."
-        )
-    doc.table(pd.DataFrame(rows), caption=caption, align_numbers=False)
+        return []
+    from ..discovery.testlevel import quoted_sigma
+
+    stderr, eq4, levels = quoted_sigma(fit, level)
+    hits = np.zeros(len(levels), bool) if level is None else level.flagged()
+    rows = []
+    for name, v, s, e, lv, hit in zip(
+        fit.param_names, fit.values, stderr, eq4, levels, hits, strict=True
+    ):
+        unit = fit.units.get(name, "") or "–"
+        cell = stderr_cell(v, s, e, lv) + (" *" if hit else "")
+        if units == "name":
+            label = name if unit in ("–", "-") else f"{name} ({unit})"
+            rows.append({"parameter": label, "value ± σ": cell})
+        else:
+            rows.append({"parameter": name, "value ± σ": cell, "unit": unit})
+    return rows
+
+
+def fit_table(
+    doc: Document, fit, caption: str, level=None, *, units: str = "column", **table
+) -> None:
+    """One fit's parameters as ``value ± σ`` with units (nothing without a fit): the cells of
+    :func:`fit_rows` (:data:`EQ4_NOTE` says what they mean, once per report); ``table``
+    goes to :meth:`Document.table` (``small``, ``widths``)."""
+    rows = fit_rows(fit, level, units=units)
+    if rows:
+        doc.table(pd.DataFrame(rows), caption=caption, align_numbers=False, **table)
