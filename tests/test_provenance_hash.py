@@ -11,7 +11,7 @@ import pandas as pd
 
 import soilstats
 from soilstats.campaign.schema import DERIVED_COLUMNS, FILES
-from soilstats.report import campaign_sha256
+from soilstats.campaign.digest import campaign_sha256
 
 
 def _definition(campaign) -> str:

@@ -449,7 +449,7 @@ def _write_export(out: Path, export, record: dict, support, provenance, args) ->
     ``<simulator>.json``; the check, repairs and notes also to stderr."""
     import json
 
-    from ..report import json_safe, output_path, write_atomic, write_csv
+    from ..outputs import json_safe, output_path, write_atomic, write_csv
 
     name = export.simulator
     extra = export.comment_lines()
@@ -507,7 +507,7 @@ def run(args: argparse.Namespace) -> int:
 def _check_outputs(out: Path, models, args) -> None:
     """Refuse before sampling, not after minutes of work, an output that may not be written
     (an existing file without --overwrite, a link); no folder is made yet."""
-    from ..report import output_path
+    from ..outputs import output_path
 
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]
@@ -620,7 +620,7 @@ def _decide_and_write(
     if failures and not args.force:
         simulator_only = export is not None and len(failures) == len(export.check.problems())
         return _refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
-    from ..report import json_safe
+    from ..outputs import json_safe
 
     record = _record(args, models, results, handout, failures, ours, pooled_warnings, provenance)
     if export is not None:
@@ -640,7 +640,7 @@ def _record(args, models, results, handout, failures, ours, pooled_warnings, pro
     import json
 
     from ..bayes.population import band_calibration
-    from ..report import json_safe
+    from ..outputs import json_safe
 
     decision = handout.to_dict()
     checks = {r.model_name: band_calibration(r) for r in results if r.kind == "population"}
@@ -673,7 +673,7 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance) -> N
     """posterior*.nc, draws.csv, summary.csv, posterior.json and report.pdf."""
     import json
 
-    from ..report import json_safe, output_path, write_atomic, write_csv
+    from ..outputs import json_safe, output_path, write_atomic, write_csv
     from ..report.posterior_pdf import write_report
 
     prov = provenance.to_dict() | {"forced": record["forced"]}
@@ -698,7 +698,7 @@ def _print(args, out: Path, results, record: dict, table, handout) -> None:
     """The summary on stdout (or one JSON object with --json), and the notes on stderr."""
     import json
 
-    from ..report import json_safe
+    from ..outputs import json_safe
 
     if args.json:
         print(

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 
 from .._text import plural
-from ..report import Provenance, json_safe
-from ..report.text import notes_block
+from ..outputs import Provenance, json_safe
+from ..outputs.text import notes_block
 
 __all__ = [
     "METHOD_NOTES",

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..report import json_safe
+from ..outputs import json_safe
 from .crossval import FoldFits, GroupFolds, compare
 from .extensions import base_model, combine
 from .plausibility import implausible

@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 
 from .._text import plural
-from ..report.files import json_safe
-from ..report.text import notes_block
+from ..outputs.files import json_safe
+from ..outputs.text import notes_block
 from .codes import CODES
 
 __all__ = ["PLATE_WINDOW_SHARE", "QualityFlag", "QualityReport"]
