@@ -333,7 +333,7 @@ class Campaign:
         Set on the campaign :func:`soilstats.quality.screen` returns: the screening findings
         behind these (cleaned) samples. None: not screened yet.
     window : AppliedWindow or None
-        Set by :func:`soilstats.identification.window.windowed`: the fitting window whose
+        Set by :func:`soilstats.campaign.window.windowed`: the fitting window whose
         samples were removed, with its per-test counts.
     files : mapping of str to str
         File stem → the file name the table was read from (``sinkage.parquet``), for

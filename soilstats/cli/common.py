@@ -212,7 +212,7 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
     selection names the same ``campaign_sha256``, that of ``soilstats check``.
     """
     from ..campaign import load_campaign
-    from ..identification.window import FitWindow, windowed
+    from ..campaign.window import FitWindow, windowed
     from ..outputs import Provenance
     from ..quality import screen
 

@@ -135,7 +135,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def split_prior_items(args, models) -> tuple[list[str], dict[str, tuple]]:
     """``--prior`` items for the sampled models' parameters, and user priors: with
     ``--simulator``, items naming a parameter the simulator needs that no model identifies
-    (c, phi, K without a shear model), as :mod:`soilstats.wheel.priors` tuples."""
+    (c, phi, K without a shear model), as :mod:`soilstats.bayes.stated_priors` tuples."""
     from ..bayes.export import parse_stated_prior, scm_plan
 
     params = {n for m in models for n in _checked_model(m).param_names}
@@ -255,7 +255,7 @@ def _check_simulator(args, models, stated: dict) -> None:
             raise ValueError("--scm-repair repairs a simulator export: give --simulator too")
         return
     from ..bayes.export import missing_message, scm_plan, stated_inputs
-    from ..wheel.priors import sample_priors
+    from ..bayes.stated_priors import sample_priors
 
     params = [n for m in models for n in _checked_model(m).param_names]
     plan = scm_plan(params, stated)

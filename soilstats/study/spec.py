@@ -337,7 +337,7 @@ def _criteria(raw, path) -> Criteria:
 def _window(raw, path):
     """``[window]``: ``z_max`` [m] / ``p_max`` [Pa], a number or a list of
     ``"COLUMN=VALUE:LIMIT"`` items (as the CLI's --z-max/--p-max)."""
-    from ..identification.window import FitWindow
+    from ..campaign.window import FitWindow
 
     table = _get(raw, "window", dict, path, default={})
     _check_keys(table, {"z_max", "p_max"}, path, "window.")
