@@ -23,24 +23,7 @@ it is cheap: the PDF modules are imported only by whoever writes a PDF.
 
 from __future__ import annotations
 
-from ..outputs import (
-    Provenance,
-    json_safe,
-    output_path,
-    safe_stem,
-    source_date,
-    write_atomic,
-    write_csv,
-    write_json,
-)
+from .. import outputs as _outputs
+from ..outputs import *  # noqa: F403  (the old names: soilstats.report.Provenance, ...)
 
-__all__ = [
-    "Provenance",
-    "json_safe",
-    "output_path",
-    "safe_stem",
-    "source_date",
-    "write_atomic",
-    "write_csv",
-    "write_json",
-]
+__all__ = list(_outputs.__all__)
