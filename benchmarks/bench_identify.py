@@ -26,7 +26,7 @@ from scipy.optimize import curve_fit
 
 import soilstats
 from soilstats import BEKKER, identify
-from soilstats.identification.wong import wong_bekker
+from soilstats.models.wong import wong_bekker
 
 TRUTH = np.array([-9.8e3, 1.2e6, 0.8])  # Table 5, soil01
 

@@ -20,8 +20,8 @@ import time
 from pathlib import Path
 
 import soilstats
+from soilstats.campaign.digest import campaign_sha256
 from soilstats.quality import screen
-from soilstats.report import campaign_sha256
 
 
 def _median_seconds(fn, repeat: int) -> float:

@@ -22,9 +22,9 @@ import pandas as pd
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
+from soilstats.bayes.stated_priors import sample_priors
 from soilstats.wheel import StressAngles, Wheel, predict_wheel, wheel_forces
 from soilstats.wheel.geometry import speed_ratio
-from soilstats.wheel.priors import sample_priors
 from soilstats.wheel.stress import normal_stress, pressure_modulus, shear_displacement, shear_stress
 
 WHEEL = Wheel(radius_m=0.058, width_m=0.05)

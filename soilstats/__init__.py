@@ -32,6 +32,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from ._lazy import lazy_names
+from ._version import __version__ as __version__
 from .errors import (
     CampaignError,
     ConvergenceError,
@@ -41,8 +42,6 @@ from .errors import (
     SoilstatsError,
     SoilstatsWarning,
 )
-
-__version__ = "0.1.0"
 
 #: public name -> module that defines it (loaded on first access)
 _LAZY: dict[str, str] = {

@@ -323,7 +323,7 @@ def test_every_output_records_its_provenance(tmp_path, monkeypatch):
     argv = ["study", "preparation", "--data", "cullinan-sand", "--out", str(out), "--seed", "7"]
     assert main([*argv, "--progress", "off"]) == 0
     campaign = soilstats.load_campaign("cullinan-sand")
-    from soilstats.report import campaign_sha256
+    from soilstats.campaign.digest import campaign_sha256
 
     digest = campaign_sha256(campaign)
     doc = json.loads((out / "preparation.json").read_text())
@@ -343,7 +343,7 @@ def test_every_output_records_its_provenance(tmp_path, monkeypatch):
 
 
 def test_campaign_hash_is_of_the_content_not_the_container(tmp_path):
-    from soilstats.report import campaign_sha256
+    from soilstats.campaign.digest import campaign_sha256
 
     campaign = soilstats.load_campaign("cullinan-sand")
     copy = soilstats.load_campaign(campaign.save(tmp_path / "c", format="parquet"))

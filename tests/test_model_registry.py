@@ -13,10 +13,10 @@ import pytest
 
 import soilstats
 from soilstats.errors import ModelError
-from soilstats.identification.starting_values import bernstein_start
 from soilstats.models import Model, get_model, model_names, models_of_kind, register_model
 from soilstats.models.base import ParamLabel, Positive
 from soilstats.models.priors import FLAT, POSITIVE
+from soilstats.models.starting_values import bernstein_start
 
 # ------------------------------------------------------------------------- the toy model
 # p = k·z^n·(1 + a·z): a power law whose stiffness grows (a > 0) or softens (a < 0) with depth.
@@ -188,7 +188,7 @@ def test_a_study_fits_its_tables_with_the_registered_model(campaign, tmp_path):
 def test_an_unknown_model_name_is_an_error_in_every_layer(campaign):
     from soilstats.bayes import sample_population, sample_posterior
     from soilstats.identification.conditions import fit_conditions
-    from soilstats.identification.starting_values import sinkage_start
+    from soilstats.models.starting_values import sinkage_start
 
     known = r"unknown model 'bekkr'; choose one of \['(bekker|janosi)', "
     calls = [

@@ -1,6 +1,6 @@
 """Writers under hostile output folders and cells: links, formulas, line breaks, failures.
 
-Every file soilstats writes into ``--out`` goes through ``soilstats.report.files``: never
+Every file soilstats writes into ``--out`` goes through ``soilstats.outputs.files``: never
 through a symbolic link (dangling or not), always through a temporary file renamed into
 place, and CSV cells made safe for spreadsheets and for ``pandas.read_csv(comment="#")``.
 """
@@ -18,8 +18,8 @@ import pytest
 import soilstats
 from soilstats.campaign import load_campaign
 from soilstats.cli.main import main
-from soilstats.report import Provenance, write_atomic, write_csv, write_json
-from soilstats.report import files as report_files
+from soilstats.outputs import Provenance, write_atomic, write_csv, write_json
+from soilstats.outputs import files as output_files
 
 
 @pytest.fixture
@@ -157,10 +157,10 @@ def test_a_failing_serialiser_leaves_the_old_file_and_no_temporary(tmp_path, mon
     def broken(*args, **kwargs):
         raise RuntimeError("serialiser failed")
 
-    monkeypatch.setattr(report_files, "csv_text", broken)
+    monkeypatch.setattr(output_files, "csv_text", broken)
     with pytest.raises(RuntimeError, match="serialiser failed"):
         write_csv(path, pd.DataFrame({"a": [2]}), _provenance(), overwrite=True)
-    monkeypatch.setattr(report_files.json, "dumps", broken)
+    monkeypatch.setattr(output_files.json, "dumps", broken)
     with pytest.raises(RuntimeError, match="serialiser failed"):
         write_json(tmp_path / "t.json", {"a": 1}, _provenance())
     assert path.read_bytes() == before
@@ -215,7 +215,7 @@ def test_the_no_silent_overwrite_rule_holds(tmp_path):
 
 def test_report_csv_reads_back_as_documented():
     """The README's recipe: pandas.read_csv(path, comment="#")."""
-    text = report_files.csv_text(pd.DataFrame({"a": ["x#y"], "b": [-1.0]}))
+    text = output_files.csv_text(pd.DataFrame({"a": ["x#y"], "b": [-1.0]}))
     assert pd.read_csv(io.StringIO(text), comment="#").to_dict("list") == {
         "a": ["x#y"],
         "b": [-1.0],

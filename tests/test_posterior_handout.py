@@ -128,7 +128,7 @@ def test_the_same_posterior_run_writes_a_byte_identical_netcdf(tmp_path, monkeyp
 
 
 def test_source_date_epoch_sets_the_posterior_date(monkeypatch):
-    from soilstats.report.provenance import source_date
+    from soilstats.outputs.provenance import source_date
 
     monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
     assert source_date() is None

@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 
 import soilstats
+from soilstats.campaign.digest import campaign_sha256
 from soilstats.campaign.schema import DERIVED_COLUMNS, FILES
-from soilstats.report import campaign_sha256
 
 
 def _definition(campaign) -> str:

@@ -16,9 +16,9 @@ from quality_sim import hold_plateau, plate_spec, raw_tables
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
 from soilstats.campaign.schema import DERIVED_COLUMNS
+from soilstats.campaign.window import FitWindow
 from soilstats.cli.main import main
 from soilstats.identification import fit_sinkage
-from soilstats.identification.window import FitWindow
 from soilstats.quality import CODES, screen
 from soilstats.quality.records import find_spikes
 from soilstats.simulation import simulate

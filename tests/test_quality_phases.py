@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from soilstats import fit_sinkage, load_campaign
+from soilstats.campaign.window import FitWindow
 from soilstats.cli.common import guarded
 from soilstats.cli.main import main
-from soilstats.identification.window import FitWindow
 from soilstats.quality import screen
 from soilstats.simulation import simulate
 

@@ -12,9 +12,9 @@ from quality_sim import hold_plateau, plate_spec, raw_tables
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
+from soilstats.campaign.window import windowed
 from soilstats.cli.main import main
 from soilstats.identification import fit_sinkage
-from soilstats.identification.window import windowed
 from soilstats.quality import screen
 from soilstats.simulation import simulate
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from soilstats.identification.starting_values import (
+from soilstats.models import BEKKER, JANOSI, REECE, side_wall_ratio
+from soilstats.models.starting_values import (
     janosi_start,
     reece_from_bekker,
     sinkage_start,
 )
-from soilstats.models import BEKKER, JANOSI, REECE, side_wall_ratio
 
 
 def test_reece_from_bekker_is_exact_for_one_plate_size():
@@ -52,7 +52,7 @@ def test_side_wall_ratio_closed_form():
 def test_wong_start_is_wongs_estimate_from_the_certified_solver():
     # The start is solved from per-plate sums; the comparison method (wong_bekker /
     # wong_bernstein) by the certified linear solver. Same regression: same n, same k_b.
-    from soilstats.identification.wong import wong_bekker, wong_bernstein, wong_start
+    from soilstats.models.wong import wong_bekker, wong_bernstein, wong_start
 
     rng = np.random.default_rng(3)
     b = np.repeat([0.025, 0.05, 0.075], 60)
@@ -72,7 +72,7 @@ def test_wong_start_is_wongs_estimate_from_the_certified_solver():
 def test_wong_start_refuses_what_wongs_method_cannot_do():
     import pytest
 
-    from soilstats.identification.wong import wong_start
+    from soilstats.models.wong import wong_start
 
     z = np.linspace(0.001, 0.05, 20)
     with pytest.raises(ValueError, match="two plate sizes"):

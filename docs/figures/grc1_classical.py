@@ -20,9 +20,9 @@ import pandas as pd
 
 from soilstats import fit_sinkage
 from soilstats.campaign import Campaign, load_campaign
+from soilstats.campaign.window import FitWindow
 from soilstats.data import bundled_path
 from soilstats.identification.classical import classical_bekker
-from soilstats.identification.window import FitWindow
 
 HERE = Path(__file__).resolve().parent
 KILO = pd.Series({"kc": 1e-3, "kphi": 1e-3, "n": 1.0})

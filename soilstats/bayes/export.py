@@ -13,7 +13,7 @@ Where each column comes from (:attr:`SimulatorExport.sources`, written into the 
 * **the Bernstein mapping** — Bernstein's p = k·z^n is Bekker's law without its plate-size
   term: Bekker_Kphi = k, Bekker_Kc = 0. SCM's pressure then ignores the contact patch's size,
   which is right only near the plate size(s) k was measured on (say so, the record does);
-* **user priors** (:mod:`soilstats.wheel.priors`, the one implementation of stated priors)
+* **user priors** (:mod:`soilstats.bayes.stated_priors`, the one implementation of stated priors)
   for what no test measured — c, φ, K of a campaign without shear-ring tests. They are drawn
   from their own seeded generator, independently of the posterior draws: no correlation
   between them and the measured parameters is invented;
@@ -332,12 +332,12 @@ _STATED_FORMS = (
 
 
 def parse_stated_prior(text: str) -> tuple:
-    """A user prior's text form -> the tuple of :mod:`soilstats.wheel.priors`.
+    """A user prior's text form -> the tuple of :mod:`soilstats.bayes.stated_priors`.
 
     ``uniform:LO:HI`` (or ``LO:HI``), ``normal:MU:SD``, ``normal:MU:SD:LO:HI`` (truncated:
     ``truncnormal``), ``lognormal:MEDIAN:SIGMA_LOG`` (ln x ~ Normal(ln MEDIAN, SIGMA_LOG)), in
     the parameter's unit (c Pa, φ deg, K m). The numbers are checked by
-    :func:`soilstats.wheel.priors.sample_priors` when drawn.
+    :func:`soilstats.bayes.stated_priors.sample_priors` when drawn.
     """
     parts = [p.strip() for p in str(text).split(":")]
     kind = parts[0].lower()
@@ -446,7 +446,7 @@ def stated_inputs(elastic_K: float | None = None, damping_R: float | None = None
 
 
 def _source_of(key: str, plan: str, draws_source: Mapping, priors: Mapping) -> str:
-    from ..wheel.priors import describe_prior
+    from .stated_priors import describe_prior
 
     if plan == "draws":
         return draws_source.get(key, "posterior draws")
@@ -479,7 +479,7 @@ def _widths(plate_widths) -> str:
 
 
 def _notes(table, draws, plan, priors, width, seed, plate_widths) -> tuple[str, ...]:
-    from ..wheel.priors import describe_prior
+    from .stated_priors import describe_prior
 
     notes = []
     if width is not None:
@@ -541,7 +541,7 @@ def export_simulator(
         SCM's elastic stiffness [Pa/m] (> 0) and damping [Pa s/m] (>= 0); default
         :data:`SCM_DEFAULTS`.
     priors : mapping, optional
-        User priors for the parameters the draws lack, as :mod:`soilstats.wheel.priors`
+        User priors for the parameters the draws lack, as :mod:`soilstats.bayes.stated_priors`
         tuples (``{"c": ("uniform", 0, 2000), "phi": ("normal", 30, 3), "K": ("lognormal",
         0.02, 0.5)}``; c Pa, φ deg, K m). A prior for a parameter the draws hold is an error.
     seed : int, optional
@@ -561,7 +561,7 @@ def export_simulator(
         A parameter SCM needs is neither in the draws nor given a prior; a prior for a
         parameter the draws hold; bad stated inputs or prior draws outside the support.
     """
-    from ..wheel.priors import sample_priors
+    from .stated_priors import sample_priors
 
     try:
         spec = SIMULATOR_FORMATS[simulator]

@@ -11,14 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .result import PosteriorResult
-
 __all__ = ["joint_draws"]
 
 
 def joint_draws(
-    sinkage: PosteriorResult,
-    shear: PosteriorResult,
+    sinkage,
+    shear,
     n: int,
     seed: int | None = None,
     *,
@@ -29,7 +27,9 @@ def joint_draws(
     Parameters
     ----------
     sinkage, shear : PosteriorResult
-        Posteriors (pooled or population) of a sinkage model and a shear model of one soil.
+        Posteriors (pooled or population) of a sinkage model and a shear model of one soil
+        (not annotated: :mod:`.result` reaches this module through :mod:`.handout`, and
+        an import back would close the circle).
     n : int
         Number of rows.
     seed : int, optional

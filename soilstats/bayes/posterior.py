@@ -284,7 +284,7 @@ def _check_start_in_prior(spec, theta0: np.ndarray, problem: PooledProblem) -> N
 def _attrs(problem: PooledProblem) -> dict:
     """The posterior group's attributes. No clock is read: ``created_at`` only where
     ``SOURCE_DATE_EPOCH`` sets it, so that the same run writes a byte-identical file."""
-    from ..report.provenance import source_date
+    from ..outputs.provenance import source_date
 
     date = source_date()
     return ({"created_at": date} if date else {}) | {

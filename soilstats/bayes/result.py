@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..report.text import notes_block
+from ..outputs.text import notes_block
 from ._arviz import az
 
 __all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose", "draws_converge"]
@@ -204,7 +204,7 @@ class PosteriorResult:
     def to_dict(self, prob: float = 0.9) -> dict:
         """The JSON-ready content: per quantity mean, stderr (posterior sd), interval and
         diagnostics; convergence and its problems; units, sampler settings and notes."""
-        from ..report import json_safe
+        from ..outputs import json_safe
 
         table = self.summary_table(prob)
         return json_safe(

@@ -18,6 +18,7 @@ from ..errors import CampaignError, SoilstatsWarning
 from . import io
 from ._cells import TEXT_DTYPE
 from .derived import add_sample_columns, add_test_columns
+from .digest import campaign_sha256
 from .index import campaign_index, grouped_by_code
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
@@ -332,7 +333,7 @@ class Campaign:
         Set on the campaign :func:`soilstats.quality.screen` returns: the screening findings
         behind these (cleaned) samples. None: not screened yet.
     window : AppliedWindow or None
-        Set by :func:`soilstats.identification.window.windowed`: the fitting window whose
+        Set by :func:`soilstats.campaign.window.windowed`: the fitting window whose
         samples were removed, with its per-test counts.
     files : mapping of str to str
         File stem → the file name the table was read from (``sinkage.parquet``), for
@@ -573,6 +574,11 @@ class Campaign:
             if stem == "tests" or not table.empty
         }
         return io.save_tables(Path(path), tables, format, overwrite=overwrite)
+
+    def sha256(self) -> str:
+        """:func:`~soilstats.campaign.digest.campaign_sha256` of this campaign: the digest of
+        its raw content that every output's provenance records."""
+        return campaign_sha256(self)
 
     def __repr__(self) -> str:
         kinds = self.tests["kind"].value_counts()

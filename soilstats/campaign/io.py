@@ -528,7 +528,7 @@ def save_tables(
     OSError
         If a campaign file name in the folder is a symbolic link or a folder.
     """
-    from ..report.files import output_path, replacing
+    from ..outputs.files import output_path, replacing
 
     existing = [folder / n for n in CAMPAIGN_FILE_NAMES if os.path.lexists(folder / n)]
     if existing and not overwrite:

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from .._version import FORMAT_VERSION  # the format these specifications describe
 from ..kinds import TEST_KINDS
 
 __all__ = [
@@ -27,9 +28,6 @@ __all__ = [
     "canonical_order",
     "spec",
 ]
-
-#: Version of the campaign format these specifications describe (``docs/campaign-format.md``).
-FORMAT_VERSION = "1"
 
 #: Values of ``kind``; the samples of a test of kind K are in the sample file K (.csv/.parquet).
 KINDS: tuple[str, ...] = TEST_KINDS

@@ -34,8 +34,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Screen the campaign and print the findings (or one JSON object)."""
     from ..campaign import load_campaign
+    from ..outputs import Provenance, json_safe, write_json
     from ..quality import screen
-    from ..report import Provenance, json_safe, write_json
 
     campaign = load_campaign(args.data, check_units=False)
     report = screen(campaign, args.quality)

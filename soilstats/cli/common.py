@@ -42,7 +42,7 @@ from ..kinds import TEST_KINDS
 
 if TYPE_CHECKING:
     from ..campaign import Campaign
-    from ..report import Provenance
+    from ..outputs import Provenance
 
 __all__ = [
     "DEFAULT_CAMPAIGN",
@@ -212,9 +212,9 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
     selection names the same ``campaign_sha256``, that of ``soilstats check``.
     """
     from ..campaign import load_campaign
-    from ..identification.window import FitWindow, windowed
+    from ..campaign.window import FitWindow, windowed
+    from ..outputs import Provenance
     from ..quality import screen
-    from ..report import Provenance
 
     loaded = load_campaign(args.data)
     provenance = Provenance.of(

@@ -37,7 +37,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run discovery; print the summary (or JSON) and write the files asked for."""
     from ..discovery import discover
-    from ..report import write_json
+    from ..outputs import write_json
 
     campaign, provenance = prepared(args)
     result = discover(

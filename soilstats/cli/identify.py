@@ -114,8 +114,8 @@ def run(args: argparse.Namespace) -> int:
     """Fit every soil and condition; print Table-5-style tables or one JSON object."""
     from ..errors import CampaignError
     from ..identification.conditions import fit_planned, plan_conditions
+    from ..outputs import json_safe, write_csv, write_json
     from ..parallel import warm_workers
-    from ..report import json_safe, write_csv, write_json
 
     warm_workers(args.jobs, ("soilstats.identification.conditions",))  # while loading
     campaign, provenance = prepared(args)

@@ -38,7 +38,7 @@ exit codes: 0 success, 2 bad input or usage, 1 internal error."""
 
 
 def _version() -> str:
-    from .. import __version__
+    from .._version import __version__
 
     return f"soilstats {__version__}"
 

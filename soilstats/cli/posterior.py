@@ -135,7 +135,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def split_prior_items(args, models) -> tuple[list[str], dict[str, tuple]]:
     """``--prior`` items for the sampled models' parameters, and user priors: with
     ``--simulator``, items naming a parameter the simulator needs that no model identifies
-    (c, phi, K without a shear model), as :mod:`soilstats.wheel.priors` tuples."""
+    (c, phi, K without a shear model), as :mod:`soilstats.bayes.stated_priors` tuples."""
     from ..bayes.export import parse_stated_prior, scm_plan
 
     params = {n for m in models for n in _checked_model(m).param_names}
@@ -255,7 +255,7 @@ def _check_simulator(args, models, stated: dict) -> None:
             raise ValueError("--scm-repair repairs a simulator export: give --simulator too")
         return
     from ..bayes.export import missing_message, scm_plan, stated_inputs
-    from ..wheel.priors import sample_priors
+    from ..bayes.stated_priors import sample_priors
 
     params = [n for m in models for n in _checked_model(m).param_names]
     plan = scm_plan(params, stated)
@@ -449,7 +449,7 @@ def _write_export(out: Path, export, record: dict, support, provenance, args) ->
     ``<simulator>.json``; the check, repairs and notes also to stderr."""
     import json
 
-    from ..report import json_safe, output_path, write_atomic, write_csv
+    from ..outputs import json_safe, output_path, write_atomic, write_csv
 
     name = export.simulator
     extra = export.comment_lines()
@@ -507,7 +507,7 @@ def run(args: argparse.Namespace) -> int:
 def _check_outputs(out: Path, models, args) -> None:
     """Refuse before sampling, not after minutes of work, an output that may not be written
     (an existing file without --overwrite, a link); no folder is made yet."""
-    from ..report import output_path
+    from ..outputs import output_path
 
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]
@@ -620,7 +620,7 @@ def _decide_and_write(
     if failures and not args.force:
         simulator_only = export is not None and len(failures) == len(export.check.problems())
         return _refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
-    from ..report import json_safe
+    from ..outputs import json_safe
 
     record = _record(args, models, results, handout, failures, ours, pooled_warnings, provenance)
     if export is not None:
@@ -640,7 +640,7 @@ def _record(args, models, results, handout, failures, ours, pooled_warnings, pro
     import json
 
     from ..bayes.population import band_calibration
-    from ..report import json_safe
+    from ..outputs import json_safe
 
     decision = handout.to_dict()
     checks = {r.model_name: band_calibration(r) for r in results if r.kind == "population"}
@@ -673,7 +673,7 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance) -> N
     """posterior*.nc, draws.csv, summary.csv, posterior.json and report.pdf."""
     import json
 
-    from ..report import json_safe, output_path, write_atomic, write_csv
+    from ..outputs import json_safe, output_path, write_atomic, write_csv
     from ..report.posterior_pdf import write_report
 
     prov = provenance.to_dict() | {"forced": record["forced"]}
@@ -698,7 +698,7 @@ def _print(args, out: Path, results, record: dict, table, handout) -> None:
     """The summary on stdout (or one JSON object with --json), and the notes on stderr."""
     import json
 
-    from ..report import json_safe
+    from ..outputs import json_safe
 
     if args.json:
         print(

@@ -121,7 +121,8 @@ def _run_one(task):
     tests of its kind, no factor column, one level per soil) gives its reason in place of
     the result; any other error (a bug, a failed fit) propagates and stops the command.
     """
-    from ..study import StudyDataError, run_study, write_outputs, write_report
+    from ..report.study_pdf import write_report
+    from ..study import StudyDataError, run_study, write_outputs
 
     spec, campaign, cache, args, provenance = task
     start = time.perf_counter()

@@ -172,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
     import json
 
-    from ..report import json_safe, output_path, write_csv, write_json
+    from ..outputs import json_safe, output_path, write_csv, write_json
     from ..wheel.runs import read_caveats, read_runs, read_wheels, wheel_geometry
     from ..wheel.validation import check_priors, validate_wheel
 

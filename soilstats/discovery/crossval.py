@@ -28,12 +28,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
-from .work import FitTask, Wave
+from .work import FitTask, Wave, per_test_error
 
 __all__ = [
     "FoldFits",
     "Gain",
     "GroupFolds",
+    "campaign_gain",
     "compare",
     "cross_validation",
     "fold_labels",
@@ -197,17 +198,6 @@ def group_folds(group, causes, rng: np.random.Generator) -> GroupFolds:
     return GroupFolds(rows, make_folds(fold_labels(group, rows, causes), "tests", rng))
 
 
-def per_test_error(group, rows, y_hat) -> np.ndarray:
-    """Each test's mean squared weighted prediction error (module docstring) over its
-    samples, for the tests ``rows`` predicted as ``y_hat`` (their samples, in order)."""
-    mask = group.samples_of(rows)
-    owner = group.owner[mask]
-    e2 = (group.w[mask] * (group.y[mask] - y_hat)) ** 2
-    sums = np.bincount(owner, weights=e2, minlength=len(group.tests))
-    counts = np.bincount(owner, minlength=len(group.tests))
-    return sums[rows] / np.maximum(counts[rows], 1)
-
-
 #: A fold whose training tests did not choose the extension (:mod:`.nested`): its held-out
 #: tests are predicted by the base model.
 _BASE = object()
@@ -338,3 +328,15 @@ def information_criteria(result) -> dict:
     n, p = result.nobs, len(result.param_names)
     ll = n * np.log(result.rss / n)
     return {"aic": float(ll + 2 * p), "bic": float(ll + p * np.log(n)), "nobs": n, "params": p}
+
+
+def campaign_gain(models) -> object | None:
+    """The gain of the combined models over the base models, every extended (kind, soil)
+    together: the same paired per-test comparison over all their held-out tests."""
+    pairs = [m.held_out for m in models if m.held_out is not None]
+    if not pairs:
+        return None
+    e_base = np.concatenate([p[0] for p in pairs])
+    e_ext = np.concatenate([p[1] for p in pairs])
+    folds = max(m.gain.folds for m in models if m.gain is not None)
+    return compare(e_base, e_ext, scheme="tests", folds=np.arange(folds))

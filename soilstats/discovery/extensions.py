@@ -32,8 +32,6 @@ import pandas as pd
 from ..errors import ConvergenceError, IdentifiabilityError, ModelError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
-from ..identification.starting_values import janosi_start, reece_from_bekker, sinkage_start
-from ..identification.wong import wong_start
 from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
 from ..models.extended import (
     ShearLayout,
@@ -42,6 +40,8 @@ from ..models.extended import (
     shear_family,
     sinkage_family,
 )
+from ..models.starting_values import janosi_start, reece_from_bekker, sinkage_start
+from ..models.wong import wong_start
 from .candidates import MISSING, WITHIN, candidate_values, spans_log
 from .separable import check_shear_terms, sinkage_keeps_bekker
 

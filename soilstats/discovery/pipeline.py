@@ -35,9 +35,9 @@ from .._text import plural
 from ..campaign import Campaign, load_campaign
 from ..errors import ConvergenceError, IdentifiabilityError
 from ..models import get_model
+from ..outputs import Provenance
 from ..parallel import in_this_backend, one_blas_thread
 from ..quality import screened
-from ..report import Provenance
 from .artefacts import quality_record, split_artefacts, with_quality_caveat
 from .candidates import relation_text
 from .crossval import group_folds, group_rng

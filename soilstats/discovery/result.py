@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 
 from .._text import plural
-from ..report import Provenance, json_safe
-from ..report.text import notes_block
+from ..outputs import Provenance, json_safe
+from ..outputs.text import notes_block
 
 __all__ = [
     "METHOD_NOTES",
@@ -328,7 +328,7 @@ class DiscoveryResult:
         — every selected extension and its cause as ``"kind / soil: name"``, the gain over the
         base models on all held-out tests of the extended groups together, and per (kind,
         soil) the model with its parameters ± σ and its selection steps."""
-        from .selection import campaign_gain
+        from .crossval import campaign_gain
 
         extended = [m for m in self.models if m.extensions]
         gain = campaign_gain(extended)
@@ -342,7 +342,7 @@ class DiscoveryResult:
     def all_groups_gain(self):
         """The combined models' gain on the held-out tests of all extended groups together,
         or None unless two or more groups are extended (one group's gain is its own)."""
-        from .selection import campaign_gain
+        from .crossval import campaign_gain
 
         extended = [m for m in self.models if m.extensions]
         return campaign_gain(extended) if len(extended) > 1 else None

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..report import json_safe
+from ..outputs import json_safe
 from .crossval import FoldFits, GroupFolds, compare
 from .extensions import base_model, combine
 from .plausibility import implausible
@@ -35,7 +35,6 @@ from .work import FIT_ERRORS, FitTask, Wave
 __all__ = [
     "CombinedModel",
     "PreparedSelection",
-    "campaign_gain",
     "prepare_selection",
     "selection_steps",
 ]
@@ -237,15 +236,3 @@ def selection_steps(group, prepared: PreparedSelection):
         caveats=() if scatter is None else (scatter,),
         held_out=(e_base, current[2]),
     )
-
-
-def campaign_gain(models) -> object | None:
-    """The gain of the combined models over the base models, every extended (kind, soil)
-    together: the same paired per-test comparison over all their held-out tests."""
-    pairs = [m.held_out for m in models if m.held_out is not None]
-    if not pairs:
-        return None
-    e_base = np.concatenate([p[0] for p in pairs])
-    e_ext = np.concatenate([p[1] for p in pairs])
-    folds = max(m.gain.folds for m in models if m.gain is not None)
-    return compare(e_base, e_ext, scheme="tests", folds=np.arange(folds))

@@ -98,7 +98,7 @@ class FitTask:
     """Fit ``extension`` on the tests ``rows`` of the group, started from ``base`` (a
     :class:`~.extensions.Fitted`, or None for the extension's own start), and — when
     ``held_out`` is given — each held-out test's prediction error under that fit
-    (:func:`.crossval.per_test_error`); a fold fit (with ``held_out``) gives back its
+    (:func:`per_test_error`); a fold fit (with ``held_out``) gives back its
     :class:`Start` only.  Tasks with the same ``chain`` stop at the first failure
     (:class:`Pool`)."""
 
@@ -124,12 +124,23 @@ class Outcome:
             raise self.error
 
 
+def per_test_error(group, rows, y_hat) -> np.ndarray:
+    """Each test's mean squared weighted prediction error (:mod:`.crossval`) over its
+    samples, for the tests ``rows`` predicted as ``y_hat`` (their samples, in order); here,
+    beside the fold fits that compute it, so that :mod:`.crossval` imports this module and
+    not the other way round."""
+    mask = group.samples_of(rows)
+    owner = group.owner[mask]
+    e2 = (group.w[mask] * (group.y[mask] - y_hat)) ** 2
+    sums = np.bincount(owner, weights=e2, minlength=len(group.tests))
+    counts = np.bincount(owner, minlength=len(group.tests))
+    return sums[rows] / np.maximum(counts[rows], 1)
+
+
 def _run(item) -> tuple:
     """One task: (fitted, errors, None) or, for a failed fit, (None, None, (exception class,
     message)) — the class and message are all callers use, and they cross a process
     boundary where the exception object might not."""
-    from .crossval import per_test_error
-
     group, task = item
     try:
         fitted = task.extension.fit(group, task.rows, base=task.base)

@@ -5,18 +5,45 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from typing import Literal, NamedTuple
+from typing import Literal, NamedTuple, Protocol
 
 import numpy as np
 
 from ..errors import ConvergenceError, ConvergenceWarning
-from ..models import Model
 from .jacobian import make_jacobian
 from .levenberg_marquardt import LMOutcome, _eigh, gram_matrix, levenberg_marquardt, scaled_svd
 from .result import FitResult, HealthFlag, epsilon
 from .separable import _refine_power_law, refine_exponent
 
-__all__ = ["RANK_CONDITION_LIMIT", "epsilon", "identify"]
+__all__ = ["RANK_CONDITION_LIMIT", "ModelRecord", "epsilon", "identify"]
+
+
+class ModelRecord(Protocol):
+    """What :func:`identify` reads of a soil model's record (:class:`soilstats.Model`).
+
+    Fitting sits below the models (docs/conventions.md, "Layers": the records' starting
+    values and Wong's method use its linear least squares), so it names what it needs of a
+    record instead of importing the class; every :class:`~soilstats.Model` is one
+    (:func:`_is_record`).
+    """
+
+    name: str
+    param_names: tuple[str, ...]
+    func: Callable[..., np.ndarray]
+    jac: Callable[..., np.ndarray]
+    separable: Callable | None
+
+    def power_terms(self, x, weights): ...
+
+    def evaluators(self, x, weights) -> tuple[Callable, Callable]: ...
+
+
+def _is_record(model) -> bool:
+    """Whether ``model`` is a model record rather than a plain f(x, *params): it has the
+    record's closures (two attribute lookups, not a protocol check: identify runs once per
+    bootstrap resample)."""
+    return hasattr(model, "evaluators") and hasattr(model, "param_names")
+
 
 # Above this cond(J) the covariance means nothing and the end point is degenerate (a minimum
 # "at infinity" of a rational model, a vanished exponential term …).  The hardest honest
@@ -75,7 +102,7 @@ def _covariance(
 
 
 def identify(
-    model: Callable[..., np.ndarray] | Model,
+    model: Callable[..., np.ndarray] | ModelRecord,
     x,
     y,
     p0: Sequence[float],
@@ -190,7 +217,7 @@ def _model_parts(model, jac, param_names, units, bounds, name) -> tuple:
     precomputed closures (``evaluators``, ``power_terms``) may replace ``func``/``jac``.
     ``units`` and ``bounds`` come back as fresh dicts either way (the result owns them).
     """
-    if isinstance(model, Model):
+    if _is_record(model):
         return (
             jac is None,
             model.func,
@@ -272,7 +299,14 @@ def _finite_norm(y: np.ndarray, w: np.ndarray, wy: np.ndarray) -> float:
 
 
 def _objective(
-    model: Model | None, terms, f: Callable, jac: Callable, x, data: _Weighted, p0, ftol: float
+    model: ModelRecord | None,
+    terms,
+    f: Callable,
+    jac: Callable,
+    x,
+    data: _Weighted,
+    p0,
+    ftol: float,
 ) -> tuple[Callable, Callable, np.ndarray]:
     """(θ ↦ r(θ) = w·(y − f(x, θ)), θ ↦ (∂(w·f)/∂θ)ᵀ as (p, N) rows, start): Eq. 1's
     residuals and Eq. 5's Jacobian as the optimiser wants them.

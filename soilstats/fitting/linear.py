@@ -64,7 +64,7 @@ class LinearFit:
 
     def to_dict(self) -> dict:
         """The JSON-ready content (NaN → None)."""
-        from ..report import json_safe
+        from ..outputs import json_safe
 
         return json_safe(
             {

@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 from scipy.special import stdtrit
 
-from ..report.files import json_safe
-from ..report.text import notes_block
+from ..outputs.files import json_safe
+from ..outputs.text import notes_block
 
 __all__ = ["FitResult", "HealthFlag", "epsilon"]
 

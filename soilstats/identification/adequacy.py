@@ -145,7 +145,7 @@ def test_forms(z: np.ndarray, p: np.ndarray, test_index: np.ndarray) -> TestForm
 
     Vectorised over tests (this runs on every sinkage fit): per test, Wong's p²-weighted
     regression of ln p on ln z over the samples with z, p > 0 — the closed form of
-    :func:`~soilstats.identification.wong.wong_start` — then residuals, R² and the depth
+    :func:`~soilstats.models.wong.wong_start` — then residuals, R² and the depth
     profile (samples ranked by z, split as ``numpy.array_split`` would) over all its samples.
     The regression uses the samples above :data:`NOISE_FLOOR` of the test's largest
     pressure.  A test with fewer than max(:data:`PROFILE_BINS`, 4) usable samples, or one

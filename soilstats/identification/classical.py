@@ -27,7 +27,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from ..report.files import json_safe
+from ..outputs.files import json_safe
 from .ensemble import EnsembleCurve, ensemble_curve
 from .pooling import select_one_soil
 

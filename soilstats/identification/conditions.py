@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
+from ..campaign.window import windowed
 from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
 from ..models import get_model
 from ..parallel import effective_jobs, parallel_map
@@ -25,7 +26,6 @@ from .result import CampaignFit
 from .shear import fit_shear
 from .sinkage import fit_sinkage
 from .table import format_parameter_table, parameter_table
-from .window import windowed
 
 __all__ = [
     "ConditionFit",

@@ -11,8 +11,8 @@ from scipy.special import stdtrit
 
 from .._text import plural
 from ..fitting.result import FitResult, HealthFlag
+from ..outputs.files import json_safe
 from ..quality.codes import CODES
-from ..report.files import json_safe
 from .bootstrap import MIN_TESTS, TestBootstrap
 from .pooling import PooledData
 

@@ -7,6 +7,7 @@ from typing import Literal
 import numpy as np
 
 from .._text import plural
+from ..campaign.window import FitWindow, windowed
 from ..errors import IdentifiabilityError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult, HealthFlag
@@ -17,7 +18,6 @@ from .bootstrap import test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
-from .window import FitWindow, windowed
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 

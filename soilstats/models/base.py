@@ -349,7 +349,7 @@ class Model:
         "z_m")`` for Bekker; :meth:`x_from` builds ``x`` from them).
     start : callable, optional
         ``start(x, y) -> θ₀``: the starting values of the LM identification, a cheap
-        closed-form estimate (:mod:`soilstats.identification.starting_values`).
+        closed-form estimate (:mod:`soilstats.models.starting_values`).
     wong : callable, optional
         ``wong(x, y) -> (θ, cov, n_excluded)``: Wong's linearised method (Fig. 3), where the
         model has one (Bekker, Bernstein).

@@ -65,14 +65,14 @@ def janosi_jac(x, c, phi, K):
 
 
 def _start_janosi(x, tau):
-    from ..identification.starting_values import janosi_start
+    from .starting_values import janosi_start
 
     sigma, j = x
     return janosi_start(sigma, j, tau)
 
 
 def _start_shear_curve(j, tau):
-    from ..identification.starting_values import shear_curve_start
+    from .starting_values import shear_curve_start
 
     return shear_curve_start(j, tau)
 

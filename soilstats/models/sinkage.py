@@ -104,37 +104,37 @@ def reece_modulus(b, k1, k2, n):
     return k1 + k2 * b
 
 
-# Starting values and Wong's method live with the identification (their one home,
-# soilstats.identification.starting_values and .wong); imported when first used.
+# Starting values and Wong's method have one home each (soilstats.models.starting_values
+# and .wong, below the identification that asks the record); imported when first used.
 def _start_bekker(x, p):
-    from ..identification.starting_values import bekker_start
+    from .starting_values import bekker_start
 
     b, z = x
     return bekker_start(b, z, p)
 
 
 def _start_bernstein(z, p):
-    from ..identification.starting_values import bernstein_start
+    from .starting_values import bernstein_start
 
     return bernstein_start(z, p)
 
 
 def _start_reece(x, p):
-    from ..identification.starting_values import reece_start
+    from .starting_values import reece_start
 
     b, z = x
     return reece_start(b, z, p)
 
 
 def _wong_bekker(x, p):
-    from ..identification.wong import wong_bekker
+    from .wong import wong_bekker
 
     b, z = x
     return wong_bekker(b, z, p)
 
 
 def _wong_bernstein(z, p):
-    from ..identification.wong import wong_bernstein
+    from .wong import wong_bernstein
 
     return wong_bernstein(z, p)
 

@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 
 from .._text import plural
-from ..report.files import json_safe
-from ..report.text import notes_block
+from ..outputs.files import json_safe
+from ..outputs.text import notes_block
 from .codes import CODES
 
 __all__ = ["PLATE_WINDOW_SHARE", "QualityFlag", "QualityReport"]
@@ -176,9 +176,9 @@ class QualityReport:
         return pd.DataFrame(rows, columns=columns)
 
     def proposed_window(self):
-        """:meth:`proposed_windows` as one :class:`~soilstats.identification.FitWindow`
+        """:meth:`proposed_windows` as one :class:`~soilstats.campaign.window.FitWindow`
         (``fit_sinkage(..., window=...)``; empty when nothing failed)."""
-        from ..identification.window import FitWindow
+        from ..campaign.window import FitWindow
 
         items = " ".join(self.proposed_windows()["z_max_item"]).split()
         return FitWindow.parse(z_max=items)

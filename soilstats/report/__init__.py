@@ -1,13 +1,12 @@
-"""Everything that turns results into files: provenance, JSON/CSV writers, typeset PDFs.
+"""The top floor: typeset reports (PDF) of the results every other package computes.
 
-Analysis packages compute results; this package writes them. Importing it is cheap: the
-writers import pandas or matplotlib only when called, and the PDF modules are imported only
-by whoever writes a PDF.
+Analysis packages compute results; this package renders them. What every result is written
+with (provenance, JSON/CSV writers, atomic files, notes) is the ground floor,
+:mod:`soilstats.outputs`; its names are re-exported here for code that imported them from
+``soilstats.report`` (nothing inside soilstats does: docs/conventions.md, "Layers"). Importing
+it is cheap: the PDF modules are imported only by whoever writes a PDF.
 
 ==================  =====================================================================
-``provenance``      version, campaign format and hash, command, seed, date
-``files``           safe output paths, atomic writes (never through a link), JSON (no
-                    NaN) and CSV with a provenance header (formula cells escaped)
 ``document``        the report engine: a typeset (Typst) document of prose, tables,
                     equations and figures, rendered to PDF
 ``front``           page 1 of every report: question, data (measured/simulated), conclusion
@@ -19,23 +18,12 @@ by whoever writes a PDF.
 ``check_pdf``       the data-quality screening report
 ``identify_pdf``    the identification report (parameters per soil and condition)
 ``posterior_pdf``   the posterior report; its figures in ``posterior_figures``
-``text``            plain-text pieces every ``summary()`` shares
 ==================  =====================================================================
 """
 
 from __future__ import annotations
 
-from .files import json_safe, output_path, safe_stem, write_atomic, write_csv, write_json
-from .provenance import Provenance, campaign_sha256, source_date
+from .. import outputs as _outputs
+from ..outputs import *  # noqa: F403  (the old names: soilstats.report.Provenance, ...)
 
-__all__ = [
-    "Provenance",
-    "campaign_sha256",
-    "json_safe",
-    "output_path",
-    "safe_stem",
-    "source_date",
-    "write_atomic",
-    "write_csv",
-    "write_json",
-]
+__all__ = list(_outputs.__all__)

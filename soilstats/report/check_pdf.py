@@ -13,9 +13,9 @@ from pathlib import Path
 import pandas as pd
 
 from .._text import plural
+from ..outputs.files import output_path
 from ..quality.codes import CODES
 from .document import Document, strong
-from .files import output_path
 from .front import data_origin, front_page
 from .labels import natural_key
 

@@ -28,8 +28,8 @@ from matplotlib.figure import Figure
 from .._text import plural
 from ..discovery.candidates import candidate_values
 from ..discovery.result import METHOD_NOTES
+from ..outputs.files import output_path
 from .document import GRID_STYLE, Document, strong
-from .files import output_path
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations

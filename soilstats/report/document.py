@@ -28,13 +28,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .files import write_atomic
+from ..outputs.files import write_atomic
 
 if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure
 
-    from .provenance import Provenance
+    from ..outputs.provenance import Provenance
 
 __all__ = ["Document", "Markup", "esc", "math", "strong"]
 

@@ -18,8 +18,8 @@ import numpy as np
 
 from .._text import plural
 from ..identification.table import EQ4_MARK
+from ..outputs.files import output_path
 from .document import Document, strong
-from .files import output_path
 from .front import data_origin, front_page
 from .labels import natural_key
 from .methods import write_equations

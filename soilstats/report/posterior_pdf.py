@@ -20,13 +20,13 @@ import numpy as np
 from ..bayes.result import PosteriorResult
 from ..identification.table import format_value
 from ..models import get_model
+from ..outputs.files import output_path
+from ..outputs.provenance import Provenance
 from .document import Document, strong
-from .files import output_path
 from .front import data_origin, front_page
 from .labels import parameter_symbol
 from .methods import write_equations
 from .posterior_figures import pair_figure, predictive_figure, trace_figure
-from .provenance import Provenance
 
 __all__ = ["write_report"]
 

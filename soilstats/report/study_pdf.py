@@ -13,14 +13,14 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..outputs.files import output_path
+from ..outputs.provenance import Provenance
 from ..study.result import CRITERIA_COLUMNS
 from .document import Document, Markup, strong
-from .files import output_path
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
 from .parameters import EQ4_NOTE, condition_table
-from .provenance import Provenance
 from .study_figures import make_figures
 
 __all__ = ["write_report"]

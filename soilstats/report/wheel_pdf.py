@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..outputs.files import output_path
 from .document import Document, strong
-from .files import output_path
 from .front import data_origin, front_page
 from .wheel_figures import (
     beta_figure,

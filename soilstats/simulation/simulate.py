@@ -105,7 +105,7 @@ class SimulatedCampaign:
         Path
             The folder.
         """
-        from ..report.files import output_path, write_atomic
+        from ..outputs.files import output_path, write_atomic
 
         folder = Path(path)
         own = ("truth.json", "truth_tests.csv", "README.md")
@@ -179,7 +179,7 @@ def _as_spec(spec: Spec | dict | str | os.PathLike[str]) -> Spec:
 
 
 def _truth(spec: Spec, seed: int, biases: dict[tuple[str, str], float]) -> dict[str, Any]:
-    from .. import __version__
+    from .._version import __version__
 
     def plain(v):
         if isinstance(v, dict):

@@ -143,7 +143,7 @@ class AncovaResult:
 
     def to_dict(self) -> dict:
         """The JSON-ready content: the model comparison, the lines per group, both tests."""
-        from ..report import json_safe
+        from ..outputs import json_safe
 
         return json_safe(
             {

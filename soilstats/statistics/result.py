@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..report.files import json_safe
-from ..report.text import notes_block
+from ..outputs.files import json_safe
+from ..outputs.text import notes_block
 
 __all__ = ["TestResult"]
 

@@ -19,15 +19,6 @@ from .result import StudyResult
 from .runner import run_study
 from .spec import SpecError, StudySpec, available_studies, load_spec
 
-
-def __getattr__(name: str):
-    if name == "write_report":  # the PDF report imports matplotlib and seaborn: only on use
-        from ..report.study_pdf import write_report
-
-        return write_report
-    raise AttributeError(f"module 'soilstats.study' has no attribute {name!r}")
-
-
 __all__ = [
     "SpecError",
     "StudyDataError",
@@ -38,5 +29,4 @@ __all__ = [
     "run_study",
     "to_json_dict",
     "write_outputs",
-    "write_report",
 ]

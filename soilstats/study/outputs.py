@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..report import Provenance, json_safe, output_path, write_csv, write_json
+from ..outputs import Provenance, json_safe, output_path, write_csv, write_json
 from ..statistics import VERDICT_COLUMNS
 
 __all__ = ["to_json_dict", "write_outputs"]

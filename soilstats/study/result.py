@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from ..report import Provenance
-from ..report.text import notes_block
+from ..outputs import Provenance
+from ..outputs.text import notes_block
 
 __all__ = ["CRITERIA_COLUMNS", "StudyResult"]
 

@@ -11,11 +11,11 @@ import time
 
 import pandas as pd
 
+from ..campaign.window import windowed
 from ..identification.conditions import fit_conditions
 from ..identification.per_test import not_converged_message
 from ..identification.result import ONSET_TOLERANCE
-from ..identification.window import windowed
-from ..report import Provenance, source_date
+from ..outputs import Provenance, source_date
 from .data import StudyDataError, select_tests, soils_with_levels
 from .effects import factor_effects
 from .preparation import evaluate_criteria

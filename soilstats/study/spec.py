@@ -17,10 +17,8 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import soilstats
-
 from ..errors import SpecError, refuse_unknown_keys
-from ..report.files import safe_stem
+from ..outputs.files import safe_stem
 
 __all__ = [
     "STUDY_TYPES",
@@ -170,7 +168,7 @@ def studies_dir() -> Path:
     Installed: ``soilstats/studies/`` (mapped from the repository's ``studies/`` at build
     time, see ``setup.py``); in a source checkout: ``studies/`` beside the package.
     """
-    package = Path(soilstats.__file__).resolve().parent
+    package = Path(__file__).resolve().parent.parent  # soilstats/
     for candidate in (package / "studies", package.parent / "studies"):
         if candidate.is_dir() and any(candidate.glob("*.toml")):
             return candidate
@@ -339,7 +337,7 @@ def _criteria(raw, path) -> Criteria:
 def _window(raw, path):
     """``[window]``: ``z_max`` [m] / ``p_max`` [Pa], a number or a list of
     ``"COLUMN=VALUE:LIMIT"`` items (as the CLI's --z-max/--p-max)."""
-    from ..identification.window import FitWindow
+    from ..campaign.window import FitWindow
 
     table = _get(raw, "window", dict, path, default={})
     _check_keys(table, {"z_max", "p_max"}, path, "window.")

@@ -21,9 +21,9 @@ Units SI (φ in degrees); conventions and equations in ``docs/wheel.md``.
 
 from __future__ import annotations
 
+from ..bayes.stated_priors import sample_priors
 from .forces import N_NODES, contact_forces
 from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
-from .priors import sample_priors
 from .propagate import predict_wheel
 from .result import QUANTITIES, WheelPrediction
 from .runs import WheelDataError, read_runs, read_wheels

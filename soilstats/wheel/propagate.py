@@ -4,7 +4,7 @@ Each row of the draws is one joint parameter set and is used as a whole, so the 
 of the draws (kc–kφ–n, c–φ–K) reach the predictions unchanged; the model runs on all
 draws × slips at once (:func:`soilstats.wheel.solve.wheel_forces`), with no Python loop per
 draw.  Parameters that no draw carries are taken from user-stated priors
-(:mod:`soilstats.wheel.priors`) or not at all: without c, φ and K the sinkage is still
+(:mod:`soilstats.bayes.stated_priors`) or not at all: without c, φ and K the sinkage is still
 predicted (from the normal stress alone) and the drawbar pull and torque are reported as not
 predictable, with the reason.
 """
@@ -17,10 +17,10 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from ..bayes.stated_priors import describe_prior, sample_priors
 from ..errors import SoilstatsWarning
 from .forces import N_NODES
 from .geometry import Wheel
-from .priors import describe_prior, sample_priors
 from .result import QUANTITIES, WheelPrediction
 from .solve import STATUS, wheel_forces
 from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
@@ -67,7 +67,7 @@ def predict_wheel(
     priors : mapping, optional
         Parameter → prior tuple for parameters not in the draws, e.g.
         ``{"phi": ("normal", 30, 3), "c": ("uniform", 0, 1000), "K": ("lognormal", 0.01, 0.5)}``
-        (c Pa, φ deg, K m; :mod:`soilstats.wheel.priors`), sampled with ``seed`` and attached
+        (c Pa, φ deg, K m; :mod:`soilstats.bayes.stated_priors`), sampled with ``seed`` and attached
         to the draws row by row (independent of them).
     angles : StressAngles, optional
         θm, θ2 coefficients (default a0 = 0.4, a1 = 0.15, b0 = b1 = 0).

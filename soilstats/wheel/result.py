@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..report.text import notes_block
+from ..outputs.text import notes_block
 from .geometry import Wheel
 from .stress import PARAM_UNITS, StressAngles
 
@@ -81,7 +81,7 @@ class WheelPrediction:
 
     def to_dict(self) -> dict:
         """The JSON-ready content (no NaN: ``null``); the per-draw samples are left out."""
-        from ..report import json_safe
+        from ..outputs import json_safe
 
         return json_safe(
             {

@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..bayes.stated_priors import describe_prior, sample_priors
 from .discovery import READINGS, residual_tests
 from .geometry import Wheel
-from .priors import describe_prior, sample_priors
 from .runs import read_caveats, read_runs, read_wheels, wheel_geometry
 from .slipsinkage import SlipExponent, fit_slip_exponent
 from .soil import PlateDraws, plate_draws
@@ -91,7 +91,7 @@ def validate_wheel(
         Draws carried through the wheel model (default 2000).
     priors : mapping, optional
         Priors for parameters no test measured — the shear c [Pa], phi [deg], K [m]
-        (:mod:`soilstats.wheel.priors`); with them drawbar pull and torque are predicted too.
+        (:mod:`soilstats.bayes.stated_priors`); with them drawbar pull and torque are predicted too.
     angles : StressAngles, optional
         θm, θ2 coefficients (default a0 = 0.4, a1 = 0.15, b0 = b1 = 0: Ishigami et al. 2007).
     prob : float

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..report.text import notes_block
+from ..outputs.text import notes_block
 from .geometry import Wheel
 from .stress import PARAM_UNITS, StressAngles
 
@@ -104,7 +104,7 @@ class WheelDiscovery:
         return next((f for f in self.findings if f["cause"] == cause), None)
 
     def to_dict(self) -> dict:
-        from ..report import json_safe
+        from ..outputs import json_safe
 
         tests = self.tests.drop(columns=[], errors="ignore")
         return json_safe(
@@ -226,7 +226,7 @@ class WheelValidation:
     def to_dict(self) -> dict:
         """The JSON-ready content (issue #34's schema: ``runs``, ``coverage_90``, ``bias``,
         ``params``, ``notes``, and the rest); no NaN."""
-        from ..report import json_safe
+        from ..outputs import json_safe
 
         runs = self.runs[[c for c in RUN_COLUMNS if c in self.runs]]
         draws = self.plate.draws

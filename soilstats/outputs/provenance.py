@@ -9,17 +9,24 @@ convention), in which case that time is recorded as ``created``.
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import os
 import shlex
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
-if TYPE_CHECKING:
-    from ..campaign import Campaign
+from .._version import FORMAT_VERSION, __version__
 
-__all__ = ["Provenance", "campaign_sha256", "source_date"]
+__all__ = ["Provenance", "Source", "source_date"]
+
+
+class Source(Protocol):
+    """What :meth:`Provenance.of` reads of its input: a :class:`soilstats.campaign.Campaign`
+    (its ``source`` and the digest of its content, ``Campaign.sha256()``)."""
+
+    source: str
+
+    def sha256(self) -> str: ...
 
 
 def source_date() -> str | None:
@@ -36,45 +43,6 @@ def source_date() -> str | None:
     return _dt.datetime.fromtimestamp(seconds, _dt.UTC).isoformat(timespec="seconds")
 
 
-def campaign_sha256(campaign: Campaign) -> str:
-    """SHA-256 of a campaign's raw content (what ``Campaign.save`` writes), as hex.
-
-    The same tables give the same hash whether they came from CSV, Parquet or DataFrames:
-    numbers are hashed as little-endian float64, text as UTF-8, missing cells as a marker,
-    column names and table names included. Derived columns are left out (they follow from
-    the raw ones).
-    """
-    import numpy as np
-    import pandas as pd
-
-    from ..campaign.schema import DERIVED_COLUMNS, FILES
-
-    digest = hashlib.sha256()
-    for stem in FILES:
-        table = getattr(campaign, stem)
-        raw = [c for c in table.columns if c not in DERIVED_COLUMNS[stem]]
-        digest.update(f"\x1e{stem}:{len(table)}".encode())
-        for column in raw:
-            values = table[column]
-            digest.update(f"\x1d{column}".encode())
-            if pd.api.types.is_numeric_dtype(values) and not pd.api.types.is_bool_dtype(values):
-                digest.update(values.to_numpy(dtype="<f8", na_value=np.nan).tobytes())
-            else:
-                digest.update("\x1f".join(_cells(values)).encode("utf-8"))
-    return digest.hexdigest()
-
-
-def _cells(values) -> list[str]:
-    """The text of every cell of a column, NUL (``"\\x00"``) where missing."""
-    import pandas as pd
-
-    if isinstance(values.dtype, pd.StringDtype):
-        # Every present cell is a str already: one conversion in C, not a Python loop over
-        # a million sample rows (the test_id column of a large campaign).
-        return values.to_numpy(dtype=object, na_value="\x00").tolist()
-    return ["\x00" if pd.isna(v) else str(v) for v in values]
-
-
 @dataclass(frozen=True)
 class Provenance:
     """Where an output came from.
@@ -88,8 +56,9 @@ class Provenance:
     campaign : str
         The input campaign's source (folder, ``bundled:<name>`` or ``<memory>``).
     campaign_sha256 : str
-        :func:`campaign_sha256` of the input as the command received it: loaded,
-        after ``--select``, before screening and fitting windows (the
+        ``Campaign.sha256()`` (:func:`soilstats.campaign.digest.campaign_sha256`) of the
+        input as the command received it: loaded, after ``--select``, before screening and
+        fitting windows (the
         command line records those and every other restriction, such as identify's
         ``--series``), so every command on the same data and selection names one digest.
     command : str
@@ -117,7 +86,7 @@ class Provenance:
     @classmethod
     def of(
         cls,
-        campaign: Campaign | None,
+        campaign: Source | None,
         *,
         argv: Sequence[str] | None = None,
         seed: int | None = None,
@@ -127,14 +96,11 @@ class Provenance:
         ``argv`` is the command line after the program name (``["study", "velocity"]``);
         None records a library call.
         """
-        from .. import __version__
-        from ..campaign.schema import FORMAT_VERSION
-
         return cls(
             soilstats_version=__version__,
             campaign_format=FORMAT_VERSION,
             campaign="" if campaign is None else campaign.source,
-            campaign_sha256="" if campaign is None else campaign_sha256(campaign),
+            campaign_sha256="" if campaign is None else campaign.sha256(),
             command="python API" if argv is None else shlex.join(["soilstats", *argv]),
             seed=seed,
             created=source_date(),

@@ -2,8 +2,8 @@
 
 Each is a cheap closed-form estimate that is usually a few LM steps from the optimum; none is a
 result.  A model's record names its own (``Model.start``, :mod:`soilstats.models`); the
-paper's identification (:mod:`.sinkage`, :mod:`.shear`) and the extended models of discovery
-ask the record, so that both start from the same place.
+paper's identification (:mod:`soilstats.identification.sinkage`, ``.shear``) and the
+extended models of discovery ask the record, so that both start from the same place.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def sinkage_start(model, b, z, p) -> np.ndarray:
     b, z [m] (b may be None for a model without a plate size), p [Pa].  An unknown name, or
     a model of another kind, is a :class:`~soilstats.errors.ModelError`.
     """
-    from ..models import get_model
+    from .registry import get_model
 
     spec = get_model(model, "sinkage")
     if spec.start is None:

@@ -86,7 +86,7 @@ class FitWindow:
         """``test_id``, ``z_max``, ``p_max`` per test (NaN: no limit); a column rule whose
         value matches a test replaces the global rule's limits.  ``file``: the test log's
         name, for messages."""
-        from ..campaign.campaign import match_values
+        from .campaign import match_values
 
         out = pd.DataFrame({"test_id": tests["test_id"].astype(str).to_numpy()})
         out["z_max"] = np.nan
