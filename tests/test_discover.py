@@ -332,6 +332,7 @@ def test_no_finding_where_nothing_could_be_tested_says_so(tmp_path, capsys, ids,
     assert any("NO CANDIDATE CAUSE COULD BE TESTED" in n for n in doc["notes"])
 
 
+@pytest.mark.slow  # discover on the 244-test campaign, ~7 s: CI runs it
 def test_simulated_paper_names_the_papers_effects():
     result = discover("simulated-paper", seed=0)
     named = {(f.kind, f.soil, f.cause): f for f in result.findings}

@@ -174,6 +174,7 @@ def test_power_statements_are_capped_to_what_the_data_can_express():
     assert "not testable here" in result.summary()
 
 
+@pytest.mark.slow  # many seeded campaigns: CI runs it
 def test_one_cell_and_within_block_tests_have_at_least_the_stated_power():
     """The one-cell interaction test and the drift-within-blocks test take the largest of K
     one-degree-of-freedom tests at α/K: a shift of the stated MDE in the hardest pattern is

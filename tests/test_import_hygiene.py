@@ -6,6 +6,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 import soilstats
 
 HEAVY = ("pandas", "scipy.stats", "statsmodels", "matplotlib", "seaborn", "arviz", "emcee")
@@ -82,6 +84,7 @@ def test_only_the_report_package_renders():
     assert offenders == []
 
 
+@pytest.mark.slow  # fresh interpreters: CI runs it
 def test_lazy_statistics_names_are_the_functions_whatever_was_imported_first():
     """soilstats.statistics loads its modules on first use; importing every submodule first
     (as another module may) must not shadow a function by a module of the same name."""
@@ -96,6 +99,7 @@ def test_lazy_statistics_names_are_the_functions_whatever_was_imported_first():
     assert json.loads(_python(code)) == []
 
 
+@pytest.mark.slow  # a fresh interpreter: CI runs it
 def test_discovery_does_not_load_the_statsmodels_model_apis():
     loaded = json.loads(
         _python(

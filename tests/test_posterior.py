@@ -198,6 +198,7 @@ def test_cli_draws_csv_rows_are_in_random_order_not_walker_by_walker(campaign, t
         assert abs(lag1) < 4 / np.sqrt(x.size), (column, lag1)
 
 
+@pytest.mark.slow  # two CLI posterior runs: CI runs it
 def test_cli_writes_nothing_when_not_converged_unless_forced(campaign, tmp_path, monkeypatch):
     from soilstats.bayes import result
     from soilstats.cli.posterior import main
@@ -236,6 +237,7 @@ def test_cli_refuses_draws_below_the_ess_floor_before_sampling(
     assert not sampled and not (tmp_path / "o").exists()
 
 
+@pytest.mark.slow  # a CLI posterior run: CI runs it
 def test_cli_warns_when_contact_widths_leave_the_tested_plates(campaign, tmp_path, capsys):
     """Bekker's kc/b + kphi at contact widths beyond the plates tested is extrapolated: a
     WARNING on stderr and in posterior.json, naming both ranges; none inside them, nor for
@@ -333,6 +335,7 @@ def test_a_start_outside_the_prior_names_the_parameter_its_value_and_the_prior()
         sample_posterior(load_campaign("grc1-oravec2009"), "bekker", seed=0)
 
 
+@pytest.mark.slow  # a posterior and a CLI run: CI runs it
 def test_a_posterior_carries_the_health_of_the_fit_it_started_from(tmp_path, capsys):
     # GRC-1's small plates fail in bearing; the posterior's record used to say nothing of it.
     from soilstats import load_campaign
@@ -359,6 +362,7 @@ def test_a_posterior_carries_the_health_of_the_fit_it_started_from(tmp_path, cap
 
 # The population's Laplace start meets overflow on GRC-1 (the CLI counts it as a numerical
 # warning, which pytest's error filter would otherwise raise before the CLI can record it).
+@pytest.mark.slow  # two population runs: CI runs it
 @pytest.mark.filterwarnings("default::RuntimeWarning")
 def test_population_draws_of_a_model_flagged_plate_exponents_are_refused(tmp_path, capsys):
     """GRC-1's plates disagree on Bekker's n (identify: plate-exponents, ANOVA p = 4e-6); a

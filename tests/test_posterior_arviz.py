@@ -195,6 +195,7 @@ def test_log_likelihood_is_the_weighted_gaussian_summed_per_test(bekker):
             assert float(got.sel(test=t)) == pytest.approx(expect, rel=1e-10), t
 
 
+@pytest.mark.slow  # two population runs: CI runs it
 def test_same_seed_same_groups(campaign, population):
     a = sample_posterior(campaign, "janosi", seed=4, draws=800)
     b = sample_posterior(campaign, "janosi", seed=4, draws=800)

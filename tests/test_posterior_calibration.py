@@ -77,6 +77,7 @@ def test_shear_population_recovers_the_soil_and_its_scatter():
     assert (draws["c"] >= 0).all() and draws["phi"].between(0, 90).all() and (draws["K"] > 0).all()
 
 
+@pytest.mark.slow  # a shear population run; the sinkage one runs by default: CI runs it
 def test_cli_shear_population_writes_new_preparation_draws(tmp_path):
     from soilstats.cli.posterior import main
 

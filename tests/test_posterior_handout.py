@@ -113,6 +113,7 @@ def test_draws_refused_after_sampling_leave_no_folder(tmp_path, monkeypatch, cap
     assert not out.exists()
 
 
+@pytest.mark.slow  # two posterior runs: CI runs it
 def test_the_same_posterior_run_writes_a_byte_identical_netcdf(tmp_path, monkeypatch):
     """No clock in posterior.nc (ArviZ's created_at only with SOURCE_DATE_EPOCH)."""
     out = tmp_path / "nc"

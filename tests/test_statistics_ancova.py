@@ -117,6 +117,7 @@ def _shear_campaign(rng, c_shift=0.0, phi_sd_deg=0.2, c_sd=0.0):
     return pd.DataFrame({"tau": tau, "sigma": sigma, "level": level.astype(str)})
 
 
+@pytest.mark.slow  # many seeded studies: CI runs it
 def test_fitted_variance_holds_the_level_and_finds_a_cohesion_difference_ols_misses():
     # Per-test phi scatter makes sd(tau) grow with sigma: OLS rejected a true null of equal
     # slopes at ~0.11 and found a 30 Pa cohesion difference in ~6 % of campaigns (a review;

@@ -286,6 +286,7 @@ def test_no_repeated_level_is_an_error_in_the_studys_terms(tmp_path, capsys):
     assert "repeat the tests of at least one of these preparation levels" in err
 
 
+@pytest.mark.slow  # three studies: CI runs it
 def test_a_study_states_its_failed_per_test_fits_however_the_cache_was_filled():
     """A test whose per-test fit fails is named in the notes of every study that uses it,
     whether the shared cache was filled by the study itself, by an earlier study, or by

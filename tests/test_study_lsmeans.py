@@ -87,6 +87,7 @@ def test_study_pairs_are_the_blocked_models_contrasts(spec):
         assert r["upper"] - r["meandiff"] == pytest.approx(q * se, rel=1e-9)
 
 
+@pytest.mark.slow  # many seeded studies: CI runs it
 def test_unbalanced_operators_do_not_bias_the_pairs(spec):
     """Planted velocity effect 0 / +0.1 / +0.2 (log10 pressure), operator biases ±0.10 spread
     unevenly: removing raw operator means shrank the largest difference to ≈ 0.15 (the

@@ -66,13 +66,29 @@ def reports(cmu):
     return {"wheel": (folder / "wheel.pdf", doc)}
 
 
-# The report checks every report type passes, run on the wheel report.
-test_wheel_page_one = test_reports.test_page_one_answers_question_data_and_conclusion
-test_wheel_pages_inside_a4 = test_reports.test_every_page_is_numbered_a4_and_inside_its_box
-test_wheel_fonts_embedded = test_reports.test_fonts_are_embedded_and_never_type3
-test_wheel_provenance_last = test_reports.test_last_page_carries_the_provenance
+# The report checks every report type passes, run on the wheel report (on the CMU wheel run,
+# which CI runs with the slow checks).
+@pytest.mark.slow
+def test_wheel_page_one(reports):
+    test_reports.test_page_one_answers_question_data_and_conclusion(reports)
 
 
+@pytest.mark.slow
+def test_wheel_pages_inside_a4(reports):
+    test_reports.test_every_page_is_numbered_a4_and_inside_its_box(reports)
+
+
+@pytest.mark.slow
+def test_wheel_fonts_embedded(reports):
+    test_reports.test_fonts_are_embedded_and_never_type3(reports)
+
+
+@pytest.mark.slow
+def test_wheel_provenance_last(reports):
+    test_reports.test_last_page_carries_the_provenance(reports)
+
+
+@pytest.mark.slow  # the CMU wheel run, ~12 s: CI runs it
 def test_json_schema_and_files(cmu):
     doc, folder = cmu
     assert {"runs", "coverage_90", "bias", "params", "notes", "provenance"} <= set(doc)
@@ -89,6 +105,7 @@ def test_json_schema_and_files(cmu):
     assert len(PdfReader(folder / "wheel.pdf").pages) <= 8
 
 
+@pytest.mark.slow  # the CMU wheel run: CI runs it
 def test_plates_predict_cmu_sinkage_as_measured(cmu):
     doc, _ = cmu
     draws = doc["params"]["draws"]
@@ -118,6 +135,7 @@ def test_plates_predict_cmu_sinkage_as_measured(cmu):
     assert doc["predicted"] == ["sinkage_m"]
 
 
+@pytest.mark.slow  # the CMU wheel run: CI runs it
 def test_discovery_names_slip_and_measures_the_extension_held_out(cmu):
     doc, _ = cmu
     disc = doc["discovery"]
@@ -140,6 +158,7 @@ def test_discovery_names_slip_and_measures_the_extension_held_out(cmu):
     assert (beta90["extended_mae_m"] > 0.03).all()
 
 
+@pytest.mark.slow  # a second CMU wheel run: CI runs it
 def test_stated_shear_priors_predict_drawbar_pull(tmp_path, capsys):
     argv = ["wheel", CMU, "--json", "--progress", "off", "--no-extension", "--n-draws", "300"]
     argv += ["--prior", "phi=normal:29:4", "--prior", "c=uniform:0:1500"]

@@ -72,6 +72,7 @@ def simulate_runs(rng, *, repeats=3, betas=(0,), n1=0.0, n2=0.0, noise_m=0.0, da
     return runs
 
 
+@pytest.mark.slow  # many seeded runs: CI runs it
 def test_runs_simulated_from_the_drawn_population_are_covered_at_the_nominal_rate():
     # Draws and truth come from the same population: each run's sinkage is a new draw, so
     # its measured value falls inside the 90 % band with probability 0.9 (band = quantiles
