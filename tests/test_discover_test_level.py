@@ -125,6 +125,7 @@ def test_discovery_pdf_prints_the_test_level_sigma(tmp_path):
 
     from soilstats.report.discovery_pdf import write_report
 
-    path = write_report(soilstats.discover("cullinan-sand"), tmp_path)
+    path = tmp_path / "discover.pdf"
+    assert write_report(soilstats.discover("cullinan-sand"), path) == len(PdfReader(path).pages)
     text = "".join(p.extract_text() for p in PdfReader(path).pages)
     assert "test-level σ" in text and "TEST-SCATTER" in text

@@ -50,3 +50,34 @@ def test_the_report_figures_have_one_style():
     homes = [p.name for p in (PACKAGE / "report").glob("*.py") if '"font.size"' in p.read_text()]
     assert homes == ["document.py"]
     assert FIGURE_STYLE["font.size"] == 9 and not FIGURE_STYLE["axes.spines.top"]
+
+
+def test_p_values_are_adjusted_in_one_place():
+    """statistics.verdict.adjust_p_values is the one adjustment: no other module calls
+    multipletests or imports a private adjustment across packages."""
+    home = PACKAGE / "statistics" / "verdict.py"
+    for path in PACKAGE.rglob("*.py"):
+        if path == home:
+            continue
+        text = path.read_text(encoding="utf-8")
+        assert "multipletests(" not in text, path
+        assert "import _adjust" not in text, path
+
+
+WRITERS = ["check", "identify", "study", "discovery", "posterior", "wheel"]
+
+
+@pytest.mark.parametrize("module", WRITERS)
+def test_every_report_writer_has_one_signature(module):
+    """write_report(result, path, *, provenance=None, overwrite=False, ...) -> pages: the
+    result and the file first, then keywords only; none overwrites by default."""
+    import importlib
+
+    write = importlib.import_module(f"soilstats.report.{module}_pdf").write_report
+    params = list(inspect.signature(write).parameters.values())
+    assert [p.kind for p in params[:2]] == [inspect.Parameter.POSITIONAL_OR_KEYWORD] * 2
+    assert params[1].name == "path"
+    assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params[2:])
+    named = {p.name: p for p in params}
+    assert named["provenance"].default is None and named["overwrite"].default is False
+    assert inspect.signature(write).return_annotation in (int, "int")

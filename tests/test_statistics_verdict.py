@@ -113,3 +113,17 @@ def test_holm_equals_statsmodels_multipletests():
     reject, ref, *_ = multipletests(p, alpha=0.1, method="holm")
     np.testing.assert_allclose(v["p_adjusted"], ref, rtol=1e-14)
     assert list(v["significant"]) == list(reject)
+
+
+@pytest.mark.parametrize("method", ["holm", "fdr_bh", "bonferroni"])
+def test_adjust_p_values_is_the_one_adjustment_and_equals_statsmodels(method):
+    """The package's one p-value adjustment (verdicts and the preparation study call it):
+    statsmodels' multipletests for every method, Holm written out to the last bits."""
+    from statsmodels.stats.multitest import multipletests
+
+    from soilstats.statistics import adjust_p_values
+
+    p = np.random.default_rng(5).uniform(0, 0.3, size=17)
+    p[[2, 9]] = p[4]  # ties
+    ref = multipletests(p, alpha=0.05, method=method)[1]
+    np.testing.assert_allclose(adjust_p_values(p, 0.05, method), ref, rtol=1e-14)

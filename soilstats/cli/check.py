@@ -47,7 +47,11 @@ def run(args: argparse.Namespace) -> int:
         folder = Path(args.out)
         write_json(folder / "check.json", document, provenance, overwrite=args.overwrite)
         write_report(
-            report, campaign, folder / "check.pdf", provenance=provenance, overwrite=args.overwrite
+            report,
+            folder / "check.pdf",
+            campaign=campaign,
+            provenance=provenance,
+            overwrite=args.overwrite,
         )
         print(f"wrote {folder / 'check.json'} and check.pdf", file=sys.stderr)
     if args.json:

@@ -56,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
         json_path = write_json(
             folder / "discover.json", document, provenance, overwrite=args.overwrite
         )
-        pdf_path = write_report(result, folder, overwrite=args.overwrite)
+        pdf_path = folder / "discover.pdf"
+        write_report(result, pdf_path, overwrite=args.overwrite)
         print(f"wrote {json_path} and {pdf_path}", file=sys.stderr)
     print(result.to_json() if args.json else result.summary())
     return 0

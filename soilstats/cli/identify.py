@@ -182,8 +182,8 @@ def run(args: argparse.Namespace) -> int:
 
         write_report(
             results,
-            campaign,
             folder / "identify.pdf",
+            campaign=campaign,
             provenance=provenance,
             overwrite=args.overwrite,
         )

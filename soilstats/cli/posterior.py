@@ -691,7 +691,15 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance) -> N
     write_atomic(
         output_path(out, "posterior.json", overwrite=True), json.dumps(record, indent=2) + "\n"
     )
-    write_report(results, out / "report.pdf", record=record, provenance=provenance, handed_out=kept)
+    # Like the files above: the command checked --out before sampling (--overwrite).
+    write_report(
+        results,
+        out / "report.pdf",
+        provenance=provenance,
+        overwrite=True,
+        record=record,
+        handed_out=kept,
+    )
 
 
 def _print(args, out: Path, results, record: dict, table, handout) -> None:

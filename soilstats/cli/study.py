@@ -144,7 +144,7 @@ def _run_one(task):
     pages = None
     if not args.no_pdf:
         pdf = out_dir / f"{spec.name}.pdf"
-        pages = write_report(result, campaign, pdf, overwrite=args.overwrite)
+        pages = write_report(result, pdf, campaign=campaign, overwrite=args.overwrite)
         written.append(pdf)
     return result, written, pages, time.perf_counter() - start
 

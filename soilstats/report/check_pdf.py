@@ -51,10 +51,14 @@ def _conclusion(doc_dict: dict, n_tests: int) -> list:
     return out
 
 
-def write_report(report, campaign, path: Path, *, provenance=None, overwrite: bool = False) -> int:
-    """Write the typeset screening report of ``report`` (a QualityReport) to ``path``.
+def write_report(
+    report, path: str | Path, *, campaign, provenance=None, overwrite: bool = False
+) -> int:
+    """Write the typeset screening report of ``report`` (a QualityReport) of ``campaign``
+    to ``path``.
 
-    Returns the number of pages; an existing file is an error unless ``overwrite``.
+    Returns the number of pages; an existing file is an error unless ``overwrite`` (the
+    signature of every report writer: docs/conventions.md).
     """
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     record = report.to_dict()

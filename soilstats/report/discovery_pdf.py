@@ -850,23 +850,19 @@ def _notes_appendix(doc: Document, result) -> None:
     doc.numbered([*untested, *result.notes] or ["No further notes."], small=True)
 
 
-def write_report(
-    result,
-    folder: Path,
-    *,
-    name: str = "discover.pdf",
-    overwrite: bool = False,
-) -> Path:
-    """Write the typeset PDF report into ``folder`` (created if needed); returns its path.
+def write_report(result, path: str | Path, *, provenance=None, overwrite: bool = False) -> int:
+    """Write the typeset PDF report of ``result`` to ``path`` (its folder created if
+    needed); return the number of pages.
 
-    The last page and the PDF metadata carry the result's provenance; an existing file is
-    an error unless ``overwrite``.
+    The last page and the PDF metadata carry ``provenance`` (default: the result's); an
+    existing file is an error unless ``overwrite`` (the signature of every report writer:
+    docs/conventions.md).
     """
-    path = output_path(folder, name, overwrite=overwrite)
+    path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     doc = Document(
         "What the soil model gets wrong",
         subtitle="soilstats discover — model discovery after Apfelbeck et al. (2011)",
-        provenance=result.provenance,
+        provenance=provenance or result.provenance,
     )
     groups = natural_sorted({f"{c['kind']} / {c['soil']}" for c in result.columns})
     all_groups = result.all_groups_gain()  # page 1 and the model section share it
@@ -911,5 +907,4 @@ def write_report(
     doc.heading("Notes")
     _notes_appendix(doc, result)
     doc.provenance_section(new_page=False)
-    doc.render(path)
-    return path
+    return doc.render(path)

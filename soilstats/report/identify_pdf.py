@@ -175,10 +175,14 @@ def _condition(record: dict) -> dict:
     }
 
 
-def write_report(results, campaign, path: Path, *, provenance=None, overwrite: bool = False) -> int:
-    """Write the typeset identification report of ``results`` (ConditionFits per kind).
+def write_report(
+    results, path: str | Path, *, campaign, provenance=None, overwrite: bool = False
+) -> int:
+    """Write the typeset identification report of ``results`` (ConditionFits per kind) of
+    ``campaign`` to ``path``.
 
-    Returns the number of pages; an existing file is an error unless ``overwrite``.
+    Returns the number of pages; an existing file is an error unless ``overwrite`` (the
+    signature of every report writer: docs/conventions.md).
     """
 
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)

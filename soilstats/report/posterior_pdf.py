@@ -270,13 +270,16 @@ def write_report(
     results: list[PosteriorResult],
     path: str | Path,
     *,
-    record: dict | None = None,
     provenance: Provenance | None = None,
+    overwrite: bool = False,
+    record: dict | None = None,
     prob: float = 0.9,
-    overwrite: bool = True,
     handed_out=None,
 ) -> int:
     """Write the typeset posterior report for ``results`` to ``path``; return its pages.
+
+    An existing file is an error unless ``overwrite`` (the signature of every report writer:
+    docs/conventions.md).
 
     ``record`` is the content of ``posterior.json`` (checks, warnings, priors); everything
     in it is printed. ``provenance`` goes into the PDF metadata and onto the last page.

@@ -339,15 +339,19 @@ def _pairs_and_criteria(doc: Document, result) -> None:
             )
 
 
-def write_report(result, campaign, path: Path, *, overwrite: bool = False) -> int:
-    """Write the typeset PDF report of ``result`` to ``path``; return the number of pages.
+def write_report(
+    result, path: str | Path, *, campaign, provenance=None, overwrite: bool = False
+) -> int:
+    """Write the typeset PDF report of ``result`` (a study of ``campaign``) to ``path``;
+    return the number of pages.
 
-    The last page and the PDF metadata carry the result's provenance; an existing file is
-    an error unless ``overwrite``.
+    The last page and the PDF metadata carry ``provenance`` (default: the result's); an
+    existing file is an error unless ``overwrite`` (the signature of every report writer:
+    docs/conventions.md).
     """
     spec = result.spec
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
-    provenance = result.provenance or Provenance.of(campaign, seed=result.seed)
+    provenance = provenance or result.provenance or Provenance.of(campaign, seed=result.seed)
     doc = Document(
         spec.title,
         subtitle=f"soilstats study {spec.name} — after Apfelbeck et al. (2011), {spec.paper}",

@@ -19,6 +19,7 @@ raise unless ``dropna=True``, and are then counted in the result.
 :func:`variance_test`         Brown–Forsythe / Levene test of equal scatter
 :func:`welch_anova`           equal means without equal variances
 :func:`verdicts`              Holm-adjusted verdicts across soils × responses at α
+:func:`adjust_p_values`       adjusted p-values of one family (Holm unless stated)
 ============================  =============================================================
 
 >>> import pandas as pd
@@ -55,6 +56,7 @@ _LAZY = {
     "variance_test": ".variance",
     "welch_anova": ".variance",
     "VERDICT_COLUMNS": ".verdict",
+    "adjust_p_values": ".verdict",
     "effect_row": ".verdict",
     "verdicts": ".verdict",
 }
@@ -71,7 +73,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .result import TestResult
     from .twoway import anova_twoway
     from .variance import scatter_table, variance_test, welch_anova
-    from .verdict import VERDICT_COLUMNS, effect_row, verdicts
+    from .verdict import VERDICT_COLUMNS, adjust_p_values, effect_row, verdicts
 
 
 __getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())
@@ -83,6 +85,7 @@ __all__ = [
     "ConfoundingError",
     "StatisticsInputError",
     "TestResult",
+    "adjust_p_values",
     "ancova",
     "anova_oneway",
     "anova_random_block",

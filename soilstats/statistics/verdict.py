@@ -20,7 +20,7 @@ from statsmodels.stats.multitest import multipletests
 from ._data import StatisticsInputError
 from .result import TestResult
 
-__all__ = ["VERDICT_COLUMNS", "effect_row", "verdicts"]
+__all__ = ["VERDICT_COLUMNS", "adjust_p_values", "effect_row", "verdicts"]
 
 VERDICT_COLUMNS = [
     "soil",
@@ -46,8 +46,17 @@ _METHODS = (
 )
 
 
-def _adjust(p: np.ndarray, alpha: float, method: str) -> np.ndarray:
-    """Adjusted p-values of one family.
+def adjust_p_values(p: np.ndarray, alpha: float = 0.05, method: str = "holm") -> np.ndarray:
+    """Adjusted p-values of one family of tests (the one place soilstats adjusts them).
+
+    Parameters
+    ----------
+    p : array of float
+        The raw p-values of the family, in any order.
+    alpha : float
+        The family-wise level (used by the step methods of ``multipletests``).
+    method : str
+        Any method of :func:`statsmodels.stats.multitest.multipletests`; Holm by default.
 
     Holm is written out (sorted p_(i) times m − i + 1, running maximum, capped at 1 — the
     formula of statsmodels' ``multipletests``, checked against it in the tests) because
@@ -170,7 +179,7 @@ def verdicts(
     keys = frame.groupby(fam, sort=False).indices.values() if fam else [np.arange(len(p))]
     for idx in keys:
         if len(idx):
-            adjusted[idx] = _adjust(p[idx], alpha, method)
+            adjusted[idx] = adjust_p_values(p[idx], alpha, method)
     frame["p_value"] = p
     frame["p_adjusted"] = adjusted
     frame["significant"] = adjusted < alpha

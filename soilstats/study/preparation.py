@@ -43,7 +43,7 @@ import pandas as pd
 
 from .._text import plural
 from ..statistics import ConfoundingError, StatisticsInputError, anova_oneway, anova_twoway
-from ..statistics.verdict import _adjust
+from ..statistics.verdict import adjust_p_values
 
 __all__ = ["evaluate_criteria"]
 
@@ -173,7 +173,7 @@ def evaluate_criteria(
         adjusted = {}
         if tested:
             # Holm as statistics.verdicts computes it (multipletests costs ~0.1 s a call)
-            p_holm = _adjust(np.array(list(tested.values()), float), alpha, "holm")
+            p_holm = adjust_p_values(np.array(list(tested.values()), float), alpha, "holm")
             adjusted = dict(zip(tested, p_holm, strict=True))
         for m in methods:
             g = soil_tests[soil_tests["preparation"].astype(str) == m]
