@@ -85,3 +85,20 @@ def test_numbers_are_printed_on_a_scale_that_shows_them():
     assert format_value(-2.5e-4, 3.1e-2) == "-0.00025 ± 0.031"
     assert format_value(1.2e6, 3.0e4) == "(1.200 ± 0.030)e6"
     assert format_value(0.8251, 0.0077) == "0.8251 ± 0.0077"
+
+
+def test_the_parameter_tables_take_a_fit_without_tests():
+    """``parameter_table`` and ``format_parameter_table`` take any FitResult: one from
+    :func:`identify` has no ``tests`` (a campaign fit's attribute), so its count reads NaN / -
+    (it raised AttributeError)."""
+    from soilstats.identification import parameter_table
+    from soilstats.identification.table import format_parameter_table
+
+    x = np.linspace(0.1, 1.0, 20)
+    y = 2.0 * x**1.3 + 0.01 * np.sin(7 * x)
+    fit = identify(lambda x, a, b: a * x**b, x, y, [1.0, 1.0], param_names=["a", "b"])
+    table = parameter_table({"plain": fit})
+    assert list(table["parameter"]) == ["a", "b"] and table["tests"].isna().all()
+    lines = format_parameter_table({"plain": fit}).splitlines()
+    (tests_row,) = [line for line in lines if line.startswith("tests ")]
+    assert tests_row.split() == ["tests", "-"]

@@ -54,6 +54,12 @@ def _stderr_tests(fit: FitResult) -> pd.Series | None:
     return getattr(fit, "stderr_tests", None)
 
 
+def _tests(fit: FitResult) -> pd.DataFrame | None:
+    """The tests a campaign fit used (:attr:`CampaignFit.tests`); None for a fit without them,
+    such as :func:`soilstats.fitting.identify`'s."""
+    return getattr(fit, "tests", None)
+
+
 def shown_stderr(fit: FitResult) -> tuple[pd.Series, bool]:
     """The σ a table shows beside the estimates (the fit's ``stderr``: test-level where it
     rests on five tests or more, docs/conventions.md), and whether it is Eq. 4's."""
@@ -79,7 +85,7 @@ def parameter_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:
                     "stderr_tests": np.nan if tests_sd is None else tests_sd[name],
                     "unit": fit.units.get(name, ""),
                     "epsilon": fit.epsilon,
-                    "tests": len(fit.tests) if fit.tests is not None else np.nan,
+                    "tests": np.nan if (tests := _tests(fit)) is None else len(tests),
                     "flags": "; ".join(flag.code for flag in fit.flags),
                 }
             )
@@ -116,7 +122,7 @@ def format_parameter_table(fits: Mapping[str, FitResult], title: str = "") -> st
     body.append(
         [
             "tests",
-            *(str(len(fits[c].tests)) if fits[c].tests is not None else "-" for c in labels),
+            *("-" if (tests := _tests(fits[c])) is None else str(len(tests)) for c in labels),
         ]
     )
     body.append(
