@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -61,6 +61,15 @@ class PowerLawTerms:
 
     __slots__ = ("_block", "_f", "_key", "_n", "_zn", "log_z", "rows")
 
+    log_z: np.ndarray
+    rows: np.ndarray
+    # The last exponent and θ asked for, and what they gave (None before the first call).
+    _n: float | None
+    _zn: np.ndarray
+    _key: list[float] | None
+    _f: np.ndarray
+    _block: np.ndarray
+
     def __init__(self, g: Sequence, z, w) -> None:
         z = np.asarray(z, dtype=float)
         w = np.asarray(w, dtype=float)
@@ -76,7 +85,7 @@ class PowerLawTerms:
         for i, g_i in enumerate(g):
             np.multiply(w, g_i, out=rows[i])
         self.rows = rows
-        self._n = self._zn = self._key = self._f = self._block = None
+        self._n = self._key = None
 
     def power(self, n: float) -> np.ndarray:
         """z^n (N,), the last one kept: f, J and the projection ask for the same n in turn."""
@@ -402,15 +411,16 @@ class Model:
     columns: tuple[str, ...] = ()
     start: Callable | None = field(default=None, repr=False)
     wong: Callable | None = field(default=None, repr=False)
-    priors: tuple = field(default=(), repr=False)
+    # priors, scm, labels: a mapping or (name, value) pairs; pairs after __post_init__.
+    priors: tuple | Mapping[str, Any] = field(default=(), repr=False)
     support: tuple = field(default=(), repr=False)
     min_plate_sizes: int = 1
     design_input: str | None = None
     steady_state: bool = False
     weighting: str | None = None
     population: PopulationLayout | None = field(default=None, repr=False)
-    scm: tuple = field(default=(), repr=False)
-    labels: tuple = field(default=(), repr=False)
+    scm: tuple | Mapping[str, Any] = field(default=(), repr=False)
+    labels: tuple | Mapping[str, Any] = field(default=(), repr=False)
     signed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -446,7 +456,8 @@ class Model:
         if self.prepare is not None:
             return self.prepare(x, w)
         if self.power_law is not None:
-            terms = self.power_terms(x, w)
+            g, z = self.power_law(x)
+            terms = PowerLawTerms(g, z, w)
             return terms.f, terms.jac
         w_col = w[:, None]
 

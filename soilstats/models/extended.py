@@ -43,6 +43,7 @@ chooses which family to fit; the equations live here with the base models.
 
 from __future__ import annotations
 
+from typing import Any
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,8 +63,11 @@ __all__ = [
 ]
 
 
-def _rows_of(features) -> np.ndarray | None:
-    """(m, N) contiguous rows of an (N, m) feature matrix (the Jacobian's layout)."""
+def _rows_of(features) -> Any:
+    """(m, N) contiguous rows of an (N, m) feature matrix (the Jacobian's layout).
+
+    None without features; a family reads it only where their count is not 0 (typed Any:
+    the count is the guard, which a type cannot follow), as :func:`_product_of`'s."""
     return None if features is None else np.ascontiguousarray(np.asarray(features, float).T)
 
 
@@ -90,7 +94,7 @@ class _Product:
         return np.append(coef, 0.0)[self.codes]
 
 
-def _product_of(features) -> _Product | None:
+def _product_of(features) -> Any:
     return None if features is None else _Product(features)
 
 
@@ -101,7 +105,7 @@ class _Family:
 
     def __init__(self) -> None:
         self._key: tuple | None = None
-        self._parts: tuple | None = None
+        self._parts: tuple = ()  # of self._key: none yet
 
     def _parts_at(self, theta: np.ndarray) -> tuple:
         """The θ-dependent parts, computed once per θ: f and J at the same point share them."""
@@ -374,7 +378,8 @@ class ShearFamily(_Family):
         self.j = np.asarray(j, float)
         self.fc_rows, self.ft_rows, self.fk_rows = (_rows_of(m) for m in (fc, ft, fk))
         self.fc_times, self.ft_times, self.fk_times = (_product_of(m) for m in (fc, ft, fk))
-        self.a = None if a is None else np.asarray(a, float)
+        # Side-wall ratios; None (never read) without side walls.
+        self.a: Any = None if a is None else np.asarray(a, float)
         self.i_c = 3
         self.i_t = 3 + layout.n_c
         self.i_k = 3 + layout.n_c + layout.n_t
@@ -462,7 +467,8 @@ class ModelFamily(_Family):
         self.n_d = 0 if gd is None else self.gd_rows.shape[0]
         if self.n_d and offset not in model.param_names:
             raise ValueError(f"{model.name}: an offset needs a parameter to move, got {offset!r}")
-        self.i_off = model.param_names.index(offset) if self.n_d else None
+        # The offset parameter's index; None (never read) without offset features.
+        self.i_off: Any = model.param_names.index(offset) if self.n_d else None
         self.size = self.p + self.n_s + self.n_d
 
     def _output(self) -> str:

@@ -77,13 +77,14 @@ def get_model(name: str | Model, kind: str | None = None) -> Model:
     if isinstance(name, Model):
         model = name
     else:
-        model = MODELS.get(name)
-        if model is None:
+        found = MODELS.get(name)
+        if found is None:
             known = model_names(kind)
             raise ModelError(
                 f"unknown model {name!r}; choose one of {known} "
                 "(or register your own: soilstats.register_model)"
             )
+        model = found
     if kind is not None and model.kind != kind:
         raise ModelError(
             f"{model.name!r} is a {model.kind or 'non-soil'} model; for {kind} tests choose one "

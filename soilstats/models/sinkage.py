@@ -8,6 +8,8 @@ for z < 0 and non-integer n.  The identification excludes such samples before fi
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .base import (
@@ -142,7 +144,7 @@ def _wong_bernstein(z, p):
 _N_LABEL = ParamLabel("n", r"$n$", "n", "–", "dimensionless", 1.0)
 
 # What Bekker and Reece share: inputs (b, z), and two plate sizes to tell their terms apart.
-_SIZED_PLATES = dict(
+_SIZED_PLATES: dict[str, Any] = dict(
     kind="sinkage",
     columns=("b_m", "z_m"),
     min_plate_sizes=2,
