@@ -82,7 +82,7 @@ def located(message: str, *, file=None, column=None, row=None, **unit) -> str:
 
 
 def refuse_unknown_keys(
-    table: Iterable[str], allowed: Collection[str], error: Callable[[list[str]], Exception]
+    table: Iterable[str], allowed: Collection[str], error: Callable[..., Exception]
 ) -> None:
     """Raise ``error(unknown)`` when ``table`` (a TOML table) holds keys outside ``allowed``.
 

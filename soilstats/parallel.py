@@ -124,7 +124,8 @@ def parallel_map(
     # worker count is the same whatever the number of items: loky keeps one pool of workers
     # and resizes it when a call asks for another count, which restarts the workers between
     # calls and deadlocks when calls from several threads (discovery's groups) overlap.
-    runner = Parallel(n_jobs=jobs if jobs < 0 else n_jobs, return_as="generator")
+    n_jobs = jobs if jobs is not None and jobs < 0 else n_jobs
+    runner = Parallel(n_jobs=n_jobs, return_as="generator")
     results = runner(delayed(_on_one_blas_thread)(function, item) for item in items)
     if progress:
         from tqdm.auto import tqdm

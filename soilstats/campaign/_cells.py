@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import re
 from decimal import Decimal, InvalidOperation
+from typing import cast
 
 import numpy as np
 import numpy.typing as npt
@@ -179,11 +180,11 @@ class Numbers:
             self.values = decimal
             self.missing = np.zeros(n, dtype=bool)
             return
-        cells = self.cells
+        cells = cast(ObjArray, self.cells)  # not typed numeric: the texts exist
         # Python's float() (and numpy's) also reads "1_000" and non-ASCII digits ("٣"): no
         # spreadsheet or logger writes numbers so, and "1_5" may mean 1.5; such cells are
         # not numbers under the format's rule ('.' the only separator).
-        foreign = np.fromiter((not _plain_text(c) for c in cells), bool, n)
+        foreign = np.fromiter((not _plain_text(c) for c in cells), np.bool_, n)
         if not foreign.any():
             try:  # fast path: every cell parses (float() is correctly rounded: repr round-trips)
                 self.values = np.asarray(cells, dtype=np.float64) if n else np.empty(0)

@@ -44,7 +44,7 @@ def _skipped_table(issues: list[Issue]) -> pd.DataFrame:
             f" (and {more} more problem{'s' if more > 1 else ''} with this test)" if more else ""
         )
         rows.append((key, first.file, first.column, first.row, first.message + extra))
-    cols = list(zip(*rows, strict=True)) if rows else [[]] * len(SKIPPED_COLUMNS)
+    cols: list = list(zip(*rows, strict=True)) if rows else [[]] * len(SKIPPED_COLUMNS)
     out = {
         c: pd.Series(list(v), dtype="Int64" if c == "row" else TEXT_DTYPE)
         for c, v in zip(SKIPPED_COLUMNS, cols, strict=True)

@@ -12,6 +12,8 @@ of a validated campaign.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
@@ -284,7 +286,7 @@ def add_test_columns(tests: pd.DataFrame, n_samples: ArrayLike) -> pd.DataFrame:
     out = tests.copy()
     kind = out["kind"].to_numpy(dtype=object)
     # Shape is only meaningful for sinkage tests (a shear test may carry a stray value).
-    shape = np.full(len(out), None, dtype=object)
+    shape: Any = np.full(len(out), None, dtype=object)  # object array (numpy's stubs: where)
     if "shape" in out.columns:
         shape = np.where(kind == "sinkage", out["shape"].to_numpy(dtype=object), None)
     radius, width, length = _col(out, "radius_m"), _col(out, "width_m"), _col(out, "length_m")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import pandas as pd
@@ -33,7 +34,7 @@ from ._cells import (
     typed,
     without_controls,
 )
-from .schema import KINDS, MAX_CELL_CHARS, SHAPES, SPECS, spec
+from .schema import KINDS, MAX_CELL_CHARS, SHAPES, SPECS, ColumnSpec, spec
 
 __all__ = ["SKIP_HINT", "Issue", "Tables", "derived_issues", "validate"]
 
@@ -110,7 +111,8 @@ class _TestsChecker:
     """Row-by-row checks of the log; collects issues in (row, column) order."""
 
     def __init__(self, raw: pd.DataFrame, name: str) -> None:
-        self.raw, self.name, self.issues = raw, name, []
+        self.raw, self.name = raw, name
+        self.issues: list[Issue] = []
         self.ids = texts(raw["test_id"])
         self.kind = texts(raw["kind"])
         self.soil = texts(raw["soil"])
@@ -162,7 +164,7 @@ class _TestsChecker:
         num = self.num[col]
         if num.missing[i]:
             if needed:
-                s = spec("tests", col)
+                s = cast(ColumnSpec, spec("tests", col))  # a column of the schema
                 text = num.cell(i).strip()
                 seen = f"{shown(text)} (not recorded)" if text and text != "nan" else "is empty"
                 self.add(
@@ -611,7 +613,7 @@ _SAMPLE_QUANTITIES = {
 }
 
 
-def _geometry(tests: pd.DataFrame, i: int, column: str) -> str:
+def _geometry(tests: pd.DataFrame, i: int | np.integer, column: str) -> str:
     """The log values a derived test quantity is computed from, for a message."""
 
     def v(c: str) -> str:

@@ -32,7 +32,7 @@ class WindowRule:
     z_max: float | None = None  # [m]
     p_max: float | None = None  # [Pa]
     column: str | None = None
-    value: object = None
+    value: str | float | None = None  # None: every test (``column`` None)
 
     def describe(self) -> str:
         limits = [f"z <= {self.z_max:g} m" if self.z_max is not None else ""]
@@ -104,7 +104,7 @@ class FitWindow:
                         column=rule.column,
                     )
                 value = rule.value
-                if pd.api.types.is_numeric_dtype(tests[rule.column]):
+                if value is not None and pd.api.types.is_numeric_dtype(tests[rule.column]):
                     value = float(value)
                 hit = match_values(tests[rule.column], value, rule.column)
             for name in ("z_max", "p_max"):

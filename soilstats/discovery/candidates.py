@@ -259,10 +259,10 @@ def enumerate_candidates(
     (list of Candidate, list of str)
         Outcomes and bookkeeping never become candidates (:func:`classify_columns` says why).
     """
-    roles = {r.column: r.role for r in (roles or classify_columns(table, kind))}
+    role_of = {r.column: r.role for r in (roles or classify_columns(table, kind))}
     skip = _SUMMARISED[kind] | _OTHER_KIND[kind]
     names = [
-        c for c, role in roles.items() if role not in ("outcome", "bookkeeping") and c not in skip
+        c for c, role in role_of.items() if role not in ("outcome", "bookkeeping") and c not in skip
     ]
     out: list[Candidate] = []
     notes: list[str] = []
@@ -284,7 +284,7 @@ def enumerate_candidates(
         numeric = pd.api.types.is_numeric_dtype(values.dtype)
         counts = values[recorded].value_counts()
         replicated = bool((counts >= 2).mean() >= 0.5)
-        trend = roles[name] == "time/order" and numeric
+        trend = role_of[name] == "time/order" and numeric
         categorical = not trend and ((not numeric) or (distinct <= MAX_LEVELS and replicated))
         if not numeric and not (counts >= 2).any():
             notes.append(
@@ -300,7 +300,7 @@ def enumerate_candidates(
                 derived=name in _DERIVED[kind],
                 n_recorded=n_rec,
                 levels=int(distinct),
-                role=roles[name],
+                role=role_of[name],
             )
         )
     return out, notes

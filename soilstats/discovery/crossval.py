@@ -138,7 +138,9 @@ def group_rng(seed: int, group) -> np.random.Generator:
     return np.random.default_rng([seed, name])
 
 
-def make_folds(levels: np.ndarray, scheme: str, rng: np.random.Generator, k: int = 5):
+def make_folds(
+    levels: np.ndarray, scheme: str, rng: np.random.Generator | None, k: int = 5
+) -> np.ndarray:
     """Fold number of each test: stratified K-fold (``tests``) or one fold per level.
 
     Stratified: each level's tests, shuffled, are dealt to the folds in turn, continuing
@@ -150,6 +152,7 @@ def make_folds(levels: np.ndarray, scheme: str, rng: np.random.Generator, k: int
     codes = np.unique(levels, return_inverse=True)[1].ravel()
     if scheme == "conditions":
         return codes
+    assert rng is not None, "stratified folds are drawn: they need a generator"
     folds = np.empty(codes.size, int)
     k = int(min(k, codes.size))
     offset = 0
@@ -263,7 +266,8 @@ class FoldFits:
         is never computed from a failed fit.
         """
         outcomes = iter(outcomes)
-        fits, errors = {}, np.empty(self.rows.size)
+        fits: dict = {}
+        errors = np.empty(self.rows.size)
         for fold, task in self.plan:
             if task is _BASE or task is SAME:
                 fits[fold] = None
@@ -330,7 +334,7 @@ def information_criteria(result) -> dict:
     return {"aic": float(ll + 2 * p), "bic": float(ll + p * np.log(n)), "nobs": n, "params": p}
 
 
-def campaign_gain(models) -> object | None:
+def campaign_gain(models) -> Gain | None:
     """The gain of the combined models over the base models, every extended (kind, soil)
     together: the same paired per-test comparison over all their held-out tests."""
     pairs = [m.held_out for m in models if m.held_out is not None]

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -54,6 +55,10 @@ from .ftests import (
 )
 from .power import minimum_detectable
 
+if TYPE_CHECKING:
+    from .data import Group
+    from .extensions import Fitted
+
 __all__ = [
     "INTERACTION",
     "RESPONSES",
@@ -70,8 +75,8 @@ RESPONSES = {"sinkage": ("level", "shape"), "shear": ("level", "K")}
 class Diagnosis:
     """Candidates, confounding and significance tests of one (kind, soil) group."""
 
-    group: object  # Group with the response columns added
-    base: object  # Fitted base model (None if it failed)
+    group: Group  # Group with the response columns added
+    base: Fitted | None  # Fitted base model (None if it failed)
     candidates: tuple[Candidate, ...]
     relations: tuple[Relation, ...]
     notes: tuple[str, ...]
@@ -295,7 +300,9 @@ def _within_blocks(group, table, cands, related, eligible, codes, values_of):
     and the per-block extension).  Two order columns that differ within every block by one
     scale (``repetition`` and a ``test_number`` counting on across blocks) make one test:
     only the first enters.  Returns the table with the label columns and the rows."""
-    rows_out, columns, seen = [], {}, []
+    rows_out: list = []
+    columns: dict = {}
+    seen: list = []
     partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
     for cand in cands:
         if cand.categorical or cand.role != "time/order":

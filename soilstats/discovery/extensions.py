@@ -32,7 +32,7 @@ import pandas as pd
 from ..errors import ConvergenceError, IdentifiabilityError, ModelError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult
-from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, side_wall_ratio
+from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, Model, side_wall_ratio
 from ..models.extended import (
     ShearLayout,
     SinkageLayout,
@@ -84,7 +84,7 @@ class Features:
         if self.how == "block-linear":
             blocks = group.values(self.by).iloc[rows].astype(object).fillna(MISSING)
             x = values.astype(float)
-            state = {"blocks": [], "mean": [], "sd": []}
+            state: dict[str, list] = {"blocks": [], "mean": [], "sd": []}
             for lv in dict.fromkeys(blocks):
                 xb = x[(blocks == lv).to_numpy()].dropna().to_numpy()
                 if xb.size >= 2 and np.ptp(xb) > 0:
@@ -397,7 +397,7 @@ class ModelExtension(Extension):
     and an offset θ·F on its exponent n for ``"n"`` targets (:class:`~soilstats.models
     .extended.ModelFamily`).  It starts from the record's starting values."""
 
-    model: object = None  # the Model record
+    model: Model = field(kw_only=True)  # the Model record
     terms: tuple[Term, ...] = ()
 
     def _x(self, group, mask):
@@ -425,6 +425,7 @@ class ModelExtension(Extension):
         if base is not None and isinstance(base.extension, ModelExtension):
             start = list(base.result.values[:p])
         else:
+            assert self.model.start is not None  # check_own_model refused a model without
             start = list(self.model.start(self._x(group, mask), y))
         p0 = start + [0.0] * (family.size - p)
         names, units = self._names(state)
@@ -453,12 +454,12 @@ class ShearExtension(Extension):
             key: _stack(self.terms, states, group, owner, target)
             for target, key in (("c", "fc"), ("tan_phi", "ft"), ("K", "fk"))
         }
-        counts = [0 if kw[k] is None else kw[k].shape[1] for k in ("fc", "ft", "fk")]
+        counts = [0 if (f := kw[k]) is None else f.shape[1] for k in ("fc", "ft", "fk")]
         if self.side_walls:
             t = group.tests
             a = side_wall_ratio(t["r_inner_m"], t["r_outer_m"], t["grouser_height_m"])
             kw["a"] = np.asarray(a, float)[owner]
-        layout = ShearLayout(*counts, self.side_walls)
+        layout = ShearLayout(counts[0], counts[1], counts[2], self.side_walls)
         return mask, layout, shear_family(layout, group.x["sigma"][mask], group.x["j"][mask], **kw)
 
     def _names(self, state):
@@ -580,6 +581,7 @@ def library(
     if isinstance(base, ModelExtension):
         return _own_library(base, group, tests, cause, names, numeric, responses, log_scale)
     if group.kind == "sinkage":
+        assert isinstance(base, SinkageExtension)  # base_model's for sinkage tests
         bekker = base.bekker
         v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
         if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
@@ -658,7 +660,7 @@ def _own_library(base, group, tests, cause, names, numeric, responses, log_scale
     where the velocity is a cause, then the generic one (the responses' parameters depend on
     the cause).  Softening, Reece and the per-size Bernstein law are the paper's
     Bekker/Bernstein's."""
-    model, out = base.model, []
+    model, out = base.model, list[Extension]()
     n_free = model.exponent is not None
     v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
     if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:

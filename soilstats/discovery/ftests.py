@@ -13,6 +13,8 @@ interaction A × B is the F-test of the A × B cells after A, B and the strata
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 from scipy import stats
@@ -216,7 +218,7 @@ def _contrast_f(y, contrasts, strata, nuisance=None, cells=None) -> dict:
     df2 = n - w.n_strata - r0 - 1
     rss0 = w.within + float(yc @ yc)
     kept: list[np.ndarray] = []
-    best = (-1.0, None)
+    best: tuple[float, Any] = (-1.0, None)  # (SS, column): a column once one is kept
     norm2 = np.sum(dc**2, axis=0)
     for j in range(dc.shape[1]):
         scale = w.length(contrasts[:, j : j + 1])

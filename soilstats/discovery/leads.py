@@ -10,6 +10,8 @@ later lead that the kept extension already explains is no finding.  The examinat
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -117,7 +119,7 @@ _PHYSICS_NAME = {
 def _physical_name(lead: str, extension: str, relations) -> str:
     want = _PHYSICS_NAME.get(extension)
     for r in relations:
-        if r.kind == "aliased" and {r.finer, r.coarser} == {lead, want}:
+        if want is not None and r.kind == "aliased" and {r.finer, r.coarser} == {lead, want}:
             return want
     return lead
 
@@ -310,7 +312,9 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, ro
     levels = candidate_values(g.tests, lead).astype(str).to_numpy()[scope]
     responses = tuple(lead_rows["response"])
     caveats = _caveats(lead_rows, lead, confounded_with)
-    base_ext = base_fitted = chosen = None
+    base_ext = None
+    base_fitted: Any = None  # Fitted
+    chosen: Any = None  # (Extension, Gain, Fitted, implausible reasons, search Gain)
     tried: list = []
     if scope.size >= 6:
         numeric = bool(top["numeric"])

@@ -92,7 +92,8 @@ def fold_extensions(ext, choices: dict[int, tuple], **library_args) -> dict:
     ``responses``: the fold's extension is the one of the same name in the library built
     with the fold's responses (a physical extension does not depend on them; the generic
     one frees the parameters of the fold's responses only)."""
-    out, built = {}, {}
+    out: dict = {}
+    built: dict = {}
     for fold, chosen in choices.items():
         if not chosen:
             out[fold] = None

@@ -114,7 +114,7 @@ def describe(
     if not np.isfinite(delta):
         return "not computable (no residual degrees of freedom)"
     what, relative = _RESPONSE_TEXT[(kind, response)]
-    if not testable(delta, observed):
+    if observed is not None and not testable(delta, observed):
         return (
             f"not testable here: the smallest detectable effect {pattern} exceeds the tests' "
             f"whole spread in {what} ({_size(relative, observed).lstrip('±')})"

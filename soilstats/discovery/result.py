@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -11,6 +12,13 @@ import pandas as pd
 from .._text import plural
 from ..outputs import Provenance, json_safe
 from ..outputs.text import notes_block
+
+if TYPE_CHECKING:
+    from ..fitting.result import FitResult
+    from .crossval import Gain
+    from .data import Group
+    from .extensions import Fitted
+    from .testlevel import TestLevel
 
 __all__ = [
     "METHOD_NOTES",
@@ -163,20 +171,20 @@ class Finding:
     effect_size: float
     n_tests: int
     extension: str | None
-    fit: object | None = field(default=None, repr=False)
-    base_fit: object | None = field(default=None, repr=False)
-    gain: object | None = None
-    gain_search: object | None = None
-    gain_conditions: object | None = None
+    fit: FitResult | None = field(default=None, repr=False)
+    base_fit: FitResult | None = field(default=None, repr=False)
+    gain: Gain | None = None
+    gain_search: Gain | None = None
+    gain_conditions: Gain | None = None
     information: dict = field(default_factory=dict)
     tried: tuple[dict, ...] = ()
     caveats: tuple[str, ...] = ()
     scope_rows: np.ndarray | None = field(default=None, repr=False)
-    group: object | None = field(default=None, repr=False)
-    fitted: object | None = field(default=None, repr=False)
-    base_fitted: object | None = field(default=None, repr=False)
+    group: Group | None = field(default=None, repr=False)
+    fitted: Fitted | None = field(default=None, repr=False)
+    base_fitted: Fitted | None = field(default=None, repr=False)
     #: Test-level σ of ``fit`` (:class:`~.testlevel.TestLevel`), None without a kept fit.
-    test_level: object | None = field(default=None, repr=False)
+    test_level: TestLevel | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
         """The JSON shape of issue #6, plus the supporting detail."""

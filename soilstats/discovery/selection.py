@@ -21,16 +21,23 @@ combine with another extension (the step says so).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..outputs import json_safe
 from .crossval import FoldFits, GroupFolds, compare
-from .extensions import base_model, combine
+from .extensions import Extension, base_model, combine
 from .plausibility import implausible
 from .result import parameter_lines, parameter_table
 from .testlevel import scatter_caveat, test_level
 from .work import FIT_ERRORS, FitTask, Wave
+
+if TYPE_CHECKING:
+    from ..fitting.result import FitResult
+    from .crossval import Gain
+    from .extensions import Fitted
+    from .testlevel import TestLevel
 
 __all__ = [
     "CombinedModel",
@@ -72,13 +79,13 @@ class CombinedModel:
     soil: str
     extensions: tuple[str, ...]
     causes: tuple[str, ...]
-    fit: object | None = field(default=None, repr=False)
-    gain: object | None = None
+    fit: FitResult | None = field(default=None, repr=False)
+    gain: Gain | None = None
     steps: tuple[dict, ...] = ()
     n_tests: int = 0
-    fitted: object | None = field(default=None, repr=False)
+    fitted: Fitted | None = field(default=None, repr=False)
     #: Test-level σ of ``fit`` (:class:`~.testlevel.TestLevel`; cluster-robust over tests).
-    test_level: object | None = field(default=None, repr=False)
+    test_level: TestLevel | None = field(default=None, repr=False)
     #: ``TEST-SCATTER`` and the like: what the reader of the parameters must know.
     caveats: tuple[str, ...] = ()
     #: Per-test held-out errors (base, combined), for a campaign-wide gain.
@@ -106,6 +113,7 @@ class CombinedModel:
         if not self.extensions:
             return [head + "base model (no extension adds a real gain on all tests)"]
         g = self.gain
+        assert g is not None  # an extended model has its gain (selection_steps)
         lines = [
             head + " + ".join(self.extensions) + f"  (causes: {', '.join(self.causes)})",
             f"  gain over the base model, {self.n_tests} tests, {g.scheme} CV ({g.folds} folds): "
@@ -140,7 +148,7 @@ class PreparedSelection:
 
     kept: list
     rows: np.ndarray
-    base_full: object
+    base_full: Fitted
     folds: np.ndarray
 
 
@@ -168,7 +176,7 @@ def selection_steps(group, prepared: PreparedSelection):
     base_plan = FoldFits(rows, base_full.extension, folds, scheme="tests", chain="base")
     starts, e_base = base_plan.collect((yield Wave(group, base_plan.tasks)))
     e_current = e_base
-    chosen: list[tuple[str, object]] = []
+    chosen: list[tuple[str, Extension]] = []
     steps: list[dict] = []
     remaining = list(prepared.kept)
     current = None  # (Extension, Fitted, errors) of the model so far
@@ -178,7 +186,7 @@ def selection_steps(group, prepared: PreparedSelection):
         planned, tasks = [], []
         for i, (cause, ext) in enumerate(remaining):  # chain i: the folds, then all tests
             model = combine([e for _, e in chosen] + [ext])
-            plan = None
+            plan: FoldFits | None = None
             if model is not None:
                 plan = FoldFits(rows, model, folds, scheme="tests", starts=starts, chain=i)
                 tasks += [*plan.tasks, FitTask(model, rows, base_full, chain=i)]
@@ -186,7 +194,7 @@ def selection_steps(group, prepared: PreparedSelection):
         outcomes = iter((yield Wave(group, tasks, probe=True)))
         for cause, ext, model, plan in planned:
             step = {"extension": ext.name, "cause": cause, "added": False}
-            if model is None:
+            if model is None or plan is None:
                 failed.append({**step, "reason": "does not combine with " + chosen[0][1].name})
                 continue
             folds_out = [next(outcomes) for _ in plan.tasks]
@@ -208,11 +216,11 @@ def selection_steps(group, prepared: PreparedSelection):
             good = not reasons and gain.real
             options.append((good, gain.relative, cause, ext, step, fitted, errors, model))
         steps += failed  # a model that fails or does not combine now will not later
-        good = [o for o in options if o[0]]
-        if not good:
+        goods = [o for o in options if o[0]]
+        if not goods:
             steps += [o[4] for o in options]
             break
-        _, _, cause, ext, step, fitted, errors, model = max(good, key=lambda o: o[1])
+        _, _, cause, ext, step, fitted, errors, model = max(goods, key=lambda o: o[1])
         steps.append({**step, "added": True, "reason": "real gain, plausible"})
         chosen.append((cause, ext))
         current = (model, fitted, errors)

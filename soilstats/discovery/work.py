@@ -239,6 +239,7 @@ class Pool:
             group, task, _ = items[i]
             return (id(group), i) if task.chain is None else (id(group), task.chain)
 
+        out: list  # Outcomes (the parallel branch fills a list of None in place)
         if not self.parallel:
             failed, out = set(), []
             for i, (group, task, _) in enumerate(items):
@@ -256,7 +257,7 @@ class Pool:
         # (No filling of idle workers with later tasks of a probed chain: another process's
         # wave may be waiting for them, and a chain that fails would waste them.)
         probes = sorted(first.values())
-        out: list[Outcome | None] = [None] * len(items)
+        out = [None] * len(items)
         for i, outcome in zip(probes, self._parallel([items[i] for i in probes]), strict=True):
             out[i] = outcome
         failed = {chain_of(i) for i in probes if out[i].error is not None}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from typing import Literal, NamedTuple, Protocol
+from typing import Literal, NamedTuple, Protocol, cast
 
 import numpy as np
 
@@ -105,7 +105,7 @@ def identify(
     model: Callable[..., np.ndarray] | ModelRecord,
     x,
     y,
-    p0: Sequence[float],
+    p0: Sequence[float] | np.ndarray,
     *,
     weights=None,
     jac: Callable[..., np.ndarray] | None = None,
@@ -169,8 +169,9 @@ def identify(
     jacobian_method = "analytic"
     if jac is None:
         jac, jacobian_method = make_jacobian(f, x, p0)
-    terms = model.power_terms(x, data.w) if fast else None
-    residual, jacobian, p0 = _objective(model if fast else None, terms, f, jac, x, data, p0, ftol)
+    record = cast("ModelRecord", model) if fast else None  # fast: a Model record (_model_parts)
+    terms = record.power_terms(x, data.w) if record is not None else None
+    residual, jacobian, p0 = _objective(record, terms, f, jac, x, data, p0, ftol)
     out = _minimise(residual, jacobian, p0, terms, data, xtol, ftol, gtol, max_iter)
     rss, dof = 2.0 * out.cost, data.n_used - p0.size
     end = _judge_end_point(out, rss, dof, param_names)
@@ -320,11 +321,11 @@ def _objective(
     if terms is not None:
         return _residual_of(data.wy, terms.f), terms.jacobian_block, p0
     if model is not None:
-        f_weighted, jacobian = model.evaluators(x, data.w)
+        f_weighted, jac_weighted = model.evaluators(x, data.w)
         if model.separable is not None:
             basis, log_z = model.separable(x, data.w)
             p0, _ = refine_exponent(basis, log_z, data.wy, p0, ftol=ftol)
-        return _residual_of(data.wy, f_weighted), jacobian, p0
+        return _residual_of(data.wy, f_weighted), jac_weighted, p0
     w, wy, n_obs, n_par = data.w, data.wy, data.w.size, p0.size
     w_col = w[:, None]
 

@@ -125,7 +125,7 @@ try:
     # benchmark).  Private to numpy, hence the fallback.
     from numpy.linalg._umath_linalg import eigh_lo as _eigh_lo
 except (ImportError, AttributeError):  # pragma: no cover - a numpy without it
-    _eigh_lo = None
+    _eigh_lo = None  # type: ignore[assignment,misc]  # a numpy without the private gufunc
 
 
 def _eigh(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -384,6 +384,7 @@ def _damped_step(
     ½(‖r‖² − ‖r − Jδ‖²).
     """
     diag, cost = state.diag, state.cost
+    assert diag is not None and state.lam is not None  # set by _iterate before the step
     theta_list = state.theta.tolist()
     theta_norm = math.sqrt(sum((dk * tk) ** 2 for dk, tk in zip(diag, theta_list, strict=True)))
     while True:

@@ -83,7 +83,7 @@ class FitResult:
     jacobian_method: str
     method: str = "Levenberg-Marquardt (weighted, Eq. 1)"
     condition_number: float = np.nan
-    residuals: np.ndarray = field(default=None, repr=False)  # weighted residuals w·(y − f)
+    residuals: np.ndarray | None = field(default=None, repr=False)  # weighted w·(y − f)
     extra_flags: tuple[HealthFlag, ...] = ()
     #: Rows map parameter changes to the basis in which ``high-correlation`` is judged (None:
     #: the parameters themselves). A power law's scale and exponent are coupled by where

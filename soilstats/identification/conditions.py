@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -23,6 +23,9 @@ from ..models import get_model
 from ..parallel import effective_jobs, parallel_map
 from ..quality import screened
 from .result import CampaignFit
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 from .shear import fit_shear
 from .sinkage import fit_sinkage
 from .table import format_parameter_table, parameter_table
@@ -190,7 +193,7 @@ class ConditionPlan:
     screened (and windowed) campaign, the fit of every (soil, series, condition) as a task,
     and the notes of the planning (:func:`plan_conditions`; run by :func:`fit_planned`)."""
 
-    campaign: object = field(repr=False)
+    campaign: Campaign = field(repr=False)
     kind: str
     tasks: tuple[ConditionTask, ...]  # in table order
     options: dict
@@ -223,6 +226,7 @@ def plan_conditions(
             get_model(name, kind)
     fallbacks: dict[tuple, list[str]] = {}
     tasks = []
+    by_series: list[tuple[str | None, pd.DataFrame]]
     if "series" in tests.columns:
         by_series = [(str(k), g) for k, g in tests.groupby("series", sort=True, dropna=False)]
     else:

@@ -17,8 +17,9 @@ NaN parameters and the reason in ``message`` — and a warning counts them.  Not
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from itertools import pairwise
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -160,7 +161,7 @@ def fit_bernstein_test(z, p, weights, *, name: str = "bernstein"):
     The one per-test sinkage fit of soilstats (per-test responses, discovery, the population
     posterior).  Starts from Wong's estimate; raises one of :data:`TEST_FIT_ERRORS`.
     """
-    p0 = BERNSTEIN.start(z, p)
+    p0 = cast(Callable, BERNSTEIN.start)(z, p)  # Bernstein has its starting values
     return centred(identify(BERNSTEIN, z, p, p0, weights=weights, name=name), z)
 
 
@@ -170,7 +171,8 @@ def fit_shear_test(j, tau, weights, *, name: str = "shear"):
     j [m], τ [Pa], per-sample weights.  The one per-test shear fit of soilstats (per-test
     responses, the population posterior).  Raises one of :data:`TEST_FIT_ERRORS`.
     """
-    p0 = SHEAR_CURVE.start(j, tau)  # plateau from the top decile, K where τ reaches 63 %
+    # Plateau from the top decile, K where τ reaches 63 %.
+    p0 = cast(Callable, SHEAR_CURVE.start)(j, tau)
     return identify(SHEAR_CURVE, j, tau, p0, weights=weights, name=name)
 
 

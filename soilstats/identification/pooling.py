@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -413,7 +414,7 @@ def _steady_parts(test, j_all, tau_all, test_ids, weighting, file: str):
     n_tests = len(test_ids)
     used = np.zeros(test.size, bool)
     weight = np.full(n_tests, np.nan)
-    columns = {
+    columns: dict[str, Any] = {
         "steady": np.zeros(n_tests, bool),
         "steady_from_j_m": np.full(n_tests, np.nan),
         "tau_ss_Pa": np.full(n_tests, np.nan),

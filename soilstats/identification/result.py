@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 from functools import cached_property
+from typing import cast
 
 import numpy as np
 import pandas as pd
@@ -91,7 +92,7 @@ class CampaignFit(FitResult):
         five tests or more and the bootstrap ran — what a new campaign of the same design
         would scatter by — else Eq. 4's (``stderr_eq4``). docs/conventions.md."""
         if self.stderr_level == "tests":
-            return self.stderr_tests.rename("stderr")
+            return cast(pd.Series, self.stderr_tests).rename("stderr")
         return self.stderr_eq4
 
     @cached_property
@@ -130,7 +131,7 @@ class CampaignFit(FitResult):
         """The fit's table with the test-level σ beside Eq. 4's where the bootstrap ran."""
         table = super()._parameter_table()
         if self.bootstrap is not None:
-            sd = self.stderr_tests
+            sd = cast(pd.Series, self.stderr_tests)
             table.insert(3, "stderr (tests)", [f"{sd[n]:.4g}" for n in self.param_names])
         return table
 
@@ -159,7 +160,7 @@ class CampaignFit(FitResult):
         use_tests = level == "tests" or (
             level == "auto" and tests is not None and self.n_tests >= MIN_TESTS
         )
-        return self._band(x, sigma, tests if use_tests else self.covariance)
+        return self._band(x, sigma, cast(np.ndarray, tests) if use_tests else self.covariance)
 
     @property
     def n_tests(self) -> int:
@@ -177,7 +178,7 @@ class CampaignFit(FitResult):
         out["stderr_eq4"] = json_safe(dict(self.stderr_eq4))
         out["stderr_level"] = self.stderr_level
         if self.bootstrap is not None:
-            out["stderr_tests"] = json_safe(dict(self.stderr_tests))
+            out["stderr_tests"] = json_safe(dict(cast(pd.Series, self.stderr_tests)))
         out["quality"] = self.data.get("quality")
         out["window"] = self.data.get("window")
         out["excluded"] = self.data.get("excluded", [])
@@ -189,7 +190,7 @@ class CampaignFit(FitResult):
         and the 95 % t-interval of ``stderr``'s level."""
         if self.stderr_level != "tests":
             return super()._summary_parameters()
-        bs = self.bootstrap
+        bs = cast(TestBootstrap, self.bootstrap)  # test-level: the bootstrap ran
         lines = [
             f"{'param':>8} {'value':>14} {'stderr':>11} {'Eq. 4':>11} {'rel.':>8} "
             f"{f'95% CI (t, {bs.n_tests - 1} dof)':>27}  unit"
@@ -210,7 +211,7 @@ class CampaignFit(FitResult):
         head, _, tail = text.rpartition("Health:")
         text = head + f"Window: {self.window}\n" + "Health:" + tail
         if self.stderr_level == "tests":
-            bs = self.bootstrap
+            bs = cast(TestBootstrap, self.bootstrap)
             sigma = (
                 f"stderr: the test-level σ, sd of the estimates over {bs.n_resamples} "
                 f"resamples of the {bs.n_tests} tests (cluster bootstrap, seed {bs.seed}, "

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
 
@@ -10,11 +10,14 @@ from ..errors import CampaignError
 from ..fitting.identify import identify
 from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
-from ..models import get_model
+from ..models import Model, get_model
 from ..quality import screened
 from .bootstrap import test_bootstrap
 from .pooling import pool_shear
 from .result import CampaignFit
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["fit_shear", "pool_shear"]
 
@@ -22,8 +25,8 @@ DEG_PER_RAD = 180.0 / np.pi
 
 
 def fit_shear(
-    campaign,
-    model: str = "mohr-coulomb",
+    campaign: Campaign,
+    model: str | Model = "mohr-coulomb",
     *,
     weighting: Literal["none", "max-stress"] | None = None,
     p0=None,
@@ -32,7 +35,7 @@ def fit_shear(
     seed: int = 0,
     quality: Literal["off", "flag", "clean"] = "clean",
     **selection,
-) -> FitResult:
+) -> CampaignFit:
     """Identify c, φ (Mohr–Coulomb, Eq. 15) or c, φ, K (Janosi–Hanamoto, Eq. 13).
 
     Mohr–Coulomb is a *linear* least-squares fit of τ = c + σ·tan φ on the steady-state part
@@ -50,7 +53,7 @@ def fit_shear(
     """
     spec = get_model(model, "shear")
     if weighting is None:
-        weighting = spec.weighting or "max-stress"
+        weighting = cast(Literal["none", "max-stress"], spec.weighting or "max-stress")
     campaign = screened(campaign, quality)
     pooled = pool_shear(campaign, steady_only=spec.steady_state, weighting=weighting, **selection)
     sigma, tau, w = pooled.x["sigma_Pa"], pooled.y, pooled.weights

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -11,13 +11,16 @@ from ..campaign.window import FitWindow, windowed
 from ..errors import IdentifiabilityError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult, HealthFlag
-from ..models import get_model
+from ..models import Model, get_model
 from ..quality import screened
 from .adequacy import adequacy_findings
 from .bootstrap import test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
@@ -67,8 +70,8 @@ def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
 
 
 def fit_sinkage(
-    campaign,
-    model: str = "bekker",
+    campaign: Campaign,
+    model: str | Model = "bekker",
     *,
     method: Literal["lm", "wong"] = "lm",
     points_per_test: int | None = 100,
@@ -80,7 +83,7 @@ def fit_sinkage(
     quality: Literal["off", "flag", "clean"] = "clean",
     window: FitWindow | None = None,
     **selection,
-) -> FitResult:
+) -> CampaignFit:
     """Identify Bekker (Eq. 7), Bernstein (Eq. 8) or Reece parameters from sinkage tests.
 
     Parameters
@@ -187,7 +190,7 @@ def _rezero_sensitivity(
     report = getattr(campaign, "quality", None)
     ids = {str(t) for t in pooled.by_test["test_id"]}
     rezeroed = sorted(ids & report.rezeroed) if report is not None else []
-    if not rezeroed or report.unseated is None:
+    if not rezeroed or report is None or report.unseated is None:
         return []
     logged = windowed(report.unseated(), window)
     other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)

@@ -43,8 +43,8 @@ chooses which family to fit; the equations live here with the base models.
 
 from __future__ import annotations
 
-from typing import Any
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 

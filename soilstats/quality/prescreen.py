@@ -197,7 +197,7 @@ def _held(blocks: Blocks, mask: np.ndarray) -> np.ndarray:
 
 def _power_law_residuals(
     blocks: Blocks, z: np.ndarray, force: np.ndarray, ref: np.ndarray
-) -> tuple[FloatArray, BoolArray]:
+) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
     """``records._power_law(z, force, ref)`` of every block, in closed form: (residual,
     whether it can be trusted to :data:`MARGIN` (enough samples, well-conditioned, a residual
     that is not mere rounding), n, ln k)."""

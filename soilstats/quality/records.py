@@ -471,8 +471,8 @@ def find_contact(
             contact = (z_contact, fun / from_zero, "shift")
     if contact is None and law_excess >= CONTACT_LAW_EXCESS and _clean_rise(zl, fl, early):
         # After the last sample at the floor proper that precedes the lift (z may jitter).
-        floor = free[(force[free] - base <= CONTACT_NOISE_WIDTHS * noise) & (free < lift)]
-        lower = min(float(z[floor].max()), upper) if floor.size else 0.0
+        at_floor = free[(force[free] - base <= CONTACT_NOISE_WIDTHS * noise) & (free < lift)]
+        lower = min(float(z[at_floor].max()), upper) if at_floor.size else 0.0
         if upper > lower:
             fun, z_contact = best_in(lower, upper, *coarse(lower, upper))
         else:

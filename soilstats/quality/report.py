@@ -6,8 +6,10 @@ a campaign, and the fitting windows ``bearing-failure`` proposes (:meth:`Quality
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from decimal import ROUND_CEILING, Decimal
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
@@ -16,6 +18,9 @@ from .._text import plural
 from ..outputs.files import json_safe
 from ..outputs.text import notes_block
 from .codes import CODES
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["PLATE_WINDOW_SHARE", "QualityFlag", "QualityReport"]
 
@@ -44,7 +49,11 @@ class QualityFlag:
     value: float | None = None
 
     def to_dict(self) -> dict:
-        out = {"code": self.code, "rows": list(self.rows), "message": self.message}
+        out: dict[str, object] = {
+            "code": self.code,
+            "rows": list(self.rows),
+            "message": self.message,
+        }
         out["excluded"] = self.excluded
         if self.value is not None:
             out["value_m"] = self.value
@@ -76,9 +85,9 @@ class QualityReport:
     mode: str
     flags: tuple[QualityFlag, ...]
     tests: pd.DataFrame
-    campaign: object = field(repr=False, default=None)
+    campaign: Campaign | None = field(repr=False, default=None)
     phases: dict = field(repr=False, default_factory=dict)
-    unseated: object = field(repr=False, default=None, compare=False)
+    unseated: Callable[[], Campaign] | None = field(repr=False, default=None, compare=False)
 
     @property
     def rezeroed(self) -> frozenset[str]:
@@ -147,8 +156,8 @@ class QualityReport:
         columns = ["soil", "b_m", "z_max_m", "tests", "scope", "test_id", "plate_tests"]
         columns.append("z_max_item")
         gone = {f.test_id for f in self.flags if f.code == "duplicate" and f.excluded}
-        onsets = {
-            f.test_id: f.value
+        onsets: dict[str, float] = {
+            f.test_id: cast(float, f.value)  # a bearing failure has its onset
             for f in self.flags
             if f.code == "bearing-failure" and f.test_id not in gone
         }

@@ -155,7 +155,7 @@ def _sinkage_findings(
         bar = tqdm(
             total=len(candidates) + len(late) + len(runaway), desc="screening records", unit="test"
         )
-    failure_of: dict[int, float] = {}
+    failure_of: dict[int, int | None] = {}
     found_contacts: dict[int, records.ContactPoint] = {}
     for k in candidates:
         zk, fk, _ = record(k)
@@ -307,7 +307,7 @@ def seating_per_soil(found: dict, record, soils: list) -> dict:
     by_soil: dict = {}
     for k, soil in enumerate(soils):
         by_soil.setdefault(soil, []).append(k)
-    chosen = {}
+    chosen: dict = {}
     for members in by_soil.values():
         if np.median([ratio(k) for k in members]) > records.CONTACT_WEAK_RATIO:
             # No toe shared by the soil's tests: a test's own strong evidence decides.

@@ -19,6 +19,7 @@ Conventions (Wong & Reece 1967; Wong, *Theory of Ground Vehicles*, 4th ed., 2008
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -75,7 +76,7 @@ class Wheel:
     @property
     def contact_radius_m(self) -> float:
         """Radius of the contact circle [m]: r_s (equal to r for a smooth wheel)."""
-        return float(self.shear_radius_m)
+        return float(cast(float, self.shear_radius_m))  # r where None: set by __post_init__
 
     @property
     def diameter_m(self) -> float:
