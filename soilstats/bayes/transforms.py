@@ -29,6 +29,7 @@ Other models (Reece, Janosi, Mohr–Coulomb) are sampled in their own parameters
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -71,12 +72,12 @@ class Coordinates:
     def to_theta(self, u: np.ndarray) -> np.ndarray:
         """θ for each row of ``u`` (W, p)."""
         u = np.atleast_2d(u)
-        if self.identity:
+        if self.moduli is None:  # the identity
             return u
         m = self.moduli.shape[0]
         n = u[:, m]
         kb = np.exp(u[:, :m] - n[:, None] * self.ln_zref)
-        return np.column_stack([kb @ self._inverse.T, n])
+        return np.column_stack([kb @ cast(np.ndarray, self._inverse).T, n])
 
     def to_theta_chain(self, u: np.ndarray) -> np.ndarray:
         """θ for a chain ``u`` of any leading shape (..., p)."""
@@ -86,7 +87,7 @@ class Coordinates:
     def to_u(self, theta: np.ndarray) -> np.ndarray:
         """u for each row of ``theta`` (W, p); NaN where a plate modulus is ≤ 0."""
         theta = np.atleast_2d(np.asarray(theta, float))
-        if self.identity:
+        if self.moduli is None:  # the identity
             return theta
         m = self.moduli.shape[0]
         kb = theta[:, :m] @ self.moduli.T
@@ -97,7 +98,7 @@ class Coordinates:
     def log_jacobian(self, u: np.ndarray) -> np.ndarray:
         """log|det ∂θ/∂u| for each row of ``u`` (W, p) → (W,)."""
         u = np.atleast_2d(u)
-        if self.identity:
+        if self.moduli is None:  # the identity
             return np.zeros(u.shape[0])
         m = self.moduli.shape[0]
         return np.sum(u[:, :m], axis=1) - m * u[:, m] * self.ln_zref - self._log_det
@@ -106,7 +107,7 @@ class Coordinates:
         """∂u/∂θ (p, p) at one parameter vector (for the delta-method covariance of u)."""
         theta = np.asarray(theta, float)
         p = theta.size
-        if self.identity:
+        if self.moduli is None:  # the identity
             return np.eye(p)
         m = self.moduli.shape[0]
         kb = self.moduli @ theta[:m]

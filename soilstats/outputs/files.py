@@ -249,7 +249,9 @@ _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 #: readers are told to pass (``comment="#"`` cuts an unquoted line at its first ``#``).
 _NEEDS_QUOTES = re.compile(r'[,"\r\n#]')
 #: Characters that end a line for some reader (str.splitlines): escaped in comment lines.
-_LINE_BREAKS = {c: repr(c)[1:-1] for c in "\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"}
+_LINE_BREAKS: dict[str, str | int | None] = {
+    c: repr(c)[1:-1] for c in "\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+}
 
 
 def _text_cell(text: str) -> str:

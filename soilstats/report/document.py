@@ -26,13 +26,14 @@ from collections.abc import Iterable, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..outputs.files import write_atomic
 
 if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure
+    from matplotlib.typing import RcKeyType
 
     from ..outputs.provenance import Provenance
 
@@ -44,7 +45,7 @@ TABLE_PT = 8
 SMALL_PT = 7  # appendix tables and lists: complete, but the reader's last stop
 #: matplotlib rc of the report figures (``rc_context(FIGURE_STYLE)``): 9 pt text and titles,
 #: 8 pt ticks and legends at print width, a step below the body, and no top or right spine.
-FIGURE_STYLE = {
+FIGURE_STYLE: dict[RcKeyType, Any] = {
     "font.size": 9,
     "axes.titlesize": 9,
     "axes.labelsize": 9,
@@ -57,7 +58,7 @@ FIGURE_STYLE = {
 }
 #: FIGURE_STYLE for a grid of small panels, several to a row (discover's findings): 7 pt
 #: text and titles, 6 pt ticks and 5.5 pt legends.
-GRID_STYLE = {
+GRID_STYLE: dict[RcKeyType, Any] = {
     **FIGURE_STYLE,
     "font.size": 7,
     "axes.titlesize": 7,

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -74,7 +75,8 @@ class AncovaResult:
     group: str
     n_obs: int
     n_dropped: int
-    separate_fit: object = field(default=None, repr=False, compare=False)
+    #: The statsmodels fit with a slope per group (untyped: statsmodels has no stubs).
+    separate_fit: Any = field(default=None, repr=False, compare=False)
 
     def _test(self, row: str, what: str) -> TestResult:
         r = self.comparison.loc[row]

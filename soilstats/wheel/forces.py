@@ -86,7 +86,8 @@ class Cases:
         flat = [np.ravel(v).astype(float) for v in np.broadcast_arrays(*map(np.asarray, arrays))]
         if shear is None:
             return cls(*flat)
-        return cls(*flat[:5], c=flat[5], tan_phi=flat[6], K=flat[7])
+        prefactor, n, a, b, nu, c, tan_phi, K = flat
+        return cls(prefactor, n, a, b, nu, c=c, tan_phi=tan_phi, K=K)
 
 
 def _take(value, index):
@@ -183,4 +184,6 @@ def _tau(sigma, t1, u, ahead, cases: Cases, wheel: Wheel):
     # a locked wheel (ν = ∞) as a huge finite ν: j → −huge, τ = −τ_max exactly, no masking
     nu = np.where(np.isfinite(nu), nu, 1e200)
     j = displacement(t1 * (1.0 - u), ahead, nu, wheel)
-    return janosi(sigma, j, cases.c[:, None], cases.tan_phi[:, None], cases.K[:, None])
+    c, tan_phi, k = cases.c, cases.tan_phi, cases.K
+    assert c is not None and tan_phi is not None and k is not None  # cases.with_shear
+    return janosi(sigma, j, c[:, None], tan_phi[:, None], k[:, None])

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
+from typing import cast
 
 import numpy as np
 import pandas as pd
@@ -103,7 +104,8 @@ def predict_wheel(
     used = list(SINKAGE_LAWS[law]) + [k for k in SHEAR_PARAMS if k in columns or k in priors]
     _check_priors(priors, columns, used, law)
     size = _size(draws, n_samples)
-    values = {k: np.asarray(draws[k], dtype=float) for k in used if k in columns}
+    table = cast(pd.DataFrame, draws)  # read only for its columns: none without draws
+    values = {k: np.asarray(table[k], dtype=float) for k in used if k in columns}
     for k, v in values.items():
         if not np.all(np.isfinite(v)):
             raise ValueError(f"draws column {k!r} has {np.sum(~np.isfinite(v))} non-finite values")
@@ -272,7 +274,7 @@ def _notes(state, slips, load, wheel: Wheel, law, unpredictable) -> list[str]:
     status = state.status
     for code, what in ((1, "cannot carry"), (2, "did not converge at")):
         bad = status == code
-        groups: dict[tuple, list[int]] = {}  # the same failing draws at several slips: one note
+        groups: dict[tuple, list] = {}  # the same failing draws at several slips: one note
         for j in np.flatnonzero(bad.any(0)):
             groups.setdefault((tuple(np.flatnonzero(bad[:, j])), load[j]), []).append(j)
         for (idx, w), cols in groups.items():

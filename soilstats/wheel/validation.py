@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -507,7 +508,7 @@ def _trend(rows: pd.DataFrame, x: str) -> dict:
 def _headline(frame: pd.DataFrame, groups: pd.DataFrame) -> tuple[dict, dict]:
     scope, every = frame[frame["in_scope"]], frame[frame["predicted"]]
     near = scope[scope["slip_level"].abs() <= NEAR_ZERO]
-    coverage = {
+    coverage: dict[str, Any] = {
         "definition": "share of runs whose measured sinkage lies inside the predicted band "
         "(5 %–95 % quantiles of the draws at the run's own measured load W)",
         "scope": "β = 0 runs (the longitudinal model's domain); all_runs includes β ≠ 0",
@@ -516,7 +517,7 @@ def _headline(frame: pd.DataFrame, groups: pd.DataFrame) -> tuple[dict, dict]:
         "near_zero_slip_beta_0": _pick(_summ(near), "coverage"),
         "by_wheel": {},
     }
-    bias = {
+    bias: dict[str, Any] = {
         "definition": "predicted median − measured sinkage [m]; > 0: the model sinks too deep",
         "beta_0": _pick(_summ(scope), "bias"),
         "all_runs": _pick(_summ(every), "bias"),
@@ -822,7 +823,7 @@ def _sensitivity(frame, params, wheels, law, angles, seed) -> list[dict]:
         return []
     n = len(next(iter(params["values"].values())))
     pick = np.random.default_rng([int(seed), 0x5703]).permutation(n)[: min(n, SENSITIVITY_DRAWS)]
-    cases = [("as predicted", None, angles)]
+    cases: list[tuple[str, float | None, StressAngles]] = [("as predicted", None, angles)]
     if law == "bekker":
         cases.append(("Bekker b = half the wheel width", 0.5, angles))
     rear = StressAngles(angles.a0, angles.a1, -0.5, 0.0)

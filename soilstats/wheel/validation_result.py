@@ -9,6 +9,7 @@ import pandas as pd
 
 from ..outputs.text import notes_block
 from .geometry import Wheel
+from .soil import PlateDraws
 from .stress import PARAM_UNITS, StressAngles
 
 __all__ = ["RUN_COLUMNS", "WheelDiscovery", "WheelValidation"]
@@ -207,7 +208,7 @@ class WheelValidation:
     groups: pd.DataFrame = field(repr=False)
     coverage: dict
     bias: dict
-    plate: object = field(repr=False)
+    plate: PlateDraws = field(repr=False)
     sources: dict
     moduli: dict
     wheels: dict[str, Wheel]
