@@ -7,6 +7,7 @@ type the same look: a title, key facts, the main table and the numbered notes.
 from __future__ import annotations
 
 import html
+from collections.abc import Mapping
 
 import pandas as pd
 
@@ -20,7 +21,7 @@ def table_html(frame: pd.DataFrame, *, index: bool = False, caption: str | None 
     return head + body
 
 
-def facts_html(facts: dict[str, object]) -> str:
+def facts_html(facts: Mapping[str, object]) -> str:
     """Label: value pairs on one line each."""
     items = "".join(
         f"<li><b>{html.escape(str(k))}</b>: {html.escape(str(v))}</li>" for k, v in facts.items()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,12 +15,16 @@ from ..models import get_model, model_names
 from .likelihood import PooledProblem
 from .priors import resolve_priors
 
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
+    from ..models import Model
+
 __all__ = ["pooled_problem"]
 
 
 def pooled_problem(
-    campaign,
-    model: str,
+    campaign: Campaign,
+    model: str | Model,
     *,
     priors: Mapping[str, object] | None = None,
     points_per_test: int | None = 100,

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 import pandas as pd
@@ -71,7 +72,7 @@ def _scm_format() -> dict[str, tuple[str, str]]:
 
     out: dict[str, tuple[str, str]] = {}
     for model in MODELS.values():
-        for name, column in model.scm:
+        for name, column in cast(tuple, model.scm):  # pairs once built
             out.setdefault(name, column)
     return out
 
@@ -583,7 +584,7 @@ def export_simulator(
     if priors and seed is None:
         raise ValueError("user priors need a seed (give one independent of the posterior's)")
     stated = stated_inputs(elastic_K, damping_R)
-    drawn = sample_priors(priors, len(draws), int(seed)) if priors else {}
+    drawn = sample_priors(priors, len(draws), int(cast(int, seed))) if priors else {}
     if not isinstance(draws_source, Mapping):
         draws_source = dict.fromkeys(draws.columns, str(draws_source))
     columns = {name: _column(key, plan[key], draws, drawn) for key, (name, _) in spec.items()}

@@ -27,6 +27,7 @@ which :meth:`PooledProblem.replicate` samples (posterior-predictive data) and
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -72,6 +73,13 @@ class PooledProblem:
     priors: tuple[Prior, ...]
     plate_sizes: np.ndarray = field(default_factory=lambda: np.empty(0))
     inputs: dict = field(default_factory=dict)
+    if TYPE_CHECKING:  # set by __post_init__ (the power-law ones for power-law models only)
+        _wy: np.ndarray = field(init=False)
+        _wy2: float = field(init=False)
+        _lnz: np.ndarray = field(init=False)
+        _F: np.ndarray = field(init=False)
+        _G: np.ndarray = field(init=False)
+        _m: int = field(init=False)
 
     def __post_init__(self) -> None:
         # Precomputed pieces of the residual: w·y, and for power-law models ln z (the
@@ -200,14 +208,14 @@ class PooledProblem:
         _, starts = np.unique(self.test_index[order], return_index=True)
         counts = np.diff(np.append(starts, self.n_obs))
         const = np.add.reduceat(np.log(self.w[order]), starts) - 0.5 * np.log(2 * np.pi) * counts
-        if np.array_equal(order, np.arange(self.n_obs)):
-            order = slice(None)  # samples already grouped by test (the usual case): no copy
+        # Samples already grouped by test (the usual case): no copy.
+        columns = slice(None) if np.array_equal(order, np.arange(self.n_obs)) else order
         out = np.empty((theta.shape[0], starts.size))
         block = max(1, 2**18 // self.n_obs)
         for start in range(0, theta.shape[0], block):
             stop = start + block
             r = self._wy - self.weighted_prediction(theta[start:stop])
-            rss = np.add.reduceat((r * r)[:, order], starts, axis=1)  # S_t(θ), (block, T)
+            rss = np.add.reduceat((r * r)[:, columns], starts, axis=1)  # S_t(θ), (block, T)
             s = sigma[start:stop]
             out[start:stop] = const - counts * np.log(s) - 0.5 * rss / (s * s)
         return out

@@ -14,6 +14,7 @@ import json
 import warnings
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -44,6 +45,12 @@ from .reduction import (
 from .result import PosteriorResult, draws_converge
 from .sampler import run_ensemble
 from .transforms import Coordinates, sampling_coordinates
+
+if TYPE_CHECKING:
+    from ..fitting.result import FitResult
+    from ..identification.pooling import PooledData
+    from ..models.base import Model, PopulationLayout
+    from .likelihood import PooledProblem
 
 __all__ = [
     "POPULATION_DRAWS",
@@ -108,12 +115,12 @@ class PopulationSetup:
     ``cov``, where the walkers start).  The benchmark samples the same density with plain
     emcee from it."""
 
-    spec: object
-    layout: object
+    spec: Model
+    layout: PopulationLayout
     shear: bool
-    problem: object  # the pooled shear problem (shear) or None
-    pooled: object  # the pooled sinkage data (sinkage) or None
-    lsq: object
+    problem: PooledProblem | None  # the pooled shear problem (shear) or None
+    pooled: PooledData | None  # the pooled sinkage data (sinkage) or None
+    lsq: FitResult
     fits: PerTestFits
     pops: PopulationModel
     centre: np.ndarray
@@ -156,6 +163,7 @@ def population_setup(
         ln_zref, ln_zs, coords = 0.0, 0.0, Coordinates()
     else:
         ln_zref = reference_sinkage(fits.params, fits.cov)
+        assert pooled is not None  # sinkage: pooled above
         ln_zs = scatter_sinkage(fits, pooled.x["z_m"], ln_zref)
         base = sampling_coordinates(spec, theta0, lsq.cov.to_numpy(), np.unique(fits.covariate))
         coords = base if base.identity else Coordinates(moduli=base.moduli, ln_zref=ln_zref)
@@ -266,8 +274,10 @@ def sample_population(
     )
     rng = np.random.default_rng(None if seed is None else [seed, 2])
     if shear:
+        assert problem is not None  # shear: the pooled problem
         curves = response_dataset(problem)
     else:
+        assert pooled is not None  # sinkage: the pooled data
         curves = measured_dataset(
             y=pooled.y,
             weight=pooled.weights,
@@ -383,7 +393,12 @@ def _population_idata(pops: PopulationModel, run, rng, fits: PerTestFits, curves
             "thinned": int(keep.size < draws),
         },
     )
-    groups = {"observed_data": observed, "posterior_predictive": ppc, "log_likelihood": log_lik}
+    # The groups as keywords: Any, as arviz's signature types its own options, not groups.
+    groups: dict[str, Any] = {
+        "observed_data": observed,
+        "posterior_predictive": ppc,
+        "log_likelihood": log_lik,
+    }
     if curves is not None:
         groups["constant_data"] = curves
     return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)
@@ -491,11 +506,14 @@ def _band_quantiles(values: np.ndarray, weights: np.ndarray, q, order=None) -> n
     return np.take_along_axis(values, np.take_along_axis(order, idx, axis=0), axis=0)
 
 
-def _records(pooled, fits: PerTestFits):
+def _records(
+    pooled: PooledData, fits: PerTestFits
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray]:
     """Each used test's samples as (z sorted, ln p), and its :data:`BAND_DEPTHS` (T, 5)."""
     used = np.flatnonzero(np.isin(pooled.tests["test_id"].astype(str), fits.test_ids))
     z_all, p_all, which = pooled.x["z_m"], pooled.y, pooled.test_index
-    records, depths = [], []
+    records: list[tuple[np.ndarray, np.ndarray]] = []
+    depths: list[np.ndarray] = []
     for pos in used:
         m = (which == pos) & (z_all > 0) & (p_all > 0)
         order = np.argsort(z_all[m], kind="stable")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -256,7 +257,10 @@ def _inference_data(
         attrs=_attrs(problem),
     )
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
-    groups = pooled_groups(problem, run.chain, sigma, rng, predictive_draws=predictive_draws)
+    # Keywords of InferenceData: Any, as arviz's signature types its options, not its groups.
+    groups: dict[str, Any] = pooled_groups(
+        problem, run.chain, sigma, rng, predictive_draws=predictive_draws
+    )
     return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pandas as pd
@@ -11,6 +12,9 @@ import xarray as xr
 
 from ..outputs.text import notes_block
 from ._arviz import az
+
+if TYPE_CHECKING:
+    from ..fitting.result import FitResult
 
 __all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose", "draws_converge"]
 
@@ -77,7 +81,9 @@ class PosteriorResult:
         Model, likelihood and prior conventions, printed as numbered notes by :meth:`summary`.
     """
 
-    idata: object
+    # arviz.InferenceData: Any, as its groups (posterior, observed_data, …) are attributes
+    # made at run time, which its type does not name.
+    idata: Any
     model_name: str
     kind: str
     param_names: tuple[str, ...]
@@ -86,7 +92,7 @@ class PosteriorResult:
     problems: tuple[str, ...]
     sampler: dict = field(repr=False)
     notes: tuple[str, ...] = ()
-    lsq: object = field(default=None, repr=False)  # the least-squares FitResult it started from
+    lsq: FitResult | None = field(default=None, repr=False)  # the least-squares fit it began at
 
     @property
     def converged(self) -> bool:
@@ -114,10 +120,11 @@ class PosteriorResult:
         q = [(1 - prob) / 2, (1 + prob) / 2]
         lo, hi = (f"eti_{100 * x:.3g}%" for x in q)
         post = self.idata.posterior
-        rows = {}
+        rows: dict[str, dict] = {}
         for name in self.var_names:
             use_kept = handed_out is not None and name in handed_out
-            x = handed_out[name].to_numpy() if use_kept else post[name].to_numpy().ravel()
+            kept = cast(pd.DataFrame, handed_out)  # read where use_kept: not None
+            x = kept[name].to_numpy() if use_kept else post[name].to_numpy().ravel()
             x = x[np.isfinite(x)]
             lower, upper = np.quantile(x, q) if x.size else (np.nan, np.nan)
             sd = float(np.std(x, ddof=1)) if x.size > 1 else np.nan

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 from matplotlib import rc_context
@@ -62,7 +63,7 @@ class _Parameters(Mapping):
     def _table(self) -> dict[str, tuple]:
         out: dict[str, tuple] = {}
         for model in MODELS.values():
-            for name, label in model.labels:
+            for name, label in cast(tuple, model.labels):  # pairs once built
                 if label.axis is not None and name not in out:
                     shown = (label.axis, label.caption, label.unit, label.unit_words)
                     out[name] = (*shown, label.scale)
@@ -116,7 +117,9 @@ def _scale(name: str) -> float:
 class _Posterior:
     """What the figures need from a result or an InferenceData."""
 
-    idata: object
+    # arviz.InferenceData: Any, as its groups (posterior, observed_data, …) are attributes
+    # made at run time, which its type does not name.
+    idata: Any
     model: Model
     kind: str
     names: tuple[str, ...]
