@@ -16,6 +16,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from .common import (
     add_common_options,
@@ -24,6 +25,9 @@ from .common import (
     prepared,
     progress_enabled,
 )
+
+if TYPE_CHECKING:
+    from ..identification.conditions import ConditionPlan
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -134,7 +138,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"Campaign: {campaign.source}", file=out)
     # Both kinds are planned first and fitted as one queue of conditions (with --jobs, no
     # worker waits for the sinkage conditions to finish before the shear ones start).
-    plans = []  # (kind, plan or None when the campaign has no tests of the kind)
+    # (kind, plan or None when the campaign has no tests of the kind)
+    plans: list[tuple[str, ConditionPlan | None]] = []
     for kind, by in (("sinkage", args.by), ("shear", args.shear_by)):
         if not (campaign.tests["kind"] == kind).any():
             plans.append((kind, None))
@@ -143,8 +148,9 @@ def run(args: argparse.Namespace) -> int:
         if kind == "sinkage":
             options |= {"method": args.method, "points_per_test": args.points_per_test}
         model = args.model if kind == "sinkage" else "mohr-coulomb"
-        plan = plan_conditions(campaign, kind, by=by, model=model, soils=args.soil, **options)
-        plans.append((kind, plan))
+        plans.append(
+            (kind, plan_conditions(campaign, kind, by=by, model=model, soils=args.soil, **options))
+        )
     fitted = iter(
         fit_planned(
             [plan for _, plan in plans if plan is not None],
@@ -170,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
             "no condition could be identified in the selected tests (see the messages above)",
             file=campaign.file_name("tests"),
         )
-    document = {"fits": records}
+    document: dict[str, Any] = {"fits": records}
     if args.out:
         import pandas as pd
 

@@ -35,7 +35,7 @@ import secrets
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -174,7 +174,7 @@ def replacing(*paths: str | Path) -> Iterator[list[Path]]:
         raise
 
 
-def write_atomic(path: str | Path, content: str | bytes | Callable[[Path], object]) -> Path:
+def write_atomic(path: str | Path, content: str | bytes | Callable[..., object]) -> Path:
     """Write ``content`` to ``path`` through a temporary file renamed into place.
 
     Parameters
@@ -317,10 +317,17 @@ def csv_text(frame: pd.DataFrame, float_format: str | None = None) -> str:
     return "".join(f"{line}\n" for line in (header, *rows))
 
 
+class CommentLines(Protocol):
+    """What :func:`write_csv` heads a file with: a :class:`~.provenance.Provenance`, or one
+    with more lines (the posterior export's)."""
+
+    def lines(self) -> list[str]: ...
+
+
 def write_csv(
     path: str | Path,
     frame: pd.DataFrame,
-    provenance: Provenance,
+    provenance: Provenance | CommentLines,
     *,
     overwrite: bool = False,
     float_format: str | None = None,

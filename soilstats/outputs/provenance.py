@@ -24,7 +24,8 @@ class Source(Protocol):
     """What :meth:`Provenance.of` reads of its input: a :class:`soilstats.campaign.Campaign`
     (its ``source`` and the digest of its content, ``Campaign.sha256()``)."""
 
-    source: str
+    @property
+    def source(self) -> str: ...
 
     def sha256(self) -> str: ...
 

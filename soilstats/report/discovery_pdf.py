@@ -20,6 +20,7 @@ import math
 import re
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -27,7 +28,7 @@ from matplotlib.figure import Figure
 
 from .._text import plural
 from ..discovery.candidates import candidate_values
-from ..discovery.result import METHOD_NOTES
+from ..discovery.result import METHOD_NOTES, Finding
 from ..outputs.files import output_path
 from .document import GRID_STYLE, Document, strong
 from .front import data_origin, front_page
@@ -297,7 +298,7 @@ def _curve_panel(ax, f) -> str:
     return f"{name}: {gain}"
 
 
-def _findings_figure(numbered: list[tuple[int, object]]) -> Figure:
+def _findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
     """A grid of findings, two per row: each its deviation and curve panels under a title
     that states the effect and the gain."""
     import matplotlib as mpl
@@ -306,7 +307,8 @@ def _findings_figure(numbered: list[tuple[int, object]]) -> Figure:
     rows = math.ceil(len(numbered) / per_row)
     with mpl.rc_context(GRID_STYLE):
         fig = Figure(figsize=(6.7, 2.1 * rows + (0.5 if rows == 1 else 0)), layout="constrained")
-        subs = np.atleast_1d(fig.subfigures(rows, per_row, wspace=0.03, hspace=0.02)).ravel()
+        grid: Any = fig.subfigures(rows, per_row, wspace=0.03, hspace=0.02)  # one or an array
+        subs = np.atleast_1d(grid).ravel()
         for k, sub in enumerate(subs):
             if k >= len(numbered):
                 continue
@@ -653,8 +655,8 @@ def _caveats_appendix(doc: Document, result) -> None:
         return
     codes: dict[str, list[str]] = {}
     for c in owners:
-        code = re.match(r"([A-Z][A-Z-]+): ", c)
-        codes.setdefault(code.group(1) if code else c, []).append(c)
+        found = re.match(r"([A-Z][A-Z-]+): ", c)
+        codes.setdefault(found.group(1) if found else c, []).append(c)
     rows = []
     for code, texts in codes.items():
         head, tail = _shared_text(texts) if len(texts) > 1 else ("", "")
@@ -698,7 +700,7 @@ def _power_appendix(doc: Document, result) -> None:
     }
     rows = []
     for p in result.power:
-        row = {
+        row: dict[str, Any] = {
             "group": _group(p),
             "candidate": f"{p['candidate']} ({p['role']}, {p['n_tests']} tests)",
         }

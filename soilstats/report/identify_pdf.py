@@ -143,8 +143,9 @@ def _curve_inputs(kind: str, fit, *, every_plate: bool = False) -> list[tuple]:
         z_max = float(np.nanmax(tests["z_max_m"])) if "z_max_m" in tests else 0.03
         grid = np.linspace(z_max / 50, z_max, 60)
         if "b_m" in tests and fit.param_names[0] in ("kc", "k1"):
-            plates = np.unique(tests["b_m"].to_numpy(dtype=float))
-            if not every_plate or plates.size > 4:
+            unique = np.unique(tests["b_m"].to_numpy(dtype=float))
+            plates: np.ndarray | list[float] = unique
+            if not every_plate or unique.size > 4:
                 plates = [float(np.median(tests["b_m"]))]
             sizes = ", ".join(f"{b * 1e3:.3g}" for b in plates)
             label = f"sinkage z [mm] (plate b = {sizes} mm: " + (

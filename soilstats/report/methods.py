@@ -70,7 +70,7 @@ def write_equations(
         CITATION,
         ". Equation numbers are the paper's.",
     )
-    rows = []
+    rows: list = []
     if "sinkage" in kinds:
         rows += _SINKAGE
     if "shear" in kinds:

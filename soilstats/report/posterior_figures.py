@@ -552,8 +552,8 @@ def _band(post: _Posterior, prob: float, draws: int):
         theta = theta[::step]
         inputs = [input_name(label) for label in post.model.inputs]
         keep = _drawn(measured)
-        x = [measured[name].to_numpy()[keep] for name in inputs]
-        x = x[0] if len(x) == 1 else np.vstack(x)
+        columns = [measured[name].to_numpy()[keep] for name in inputs]
+        x = columns[0] if len(columns) == 1 else np.vstack(columns)
         cols = [theta[:, i : i + 1] for i in range(theta.shape[1])]
         with np.errstate(all="ignore"):
             curves = np.asarray(post.model.func(x, *cols), float)

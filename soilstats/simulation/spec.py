@@ -203,8 +203,9 @@ def _plate(p: Any, where: str) -> dict[str, str | float]:
         area = _number(p.get("area_m2"), f"{where}.area_m2", positive=True)
         if ratio < 1:
             raise _fail(f"{where}.aspect", f"is length/width and must be ≥ 1, got {ratio}")
-        out["width_m"] = math.sqrt(area / ratio)
-        out["length_m"] = ratio * out["width_m"]
+        width = math.sqrt(area / ratio)
+        out["width_m"] = width
+        out["length_m"] = ratio * width
     else:
         if "width_m" not in p or "length_m" not in p:
             raise _fail(where, "a rectangle needs width_m and length_m, or aspect and area_m2")
@@ -253,7 +254,7 @@ def _series(i: int, t: Any, soils: dict, preps: dict) -> Series:
         _text(p, f"{where}.preparations", tuple(preps))
         for p in _list(t.get("preparations", list(preps)[:1]), f"{where}.preparations")
     )
-    common = dict(
+    common: dict[str, Any] = dict(
         name=name,
         kind=kind,
         soils=soil_names,

@@ -17,6 +17,7 @@ refit the tests that several studies share.
 from __future__ import annotations
 
 import warnings
+from typing import Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -81,7 +82,13 @@ class PerTestCache:
         with warnings.catch_warnings():
             # Stated per study, from the rows (see fits), not once by whoever fitted them.
             warnings.simplefilter("ignore", ConvergenceWarning)
-            new = fit_per_test(self.campaign, kind, progress=self.progress, jobs=jobs, test_id=ids)
+            new = fit_per_test(
+                self.campaign,
+                cast(Literal["sinkage", "shear"], kind),
+                progress=self.progress,
+                jobs=jobs,
+                test_id=ids,
+            )
         done = self._fits.get(kind)
         self._fits[kind] = new if done is None else pd.concat([done, new], ignore_index=True)
 

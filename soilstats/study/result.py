@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from ..outputs import Provenance
 from ..outputs.text import notes_block
+
+if TYPE_CHECKING:
+    from .spec import StudySpec
 
 __all__ = ["CRITERIA_COLUMNS", "StudyResult"]
 
@@ -68,7 +72,7 @@ class StudyResult:
         Version, input hash, command and seed, recorded in every output.
     """
 
-    spec: object
+    spec: StudySpec
     source: str
     date: str | None
     soils: list
