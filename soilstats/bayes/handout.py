@@ -21,10 +21,14 @@ the decision and writes what it allows; a Python caller gets the same answer fro
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from .support import SupportCheck, check_support, negative_modulus_width
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["Handout", "hand_out", "lsq_refusals", "preflight"]
 
@@ -97,7 +101,9 @@ def lsq_refusals(health: dict, population: bool) -> list[str]:
     ]
 
 
-def preflight(campaign, models, *, population: bool, **selection) -> tuple[list[str], dict]:
+def preflight(
+    campaign: Campaign, models, *, population: bool, **selection
+) -> tuple[list[str], dict]:
     """What refuses the draws before any sampling: (failures, least-squares health by model).
 
     Runs each model's least-squares fit alone (milliseconds) on the selection the posterior

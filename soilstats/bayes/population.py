@@ -47,6 +47,7 @@ from .sampler import run_ensemble
 from .transforms import Coordinates, sampling_coordinates
 
 if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
     from ..fitting.result import FitResult
     from ..identification.pooling import PooledData
     from ..models.base import Model, PopulationLayout
@@ -128,7 +129,7 @@ class PopulationSetup:
 
 
 def population_setup(
-    campaign, model, *, priors=None, points_per_test: int | None = 100, **selection
+    campaign: Campaign, model, *, priors=None, points_per_test: int | None = 100, **selection
 ) -> PopulationSetup:
     """The population model of ``model`` on the selected tests, ready to sample
     (:class:`PopulationSetup`; arguments as :func:`sample_population`)."""
@@ -202,7 +203,7 @@ def population_setup(
 
 
 def sample_population(
-    campaign,
+    campaign: Campaign,
     model: str = "bekker",
     *,
     draws: int = POPULATION_DRAWS,

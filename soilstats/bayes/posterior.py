@@ -5,7 +5,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
@@ -20,6 +20,9 @@ from .result import PosteriorResult, diagnose, draws_converge
 from .sampler import EnsembleRun, run_ensemble
 from .transforms import Coordinates, sampling_coordinates
 
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
+
 __all__ = ["DEFAULT_DRAWS", "sample_posterior"]
 
 #: Kept draws over all walkers at the default settings: ESS ≈ draws/τ with τ ≈ 2 steps, and
@@ -28,7 +31,7 @@ DEFAULT_DRAWS = 6000
 
 
 def sample_posterior(
-    campaign,
+    campaign: Campaign,
     model: str = "bekker",
     *,
     draws: int = DEFAULT_DRAWS,

@@ -18,12 +18,17 @@ so no caller can change what the next one reads.
 from __future__ import annotations
 
 import weakref
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from .schema import KINDS
+
+if TYPE_CHECKING:
+    from .campaign import Campaign
 
 __all__ = ["CampaignIndex", "campaign_index", "grouped_by_code", "sample_test_positions"]
 
@@ -33,7 +38,7 @@ def _frozen(values: np.ndarray) -> np.ndarray:
     return values
 
 
-def sample_test_positions(sample_ids: pd.Series, test_ids) -> np.ndarray:
+def sample_test_positions(sample_ids: pd.Series, test_ids: Iterable[str]) -> np.ndarray:
     """Each sample's position in ``test_ids`` (−1: not among them).  Factorising the
     samples first leaves one short lookup per distinct test instead of one per sample."""
     codes, distinct = pd.factorize(sample_ids.array)
@@ -76,7 +81,7 @@ class CampaignIndex:
     _columns: dict[tuple[str, str], np.ndarray] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def of(cls, campaign) -> CampaignIndex:
+    def of(cls, campaign: Campaign) -> CampaignIndex:
         tests = campaign.tests
         kind = _frozen(tests["kind"].to_numpy())
         return cls(
@@ -120,7 +125,7 @@ class CampaignIndex:
 _INDEX: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def campaign_index(campaign) -> CampaignIndex:
+def campaign_index(campaign: Campaign) -> CampaignIndex:
     """The :class:`CampaignIndex` of ``campaign``, built on first use."""
     index = _INDEX.get(campaign)
     if index is None:

@@ -15,12 +15,19 @@ for a single failed test).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from ..errors import CampaignError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .campaign import Campaign
 
 __all__ = ["AppliedWindow", "FitWindow", "WindowRule", "windowed"]
 
@@ -53,7 +60,7 @@ class FitWindow:
         return cls((WindowRule(_positive(z_max, "z_max"), _positive(p_max, "p_max")),))
 
     @classmethod
-    def parse(cls, z_max=(), p_max=()) -> FitWindow:
+    def parse(cls, z_max: Iterable[object] = (), p_max: Iterable[object] = ()) -> FitWindow:
         """From command-line items ``LIMIT`` or ``COLUMN=VALUE:LIMIT`` (z in m, p in Pa)."""
         rules: dict[tuple, dict] = {}
         for name, items in (("z_max", z_max), ("p_max", p_max)):
@@ -142,7 +149,7 @@ class AppliedWindow:
     per_test: pd.DataFrame
     rows: np.ndarray = field(default_factory=lambda: np.empty(0, np.int64), repr=False)
 
-    def cuts(self, rows) -> bool:
+    def cuts(self, rows: ArrayLike) -> bool:
         """Whether the window left out every one of these 1-based sample-file rows."""
         rows = np.asarray(rows, dtype=np.int64)
         return bool(rows.size) and bool(np.isin(rows, self.rows, assume_unique=False).all())
@@ -157,7 +164,7 @@ class AppliedWindow:
         }
 
 
-def windowed(campaign, window: FitWindow | None):
+def windowed(campaign: Campaign, window: FitWindow | None) -> Campaign:
     """``campaign`` without the sinkage samples outside ``window`` (z > z_max or p > p_max),
     the window and its per-test counts recorded in ``campaign.window``.  Shear tests are
     not windowed."""

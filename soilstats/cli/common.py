@@ -35,7 +35,7 @@ import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from .._text import plural
 from ..kinds import TEST_KINDS
@@ -222,7 +222,8 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
     )
     report = screen(loaded, getattr(args, "quality", "clean"))
     window = FitWindow.parse(getattr(args, "z_max", ()), getattr(args, "p_max", ()))
-    campaign = apply_selection(windowed(report.campaign, window), args.select)
+    screened = cast("Campaign", report.campaign)  # screen's report carries the campaign
+    campaign = apply_selection(windowed(screened, window), args.select)
     if report.mode != "off":
         # Screening runs on the whole file (its rows are the file's rows), but the line
         # counts the tests the command uses: a failed test outside --select is no concern.

@@ -35,8 +35,12 @@ import argparse
 import sys
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .common import add_common_options, add_data_options, prepared, progress_enabled
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 #: Simulators whose parameter sets --simulator writes (soilstats.bayes.SIMULATOR_FORMATS; a
 #: test keeps the two in step, the bayes package being too heavy to import for --help).
@@ -365,7 +369,7 @@ def _pooled_columns(kind: str, models) -> tuple[str, ...]:
     return DEFAULT_CONDITION_COLUMNS[kind] + setup[kind]
 
 
-def pooling_warnings(campaign, soil: str, models) -> list[str]:
+def pooling_warnings(campaign: Campaign, soil: str, models) -> list[str]:
     """Say when a posterior pools plate sizes (Bernstein) or test conditions."""
     tests = campaign.tests[campaign.tests["soil"].astype(str) == soil]
     out = []

@@ -10,6 +10,7 @@ carry flags (:func:`with_quality_caveat`).
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -19,6 +20,9 @@ from .candidates import candidate_values, classify_columns, level_codes, trend_o
 from .diagnose import INTERACTION
 from .ftests import strata_codes, trend_slope
 from .result import Finding
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["quality_record", "split_artefacts", "with_quality_caveat"]
 
@@ -33,7 +37,7 @@ ORDER_SHARE = 1 / 3
 
 
 # ----------------------------------------------------------------------------- the steps
-def quality_record(campaign) -> dict | None:
+def quality_record(campaign: Campaign) -> dict | None:
     """What screening found in the tests discovery analyses (JSON-ready), or None."""
     report = getattr(campaign, "quality", None)
     if report is None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -21,6 +22,9 @@ from ..identification import fit_per_test
 from ..identification.per_test import not_converged_message
 from ..identification.pooling import MIN_SAMPLES, pool_shear, pool_sinkage
 from .candidates import candidate_values, with_time_hours
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["Group", "build_groups"]
 
@@ -115,7 +119,7 @@ def _pool(campaign, kind: str, soil: str, table: pd.DataFrame, points: int):
 
 
 def build_groups(
-    campaign,
+    campaign: Campaign,
     *,
     points_per_test: int = 60,
     progress: bool = False,

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -61,7 +62,7 @@ def _as_campaign(campaign) -> tuple[Campaign, str]:
 
 
 def discover(
-    campaign,
+    campaign: Campaign | str | Path,
     *,
     alpha: float = 0.05,
     seed: int = 0,

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import pandas as pd
@@ -30,6 +30,9 @@ import pandas as pd
 from ..outputs.files import json_safe
 from .ensemble import EnsembleCurve, ensemble_curve
 from .pooling import select_one_soil
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["ClassicalFit", "PlateWindow", "classical_bekker"]
 
@@ -221,7 +224,7 @@ def _windows(windows, sizes: np.ndarray) -> list[PlateWindow]:
 
 
 def classical_bekker(
-    campaign,
+    campaign: Campaign,
     windows,
     *,
     step: float = 500.0,

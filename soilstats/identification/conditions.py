@@ -201,7 +201,7 @@ class ConditionPlan:
 
 
 def plan_conditions(
-    campaign,
+    campaign: Campaign,
     kind: str,
     *,
     by: str | None = None,
@@ -253,7 +253,7 @@ def plan_conditions(
 
 
 def fit_conditions(
-    campaign,
+    campaign: Campaign,
     kind: str,
     *,
     by: str | None = None,

@@ -13,12 +13,15 @@ instead (Eq. 11), with per-test weights; docs/classical.md shows what the two gi
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
 from ..errors import CampaignError
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["EnsembleCurve", "ensemble_curve"]
 
@@ -92,7 +95,7 @@ def _rising_record(
 
 
 def ensemble_curve(
-    campaign,
+    campaign: Campaign,
     test_ids,
     *,
     p_max: float,

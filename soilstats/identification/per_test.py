@@ -19,7 +19,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from itertools import pairwise
-from typing import Literal, cast
+from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -34,11 +34,14 @@ from .centring import centred
 from .pooling import kept_samples
 from .steady_state import steady_state
 
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
+
 __all__ = ["fit_per_test", "not_converged_message"]
 
 
 def fit_per_test(
-    campaign,
+    campaign: Campaign,
     kind: Literal["sinkage", "shear"] = "sinkage",
     *,
     points_per_test: int | None = 100,

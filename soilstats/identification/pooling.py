@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -21,6 +21,9 @@ from ..campaign.index import campaign_index, grouped_by_code
 from ..campaign.schema import MIN_SAMPLES  # re-exported: the rule below applies it
 from ..errors import CampaignError
 from ..quality import screened
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = [
     "MIN_SAMPLES",
@@ -261,7 +264,7 @@ def _unusable(kind: str, tid, problem: str, file: str) -> CampaignError:
 
 
 def pool_sinkage(
-    campaign,
+    campaign: Campaign,
     *,
     points_per_test: int | None = 100,
     weighting: str = "max-pressure",
@@ -338,7 +341,7 @@ def _raise_first_problem(kind: str, test_ids: np.ndarray, problems: list, file: 
 
 
 def pool_shear(
-    campaign,
+    campaign: Campaign,
     *,
     steady_only: bool,
     weighting: str,
@@ -440,7 +443,7 @@ def _steady_parts(test, j_all, tau_all, test_ids, weighting, file: str):
     return used, weight, columns
 
 
-def select_one_soil(campaign, kind: str, selection: dict):
+def select_one_soil(campaign: Campaign, kind: str, selection: dict):
     """Apply ``selection`` and keep the tests of ``kind``; demand exactly one soil.
 
     Pooling two soils into one parameter set is never what a user means, so it is an error

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 from functools import cached_property
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
@@ -16,6 +16,9 @@ from ..outputs.files import json_safe
 from ..quality.codes import CODES
 from .bootstrap import MIN_TESTS, TestBootstrap
 from .pooling import PooledData
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["CampaignFit"]
 
@@ -43,7 +46,7 @@ class CampaignFit(FitResult):
         notes=(),
         flags: tuple[HealthFlag, ...] | list[HealthFlag] = (),
         bootstrap: TestBootstrap | None = None,
-        campaign=None,
+        campaign: Campaign | None = None,
     ) -> CampaignFit:
         """``fit`` with the tests it used (``pooled.tests``), the notes and flags of the
         pooling, the test-level bootstrap with the flags it raises, and (from ``campaign``)
@@ -240,7 +243,7 @@ _FIT_CODES = tuple(code for code, q in CODES.items() if q.nature != "stop")
 ONSET_TOLERANCE = 1e-3
 
 
-def data_findings(campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict]:
+def data_findings(campaign: Campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict]:
     """Notes, health flags and the JSON record of the screening and window behind a fit.
 
     A ``bearing-failure`` whose onset the window cuts off is resolved (a note, no flag);

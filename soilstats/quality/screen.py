@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import weakref
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -28,6 +29,9 @@ from .copies import RECORDS, find_copies
 from .drift import find_drift, start_forces
 from .phases import find_phases
 from .report import QualityFlag, QualityReport
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["QualityFlag", "QualityReport", "screen", "screened"]
 
@@ -529,7 +533,7 @@ def _fingerprint(campaign) -> str:
     return digest.hexdigest()
 
 
-def screen(campaign, mode: str = "clean", *, progress: bool = False) -> QualityReport:
+def screen(campaign: Campaign, mode: str = "clean", *, progress: bool = False) -> QualityReport:
     """Screen every test of ``campaign`` (rules and thresholds: :mod:`soilstats.quality`).
 
     Parameters
@@ -621,7 +625,7 @@ def _cleaned(
 _SCREENED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def screened(campaign, quality: str = "clean", **selection):
+def screened(campaign: Campaign, quality: str = "clean", **selection):
     """``campaign`` (restricted to ``selection``) ready for analysis: screened in mode
     ``quality`` unless it was already (a campaign from :func:`screen` carries its report in
     ``campaign.quality``).

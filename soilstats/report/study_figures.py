@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import contextlib
+from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -18,6 +19,9 @@ import seaborn as sns
 from ..campaign.campaign import match_values
 from ..identification.conditions import condition_label
 from .labels import column_label, natural_key, natural_sorted
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["FIGURES", "make_figures"]
 
@@ -29,7 +33,7 @@ def _panels(n: int):
     return fig, axes[0]
 
 
-def curves(result, campaign) -> plt.Figure:
+def curves(result, campaign: Campaign) -> plt.Figure:
     """Pressure–sinkage curves per condition: mean and ± 1 sd band over the tests (Fig. 7/8)."""
     spec = result.spec
     tests = result.per_test
@@ -74,7 +78,7 @@ def _fixed_global_seed(seed: int):
         np.random.set_state(state)  # noqa: NPY002
 
 
-def responses(result, campaign=None) -> plt.Figure:
+def responses(result, campaign: Campaign | None = None) -> plt.Figure:
     """One point per test, by condition, for each soil and response (the ANOVA's data)."""
     spec = result.spec
     names = [r.name for r in spec.responses if r.name in result.per_test.columns]
@@ -103,7 +107,7 @@ def responses(result, campaign=None) -> plt.Figure:
     return fig
 
 
-def relative(result, campaign=None) -> plt.Figure:
+def relative(result, campaign: Campaign | None = None) -> plt.Figure:
     """Pooled parameters relative to the reference condition, ± σ (Figs. 15, 16).
 
     A ratio means something only between values of one sign: a parameter that is zero or
@@ -179,7 +183,7 @@ def moves_without_effect(result, factor_of: float = 2.0) -> list[str]:
     return out
 
 
-def mohr_coulomb(result, campaign=None) -> plt.Figure:
+def mohr_coulomb(result, campaign: Campaign | None = None) -> plt.Figure:
     """τ_ss against σ per test with each level's line τ = c + σ tanφ (Figs. 11–14)."""
     spec = result.spec
     fig, axes = _panels(len(result.soils))
@@ -204,7 +208,7 @@ def mohr_coulomb(result, campaign=None) -> plt.Figure:
     return fig
 
 
-def epsilon(result, campaign=None) -> plt.Figure:
+def epsilon(result, campaign: Campaign | None = None) -> plt.Figure:
     """Fit quality ε (Eq. 2) per preparation method and soil (Fig. 6)."""
     eps = result.parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
     order = natural_sorted(eps["condition"].unique())
@@ -270,7 +274,7 @@ def _why_no_effect(result) -> str:
     )
 
 
-def make_figures(result, campaign) -> list[tuple[str, plt.Figure, str]]:
+def make_figures(result, campaign: Campaign) -> list[tuple[str, plt.Figure, str]]:
     """The spec's figures in its order, as (name, figure, caption); ``relative`` is skipped
     without pooled parameters."""
     out = []

@@ -2,16 +2,21 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import pandas as pd
 
 from ..campaign.campaign import match_values
 from ..errors import StudyDataError
 from ..identification.conditions import condition_label
 
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
+
 __all__ = ["StudyDataError", "select_tests"]
 
 
-def select_tests(campaign, spec) -> pd.DataFrame:
+def select_tests(campaign: Campaign, spec) -> pd.DataFrame:
     """The test-log rows of ``spec``: its kind, ``tests.where`` (columns required) and
     ``tests.where_present`` (applied only when the campaign has the column).
 

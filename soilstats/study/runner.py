@@ -8,6 +8,7 @@ outputs and the PDF only read the result.
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
@@ -23,6 +24,9 @@ from .responses import PerTestCache
 from .result import StudyResult
 from .shear import shear_effects
 from .verdict import classify
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["run_study"]
 
@@ -64,7 +68,7 @@ def _failed_in_bearing(campaign, per_test: pd.DataFrame) -> set[str]:
 
 def run_study(
     spec,
-    campaign,
+    campaign: Campaign,
     *,
     cache: PerTestCache | None = None,
     progress: bool = False,

@@ -14,11 +14,15 @@ sampler that did not converge.  The reason is recorded either way.  No wheel run
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from ..errors import SoilstatsError
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["PlateDraws", "choose_law", "plate_draws", "soil_tests"]
 
@@ -67,7 +71,7 @@ class PlateDraws:
         }
 
 
-def soil_tests(campaign, soil: str | None) -> tuple[str, pd.DataFrame]:
+def soil_tests(campaign: Campaign, soil: str | None) -> tuple[str, pd.DataFrame]:
     """The soil whose plate tests are used (the only one, or the one named) and its tests."""
     tests = campaign.tests
     sinkage = tests[tests["kind"] == "sinkage"]
@@ -109,7 +113,7 @@ def _estimates(post) -> dict:
 
 
 def plate_draws(
-    campaign,
+    campaign: Campaign,
     *,
     soil: str | None = None,
     law: str | None = None,

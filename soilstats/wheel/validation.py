@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -36,6 +36,9 @@ from .soil import PlateDraws, plate_draws
 from .solve import wheel_forces
 from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
 from .validation_result import WheelDiscovery, WheelValidation
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["check_priors", "validate_wheel"]
 
@@ -53,7 +56,7 @@ CMU_TUNED = {
 
 
 def validate_wheel(
-    campaign,
+    campaign: Campaign | str | Path,
     runs,
     *,
     wheels: Mapping[str, Wheel] | None = None,
