@@ -25,6 +25,7 @@ from .candidates import candidate_values, with_time_hours
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..models.base import Model
 
 __all__ = ["Group", "build_groups"]
 
@@ -65,7 +66,7 @@ class Group:
     owner: np.ndarray = field(repr=False)
     notes: tuple[str, ...] = ()
     time_columns: tuple[str, ...] = ()
-    model: object = field(default=None, repr=False)
+    model: Model | None = field(default=None, repr=False)
     # What is computed once per group from its fixed tests (see :meth:`memo`); a new group
     # (``dataclasses.replace``) starts with an empty one.
     _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)

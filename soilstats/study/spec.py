@@ -16,9 +16,13 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import SpecError, refuse_unknown_keys
 from ..outputs.files import safe_stem
+
+if TYPE_CHECKING:
+    from ..campaign.window import FitWindow
 
 __all__ = [
     "STUDY_TYPES",
@@ -153,7 +157,7 @@ class StudySpec:
     curves_where: dict
     paper_finding: str
     criteria: Criteria | None
-    window: object = None  # FitWindow: sinkage/pressure window of every fit (empty: none)
+    window: FitWindow | None = None  # sinkage/pressure window of every fit (empty: none)
     path: Path | None = field(default=None, compare=False)
 
     @property

@@ -22,6 +22,7 @@ import pandas as pd
 from ..errors import SoilstatsError
 
 if TYPE_CHECKING:
+    from ..bayes.result import PosteriorResult
     from ..campaign.campaign import Campaign
 
 __all__ = ["PlateDraws", "choose_law", "plate_draws", "soil_tests"]
@@ -45,7 +46,7 @@ class PlateDraws:
     soil: str
     n_tests: int
     plate_sizes_m: tuple[float, ...]
-    posterior: object = field(repr=False)
+    posterior: PosteriorResult | None = field(repr=False)  # None: draws given as a table
     params: dict
 
     @property
