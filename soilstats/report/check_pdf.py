@@ -9,6 +9,7 @@ flag of every test with its message. Everything in check.json is in the PDF.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
@@ -18,6 +19,9 @@ from ..quality.codes import CODES
 from .document import Document, strong
 from .front import data_origin, front_page
 from .labels import natural_key
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["write_report"]
 
@@ -52,7 +56,7 @@ def _conclusion(doc_dict: dict, n_tests: int) -> list:
 
 
 def write_report(
-    report, path: str | Path, *, campaign, provenance=None, overwrite: bool = False
+    report, path: str | Path, *, campaign: Campaign, provenance=None, overwrite: bool = False
 ) -> int:
     """Write the typeset screening report of ``report`` (a QualityReport) of ``campaign``
     to ``path``.

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,9 @@ from .front import data_origin, front_page
 from .labels import natural_key
 from .methods import write_equations
 from .parameters import EQ4_NOTE, condition_table
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["write_report"]
 
@@ -177,7 +181,7 @@ def _condition(record: dict) -> dict:
 
 
 def write_report(
-    results, path: str | Path, *, campaign, provenance=None, overwrite: bool = False
+    results, path: str | Path, *, campaign: Campaign, provenance=None, overwrite: bool = False
 ) -> int:
     """Write the typeset identification report of ``results`` (ConditionFits per kind) of
     ``campaign`` to ``path``.

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
@@ -22,6 +23,9 @@ from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
 from .parameters import EQ4_NOTE, condition_table
 from .study_figures import make_figures
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["write_report"]
 
@@ -340,7 +344,7 @@ def _pairs_and_criteria(doc: Document, result) -> None:
 
 
 def write_report(
-    result, path: str | Path, *, campaign, provenance=None, overwrite: bool = False
+    result, path: str | Path, *, campaign: Campaign, provenance=None, overwrite: bool = False
 ) -> int:
     """Write the typeset PDF report of ``result`` (a study of ``campaign``) to ``path``;
     return the number of pages.
