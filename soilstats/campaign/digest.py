@@ -7,20 +7,16 @@ with the campaign format whose tables it hashes.
 from __future__ import annotations
 
 import hashlib
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from .schema import DERIVED_COLUMNS, FILES
 
-if TYPE_CHECKING:
-    from .campaign import Campaign
-
 __all__ = ["campaign_sha256"]
 
 
-def campaign_sha256(campaign: Campaign) -> str:
+def campaign_sha256(campaign) -> str:  # a Campaign (that module imports this one)
     """SHA-256 of a campaign's raw content (what ``Campaign.save`` writes), as hex.
 
     The same tables give the same hash whether they came from CSV, Parquet or DataFrames:

@@ -20,15 +20,11 @@ from __future__ import annotations
 import weakref
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from .schema import KINDS
-
-if TYPE_CHECKING:
-    from .campaign import Campaign
 
 __all__ = ["CampaignIndex", "campaign_index", "grouped_by_code", "sample_test_positions"]
 
@@ -81,7 +77,7 @@ class CampaignIndex:
     _columns: dict[tuple[str, str], np.ndarray] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def of(cls, campaign: Campaign) -> CampaignIndex:
+    def of(cls, campaign) -> CampaignIndex:  # a Campaign (that module imports this one)
         tests = campaign.tests
         kind = _frozen(tests["kind"].to_numpy())
         return cls(
@@ -125,7 +121,7 @@ class CampaignIndex:
 _INDEX: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def campaign_index(campaign: Campaign) -> CampaignIndex:
+def campaign_index(campaign) -> CampaignIndex:  # a Campaign, unannotated as in of()
     """The :class:`CampaignIndex` of ``campaign``, built on first use."""
     index = _INDEX.get(campaign)
     if index is None:

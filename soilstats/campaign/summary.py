@@ -2,16 +2,11 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import pandas as pd
 from pandas.api.types import is_numeric_dtype
 
 from .schema import KINDS
-
-if TYPE_CHECKING:
-    from .campaign import Campaign
 
 __all__ = ["describe"]
 
@@ -61,9 +56,9 @@ def _samples(kind: str, table: pd.DataFrame, notes: list[str]) -> list[str]:
     return lines
 
 
-def describe(c: Campaign) -> str:
-    """Return the readable overview of campaign ``c`` (see :meth:`Campaign.summary`; its
-    annotation is imported for the type checker only: the campaign module imports this one).
+def describe(c) -> str:
+    """Return the readable overview of campaign ``c`` (see :meth:`Campaign.summary`; not
+    annotated, so that this module need not import the one that imports it).
 
     Lists the tests per kind and soil, the log's columns and covariates (with how many tests
     record each), the sample counts and value ranges [SI units], the plates and rings, and the
