@@ -169,3 +169,33 @@ def test_discover_writes_the_test_level_sigma_in_json_console_and_pdf(discovered
     assert n["stderr"] > 2 * n["stderr_eq4"]  # the scatter makes the two σ differ
     said = "thescatterbetweentestscouldnotbemeasured"
     assert said in pdf and said in _squeeze(console)
+
+
+@pytest.mark.slow  # two population posteriors: CI runs it
+def test_posterior_writes_one_sigma_in_json_csv_console_and_pdf(written, tmp_path):
+    """A posterior's σ is the posterior sd (for a new preparation: the test-to-test scatter
+    included). The sd of every parameter in --json's summary, summary.csv, the console table
+    and the PDF's table is the same number (full precision in JSON and CSV, 4 digits shown)."""
+    _, root, _ = written
+    argv = ["posterior", "--data", str(root / "campaign"), "--model", "bekker", "--population"]
+    argv += ["--select", f"sinkage:velocity_m_s={VELOCITIES[0]}", "--progress", "off"]
+    outputs = {}
+    for face in ("json", "text"):
+        buffer = io.StringIO()
+        extra = ["--json"] if face == "json" else []
+        with contextlib.redirect_stdout(buffer):
+            code = main([*argv, *extra, "--out", str(tmp_path / face)])
+        assert code == 0, face
+        outputs[face] = buffer.getvalue()
+    summary = {row["quantity"]: row for row in json.loads(outputs["json"])["summary"]}
+    table = {row["quantity"]: row for row in _csv_rows(tmp_path / "text" / "summary.csv")}
+    pdf = _pdf(tmp_path / "text" / "report.pdf")
+    for name in ("kc", "kphi", "n"):
+        sd = summary[name]["sd"]
+        assert float(table[name]["sd"]) == pytest.approx(sd, rel=1e-12), name
+        shown = f"{sd:.4g}"
+        line = next(ln for ln in outputs["text"].splitlines() if ln.split()[:1] == [name])
+        assert shown in line.split(), (name, line)
+        assert _squeeze(shown) in pdf, (name, shown)
+    # the population sd of a new preparation is wider than the pooled sd of the soil mean
+    assert summary["n"]["sd"] > 2 * summary["mu_n"]["sd"]
