@@ -17,6 +17,7 @@ __all__ = [
     "ConvergenceError",
     "ConvergenceWarning",
     "IdentifiabilityError",
+    "InputError",
     "ModelError",
     "SoilstatsError",
     "SoilstatsWarning",
@@ -95,6 +96,15 @@ def refuse_unknown_keys(
     unknown = [key for key in table if key not in allowed]
     if unknown:
         raise error(unknown)
+
+
+class InputError(SoilstatsError, ValueError):
+    """An argument of a soilstats function or command holds a value it does not take (an
+    option outside its choices, a number out of range, a malformed item, a table without the
+    columns it needs); the message names the argument, the value given and what would do.
+
+    The general bad-input error, for what none of the more specific errors below describes.
+    """
 
 
 class IdentifiabilityError(SoilstatsError, ValueError):

@@ -27,6 +27,8 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
 
+from .errors import InputError
+
 __all__ = [
     "effective_jobs",
     "in_this_backend",
@@ -47,7 +49,7 @@ def effective_jobs(jobs: int | None) -> int:
     cores = os.cpu_count() or 1
     if jobs < 0:
         if cores + 1 + jobs < 1:
-            raise ValueError(f"jobs={jobs} asks for fewer than one worker on {cores} cores")
+            raise InputError(f"jobs={jobs} asks for fewer than one worker on {cores} cores")
         return cores + 1 + jobs
     return int(jobs)
 

@@ -41,7 +41,7 @@ from typing import cast
 import numpy as np
 import pandas as pd
 
-from ..errors import SoilstatsError
+from ..errors import InputError, SoilstatsError
 from .support import negative_modulus_width
 
 __all__ = [
@@ -287,7 +287,7 @@ def check_scm(
     multiple > 1), set elastic_K = repair × Bekker_Kphi in the rows where elastic_K ≤
     Bekker_Kphi, and mark them. Returns the (repaired) table and the check."""
     if repair is not None and not (np.isfinite(repair) and repair > 1):
-        raise ValueError(
+        raise InputError(
             f"the elastic_K repair multiple must be a number above 1 (elastic_K = multiple x "
             f"Bekker_Kphi must exceed Bekker_Kphi), got {repair!r}"
         )
@@ -351,7 +351,7 @@ def parse_stated_prior(text: str) -> tuple:
             return ("uniform", float(parts[0]), float(parts[1]))
     except ValueError:
         pass
-    raise ValueError(f"cannot read the prior {text!r}: write {_STATED_FORMS}, e.g. normal:30:3")
+    raise InputError(f"cannot read the prior {text!r}: write {_STATED_FORMS}, e.g. normal:30:3")
 
 
 @dataclass(frozen=True)
@@ -441,7 +441,7 @@ def stated_inputs(elastic_K: float | None = None, damping_R: float | None = None
             ok = value > 0 if name == "elastic_K" else value >= 0
             if not (ok and np.isfinite(value)):
                 need = "positive" if name == "elastic_K" else "zero or positive"
-                raise ValueError(f"{name} must be {need} and finite, got {value!r}")
+                raise InputError(f"{name} must be {need} and finite, got {value!r}")
         out[name] = (default, unit, source) if value is None else (value, unit, "stated by user")
     return out
 
@@ -567,22 +567,22 @@ def export_simulator(
     try:
         spec = SIMULATOR_FORMATS[simulator]
     except KeyError:
-        raise ValueError(
+        raise InputError(
             f"unknown simulator {simulator!r}; choose one of {sorted(SIMULATOR_FORMATS)}"
         ) from None
     priors = dict(priors or {})
     plan = scm_plan(draws.columns, priors)
     missing = [k for k, v in plan.items() if v == "missing"]
     if missing:
-        raise ValueError(missing_message(simulator, missing, draws.columns))
+        raise InputError(missing_message(simulator, missing, draws.columns))
     unused = sorted(set(priors) - {k for k, v in plan.items() if v == "prior"})
     if unused:
-        raise ValueError(
+        raise InputError(
             f"priors given for {unused}, which the draws already carry or {simulator} does not "
             "take; user priors are for the parameters no test measured"
         )
     if priors and seed is None:
-        raise ValueError("user priors need a seed (give one independent of the posterior's)")
+        raise InputError("user priors need a seed (give one independent of the posterior's)")
     stated = stated_inputs(elastic_K, damping_R)
     drawn = sample_priors(priors, len(draws), int(cast(int, seed))) if priors else {}
     if not isinstance(draws_source, Mapping):

@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ..errors import InputError
+
 __all__ = ["joint_draws"]
 
 
@@ -49,7 +51,7 @@ def joint_draws(
     b = shear.draws(n, seed=int(seeds[1]), allow_unconverged=allow_unconverged)
     clash = set(a.columns) & set(b.columns)
     if clash:
-        raise ValueError(
+        raise InputError(
             f"both posteriors have parameters {sorted(clash)}; pass a sinkage and a shear posterior"
         )
     return pd.concat([a, b], axis=1)

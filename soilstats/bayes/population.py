@@ -20,6 +20,7 @@ import numpy as np
 import xarray as xr
 from scipy import optimize
 
+from ..errors import IdentifiabilityError, InputError, ModelError
 from ..identification import fit_sinkage, pool_sinkage
 from ..models import get_model, model_names
 from ._arviz import az
@@ -137,7 +138,7 @@ def population_setup(
     layout = spec.population
     if layout is None:
         with_layout = [n for n in model_names() if get_model(n).population is not None]
-        raise ValueError(
+        raise ModelError(
             f"the population model is implemented for {with_layout} "
             f"(got {spec.name!r}); use sample_posterior for the pooled model"
         )
@@ -155,7 +156,7 @@ def population_setup(
         fits = sinkage_tests(pooled, spec)
     t = len(fits.test_ids)
     if t < 3:
-        raise ValueError(
+        raise IdentifiabilityError(
             f"the population model needs at least 3 tests with a usable per-test fit; the "
             f"selection has {t} (failed: {fits.failed or 'none'})"
         )
@@ -193,7 +194,7 @@ def population_setup(
         spread = np.log(np.maximum([np.std(r0, ddof=1), np.std(r1, ddof=1)], 1e-3))
         x0 = np.concatenate([coords.to_u(theta0)[0], spread, [0.0]])
     if not (np.all(np.isfinite(x0)) and np.all(kb0 > 0)):
-        raise ValueError(
+        raise InputError(
             f"the pooled least-squares estimate {dict(zip(spec.param_names, theta0, strict=True))}"
             f" gives a non-positive {layout.per_test[0]} or {layout.per_test[1]} for some test; "
             "the population model cannot start there"

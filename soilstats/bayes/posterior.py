@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from ..errors import ConvergenceWarning
+from ..errors import ConvergenceWarning, InputError
 from ..models import get_model
 from ._arviz import az
 from .data import pooled_problem
@@ -94,7 +94,7 @@ def sample_posterior(
     extra = {"points_per_test": points_per_test} if spec.kind == "sinkage" else {}
     problem, fit = pooled_problem(campaign, spec, priors=priors, **extra, **selection)
     if not fit.converged or not np.all(np.isfinite(fit.cov.to_numpy())):
-        raise ValueError(
+        raise InputError(
             f"the least-squares fit of {spec.name} did not give a usable start and covariance "
             f"({fit.message}); the posterior sampler needs it — see fit_sinkage/fit_shear"
         )
@@ -280,7 +280,7 @@ def _check_start_in_prior(spec, theta0: np.ndarray, problem: PooledProblem) -> N
         return
     modulus = spec.modulus.text if spec.modulus is not None else "of the model"
     why = "; ".join(outside) or f"the plate moduli {modulus} are not positive on every plate"
-    raise ValueError(
+    raise InputError(
         f"the least-squares estimate of {spec.name} lies outside the prior's support: {why}. "
         "The data put the optimum where the physics priors forbid it (see the fit's health "
         "flags: soilstats identify); window the records, choose another model, or state a "

@@ -37,6 +37,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..errors import InputError, ModelError
 from ..models import MODELS, Model, get_model
 from ..models.priors import FLAT, Normal, Prior, Uniform
 
@@ -99,7 +100,7 @@ def resolve_priors(
         chosen.setdefault(name, FLAT)
     for name, value in (priors or {}).items():
         if name not in param_names:
-            raise ValueError(
+            raise ModelError(
                 f"prior given for {name!r}, which is not a parameter of {model_name!r}; "
                 f"its parameters are {list(param_names)}"
             )
@@ -110,10 +111,10 @@ def resolve_priors(
         elif isinstance(value, tuple) and len(value) == 2:
             lo, hi = (float(v) for v in value)
             if not lo < hi:
-                raise ValueError(f"prior interval for {name!r} must have lower < upper: {value}")
+                raise InputError(f"prior interval for {name!r} must have lower < upper: {value}")
             chosen[name] = Uniform(lo, hi)
         else:
-            raise ValueError(
+            raise InputError(
                 f"prior for {name!r} must be a soilstats.bayes.Prior, a (lower, upper) tuple "
                 f"or None (flat on the real line), got {value!r}"
             )
@@ -139,7 +140,7 @@ def parse_prior(text: str) -> Prior:
                 return Uniform(lo, hi)
     except ValueError:
         pass
-    raise ValueError(
+    raise InputError(
         f"cannot read the prior {text!r}: write LO:HI (flat), normal:MU:SD or "
         "normal:MU:SD:LO:HI, e.g. 0.2:2 or normal:1.0:0.3:0:inf"
     )
@@ -151,7 +152,7 @@ def priors_from_items(items) -> dict[str, Prior]:
     for item in items or ():
         name, eq, spec = str(item).partition("=")
         if not eq or not name.strip():
-            raise ValueError(f"--prior takes NAME=SPEC (e.g. n=0.2:2), got {item!r}")
+            raise InputError(f"--prior takes NAME=SPEC (e.g. n=0.2:2), got {item!r}")
         out[name.strip()] = parse_prior(spec)
     return out
 
@@ -169,11 +170,11 @@ def priors_from_toml(path, model_name: str) -> dict[str, Prior]:
     try:
         table = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as err:
-        raise ValueError(f"cannot read the priors file {str(path)!r}: {err}") from None
+        raise InputError(f"cannot read the priors file {str(path)!r}: {err}") from None
     section = table.get(model_name, {})
     if not isinstance(section, dict):
-        raise ValueError(f'{path}: [{model_name}] must be a table of NAME = "SPEC" entries')
+        raise InputError(f'{path}: [{model_name}] must be a table of NAME = "SPEC" entries')
     try:
         return {name: parse_prior(spec) for name, spec in section.items()}
     except ValueError as err:
-        raise ValueError(f"{path}, [{model_name}]: {err}") from None
+        raise InputError(f"{path}, [{model_name}]: {err}") from None

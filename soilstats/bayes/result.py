@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from ..errors import InputError
 from ..outputs.text import notes_block
 from ._arviz import az
 
@@ -153,7 +154,7 @@ class PosteriorResult:
         Raises ConvergenceError for a posterior that did not converge, unless
         ``allow_unconverged`` (as :meth:`draws`)."""
         if not 0 < prob < 1:
-            raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+            raise InputError(f"prob must be in (0, 1), got {prob!r}")
         d = self.draws(allow_unconverged=allow_unconverged)  # raises when not converged
         if kind == "hdi":
             hdi = az.hdi(self.idata, hdi_prob=prob, var_names=list(self.param_names))
@@ -161,7 +162,7 @@ class PosteriorResult:
                 {n: hdi[n].to_numpy() for n in self.param_names}, index=["lower", "upper"]
             ).T
         if kind != "eti":
-            raise ValueError(f"kind must be 'eti' or 'hdi', got {kind!r}")
+            raise InputError(f"kind must be 'eti' or 'hdi', got {kind!r}")
         q = [(1 - prob) / 2, (1 + prob) / 2]
         return d.quantile(q).T.set_axis(["lower", "upper"], axis=1)
 

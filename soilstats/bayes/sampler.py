@@ -30,6 +30,7 @@ import emcee
 import numpy as np
 from tqdm.auto import tqdm
 
+from ..errors import InputError
 from .moves import StudentIndependenceMove
 
 __all__ = ["EnsembleRun", "run_ensemble"]
@@ -64,7 +65,7 @@ def _start(log_prob, centre, cov, n_walkers, rng) -> np.ndarray:
         if not todo.size:
             return out
         chol = chol * 0.5  # near a prior bound: shrink towards the (allowed) LS estimate
-    raise ValueError(
+    raise InputError(
         "could not place walkers where the prior allows: the least-squares estimate lies "
         "outside the prior's support — check the priors (or the fit's health flags)"
     )
@@ -119,9 +120,9 @@ def run_ensemble(
     cov = np.asarray(cov, float)
     dim = centre.size
     if n_walkers < 2 * dim:
-        raise ValueError(f"n_walkers must be at least 2·{dim} = {2 * dim}, got {n_walkers}")
+        raise InputError(f"n_walkers must be at least 2·{dim} = {2 * dim}, got {n_walkers}")
     if draws < 1:
-        raise ValueError(f"draws must be a positive integer, got {draws}")
+        raise InputError(f"draws must be a positive integer, got {draws}")
     rng = np.random.default_rng(seed)
     independent = None
     if moves == "laplace":
@@ -136,7 +137,7 @@ def run_ensemble(
     elif moves == "stretch":
         mix = None
     else:
-        raise ValueError(f"moves must be 'laplace', 'de' or 'stretch', got {moves!r}")
+        raise InputError(f"moves must be 'laplace', 'de' or 'stretch', got {moves!r}")
     sampler = emcee.EnsembleSampler(n_walkers, dim, log_prob, moves=mix, vectorize=True)
     start = _start(log_prob, centre, cov, n_walkers, rng)
     state = emcee.State(

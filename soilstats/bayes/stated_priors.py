@@ -23,6 +23,8 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.special import ndtr, ndtri
 
+from ..errors import InputError
+
 __all__ = ["SUPPORT", "describe_prior", "sample_priors"]
 
 #: Physical support of the parameters: (low, high, whether low itself is allowed).
@@ -46,15 +48,15 @@ def describe_prior(spec) -> str:
 
 def _check(name: str, spec) -> tuple[str, tuple[float, ...]]:
     if not isinstance(spec, tuple | list) or not spec or spec[0] not in _ARITY:
-        raise ValueError(
+        raise InputError(
             f"prior for {name!r} must be a tuple (kind, *args) with kind one of "
             f"{sorted(_ARITY)}, got {spec!r}"
         )
     kind, args = spec[0], tuple(float(v) for v in spec[1:])
     if len(args) != _ARITY[kind]:
-        raise ValueError(f"prior {kind!r} for {name!r} takes {_ARITY[kind]} numbers, got {spec!r}")
+        raise InputError(f"prior {kind!r} for {name!r} takes {_ARITY[kind]} numbers, got {spec!r}")
     if not all(np.isfinite(args)):
-        raise ValueError(f"prior for {name!r} has a non-finite number: {spec!r}")
+        raise InputError(f"prior for {name!r} has a non-finite number: {spec!r}")
     checks = {
         "normal": lambda: args[1] > 0,
         "truncnormal": lambda: args[1] > 0 and args[2] < args[3],
@@ -62,7 +64,7 @@ def _check(name: str, spec) -> tuple[str, tuple[float, ...]]:
         "lognormal": lambda: args[0] > 0 and args[1] > 0,
     }
     if not checks[kind]():
-        raise ValueError(f"prior for {name!r} is degenerate or inverted: {spec!r}")
+        raise InputError(f"prior for {name!r} is degenerate or inverted: {spec!r}")
     return kind, args
 
 
@@ -91,7 +93,7 @@ def sample_priors(priors: Mapping[str, tuple], size: int, seed: int) -> dict[str
         low, high, closed = SUPPORT.get(name, (-np.inf, np.inf, False))
         bad = ~(((x >= low) if closed else (x > low)) & (x < high))
         if np.any(bad):
-            raise ValueError(
+            raise InputError(
                 f"the prior {name} ~ {describe_prior(priors[name])} puts {bad.sum()} of {size} "
                 f"draws outside the support of {name} ({'[' if closed else '('}{low:g}, {high:g}); "
                 "use a truncnormal, "

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ..errors import InputError
+
 __all__ = ["MAX_OUTSIDE", "SupportCheck", "check_support", "negative_modulus_width"]
 
 #: Largest share of draws outside the physical support for a posterior to be usable.
@@ -98,7 +100,7 @@ def check_support(
 
     lo, hi = (float(b) for b in contact_widths)
     if not 0 < lo <= hi:
-        raise ValueError(f"contact widths must satisfy 0 < b_min <= b_max, got {contact_widths}")
+        raise InputError(f"contact widths must satisfy 0 < b_min <= b_max, got {contact_widths}")
     values = {c: draws[c].to_numpy(float) for c in draws.columns}
     if models is None:
         chosen = list(MODELS.values())

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 from pandas.api.types import is_bool_dtype, is_numeric_dtype
 
-from ..errors import CampaignError, SoilstatsWarning
+from ..errors import CampaignError, InputError, SoilstatsWarning
 from . import io
 from ._cells import TEXT_DTYPE
 from .derived import add_sample_columns, add_test_columns
@@ -66,7 +66,7 @@ def _skipped_item(r) -> str:
 
 def _check_on_error(on_error: str) -> None:
     if on_error not in ("raise", "skip"):
-        raise ValueError(f"on_error={on_error!r} is not an option; use 'raise' or 'skip'")
+        raise InputError(f"on_error={on_error!r} is not an option; use 'raise' or 'skip'")
 
 
 def _check_derived(
@@ -563,7 +563,7 @@ class Campaign:
             The folder. A sample file is omitted when its table has no rows.
         """
         if format not in ("csv", "parquet"):
-            raise ValueError(f"format={format!r} is not an option; use 'csv' or 'parquet'")
+            raise InputError(f"format={format!r} is not an option; use 'csv' or 'parquet'")
         tables = {
             stem: table.drop(columns=[c for c in DERIVED_COLUMNS[stem] if c in table.columns])
             for stem, table in (

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from ..errors import CampaignError
+from ..errors import CampaignError, InputError
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -70,7 +70,7 @@ class FitWindow:
                 if colon:
                     column, eq, value = where.partition("=")
                     if not eq or not column:
-                        raise ValueError(
+                        raise InputError(
                             f"--{name.replace('_', '-')} takes LIMIT or COLUMN=VALUE:LIMIT "
                             f"(e.g. radius_m=0.038:0.0034), got {item!r}"
                         )
@@ -78,7 +78,7 @@ class FitWindow:
                 try:
                     number = float(limit)
                 except ValueError:
-                    raise ValueError(
+                    raise InputError(
                         f"--{name.replace('_', '-')} {item!r}: the limit {limit!r} is not a number"
                     ) from None
                 rules.setdefault(key, {})[name] = _positive(number, name)
@@ -135,7 +135,7 @@ def _positive(value, name: str) -> float | None:
         return None
     value = float(value)
     if not np.isfinite(value) or value <= 0:
-        raise ValueError(f"{name} must be a positive number, got {value!r}")
+        raise InputError(f"{name} must be a positive number, got {value!r}")
     return value
 
 

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
 from .._text import plural
+from ..errors import InputError
 from ..kinds import TEST_KINDS
 
 if TYPE_CHECKING:
@@ -275,7 +276,7 @@ def parse_selection(items: Sequence[str]) -> list[Criterion]:
             kind, item = prefix, rest
         column, sep, text = item.partition("=")
         if not sep or not column:
-            raise ValueError(
+            raise InputError(
                 f"--select takes [KIND:]COLUMN=VALUE (e.g. soil=soil01 or "
                 f"sinkage:velocity_m_s=0.01), got {item!r}"
             )

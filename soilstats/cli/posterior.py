@@ -37,6 +37,7 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..errors import InputError, ModelError
 from .common import add_common_options, add_data_options, prepared, progress_enabled
 
 if TYPE_CHECKING:
@@ -153,7 +154,7 @@ def split_prior_items(args, models) -> tuple[list[str], dict[str, tuple]]:
             try:
                 stated[name.strip()] = parse_stated_prior(spec)
             except ValueError as err:
-                raise ValueError(f"--prior {item}: {err}") from None
+                raise InputError(f"--prior {item}: {err}") from None
         else:
             posterior.append(item)
     return posterior, stated
@@ -178,7 +179,7 @@ def priors_by_model(args, models) -> dict[str, dict]:
             else "; with --simulator chrono-scm, the shear parameters a sinkage-only campaign "
             "lacks take user priors (e.g. --prior c=uniform:0:2000)"
         )
-        raise ValueError(
+        raise ModelError(
             f"--prior names {unknown}, not parameters of {'+'.join(models)} "
             f"(parameters: {sorted(known)}){hint}"
         )
@@ -188,7 +189,7 @@ def priors_by_model(args, models) -> dict[str, dict]:
         table = priors_from_toml(args.priors, model) if args.priors else {}
         stray = sorted(set(table) - set(names))
         if stray:
-            raise ValueError(
+            raise ModelError(
                 f"{args.priors}, [{model}]: {stray} are not parameters of {model} "
                 f"(parameters: {list(names)})"
             )
@@ -256,7 +257,7 @@ def _check_simulator(args, models, stated: dict) -> None:
     user priors, and valid stated inputs: refuse before sampling, not after."""
     if not args.simulator:
         if args.scm_repair is not None:
-            raise ValueError("--scm-repair repairs a simulator export: give --simulator too")
+            raise InputError("--scm-repair repairs a simulator export: give --simulator too")
         return
     from ..bayes.export import missing_message, scm_plan, stated_inputs
     from ..bayes.stated_priors import sample_priors
@@ -265,17 +266,17 @@ def _check_simulator(args, models, stated: dict) -> None:
     plan = scm_plan(params, stated)
     sinkage = [m for m in models if _checked_model(m).kind == "sinkage"]
     if sinkage and plan["kphi"] == "missing":
-        raise ValueError(
+        raise ModelError(
             f"--simulator {args.simulator} takes Bekker's law p = (kc/b + kphi) z^n; "
             f"{sinkage[0]} ({_checked_model(sinkage[0]).equation}) has no such form: use "
             "--model bekker, or bernstein (mapped as Kphi = k, Kc = 0)"
         )
     missing = [k for k, v in plan.items() if v == "missing"]
     if missing:
-        raise ValueError(f"--simulator {missing_message(args.simulator, missing, params)}")
+        raise InputError(f"--simulator {missing_message(args.simulator, missing, params)}")
     stated_inputs(args.scm_elastic_K, args.scm_damping_R)
     if args.scm_repair is not None and not args.scm_repair > 1:
-        raise ValueError(
+        raise InputError(
             f"--scm-repair takes a multiple above 1 (elastic_K = MULTIPLE x Bekker_Kphi must "
             f"exceed Bekker_Kphi), got {args.scm_repair:g}"
         )
@@ -303,7 +304,7 @@ def _check_draws(args) -> None:
     from ..bayes.result import ESS_MIN
 
     if args.draws < ESS_MIN:
-        raise ValueError(
+        raise InputError(
             f"--draws {args.draws} is below {ESS_MIN}, the effective sample size (bulk and "
             f"tail ESS) per parameter the convergence check needs: {args.draws} draws can "
             f"carry at most about {args.draws}. Ask for at least {ESS_MIN} (default "
@@ -343,11 +344,11 @@ def _contact_widths(args, campaign) -> tuple[float, float]:
         try:
             widths = (float(lo), float(hi or lo))
         except ValueError:
-            raise ValueError(
+            raise InputError(
                 f"--contact-width takes B_MIN[:B_MAX] in metres, got {args.contact_width!r}"
             ) from None
         if not 0 < widths[0] <= widths[1]:
-            raise ValueError(f"--contact-width needs 0 < B_MIN <= B_MAX, got {widths}")
+            raise InputError(f"--contact-width needs 0 < B_MIN <= B_MAX, got {widths}")
         return widths
     return _tested_widths(args, campaign) or (1.0, 1.0)
 
@@ -398,7 +399,7 @@ def _soil(args, campaign) -> str:
         return args.soil
     if len(soils) == 1:
         return soils[0]
-    raise ValueError(f"--soil is needed: the campaign has {len(soils)} soils ({', '.join(soils)})")
+    raise InputError(f"--soil is needed: the campaign has {len(soils)} soils ({', '.join(soils)})")
 
 
 def _export(args, models, results, kept, stated, campaign):

@@ -30,6 +30,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..errors import InputError
 from .common import add_common_options, add_data_options, prepared, progress_enabled
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
@@ -115,7 +116,7 @@ def parse_prior(item: str) -> tuple[str, tuple]:
     except ValueError:
         values = ()
     if not sep or not name.strip() or not kind or not values:
-        raise ValueError(
+        raise InputError(
             f"--prior takes NAME=KIND:ARGS (e.g. phi=normal:29:4, c=uniform:0:1500, "
             f"K=lognormal:0.01:0.8), got {item!r}"
         )
@@ -131,7 +132,7 @@ def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
             try:
                 value = float(text)
             except ValueError:
-                raise ValueError(
+                raise InputError(
                     f"--{option.replace('_', '-')} takes [TYPE=]VALUE in SI units, got {item!r}"
                 ) from None
             out.setdefault(wheel.strip() if sep else "*", {})[key] = value
@@ -148,7 +149,7 @@ def parse_angles(text: str | None):
     except ValueError:
         values = []
     if len(values) != 4:
-        raise ValueError(f"--angles takes four numbers A0,A1,B0,B1, got {text!r}")
+        raise InputError(f"--angles takes four numbers A0,A1,B0,B1, got {text!r}")
     return StressAngles(*values)
 
 
@@ -177,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
     from ..wheel.validation import check_priors, validate_wheel
 
     if args.n_draws < 100:
-        raise ValueError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
+        raise InputError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
     priors = dict(parse_prior(p) for p in args.prior)
     check_priors(priors)
     angles = parse_angles(args.angles)

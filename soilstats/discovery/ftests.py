@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from ..errors import InputError
 from .candidates import spans_log
 
 #: A column counts towards a design's rank when its singular value exceeds this fraction of
@@ -390,7 +391,7 @@ def interaction_test(y, a, b, *, strata, test: str = "cell") -> dict:
     still informs the main effects).
     """
     if test not in INTERACTION_TESTS:
-        raise ValueError(f"test must be one of {INTERACTION_TESTS}, got {test!r}")
+        raise InputError(f"test must be one of {INTERACTION_TESTS}, got {test!r}")
     y = np.asarray(y, float)
     a, b, strata = np.asarray(a), np.asarray(b), np.asarray(strata)
     out = {"used": np.ones(y.size, bool), "singletons": [], "p_value": np.nan}

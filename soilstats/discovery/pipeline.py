@@ -34,7 +34,7 @@ import pandas as pd
 
 from .._text import plural
 from ..campaign import Campaign, load_campaign
-from ..errors import ConvergenceError, IdentifiabilityError
+from ..errors import ConvergenceError, IdentifiabilityError, InputError
 from ..models import get_model
 from ..outputs import Provenance
 from ..parallel import in_this_backend, one_blas_thread
@@ -118,9 +118,9 @@ def discover(
     >>> print(result.summary())                                # doctest: +SKIP
     """
     if not 0 < alpha < 1:
-        raise ValueError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
+        raise InputError(f"alpha must lie in (0, 1), got {alpha!r}; e.g. alpha=0.05")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(
+        raise InputError(
             f"seed must be a non-negative integer (the folds are random and must be "
             f"reproducible), got {seed!r}; e.g. seed=0"
         )

@@ -9,7 +9,13 @@ from typing import Literal, NamedTuple, Protocol, cast
 
 import numpy as np
 
-from ..errors import ConvergenceError, ConvergenceWarning
+from ..errors import (
+    ConvergenceError,
+    ConvergenceWarning,
+    IdentifiabilityError,
+    InputError,
+    StatisticsInputError,
+)
 from .jacobian import make_jacobian
 from .levenberg_marquardt import LMOutcome, _eigh, gram_matrix, levenberg_marquardt, scaled_svd
 from .result import FitResult, HealthFlag, epsilon
@@ -158,7 +164,7 @@ def identify(
     FitResult
     """
     if on_failure not in ("raise", "warn"):
-        raise ValueError(f"on_failure must be 'raise' or 'warn', got {on_failure!r}")
+        raise InputError(f"on_failure must be 'raise' or 'warn', got {on_failure!r}")
     fast, f, jac, param_names, units, bounds, name = _model_parts(
         model, jac, param_names, units, bounds, name
     )
@@ -237,9 +243,9 @@ def _checked_names(param_names, n_obs: int, n_par: int) -> tuple[str, ...]:
     solved: a name per starting value, and more observations than parameters."""
     param_names = tuple(param_names or (f"p{i}" for i in range(n_par)))
     if len(param_names) != n_par:
-        raise ValueError(f"{len(param_names)} parameter names given for {n_par} starting values")
+        raise InputError(f"{len(param_names)} parameter names given for {n_par} starting values")
     if n_obs <= n_par:
-        raise ValueError(f"{n_obs} observations cannot determine {n_par} parameters")
+        raise IdentifiabilityError(f"{n_obs} observations cannot determine {n_par} parameters")
     return param_names
 
 
@@ -272,10 +278,10 @@ def _weighted_data(y: np.ndarray, weights, n_par: int) -> _Weighted:
     yy = _finite_norm(y, w, wy)
     # The minimum is NaN if a weight is, and the comparison then fails as it should.
     if weights is not None and not np.minimum.reduce(w) >= 0:
-        raise ValueError("weights must be finite and non-negative")
+        raise StatisticsInputError("weights must be finite and non-negative")
     n_used = n_obs if weights is None else int(np.count_nonzero(w))
     if n_used < n_obs and n_used <= n_par:
-        raise ValueError(
+        raise IdentifiabilityError(
             f"{n_used} observations of non-zero weight cannot determine {n_par} parameters"
         )
     return _Weighted(w, wy, yy, n_used, None if n_used == n_obs else w != 0)
@@ -293,9 +299,11 @@ def _finite_norm(y: np.ndarray, w: np.ndarray, wy: np.ndarray) -> float:
     if not math.isfinite(yy):
         if not np.isfinite(y).all():
             bad = np.flatnonzero(~np.isfinite(y))[:5]
-            raise ValueError(f"y holds non-finite values (first at indices {bad.tolist()})")
+            raise StatisticsInputError(
+                f"y holds non-finite values (first at indices {bad.tolist()})"
+            )
         if not np.isfinite(w).all():
-            raise ValueError("weights must be finite and non-negative")
+            raise StatisticsInputError("weights must be finite and non-negative")
     return yy
 
 

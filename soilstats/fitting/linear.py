@@ -18,6 +18,8 @@ import pandas as pd
 from scipy import linalg
 from scipy.special import fdtrc, stdtrit
 
+from ..errors import IdentifiabilityError, StatisticsInputError
+
 __all__ = ["LinearFit", "linear_least_squares"]
 
 # Above this cond(X) (after column scaling) float64 cannot deliver even ~3 correct digits.
@@ -128,11 +130,11 @@ def linear_least_squares(
     y = np.asarray(y, dtype=float).ravel()
     n, p = X.shape
     if y.size != n:
-        raise ValueError(f"X has {n} rows but y has {y.size} values")
+        raise StatisticsInputError(f"X has {n} rows but y has {y.size} values")
     if n < p:
-        raise ValueError(f"{n} observations cannot determine {p} coefficients")
+        raise IdentifiabilityError(f"{n} observations cannot determine {p} coefficients")
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(y))):
-        raise ValueError("X and y must be finite")
+        raise StatisticsInputError("X and y must be finite")
     names = tuple(names or (f"b{i}" for i in range(p)))
     w = np.ones(n) if weights is None else np.broadcast_to(np.asarray(weights, float), (n,))
     Xw, yw = X * w[:, None], y * w
@@ -143,7 +145,7 @@ def linear_least_squares(
     diag_r = np.abs(np.diag(r))
     cond = float(np.linalg.cond(r)) if np.all(diag_r > 0) else np.inf
     if cond > LINEAR_CONDITION_LIMIT:
-        raise ValueError(
+        raise IdentifiabilityError(
             f"the design matrix is numerically rank-deficient (cond = {cond:.2g} after column "
             f"scaling > {LINEAR_CONDITION_LIMIT:.0e}); remove collinear columns or rescale x"
         )

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import stdtrit
 
+from ..errors import InputError
 from ..outputs.files import json_safe
 from ..outputs.text import notes_block
 
@@ -189,7 +190,7 @@ class FitResult:
     def conf_int(self, alpha: float = 0.05) -> pd.DataFrame:
         """Two-sided (1 − alpha) Student-t intervals θ̂ ± t(1−α/2, dof)·σ."""
         if not 0 < alpha < 1:
-            raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+            raise InputError(f"alpha must be in (0, 1), got {alpha!r}")
         t = stdtrit(self.dof, 1 - alpha / 2)
         # Eq. 4's σ with the samples' degrees of freedom (a subclass's stderr may be another)
         sigma = pd.Series(self.stderr_values, index=self._index)
@@ -201,7 +202,7 @@ class FitResult:
         z [m] (N,) for Bernstein, the (b [m], z [m]) rows (2, N) for Bekker and Reece, σ [Pa]
         for Mohr–Coulomb, (σ [Pa], j [m]) for Janosi–Hanamoto; pressure or stress in Pa."""
         if self.model_func is None:
-            raise ValueError(
+            raise InputError(
                 f"this {self.model_name} result carries no model to evaluate (it was built "
                 "without one); fit it with soilstats.identify or a fit_* function"
             )
@@ -216,12 +217,12 @@ class FitResult:
 
     def _band(self, x, sigma: float, covariance: np.ndarray) -> np.ndarray:
         if self.model_jac is None:
-            raise ValueError(
+            raise InputError(
                 f"this {self.model_name} result carries no model Jacobian; fit it with "
                 "soilstats.identify or a fit_* function"
             )
         if not sigma > 0:
-            raise ValueError(f"sigma must be positive, got {sigma!r}")
+            raise InputError(f"sigma must be positive, got {sigma!r}")
         jac = np.atleast_2d(np.asarray(self.model_jac(x, *self.values), dtype=float))
         variance = np.einsum("ij,jk,ik->i", jac, covariance, jac)
         return sigma * np.sqrt(np.maximum(variance, 0.0))

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 import pandas as pd
 
+from ..errors import IdentifiabilityError, InputError
 from ..outputs.files import json_safe
 from .ensemble import EnsembleCurve, ensemble_curve
 from .pooling import select_one_soil
@@ -177,7 +178,9 @@ def _plate_exponent(z, p, w) -> float:
     cp = lp - np.sum(w * lp) / w.sum()
     spread = np.sum(w * cz**2)
     if not spread > 1e-12 * np.sum(w * lz**2):
-        raise ValueError("the plate's sinkages are too close in log space to carry an exponent")
+        raise IdentifiabilityError(
+            "the plate's sinkages are too close in log space to carry an exponent"
+        )
     return float(np.sum(w * cz * cp) / spread)
 
 
@@ -216,7 +219,7 @@ def _windows(windows, sizes: np.ndarray) -> list[PlateWindow]:
     by_size = {round(w.b_m, 12): w for w in windows}
     missing = [b for b in sizes if round(b, 12) not in by_size]
     if missing:
-        raise ValueError(
+        raise InputError(
             f"no pressure window for plate size(s) b = {missing} m; give one PlateWindow per "
             f"plate size of the soil ({sorted(sizes.tolist())})"
         )
@@ -255,14 +258,14 @@ def classical_bekker(
         Test-log filters; must leave one soil.
     """
     if weighting not in WEIGHTINGS:
-        raise ValueError(f"weighting must be one of {WEIGHTINGS}, got {weighting!r}")
+        raise InputError(f"weighting must be one of {WEIGHTINGS}, got {weighting!r}")
     if exponent not in EXPONENTS:
-        raise ValueError(f"exponent must be one of {EXPONENTS}, got {exponent!r}")
+        raise InputError(f"exponent must be one of {EXPONENTS}, got {exponent!r}")
     campaign, tests = select_one_soil(campaign, "sinkage", selection)
     soil = str(tests["soil"].iloc[0])
     sizes = np.sort(tests["b_m"].unique())
     if sizes.size < 2:
-        raise ValueError(
+        raise IdentifiabilityError(
             f"Bekker's kc and kphi need at least two plate sizes; soil {soil!r} has b = "
             f"{sizes.tolist()} m"
         )
@@ -275,7 +278,9 @@ def classical_bekker(
         )
         keep = _in_window(curve, window)
         if keep.sum() < 3:
-            raise ValueError(f"plate b = {b:g} m has {keep.sum()} grid points in its window")
+            raise IdentifiabilityError(
+                f"plate b = {b:g} m has {keep.sum()} grid points in its window"
+            )
         curves.append(curve)
         points.append((curve.z_m[keep], curve.pressure_Pa[keep]))
         counts[b] = int(keep.sum())

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from ..errors import CampaignError
+from ..errors import CampaignError, InputError
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -125,13 +125,13 @@ def ensemble_curve(
     """
     ids = tuple(str(t) for t in test_ids)
     if len(ids) < 2:
-        raise ValueError(f"an ensemble needs at least two repeats, got {list(ids)}")
+        raise InputError(f"an ensemble needs at least two repeats, got {list(ids)}")
     if not (p_max > 0 and step > 0):
-        raise ValueError(f"p_max and step must be positive, got {p_max!r}, {step!r}")
+        raise InputError(f"p_max and step must be positive, got {p_max!r}, {step!r}")
     log = campaign.tests.set_index("test_id").loc[list(ids)]
     sizes = log["b_m"].unique()
     if sizes.size != 1:
-        raise ValueError(f"the repeats {list(ids)} have different plate sizes b {sorted(sizes)}")
+        raise InputError(f"the repeats {list(ids)} have different plate sizes b {sorted(sizes)}")
     grid = np.arange(0.0, p_max + step / 2.0, step)
     curves, tops, dropped = [], [], {}
     by_test = campaign.sinkage.groupby("test_id", sort=False)

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Literal, cast
 import numpy as np
 import pandas as pd
 
-from ..errors import CampaignError, ConvergenceError, ConvergenceWarning
+from ..errors import CampaignError, ConvergenceError, ConvergenceWarning, InputError
 from ..fitting.identify import identify
 from ..kinds import TEST_KINDS
 from ..models import BERNSTEIN, SHEAR_CURVE
@@ -77,7 +77,7 @@ def fit_per_test(
         the 1/max-weighted data), ``nobs``, ``converged``, ``message``.
     """
     if kind not in TEST_KINDS:
-        raise ValueError(f"kind must be 'sinkage' or 'shear', got {kind!r}")
+        raise InputError(f"kind must be 'sinkage' or 'shear', got {kind!r}")
     chosen = screened(campaign, "clean", **selection)
     tests = chosen.tests[chosen.tests["kind"] == kind].reset_index(drop=True)
     if tests.empty:

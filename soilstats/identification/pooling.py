@@ -19,7 +19,7 @@ import pandas as pd
 
 from ..campaign.index import campaign_index, grouped_by_code
 from ..campaign.schema import MIN_SAMPLES  # re-exported: the rule below applies it
-from ..errors import CampaignError
+from ..errors import CampaignError, InputError
 from ..quality import screened
 
 if TYPE_CHECKING:
@@ -284,7 +284,7 @@ def pool_sinkage(
     samples.
     """
     if weighting not in ("max-pressure", "none"):
-        raise ValueError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
+        raise InputError(f"weighting must be 'max-pressure' or 'none', got {weighting!r}")
     index, chosen, test, (z_all, p_all) = _selected_samples(
         campaign, "sinkage", selection, ("z_m", "pressure_Pa")
     )
@@ -359,7 +359,7 @@ def pool_shear(
     """
 
     if weighting not in ("none", "max-stress"):
-        raise ValueError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
+        raise InputError(f"weighting must be 'none' or 'max-stress', got {weighting!r}")
     index, chosen, test, (sig_all, tau_all, j_all) = _selected_samples(
         campaign, "shear", selection, ("sigma_Pa", "tau_Pa", "j_m")
     )

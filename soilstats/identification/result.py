@@ -11,6 +11,7 @@ import pandas as pd
 from scipy.special import stdtrit
 
 from .._text import plural
+from ..errors import InputError
 from ..fitting.result import FitResult, HealthFlag
 from ..outputs.files import json_safe
 from ..quality.codes import CODES
@@ -118,14 +119,14 @@ class CampaignFit(FitResult):
         if level == "samples":
             return super().conf_int(alpha)
         if level != "tests":
-            raise ValueError(f"level must be 'samples' or 'tests', got {level!r}")
+            raise InputError(f"level must be 'samples' or 'tests', got {level!r}")
         if self.bootstrap is None:
-            raise ValueError(
+            raise InputError(
                 "no test-level interval without the test bootstrap: fit with test_resamples "
                 "> 0 (e.g. 1000)"
             )
         if not 0 < alpha < 1:
-            raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+            raise InputError(f"alpha must be in (0, 1), got {alpha!r}")
         t = stdtrit(max(self.bootstrap.n_tests - 1, 1), 1 - alpha / 2)
         half = t * self.stderr_tests
         return pd.DataFrame({"lower": self.params - half, "upper": self.params + half})
@@ -154,10 +155,10 @@ class CampaignFit(FitResult):
         :data:`~soilstats.identification.bootstrap.MIN_TESTS` tests or more and the test
         bootstrap ran, else Eq. 4's."""
         if level not in ("auto", "tests", "samples"):
-            raise ValueError(f"level must be 'auto', 'tests' or 'samples', got {level!r}")
+            raise InputError(f"level must be 'auto', 'tests' or 'samples', got {level!r}")
         tests = self.covariance_tests
         if level == "tests" and tests is None:
-            raise ValueError(
+            raise InputError(
                 "no test-level band without the test bootstrap: fit with test_resamples > 0"
             )
         use_tests = level == "tests" or (

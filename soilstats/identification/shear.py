@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
 
-from ..errors import CampaignError
+from ..errors import CampaignError, ModelError
 from ..fitting.identify import identify
 from ..fitting.linear import linear_least_squares
 from ..fitting.result import FitResult, HealthFlag
@@ -111,7 +111,7 @@ def fit_shear(
     x = spec.x_from(pooled.x)
     if p0 is None:
         if spec.start is None:
-            raise ValueError(f"model {spec.name!r} states no starting values: pass p0")
+            raise ModelError(f"model {spec.name!r} states no starting values: pass p0")
         p0 = spec.start(x, tau)
     notes.append("Weights " + ("1/max(tau) per test." if weighting == "max-stress" else "1."))
     result = identify(spec, x, tau, p0, weights=w, on_failure=on_failure)

@@ -8,7 +8,7 @@ import numpy as np
 
 from .._text import plural
 from ..campaign.window import FitWindow, windowed
-from ..errors import IdentifiabilityError
+from ..errors import IdentifiabilityError, InputError, ModelError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult, HealthFlag
 from ..models import Model, get_model
@@ -128,7 +128,7 @@ def fit_sinkage(
     """
     spec = get_model(model, "sinkage")
     if method not in ("lm", "wong"):
-        raise ValueError(f"method must be 'lm' or 'wong', got {method!r}")
+        raise InputError(f"method must be 'lm' or 'wong', got {method!r}")
     campaign = windowed(screened(campaign, quality), window)
     pooled = pool_sinkage(
         campaign, points_per_test=points_per_test, weighting=weighting, **selection
@@ -140,7 +140,7 @@ def fit_sinkage(
 
     if method == "wong":
         if spec.wong is None:
-            raise ValueError(
+            raise ModelError(
                 f"Wong's method is not defined for the {spec.name} model; it is for "
                 "the Bekker and Bernstein models"
             )
@@ -165,7 +165,7 @@ def fit_sinkage(
 
     if p0 is None:
         if spec.start is None:
-            raise ValueError(f"model {spec.name!r} states no starting values: pass p0")
+            raise ModelError(f"model {spec.name!r} states no starting values: pass p0")
         p0 = spec.start(x, p)
     result = centred(identify(spec, x, p, p0, weights=w, on_failure=on_failure), z)
     bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)

@@ -48,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ModelError
 from .base import Model
 from .shear import RAD_PER_DEG
 
@@ -466,7 +467,7 @@ class ModelFamily(_Family):
         self.n_s = 0 if fs is None else self.fs_rows.shape[0]
         self.n_d = 0 if gd is None else self.gd_rows.shape[0]
         if self.n_d and offset not in model.param_names:
-            raise ValueError(f"{model.name}: an offset needs a parameter to move, got {offset!r}")
+            raise ModelError(f"{model.name}: an offset needs a parameter to move, got {offset!r}")
         # The offset parameter's index; None (never read) without offset features.
         self.i_off: Any = model.param_names.index(offset) if self.n_d else None
         self.size = self.p + self.n_s + self.n_d

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
+
 __all__ = ["FLAT", "NON_NEGATIVE", "POSITIVE", "Normal", "Prior", "Uniform"]
 
 
@@ -54,7 +56,7 @@ class Normal(Prior):
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.sd) and self.sd > 0):
-            raise ValueError(f"Normal prior needs a finite sd > 0, got sd={self.sd!r}")
+            raise InputError(f"Normal prior needs a finite sd > 0, got sd={self.sd!r}")
 
     def logpdf(self, x: np.ndarray) -> np.ndarray:
         return np.where(self._support(x), -0.5 * ((x - self.mu) / self.sd) ** 2, -np.inf)

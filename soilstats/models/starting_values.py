@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ModelError
 from .wong import wong_start
 
 __all__ = [
@@ -33,7 +34,7 @@ def sinkage_start(model, b, z, p) -> np.ndarray:
 
     spec = get_model(model, "sinkage")
     if spec.start is None:
-        raise ValueError(f"model {spec.name!r} states no starting values (Model.start)")
+        raise ModelError(f"model {spec.name!r} states no starting values (Model.start)")
     return spec.start(spec.x_from({"b_m": b, "z_m": z}), p)
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import IdentifiabilityError
 from ..fitting.linear import linear_least_squares
 
 __all__ = ["wong_bekker", "wong_bernstein", "wong_start"]
@@ -41,9 +42,9 @@ def wong_start(b, z, p) -> np.ndarray:
         b_all, z, p = b_all[keep], z[keep], p[keep]
     sizes = np.unique(b_all)
     if b is not None and sizes.size < 2:
-        raise ValueError("Wong's Bekker method needs at least two plate sizes b")
+        raise IdentifiabilityError("Wong's Bekker method needs at least two plate sizes b")
     if not sizes.size:
-        raise ValueError("Wong's method needs samples with z > 0 and p > 0")
+        raise IdentifiabilityError("Wong's method needs samples with z > 0 and p > 0")
     log_z, log_p = np.log(z), np.log(p)
     w = p * p  # each squared residual of ln p weighted by p² (Wong)
     wz = w * log_z
@@ -55,7 +56,7 @@ def wong_start(b, z, p) -> np.ndarray:
     n = within_zp / within_zz
     # One depth per plate leaves only the rounding of the sums (~1e-16 of Σw·ln²z).
     if not (within_zz > 1e-12 * float(szz.sum()) and np.isfinite(n)):
-        raise ValueError("Wong's method needs more than one sinkage per plate")
+        raise IdentifiabilityError("Wong's method needs more than one sinkage per plate")
     k_b = np.exp((sp - n * sz) / sw)
     if b is None:
         return np.array([float(k_b[0]), n])
@@ -86,7 +87,7 @@ def wong_bekker(b, z, p, *, weights=None) -> tuple[np.ndarray, np.ndarray, int]:
     b, z, p = b[keep], z[keep], p[keep]
     sizes = np.unique(b)
     if sizes.size < 2:
-        raise ValueError("Wong's Bekker method needs at least two plate sizes b")
+        raise IdentifiabilityError("Wong's Bekker method needs at least two plate sizes b")
     w = p if weights is None else p * np.asarray(weights, float)[keep]
     # One intercept ln k_b per plate size (indicator columns) and a common slope n (ln z).
     design = np.empty((b.size, sizes.size + 1))

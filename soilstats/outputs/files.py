@@ -37,6 +37,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from ..errors import InputError
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -63,7 +65,7 @@ def safe_stem(name: str) -> str:
     a user's file (a study spec) cannot address anything outside the output folder.
     """
     if not _STEM.match(name) or ".." in name:
-        raise ValueError(
+        raise InputError(
             f"output name {name!r} is not a plain file name (letters, digits, '.', '_' and "
             "'-', not starting with a dot, no '..' or '/'); rename it"
         )

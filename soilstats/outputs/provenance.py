@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass
 from typing import Protocol
 
 from .._version import FORMAT_VERSION, __version__
+from ..errors import InputError
 
 __all__ = ["Provenance", "Source", "source_date"]
 
@@ -38,7 +39,7 @@ def source_date() -> str | None:
     try:
         seconds = int(epoch)
     except ValueError:
-        raise ValueError(
+        raise InputError(
             f"SOURCE_DATE_EPOCH must be whole seconds since 1970-01-01, got {epoch!r}"
         ) from None
     return _dt.datetime.fromtimestamp(seconds, _dt.UTC).isoformat(timespec="seconds")

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ..campaign.units import implausible_units
-from ..errors import CampaignError
+from ..errors import CampaignError, InputError
 from . import blocks as blocks_mod
 from . import prescreen, records, staging
 from .blocks import Blocks
@@ -551,7 +551,7 @@ def screen(campaign: Campaign, mode: str = "clean", *, progress: bool = False) -
         With ``campaign``, the campaign to analyse (``campaign.quality`` is the report).
     """
     if mode not in MODES:
-        raise ValueError(f"quality mode must be one of {MODES}, got {mode!r}")
+        raise InputError(f"quality mode must be one of {MODES}, got {mode!r}")
     log = campaign.tests
     tests = log[["test_id", "kind", "soil", "b_m", "area_m2"]].copy()
     tests["test_id"] = tests["test_id"].astype(str)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..errors import InputError
 from ..outputs.files import write_atomic
 
 if TYPE_CHECKING:
@@ -424,7 +425,7 @@ def _columns(widths: Sequence[str] | None, n: int) -> str:
     if widths is None:
         return str(n)
     if len(widths) != n:
-        raise ValueError(f"{len(widths)} column widths for {n} columns")
+        raise InputError(f"{len(widths)} column widths for {n} columns")
     return "(" + ", ".join(widths) + ",)"
 
 

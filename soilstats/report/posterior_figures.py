@@ -38,6 +38,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..bayes._arviz import az
 from ..bayes.predictive import input_name
+from ..errors import InputError
 from ..models import MODELS, Model, get_model
 from .document import FIGURE_STYLE
 
@@ -154,7 +155,7 @@ def _shown(posterior, most: int) -> tuple[_Posterior, tuple[str, ...], str]:
 def _capped(names, most: int) -> tuple[tuple[str, ...], str]:
     names = tuple(names)
     if most < 1:
-        raise ValueError(f"the most parameters to show must be at least 1, got {most}")
+        raise InputError(f"the most parameters to show must be at least 1, got {most}")
     if len(names) <= most:
         return names, ""
     return names[:most], f" Only the first {most} of the {len(names)} parameters are shown."
@@ -397,9 +398,9 @@ def predictive_figure(
         The figure and its caption.
     """
     if not 0 < prob < 1:
-        raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+        raise InputError(f"prob must be in (0, 1), got {prob!r}")
     if max_panels < 1 or max_tests < 1:
-        raise ValueError("max_panels and max_tests must be at least 1")
+        raise InputError("max_panels and max_tests must be at least 1")
     post = _posterior(posterior)
     measured, lo, hi, band_words = _band(post, prob, draws)
     xname, xlabel, ylabel, xs, ys = _CURVES[post.shear]
@@ -419,7 +420,7 @@ def predictive_figure(
         panels = levels
     x_all = measured[xname].to_numpy() if xname in measured.coords else None
     if x_all is None:
-        raise ValueError(
+        raise InputError(
             f"the data carry no {xname} coordinate; re-run the posterior with this soilstats "
             "version to plot curves against the physical input"
         )
@@ -541,7 +542,7 @@ def _band(post: _Posterior, prob: float, draws: int):
     idata = post.idata
     if post.kind == "population":
         if "constant_data" not in idata.groups() or "y" not in idata.constant_data:
-            raise ValueError(
+            raise InputError(
                 "this population posterior carries no measured curves (constant_data); "
                 "re-run it with this soilstats version"
             )
@@ -565,7 +566,7 @@ def _band(post: _Posterior, prob: float, draws: int):
         )
         return measured, lo, hi, words
     if "posterior_predictive" not in idata.groups() or "y" not in idata.posterior_predictive:
-        raise ValueError(
+        raise InputError(
             "this posterior carries no posterior-predictive data 'y'; re-run it with this "
             "soilstats version"
         )

@@ -39,6 +39,7 @@ import pandas as pd
 import statsmodels.api as sm
 from statsmodels.stats.anova import anova_lm
 
+from ..errors import InputError
 from ._data import StatisticsInputError, prepare
 from .result import TestResult
 
@@ -230,7 +231,7 @@ def ancova(
         np.hstack([onehot, onehot * x[:, None]]),  # M2: τ ~ σ * group (separate lines)
     ]
     if variance not in ("constant", "fitted"):
-        raise ValueError(f"variance must be 'constant' or 'fitted', got {variance!r}")
+        raise InputError(f"variance must be 'constant' or 'fitted', got {variance!r}")
     weights = fitted_variance_weights(y, x, designs[2]) if variance == "fitted" else None
     if weights is None:
         fits = [sm.OLS(y, design).fit() for design in designs]

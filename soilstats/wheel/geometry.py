@@ -23,6 +23,8 @@ from typing import cast
 
 import numpy as np
 
+from ..errors import InputError
+
 __all__ = ["Wheel", "entry_angle", "sinkage_from_entry_angle", "speed_ratio"]
 
 
@@ -59,15 +61,15 @@ class Wheel:
     def __post_init__(self) -> None:
         r, b = float(self.radius_m), float(self.width_m)
         if not (np.isfinite(r) and r > 0 and np.isfinite(b) and b > 0):
-            raise ValueError(
+            raise InputError(
                 f"wheel radius and width must be positive lengths in m, got r={r!r}, b={b!r}"
             )
         rs = r if self.shear_radius_m is None else float(self.shear_radius_m)
         if not (np.isfinite(rs) and rs >= r):
-            raise ValueError(f"shear_radius_m must be >= radius_m = {r} m, got {rs!r}")
+            raise InputError(f"shear_radius_m must be >= radius_m = {r} m, got {rs!r}")
         mu = float(self.grouser_area_ratio)
         if not 0.0 <= mu <= 1.0:
-            raise ValueError(f"grouser_area_ratio must be in [0, 1], got {mu!r}")
+            raise InputError(f"grouser_area_ratio must be in [0, 1], got {mu!r}")
         object.__setattr__(self, "radius_m", r)
         object.__setattr__(self, "width_m", b)
         object.__setattr__(self, "shear_radius_m", rs)
@@ -112,7 +114,7 @@ def entry_angle(sinkage_m, contact_radius_m: float):
     """θ1 = arccos(1 − h/r_c) [rad] for sinkage h [m] (0 ≤ h ≤ r_c)."""
     h = np.asarray(sinkage_m, dtype=float)
     if np.any(h < 0) or np.any(h > contact_radius_m):
-        raise ValueError(
+        raise InputError(
             f"sinkage must lie in [0, {contact_radius_m}] m (θ1 ≤ 90°), got {h.min()}..{h.max()} m"
         )
     return np.arccos(1.0 - h / contact_radius_m)
@@ -130,7 +132,7 @@ def speed_ratio(slip):
     """
     s = np.asarray(slip, dtype=float)
     if np.any(~np.isfinite(s)) or np.any(s < -1.0) or np.any(s > 1.0):
-        raise ValueError(f"slip must lie in [-1, 1] (s = (rω − V)/max(rω, V)), got {slip!r}")
+        raise InputError(f"slip must lie in [-1, 1] (s = (rω − V)/max(rω, V)), got {slip!r}")
     nu = np.full(s.shape, np.inf)
     skid = (s < 0) & (s > -1.0)
     nu[skid] = 1.0 / (1.0 + s[skid])

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from ..bayes.stated_priors import describe_prior, sample_priors
-from ..errors import SoilstatsWarning
+from ..errors import InputError, SoilstatsWarning
 from .forces import N_NODES
 from .geometry import Wheel
 from .result import QUANTITIES, WheelPrediction
@@ -97,7 +97,7 @@ def predict_wheel(
         ``slip_angle_deg`` ≠ 0.
     """
     if not 0 < prob < 1:
-        raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+        raise InputError(f"prob must be in (0, 1), got {prob!r}")
     priors = dict(priors or {})
     columns = [] if draws is None else list(draws.columns)
     law = _law(law, columns, priors)
@@ -108,14 +108,14 @@ def predict_wheel(
     values = {k: np.asarray(table[k], dtype=float) for k in used if k in columns}
     for k, v in values.items():
         if not np.all(np.isfinite(v)):
-            raise ValueError(f"draws column {k!r} has {np.sum(~np.isfinite(v))} non-finite values")
+            raise InputError(f"draws column {k!r} has {np.sum(~np.isfinite(v))} non-finite values")
     values.update(sample_priors(priors, size, seed))
     sources = {
         k: draws_source if k in columns else f"user prior {describe_prior(priors[k])}" for k in used
     }
     s = np.atleast_1d(np.asarray(slips, dtype=float))
     if s.ndim != 1 or s.size == 0:
-        raise ValueError(f"slips must be a 1-D array of slips, got {slips!r}")
+        raise InputError(f"slips must be a 1-D array of slips, got {slips!r}")
     load = np.broadcast_to(np.asarray(load_N, dtype=float), s.shape).astype(float)
     angles = StressAngles() if angles is None else angles
     state = wheel_forces(
@@ -159,17 +159,17 @@ def _law(law, columns, priors) -> str:
     have = set(columns) | set(priors)
     if law is not None:
         if law not in SINKAGE_LAWS:
-            raise ValueError(f"unknown law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
+            raise InputError(f"unknown law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
         missing = [k for k in SINKAGE_LAWS[law] if k not in have]
         if missing:
-            raise ValueError(
+            raise InputError(
                 f"the {law} law needs {list(SINKAGE_LAWS[law])}; {missing} are in neither the "
                 f"draws (columns {columns}) nor the priors: soilstats does not invent them"
             )
         return law
     fits = [name for name, p in SINKAGE_LAWS.items() if set(p) <= have]
     if len(fits) != 1:
-        raise ValueError(
+        raise InputError(
             f"cannot tell the pressure-sinkage law from the draws' columns {columns} and priors "
             f"{sorted(priors)} (laws that fit: {fits}); pass law='bekker', 'bernstein' or 'reece'"
         )
@@ -179,17 +179,17 @@ def _law(law, columns, priors) -> str:
 def _check_priors(priors, columns, used, law) -> None:
     clash = sorted(set(priors) & set(columns))
     if clash:
-        raise ValueError(f"{clash} are in the draws and also given a prior: give each one once")
+        raise InputError(f"{clash} are in the draws and also given a prior: give each one once")
     unused = sorted(set(priors) - set(used))
     if unused:
-        raise ValueError(
+        raise InputError(
             f"priors for {unused} are not parameters of the {law} law + Janosi–Hanamoto shear "
             f"({list(SINKAGE_LAWS[law]) + list(SHEAR_PARAMS)})"
         )
     partial = [k for k in SHEAR_PARAMS if k in used]
     if partial and len(partial) < len(SHEAR_PARAMS):
         missing = [k for k in SHEAR_PARAMS if k not in used]
-        raise ValueError(
+        raise InputError(
             f"the shear needs c [Pa], phi [deg] and K [m]; {partial} are given but {missing} are "
             "in neither the draws nor the priors: state a prior for them too, or give none"
         )
@@ -198,12 +198,12 @@ def _check_priors(priors, columns, used, law) -> None:
 def _size(draws, n_samples) -> int:
     if draws is not None:
         if n_samples is not None and n_samples != len(draws):
-            raise ValueError("n_samples is for prior-only predictions; the draws set the size")
+            raise InputError("n_samples is for prior-only predictions; the draws set the size")
         if len(draws) == 0:
-            raise ValueError("draws has no rows")
+            raise InputError("draws has no rows")
         return len(draws)
     if n_samples is None or n_samples < 1:
-        raise ValueError("without draws, give n_samples (the number of prior draws)")
+        raise InputError("without draws, give n_samples (the number of prior draws)")
     return int(n_samples)
 
 

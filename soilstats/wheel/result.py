@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ..errors import InputError
 from ..outputs.text import notes_block
 from .geometry import Wheel
 from .stress import PARAM_UNITS, StressAngles
@@ -68,9 +69,9 @@ class WheelPrediction:
     def band(self, quantity: str) -> pd.DataFrame:
         """``median``, ``lower``, ``upper`` of one quantity, indexed by slip."""
         if quantity in self.unpredictable:
-            raise ValueError(f"{quantity} is not predicted: {self.unpredictable[quantity]}")
+            raise InputError(f"{quantity} is not predicted: {self.unpredictable[quantity]}")
         if quantity not in QUANTITIES:
-            raise ValueError(f"unknown quantity {quantity!r}; choose one of {list(QUANTITIES)}")
+            raise InputError(f"unknown quantity {quantity!r}; choose one of {list(QUANTITIES)}")
         rows = self.bands[self.bands["quantity"] == quantity]
         return rows.set_index("slip")[["median", "lower", "upper"]]
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from ..errors import SoilstatsError
+from ..errors import InputError, SoilstatsError
 
 if TYPE_CHECKING:
     from ..bayes.result import PosteriorResult
@@ -81,10 +81,10 @@ def soil_tests(campaign: Campaign, soil: str | None) -> tuple[str, pd.DataFrame]
         raise SoilstatsError("the campaign has no sinkage (plate) tests to identify the soil from")
     if soil is None:
         if len(soils) > 1:
-            raise ValueError(f"the campaign has several soils {soils}: choose one with --soil")
+            raise InputError(f"the campaign has several soils {soils}: choose one with --soil")
         soil = soils[0]
     if soil not in soils:
-        raise ValueError(f"no plate tests of soil {soil!r}; the campaign has {soils}")
+        raise InputError(f"no plate tests of soil {soil!r}; the campaign has {soils}")
     return soil, sinkage[sinkage["soil"].astype(str) == soil]
 
 
@@ -132,7 +132,7 @@ def plate_draws(
     from ..models import get_model
 
     if kind not in KINDS:
-        raise ValueError(f"draws kind must be one of {KINDS}, got {kind!r}")
+        raise InputError(f"draws kind must be one of {KINDS}, got {kind!r}")
     soil, tests = soil_tests(campaign, soil)
     law = choose_law(tests, law)
     sizes = tuple(float(b) for b in sorted(tests["b_m"].dropna().round(9).unique()))

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
 from .forces import N_NODES, Cases, ContactForces, contact_forces, gauss_rule
 from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
 from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles, pressure_modulus
@@ -51,7 +52,7 @@ def solve_entry_angle(
     rule = gauss_rule() if rule is None else rule
     target = np.broadcast_to(np.asarray(load_N, dtype=float), (len(cases),)).copy()
     if np.any(~(target > 0)):
-        raise ValueError(f"the load must be a positive force in N, got {load_N!r}")
+        raise InputError(f"the load must be a positive force in N, got {load_N!r}")
     theta1 = np.full(len(cases), np.nan)
     status = np.full(len(cases), OK, dtype=np.int8)
     top = contact_forces(np.full(len(cases), THETA1_MAX), cases, wheel, rule, load_only=True)
@@ -119,17 +120,17 @@ def model_cases(
     dependent exponent n + Δn(s) (Ding et al. 2010; :mod:`soilstats.wheel.slipsinkage`).
     """
     if law not in SINKAGE_LAWS:
-        raise ValueError(
+        raise InputError(
             f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}"
         )
     missing = [k for k in SINKAGE_LAWS[law] if k not in params]
     if missing:
-        raise ValueError(
+        raise InputError(
             f"the {law} law needs parameters {list(SINKAGE_LAWS[law])}; missing {missing}"
         )
     given = [k for k in SHEAR_PARAMS if k in params]
     if given and len(given) < len(SHEAR_PARAMS):
-        raise ValueError(
+        raise InputError(
             f"shear needs all of c [Pa], phi [deg], K [m]; got only {given}: give all three or none"
         )
     names = list(SINKAGE_LAWS[law]) + given
@@ -198,7 +199,7 @@ def wheel_forces(
             "side-wall or bulldozing force; pass slip_angle_deg=0"
         )
     if (load_N is None) == (sinkage_m is None):
-        raise ValueError("give exactly one of load_N (load-controlled) or sinkage_m")
+        raise InputError("give exactly one of load_N (load-controlled) or sinkage_m")
     angles = StressAngles() if angles is None else angles
     cases, shape = model_cases(params, wheel, slip, law, angles, exponent_shift)
     rule = gauss_rule(n_nodes)

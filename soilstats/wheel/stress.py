@@ -48,6 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
+
 __all__ = [
     "SHEAR_PARAMS",
     "SINKAGE_LAWS",
@@ -95,7 +97,7 @@ def pressure_modulus(law: str, params, width_m: float):
     if law == "reece":
         k1, k2, n = (np.asarray(params[k], float) for k in ("k1", "k2", "n"))
         return (k1 + k2 * width_m) * width_m ** (-n)
-    raise ValueError(f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
+    raise InputError(f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
 
 
 @dataclass(frozen=True)
@@ -120,7 +122,7 @@ class StressAngles:
         bad = ~((b <= a) & (a <= 1.0) & (b >= -1.0))
         if np.any(bad):
             s_bad = np.atleast_1d(s)[np.atleast_1d(bad)][0]
-            raise ValueError(
+            raise InputError(
                 f"stress angles out of order at slip {s_bad:g}: need -1 <= θ2/θ1 <= θm/θ1 <= 1, "
                 f"got θm/θ1 = {self.a0} + {self.a1}·s, θ2/θ1 = {self.b0} + {self.b1}·s"
             )

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from ..bayes.stated_priors import describe_prior, sample_priors
+from ..errors import InputError
 from .discovery import READINGS, residual_tests
 from .geometry import Wheel
 from .runs import read_caveats, read_runs, read_wheels, wheel_geometry
@@ -118,7 +119,7 @@ def validate_wheel(
     from tqdm.auto import tqdm
 
     if not 0 < prob < 1:
-        raise ValueError(f"prob must be in (0, 1), got {prob!r}")
+        raise InputError(f"prob must be in (0, 1), got {prob!r}")
     campaign = _campaign(campaign)
     source = runs if isinstance(runs, str | Path) else None
     table = read_runs(runs)
@@ -208,7 +209,7 @@ def _wheels(wheels, table, source) -> dict[str, Wheel]:
     if wheels is not None:
         missing = [t for t in types if t not in wheels]
         if missing:
-            raise ValueError(f"no geometry for wheel type(s) {missing}; wheels has {list(wheels)}")
+            raise InputError(f"no geometry for wheel type(s) {missing}; wheels has {list(wheels)}")
         return {t: wheels[t] for t in types}
     toml = None if source is None else Path(source).with_name("wheels.toml")
     tables = read_wheels(toml) if toml is not None and toml.is_file() else {}
@@ -222,7 +223,7 @@ def _plate(campaign, draws, soil, law, n_draws, seed, progress) -> PlateDraws:
         found = [k for k, p in SINKAGE_LAWS.items() if set(p) <= set(draws.columns)]
         law = law or (found[0] if len(found) == 1 else None)
         if law is None:
-            raise ValueError(f"cannot tell the law from the draws' columns {list(draws.columns)}")
+            raise InputError(f"cannot tell the law from the draws' columns {list(draws.columns)}")
         return PlateDraws(
             draws=draws.reset_index(drop=True),
             kind="given",
@@ -254,16 +255,16 @@ def check_priors(priors) -> None:
     """Priors are for what no test measured: the shear c, phi, K — all three, or none."""
     plates = sorted(set(priors) & {k for law in SINKAGE_LAWS.values() for k in law})
     if plates:
-        raise ValueError(f"{plates} come from the plate tests; a prior for them is not taken")
+        raise InputError(f"{plates} come from the plate tests; a prior for them is not taken")
     unknown = sorted(set(priors) - set(SHEAR_PARAMS))
     if unknown:
-        raise ValueError(
+        raise InputError(
             f"priors for {unknown}: only the shear parameters {list(SHEAR_PARAMS)} take a prior "
             "here (the pressure-sinkage law comes from the plates)"
         )
     if priors and len(priors) < len(SHEAR_PARAMS):
         missing = [k for k in SHEAR_PARAMS if k not in priors]
-        raise ValueError(
+        raise InputError(
             f"the shear needs c [Pa], phi [deg] and K [m]; priors give {sorted(priors)} but not "
             f"{missing}: state a prior for each (e.g. --prior c=uniform:0:1500), or none"
         )
