@@ -20,41 +20,18 @@ def test_results_keep_input_order_and_match_serial():
     assert parallel_map(_seeded_mean, seeds, jobs=2) == serial
 
 
-def test_overlapping_calls_from_threads_with_any_item_count_finish():
-    """Discovery calls parallel_map from one thread per group, with waves of 1 to dozens of
-    fits.  With more workers than some waves have items (jobs=3), calls that asked joblib for
-    different worker counts made loky resize its one pool under running jobs and hang."""
+def _calls_from_threads(sizes, *, jobs, wrap=lambda target: target):
+    """parallel_map over range(n) from one thread per n in ``sizes``, as discovery calls it
+    from its group threads, each thread's target passed through ``wrap``; returns
+    {n: results}, asserting that no thread hung."""
     import threading
-
-    results: dict[int, list] = {}
-
-    def call(n: int) -> None:
-        results[n] = parallel_map(_seeded_mean, list(range(n)), jobs=3, single_in_process=False)
-
-    threads = [threading.Thread(target=call, args=(n,), daemon=True) for n in (1, 2, 3, 17, 30)]
-    for thread in threads:
-        thread.start()
-    for thread in threads:
-        thread.join(timeout=120)
-    assert not any(thread.is_alive() for thread in threads), "parallel_map hung"
-    assert results == {n: [_seeded_mean(s) for s in range(n)] for n in (1, 2, 3, 17, 30)}
-
-
-def _threads_in_backend(sizes, jobs):
-    """parallel_map from one thread per size, each started with in_this_backend, as
-    discovery starts its group threads; returns {size: results}, asserting none hung."""
-    import threading
-
-    from soilstats.parallel import in_this_backend
 
     results: dict[int, list] = {}
 
     def call(n: int) -> None:
         results[n] = parallel_map(_seeded_mean, list(range(n)), jobs=jobs, single_in_process=False)
 
-    threads = [
-        threading.Thread(target=in_this_backend(call), args=(n,), daemon=True) for n in sizes
-    ]
+    threads = [threading.Thread(target=wrap(call), args=(n,), daemon=True) for n in sizes]
     for thread in threads:
         thread.start()
     for thread in threads:
@@ -63,12 +40,22 @@ def _threads_in_backend(sizes, jobs):
     return results
 
 
+def test_overlapping_calls_from_threads_with_any_item_count_finish():
+    """Discovery calls parallel_map from one thread per group, with waves of 1 to dozens of
+    fits.  With more workers than some waves have items (jobs=3), calls that asked joblib for
+    different worker counts made loky resize its one pool under running jobs and hang."""
+    sizes = (1, 2, 3, 17, 30)
+    results = _calls_from_threads(sizes, jobs=3)
+    assert results == {n: [_seeded_mean(s) for s in range(n)] for n in sizes}
+
+
 @pytest.mark.parametrize("configured", [False, True], ids=["default", "parallel_config"])
 def test_threads_started_in_this_backend_each_get_their_own_backend(configured):
     """Threads carrying the caller's joblib configuration must not share its backend object:
     joblib configures and terminates the instance it is given, and discovery's group threads
     sharing one loky backend pulled its pool from under each other ("'NoneType' object has no
     attribute 'submit'", or CI hanging for 90 minutes)."""
+    import contextlib
     import threading
 
     import joblib
@@ -77,7 +64,7 @@ def test_threads_started_in_this_backend_each_get_their_own_backend(configured):
     from soilstats.parallel import in_this_backend
 
     sizes = (2, 5, 9, 2, 5, 9)
-    context = joblib.parallel_config("loky", n_jobs=2) if configured else _nothing()
+    context = joblib.parallel_config("loky", n_jobs=2) if configured else contextlib.nullcontext()
     with context:
         caller = get_active_backend()[0]
         seen = []
@@ -88,14 +75,8 @@ def test_threads_started_in_this_backend_each_get_their_own_backend(configured):
         probe.join()
         assert type(seen[0]) is type(caller) and seen[0] is not caller
         for _ in range(3):  # the race showed within a few rounds
-            results = _threads_in_backend(sizes, jobs=2)
+            results = _calls_from_threads(sizes, jobs=2, wrap=in_this_backend)
             assert results == {n: [_seeded_mean(s) for s in range(n)] for n in sizes}
-
-
-def _nothing():
-    import contextlib
-
-    return contextlib.nullcontext()
 
 
 def test_effective_jobs_follows_joblib_convention():
