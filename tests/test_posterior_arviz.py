@@ -104,7 +104,11 @@ def test_population_groups_have_matching_dims(population):
     assert pp["eta_hat"].dims == ("chain", "draw", "test", "eta")
     assert ll["eta_hat"].dims == ("chain", "draw", "test")
     assert pp.sizes["chain"] * pp.sizes["draw"] <= PREDICTIVE_DRAWS
-    assert ll.sizes["draw"] == idata.posterior.sizes["draw"]
+    # Every draw up to LOG_LIKELIHOOD_DRAWS over all chains (this run kept 12 000), spread.
+    chains, draws = idata.posterior.sizes["chain"], idata.posterior.sizes["draw"]
+    expect = predictive.log_likelihood_draws(draws, chains, obs.sizes["test"])
+    assert list(ll["draw"].to_numpy()) == list(expect)
+    assert ll.attrs["thinned"] == int(expect.size < draws)
     assert list(pp["test"].to_numpy()) == list(obs["test"].to_numpy())
     curves = idata.constant_data
     assert set(curves["test"].to_numpy()) == set(obs["test"].to_numpy())
@@ -225,6 +229,20 @@ def test_thinning_keeps_draws_of_the_posterior(campaign, bekker, monkeypatch):
     assert list(spread_draws(10, 4, None)) == list(range(10))
     assert list(spread_draws(10, 4, 8)) == [0, 9]
     assert list(spread_draws(10, 4, 3)) == [0]
+
+
+def test_log_likelihood_holds_at_most_the_draws_loo_is_run_with(bekker):
+    # Every draw where there are fewer than LOG_LIKELIHOOD_DRAWS (the fixture's 2000) ...
+    assert bekker.idata.log_likelihood.sizes["draw"] == bekker.idata.posterior.sizes["draw"]
+    assert bekker.idata.log_likelihood.attrs["thinned"] == 0
+    # ... else about that many, evenly spread within each chain, and never more values
+    # than LOG_LIKELIHOOD_VALUES (soil01: 16 walkers x 750 draws, 372 tests).
+    most = predictive.LOG_LIKELIHOOD_DRAWS
+    keep = predictive.log_likelihood_draws(750, 16, 372)
+    assert most - 16 < 16 * keep.size <= most and keep[0] == 0 and keep[-1] == 749
+    wide = predictive.log_likelihood_draws(750, 16, 5000)
+    assert 16 * wide.size * 5000 <= predictive.LOG_LIKELIHOOD_VALUES
+    assert predictive.log_likelihood_draws(100, 16, 372).size == 100
 
 
 def test_netcdf_round_trip_keeps_loo_and_figures(bekker, tmp_path):

@@ -28,8 +28,8 @@ from .data import pooled_problem
 from .population_model import POPULATION_MODELS, PopulationModel, reference_rows
 from .posterior import _attrs, finish
 from .predictive import (
-    LOG_LIKELIHOOD_VALUES,
     PREDICTIVE_DRAWS,
+    log_likelihood_draws,
     measured_dataset,
     response_dataset,
     spread_draws,
@@ -382,9 +382,9 @@ def _population_idata(pops: PopulationModel, run, rng, fits: PerTestFits, curves
         coords={"chain": np.arange(chains), "draw": sub, "eta": per_test} | test_coords,
         attrs={"draws_of_posterior": draws, "model": "eta_hat_t ~ N(h_t, B Sigma B' + C_t)"},
     )
-    # Every posterior draw unless draws × tests exceed LOG_LIKELIHOOD_VALUES, as the pooled
-    # model's (soilstats.bayes.predictive): then thinned evenly within each chain.
-    keep = spread_draws(draws, chains, LOG_LIKELIHOOD_VALUES // max(len(test_ids), 1))
+    # At most LOG_LIKELIHOOD_DRAWS draws and LOG_LIKELIHOOD_VALUES values, as the pooled
+    # model's (soilstats.bayes.predictive): thinned evenly within each chain beyond them.
+    keep = log_likelihood_draws(draws, chains, len(test_ids))
     ll = pops.log_likelihood(run.chain[:, keep].reshape(-1, dim), fits.params)
     log_lik = xr.Dataset(
         {"eta_hat": (("chain", "draw", "test"), ll.reshape(chains, keep.size, -1))},

@@ -30,13 +30,13 @@ It is also small: tests × draws values (e.g. 36 × 6000) instead of samples × 
 
 Memory.  ``posterior_predictive`` holds at most :data:`PREDICTIVE_DRAWS` draws over all chains
 (evenly spaced within each chain; its ``draw`` coordinate gives the posterior draw each came
-from).  ``log_likelihood`` holds every posterior draw unless draws × tests would exceed
-:data:`LOG_LIKELIHOOD_VALUES` (then it is thinned evenly within each chain, its attribute
-``thinned`` is 1, and ``az.loo(idata, reff=1.0)`` is the cautious choice).  Observed data and
-replicates are per sample and the log-likelihood per test, so ``az.loo_pit`` (which pairs
-them) does not apply; ``az.plot_ppc``, ``az.loo``, ``az.waic`` and ``az.compare`` do
-(``az.waic`` usually warns: a whole test's term varies more over draws than WAIC tolerates;
-LOO with its Pareto k per test is the check).
+from).  ``log_likelihood`` holds at most :data:`LOG_LIKELIHOOD_DRAWS` posterior draws and
+:data:`LOG_LIKELIHOOD_VALUES` values (beyond either it is thinned evenly within each chain,
+its attribute ``thinned`` is 1, and ``az.loo(idata, reff=1.0)`` is the cautious choice).
+Observed data and replicates are per sample and the log-likelihood per test, so
+``az.loo_pit`` (which pairs them) does not apply; ``az.plot_ppc``, ``az.loo``, ``az.waic``
+and ``az.compare`` do (``az.waic`` usually warns: a whole test's term varies more over draws
+than WAIC tolerates; LOO with its Pareto k per test is the check).
 
 The pooled variable keeps its name ``y`` (its ``long_name`` attribute says pressure or shear
 stress): readers of earlier results and the PDF report look it up by that name.
@@ -50,9 +50,11 @@ import xarray as xr
 from .likelihood import PooledProblem
 
 __all__ = [
+    "LOG_LIKELIHOOD_DRAWS",
     "LOG_LIKELIHOOD_VALUES",
     "PREDICTIVE_DRAWS",
     "input_name",
+    "log_likelihood_draws",
     "measured_dataset",
     "pooled_groups",
     "response_dataset",
@@ -62,8 +64,24 @@ __all__ = [
 #: Most posterior-predictive draws stored (over all chains).
 PREDICTIVE_DRAWS = 200
 #: Most per-test log-likelihood values (draws × tests) stored before thinning: 32 MB in
-#: float64, e.g. every one of 90 000 draws for 44 tests.
+#: float64, e.g. 4 000 draws of 1 000 tests.
 LOG_LIKELIHOOD_VALUES = 4_000_000
+#: Most posterior draws (over all chains) the log-likelihood is evaluated at: the sample size
+#: PSIS-LOO is run with by default (Stan's and ArviZ's 4 chains × 1 000 draws), at which its
+#: Pareto-k threshold is 0.7 (Vehtari et al. 2024, "Pareto smoothed importance sampling").
+#: More draws only cost time and file size (soil01 Bekker: 12 000 draws × 372 tests were
+#: 32 MB of posterior.nc and a second of compression).
+LOG_LIKELIHOOD_DRAWS = 4_000
+
+
+def log_likelihood_draws(draws: int, chains: int, tests: int) -> np.ndarray:
+    """The draws (indices within each chain) the log-likelihood group holds: at most
+    :data:`LOG_LIKELIHOOD_DRAWS` over all chains and :data:`LOG_LIKELIHOOD_VALUES` values,
+    evenly spaced within each chain."""
+    return spread_draws(
+        draws, chains, min(LOG_LIKELIHOOD_DRAWS, LOG_LIKELIHOOD_VALUES // max(tests, 1))
+    )
+
 
 #: Measured response of each kind of test: long name and unit of ``y``.
 RESPONSES = {"sinkage": ("pressure", "Pa"), "shear": ("shear stress", "Pa")}
@@ -169,7 +187,7 @@ def pooled_groups(
     )
 
     rows = problem.test_rows
-    keep = spread_draws(draws, chains, LOG_LIKELIHOOD_VALUES // rows.size)
+    keep = log_likelihood_draws(draws, chains, rows.size)
     ll = problem.log_likelihood(theta[:, keep].reshape(-1, p), sigma[:, keep].reshape(-1))
     test_ids = np.asarray(problem.tests["test_id"]).astype(str)[rows]
     samples = np.bincount(problem.test_index)[rows]

@@ -461,14 +461,12 @@ def _first_too_long(series: pd.Series) -> tuple[int, int] | None:
         return i, int(lengths[i].as_py())
     if not (isinstance(dtype, pd.StringDtype) or pd.api.types.is_object_dtype(dtype)):
         return None  # typed numbers hold no text
-    return next(
-        (
-            (i, len(v))
-            for i, v in enumerate(series)
-            if isinstance(v, str) and len(v) > MAX_CELL_CHARS
-        ),
-        None,
-    )
+    try:  # pandas' vectorised length (NaN for a cell that is not text): no Python loop
+        lengths = series.str.len().to_numpy(dtype=float, na_value=np.nan)
+    except AttributeError:  # an object column without text (numbers, None)
+        return None
+    too_long = np.flatnonzero(lengths > MAX_CELL_CHARS)
+    return (int(too_long[0]), int(lengths[too_long[0]])) if too_long.size else None
 
 
 def _check_cell_sizes(raw: pd.DataFrame, name: str) -> None:

@@ -485,6 +485,7 @@ def run(args: argparse.Namespace) -> int:
     .handout`), and only then write; exit 2 (nothing written, no folder made) when a check
     fails."""
     from ..bayes.handout import preflight
+    from ..identification.reuse import reused_fits
 
     models = args.model.split("+")
     _check_models(models)
@@ -499,11 +500,13 @@ def run(args: argparse.Namespace) -> int:
     widths = _contact_widths(args, campaign)
     pooled_warnings = pooling_warnings(campaign, args.soil, models)
     # Refusals knowable before sampling are made before it (in the time of a least-squares
-    # fit), so no sampling is spent on draws that would be refused.
-    early, _ = preflight(campaign, models, population=args.population, soil=args.soil)
-    if early and not args.force:
-        return _refuse(early, out, args, sampled=False)
-    results, caught = _sample(campaign, models, priors, args)
+    # fit), so no sampling is spent on draws that would be refused; the sampler then starts
+    # from those very fits instead of making them again.
+    with reused_fits():
+        early, _ = preflight(campaign, models, population=args.population, soil=args.soil)
+        if early and not args.force:
+            return _refuse(early, out, args, sampled=False)
+        results, caught = _sample(campaign, models, priors, args)
     return _decide_and_write(
         args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance
     )

@@ -15,6 +15,7 @@ from ..quality import screened
 from .bootstrap import test_bootstrap
 from .pooling import pool_shear
 from .result import CampaignFit
+from .reuse import reusable
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -24,6 +25,7 @@ __all__ = ["fit_shear", "pool_shear"]
 DEG_PER_RAD = 180.0 / np.pi
 
 
+@reusable
 def fit_shear(
     campaign: Campaign,
     model: str | Model = "mohr-coulomb",

@@ -18,6 +18,7 @@ from .bootstrap import test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
+from .reuse import reusable
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -69,6 +70,7 @@ def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
     return notes
 
 
+@reusable
 def fit_sinkage(
     campaign: Campaign,
     model: str | Model = "bekker",
