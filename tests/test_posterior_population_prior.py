@@ -196,3 +196,32 @@ def test_scatter_sits_where_the_tests_curves_cross_within_the_measured_range():
     # One test per plate: no spread of n within a plate locates z_s; the reduction's z_ref does.
     one = PerTestFits(fits(0.0).params[:2], fits(0.0).cov[:2], np.ones((2, 1)), b[[0, 3]], [], [])
     assert scatter_sinkage(one, z, -5.0) == pytest.approx(-5.0)
+
+
+def test_laplace_finds_the_mode_and_covariance_of_a_known_gaussian():
+    # A correlated Gaussian (closed-form mode and covariance), vectorised like the population
+    # log-density, from a start far off in the scaled coordinates (the gradient search); and
+    # from a start just outside a support where the density is -inf (the gradient search
+    # stops there at once: the derivative-free fallback).
+    from soilstats.bayes.population import _laplace
+
+    mean = np.array([1.0e6, -3.0, 0.5, 2.0])
+    sd = np.array([1.0e4, 0.2, 0.05, 0.3])
+    corr = np.array(
+        [[1, 0.6, 0, 0], [0.6, 1, -0.3, 0], [0, -0.3, 1, 0.2], [0, 0, 0.2, 1]], dtype=float
+    )
+    cov = corr * np.outer(sd, sd)
+    precision = np.linalg.inv(cov)
+
+    def log_prob(theta):
+        r = np.atleast_2d(theta) - mean
+        return -0.5 * np.einsum("wi,ij,wj->w", r, precision, r)
+
+    def bounded(theta):  # the same density, but -inf for a first coordinate below 5e5
+        lp = log_prob(theta)
+        return np.where(np.atleast_2d(theta)[:, 0] < 5.0e5, -np.inf, lp)
+
+    for density, start in ((log_prob, mean + 3 * sd), (bounded, np.array([4.9e5, 0, 1, 1]))):
+        mode, got = _laplace(density, start, n_mu=2)
+        np.testing.assert_allclose(mode, mean, atol=1e-4 * sd.max(), rtol=1e-6)
+        np.testing.assert_allclose(got, cov, rtol=2e-3, atol=1e-9 * sd.max() ** 2)
