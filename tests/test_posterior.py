@@ -56,6 +56,9 @@ def test_result_groups_summary_and_convergence(campaign):
     assert post.diagnostics[["ess_bulk", "ess_tail"]].min().min() >= 400
     doc = json.loads(json.dumps(post.to_dict(), allow_nan=False))
     assert doc["converged"] is True and set(doc["params"]) == set(post.param_names)
+    # The run time is runtime_s; its old key "seconds" is written too until 0.3.0.
+    assert doc["sampler"]["runtime_s"] == doc["sampler"]["seconds"] > 0
+    assert f"draws kept, {post.sampler['runtime_s']:.2f} s" in text
     page = post._repr_html_()  # a notebook's view: the same table and verdict
     assert "convergence</b>: OK" in page and all(f"<td>{n}</td>" in page for n in post.var_names)
     assert doc["stderr"]["K"] == pytest.approx(post.diagnostics.loc["K", "sd"])

@@ -145,7 +145,8 @@ def finish(
         "tau": run.tau,
         "tau_max": float(np.max(run.tau)),
         "acceptance": float(np.mean(run.acceptance)),
-        "seconds": run.seconds,
+        "runtime_s": run.runtime_s,
+        "seconds": run.runtime_s,  # the old name of runtime_s, written until 0.3.0
         "evaluations": run.evaluations,
         "tau_reliable": run.tau_reliable,
         "extended": run.extended,

@@ -77,7 +77,8 @@ class PosteriorResult:
     problems : tuple of str
         Failed convergence checks (R-hat > 1.01, ESS < 400); empty when converged.
     sampler : dict
-        Walkers, steps, burn-in, thinning, τ, acceptance, seconds, evaluations.
+        Walkers, steps, burn-in, thinning, τ, acceptance, ``runtime_s`` (wall time [s]; also
+        under its old name ``seconds`` until 0.3.0), evaluations.
     notes : tuple of str
         Model, likelihood and prior conventions, printed as numbered notes by :meth:`summary`.
     """
@@ -255,7 +256,7 @@ class PosteriorResult:
         lines = [
             f" {self.model_name} posterior ({self.kind}) ".center(width, "="),
             f"Sampler: emcee, {s['walkers']} walkers, {s['steps']} steps, burn-in {s['burn']}, "
-            f"thin {s['thin']}, {s['kept']} draws kept, {s['seconds']:.2f} s"
+            f"thin {s['thin']}, {s['kept']} draws kept, {s['runtime_s']:.2f} s"
             + (f" (run on {s['extended']}x to converge)" if s.get("extended") else ""),
             f"Autocorrelation time (steps): {s['tau_max']:.2f} (max over parameters); "
             f"acceptance {s['acceptance']:.2f}",
