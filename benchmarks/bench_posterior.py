@@ -99,7 +99,7 @@ def ours(campaign, draws: int, seed: int = 0) -> dict:
     d = post.diagnostics.loc[list(post.param_names)]
     return {
         "seconds": seconds,
-        "sampler_seconds": post.sampler["seconds"],
+        "sampler_seconds": post.sampler["runtime_s"],
         "kept": post.sampler["kept"],
         "ess": float(d["ess_bulk"].min()),
         "rhat": float(d["r_hat"].max()),

@@ -7,6 +7,7 @@ already catch ``ValueError`` keep working; every warning derives from
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Collection, Iterable
 
 from ._text import shown
@@ -19,6 +20,7 @@ __all__ = [
     "IdentifiabilityError",
     "InputError",
     "ModelError",
+    "RenamedWarning",
     "SoilstatsError",
     "SoilstatsWarning",
     "SpecError",
@@ -26,6 +28,7 @@ __all__ = [
     "StudyDataError",
     "located",
     "refuse_unknown_keys",
+    "warn_renamed",
 ]
 
 
@@ -39,6 +42,25 @@ class SoilstatsWarning(UserWarning):
 
 class ConvergenceWarning(SoilstatsWarning):
     """A fit or sampler finished, but a health check failed (see the result's flags)."""
+
+
+class RenamedWarning(SoilstatsWarning, FutureWarning):
+    """An old name of something soilstats renamed (docs/conventions.md, "Renamed"): it still
+    works, with this warning naming the new one, until the release :data:`RENAMED_GO_IN`."""
+
+
+#: The release in which the old names of docs/conventions.md's "Renamed" table stop working.
+RENAMED_GO_IN = "0.3.0"
+
+
+def warn_renamed(old: str, new: str, *, stacklevel: int = 3) -> None:
+    """Warn (:class:`RenamedWarning`, a ``FutureWarning``) that ``old`` is now ``new``;
+    ``stacklevel`` 3 points at the caller of the property or function that calls this."""
+    warnings.warn(
+        f"{old} is renamed {new}; the old name goes in soilstats {RENAMED_GO_IN}",
+        RenamedWarning,
+        stacklevel=stacklevel,
+    )
 
 
 class CampaignError(SoilstatsError, ValueError):

@@ -1,7 +1,9 @@
 """Every fit health code is documented: what, why it matters, what to do.
 
 The codes are read from the source (``HealthFlag("<code>"`` literals under soilstats/fitting
-and soilstats/identification), so a new code without an entry fails here. An entry is a
+and soilstats/identification, documented in docs/identification.md; under soilstats/bayes, a
+posterior's convergence codes, in docs/posterior.md), so a new code without an entry fails
+here. An entry is a
 ``### `code` `` heading whose section holds **What.**, **Why it matters.** and **What to
 do.**, or a table row whose header has the columns what / why it matters / what to do, each
 cell filled.
@@ -17,6 +19,7 @@ import pytest
 ROOT = Path(__file__).parents[1]
 DOCS = ROOT / "docs"
 SOURCES = ("soilstats/fitting", "soilstats/identification")
+POSTERIOR_SOURCES = ("soilstats/bayes",)
 PARTS = ("**What.**", "**Why it matters.**", "**What to do.**")
 COLUMNS = ("what", "why it matters", "what to do")
 
@@ -28,10 +31,10 @@ _LITERAL = re.compile(r'"([a-z0-9-]+)"')
 VARIABLE_CODES = {("soilstats/identification/result.py", "code")}
 
 
-def emitted_codes() -> set[str]:
+def emitted_codes(sources: tuple[str, ...] = SOURCES) -> set[str]:
     """Codes of ``HealthFlag("<code>", …)`` calls; fails on an unlisted non-literal code."""
     codes, unlisted = set(), []
-    for folder in SOURCES:
+    for folder in sources:
         for path in sorted((ROOT / folder).rglob("*.py")):
             rel = path.relative_to(ROOT).as_posix()
             for arg in _CALL.findall(path.read_text(encoding="utf-8")):
@@ -99,6 +102,21 @@ def test_the_scan_finds_the_known_codes():
 def test_every_fit_code_has_what_why_and_what_to_do(code):
     found = entries(_identification_md(), code)
     assert found, f"{code}: no heading or table row in docs/identification.md"
+    assert all(ok for _, ok in found), f"{code}: an entry lacks What / Why it matters / What to do"
+
+
+def test_the_scan_finds_every_posterior_code():
+    # A guard on the scan of soilstats/bayes: every code of CONVERGENCE_CODES is emitted as a
+    # literal there, and nothing else is (a new code must join the tuple and the docs).
+    from soilstats.bayes.result import CONVERGENCE_CODES
+
+    assert emitted_codes(POSTERIOR_SOURCES) == set(CONVERGENCE_CODES)
+
+
+@pytest.mark.parametrize("code", sorted(emitted_codes(POSTERIOR_SOURCES)))
+def test_every_posterior_code_has_what_why_and_what_to_do(code):
+    found = entries((DOCS / "posterior.md").read_text(encoding="utf-8"), code)
+    assert found, f"{code}: no heading or table row in docs/posterior.md"
     assert all(ok for _, ok in found), f"{code}: an entry lacks What / Why it matters / What to do"
 
 

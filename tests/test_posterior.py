@@ -47,7 +47,7 @@ def test_mohr_coulomb_flat_priors_match_least_squares(campaign):
 
 def test_result_groups_summary_and_convergence(campaign):
     post = sample_posterior(campaign, "janosi", seed=2)
-    assert post.converged, post.problems
+    assert post.converged, post.flags
     groups = set(post.idata.groups())
     assert {"posterior", "sample_stats", "observed_data", "posterior_predictive"} <= groups
     text = post.summary()
@@ -56,6 +56,12 @@ def test_result_groups_summary_and_convergence(campaign):
     assert post.diagnostics[["ess_bulk", "ess_tail"]].min().min() >= 400
     doc = json.loads(json.dumps(post.to_dict(), allow_nan=False))
     assert doc["converged"] is True and set(doc["params"]) == set(post.param_names)
+    # The run time is runtime_s; its old key "seconds" is written too until 0.3.0.
+    assert doc["sampler"]["runtime_s"] == doc["sampler"]["seconds"] > 0
+    assert f"draws kept, {post.sampler['runtime_s']:.2f} s" in text
+    # Converged: no flags, under the new key and (until 0.3.0) the old one alike.
+    assert post.flags == () and doc["flags"] == [] == doc["problems"]
+    assert post.idata.posterior.attrs["convergence_flags"] == "none"
     page = post._repr_html_()  # a notebook's view: the same table and verdict
     assert "convergence</b>: OK" in page and all(f"<td>{n}</td>" in page for n in post.var_names)
     assert doc["stderr"]["K"] == pytest.approx(post.diagnostics.loc["K", "sd"])
@@ -90,7 +96,23 @@ def test_not_converged_is_loud(campaign):
         post = sample_posterior(campaign, "bekker", seed=3, draws=64)
     assert not post.converged
     assert "NOT CONVERGED" in post.summary() and "NOT CONVERGED" in post._repr_html_()
-    assert all(html.escape(p) in post._repr_html_() for p in post.problems)
+    assert post.flags and all(html.escape(str(f)) in post._repr_html_() for f in post.flags)
+    # Each failed check is a health flag with a documented code (docs/posterior.md), shown
+    # as a fit's flags are; the old name problems (the messages) still answers, with a
+    # FutureWarning, and its JSON key and netCDF attribute are still written, until 0.3.0.
+    from soilstats.bayes.result import CONVERGENCE_CODES
+
+    assert {f.code for f in post.flags} <= set(CONVERGENCE_CODES)
+    assert all(f"  ! [{f.code}] {f.message}" in post.summary() for f in post.flags)
+    doc = post.to_dict()
+    assert doc["flags"] == [{"code": f.code, "message": f.message} for f in post.flags]
+    assert doc["problems"] == [f["message"] for f in doc["flags"]]
+    with pytest.warns(FutureWarning, match=r"PosteriorResult\.problems is renamed .*\.flags"):
+        assert post.problems == tuple(f.message for f in post.flags)
+    attrs = post.idata.posterior.attrs
+    assert attrs["converged"] == 0
+    assert attrs["convergence_flags"] == "; ".join(str(f) for f in post.flags)
+    assert attrs["convergence_problems"] == "; ".join(f.message for f in post.flags)
     # Its numbers are refused, not handed out quietly; asked for explicitly, they come.
     from soilstats.errors import ConvergenceError
 

@@ -66,7 +66,7 @@ def test_shear_population_band_covers_held_out_curves_where_pooled_sigma_does_no
 def test_shear_population_recovers_the_soil_and_its_scatter():
     # One small campaign: 4 repetitions at 5 normal pressures to learn from, 4 held out.
     population, pooled_sigma, (pop,) = shear_population_coverage(1, train=4, held_out=4, seed=3)
-    assert pop.converged, pop.problems
+    assert pop.converged, pop.flags
     post = pop.idata.posterior
     assert abs(float(post["mu_phi"].mean()) - SHEAR_SOIL["phi"]) < 1.5
     assert abs(float(post["mu_K"].mean()) / SHEAR_SOIL["K"] - 1) < 0.15
@@ -145,7 +145,7 @@ def test_sampling_coordinates_round_trip_and_exact_jacobian():
 )
 def test_bundled_pooled_posteriors_converge_at_defaults(name, model, selection):
     post = sample_posterior(soilstats.load_campaign(name), model, seed=0, **selection)
-    assert post.converged, post.problems
+    assert post.converged, post.flags
     d = post.diagnostics
     assert d["r_hat"].max() <= 1.01 and d[["ess_bulk", "ess_tail"]].min().min() >= 400
     # the posterior mean sits on the least-squares estimate (within 2 of its σ)
@@ -158,7 +158,7 @@ def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
     camp = soilstats.load_campaign("cullinan-sand")
     pop = sample_population(camp, "bernstein", seed=0, preparation="1")
     pooled = sample_posterior(camp, "bernstein", seed=0, preparation="1")
-    assert pop.converged, pop.problems
+    assert pop.converged, pop.flags
     # a new preparation scatters far more than one pooled parameter set is uncertain
     assert pop.draws()["n"].std() > 5 * pooled.draws()["n"].std()
     assert {"mu_k", "mu_n", "sd_p_ref", "sd_n", "corr_p_ref_n"} <= set(
@@ -247,7 +247,7 @@ def test_population_band_inside_the_measured_range_is_as_wide_as_the_scatter_of_
 
     camp, (_, _, z_ref, _, _) = _crossing_campaign(np.random.default_rng(0))
     pop = sample_population(camp, "bernstein", seed=0, draws=6000)
-    assert pop.converged, pop.problems
+    assert pop.converged, pop.flags
     new = pop.draws()
     own = np.array(
         [fit_sinkage(camp, "bernstein", test_id=t).params for t in camp.tests["test_id"]]

@@ -164,7 +164,7 @@ def test_grc1_population_bekker_converges_to_one_answer_whatever_the_seed():
             warnings.simplefilter("ignore")  # ArviZ on a run that ran off (old code)
             results.append(sample_population(campaign, "bekker", seed=seed, draws=6000))
     for r in results:
-        assert r.converged, r.problems
+        assert r.converged, r.flags
         assert np.all(np.isfinite(r.draws().to_numpy()))
     post = [r.idata.posterior for r in results]
     for name in ("mu_kc", "mu_kphi", "mu_n", "sd_p_ref"):

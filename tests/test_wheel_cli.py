@@ -96,10 +96,15 @@ def test_json_schema_and_files(cmu):
     first = doc["runs"][0]
     for key in ("run_id", "slip", "beta_deg", "W_N", "sinkage_measured_m", "sinkage_median_m"):
         assert key in first
-    assert first["sinkage_q05_m"] <= first["sinkage_median_m"] <= first["sinkage_q95_m"]
+    assert first["sinkage_lower_m"] <= first["sinkage_median_m"] <= first["sinkage_upper_m"]
+    assert (first["sinkage_q05_m"], first["sinkage_q95_m"]) == (  # the old names, until 0.3.0
+        first["sinkage_lower_m"],
+        first["sinkage_upper_m"],
+    )
     assert doc["runs_file"]["path"].endswith("wheel.csv") and len(doc["runs_file"]["sha256"]) == 64
     runs = pd.read_csv(folder / "wheel_runs.csv", comment="#")
     assert len(runs) == 378 and "sinkage_heldout_median_m" in runs
+    assert runs["sinkage_q95_m"].equals(runs["sinkage_upper_m"])  # the old name, until 0.3.0
     written = json.loads((folder / "wheel.json").read_text())
     assert written["coverage_90"] == doc["coverage_90"]
     assert len(PdfReader(folder / "wheel.pdf").pages) <= 8

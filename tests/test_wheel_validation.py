@@ -96,7 +96,7 @@ def test_runs_simulated_from_the_drawn_population_are_covered_at_the_nominal_rat
         load_N=run["W_N"],
     )  # fmt: skip
     q = np.quantile(state.sinkage_m[:, 0], [0.05, 0.5, 0.95])
-    assert [run["sinkage_q05_m"], run["sinkage_median_m"], run["sinkage_q95_m"]] == (
+    assert [run["sinkage_lower_m"], run["sinkage_median_m"], run["sinkage_upper_m"]] == (
         pytest.approx(q, rel=1e-12)
     )
     # β = 30° runs are predicted (as β = 0) but left out of the headline, listed with reason
@@ -106,7 +106,7 @@ def test_runs_simulated_from_the_drawn_population_are_covered_at_the_nominal_rat
     assert res.unpredictable and "drawbar_pull_N" in res.unpredictable
     doc = json.loads(json.dumps(res.to_dict(), allow_nan=False))
     keys = {"run_id", "slip", "beta_deg", "W_N", "sinkage_measured_m", "sinkage_median_m"}
-    assert keys | {"sinkage_q05_m", "sinkage_q95_m"} <= set(doc["runs"][0])
+    assert keys | {"sinkage_lower_m", "sinkage_upper_m"} <= set(doc["runs"][0])
     assert {"runs", "coverage_90", "bias", "params", "notes"} <= set(doc)
 
 
@@ -132,6 +132,48 @@ def test_a_planted_slip_sinkage_is_named_fitted_and_gains_on_held_out_conditions
     held = disc.heldout[disc.heldout["scheme"] == "slip"]
     assert held.groupby("fold")["n2"].nunique().max() == 1
     assert held["n2"].nunique() > 1
+    # The extended and held-out bands' bounds are lower/upper; their 0.1.0 names (q05/q95)
+    # are copies until 0.3.0, in every frame and in the JSON's runs.
+    doc = json.loads(json.dumps(res.to_dict(), allow_nan=False))
+    for frame, quantity in (
+        (res.runs, "sinkage_extended_{}_m"),
+        (res.runs, "sinkage_heldout_{}_m"),
+        (disc.runs, "sinkage_extended_{}_m"),
+        (disc.heldout, "ext_{}"),
+    ):
+        for new, old in (("lower", "q05"), ("upper", "q95")):
+            assert frame[quantity.format(new)].notna().any()
+            assert frame[quantity.format(old)].equals(frame[quantity.format(new)])
+    assert all(
+        r["sinkage_heldout_q95_m"] == r["sinkage_heldout_upper_m"]
+        and r["sinkage_extended_q05_m"] == r["sinkage_extended_lower_m"]
+        for r in doc["runs"]
+    )
+
+
+def test_band_bounds_are_lower_and_upper_at_any_prob_and_keep_their_old_names():
+    # The band's bounds are its (1 - prob)/2 and (1 + prob)/2 quantiles, named lower and upper
+    # as in WheelPrediction.bands (0.1.0 named them q05/q95, wrong at any prob but 0.9); until
+    # 0.3.0 the old columns are copies, in the frame (so in wheel_runs.csv) and the JSON.
+    rng = np.random.default_rng(9)
+    runs = simulate_runs(rng, repeats=1)
+    draws = population(200, np.random.default_rng(10))
+    res = validate_wheel(
+        None, runs, wheels=WHEELS, draws=draws, prob=0.8, extension=False, sensitivity=False
+    )
+    run = res.runs.iloc[0]
+    state = wheel_forces(
+        {k: draws[k].to_numpy() for k in draws}, WHEELS[run["wheel"]], [run["slip"]],
+        law="bekker", load_N=run["W_N"],
+    )  # fmt: skip
+    q = np.quantile(state.sinkage_m[:, 0], [0.1, 0.5, 0.9])
+    assert [run["sinkage_lower_m"], run["sinkage_median_m"], run["sinkage_upper_m"]] == (
+        pytest.approx(q, rel=1e-12)
+    )
+    doc = json.loads(json.dumps(res.to_dict(), allow_nan=False))
+    for new, old in (("sinkage_lower_m", "sinkage_q05_m"), ("sinkage_upper_m", "sinkage_q95_m")):
+        assert res.runs[new].notna().all() and res.runs[old].equals(res.runs[new])
+        assert [r[old] for r in doc["runs"]] == [r[new] for r in doc["runs"]]
 
 
 def test_no_slip_sinkage_planted_none_found_and_no_real_gain():
@@ -166,6 +208,10 @@ def test_shear_priors_predict_drawbar_pull_and_only_all_three_are_taken():
     assert not res.unpredictable
     assert res.sources["phi"] == "user prior normal(29, 4) (not measured)"
     assert res.runs["drawbar_pull_median_N"].notna().all()
+    for quantity in ("drawbar_pull_{}_N", "torque_{}_Nm"):  # the old names until 0.3.0
+        for new, old in (("lower", "q05"), ("upper", "q95")):
+            assert res.runs[quantity.format(new)].notna().all()
+            assert res.runs[quantity.format(old)].equals(res.runs[quantity.format(new)])
     assert "drawbar_pull_beta_0" in res.coverage
     with pytest.raises(ValueError, match="state a prior for each"):
         validate_wheel(None, runs, wheels=WHEELS, draws=draws, priors={"phi": priors["phi"]})

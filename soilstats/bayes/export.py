@@ -41,7 +41,7 @@ from typing import cast
 import numpy as np
 import pandas as pd
 
-from ..errors import InputError, SoilstatsError
+from ..errors import InputError, SoilstatsError, warn_renamed
 from .support import negative_modulus_width
 
 __all__ = [
@@ -237,8 +237,11 @@ class ConstraintCheck:
     def counts(self) -> dict[str, int]:
         return {label: int(rows.sum()) for label, rows in self.broken.items()}
 
-    def problems(self) -> list[str]:
-        """One sentence per constraint still broken (empty when the check passed)."""
+    @property
+    def failures(self) -> tuple[str, ...]:
+        """One sentence per constraint still broken (empty when the check passed), as
+        :attr:`Handout.failures <soilstats.bayes.handout.Handout.failures>` names the reasons
+        a check did not pass."""
         out = []
         for c in SCM_CONSTRAINTS:
             rows = self.still_broken(c.label)
@@ -247,7 +250,12 @@ class ConstraintCheck:
                     f"{int(rows.sum())} of {self.rows} parameter sets break SCM's {c.label} "
                     f"({c.chrono}): {c.otherwise}"
                 )
-        return out
+        return tuple(out)
+
+    def problems(self) -> list[str]:
+        """Renamed :attr:`failures` (docs/conventions.md, "Renamed"), as a list."""
+        warn_renamed("ConstraintCheck.problems()", "ConstraintCheck.failures")
+        return list(self.failures)
 
     def repair_sentence(self) -> str:
         """What the repair did, or '' when nothing was repaired."""
@@ -262,7 +270,7 @@ class ConstraintCheck:
 
     def describe(self) -> str:
         """One line: passed, repaired or broken, with counts."""
-        said = [s for s in (*self.problems(), self.repair_sentence()) if s]
+        said = [s for s in (*self.failures, self.repair_sentence()) if s]
         return "; ".join(said) or f"all {self.rows} parameter sets meet SCM's constraints"
 
     def to_dict(self) -> dict:
@@ -632,7 +640,7 @@ def simulator_parameters(draws: pd.DataFrame, simulator: str = "chrono-scm", **o
     """
     export = export_simulator(draws, simulator, **options)
     if not export.check.passed:
-        raise SimulatorConstraintError("; ".join(export.check.problems()), export.check)
+        raise SimulatorConstraintError("; ".join(export.check.failures), export.check)
     return export.table
 
 

@@ -159,7 +159,7 @@ def hand_out(
     models = [r.model_name for r in results]
     support = check_support(draws, contact_widths, models)
     failures = [
-        f"{r.model_name} {r.kind}: not converged ({'; '.join(r.problems)})"
+        f"{r.model_name} {r.kind}: not converged ({'; '.join(f.message for f in r.flags)})"
         for r in results
         if not r.converged
     ]

@@ -11,12 +11,13 @@ import numpy as np
 import xarray as xr
 
 from ..errors import ConvergenceWarning, InputError
+from ..fitting.result import HealthFlag
 from ..models import get_model
 from ._arviz import az
 from .data import pooled_problem
 from .likelihood import PooledProblem
 from .predictive import PREDICTIVE_DRAWS, pooled_groups
-from .result import PosteriorResult, diagnose, draws_converge
+from .result import PosteriorResult, chain_diagnostics, diagnose, draws_converge
 from .sampler import EnsembleRun, run_ensemble
 from .transforms import Coordinates, sampling_coordinates
 
@@ -135,7 +136,7 @@ def sample_posterior(
 def finish(
     idata, model_name, kind, param_names, units, var_names, run: EnsembleRun, notes, lsq
 ) -> PosteriorResult:
-    """Wrap up a run: diagnostics, the loud warning if not converged, the result object."""
+    """Wrap up a run: its convergence flags, the loud warning if not converged, the result."""
     sampler = {
         "walkers": run.chain.shape[0],
         "steps": run.steps,
@@ -145,42 +146,46 @@ def finish(
         "tau": run.tau,
         "tau_max": float(np.max(run.tau)),
         "acceptance": float(np.mean(run.acceptance)),
-        "seconds": run.seconds,
+        "runtime_s": run.runtime_s,
+        "seconds": run.runtime_s,  # the old name of runtime_s, written until 0.3.0
         "evaluations": run.evaluations,
         "tau_reliable": run.tau_reliable,
         "extended": run.extended,
     }
-    result = PosteriorResult(
+    flags = diagnose(chain_diagnostics(idata, var_names))
+    if not run.tau_reliable:
+        flags = (
+            *flags,
+            HealthFlag(
+                "short-chain",
+                f"kept chain shorter than 50 autocorrelation times "
+                f"(tau = {sampler['tau_max']:.1f} steps): tau itself is uncertain",
+            ),
+        )
+    messages = "; ".join(f.message for f in flags)
+    idata.posterior.attrs["converged"] = int(not flags)
+    idata.posterior.attrs["convergence_flags"] = "; ".join(map(str, flags)) or "none"
+    idata.posterior.attrs["convergence_problems"] = messages or "none"  # old name, until 0.3.0
+    if flags:
+        warnings.warn(
+            f"{model_name} posterior NOT converged: "
+            + messages
+            + " — increase draws, or check the model and priors; result.converged is False",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
+    return PosteriorResult(
         idata=idata,
         model_name=model_name,
         kind=kind,
         param_names=tuple(param_names),
         units=units,
         var_names=tuple(var_names),
-        problems=(),
+        flags=flags,
         sampler=sampler,
         notes=tuple(notes),
         lsq=lsq,
     )
-    problems = diagnose(result.diagnostics)
-    if not run.tau_reliable:
-        problems = (
-            *problems,
-            f"kept chain shorter than 50 autocorrelation times "
-            f"(tau = {sampler['tau_max']:.1f} steps): tau itself is uncertain",
-        )
-    object.__setattr__(result, "problems", problems)
-    idata.posterior.attrs["converged"] = int(not problems)
-    idata.posterior.attrs["convergence_problems"] = "; ".join(problems) or "none"
-    if problems:
-        warnings.warn(
-            f"{model_name} posterior NOT converged: "
-            + "; ".join(problems)
-            + " — increase draws, or check the model and priors; result.converged is False",
-            ConvergenceWarning,
-            stacklevel=3,
-        )
-    return result
 
 
 def _pooled_notes(problem: PooledProblem) -> list[str]:

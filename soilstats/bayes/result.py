@@ -10,30 +10,54 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..errors import InputError
+from ..errors import InputError, warn_renamed
+from ..fitting.result import HealthFlag
 from ..outputs.text import notes_block
 from ._arviz import az
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
 
-__all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose", "draws_converge"]
+__all__ = [
+    "CONVERGENCE_CODES",
+    "ESS_MIN",
+    "RHAT_MAX",
+    "PosteriorResult",
+    "chain_diagnostics",
+    "diagnose",
+    "draws_converge",
+]
 
 #: Convergence thresholds (Vehtari et al. 2021, "Rank-normalization, folding, and
 #: localization", Bayesian Analysis 16:667): R-hat ≤ 1.01 and bulk and tail ESS ≥ 400.
 RHAT_MAX = 1.01
 ESS_MIN = 400
 
+#: The health codes of a posterior (``PosteriorResult.flags``), each a failed convergence
+#: check: what it means and what to do in docs/posterior.md, "Convergence codes".
+CONVERGENCE_CODES = ("high-r-hat", "low-bulk-ess", "low-tail-ess", "short-chain")
 
-def diagnose(table: pd.DataFrame) -> tuple[str, ...]:
-    """Convergence problems in an ArviZ summary table (empty when every check passes)."""
+
+def chain_diagnostics(idata: Any, var_names) -> pd.DataFrame:
+    """MCSE, bulk/tail ESS and R-hat of each of ``var_names`` (ArviZ's summary, unrounded)."""
+    return az.summary(idata, var_names=list(var_names), kind="diagnostics", round_to="none")
+
+
+def diagnose(table: pd.DataFrame) -> tuple[HealthFlag, ...]:
+    """The failed convergence checks of an ArviZ summary table, one health flag per quantity
+    and check (``high-r-hat``, ``low-bulk-ess``, ``low-tail-ess``); empty when all pass."""
     out = []
     for name, row in table.iterrows():
         if not row["r_hat"] <= RHAT_MAX:
-            out.append(f"{name}: R-hat = {row['r_hat']:.4f} > {RHAT_MAX}")
-        for col in ("ess_bulk", "ess_tail"):
-            if not row[col] >= ESS_MIN:
-                out.append(f"{name}: {col.replace('_', ' ')} = {row[col]:.0f} < {ESS_MIN}")
+            out.append(HealthFlag("high-r-hat", f"{name}: R-hat = {row['r_hat']:.4f} > {RHAT_MAX}"))
+        if not row["ess_bulk"] >= ESS_MIN:
+            out.append(
+                HealthFlag("low-bulk-ess", f"{name}: ess bulk = {row['ess_bulk']:.0f} < {ESS_MIN}")
+            )
+        if not row["ess_tail"] >= ESS_MIN:
+            out.append(
+                HealthFlag("low-tail-ess", f"{name}: ess tail = {row['ess_tail']:.0f} < {ESS_MIN}")
+            )
     return tuple(out)
 
 
@@ -74,10 +98,14 @@ class PosteriorResult:
         Unit of each parameter.
     var_names : tuple of str
         Every sampled quantity checked for convergence.
-    problems : tuple of str
-        Failed convergence checks (R-hat > 1.01, ESS < 400); empty when converged.
+    flags : tuple of HealthFlag
+        The failed convergence checks, each a code (:data:`CONVERGENCE_CODES`: R-hat > 1.01,
+        bulk or tail ESS < 400, a kept chain shorter than 50 τ) with its message; empty when
+        converged.  Was ``problems`` (the messages alone), which still works, with a
+        ``FutureWarning``, until 0.3.0.
     sampler : dict
-        Walkers, steps, burn-in, thinning, τ, acceptance, seconds, evaluations.
+        Walkers, steps, burn-in, thinning, τ, acceptance, ``runtime_s`` (wall time [s]; also
+        under its old name ``seconds`` until 0.3.0), evaluations.
     notes : tuple of str
         Model, likelihood and prior conventions, printed as numbered notes by :meth:`summary`.
     """
@@ -90,7 +118,7 @@ class PosteriorResult:
     param_names: tuple[str, ...]
     units: dict[str, str]
     var_names: tuple[str, ...]
-    problems: tuple[str, ...]
+    flags: tuple[HealthFlag, ...]
     sampler: dict = field(repr=False)
     notes: tuple[str, ...] = ()
     lsq: FitResult | None = field(default=None, repr=False)  # the least-squares fit it began at
@@ -98,7 +126,13 @@ class PosteriorResult:
     @property
     def converged(self) -> bool:
         """True when R-hat ≤ 1.01 and bulk/tail ESS ≥ 400 for every sampled quantity."""
-        return not self.problems
+        return not self.flags
+
+    @property
+    def problems(self) -> tuple[str, ...]:
+        """Renamed :attr:`flags` (docs/conventions.md, "Renamed"): their messages."""
+        warn_renamed("PosteriorResult.problems", "PosteriorResult.flags")
+        return tuple(f.message for f in self.flags)
 
     def summary_table(
         self, prob: float = 0.9, handed_out: pd.DataFrame | None = None
@@ -137,9 +171,7 @@ class PosteriorResult:
     def _chain_diagnostics(self) -> pd.DataFrame:
         """MCSE, bulk/tail ESS and R-hat of every sampled quantity: the chains' own, whatever
         interval or draws a table describes, so computed once."""
-        return az.summary(
-            self.idata, var_names=list(self.var_names), kind="diagnostics", round_to="none"
-        )
+        return chain_diagnostics(self.idata, self.var_names)
 
     @cached_property
     def diagnostics(self) -> pd.DataFrame:
@@ -189,14 +221,15 @@ class PosteriorResult:
         ------
         ConvergenceError
             When the sampler did not converge (R-hat > 1.01 or ESS < 400 for some quantity;
-            :attr:`problems` lists which), unless ``allow_unconverged``.
+            :attr:`flags` lists which), unless ``allow_unconverged``.
         """
-        if self.problems and not allow_unconverged:
+        if self.flags and not allow_unconverged:
             from ..errors import ConvergenceError
 
+            failed = "; ".join(f.message for f in self.flags)
             raise ConvergenceError(
                 f"the {self.model_name} {self.kind} posterior did not converge "
-                f"({'; '.join(self.problems)}): its draws are not fit for a rover Monte Carlo. "
+                f"({failed}): its draws are not fit for a rover Monte Carlo. "
                 "Sample longer (draws=...), select one condition, or state priors; pass "
                 "allow_unconverged=True to take them anyway",
                 result=self,
@@ -211,7 +244,8 @@ class PosteriorResult:
 
     def to_dict(self, prob: float = 0.9) -> dict:
         """The JSON-ready content: per quantity mean, stderr (posterior sd), interval and
-        diagnostics; convergence and its problems; units, sampler settings and notes."""
+        diagnostics; convergence and its flags (``code``, ``message``; and, until 0.3.0, their
+        messages under the old key ``problems``); units, sampler settings and notes."""
         from ..outputs import json_safe
 
         table = self.summary_table(prob)
@@ -223,7 +257,8 @@ class PosteriorResult:
                 "stderr": {n: table.loc[n, "sd"] for n in self.param_names},
                 "units": dict(self.units),
                 "converged": self.converged,
-                "problems": list(self.problems),
+                "flags": [{"code": f.code, "message": f.message} for f in self.flags],
+                "problems": [f.message for f in self.flags],  # the old key, until 0.3.0
                 "diagnostics": table.reset_index(names="quantity").to_dict("records"),
                 "sampler": dict(self.sampler),
                 "notes": list(self.notes),
@@ -255,7 +290,7 @@ class PosteriorResult:
         lines = [
             f" {self.model_name} posterior ({self.kind}) ".center(width, "="),
             f"Sampler: emcee, {s['walkers']} walkers, {s['steps']} steps, burn-in {s['burn']}, "
-            f"thin {s['thin']}, {s['kept']} draws kept, {s['seconds']:.2f} s"
+            f"thin {s['thin']}, {s['kept']} draws kept, {s['runtime_s']:.2f} s"
             + (f" (run on {s['extended']}x to converge)" if s.get("extended") else ""),
             f"Autocorrelation time (steps): {s['tau_max']:.2f} (max over parameters); "
             f"acceptance {s['acceptance']:.2f}",
@@ -274,10 +309,10 @@ class PosteriorResult:
             lines.append(f"Convergence: OK (R-hat <= {RHAT_MAX}, bulk and tail ESS >= {ESS_MIN})")
         else:
             lines.append(
-                f"Convergence: NOT CONVERGED — {len(self.problems)} failed check(s); "
+                f"Convergence: NOT CONVERGED — {len(self.flags)} failed check(s); "
                 "do not use these draws (run longer: more draws)"
             )
-            lines.extend(f"  ! {p}" for p in self.problems)
+            lines.extend(f"  ! {flag}" for flag in self.flags)
         units = ", ".join(f"{n} [{self.units[n]}]" for n in self.param_names)
         over = ""
         if handed_out is not None:
@@ -312,7 +347,7 @@ class PosteriorResult:
             f"{s['burn']}, {s['kept']} draws kept",
             "convergence": "OK"
             if self.converged
-            else f"NOT CONVERGED ({len(self.problems)} failed checks): do not use these draws",
+            else f"NOT CONVERGED ({len(self.flags)} failed checks): do not use these draws",
         }
         table = self.summary_table().rename_axis("quantity").reset_index()
         health = pd.DataFrame(self.least_squares_health())
@@ -320,7 +355,7 @@ class PosteriorResult:
             f"{self.model_name} posterior ({self.kind})",
             facts_html(facts),
             table_html(table, caption="Estimates (90 % equal-tailed intervals) and diagnostics"),
-            notes_html(self.problems, "Failed checks"),
+            notes_html(self.flags, "Failed checks"),
             table_html(health, caption="Health of the least-squares start") if len(health) else "",
             notes_html(self.notes),
         )

@@ -30,7 +30,7 @@ import emcee
 import numpy as np
 from tqdm.auto import tqdm
 
-from ..errors import InputError
+from ..errors import InputError, warn_renamed
 from .moves import StudentIndependenceMove
 
 __all__ = ["EnsembleRun", "run_ensemble"]
@@ -47,10 +47,16 @@ class EnsembleRun:
     thin: int
     steps: int
     acceptance: np.ndarray  # (walkers,) acceptance fraction over the whole run
-    seconds: float
+    runtime_s: float  # wall time of the run [s]
     evaluations: int  # log-probability evaluations (walker-level)
     tau_reliable: bool  # kept chain ≥ 50·τ_max
     extended: int = 0  # times the kept part was doubled because ``accept`` said no
+
+    @property
+    def seconds(self) -> float:
+        """Renamed :attr:`runtime_s` (docs/conventions.md, "Renamed")."""
+        warn_renamed("EnsembleRun.seconds", "EnsembleRun.runtime_s")
+        return self.runtime_s
 
 
 def _start(log_prob, centre, cov, n_walkers, rng) -> np.ndarray:
@@ -198,7 +204,7 @@ def run_ensemble(
             per_walker *= 2
             extended += 1
             needed = burn + thin * per_walker
-    seconds = time.perf_counter() - t0
+    runtime_s = time.perf_counter() - t0
     steps = sampler.iteration
     full = sampler.get_chain()[burn:]  # (steps, walkers, p)
     tau_kept = emcee.autocorr.integrated_time(full, tol=0)
@@ -212,7 +218,7 @@ def run_ensemble(
         thin=thin,
         steps=steps,
         acceptance=sampler.acceptance_fraction.copy(),
-        seconds=seconds,
+        runtime_s=runtime_s,
         evaluations=steps * n_walkers,
         tau_reliable=bool(full.shape[0] >= 50 * np.max(tau_kept)),
         extended=extended,

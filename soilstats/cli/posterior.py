@@ -434,8 +434,8 @@ def _export_failures(simulator: str, check) -> list[str]:
         "elastic_K = MULTIPLE x Bekker_Kphi in each such set (marked per row)"
     )
     return [
-        f"{simulator}: {problem}{fix if REPAIRABLE in problem else ''}"
-        for problem in check.problems()
+        f"{simulator}: {failure}{fix if REPAIRABLE in failure else ''}"
+        for failure in check.failures
     ]
 
 
@@ -626,7 +626,7 @@ def _decide_and_write(
         failures += _export_failures(args.simulator, export.check)
     ours = _warnings(caught, widths, args, campaign, models, handout, pooled_warnings)
     if failures and not args.force:
-        simulator_only = export is not None and len(failures) == len(export.check.problems())
+        simulator_only = export is not None and len(failures) == len(export.check.failures)
         return _refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
     from ..outputs import json_safe
 

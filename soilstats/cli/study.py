@@ -74,16 +74,16 @@ def run(args: argparse.Namespace) -> int:
 
             outcomes = tqdm(outcomes, total=len(tasks), desc="studies", unit="study")
     documents, timings, not_applicable = [], [], []
-    for spec, (result, written, pages, seconds) in zip(specs, outcomes, strict=True):
+    for spec, (result, written, pages, runtime_s) in zip(specs, outcomes, strict=True):
         if isinstance(result, str):  # 'all': a study this campaign's design cannot answer
             not_applicable.append({"study": spec.name, "reason": result})
             continue
-        timings.append((spec.name, seconds))
+        timings.append((spec.name, runtime_s))
         documents.append(to_json_dict(result) | {"files": [str(p) for p in written]})
         if not args.json:
             print("\n" + result.summary())
         what = "JSON, CSV" + ("" if args.no_pdf else f", PDF ({pages} pages)")
-        print(f"  -> {out_dir / spec.name}.*: {what};  {seconds:.1f} s", file=log)
+        print(f"  -> {out_dir / spec.name}.*: {what};  {runtime_s:.1f} s", file=log)
     if len(timings) > 1:
         print(
             "\nTime per study: "
@@ -115,7 +115,7 @@ def _one_after_another(tasks):
 
 
 def _run_one(task):
-    """One study: run, write its JSON/CSV (and PDF); (result, files, pages, seconds).
+    """One study: run, write its JSON/CSV (and PDF); (result, files, pages, runtime_s).
 
     Under 'all', a study the campaign's design cannot answer (:class:`StudyDataError`: no
     tests of its kind, no factor column, one level per soil) gives its reason in place of

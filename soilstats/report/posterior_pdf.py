@@ -148,7 +148,7 @@ def _conclusion(results, record: dict, prob: float, handed_out=None) -> list:
         status = (
             "converged (R-hat and effective sample sizes pass)"
             if res.converged
-            else "NOT CONVERGED: " + "; ".join(res.problems)
+            else "NOT CONVERGED: " + "; ".join(f.message for f in res.flags)
         )
         out.append(
             [
@@ -338,9 +338,9 @@ def write_report(
         if health:
             doc.paragraph(strong("Health of the start fit (the least-squares fit sampled from):"))
             doc.bullets([strong(f"{h['code']}: "), h["message"]] for h in health)
-        if res.problems:
-            doc.paragraph(strong("Convergence problems:"))
-            doc.bullets(res.problems)
+        if res.flags:
+            doc.paragraph(strong("Failed convergence checks:"))
+            doc.bullets([strong(f"{f.code}: "), f.message] for f in res.flags)
         if res.notes:
             doc.paragraph(strong("Notes:"))
             doc.numbered(res.notes)

@@ -58,7 +58,7 @@ def _jitter(frame, width=0.025):
 
 def _band(ax, x, sub, quantity: str, unit: str, scale: float, what: str = "") -> None:
     """A run-by-run predicted band (bar), its median (tick) and the measured value (dot)."""
-    lo, hi = sub[f"{quantity}_q05_{unit}"] * scale, sub[f"{quantity}_q95_{unit}"] * scale
+    lo, hi = sub[f"{quantity}_lower_{unit}"] * scale, sub[f"{quantity}_upper_{unit}"] * scale
     ax.vlines(x, lo, hi, color=BAND, lw=2.2, alpha=0.55, label=f"{what}90 % band")
     median = sub[f"{quantity}_median_{unit}"] * scale
     ax.plot(x, median, "_", color=BAND, ms=7, mew=1.5, label=f"{what}median")

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from ..errors import warn_renamed
 from ..outputs import Provenance
 from ..outputs.text import notes_block
 
@@ -65,9 +66,9 @@ class StudyResult:
         Preparation: ``{"best": method or None, "reason": ...}``.
     notes : tuple of str
         Caveats: confounding, tests left out, soils skipped, failed fits.
-    seconds : float
-        Wall time of the analysis (without the PDF); shown in summaries, never written to
-        files.
+    runtime_s : float
+        Wall time of the analysis (without the PDF) [s]; never written to files.
+        Was ``seconds``, which still works (with a ``FutureWarning``) until 0.3.0.
     provenance : Provenance or None
         Version, input hash, command and seed, recorded in every output.
     """
@@ -85,13 +86,19 @@ class StudyResult:
     criteria: pd.DataFrame | None = None
     best: dict | None = None
     notes: tuple[str, ...] = ()
-    seconds: float = math.nan
+    runtime_s: float = math.nan
     seed: int | None = None
     provenance: Provenance | None = None
 
     @property
     def name(self) -> str:
         return self.spec.name
+
+    @property
+    def seconds(self) -> float:
+        """Renamed :attr:`runtime_s` (docs/conventions.md, "Renamed")."""
+        warn_renamed("StudyResult.seconds", "StudyResult.runtime_s")
+        return self.runtime_s
 
     def reference_pairs(self) -> pd.DataFrame:
         """Tukey pairs against the spec's reference level, as ``level − reference``."""

@@ -178,7 +178,7 @@ def run_study(
         criteria=criteria,
         best=best,
         notes=tuple(dict.fromkeys(notes)),
-        seconds=time.perf_counter() - start,
+        runtime_s=time.perf_counter() - start,
         seed=seed,
         provenance=provenance,
     )

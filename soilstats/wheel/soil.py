@@ -149,7 +149,8 @@ def plate_draws(
             except (SoilstatsError, ValueError) as err:
                 why_not = f"the population model could not be sampled ({err})"
         if post is not None and not post.converged:
-            why_not = "the population sampler did not converge (" + "; ".join(post.problems) + ")"
+            failed = "; ".join(f.message for f in post.flags)
+            why_not = f"the population sampler did not converge ({failed})"
         if post is not None and why_not is None:
             flagged = {f["code"] for f in post.least_squares_health()}
             if "plate-exponents" in flagged:

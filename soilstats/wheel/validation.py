@@ -36,7 +36,12 @@ from .slipsinkage import SlipExponent, fit_slip_exponent
 from .soil import PlateDraws, plate_draws
 from .solve import wheel_forces
 from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
-from .validation_result import WheelDiscovery, WheelValidation
+from .validation_result import (
+    OLD_BAND_COLUMNS,
+    WheelDiscovery,
+    WheelValidation,
+    with_old_band_columns,
+)
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -153,13 +158,14 @@ def validate_wheel(
     disc = None
     if extension:
         disc = _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, bar)
-        frame = frame.merge(disc.runs, on="run_id", how="left")
+        new = disc.runs.drop(columns=list(OLD_BAND_COLUMNS.values()), errors="ignore")
+        frame = frame.merge(new, on="run_id", how="left")
     sens = _sensitivity(frame, params, wheels, law, angles, seed) if sensitivity else []
     bar.update(bool(sensitivity))
     bar.close()
     notes += _notes(plate, params, wheels, law, angles, frame, priors)
     return WheelValidation(
-        runs=frame,
+        runs=with_old_band_columns(frame),
         groups=groups,
         coverage=coverage,
         bias=bias,
@@ -321,7 +327,8 @@ def predict_runs(values, wheel, slip, load, law, angles, prob, shift=None) -> di
     """Bands of sinkage (and drawbar pull, torque with shear) for runs of one wheel.
 
     ``values``: parameter arrays (P draws); ``slip``, ``load``: per run (R).  Returns arrays
-    of length R: ``{quantity}_{median,q05,q95}``, ``n_used``, ``n_not_carried``.
+    of length R: ``{quantity}_{median,lower,upper}`` (``lower``, ``upper``: the
+    (1 − prob)/2 and (1 + prob)/2 quantiles), ``n_used``, ``n_not_carried``.
     """
     state = wheel_forces(
         values,
@@ -343,7 +350,7 @@ def predict_runs(values, wheel, slip, load, law, angles, prob, shift=None) -> di
         bands = np.full((3, ok.shape[1]), np.nan)
         if some.any():
             bands[:, some] = np.nanquantile(values_[:, some], q, axis=0)
-        for key, row in zip(("q05", "median", "q95"), bands, strict=True):
+        for key, row in zip(("lower", "median", "upper"), bands, strict=True):
             out[f"{name}_{key}"] = row
     return out
 
@@ -373,8 +380,8 @@ def _runs_frame(table, predicted, notes) -> tuple[pd.DataFrame, list[dict]]:
             "steady": table["steady"],
             "sinkage_measured_m": table["sinkage_m"],
             "sinkage_median_m": predicted["sinkage_median"],
-            "sinkage_q05_m": predicted["sinkage_q05"],
-            "sinkage_q95_m": predicted["sinkage_q95"],
+            "sinkage_lower_m": predicted["sinkage_lower"],
+            "sinkage_upper_m": predicted["sinkage_upper"],
             "n_draws_used": predicted["n_used"].astype(int),
             "n_not_carried": predicted["n_not_carried"].astype(int),
         }
@@ -382,11 +389,11 @@ def _runs_frame(table, predicted, notes) -> tuple[pd.DataFrame, list[dict]]:
     f["predicted"] = f["n_draws_used"] > 0
     f["in_scope"] = f["predicted"] & (f["beta_level"] == 0)
     f["residual_m"] = f["sinkage_measured_m"] - f["sinkage_median_m"]
-    f["sinkage_covered"] = (f["sinkage_q05_m"] <= f["sinkage_measured_m"]) & (
-        f["sinkage_measured_m"] <= f["sinkage_q95_m"]
+    f["sinkage_covered"] = (f["sinkage_lower_m"] <= f["sinkage_measured_m"]) & (
+        f["sinkage_measured_m"] <= f["sinkage_upper_m"]
     )
     if "drawbar_pull_median" in predicted:
-        for key in ("median", "q05", "q95"):
+        for key in ("median", "lower", "upper"):
             f[f"drawbar_pull_{key}_N"] = predicted[f"drawbar_pull_{key}"].to_numpy()
             f[f"torque_{key}_Nm"] = predicted[f"torque_{key}"].to_numpy()
         for column, unit in (("drawbar_pull", "N"), ("torque", "Nm")):
@@ -396,7 +403,7 @@ def _runs_frame(table, predicted, notes) -> tuple[pd.DataFrame, list[dict]]:
                 m = f[f"{column}_measured_{unit}"]
                 f[f"{column}_covered"] = np.where(
                     m.notna(),
-                    (f[f"{column}_q05_{unit}"] <= m) & (m <= f[f"{column}_q95_{unit}"]),
+                    (f[f"{column}_lower_{unit}"] <= m) & (m <= f[f"{column}_upper_{unit}"]),
                     np.nan,
                 )
     excluded = []
@@ -624,11 +631,11 @@ def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, ba
     slip_heldout = cv[cv["scheme"] == "slip"] if len(cv) else cv
     if len(slip_heldout):
         runs = runs.merge(
-            slip_heldout[["run_id", "ext_median", "ext_q05", "ext_q95"]].rename(
+            slip_heldout[["run_id", "ext_median", "ext_lower", "ext_upper"]].rename(
                 columns={
                     "ext_median": "sinkage_heldout_median_m",
-                    "ext_q05": "sinkage_heldout_q05_m",
-                    "ext_q95": "sinkage_heldout_q95_m",
+                    "ext_lower": "sinkage_heldout_lower_m",
+                    "ext_upper": "sinkage_heldout_upper_m",
                 }
             ),
             on="run_id",
@@ -642,9 +649,9 @@ def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, ba
         extension=EXTENSION,
         coefficients=fits,
         gains=gains,
-        heldout=cv,
+        heldout=with_old_band_columns(cv),
         still_fails=fails,
-        runs=runs,
+        runs=with_old_band_columns(runs),
         alpha=alpha,
         notes=tuple(_discovery_notes(fits)),
     )
@@ -655,8 +662,8 @@ def _band_frame(run_ids, band, prefix) -> pd.DataFrame:
         {
             "run_id": np.asarray(run_ids),
             f"{prefix}_median" + ("_m" if prefix != "ext" else ""): band["sinkage_median"],
-            f"{prefix}_q05" + ("_m" if prefix != "ext" else ""): band["sinkage_q05"],
-            f"{prefix}_q95" + ("_m" if prefix != "ext" else ""): band["sinkage_q95"],
+            f"{prefix}_lower" + ("_m" if prefix != "ext" else ""): band["sinkage_lower"],
+            f"{prefix}_upper" + ("_m" if prefix != "ext" else ""): band["sinkage_upper"],
         }
     )
 
@@ -677,8 +684,8 @@ def _gains(scope: pd.DataFrame, held: pd.DataFrame) -> tuple[dict, pd.DataFrame]
     )
     cv["base_error"] = (cv["sinkage_median_m"] - cv["sinkage_measured_m"]).abs()
     cv["ext_error"] = (cv["ext_median"] - cv["sinkage_measured_m"]).abs()
-    cv["ext_covered"] = (cv["ext_q05"] <= cv["sinkage_measured_m"]) & (
-        cv["sinkage_measured_m"] <= cv["ext_q95"]
+    cv["ext_covered"] = (cv["ext_lower"] <= cv["sinkage_measured_m"]) & (
+        cv["sinkage_measured_m"] <= cv["ext_upper"]
     )
     gains = {}
     for scheme in SCHEMES:
@@ -783,8 +790,8 @@ def _still_fails(frame, cv) -> list[dict]:
     every = frame[frame["predicted"] & (frame["beta_level"] != 0)]
     for (wheel, beta), sub in every.groupby(["wheel", "beta_level"], sort=True):
         err = (sub["sinkage_extended_median_m"] - sub["sinkage_measured_m"]).abs()
-        cov = (sub["sinkage_extended_q05_m"] <= sub["sinkage_measured_m"]) & (
-            sub["sinkage_measured_m"] <= sub["sinkage_extended_q95_m"]
+        cov = (sub["sinkage_extended_lower_m"] <= sub["sinkage_measured_m"]) & (
+            sub["sinkage_measured_m"] <= sub["sinkage_extended_upper_m"]
         )
         rows.append(
             {

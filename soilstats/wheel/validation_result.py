@@ -12,10 +12,35 @@ from .geometry import Wheel
 from .soil import PlateDraws
 from .stress import PARAM_UNITS, StressAngles
 
-__all__ = ["RUN_COLUMNS", "WheelDiscovery", "WheelValidation"]
+__all__ = ["OLD_BAND_COLUMNS", "RUN_COLUMNS", "WheelDiscovery", "WheelValidation"]
+
+#: The bounds of a run's band are ``lower`` and ``upper``, as in ``WheelPrediction.bands``;
+#: in 0.1.0 they were named ``q05``/``q95``, which they are only at ``prob`` 0.9.  New
+#: column → old: each frame of a validation carries a copy under the old name, and the JSON
+#: and CSV write it, until 0.3.0 (docs/conventions.md, "Renamed").
+OLD_BAND_COLUMNS = {
+    f"{quantity}_{new}{unit}": f"{quantity}_{old}{unit}"
+    for quantity, unit in (
+        ("sinkage", "_m"),
+        ("drawbar_pull", "_N"),
+        ("torque", "_Nm"),
+        ("sinkage_extended", "_m"),
+        ("sinkage_heldout", "_m"),
+        ("ext", ""),
+    )
+    for new, old in (("lower", "q05"), ("upper", "q95"))
+}
+
+
+def with_old_band_columns(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` with a copy of each of its band columns under the old name (until 0.3.0)."""
+    return frame.assign(
+        **{old: frame[new] for new, old in OLD_BAND_COLUMNS.items() if new in frame}
+    )
+
 
 #: Columns of each run in ``to_dict()["runs"]`` (those present).
-RUN_COLUMNS = (
+RUN_COLUMNS: tuple[str, ...] = (
     "run_id",
     "wheel",
     "slip",
@@ -27,8 +52,8 @@ RUN_COLUMNS = (
     "steady",
     "sinkage_measured_m",
     "sinkage_median_m",
-    "sinkage_q05_m",
-    "sinkage_q95_m",
+    "sinkage_lower_m",
+    "sinkage_upper_m",
     "sinkage_covered",
     "residual_m",
     "in_scope",
@@ -36,19 +61,21 @@ RUN_COLUMNS = (
     "n_not_carried",
     "drawbar_pull_measured_N",
     "drawbar_pull_median_N",
-    "drawbar_pull_q05_N",
-    "drawbar_pull_q95_N",
+    "drawbar_pull_lower_N",
+    "drawbar_pull_upper_N",
     "drawbar_pull_covered",
     "torque_median_Nm",
-    "torque_q05_Nm",
-    "torque_q95_Nm",
+    "torque_lower_Nm",
+    "torque_upper_Nm",
     "sinkage_extended_median_m",
-    "sinkage_extended_q05_m",
-    "sinkage_extended_q95_m",
+    "sinkage_extended_lower_m",
+    "sinkage_extended_upper_m",
     "sinkage_heldout_median_m",
-    "sinkage_heldout_q05_m",
-    "sinkage_heldout_q95_m",
+    "sinkage_heldout_lower_m",
+    "sinkage_heldout_upper_m",
 )
+# ... and, until 0.3.0, the old names of its band columns (OLD_BAND_COLUMNS).
+RUN_COLUMNS += tuple(OLD_BAND_COLUMNS[c] for c in RUN_COLUMNS if c in OLD_BAND_COLUMNS)
 WIDTH = 96
 
 
@@ -181,8 +208,9 @@ class WheelValidation:
     Attributes
     ----------
     runs : DataFrame
-        One row per run (:data:`RUN_COLUMNS`): measured and predicted (median, 5 %, 95 %)
-        sinkage, whether the band covers it, residual (measured − median), scope.
+        One row per run (:data:`RUN_COLUMNS`): measured and predicted sinkage (the median
+        and the band's ``lower`` and ``upper`` bounds, the (1 − prob)/2 and (1 + prob)/2
+        quantiles), whether the band covers it, residual (measured − median), scope.
     groups : DataFrame
         Coverage, bias (predicted − measured), MAE per wheel, wheel × slip, wheel × β and
         wheel × day (``quantity``, ``by``, ``scope``, ``wheel``, ``level`` …).
