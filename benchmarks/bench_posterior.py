@@ -24,7 +24,8 @@ kept draws.
 
 Population posteriors (issue #39): for every bundled real campaign and simulated-paper soil01,
 the wall and CPU time of the whole ``soilstats posterior --population`` command (imports,
-screening, sampling, report, files; target ≤ 10 s on two cores), and in process
+screening, sampling, report, files; target ≤ 10 s of wall time on two cores; best of three
+runs), and in process
 ``sample_population``'s ESS/s (min bulk ESS over the soil-level parameters and the scatter,
 over the whole call) beside plain emcee (stretch move, 32 walkers × 3 000 steps, 500 burn-in,
 ``vectorize=True``) sampling the same log-density (``population_setup(...).pops.log_prob``)
@@ -57,6 +58,7 @@ from soilstats.bayes.population import population_setup
 from soilstats.quality import screen
 
 WALKERS = 32
+CLI_REPEATS = 3  # runs of each CLI command; the best counts
 STEPS = 3000  # per walker for the plain emcee runs
 BURN = 500
 
@@ -243,8 +245,11 @@ def population_main() -> pd.DataFrame:
     rows, cli = [], []
     sample_population(load_campaign("cullinan-sand"), "bernstein", draws=2000, preparation="1")
     for label, args, runs in POPULATION_CASES:
-        wall, cpu = cli_seconds(args)
-        cli.append({"command": label, "wall s": wall, "CPU s": cpu, "<= 10 s": cpu <= 10})
+        # Best of CLI_REPEATS runs (the first also pays cold file caches): wall time is the
+        # criterion, CPU time beside it says whether a shared machine inflated the wall.
+        times = [cli_seconds(args) for _ in range(CLI_REPEATS)]
+        wall, cpu = min(times)
+        cli.append({"command": label, "wall s": wall, "CPU s": cpu, "<= 10 s": wall <= 10})
         for name, model, selection in runs:
             if name not in campaigns:
                 campaigns[name] = screen(load_campaign(name), "clean").campaign
