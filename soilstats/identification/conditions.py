@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 import pandas as pd
 
-from ..campaign.window import windowed
 from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
 from ..models import get_model
 from ..parallel import effective_jobs, parallel_map
@@ -213,7 +212,7 @@ def plan_conditions(
 ) -> ConditionPlan:
     """The conditions :func:`fit_conditions` would fit (same arguments, no ``jobs``)."""
     campaign = screened(campaign, options.pop("quality", "clean"))
-    campaign = windowed(campaign, options.pop("window", None))
+    campaign = campaign.windowed(options.pop("window", None))
     tests = campaign.tests[campaign.tests["kind"] == kind]
     if test_ids is not None:
         tests = tests[tests["test_id"].astype(str).isin(set(map(str, test_ids)))]

@@ -254,7 +254,7 @@ def data_findings(campaign: Campaign, test_ids) -> tuple[list[str], list[HealthF
     notes: list[str] = []
     flags: list[HealthFlag] = []
     record: dict = {"quality": None, "window": None, "excluded": [], "window_text": "none"}
-    applied = getattr(campaign, "window", None)
+    applied = campaign.window
     z_limit = {}
     if applied is not None:
         per = applied.per_test[applied.per_test["test_id"].isin(ids)]

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from .._text import plural
-from ..campaign.window import FitWindow, windowed
+from ..campaign.window import FitWindow
 from ..errors import IdentifiabilityError, InputError, ModelError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult, HealthFlag
@@ -129,7 +129,7 @@ def fit_sinkage(
     spec = get_model(model, "sinkage")
     if method not in ("lm", "wong"):
         raise InputError(f"method must be 'lm' or 'wong', got {method!r}")
-    campaign = windowed(screened(campaign, quality), window)
+    campaign = screened(campaign, quality).windowed(window)
     pooled = pool_sinkage(
         campaign, points_per_test=points_per_test, weighting=weighting, **selection
     )
@@ -192,7 +192,7 @@ def _rezero_sensitivity(
     rezeroed = sorted(ids & report.rezeroed) if report is not None else []
     if not rezeroed or report is None or report.unseated is None:
         return []
-    logged = windowed(report.unseated(), window)
+    logged = report.unseated().windowed(window)
     other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)
     x = spec.x_from(other.x)
     alt = identify(spec, x, other.y, p0, weights=other.weights, on_failure="warn")

@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from ..campaign.window import windowed
 from ..identification.conditions import fit_conditions
 from ..identification.per_test import not_converged_message
 from ..identification.result import ONSET_TOLERANCE
@@ -103,7 +102,7 @@ def run_study(
     provenance = provenance or Provenance.of(campaign, seed=seed)
     window_notes = []
     if spec.window:  # the spec's own window: every per-test and pooled fit sees it
-        campaign = windowed(campaign, spec.window)
+        campaign = campaign.windowed(spec.window)
         cache = PerTestCache(campaign, progress=progress)
         window_notes.append(f"Fitting window of this study: {spec.window.describe()}")
     cache = cache or PerTestCache(campaign, progress=progress)
