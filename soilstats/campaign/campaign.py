@@ -266,15 +266,18 @@ class Campaign:
         Folder path, ``"bundled:<name>"`` or ``"<memory>"``.
     skipped : DataFrame
         Tests dropped by ``on_error="skip"``: test_id, file, column, row, reason.
-    quality : QualityReport or None
-        Set on the campaign :func:`soilstats.quality.screen` returns: the screening findings
-        behind these (cleaned) samples. None: not screened yet.
     window : AppliedWindow or None
         Set by :meth:`windowed`: the fitting window whose samples were removed, with its
         per-test counts. None: no window applied.
     files : mapping of str to str
         File stem → the file name the table was read from (``sinkage.parquet``), for
         messages; ``<stem>.csv`` for tables given in memory. See :meth:`file_name`.
+
+    A campaign holds the campaign format's data and nothing of the analyses built on it
+    (docs/conventions.md, "Layers"): screening (:func:`soilstats.quality.screen`) returns
+    its :class:`~soilstats.quality.QualityReport`, whose ``campaign`` — a
+    :class:`~soilstats.quality.ScreenedCampaign`, this class with the report beside the
+    tables — is what analyses take.
     """
 
     tests: pd.DataFrame
@@ -282,7 +285,6 @@ class Campaign:
     shear: pd.DataFrame
     source: str = "<memory>"
     skipped: pd.DataFrame = field(default_factory=lambda: _skipped_table([]))
-    quality: Any = None
     window: AppliedWindow | None = None
     files: Mapping[str, str] = field(default_factory=lambda: {s: f"{s}.csv" for s in FILES})
 
@@ -352,8 +354,8 @@ class Campaign:
         Returns
         -------
         Campaign
-            A new campaign of this one's class (same source, skipped list, window and
-            screening report).
+            A new campaign of this one's class (same source, skipped list, window and, for a
+            screened campaign, report).
 
         Raises
         ------
@@ -470,6 +472,25 @@ class Campaign:
             return self
         sinkage, applied = window.apply(self.tests, self.sinkage, self.file_name("tests"))
         return replace(self, sinkage=sinkage, window=applied)
+
+    @property
+    def quality(self) -> object:
+        """Deprecated (removed in the next release): a campaign holds no screening state,
+        and this one was not screened (None).
+
+        :func:`soilstats.quality.screen` returns the report; the campaign it cleans
+        (``report.campaign``, a :class:`~soilstats.quality.ScreenedCampaign`) carries it as
+        ``.report``.
+        """
+        warnings.warn(
+            "Campaign.quality is deprecated and will be removed in the next release: a "
+            "campaign holds no screening state (this one was not screened: None). "
+            "soilstats.quality.screen(campaign) returns the QualityReport; the campaign it "
+            "cleans, report.campaign (a ScreenedCampaign), carries it as .report",
+            FutureWarning,
+            stacklevel=2,
+        )
+        return None
 
     def samples(self, test_id: str) -> pd.DataFrame:
         """The samples of one test (from the sinkage or shear table), in file order."""

@@ -21,6 +21,7 @@ from .result import CampaignFit
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..quality import ScreenedCampaign
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
@@ -182,15 +183,24 @@ REZERO_SIGMAS = 1.0
 
 
 def _rezero_sensitivity(
-    spec, campaign, window, pooled, result, bootstrap, p0, points_per_test, weighting, selection
+    spec,
+    campaign: ScreenedCampaign,
+    window,
+    pooled,
+    result,
+    bootstrap,
+    p0,
+    points_per_test,
+    weighting,
+    selection,
 ) -> list:
     """``rezero-sensitive`` when the fit's tests include records re-zeroed at a seating
     contact and the same fit on the records as logged (toes kept, z unchanged) differs by
     more than :data:`REZERO_SIGMAS` σ in some parameter."""
-    report = getattr(campaign, "quality", None)
+    report = campaign.report
     ids = {str(t) for t in pooled.by_test["test_id"]}
-    rezeroed = sorted(ids & report.rezeroed) if report is not None else []
-    if not rezeroed or report is None or report.unseated is None:
+    rezeroed = sorted(ids & report.rezeroed)
+    if not rezeroed or report.unseated is None:
         return []
     logged = report.unseated().windowed(window)
     other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)
