@@ -60,7 +60,7 @@ def test_partition_equals_one_select_per_part():
     for piece, part in zip(pieces, parts, strict=True):
         selected = campaign.select(test_id=part)
         _assert_same(piece, selected)  # log order and file rows (index) as select's
-        assert piece.quality is selected.quality and piece.source == selected.source
+        assert piece.window is selected.window and piece.source == selected.source
 
 
 def test_partition_interleaved_samples_keep_file_order(small):

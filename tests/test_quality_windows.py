@@ -12,7 +12,6 @@ from quality_sim import hold_plateau, plate_spec, raw_tables
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
-from soilstats.campaign.window import windowed
 from soilstats.cli.main import main
 from soilstats.identification import fit_sinkage
 from soilstats.quality import screen
@@ -42,7 +41,7 @@ def _planted(failed: dict[tuple[str, float], int], seed: int = 3):
 
 def _outside(campaign, report) -> dict[str, int]:
     """Samples per test that the report's proposed window leaves out."""
-    applied = windowed(report.campaign, report.proposed_window()).window
+    applied = report.campaign.windowed(report.proposed_window()).window
     per = applied.per_test
     return dict(zip(per["test_id"], per["outside"], strict=True))
 
@@ -92,7 +91,7 @@ def test_cullinan_sand_one_failed_test_keeps_the_other_twelve_whole():
     (flag,) = [f for f in report.flags if f.code == "bearing-failure"]
     assert outside["method5-test1"] == len(flag.rows)  # exactly the run-on
     # The proposal, applied, resolves the finding; unapplied, the fit's flag names it.
-    fit = fit_sinkage(windowed(report.campaign, report.proposed_window()), "bernstein")
+    fit = fit_sinkage(report.campaign.windowed(report.proposed_window()), "bernstein")
     assert "bearing-failure" not in {f.code for f in fit.flags}
     assert any("lies outside the window (resolved)" in n for n in fit.notes)
     bare = fit_sinkage(report.campaign, "bernstein")
@@ -111,7 +110,7 @@ def test_grc1_all_small_plates_fail_one_window_for_the_plate(capsys):
     assert 3.3e-3 < windows["z_max_m"].iloc[0] < 3.5e-3
     outside = _outside(campaign, report)
     assert {t for t, n in outside.items() if n} == {f"small-{i}" for i in range(1, 6)}
-    fit = fit_sinkage(windowed(report.campaign, report.proposed_window()), "bekker")
+    fit = fit_sinkage(report.campaign.windowed(report.proposed_window()), "bekker")
     assert "bearing-failure" not in {f.code for f in fit.flags}
     assert main(["check", "--data", "grc1-oravec2009", "--json"]) == 0
     document = json.loads(capsys.readouterr().out)

@@ -5,25 +5,26 @@ from __future__ import annotations
 import os
 import re
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Self
 
 import numpy as np
 import pandas as pd
-from pandas.api.types import is_bool_dtype, is_numeric_dtype
 
-from ..errors import CampaignError, InputError, SoilstatsWarning
+from ..errors import RENAMED_GO_IN, CampaignError, InputError, SoilstatsWarning
 from . import io
 from ._cells import TEXT_DTYPE
 from .derived import add_sample_columns, add_test_columns
 from .digest import campaign_sha256
 from .index import campaign_index, grouped_by_code
+from .matching import match_values, values_present
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
 from .units import check_plausible_units, convert_columns
 from .validate import Frames, Issue, derived_issues, validate
+from .window import AppliedWindow, FitWindow
 
 __all__ = ["SKIPPED_COLUMNS", "Campaign", "load_campaign"]
 
@@ -242,70 +243,6 @@ def load_campaign(
     return _build(io.read_folder(folder), source=source, on_error=on_error, check_units=check_units)
 
 
-def values_present(series: pd.Series, limit: int = 20) -> str:
-    """The distinct values of a test-log column, as error messages list them (``select``
-    and the CLI's ``--select``): sorted, at most ``limit``, and whether any are missing."""
-    vals = series.dropna().unique().tolist()
-    vals = sorted(vals, key=lambda v: (str(type(v)), v))
-    shown = ", ".join(repr(v) for v in vals[:limit])
-    more = f", … ({len(vals)} in all)" if len(vals) > limit else ""
-    missing = " and missing" if series.isna().any() else ""
-    return f"[{shown}{more}]{missing}"
-
-
-def _is_missing(value: object) -> bool:
-    return value is None or value is pd.NA or (isinstance(value, float) and np.isnan(value))
-
-
-#: Relative tolerance of numeric equality in selections: a value typed in a TOML file or on
-#: the command line equals the value read from a CSV, whatever the last binary digit.
-SELECT_RTOL = 1e-9
-
-
-def match_values(series: pd.Series, want: Any, column: str) -> np.ndarray:
-    """Boolean mask of the rows of ``series`` that a selection criterion keeps.
-
-    The one meaning of "column = value" in soilstats (``Campaign.select``, ``--select``,
-    study specifications): a callable gets the column and returns one bool per row; a list,
-    tuple, set or array keeps members; None/NaN keeps missing values; any other scalar keeps
-    equal values. Numbers in a numeric column are equal within a relative 1e-9; text columns
-    compare as text (``"5"``, not ``5``).
-    """
-    if callable(want):
-        got = want(series)
-        got = got if isinstance(got, pd.Series) else pd.Series(np.asarray(got).reshape(-1))
-        if len(got) != len(series) or not is_bool_dtype(got.dtype):
-            raise CampaignError(
-                f"the predicate must return one bool per test ({len(series)} tests), got "
-                f"{len(got)} values of dtype {got.dtype} — return e.g. `col > 0.1`",
-                column=column,
-            )
-        return got.to_numpy(dtype=bool, na_value=False)
-    wanted = (
-        list(want) if isinstance(want, Iterable) and not isinstance(want, str | bytes) else [want]
-    )
-    mask = np.zeros(len(series), dtype=bool)
-    if any(_is_missing(w) for w in wanted):
-        mask |= series.isna().to_numpy()
-    present = [w for w in wanted if not _is_missing(w)]
-    if not present:
-        return mask
-    numbers = [
-        w for w in present if isinstance(w, int | float | np.number) and not isinstance(w, bool)
-    ]
-    if is_numeric_dtype(series) and not is_bool_dtype(series):
-        if numbers:
-            values = series.to_numpy(dtype=float, na_value=np.nan)[:, None]
-            mask |= np.isclose(values, np.asarray(numbers, float), rtol=SELECT_RTOL, atol=0.0).any(
-                axis=1
-            )
-        return mask
-    try:
-        return mask | series.isin(present).to_numpy(dtype=bool, na_value=False)
-    except TypeError:  # e.g. unhashable values: nothing matches
-        return mask
-
-
 @dataclass(frozen=True, eq=False, repr=False)
 class Campaign:
     """A validated Bevameter campaign (see ``docs/campaign-format.md``).
@@ -329,15 +266,18 @@ class Campaign:
         Folder path, ``"bundled:<name>"`` or ``"<memory>"``.
     skipped : DataFrame
         Tests dropped by ``on_error="skip"``: test_id, file, column, row, reason.
-    quality : QualityReport or None
-        Set on the campaign :func:`soilstats.quality.screen` returns: the screening findings
-        behind these (cleaned) samples. None: not screened yet.
     window : AppliedWindow or None
-        Set by :func:`soilstats.campaign.window.windowed`: the fitting window whose
-        samples were removed, with its per-test counts.
+        Set by :meth:`windowed`: the fitting window whose samples were removed, with its
+        per-test counts. None: no window applied.
     files : mapping of str to str
         File stem → the file name the table was read from (``sinkage.parquet``), for
         messages; ``<stem>.csv`` for tables given in memory. See :meth:`file_name`.
+
+    A campaign holds the campaign format's data and nothing of the analyses built on it
+    (docs/conventions.md, "Layers"): screening (:func:`soilstats.quality.screen`) returns
+    its :class:`~soilstats.quality.QualityReport`, whose ``campaign`` — a
+    :class:`~soilstats.quality.ScreenedCampaign`, this class with the report beside the
+    tables — is what analyses take.
     """
 
     tests: pd.DataFrame
@@ -345,8 +285,7 @@ class Campaign:
     shear: pd.DataFrame
     source: str = "<memory>"
     skipped: pd.DataFrame = field(default_factory=lambda: _skipped_table([]))
-    quality: Any = None
-    window: Any = None
+    window: AppliedWindow | None = None
     files: Mapping[str, str] = field(default_factory=lambda: {s: f"{s}.csv" for s in FILES})
 
     def file_name(self, stem: str) -> str:
@@ -401,7 +340,7 @@ class Campaign:
         derived = DERIVED_COLUMNS["tests"]
         return [c for c in self.tests.columns if spec("tests", c) is None and c not in derived]
 
-    def select(self, **criteria: Any) -> Campaign:
+    def select(self, **criteria: Any) -> Self:
         """Keep the tests that meet every criterion, with their samples.
 
         Parameters
@@ -415,7 +354,8 @@ class Campaign:
         Returns
         -------
         Campaign
-            A new campaign (same source and skipped list).
+            A new campaign of this one's class (same source, skipped list, window and, for a
+            screened campaign, report).
 
         Raises
         ------
@@ -466,7 +406,7 @@ class Campaign:
         # screening rule names (soilstats.quality) is named by its row in the file.
         return table[table["test_id"].isin(list(ids))]
 
-    def partition(self, parts: Sequence[Sequence[str]]) -> list[Campaign]:
+    def partition(self, parts: Sequence[Sequence[str]]) -> list[Self]:
         """One campaign per entry of ``parts`` (lists of test ids), each what
         ``select(test_id=part)`` returns, built in one pass over the samples.
 
@@ -520,6 +460,37 @@ class Campaign:
             replace(self, tests=t.reset_index(drop=True), sinkage=s, shear=h)
             for t, s, h in zip(tests, sinkage, shear, strict=True)
         ]
+
+    def windowed(self, window: FitWindow | None) -> Self:
+        """This campaign without the sinkage samples outside ``window`` (z > z_max or
+        p > p_max), the window and its per-test counts recorded in :attr:`window`.
+
+        Shear tests are not windowed; without a window (None, or one without limits) the
+        campaign itself is returned. See :mod:`soilstats.campaign.window`.
+        """
+        if window is None or not window:
+            return self
+        sinkage, applied = window.apply(self.tests, self.sinkage, self.file_name("tests"))
+        return replace(self, sinkage=sinkage, window=applied)
+
+    @property
+    def quality(self) -> object:
+        """Deprecated (removed in soilstats 0.3.0): a campaign holds no screening state,
+        and this one was not screened (None).
+
+        :func:`soilstats.quality.screen` returns the report; the campaign it cleans
+        (``report.campaign``, a :class:`~soilstats.quality.ScreenedCampaign`) carries it as
+        ``.report``.
+        """
+        warnings.warn(
+            f"Campaign.quality is deprecated and will be removed in soilstats {RENAMED_GO_IN}: a "
+            "campaign holds no screening state (this one was not screened: None). "
+            "soilstats.quality.screen(campaign) returns the QualityReport; the campaign it "
+            "cleans, report.campaign (a ScreenedCampaign), carries it as .report",
+            FutureWarning,
+            stacklevel=2,
+        )
+        return None
 
     def samples(self, test_id: str) -> pd.DataFrame:
         """The samples of one test (from the sinkage or shear table), in file order."""

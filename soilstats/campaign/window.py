@@ -11,23 +11,26 @@ rule's limits replace the global ones.  Command lines write a rule as ``LIMIT`` 
 ``COLUMN=VALUE:LIMIT`` (``--z-max radius_m=0.038:0.0034``); ``test_id`` is a column too, so
 ``--z-max test_id=method5-test1:0.01077`` windows one test (as ``soilstats check`` proposes
 for a single failed test).
+
+:meth:`Campaign.windowed <soilstats.campaign.Campaign.windowed>` applies a window; the
+campaign it returns records the :class:`AppliedWindow` (its per-test counts) in ``window``.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 import numpy as np
 import pandas as pd
 
-from ..errors import CampaignError, InputError
+from ..errors import RENAMED_GO_IN, CampaignError, InputError
+from .matching import match_values
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
-
-    from .campaign import Campaign
 
 __all__ = ["AppliedWindow", "FitWindow", "WindowRule", "windowed"]
 
@@ -93,8 +96,6 @@ class FitWindow:
         """``test_id``, ``z_max``, ``p_max`` per test (NaN: no limit); a column rule whose
         value matches a test replaces the global rule's limits.  ``file``: the test log's
         name, for messages."""
-        from .campaign import match_values
-
         out = pd.DataFrame({"test_id": tests["test_id"].astype(str).to_numpy()})
         out["z_max"] = np.nan
         out["p_max"] = np.nan
@@ -118,6 +119,27 @@ class FitWindow:
                 if getattr(rule, name) is not None:
                     out.loc[hit, name] = getattr(rule, name)
         return out
+
+    def apply(
+        self, tests: pd.DataFrame, sinkage: pd.DataFrame, file: str = "tests.csv"
+    ) -> tuple[pd.DataFrame, AppliedWindow]:
+        """The samples of ``sinkage`` inside this window (z <= z_max and p <= p_max of their
+        test), and the window as applied: its per-test counts and the rows it left out.
+
+        ``tests`` is the test log (its sinkage tests are windowed), ``file`` its name for
+        messages. :meth:`Campaign.windowed <soilstats.campaign.Campaign.windowed>` applies a
+        window to a campaign.
+        """
+        limits = self.limits(tests[tests["kind"] == "sinkage"], file)
+        per_sample = limits.set_index("test_id").reindex(sinkage["test_id"].astype(str))
+        z_max = per_sample["z_max"].to_numpy(float)
+        p_max = per_sample["p_max"].to_numpy(float)
+        z, p = sinkage["z_m"].to_numpy(float), sinkage["pressure_Pa"].to_numpy(float)
+        outside = (~np.isnan(z_max) & (z > z_max)) | (~np.isnan(p_max) & (p > p_max))
+        counts = pd.Series(outside).groupby(sinkage["test_id"].astype(str).to_numpy()).sum()
+        limits["outside"] = limits["test_id"].map(counts).fillna(0).astype(int)
+        cut = np.sort(sinkage.index.to_numpy()[outside].astype(np.int64) + 1)
+        return sinkage[~outside], AppliedWindow(self, limits, cut)
 
     def describe(self) -> str:
         """One line: every rule, or 'none'."""
@@ -164,21 +186,22 @@ class AppliedWindow:
         }
 
 
-def windowed(campaign: Campaign, window: FitWindow | None) -> Campaign:
-    """``campaign`` without the sinkage samples outside ``window`` (z > z_max or p > p_max),
-    the window and its per-test counts recorded in ``campaign.window``.  Shear tests are
-    not windowed."""
-    if window is None or not window:
-        return campaign
-    tests = campaign.tests[campaign.tests["kind"] == "sinkage"]
-    limits = window.limits(tests, campaign.file_name("tests"))
-    sink = campaign.sinkage
-    per_sample = limits.set_index("test_id").reindex(sink["test_id"].astype(str))
-    z_max = per_sample["z_max"].to_numpy(float)
-    p_max = per_sample["p_max"].to_numpy(float)
-    z, p = sink["z_m"].to_numpy(float), sink["pressure_Pa"].to_numpy(float)
-    outside = (~np.isnan(z_max) & (z > z_max)) | (~np.isnan(p_max) & (p > p_max))
-    counts = pd.Series(outside).groupby(sink["test_id"].astype(str).to_numpy()).sum()
-    limits["outside"] = limits["test_id"].map(counts).fillna(0).astype(int)
-    cut = np.sort(sink.index.to_numpy()[outside].astype(np.int64) + 1)
-    return replace(campaign, sinkage=sink[~outside], window=AppliedWindow(window, limits, cut))
+_Windowed = TypeVar("_Windowed", covariant=True)
+
+
+class _Windowable(Protocol[_Windowed]):
+    """What has a :meth:`~soilstats.campaign.Campaign.windowed` method: a campaign."""
+
+    def windowed(self, window: FitWindow | None, /) -> _Windowed: ...
+
+
+def windowed(campaign: _Windowable[_Windowed], window: FitWindow | None) -> _Windowed:
+    """Deprecated (removed in soilstats 0.3.0): ``campaign.windowed(window)``
+    (:meth:`soilstats.campaign.Campaign.windowed`), which this calls."""
+    warnings.warn(
+        "soilstats.campaign.window.windowed(campaign, window) is deprecated and will be "
+        f"removed in soilstats {RENAMED_GO_IN}; use campaign.windowed(window)",
+        FutureWarning,
+        stacklevel=2,
+    )
+    return campaign.windowed(window)

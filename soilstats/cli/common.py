@@ -213,7 +213,7 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
     selection names the same ``campaign_sha256``, that of ``soilstats check``.
     """
     from ..campaign import load_campaign
-    from ..campaign.window import FitWindow, windowed
+    from ..campaign.window import FitWindow
     from ..outputs import Provenance
     from ..quality import screen
 
@@ -224,7 +224,7 @@ def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenanc
     report = screen(loaded, getattr(args, "quality", "clean"))
     window = FitWindow.parse(getattr(args, "z_max", ()), getattr(args, "p_max", ()))
     screened = cast("Campaign", report.campaign)  # screen's report carries the campaign
-    campaign = apply_selection(windowed(screened, window), args.select)
+    campaign = apply_selection(screened.windowed(window), args.select)
     if report.mode != "off":
         # Screening runs on the whole file (its rows are the file's rows), but the line
         # counts the tests the command uses: a failed test outside --select is no concern.
@@ -295,7 +295,7 @@ def apply_selection(campaign: Campaign, items: Sequence[str] | Sequence[Criterio
     import numpy as np
     import pandas as pd
 
-    from ..campaign.campaign import match_values
+    from ..campaign.matching import match_values
     from ..errors import CampaignError
 
     criteria = [c if isinstance(c, Criterion) else parse_selection([c])[0] for c in items]
@@ -340,7 +340,7 @@ def _kept_nothing(campaign, criteria, masks, own, scopes) -> Exception:
     """
     import numpy as np
 
-    from ..campaign.campaign import values_present
+    from ..campaign.matching import values_present
     from ..errors import CampaignError
 
     tests = campaign.tests

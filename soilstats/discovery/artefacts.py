@@ -22,7 +22,7 @@ from .ftests import strata_codes, trend_slope
 from .result import Finding
 
 if TYPE_CHECKING:
-    from ..campaign.campaign import Campaign
+    from ..quality import ScreenedCampaign
 
 __all__ = ["quality_record", "split_artefacts", "with_quality_caveat"]
 
@@ -37,12 +37,9 @@ ORDER_SHARE = 1 / 3
 
 
 # ----------------------------------------------------------------------------- the steps
-def quality_record(campaign: Campaign) -> dict | None:
-    """What screening found in the tests discovery analyses (JSON-ready), or None."""
-    report = getattr(campaign, "quality", None)
-    if report is None:
-        return None
-    report = report.for_tests(campaign.tests["test_id"].astype(str))
+def quality_record(campaign: ScreenedCampaign) -> dict:
+    """What screening found in the tests discovery analyses (JSON-ready)."""
+    report = campaign.report.for_tests(campaign.tests["test_id"].astype(str))
     codes: dict[str, list[str]] = {}
     for f in report.flags:
         codes.setdefault(f.test_id, [])

@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 import pandas as pd
 
-from ..campaign.window import windowed
 from ..errors import CampaignError, ConvergenceError, IdentifiabilityError
 from ..models import get_model
 from ..parallel import effective_jobs, parallel_map
@@ -26,6 +25,7 @@ from .result import CampaignFit
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..quality import ScreenedCampaign
 from .shear import fit_shear
 from .sinkage import fit_sinkage
 from .table import format_parameter_table, parameter_table
@@ -193,7 +193,7 @@ class ConditionPlan:
     screened (and windowed) campaign, the fit of every (soil, series, condition) as a task,
     and the notes of the planning (:func:`plan_conditions`; run by :func:`fit_planned`)."""
 
-    campaign: Campaign = field(repr=False)
+    campaign: ScreenedCampaign = field(repr=False)
     kind: str
     tasks: tuple[ConditionTask, ...]  # in table order
     options: dict
@@ -212,9 +212,9 @@ def plan_conditions(
     **options,
 ) -> ConditionPlan:
     """The conditions :func:`fit_conditions` would fit (same arguments, no ``jobs``)."""
-    campaign = screened(campaign, options.pop("quality", "clean"))
-    campaign = windowed(campaign, options.pop("window", None))
-    tests = campaign.tests[campaign.tests["kind"] == kind]
+    prepared = screened(campaign, options.pop("quality", "clean"))
+    prepared = prepared.windowed(options.pop("window", None))
+    tests = prepared.tests[prepared.tests["kind"] == kind]
     if test_ids is not None:
         tests = tests[tests["test_id"].astype(str).isin(set(map(str, test_ids)))]
     if soils is not None:
@@ -232,7 +232,7 @@ def plan_conditions(
     else:
         by_series = [(None, tests)]
     for series, series_tests in by_series:
-        column = default_condition(series_tests, kind, by, campaign.file_name("tests"))
+        column = default_condition(series_tests, kind, by, prepared.file_name("tests"))
         keys = ["soil", column] if column else ["soil"]
         for key, group in series_tests.groupby(keys, sort=True, dropna=False):
             soil = str(key[0])
@@ -249,7 +249,7 @@ def plan_conditions(
         f"{why}; {chosen + ' used' if chosen else 'not identified'}: {'; '.join(where)}"
         for (why, chosen), where in fallbacks.items()
     )
-    return ConditionPlan(campaign, kind, tuple(tasks), options, notes)
+    return ConditionPlan(prepared, kind, tuple(tasks), options, notes)
 
 
 def fit_conditions(
@@ -374,16 +374,15 @@ def fit_planned(
     return results
 
 
-def _for_worker(piece, ids):
+def _for_worker(piece: ScreenedCampaign, ids) -> ScreenedCampaign:
     """A condition's campaign with its screening report and window cut to its tests: the
     fit reads only theirs, and the whole campaign's, sent with every condition, would grow
     as conditions × tests."""
-    quality = None if piece.quality is None else piece.quality.for_tests(ids)
     window = piece.window
     if window is not None:
         kept = window.per_test["test_id"].astype(str).isin(set(ids))
         window = replace(window, per_test=window.per_test[kept])
-    return replace(piece, quality=quality, window=window)
+    return replace(piece, report=piece.report.for_tests(ids), window=window)
 
 
 #: Time per sample of a condition's fit, relative to a sinkage sample (measured on the

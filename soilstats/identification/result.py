@@ -19,7 +19,7 @@ from .bootstrap import MIN_TESTS, TestBootstrap
 from .pooling import PooledData
 
 if TYPE_CHECKING:
-    from ..campaign.campaign import Campaign
+    from ..quality import ScreenedCampaign
 
 __all__ = ["CampaignFit"]
 
@@ -47,7 +47,7 @@ class CampaignFit(FitResult):
         notes=(),
         flags: tuple[HealthFlag, ...] | list[HealthFlag] = (),
         bootstrap: TestBootstrap | None = None,
-        campaign: Campaign | None = None,
+        campaign: ScreenedCampaign | None = None,
     ) -> CampaignFit:
         """``fit`` with the tests it used (``pooled.tests``), the notes and flags of the
         pooling, the test-level bootstrap with the flags it raises, and (from ``campaign``)
@@ -244,7 +244,9 @@ _FIT_CODES = tuple(code for code, q in CODES.items() if q.nature != "stop")
 ONSET_TOLERANCE = 1e-3
 
 
-def data_findings(campaign: Campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict]:
+def data_findings(
+    campaign: ScreenedCampaign, test_ids
+) -> tuple[list[str], list[HealthFlag], dict]:
     """Notes, health flags and the JSON record of the screening and window behind a fit.
 
     A ``bearing-failure`` whose onset the window cuts off is resolved (a note, no flag);
@@ -254,7 +256,7 @@ def data_findings(campaign: Campaign, test_ids) -> tuple[list[str], list[HealthF
     notes: list[str] = []
     flags: list[HealthFlag] = []
     record: dict = {"quality": None, "window": None, "excluded": [], "window_text": "none"}
-    applied = getattr(campaign, "window", None)
+    applied = campaign.window
     z_limit = {}
     if applied is not None:
         per = applied.per_test[applied.per_test["test_id"].isin(ids)]
@@ -271,9 +273,7 @@ def data_findings(campaign: Campaign, test_ids) -> tuple[list[str], list[HealthF
             f"Fitting window {applied.window.describe()}: {outside} samples of "
             f"{int((per['outside'] > 0).sum())} tests outside it, not used."
         )
-    report = getattr(campaign, "quality", None)
-    if report is None:
-        return notes, flags, record
+    report = campaign.report
     mine = report.flags_of(ids)
     record["quality"] = report.mode
     excluded = [f for f in mine if f.excluded]
@@ -308,7 +308,10 @@ def data_findings(campaign: Campaign, test_ids) -> tuple[list[str], list[HealthF
             f
             for f in hits
             if (applied is not None and applied.cuts(f.rows))
-            or (code == "bearing-failure" and z_limit.get(f.test_id, np.inf) <= f.value * limit)
+            or (
+                code == "bearing-failure"
+                and z_limit.get(f.test_id, np.inf) <= cast(float, f.value) * limit
+            )  # a bearing failure has its onset
         ]
         if cut:
             notes.append(

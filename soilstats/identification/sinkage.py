@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 
 from .._text import plural
-from ..campaign.window import FitWindow, windowed
+from ..campaign.window import FitWindow
 from ..errors import IdentifiabilityError, InputError, ModelError
 from ..fitting.identify import identify
 from ..fitting.result import FitResult, HealthFlag
@@ -22,6 +22,7 @@ from .reuse import reusable
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..quality import ScreenedCampaign
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
@@ -131,7 +132,7 @@ def fit_sinkage(
     spec = get_model(model, "sinkage")
     if method not in ("lm", "wong"):
         raise InputError(f"method must be 'lm' or 'wong', got {method!r}")
-    campaign = windowed(screened(campaign, quality), window)
+    campaign = screened(campaign, quality).windowed(window)
     pooled = pool_sinkage(
         campaign, points_per_test=points_per_test, weighting=weighting, **selection
     )
@@ -184,17 +185,26 @@ REZERO_SIGMAS = 1.0
 
 
 def _rezero_sensitivity(
-    spec, campaign, window, pooled, result, bootstrap, p0, points_per_test, weighting, selection
+    spec,
+    campaign: ScreenedCampaign,
+    window,
+    pooled,
+    result,
+    bootstrap,
+    p0,
+    points_per_test,
+    weighting,
+    selection,
 ) -> list:
     """``rezero-sensitive`` when the fit's tests include records re-zeroed at a seating
     contact and the same fit on the records as logged (toes kept, z unchanged) differs by
     more than :data:`REZERO_SIGMAS` σ in some parameter."""
-    report = getattr(campaign, "quality", None)
+    report = campaign.report
     ids = {str(t) for t in pooled.by_test["test_id"]}
-    rezeroed = sorted(ids & report.rezeroed) if report is not None else []
-    if not rezeroed or report is None or report.unseated is None:
+    rezeroed = sorted(ids & report.rezeroed)
+    if not rezeroed or report.unseated is None:
         return []
-    logged = windowed(report.unseated(), window)
+    logged = report.unseated().windowed(window)
     other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)
     x = spec.x_from(other.x)
     alt = identify(spec, x, other.y, p0, weights=other.weights, on_failure="warn")

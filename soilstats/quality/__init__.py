@@ -1,15 +1,15 @@
 """Data-quality screening of real Bevameter records (codes: :data:`CODES`; docs/quality.md).
 
 :func:`screen` runs every rule over a campaign and returns a :class:`QualityReport`
-(:mod:`.report`: the findings, the windows they propose, the cleaned campaign every analysis
-uses); :func:`screened` is the guard the
-fitting functions call.  The detectors on one record are in :mod:`.records`; copied records
-(``duplicate``) are found across records by :mod:`.copies`, a force zero drifting with test
-order (``zero-drift``) across the tests of a series by :mod:`.drift`.
+(:mod:`.report`: the findings, the windows they propose, and the cleaned campaign every
+analysis uses, a :class:`ScreenedCampaign` that carries the report); :func:`screened` is the
+guard the fitting functions call.  The detectors on one record are in :mod:`.records`;
+copied records (``duplicate``) are found across records by :mod:`.copies`, a force zero
+drifting with test order (``zero-drift``) across the tests of a series by :mod:`.drift`.
 """
 
 from .codes import ARTEFACT_CODES, CODES, MODES, PHASE_CODES, STOP_CODES, QualityCode
-from .report import QualityFlag, QualityReport
+from .report import QualityFlag, QualityReport, ScreenedCampaign
 from .screen import screen, screened
 
 __all__ = [
@@ -21,6 +21,7 @@ __all__ = [
     "QualityCode",
     "QualityFlag",
     "QualityReport",
+    "ScreenedCampaign",
     "screen",
     "screened",
 ]

@@ -1,28 +1,29 @@
 """The findings of a screening: :class:`QualityFlag` per finding, :class:`QualityReport` for
-a campaign, and the fitting windows ``bearing-failure`` proposes (:meth:`QualityReport
-.proposed_windows`). :func:`soilstats.quality.screen` builds them.
+a campaign, the fitting windows ``bearing-failure`` proposes (:meth:`QualityReport
+.proposed_windows`), and the :class:`ScreenedCampaign` that analyses take (the campaign as
+screening leaves it, with its report). :func:`soilstats.quality.screen` builds them.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from decimal import ROUND_CEILING, Decimal
-from typing import TYPE_CHECKING, cast
+from typing import cast
 
 import numpy as np
 import pandas as pd
 
 from .._text import plural
+from ..campaign.campaign import Campaign
+from ..errors import RENAMED_GO_IN
 from ..outputs.files import json_safe
 from ..outputs.text import notes_block
 from .codes import CODES
 
-if TYPE_CHECKING:
-    from ..campaign.campaign import Campaign
-
-__all__ = ["PLATE_WINDOW_SHARE", "QualityFlag", "QualityReport"]
+__all__ = ["PLATE_WINDOW_SHARE", "QualityFlag", "QualityReport", "ScreenedCampaign"]
 
 #: ``bearing-failure`` proposes one window for a whole plate (soil and plate size b) only
 #: when more than this share of its sinkage tests failed; otherwise a window per failed
@@ -70,9 +71,10 @@ class QualityReport:
     flags : tuple of QualityFlag
     tests : DataFrame
         ``test_id``, ``kind``, ``soil``, ``b_m`` of every screened test.
-    campaign : Campaign
+    campaign : ScreenedCampaign
         The campaign analyses use: in mode ``clean`` without the excluded samples and with
-        re-zeroed sinkage; otherwise the input.  Its ``quality`` is this report.
+        re-zeroed sinkage; otherwise the input.  Its ``report`` is this report (without its
+        ``campaign``).
     phases : dict
         Test id → :class:`~soilstats.quality.staging.TestPhases` of every sinkage record
         (empty in mode ``off``).
@@ -85,9 +87,9 @@ class QualityReport:
     mode: str
     flags: tuple[QualityFlag, ...]
     tests: pd.DataFrame
-    campaign: Campaign | None = field(repr=False, default=None)
+    campaign: ScreenedCampaign | None = field(repr=False, default=None)
     phases: dict = field(repr=False, default_factory=dict)
-    unseated: Callable[[], Campaign] | None = field(repr=False, default=None, compare=False)
+    unseated: Callable[[], ScreenedCampaign] | None = field(repr=False, default=None, compare=False)
 
     @property
     def rezeroed(self) -> frozenset[str]:
@@ -275,6 +277,44 @@ class QualityReport:
                 "documentation": "docs/quality.md",
             }
         )
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class ScreenedCampaign(Campaign):
+    """A campaign as :func:`~soilstats.quality.screen` leaves it, with the screening's report.
+
+    ``screen(campaign).campaign`` is one. It is a :class:`~soilstats.campaign.Campaign` in
+    every respect (the cleaned tables; ``select``, ``partition`` and ``windowed`` return
+    screened campaigns with the same report), and analyses given one do not screen again
+    (:func:`~soilstats.quality.screened`). The report stays here, on the screening's floor:
+    a plain campaign holds no screening state (docs/conventions.md, "Layers").
+
+    Attributes
+    ----------
+    report : QualityReport
+        The findings behind these samples, of every test screened (a selection keeps the
+        whole report: :meth:`QualityReport.for_tests` cuts it).
+    """
+
+    report: QualityReport = field(kw_only=True)
+
+    @classmethod
+    def of(cls, campaign: Campaign, report: QualityReport) -> ScreenedCampaign:
+        """``campaign``'s tables, source, window and files, with ``report``."""
+        kept = {f.name: getattr(campaign, f.name) for f in fields(Campaign)}
+        return cls(**kept, report=report)
+
+    @property
+    def quality(self) -> QualityReport:
+        """Deprecated (removed in soilstats 0.3.0): :attr:`report`."""
+        warnings.warn(
+            f"campaign.quality is deprecated and will be removed in soilstats {RENAMED_GO_IN}: a "
+            "campaign holds no screening state; the screened campaign screen() returns "
+            "(a ScreenedCampaign) carries the report as .report",
+            FutureWarning,
+            stacklevel=2,
+        )
+        return self.report
 
 
 def _ceil4(z: float) -> str:

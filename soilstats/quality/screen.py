@@ -14,7 +14,7 @@ from __future__ import annotations
 import hashlib
 import weakref
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
@@ -28,12 +28,12 @@ from .codes import CODES, MODES
 from .copies import RECORDS, find_copies
 from .drift import find_drift, start_forces
 from .phases import find_phases
-from .report import QualityFlag, QualityReport
+from .report import QualityFlag, QualityReport, ScreenedCampaign
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
 
-__all__ = ["QualityFlag", "QualityReport", "screen", "screened"]
+__all__ = ["QualityFlag", "QualityReport", "ScreenedCampaign", "screen", "screened"]
 
 #: Load-capped: the spread (max/min − 1) of the end force or pressure that counts as "the
 #: same load" ...
@@ -548,7 +548,8 @@ def screen(campaign: Campaign, mode: str = "clean", *, progress: bool = False) -
     Returns
     -------
     QualityReport
-        With ``campaign``, the campaign to analyse (``campaign.quality`` is the report).
+        With ``campaign``, the campaign to analyse: a :class:`ScreenedCampaign`, whose
+        ``report`` is this report.
     """
     if mode not in MODES:
         raise InputError(f"quality mode must be one of {MODES}, got {mode!r}")
@@ -557,7 +558,7 @@ def screen(campaign: Campaign, mode: str = "clean", *, progress: bool = False) -
     tests["test_id"] = tests["test_id"].astype(str)
     if mode == "off":
         report = QualityReport(mode, (), tests)
-        return replace(report, campaign=replace(campaign, quality=report))
+        return replace(report, campaign=ScreenedCampaign.of(campaign, report))
     key = (mode, _fingerprint(campaign))
     if key not in _FINDINGS:
         if len(_FINDINGS) >= 16:
@@ -579,26 +580,29 @@ def screen(campaign: Campaign, mode: str = "clean", *, progress: bool = False) -
                 "shear": drop["shear"],
             }
             report = replace(report, unseated=_Unseated(campaign, kept, copies, report))
-    return replace(report, campaign=replace(cleaned, quality=report))
+    return replace(report, campaign=ScreenedCampaign.of(cleaned, report))
 
 
 @dataclass(frozen=True, eq=False)
 class _Unseated:
     """The campaign cleaned but for the seating offsets (built when first asked for)."""
 
-    raw: object
+    raw: Campaign
     drop: dict
     copies: frozenset | set
     report: QualityReport
 
-    def __call__(self):
+    def __call__(self) -> ScreenedCampaign:
         cleaned = _cleaned(self.raw, self.drop, {}, self.copies)
-        return replace(cleaned, quality=self.report)
+        return ScreenedCampaign.of(cleaned, self.report)
 
 
 def _cleaned(
-    campaign, drop: dict[str, list[np.ndarray]], offsets: dict[str, float], copies=frozenset()
-):
+    campaign: Campaign,
+    drop: dict[str, list[np.ndarray]],
+    offsets: dict[str, float],
+    copies=frozenset(),
+) -> Campaign:
     """The campaign without the excluded samples (``drop``: labels per table) and without
     the tests that are copies of another (``copies``: their whole record is excluded, so
     they would be tests without samples), z re-zeroed where a contact was found."""
@@ -622,23 +626,25 @@ def _cleaned(
 
 #: Screened versions of the campaigns analysed in this process, by campaign and mode: the
 #: functions that screen what they are given are called many times on one campaign.
-_SCREENED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_SCREENED: weakref.WeakKeyDictionary[Campaign, dict[str, ScreenedCampaign]] = (
+    weakref.WeakKeyDictionary()
+)
 
 
-def screened(campaign: Campaign, quality: str = "clean", **selection):
+def screened(campaign: Campaign, quality: str = "clean", **selection) -> ScreenedCampaign:
     """``campaign`` (restricted to ``selection``) ready for analysis: screened in mode
-    ``quality`` unless it was already (a campaign from :func:`screen` carries its report in
-    ``campaign.quality``).
+    ``quality`` unless it was already (a :class:`ScreenedCampaign`, as :func:`screen`
+    returns in its report's ``campaign``, is taken as it is).
 
     The whole campaign is screened once per campaign and mode, then selected: fits are
     called many times on one campaign with different selections (conditions, folds), and
     ``load-capped`` judges all tests of a soil together.
     """
-    if getattr(campaign, "quality", None) is None:
+    if not isinstance(campaign, ScreenedCampaign):
         if quality not in MODES:
             raise CampaignError(f"quality must be one of {MODES}, got {quality!r}")
         cache = _SCREENED.setdefault(campaign, {})
         if quality not in cache:
-            cache[quality] = screen(campaign, quality).campaign
+            cache[quality] = cast(ScreenedCampaign, screen(campaign, quality).campaign)
         campaign = cache[quality]
     return campaign.select(**selection) if selection else campaign

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import seaborn as sns
 
-from ..campaign.campaign import match_values
+from ..campaign.matching import match_values
 from ..identification.conditions import condition_label
 from .labels import column_label, natural_key, natural_sorted
 

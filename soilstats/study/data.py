@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from ..campaign.campaign import match_values
+from ..campaign.matching import match_values
 from ..errors import StudyDataError
 from ..identification.conditions import condition_label
 

@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from ..campaign.window import windowed
 from ..identification.conditions import fit_conditions
 from ..identification.per_test import not_converged_message
 from ..identification.result import ONSET_TOLERANCE
 from ..outputs import Provenance, source_date
+from ..quality import ScreenedCampaign
 from .data import StudyDataError, select_tests, soils_with_levels
 from .effects import factor_effects
 from .preparation import evaluate_criteria
@@ -51,12 +51,13 @@ def _pooled_fits(campaign, tests: pd.DataFrame, spec, soil: str, notes: list) ->
     )
 
 
-def _failed_in_bearing(campaign, per_test: pd.DataFrame) -> set[str]:
+def _failed_in_bearing(campaign: Campaign, per_test: pd.DataFrame) -> set[str]:
     """Tests flagged ``bearing-failure`` whose fitted curve still reaches the onset (a window
-    that cuts the failure off resolves it, as for the identification's health flags)."""
-    report = getattr(campaign, "quality", None)
-    if report is None or "z_max_m" not in per_test:
+    that cuts the failure off resolves it, as for the identification's health flags); none
+    where ``campaign`` was not screened (a :class:`ScreenedCampaign` carries the report)."""
+    if not isinstance(campaign, ScreenedCampaign) or "z_max_m" not in per_test:
         return set()
+    report = campaign.report
     z_max = dict(zip(per_test["test_id"].astype(str), per_test["z_max_m"], strict=True))
     return {
         f.test_id
@@ -103,7 +104,7 @@ def run_study(
     provenance = provenance or Provenance.of(campaign, seed=seed)
     window_notes = []
     if spec.window:  # the spec's own window: every per-test and pooled fit sees it
-        campaign = windowed(campaign, spec.window)
+        campaign = campaign.windowed(spec.window)
         cache = PerTestCache(campaign, progress=progress)
         window_notes.append(f"Fitting window of this study: {spec.window.describe()}")
     cache = cache or PerTestCache(campaign, progress=progress)
