@@ -126,3 +126,17 @@ def test_the_printed_window_keeps_the_onset_and_resolves_it(z):
 
     printed = float(_ceil4(z))
     assert z <= printed <= z * (1 + ONSET_TOLERANCE)
+
+
+def test_identify_report_states_the_window_it_fitted_in(tmp_path, capsys):
+    # The PDF's notes table printed the window record as a dict and crashed (unhashable).
+    out = tmp_path / "out"
+    args = ["identify", "--data", "grc1-oravec2009", "--z-max", "radius_m=0.038:0.0034"]
+    assert main([*args, "--out", str(out)]) == 0
+    capsys.readouterr()
+    pdfplumber = pytest.importorskip("pdfplumber")
+    with pdfplumber.open(out / "identify.pdf") as pdf:
+        text = " ".join(page.extract_text() or "" for page in pdf.pages)
+    record = json.loads((out / "identify.json").read_text())["fits"][0]["window"]
+    beyond = sum(record["outside"].values())
+    assert "radius_m = 0.038: z ≤ 3.4 mm" in text and f"{beyond} samples beyond" in text

@@ -267,7 +267,7 @@ def _flags_and_notes(doc: Document, records: list[dict], failures: list, notes: 
     settings = {
         "method": [d["method"] for d in records],
         "screening": [d.get("quality") or "off" for d in records],
-        "window": [d.get("window") or "none" for d in records],
+        "window": [_window_text(d.get("window")) for d in records],
     }
     common = {key: values[0] for key, values in settings.items() if len(set(values)) == 1}
     rows = []
@@ -305,6 +305,25 @@ def _flags_and_notes(doc: Document, records: list[dict], failures: list, notes: 
     if failures or notes:
         doc.heading("Conditions not identified and notes")
         doc.numbered([*failures, *notes], small=True)
+
+
+def _window_text(window: dict | None) -> str:
+    """``radius_m = 0.038: z ≤ 3.4 mm (53 samples beyond)`` from an identify.json ``window``
+    record (its rules and the samples each test had outside them); ``none`` without one."""
+    if not window:
+        return "none"
+    rules = []
+    for rule in window.get("rules") or []:
+        limits = []
+        if rule.get("z_max_m") is not None:
+            limits.append(f"z ≤ {1e3 * rule['z_max_m']:.4g} mm")
+        if rule.get("p_max_Pa") is not None:
+            limits.append(f"p ≤ {1e-3 * rule['p_max_Pa']:.4g} kPa")
+        where = f"{rule['column']} = {rule['value']}: " if rule.get("column") else ""
+        rules.append(where + (" and ".join(limits) or "no limit"))
+    outside = sum((window.get("outside") or {}).values())
+    beyond = f" ({plural(outside, 'sample')} beyond)" if outside else ""
+    return "; ".join(rules or ["none"]) + beyond
 
 
 def _excluded_text(entry) -> str:
