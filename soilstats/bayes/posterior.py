@@ -152,7 +152,8 @@ def finish(
         "tau_reliable": run.tau_reliable,
         "extended": run.extended,
     }
-    flags = diagnose(chain_diagnostics(idata, var_names))
+    chains = chain_diagnostics(idata, var_names)
+    flags = diagnose(chains)
     if not run.tau_reliable:
         flags = (
             *flags,
@@ -185,6 +186,7 @@ def finish(
         sampler=sampler,
         notes=tuple(notes),
         lsq=lsq,
+        _chains=chains,
     )
 
 

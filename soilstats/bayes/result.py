@@ -122,6 +122,9 @@ class PosteriorResult:
     sampler: dict = field(repr=False)
     notes: tuple[str, ...] = ()
     lsq: FitResult | None = field(default=None, repr=False)  # the least-squares fit it began at
+    # The chains' diagnostics when the sampler already computed them (its convergence check):
+    # ArviZ's summary is the most expensive table here, so it is made once.
+    _chains: pd.DataFrame | None = field(default=None, repr=False, compare=False)
 
     @property
     def converged(self) -> bool:
@@ -171,6 +174,8 @@ class PosteriorResult:
     def _chain_diagnostics(self) -> pd.DataFrame:
         """MCSE, bulk/tail ESS and R-hat of every sampled quantity: the chains' own, whatever
         interval or draws a table describes, so computed once."""
+        if self._chains is not None:
+            return self._chains
         return chain_diagnostics(self.idata, self.var_names)
 
     @cached_property
