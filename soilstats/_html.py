@@ -7,7 +7,7 @@ type the same look: a title, key facts, the main table and the numbered notes.
 from __future__ import annotations
 
 import html
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import pandas as pd
 
@@ -29,7 +29,7 @@ def facts_html(facts: Mapping[str, object]) -> str:
     return f"<ul style='list-style:none;padding-left:0'>{items}</ul>" if items else ""
 
 
-def notes_html(notes, title: str = "Notes") -> str:
+def notes_html(notes: Iterable[str], title: str = "Notes") -> str:
     """Numbered notes, as the text summaries number them."""
     notes = [str(n) for n in notes if str(n).strip()]
     if not notes:

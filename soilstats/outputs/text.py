@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 __all__ = ["notes_block"]
 
 
-def notes_block(notes) -> list[str]:
+def notes_block(notes: Iterable[str]) -> list[str]:
     """``Notes:`` and each note numbered ``[1] …`` (nothing when there are none)."""
     notes = list(notes)
     if not notes:
