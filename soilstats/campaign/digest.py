@@ -12,11 +12,12 @@ import numpy as np
 import pandas as pd
 
 from .schema import DERIVED_COLUMNS, FILES
+from .tables import CampaignTables
 
 __all__ = ["campaign_sha256"]
 
 
-def campaign_sha256(campaign) -> str:  # a Campaign (that module imports this one)
+def campaign_sha256(campaign: CampaignTables) -> str:
     """SHA-256 of a campaign's raw content (what ``Campaign.save`` writes), as hex.
 
     The same tables give the same hash whether they came from CSV, Parquet or DataFrames:
