@@ -78,7 +78,9 @@ def _fit_lines(blocks: Blocks, x: np.ndarray, y: np.ndarray, w: np.ndarray | Non
     return slope, intercept, conditioned
 
 
-def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
+def contact_statistics(
+    blocks: Blocks, z: np.ndarray, force: np.ndarray
+) -> tuple[BoolArray, FloatArray, FloatArray, FloatArray, BoolArray]:
     """What ``records.find_contact`` compares, for every block: (alive, from_zero, coarse,
     law_excess, trusted). ``alive``: the block passed the detector's exact early exits;
     ``from_zero`` and ``coarse``: the residual of the power law from z = 0 and the least
@@ -266,7 +268,9 @@ def _end_gain(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> FloatArray:
     return np.where(has & (tail >= 0), gain, np.nan)
 
 
-def runaway_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
+def runaway_statistics(
+    blocks: Blocks, z: np.ndarray, force: np.ndarray
+) -> tuple[BoolArray, FloatArray, BoolArray, BoolArray]:
     """What ``records.find_runaway`` compares, for every block: (alive, excess, safe,
     undecided). ``alive``: the block passed the detector's exact early exits with a clearly
     positive exponent; ``excess``: its final excess sinkage (closed-form fit); ``safe``: the

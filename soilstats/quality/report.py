@@ -6,7 +6,7 @@ a campaign, and the fitting windows ``bearing-failure`` proposes (:meth:`Quality
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from decimal import ROUND_CEILING, Decimal
 from typing import TYPE_CHECKING, cast
@@ -21,6 +21,7 @@ from .codes import CODES
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.window import FitWindow
 
 __all__ = ["PLATE_WINDOW_SHARE", "QualityFlag", "QualityReport"]
 
@@ -94,7 +95,7 @@ class QualityReport:
         """Tests whose z was re-zeroed at a seating contact (``pre-contact`` in mode clean)."""
         return frozenset(f.test_id for f in self.flags if f.code == "pre-contact" and f.excluded)
 
-    def for_tests(self, test_ids) -> QualityReport:
+    def for_tests(self, test_ids: Iterable[str]) -> QualityReport:
         """The findings of these tests only."""
         keep = set(map(str, test_ids))
         return replace(
@@ -104,7 +105,7 @@ class QualityReport:
             phases={t: p for t, p in self.phases.items() if t in keep},
         )
 
-    def flags_of(self, test_ids) -> tuple[QualityFlag, ...]:
+    def flags_of(self, test_ids: Iterable[str]) -> tuple[QualityFlag, ...]:
         """The findings of these tests, in report order: :meth:`for_tests`'s ``flags``
         without its table of tests (a fit asks this on every call)."""
         keep = set(map(str, test_ids))
@@ -184,7 +185,7 @@ class QualityReport:
                 rows.append((soil, b, onsets[t], 1, "test", t, len(plate), item))
         return pd.DataFrame(rows, columns=columns)
 
-    def proposed_window(self):
+    def proposed_window(self) -> FitWindow:
         """:meth:`proposed_windows` as one :class:`~soilstats.campaign.window.FitWindow`
         (``fit_sinkage(..., window=...)``; empty when nothing failed)."""
         from ..campaign.window import FitWindow

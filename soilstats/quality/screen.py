@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -279,7 +280,11 @@ def _sinkage_findings(
     return out, drop, offsets, ends, phases
 
 
-def seating_per_soil(found: dict, record, soils: list) -> dict:
+def seating_per_soil(
+    found: dict[int, records.ContactPoint],
+    record: Callable[[int], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    soils: list,
+) -> dict[int, records.ContactPoint]:
     """The seating offsets to re-zero, by record: one rule for the same toe in every test of
     a soil.
 
@@ -586,12 +591,12 @@ def screen(campaign: Campaign, mode: str = "clean", *, progress: bool = False) -
 class _Unseated:
     """The campaign cleaned but for the seating offsets (built when first asked for)."""
 
-    raw: object
+    raw: Campaign
     drop: dict
     copies: frozenset | set
     report: QualityReport
 
-    def __call__(self):
+    def __call__(self) -> Campaign:
         cleaned = _cleaned(self.raw, self.drop, {}, self.copies)
         return replace(cleaned, quality=self.report)
 
@@ -625,7 +630,7 @@ def _cleaned(
 _SCREENED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def screened(campaign: Campaign, quality: str = "clean", **selection):
+def screened(campaign: Campaign, quality: str = "clean", **selection: object) -> Campaign:
     """``campaign`` (restricted to ``selection``) ready for analysis: screened in mode
     ``quality`` unless it was already (a campaign from :func:`screen` carries its report in
     ``campaign.quality``).
