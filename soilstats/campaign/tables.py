@@ -1,18 +1,26 @@
-"""What the campaign's helper modules read of a campaign, as a protocol.
+"""Types of what the analyses read of a campaign: its tables, and a selection criterion.
 
 :mod:`~soilstats.campaign.campaign` imports :mod:`.digest`, :mod:`.index` and
 :mod:`.summary`, so these cannot import :class:`~soilstats.campaign.Campaign` to annotate their
 ``campaign`` parameter, not even under ``TYPE_CHECKING`` (that would close an import loop:
-tests/test_layers.py). They name this protocol instead; a ``Campaign`` satisfies it.
+tests/test_layers.py). They name the protocol :class:`CampaignTables` instead; a ``Campaign``
+satisfies it.
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
 
-import pandas as pd
+if TYPE_CHECKING:
+    import pandas as pd
 
-__all__ = ["CampaignTables"]
+__all__ = ["CampaignTables", "Criterion"]
+
+#: One criterion of :meth:`Campaign.select <soilstats.campaign.Campaign.select>` (and of every
+#: ``**selection`` handed on to it): a value, a collection of values, or a function of the
+#: column returning a boolean mask. ``Any``: a value may be of any type a column holds, and
+#: the callers' ``**selection`` is passed on beside keywords of other types.
+Criterion: TypeAlias = Any
 
 
 class CampaignTables(Protocol):

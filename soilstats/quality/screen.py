@@ -33,6 +33,7 @@ from .report import QualityFlag, QualityReport
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
 
 __all__ = ["QualityFlag", "QualityReport", "screen", "screened"]
 
@@ -630,7 +631,7 @@ def _cleaned(
 _SCREENED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def screened(campaign: Campaign, quality: str = "clean", **selection: object) -> Campaign:
+def screened(campaign: Campaign, quality: str = "clean", **selection: Criterion) -> Campaign:
     """``campaign`` (restricted to ``selection``) ready for analysis: screened in mode
     ``quality`` unless it was already (a campaign from :func:`screen` carries its report in
     ``campaign.quality``).
