@@ -12,6 +12,7 @@ instead (Eq. 11), with per-test weights; docs/classical.md shows what the two gi
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
@@ -96,7 +97,7 @@ def _rising_record(
 
 def ensemble_curve(
     campaign: Campaign,
-    test_ids,
+    test_ids: Iterable[str],
     *,
     p_max: float,
     step: float = 500.0,

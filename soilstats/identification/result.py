@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy.special import stdtrit
 
 from .._text import plural
@@ -44,7 +46,7 @@ class CampaignFit(FitResult):
         cls,
         fit: FitResult,
         pooled: PooledData,
-        notes=(),
+        notes: Iterable[str] = (),
         flags: tuple[HealthFlag, ...] | list[HealthFlag] = (),
         bootstrap: TestBootstrap | None = None,
         campaign: Campaign | None = None,
@@ -147,7 +149,9 @@ class CampaignFit(FitResult):
             return None
         return np.atleast_2d(np.cov(self.bootstrap.draws, rowvar=False))
 
-    def eval_uncertainty(self, x, sigma: float = 1.0, *, level: str = "auto") -> np.ndarray:
+    def eval_uncertainty(
+        self, x: ArrayLike, sigma: float = 1.0, *, level: str = "auto"
+    ) -> np.ndarray:
         """``sigma`` standard deviations of the fitted curve at ``x`` (:meth:`eval`'s inputs)
         by the delta method, from the test-level covariance (``level="tests"``: what a new
         test of the soil scatters by, as the fit's stderr says) or Eq. 4's
@@ -244,7 +248,9 @@ _FIT_CODES = tuple(code for code, q in CODES.items() if q.nature != "stop")
 ONSET_TOLERANCE = 1e-3
 
 
-def data_findings(campaign: Campaign, test_ids) -> tuple[list[str], list[HealthFlag], dict]:
+def data_findings(
+    campaign: Campaign, test_ids: Iterable[str]
+) -> tuple[list[str], list[HealthFlag], dict]:
     """Notes, health flags and the JSON record of the screening and window behind a fit.
 
     A ``bearing-failure`` whose onset the window cuts off is resolved (a note, no flag);

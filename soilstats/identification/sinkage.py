@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -21,6 +22,7 @@ from .result import CampaignFit
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
 
@@ -76,13 +78,13 @@ def fit_sinkage(
     method: Literal["lm", "wong"] = "lm",
     points_per_test: int | None = 100,
     weighting: Literal["max-pressure", "none"] = "max-pressure",
-    p0=None,
+    p0: Sequence[float] | np.ndarray | None = None,
     on_failure: Literal["raise", "warn"] = "raise",
     test_resamples: int | Literal["auto"] = "auto",
     seed: int = 0,
     quality: Literal["off", "flag", "clean"] = "clean",
     window: FitWindow | None = None,
-    **selection,
+    **selection: Criterion,
 ) -> CampaignFit:
     """Identify Bekker (Eq. 7), Bernstein (Eq. 8) or Reece parameters from sinkage tests.
 
