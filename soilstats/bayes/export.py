@@ -36,13 +36,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError, SoilstatsError
-from .support import negative_modulus_width
+from .support import SupportCheck, negative_modulus_width
 
 __all__ = [
     "CHRONO_SOURCE",
@@ -387,7 +387,7 @@ class SimulatorExport:
         """The columns drawn from user priors."""
         return [k for k, v in self.sources.items() if v.startswith("user prior")]
 
-    def record(self, support=None, context: Mapping | None = None) -> dict:
+    def record(self, support: SupportCheck | None = None, context: Mapping | None = None) -> dict:
         """The JSON record beside the CSV (module docstring)."""
         spec = SIMULATOR_FORMATS[self.simulator]
         out = {
@@ -623,7 +623,11 @@ def missing_message(simulator: str, missing: Iterable[str], available: Iterable[
     )
 
 
-def simulator_parameters(draws: pd.DataFrame, simulator: str = "chrono-scm", **options):
+def simulator_parameters(
+    draws: pd.DataFrame,
+    simulator: str = "chrono-scm",
+    **options: Any,  # export_simulator's keywords, each of its own type
+) -> pd.DataFrame:
     """Joint draws as a simulator's parameter table (:func:`export_simulator`'s ``table``;
     ``options`` are its keywords: elastic_K, damping_R, priors, seed, repair, ...).
 
@@ -640,9 +644,9 @@ def simulator_record(
     draws: pd.DataFrame,
     simulator: str = "chrono-scm",
     *,
-    support=None,
+    support: SupportCheck | None = None,
     context: dict | None = None,
-    **options,
+    **options: Any,  # export_simulator's keywords, each of its own type
 ) -> dict:
     """The JSON record beside a simulator's CSV (:meth:`SimulatorExport.record`).
 

@@ -10,11 +10,16 @@ marginalises the test-level effects over these (module docstring there).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..identification.per_test import TEST_FIT_ERRORS, fit_bernstein_test, fit_shear_test
 from .likelihood import PooledProblem
+
+if TYPE_CHECKING:
+    from ..identification.pooling import PooledData
+    from ..models.base import Model
 
 __all__ = ["PerTestFits", "reference_sinkage", "shear_tests", "sinkage_tests", "to_eta"]
 
@@ -54,7 +59,7 @@ def _reduce_tests(test_ids, test_index, fit_one, covariate_of):
     return np.array(params), np.array(covs), np.array(covariate, float), kept, failed
 
 
-def sinkage_tests(pooled, spec) -> PerTestFits:
+def sinkage_tests(pooled: PooledData, spec: Model) -> PerTestFits:
     """Bernstein fit (Eq. 8) of every test on its own (tests whose fit fails: left out)."""
     z, b, p, w = pooled.x["z_m"], pooled.x["b_m"], pooled.y, pooled.weights
     params, covs, sizes, kept, failed = _reduce_tests(
@@ -115,7 +120,9 @@ def scatter_sinkage(fits: PerTestFits, z: np.ndarray, ln_zref: float) -> float:
     return float(np.clip(ln_zref, lo, hi))
 
 
-def to_eta(params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: bool):
+def to_eta(
+    params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: bool
+) -> tuple[np.ndarray, np.ndarray]:
     """Per-test fits and covariances → η = (ln a + g·ln z_ref, g), g = b or ln b, and the
     delta-method covariances of η."""
     g = np.log(params[:, 1]) if log_second else params[:, 1]

@@ -16,6 +16,7 @@ from ._arviz import az
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
+    from .handout import Handout
 
 __all__ = ["ESS_MIN", "RHAT_MAX", "PosteriorResult", "diagnose", "draws_converge"]
 
@@ -231,7 +232,7 @@ class PosteriorResult:
             }
         )
 
-    def handout(self, contact_widths: tuple[float, float], *, seed: int | None = 0):
+    def handout(self, contact_widths: tuple[float, float], *, seed: int | None = 0) -> Handout:
         """Whether this posterior's draws are fit for a rover Monte Carlo, and the draws a
         Monte Carlo may be given: :func:`soilstats.bayes.handout.hand_out` of this result
         alone (``contact_widths`` (b_min, b_max) [m]: where the draws will be used)."""

@@ -18,7 +18,7 @@ silently clipped.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from scipy.special import ndtr, ndtri
@@ -41,7 +41,7 @@ SUPPORT: dict[str, tuple[float, float, bool]] = {
 _ARITY = {"normal": 2, "truncnormal": 4, "uniform": 2, "lognormal": 2}
 
 
-def describe_prior(spec) -> str:
+def describe_prior(spec: Sequence[str | float]) -> str:
     """``normal(30, 3)`` for ``("normal", 30, 3)``."""
     return f"{spec[0]}({', '.join(f'{float(v):g}' for v in spec[1:])})"
 
