@@ -11,11 +11,17 @@ flags every :class:`~soilstats.fitting.FitResult` carries.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import ConvergenceError
 from ..identification.centring import centred
 from .extensions import base_model
+
+if TYPE_CHECKING:
+    from .diagnose import Diagnosis
 
 __all__ = ["physical_flags"]
 
@@ -43,7 +49,7 @@ def _flags_of(fit, kind, soil, scope, z=None) -> list[dict]:
     return out
 
 
-def physical_flags(diagnoses) -> list[dict]:
+def physical_flags(diagnoses: Iterable[Diagnosis]) -> list[dict]:
     """Red flags of every diagnosed group (its base fit, and per velocity for sinkage)."""
     out: list[dict] = []
     for d in diagnoses:

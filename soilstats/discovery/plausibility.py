@@ -12,7 +12,15 @@ An extension is *implausible*, and never kept whatever its out-of-sample gain, w
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .data import Group
+    from .extensions import Fitted
 
 __all__ = ["implausible"]
 
@@ -40,7 +48,7 @@ def _non_positive(fitted, group, rows) -> list[str]:
     ]
 
 
-def implausible(fitted, base_fitted, group, rows) -> list[str]:
+def implausible(fitted: Fitted, base_fitted: Fitted, group: Group, rows: ArrayLike) -> list[str]:
     """Why the extension ``fitted`` (on the tests ``rows``) is not physical; empty if it is."""
     return _outside_bounds(fitted.result, base_fitted.result) + _non_positive(
         fitted, group, np.asarray(rows, int)
