@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
@@ -71,7 +72,13 @@ def write_outputs(
     """
     out_dir = Path(out_dir)
     name = result.name
-    provenance = provenance or result.provenance
+    # A result built without one (StudyResult's default) records a library call on its
+    # source: the result holds no campaign to hash.
+    provenance = (
+        provenance
+        or result.provenance
+        or replace(Provenance.of(None, seed=result.seed), campaign=result.source)
+    )
     tables = {
         "effects": result.effects,
         "anova": result.anova,
