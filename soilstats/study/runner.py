@@ -27,6 +27,7 @@ from .verdict import classify
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from .spec import StudySpec
 
 __all__ = ["run_study"]
 
@@ -67,7 +68,7 @@ def _failed_in_bearing(campaign, per_test: pd.DataFrame) -> set[str]:
 
 
 def run_study(
-    spec,
+    spec: StudySpec,
     campaign: Campaign,
     *,
     cache: PerTestCache | None = None,

@@ -21,12 +21,17 @@ Pa of cohesion are often not resolved, as the paper notes for its Table 6.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from scipy import stats
 
 from ..identification.conditions import condition_label
 from ..statistics import StatisticsInputError, TestResult, ancova, effect_row
+
+if TYPE_CHECKING:
+    from .spec import StudySpec
 
 __all__ = ["shear_effects"]
 
@@ -48,7 +53,7 @@ def _line_test(result) -> TestResult:
     )
 
 
-def shear_effects(per_test: pd.DataFrame, spec, soil: str) -> dict:
+def shear_effects(per_test: pd.DataFrame, spec: StudySpec, soil: str) -> dict:
     """ANCOVA tests of c, φ and the whole line for one soil (see the module docstring).
 
     Returns
