@@ -22,7 +22,7 @@ import datetime as _dt
 import io
 import re
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -298,7 +298,7 @@ class Document:
         self._block(table)
 
     @contextmanager
-    def columns(self, n: int = 2):
+    def columns(self, n: int = 2) -> Iterator[Document]:
         """Set the blocks added inside ``with doc.columns(2):`` in ``n`` columns (narrow
         tables side by side: a long one flows on into the next column)."""
         start = len(self._blocks)
