@@ -29,9 +29,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from .common import add_common_options, add_data_options, prepared, progress_enabled
+
+if TYPE_CHECKING:
+    from ..wheel import StressAngles
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
 _GEOMETRY = {
@@ -139,7 +143,7 @@ def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
     return out
 
 
-def parse_angles(text: str | None):
+def parse_angles(text: str | None) -> StressAngles | None:
     from ..wheel import StressAngles
 
     if text is None:
