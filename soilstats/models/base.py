@@ -12,13 +12,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, TypeAlias
+from typing import ClassVar, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from ..kinds import MODEL_KINDS
+from .priors import Prior
 
 __all__ = [
     "KINDS",
@@ -424,15 +425,19 @@ class Model:
     start: Callable | None = field(default=None, repr=False)
     wong: Callable | None = field(default=None, repr=False)
     # priors, scm, labels: a mapping or (name, value) pairs; pairs after __post_init__.
-    priors: tuple | Mapping[str, Any] = field(default=(), repr=False)
+    priors: tuple[tuple[str, Prior], ...] | Mapping[str, Prior] = field(default=(), repr=False)
     support: tuple = field(default=(), repr=False)
     min_plate_sizes: int = 1
     design_input: str | None = None
     steady_state: bool = False
     weighting: str | None = None
     population: PopulationLayout | None = field(default=None, repr=False)
-    scm: tuple | Mapping[str, Any] = field(default=(), repr=False)
-    labels: tuple | Mapping[str, Any] = field(default=(), repr=False)
+    scm: tuple[tuple[str, tuple[str, str]], ...] | Mapping[str, tuple[str, str]] = field(
+        default=(), repr=False
+    )
+    labels: tuple[tuple[str, ParamLabel], ...] | Mapping[str, ParamLabel] = field(
+        default=(), repr=False
+    )
     signed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
