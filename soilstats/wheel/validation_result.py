@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -11,6 +12,10 @@ from ..outputs.text import notes_block
 from .geometry import Wheel
 from .soil import PlateDraws
 from .stress import PARAM_UNITS, StressAngles
+
+if TYPE_CHECKING:
+    from ..discovery.crossval import Gain
+    from .slipsinkage import SlipExponent
 
 __all__ = ["RUN_COLUMNS", "WheelDiscovery", "WheelValidation"]
 
@@ -92,8 +97,8 @@ class WheelDiscovery:
     tests: pd.DataFrame
     findings: tuple[dict, ...]
     extension: str
-    coefficients: dict
-    gains: dict
+    coefficients: dict[str, SlipExponent]
+    gains: dict[str, Gain]
     heldout: pd.DataFrame = field(repr=False)
     still_fails: list
     runs: pd.DataFrame = field(repr=False)
