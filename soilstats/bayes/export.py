@@ -472,14 +472,22 @@ def _column(key: str, plan: str, draws: pd.DataFrame, drawn: Mapping) -> np.ndar
     return draws[value].to_numpy(float) if isinstance(value, str) else np.full(len(draws), value)
 
 
-def _widths(plate_widths) -> str:
+def _widths(plate_widths: tuple[float, float] | None) -> str:
     if plate_widths is None:
         return "the data's size"
     lo, hi = plate_widths
     return f"b = {lo:g} m" if lo == hi else f"b = {lo:g}-{hi:g} m"
 
 
-def _notes(table, draws, plan, priors, width, seed, plate_widths) -> tuple[str, ...]:
+def _notes(
+    table: pd.DataFrame,
+    draws: pd.DataFrame,
+    plan: dict[str, str],
+    priors: Mapping[str, tuple],
+    width: float | None,
+    seed: int | None,
+    plate_widths: tuple[float, float] | None,
+) -> tuple[str, ...]:
     from .stated_priors import describe_prior
 
     notes = []

@@ -61,6 +61,8 @@ class StudentIndependenceMove(MHMove):
         chi2 = random.chisquare(self.dof, size=count)
         return self.centre + (normal @ self.chol.T) * np.sqrt(self.dof / chi2)[:, None]
 
-    def _propose(self, coords: np.ndarray, random) -> tuple[np.ndarray, np.ndarray]:
+    def _propose(
+        self, coords: np.ndarray, random: np.random.RandomState
+    ) -> tuple[np.ndarray, np.ndarray]:
         proposal = self.sample(coords.shape[0], random)
         return proposal, self.log_density(coords) - self.log_density(proposal)

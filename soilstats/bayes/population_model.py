@@ -269,7 +269,9 @@ class PopulationModel:
         m[..., 0, 1] = m[..., 1, 0] = m01
         return h, m
 
-    def _moments(self, v: np.ndarray, theta: np.ndarray):
+    def _moments(
+        self, v: np.ndarray, theta: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """h_t's first row (W, T), g (W,) and the three entries of M_t = B Σ Bᵀ + C_t, each
         broadcast to (W, T): the 2×2 algebra written out, no (W, T, 2, 2) stack."""
         kb = self.layout.linear(theta) @ self._rows.T  # (W, rows)

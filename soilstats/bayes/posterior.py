@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
     from ..campaign.tables import Criterion
     from ..fitting.result import FitResult
+    from ..models.base import Model
 
 __all__ = ["DEFAULT_DRAWS", "sample_posterior"]
 
@@ -253,7 +254,7 @@ def _inference_data(
     problem: PooledProblem,
     run: EnsembleRun,
     rss: np.ndarray,
-    rng,
+    rng: np.random.Generator,
     *,
     predictive_draws: int | None = PREDICTIVE_DRAWS,
 ) -> object:
@@ -277,7 +278,7 @@ def _inference_data(
     return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)
 
 
-def _check_start_in_prior(spec, theta0: np.ndarray, problem: PooledProblem) -> None:
+def _check_start_in_prior(spec: Model, theta0: np.ndarray, problem: PooledProblem) -> None:
     """Raise, naming the parameter, its least-squares value and the prior, when the start
     lies outside the priors' support (the walkers could not be placed; GRC-1's Bekker kφ is
     −1.4e5 against a prior on (0, ∞))."""

@@ -9,8 +9,9 @@ marginalises the test-level effects over these (module docstring there).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -71,10 +72,11 @@ def sinkage_tests(pooled: PooledData, spec: Model) -> PerTestFits:
     return PerTestFits(params, covs, _design(spec, sizes), sizes, kept, failed)
 
 
-def _design(spec, sizes: np.ndarray) -> np.ndarray:
+def _design(spec: Model, sizes: np.ndarray) -> np.ndarray:
     """(T, q) a_t: the power law's basis (``Model.power_law``) at each test's plate size b_t,
     so that k_t = a_tᵀ(moduli): (1/b_t, 1) for Bekker, 1 for Bernstein."""
-    basis, _ = spec.power_law(spec.x_from({"b_m": sizes, "z_m": np.ones_like(sizes)}))
+    power_law = cast(Callable, spec.power_law)  # a population layout: a power law
+    basis, _ = power_law(spec.x_from({"b_m": sizes, "z_m": np.ones_like(sizes)}))
     return np.column_stack([np.broadcast_to(np.asarray(g, float), sizes.shape) for g in basis])
 
 

@@ -40,7 +40,7 @@ def campaign_sha256(campaign: CampaignTables) -> str:
     return digest.hexdigest()
 
 
-def _cells(values) -> list[str]:
+def _cells(values: pd.Series) -> list[str]:
     """The text of every cell of a column, NUL (``"\\x00"``) where missing."""
     if isinstance(values.dtype, pd.StringDtype):
         # Every present cell is a str already: one conversion in C, not a Python loop over

@@ -35,6 +35,7 @@ from ..errors import InputError
 from .common import add_common_options, add_data_options, prepared, progress_enabled
 
 if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
     from ..wheel import StressAngles
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
@@ -240,7 +241,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pooling(campaign, args) -> list[str]:
+def _pooling(campaign: Campaign, args: argparse.Namespace) -> list[str]:
     """The posterior command's warning when the plates pool conditions (preparations,
     velocities, shapes …): the draws then describe their mixture, not one sand state."""
     from ..wheel.soil import choose_law, soil_tests

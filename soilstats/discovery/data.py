@@ -100,7 +100,9 @@ class Group:
         return keep[self.owner]
 
 
-def _pool(campaign, kind: str, soil: str, table: pd.DataFrame, points: int):
+def _pool(
+    campaign: Campaign, kind: str, soil: str, table: pd.DataFrame, points: int
+) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Section 2.1's samples of one (kind, soil), in the rows of ``table`` (the per-test fits)."""
     if kind == "sinkage":
         pooled = pool_sinkage(campaign, points_per_test=points, on_unusable="skip", soil=soil)

@@ -21,6 +21,7 @@ from ..identification.centring import centred
 from .extensions import base_model
 
 if TYPE_CHECKING:
+    from ..fitting.result import FitResult
     from .diagnose import Diagnosis
 
 __all__ = ["physical_flags"]
@@ -28,7 +29,9 @@ __all__ = ["physical_flags"]
 _CODES = {"outside-bounds", "high-correlation"}
 
 
-def _flags_of(fit, kind, soil, scope, z=None) -> list[dict]:
+def _flags_of(
+    fit: FitResult, kind: str, soil: str, scope: str, z: np.ndarray | None = None
+) -> list[dict]:
     if kind == "sinkage":
         # Judge correlations where the data measure each scale, as identify does (a scale at
         # z = 1 m is correlated with n by the parametrisation alone: Cullinan's k and n at

@@ -80,7 +80,9 @@ class TestLevel:
         return ok & (np.where(ok, self.ratio, 0.0) > DISAGREEMENT)
 
 
-def _weighted_rows(fitted, group, rows) -> tuple[np.ndarray, np.ndarray] | None:
+def _weighted_rows(
+    fitted: Fitted, group: Group, rows: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
     """(p, N) rows of the weighted Jacobian at the estimate and the owner test of each
     sample, for the extensions whose family is at hand (all but Reece's)."""
     inputs = getattr(fitted.extension, "_inputs", None)

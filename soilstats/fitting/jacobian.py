@@ -87,7 +87,7 @@ def central_difference_jacobian(f: Callable, x: ArrayLike, params: np.ndarray) -
     return np.column_stack(cols)
 
 
-def _supports_complex_step(f: Callable, x, params: np.ndarray) -> bool:
+def _supports_complex_step(f: Callable, x: ArrayLike, params: np.ndarray) -> bool:
     """True when the complex step agrees with a central difference at ``params``.
 
     A model that silently drops the imaginary part (``abs``, ``np.real``, ``float()``) gives a

@@ -90,7 +90,9 @@ class LinearFit:
         )
 
 
-def _refined_solve(q, r, scaled_x, y, iterations: int = 3) -> np.ndarray:
+def _refined_solve(
+    q: np.ndarray, r: np.ndarray, scaled_x: np.ndarray, y: np.ndarray, iterations: int = 3
+) -> np.ndarray:
     beta = linalg.solve_triangular(r, q.T @ y)
     xl = scaled_x.astype(np.longdouble)
     yl = y.astype(np.longdouble)

@@ -235,7 +235,7 @@ class FitResult:
         here; a fit over tests uses the test-level one (:class:`CampaignFit`)."""
         return self._band(x, sigma, self.covariance)
 
-    def _band(self, x, sigma: float, covariance: np.ndarray) -> np.ndarray:
+    def _band(self, x: ArrayLike, sigma: float, covariance: np.ndarray) -> np.ndarray:
         if self.model_jac is None:
             raise InputError(
                 f"this {self.model_name} result carries no model Jacobian; fit it with "
@@ -284,9 +284,7 @@ class FitResult:
     def healthy(self) -> bool:
         return not self.flags
 
-    def annotated(
-        self, notes: Iterable[str] = (), flags: Iterable[HealthFlag] = ()
-    ) -> FitResult:
+    def annotated(self, notes: Iterable[str] = (), flags: Iterable[HealthFlag] = ()) -> FitResult:
         """A copy with ``notes`` (str) and health ``flags`` (:class:`HealthFlag`) appended:
         what the caller knows about the data that the fit itself cannot see."""
         return replace(

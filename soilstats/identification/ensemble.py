@@ -68,8 +68,8 @@ class EnsembleCurve:
 
 
 def _rising_record(
-    test_id: str, p: np.ndarray, z: np.ndarray, rows, non_increasing: str, file: str
-):
+    test_id: str, p: np.ndarray, z: np.ndarray, rows: np.ndarray, non_increasing: str, file: str
+) -> tuple[np.ndarray, np.ndarray, int]:
     """The record with strictly rising pressure that a spline z(p) needs, and the count left
     out; ``file``: the sinkage file's name, for messages."""
     if not (np.all(np.isfinite(p)) and np.all(np.isfinite(z))):

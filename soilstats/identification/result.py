@@ -22,6 +22,7 @@ from .pooling import PooledData
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..quality.report import QualityReport
 
 __all__ = ["CampaignFit"]
 
@@ -335,7 +336,7 @@ def data_findings(
     return notes, flags, record
 
 
-def _proposed_items(report, tests_hit: list[str]) -> str:
+def _proposed_items(report: QualityReport, tests_hit: list[str]) -> str:
     """The ``--z-max`` items ``soilstats check`` proposes for these failed tests."""
     windows = report.proposed_windows()
     if not len(windows):

@@ -308,7 +308,7 @@ def power_law_population(scatter_note: str) -> PowerLawPopulation:
     return PowerLawPopulation(("k", "n"), scatter, "b_m", False, scatter_note)
 
 
-def _pairs(value) -> tuple:
+def _pairs(value: Mapping | tuple) -> tuple:
     """A mapping as a tuple of its items (the record stays hashable); a tuple as it is."""
     return tuple(value.items()) if isinstance(value, Mapping) else tuple(value)
 
@@ -486,7 +486,7 @@ class Model:
 
         return f_weighted, jac_rows
 
-    def __call__(self, x, *params) -> np.ndarray:
+    def __call__(self, x: ArrayLike, *params: Value) -> np.ndarray:
         return self.func(x, *params)
 
     @property

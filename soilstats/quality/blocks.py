@@ -17,7 +17,7 @@ the per-record detectors on planted artefacts of every kind.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -230,7 +230,7 @@ class Blocks:
         return np.flatnonzero(mask & ~before), np.flatnonzero(mask & ~after) + 1
 
 
-def _runs_mask(blocks: Blocks, mask: BoolArray, keep) -> BoolArray:
+def _runs_mask(blocks: Blocks, mask: BoolArray, keep: Callable[[IntArray], BoolArray]) -> BoolArray:
     """``mask`` restricted to its runs whose length passes ``keep(length)``."""
     start, stop = blocks.runs(mask)
     chosen = keep(stop - start)
@@ -352,7 +352,12 @@ def _unfinite(blocks: Blocks, *arrays: np.ndarray) -> IntArray:
     return np.flatnonzero(blocks.total_of(bad)) if bad.any() else np.empty(0, np.int64)
 
 
-def _by_record(blocks: Blocks, batch, detector, *arrays: np.ndarray) -> BoolArray:
+def _by_record(
+    blocks: Blocks,
+    batch: Callable[..., BoolArray],
+    detector: Callable[..., BoolArray],
+    *arrays: np.ndarray,
+) -> BoolArray:
     """``batch(blocks, *arrays)``, with the blocks holding non-finite values decided by the
     per-record ``detector`` instead.
 

@@ -55,7 +55,9 @@ _SIGN_TOLERANCE = 1e-8
 _FIT_TOLERANCE = 1e-9
 
 
-def _fit_lines(blocks: Blocks, x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None):
+def _fit_lines(
+    blocks: Blocks, x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None
+) -> tuple[FloatArray, FloatArray, BoolArray]:
     """Weighted least-squares lines y ≈ a + b x of every block, in closed form.
 
     Centred sums (two passes) keep them accurate. Returns (slope, intercept, conditioned):

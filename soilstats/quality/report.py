@@ -9,7 +9,7 @@ from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from decimal import ROUND_CEILING, Decimal
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pandas as pd
@@ -287,7 +287,7 @@ def _ceil4(z: float) -> str:
     return f"{float(exact.quantize(step, rounding=ROUND_CEILING)):.4g}"
 
 
-def _failed(windows: pd.DataFrame, w) -> int:
+def _failed(windows: pd.DataFrame, w: Any) -> int:  # w: a row of itertuples() (untyped)
     """Failed tests of ``w``'s plate (per-test rows)."""
     same = (windows["soil"] == w.soil) & (
         (windows["b_m"] == w.b_m) | (windows["b_m"].isna() & pd.isna(w.b_m))

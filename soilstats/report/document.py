@@ -189,7 +189,7 @@ class Document:
             setup += f"#set text(size: {SMALL_PT}pt)\n"
         self._list(items, "+", setup)
 
-    def _list(self, items, marker: str, setup: str) -> None:
+    def _list(self, items: Iterable[object], marker: str, setup: str) -> None:
         lines = []
         for item in items:
             parts = item if isinstance(item, list | tuple) else (item,)
@@ -415,7 +415,7 @@ def page_count(pdf: bytes) -> int:
     return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", pdf))
 
 
-def _close(fig) -> None:
+def _close(fig: Figure) -> None:
     import matplotlib.pyplot as plt
 
     plt.close(fig)

@@ -74,7 +74,7 @@ def soils_with_levels(tests: pd.DataFrame, spec: StudySpec) -> tuple[list[str], 
     levels = tests.groupby("soil")[spec.factor].nunique()
     good = sorted(levels[levels >= 2].index.astype(str))
 
-    def values(soil) -> str:
+    def values(soil: object) -> str:
         return ", ".join(
             map(condition_label, tests.loc[tests["soil"] == soil, spec.factor].unique())
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -86,7 +87,7 @@ _EFFECT_KEYS = [
 ]
 
 
-def _records(frame: pd.DataFrame | None, keys=None) -> list[dict]:
+def _records(frame: pd.DataFrame | None, keys: Iterable[str] | None = None) -> list[dict]:
     if frame is None or frame.empty:
         return []
     cols = [k for k in (keys or frame.columns) if k in frame.columns]

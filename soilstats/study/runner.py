@@ -32,7 +32,9 @@ if TYPE_CHECKING:
 __all__ = ["run_study"]
 
 
-def _pooled_fits(campaign, tests: pd.DataFrame, spec, soil: str, notes: list) -> pd.DataFrame:
+def _pooled_fits(
+    campaign: Campaign, tests: pd.DataFrame, spec: StudySpec, soil: str, notes: list
+) -> pd.DataFrame:
     """Per-condition identification of one soil (the paper's Tables 5–7), tidy."""
     result = fit_conditions(
         campaign,
@@ -52,7 +54,7 @@ def _pooled_fits(campaign, tests: pd.DataFrame, spec, soil: str, notes: list) ->
     )
 
 
-def _failed_in_bearing(campaign, per_test: pd.DataFrame) -> set[str]:
+def _failed_in_bearing(campaign: Campaign, per_test: pd.DataFrame) -> set[str]:
     """Tests flagged ``bearing-failure`` whose fitted curve still reaches the onset (a window
     that cuts the failure off resolves it, as for the identification's health flags)."""
     report = getattr(campaign, "quality", None)

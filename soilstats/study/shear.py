@@ -31,12 +31,13 @@ from ..identification.conditions import condition_label
 from ..statistics import StatisticsInputError, TestResult, ancova, effect_row
 
 if TYPE_CHECKING:
+    from ..statistics.analysis_of_covariance import AncovaResult
     from .spec import StudySpec
 
 __all__ = ["shear_effects"]
 
 
-def _line_test(result) -> TestResult:
+def _line_test(result: AncovaResult) -> TestResult:
     cmp = result.comparison
     ssr0, df0 = cmp.loc["common", "ssr"], cmp.loc["common", "df_resid"]
     ssr2, df2 = cmp.loc["separate", "ssr"], cmp.loc["separate", "df_resid"]

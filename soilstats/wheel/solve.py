@@ -224,7 +224,9 @@ def wheel_forces(
     return WheelState(slip=slip_b, status=status.reshape(shape), with_shear=cases.with_shear, **out)
 
 
-def _state_arrays(forces: ContactForces, theta1, cases: Cases, ok, rc) -> dict:
+def _state_arrays(
+    forces: ContactForces, theta1: np.ndarray, cases: Cases, ok: np.ndarray, rc: float
+) -> dict:
     nan = np.where(ok, 1.0, np.nan)
     shear_nan = nan if cases.with_shear else np.full(nan.shape, np.nan)
     theta1 = theta1 * nan

@@ -57,11 +57,11 @@ RUN_COLUMNS = (
 WIDTH = 96
 
 
-def _mm(x) -> str:
+def _mm(x: float | None) -> str:
     return "–" if x is None or not np.isfinite(x) else f"{1e3 * x:+.1f} mm"
 
 
-def _pct(x) -> str:
+def _pct(x: float | None) -> str:
     return "–" if x is None or not np.isfinite(x) else f"{100 * x:.0f} %"
 
 
