@@ -7,7 +7,7 @@ type the same look: a title, key facts, the main table and the numbered notes.
 from __future__ import annotations
 
 import html
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import pandas as pd
 
@@ -29,12 +29,13 @@ def facts_html(facts: Mapping[str, object]) -> str:
     return f"<ul style='list-style:none;padding-left:0'>{items}</ul>" if items else ""
 
 
-def notes_html(notes, title: str = "Notes") -> str:
-    """Numbered notes, as the text summaries number them."""
-    notes = [str(n) for n in notes if str(n).strip()]
-    if not notes:
+def notes_html(notes: Iterable[object], title: str = "Notes") -> str:
+    """Numbered notes, as the text summaries number them (each as its ``str``: a sentence,
+    or a flag)."""
+    texts = [str(n) for n in notes if str(n).strip()]
+    if not texts:
         return ""
-    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in texts)
     return f"<p><b>{html.escape(title)}</b></p><ol>{items}</ol>"
 
 

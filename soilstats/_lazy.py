@@ -17,7 +17,7 @@ def lazy_names(package: str, names: dict[str, str], namespace: dict) -> tuple[Ca
     access and then kept in ``namespace`` (the package's ``globals()``), so later lookups
     skip the hook."""
 
-    def __getattr__(name: str):
+    def __getattr__(name: str) -> object:
         module = names.get(name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")

@@ -88,7 +88,14 @@ class CampaignError(SoilstatsError, ValueError):
         super().__init__(located(message, file=file, column=column, test=test_id, row=row))
 
 
-def located(message: str, *, file=None, column=None, row=None, **unit) -> str:
+def located(
+    message: str,
+    *,
+    file: str | None = None,
+    column: str | None = None,
+    row: int | None = None,
+    **unit: str | None,
+) -> str:
     """``message`` prefixed by where it applies: ``file 'x.csv', column 'z_m', test 't1', row
     4: …`` (the parts given, in that order; ``unit`` is one keyword naming the unit, e.g.
     ``test=`` or ``run=``, whose value is cut short when it is of hostile length)."""

@@ -24,7 +24,7 @@ import importlib
 import os
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import TypeVar
 
 from .errors import InputError
@@ -55,7 +55,7 @@ def effective_jobs(jobs: int | None) -> int:
 
 
 @contextlib.contextmanager
-def one_blas_thread():
+def one_blas_thread() -> Iterator[None]:
     """Run the block with BLAS on one thread, then restore the previous setting.
 
     OpenBLAS sums a long dot product in per-thread pieces, so a product's last bit depends

@@ -21,7 +21,7 @@ def test_every_package_and_module_is_in_the_table():
     tree = {
         f"soilstats/{p.name}"
         for p in (ROOT / "soilstats").iterdir()
-        if (p.is_dir() and (p / "__init__.py").exists() or p.name == "data")
+        if ((p.is_dir() and (p / "__init__.py").exists()) or p.name == "data")
         or (p.suffix == ".py")
     }
     missing = sorted(tree - named)

@@ -316,3 +316,31 @@ def test_a_study_states_its_failed_per_test_fits_however_the_cache_was_filled():
     filled = PerTestCache(campaign)
     filled.fill(jobs=2)
     assert failure_notes(filled) == alone
+
+
+def test_write_outputs_of_a_result_without_provenance_records_a_library_call(tmp_path):
+    """A StudyResult built without provenance (its default) is written with the one the
+    docstring promises, a library call on its source and seed; it raised AttributeError
+    (found by annotating write_outputs: mypy saw a ``Provenance | None`` handed on)."""
+    from soilstats.study import StudyResult, load_spec, write_outputs
+
+    empty = pd.DataFrame()
+    result = StudyResult(
+        spec=load_spec("velocity"),
+        source="bundled:simulated-paper",
+        date=None,
+        soils=[],
+        effects=empty,
+        anova=empty,
+        pairs=empty,
+        parameters=empty,
+        lines=empty,
+        per_test=empty,
+        seed=3,
+    )
+    paths = write_outputs(result, tmp_path)
+    provenance = json.loads(paths[0].read_text())["provenance"]
+    assert provenance["campaign"] == "bundled:simulated-paper"
+    assert provenance["command"] == "python API"
+    assert provenance["seed"] == 3
+    assert provenance["campaign_sha256"] == ""

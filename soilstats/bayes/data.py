@@ -17,6 +17,7 @@ from .priors import resolve_priors
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
     from ..models import Model
 
 __all__ = ["pooled_problem"]
@@ -28,7 +29,7 @@ def pooled_problem(
     *,
     priors: Mapping[str, object] | None = None,
     points_per_test: int | None = 100,
-    **selection,
+    **selection: Criterion,
 ) -> tuple[PooledProblem, FitResult]:
     """The pooled data of ``model`` and its least-squares fit (the sampler's starting point).
 

@@ -36,13 +36,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError, SoilstatsError, warn_renamed
-from .support import negative_modulus_width
+from .support import SupportCheck, negative_modulus_width
 
 __all__ = [
     "CHRONO_SOURCE",
@@ -395,7 +395,7 @@ class SimulatorExport:
         """The columns drawn from user priors."""
         return [k for k, v in self.sources.items() if v.startswith("user prior")]
 
-    def record(self, support=None, context: Mapping | None = None) -> dict:
+    def record(self, support: SupportCheck | None = None, context: Mapping | None = None) -> dict:
         """The JSON record beside the CSV (module docstring)."""
         spec = SIMULATOR_FORMATS[self.simulator]
         out = {
@@ -480,14 +480,22 @@ def _column(key: str, plan: str, draws: pd.DataFrame, drawn: Mapping) -> np.ndar
     return draws[value].to_numpy(float) if isinstance(value, str) else np.full(len(draws), value)
 
 
-def _widths(plate_widths) -> str:
+def _widths(plate_widths: tuple[float, float] | None) -> str:
     if plate_widths is None:
         return "the data's size"
     lo, hi = plate_widths
     return f"b = {lo:g} m" if lo == hi else f"b = {lo:g}-{hi:g} m"
 
 
-def _notes(table, draws, plan, priors, width, seed, plate_widths) -> tuple[str, ...]:
+def _notes(
+    table: pd.DataFrame,
+    draws: pd.DataFrame,
+    plan: dict[str, str],
+    priors: Mapping[str, tuple],
+    width: float | None,
+    seed: int | None,
+    plate_widths: tuple[float, float] | None,
+) -> tuple[str, ...]:
     from .stated_priors import describe_prior
 
     notes = []
@@ -631,7 +639,11 @@ def missing_message(simulator: str, missing: Iterable[str], available: Iterable[
     )
 
 
-def simulator_parameters(draws: pd.DataFrame, simulator: str = "chrono-scm", **options):
+def simulator_parameters(
+    draws: pd.DataFrame,
+    simulator: str = "chrono-scm",
+    **options: Any,  # export_simulator's keywords, each of its own type
+) -> pd.DataFrame:
     """Joint draws as a simulator's parameter table (:func:`export_simulator`'s ``table``;
     ``options`` are its keywords: elastic_K, damping_R, priors, seed, repair, ...).
 
@@ -648,9 +660,9 @@ def simulator_record(
     draws: pd.DataFrame,
     simulator: str = "chrono-scm",
     *,
-    support=None,
+    support: SupportCheck | None = None,
     context: dict | None = None,
-    **options,
+    **options: Any,  # export_simulator's keywords, each of its own type
 ) -> dict:
     """The JSON record beside a simulator's CSV (:meth:`SimulatorExport.record`).
 

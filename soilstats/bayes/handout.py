@@ -20,21 +20,48 @@ the decision and writes what it allows; a Python caller gets the same answer fro
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import pandas as pd
 
+from .joint import PosteriorDraws
 from .support import SupportCheck, check_support, negative_modulus_width
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
+    from ..fitting.result import HealthFlag
 
 __all__ = ["Handout", "hand_out", "lsq_refusals", "preflight"]
 
 #: Least-squares health codes that refuse a *population* posterior: the population's scatter
 #: would be the model's misfit (module docstring). Other flags stay warnings.
 POPULATION_REFUSALS = ("plate-exponents",)
+
+
+class HandedPosterior(PosteriorDraws, Protocol):
+    """What :func:`hand_out` reads of a posterior (:class:`~.result.PosteriorResult`, which
+    reaches this module through :meth:`~.result.PosteriorResult.handout`: an import of it
+    here would close a loop, tests/test_layers.py)."""
+
+    @property
+    def idata(self) -> Any: ...  # arviz.InferenceData (Any: see PosteriorResult.idata)
+
+    @property
+    def model_name(self) -> str: ...
+
+    @property
+    def kind(self) -> str: ...
+
+    @property
+    def flags(self) -> tuple[HealthFlag, ...]: ...
+
+    @property
+    def converged(self) -> bool: ...
+
+    def least_squares_health(self) -> list[dict]: ...
 
 
 @dataclass(frozen=True)
@@ -102,7 +129,11 @@ def lsq_refusals(health: dict, population: bool) -> list[str]:
 
 
 def preflight(
-    campaign: Campaign, models, *, population: bool, **selection
+    campaign: Campaign,
+    models: Iterable[str],
+    *,
+    population: bool,
+    **selection: Criterion,
 ) -> tuple[list[str], dict]:
     """What refuses the draws before any sampling: (failures, least-squares health by model).
 
@@ -132,7 +163,7 @@ def preflight(
 
 
 def hand_out(
-    results,
+    results: Iterable[HandedPosterior],
     contact_widths: tuple[float, float],
     *,
     seed: int | None = 0,

@@ -8,17 +8,29 @@ block (kc–kφ–n, c–φ–K) are kept exactly; none is invented between bloc
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError
 
-__all__ = ["joint_draws"]
+__all__ = ["PosteriorDraws", "joint_draws"]
+
+
+class PosteriorDraws(Protocol):
+    """What :func:`joint_draws` reads of a posterior: its draws
+    (:meth:`~.result.PosteriorResult.draws`). :mod:`.result` reaches this module through
+    :mod:`.handout`, so an import of it here would close a loop (tests/test_layers.py)."""
+
+    def draws(
+        self, n: int | None = None, seed: int | None = None, *, allow_unconverged: bool = False
+    ) -> pd.DataFrame: ...
 
 
 def joint_draws(
-    sinkage,
-    shear,
+    sinkage: PosteriorDraws,
+    shear: PosteriorDraws,
     n: int,
     seed: int | None = None,
     *,
@@ -30,8 +42,8 @@ def joint_draws(
     ----------
     sinkage, shear : PosteriorResult
         Posteriors (pooled or population) of a sinkage model and a shear model of one soil
-        (not annotated: :mod:`.result` reaches this module through :mod:`.handout`, and
-        an import back would close the circle).
+        (annotated by the protocol :class:`PosteriorDraws`: :mod:`.result` reaches this
+        module through :mod:`.handout`, and an import back would close the circle).
     n : int
         Number of rows.
     seed : int, optional

@@ -26,6 +26,7 @@ which :meth:`PooledProblem.replicate` samples (posterior-predictive data) and
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -34,6 +35,9 @@ import pandas as pd
 
 from ..models import Model
 from .priors import Prior
+
+if TYPE_CHECKING:
+    from ..models.base import Value
 
 __all__ = ["PooledProblem"]
 
@@ -103,7 +107,7 @@ class PooledProblem:
         object.__setattr__(self, "_G", pairs)  # (N, m²)
         object.__setattr__(self, "_m", a.shape[1])
 
-    def _weighted_basis(self, basis) -> np.ndarray:
+    def _weighted_basis(self, basis: Sequence[Value]) -> np.ndarray:
         """(N, m) a = w·g.  A model whose plate modulus k_b(b; moduli) the record states
         (``Model.modulus``: Bekker's kc/b + kφ) gives each column as that modulus at the
         weighted unit moduli, w/b and w: the same numbers as the expression itself rounds."""

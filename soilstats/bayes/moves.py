@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 from emcee.moves import MHMove
+from numpy.typing import ArrayLike
 
 __all__ = ["StudentIndependenceMove"]
 
@@ -34,7 +35,9 @@ class StudentIndependenceMove(MHMove):
         Inflation of the proposal's scale relative to ``cov``.
     """
 
-    def __init__(self, centre, cov, *, dof: float = 10.0, scale: float = 1.0) -> None:
+    def __init__(
+        self, centre: ArrayLike, cov: ArrayLike, *, dof: float = 10.0, scale: float = 1.0
+    ) -> None:
         self.centre = np.asarray(centre, float)
         self.scale = float(scale)
         self.chol = np.linalg.cholesky(np.asarray(cov, float)) * scale
@@ -42,7 +45,7 @@ class StudentIndependenceMove(MHMove):
         self.dim = self.centre.size
         super().__init__(self._propose, ndim=self.dim)
 
-    def refit(self, centre, cov) -> None:
+    def refit(self, centre: ArrayLike, cov: ArrayLike) -> None:
         """Move the proposal to a new centre and covariance (between runs, never within)."""
         self.centre = np.asarray(centre, float)
         self.chol = np.linalg.cholesky(np.asarray(cov, float)) * self.scale
@@ -52,12 +55,14 @@ class StudentIndependenceMove(MHMove):
         u = np.linalg.solve(self.chol, (x - self.centre).T).T
         return -0.5 * (self.dof + self.dim) * np.log1p(np.einsum("ij,ij->i", u, u) / self.dof)
 
-    def sample(self, count: int, random) -> np.ndarray:
+    def sample(self, count: int, random: np.random.RandomState) -> np.ndarray:
         """``count`` proposals using emcee's RandomState ``random``."""
         normal = random.randn(count, self.dim)
         chi2 = random.chisquare(self.dof, size=count)
         return self.centre + (normal @ self.chol.T) * np.sqrt(self.dof / chi2)[:, None]
 
-    def _propose(self, coords: np.ndarray, random) -> tuple[np.ndarray, np.ndarray]:
+    def _propose(
+        self, coords: np.ndarray, random: np.random.RandomState
+    ) -> tuple[np.ndarray, np.ndarray]:
         proposal = self.sample(coords.shape[0], random)
         return proposal, self.log_density(coords) - self.log_density(proposal)

@@ -49,6 +49,7 @@ from .transforms import Coordinates, sampling_coordinates
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
     from ..fitting.result import FitResult
     from ..identification.pooling import PooledData
     from ..models.base import Model, PopulationLayout
@@ -146,7 +147,12 @@ class PopulationSetup:
 
 
 def population_setup(
-    campaign: Campaign, model, *, priors=None, points_per_test: int | None = 100, **selection
+    campaign: Campaign,
+    model: str | Model,
+    *,
+    priors: Mapping[str, object] | None = None,
+    points_per_test: int | None = 100,
+    **selection: Criterion,
 ) -> PopulationSetup:
     """The population model of ``model`` on the selected tests, ready to sample
     (:class:`PopulationSetup`; arguments as :func:`sample_population`)."""
@@ -229,7 +235,7 @@ def sample_population(
     priors: Mapping[str, object] | None = None,
     walkers: int = 16,
     points_per_test: int | None = 100,
-    **selection,
+    **selection: Criterion,
 ) -> PosteriorResult:
     """Sample the population model (:mod:`soilstats.bayes.population_model`) of a soil model.
 
@@ -501,7 +507,7 @@ class BandCalibration:
         return cls(**data)
 
 
-def band_calibration(result) -> BandCalibration | None:
+def band_calibration(result: PosteriorResult) -> BandCalibration | None:
     """The band check of a population result (None for shear or an older result)."""
     text = result.idata.posterior.attrs.get("calibration")
     return None if text is None else BandCalibration.from_json(text)

@@ -88,7 +88,8 @@ import numpy as np
 import pandas as pd
 
 from ..models import MODELS
-from ..models.base import PopulationLayout
+from ..models.base import Model, PopulationLayout
+from ..models.priors import Prior
 from .likelihood import PooledProblem
 from .transforms import Coordinates
 
@@ -142,19 +143,19 @@ class PopulationModel:
 
     def __init__(
         self,
-        model,
+        model: Model,
         layout: Layout,
-        eta,
-        cov,
-        design,
-        ln_zref,
-        priors,
+        eta: np.ndarray,
+        cov: np.ndarray,
+        design: np.ndarray,
+        ln_zref: float,
+        priors: tuple[Prior, ...],
         coords: Coordinates,
         *,
         reference_rows: np.ndarray,
         log_flat: tuple[bool, bool] = (True, True),
         ln_zs: float | None = None,
-    ):
+    ) -> None:
         self.model, self.layout, self.eta, self.cov, self.priors = model, layout, eta, cov, priors
         self.coords, self.ln_zref, self.design = coords, ln_zref, design
         # Tests share few design rows (one per plate size or normal pressure): the log of
@@ -268,7 +269,9 @@ class PopulationModel:
         m[..., 0, 1] = m[..., 1, 0] = m01
         return h, m
 
-    def _moments(self, v: np.ndarray, theta: np.ndarray):
+    def _moments(
+        self, v: np.ndarray, theta: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """h_t's first row (W, T), g (W,) and the three entries of M_t = B Σ Bᵀ + C_t, each
         broadcast to (W, T): the 2×2 algebra written out, no (W, T, 2, 2) stack."""
         kb = self.layout.linear(theta) @ self._rows.T  # (W, rows)

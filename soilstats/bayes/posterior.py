@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -23,6 +23,9 @@ from .transforms import Coordinates, sampling_coordinates
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
+    from ..fitting.result import FitResult
+    from ..models.base import Model
 
 __all__ = ["DEFAULT_DRAWS", "sample_posterior"]
 
@@ -42,7 +45,7 @@ def sample_posterior(
     walkers: int = 16,
     points_per_test: int | None = 100,
     predictive_draws: int | None = PREDICTIVE_DRAWS,
-    **selection,
+    **selection: Criterion,
 ) -> PosteriorResult:
     """Sample the posterior of ``model``'s parameters given a campaign's tests (pooled model).
 
@@ -134,7 +137,15 @@ def sample_posterior(
 
 
 def finish(
-    idata, model_name, kind, param_names, units, var_names, run: EnsembleRun, notes, lsq
+    idata: Any,  # arviz.InferenceData: Any, as PosteriorResult.idata says why
+    model_name: str,
+    kind: str,
+    param_names: Iterable[str],
+    units: dict[str, str],
+    var_names: Iterable[str],
+    run: EnsembleRun,
+    notes: Iterable[str],
+    lsq: FitResult | None,
 ) -> PosteriorResult:
     """Wrap up a run: its convergence flags, the loud warning if not converged, the result."""
     sampler = {
@@ -209,7 +220,7 @@ def _pooled_notes(problem: PooledProblem) -> list[str]:
     return notes
 
 
-def target_in(problem: PooledProblem, coords: Coordinates):
+def target_in(problem: PooledProblem, coords: Coordinates) -> Callable[[np.ndarray], np.ndarray]:
     """The log posterior density in the sampling coordinates u (vectorised over walkers).
 
     log p_u(u) = log p(θ(u) | y) + log|det ∂θ/∂u| (:mod:`soilstats.bayes.transforms`).
@@ -250,7 +261,7 @@ def _inference_data(
     problem: PooledProblem,
     run: EnsembleRun,
     rss: np.ndarray,
-    rng,
+    rng: np.random.Generator,
     *,
     predictive_draws: int | None = PREDICTIVE_DRAWS,
 ) -> object:
@@ -274,7 +285,7 @@ def _inference_data(
     return az.InferenceData(posterior=posterior, sample_stats=stats, **groups)
 
 
-def _check_start_in_prior(spec, theta0: np.ndarray, problem: PooledProblem) -> None:
+def _check_start_in_prior(spec: Model, theta0: np.ndarray, problem: PooledProblem) -> None:
     """Raise, naming the parameter, its least-squares value and the prior, when the start
     lies outside the priors' support (the walkers could not be placed; GRC-1's Bekker kφ is
     −1.4e5 against a prior on (0, ∞))."""

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 
 from .likelihood import PooledProblem
 
@@ -87,7 +88,7 @@ def log_likelihood_draws(draws: int, chains: int, tests: int) -> np.ndarray:
 RESPONSES = {"sinkage": ("pressure", "Pa"), "shear": ("shear stress", "Pa")}
 
 
-def spread_draws(draws: int, chains: int, total: int | None):
+def spread_draws(draws: int, chains: int, total: int | None) -> np.ndarray:
     """Indices of the draws to keep in every chain: about ``total`` over all chains, evenly
     spaced within each chain (at least one per chain; all when ``total`` is None or not
     smaller)."""
@@ -108,7 +109,15 @@ def response_kind(problem: PooledProblem) -> str:
     return "shear" if problem.model.output.startswith("tau") else "sinkage"
 
 
-def measured_dataset(*, y, weight, test_index, test_ids, inputs: dict, kind: str) -> xr.Dataset:
+def measured_dataset(
+    *,
+    y: ArrayLike,
+    weight: ArrayLike,
+    test_index: ArrayLike,
+    test_ids: ArrayLike,
+    inputs: dict,
+    kind: str,
+) -> xr.Dataset:
     """Measured samples as ``y`` along ``obs``, with the coordinates ``test`` (test id),
     ``sample`` (index within its test), the inputs by name and ``weight``.
 

@@ -33,7 +33,8 @@ Jeffreys prior 1/σ_w (see :mod:`soilstats.bayes.likelihood`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import os
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -146,7 +147,7 @@ def parse_prior(text: str) -> Prior:
     )
 
 
-def priors_from_items(items) -> dict[str, Prior]:
+def priors_from_items(items: Iterable[str] | None) -> dict[str, Prior]:
     """``["n=0.2:2", "kc=normal:0:5e4"]`` -> ``{"n": Prior, "kc": Prior}`` (``--prior``)."""
     out: dict[str, Prior] = {}
     for item in items or ():
@@ -157,7 +158,7 @@ def priors_from_items(items) -> dict[str, Prior]:
     return out
 
 
-def priors_from_toml(path, model_name: str) -> dict[str, Prior]:
+def priors_from_toml(path: str | os.PathLike[str], model_name: str) -> dict[str, Prior]:
     """The ``[MODEL]`` table of a TOML file: ``NAME = "SPEC"`` (as :func:`parse_prior`).
 
     A file may hold tables for several models (``[bekker]``, ``[janosi]``); a model without a

@@ -9,12 +9,18 @@ marginalises the test-level effects over these (module docstring there).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from ..identification.per_test import TEST_FIT_ERRORS, fit_bernstein_test, fit_shear_test
 from .likelihood import PooledProblem
+
+if TYPE_CHECKING:
+    from ..identification.pooling import PooledData
+    from ..models.base import Model
 
 __all__ = ["PerTestFits", "reference_sinkage", "shear_tests", "sinkage_tests", "to_eta"]
 
@@ -54,7 +60,7 @@ def _reduce_tests(test_ids, test_index, fit_one, covariate_of):
     return np.array(params), np.array(covs), np.array(covariate, float), kept, failed
 
 
-def sinkage_tests(pooled, spec) -> PerTestFits:
+def sinkage_tests(pooled: PooledData, spec: Model) -> PerTestFits:
     """Bernstein fit (Eq. 8) of every test on its own (tests whose fit fails: left out)."""
     z, b, p, w = pooled.x["z_m"], pooled.x["b_m"], pooled.y, pooled.weights
     params, covs, sizes, kept, failed = _reduce_tests(
@@ -66,10 +72,11 @@ def sinkage_tests(pooled, spec) -> PerTestFits:
     return PerTestFits(params, covs, _design(spec, sizes), sizes, kept, failed)
 
 
-def _design(spec, sizes: np.ndarray) -> np.ndarray:
+def _design(spec: Model, sizes: np.ndarray) -> np.ndarray:
     """(T, q) a_t: the power law's basis (``Model.power_law``) at each test's plate size b_t,
     so that k_t = a_tᵀ(moduli): (1/b_t, 1) for Bekker, 1 for Bernstein."""
-    basis, _ = spec.power_law(spec.x_from({"b_m": sizes, "z_m": np.ones_like(sizes)}))
+    power_law = cast(Callable, spec.power_law)  # a population layout: a power law
+    basis, _ = power_law(spec.x_from({"b_m": sizes, "z_m": np.ones_like(sizes)}))
     return np.column_stack([np.broadcast_to(np.asarray(g, float), sizes.shape) for g in basis])
 
 
@@ -115,7 +122,9 @@ def scatter_sinkage(fits: PerTestFits, z: np.ndarray, ln_zref: float) -> float:
     return float(np.clip(ln_zref, lo, hi))
 
 
-def to_eta(params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: bool):
+def to_eta(
+    params: np.ndarray, cov: np.ndarray, ln_zref: float, log_second: bool
+) -> tuple[np.ndarray, np.ndarray]:
     """Per-test fits and covariances → η = (ln a + g·ln z_ref, g), g = b or ln b, and the
     delta-method covariances of η."""
     g = np.log(params[:, 1]) if log_second else params[:, 1]

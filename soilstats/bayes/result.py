@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, cast
@@ -17,6 +18,7 @@ from ._arviz import az
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
+    from .handout import Handout
 
 __all__ = [
     "CONVERGENCE_CODES",
@@ -38,7 +40,7 @@ ESS_MIN = 400
 CONVERGENCE_CODES = ("high-r-hat", "low-bulk-ess", "low-tail-ess", "short-chain")
 
 
-def chain_diagnostics(idata: Any, var_names) -> pd.DataFrame:
+def chain_diagnostics(idata: Any, var_names: Iterable[str]) -> pd.DataFrame:
     """MCSE, bulk/tail ESS and R-hat of each of ``var_names`` (ArviZ's summary, unrounded)."""
     return az.summary(idata, var_names=list(var_names), kind="diagnostics", round_to="none")
 
@@ -271,7 +273,7 @@ class PosteriorResult:
             }
         )
 
-    def handout(self, contact_widths: tuple[float, float], *, seed: int | None = 0):
+    def handout(self, contact_widths: tuple[float, float], *, seed: int | None = 0) -> Handout:
         """Whether this posterior's draws are fit for a rover Monte Carlo, and the draws a
         Monte Carlo may be given: :func:`soilstats.bayes.handout.hand_out` of this result
         alone (``contact_widths`` (b_min, b_max) [m]: where the draws will be used)."""

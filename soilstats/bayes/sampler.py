@@ -59,7 +59,13 @@ class EnsembleRun:
         return self.runtime_s
 
 
-def _start(log_prob, centre, cov, n_walkers, rng) -> np.ndarray:
+def _start(
+    log_prob: Callable[[np.ndarray], np.ndarray],
+    centre: np.ndarray,
+    cov: np.ndarray,
+    n_walkers: int,
+    rng: np.random.Generator,
+) -> np.ndarray:
     chol = np.linalg.cholesky(cov)
     out = np.empty((n_walkers, centre.size))
     todo = np.arange(n_walkers)

@@ -18,7 +18,7 @@ silently clipped.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from scipy.special import ndtr, ndtri
@@ -41,12 +41,12 @@ SUPPORT: dict[str, tuple[float, float, bool]] = {
 _ARITY = {"normal": 2, "truncnormal": 4, "uniform": 2, "lognormal": 2}
 
 
-def describe_prior(spec) -> str:
+def describe_prior(spec: Sequence[str | float]) -> str:
     """``normal(30, 3)`` for ``("normal", 30, 3)``."""
     return f"{spec[0]}({', '.join(f'{float(v):g}' for v in spec[1:])})"
 
 
-def _check(name: str, spec) -> tuple[str, tuple[float, ...]]:
+def _check(name: str, spec: object) -> tuple[str, tuple[float, ...]]:
     if not isinstance(spec, tuple | list) or not spec or spec[0] not in _ARITY:
         raise InputError(
             f"prior for {name!r} must be a tuple (kind, *args) with kind one of "
@@ -68,7 +68,7 @@ def _check(name: str, spec) -> tuple[str, tuple[float, ...]]:
     return kind, args
 
 
-def _draw(kind: str, args, size: int, rng: np.random.Generator) -> np.ndarray:
+def _draw(kind: str, args: tuple[float, ...], size: int, rng: np.random.Generator) -> np.ndarray:
     if kind == "normal":
         return rng.normal(args[0], args[1], size)
     if kind == "uniform":

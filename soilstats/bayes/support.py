@@ -20,12 +20,17 @@ model does not describe the soil and the CLI writes nothing unless forced.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+
+if TYPE_CHECKING:
+    from ..models.base import Model
 
 __all__ = ["MAX_OUTSIDE", "SupportCheck", "check_support", "negative_modulus_width"]
 
@@ -86,7 +91,9 @@ class SupportCheck:
 
 
 def check_support(
-    draws: pd.DataFrame, contact_widths: tuple[float, float], models=None
+    draws: pd.DataFrame,
+    contact_widths: tuple[float, float],
+    models: Iterable[str | Model] | None = None,
 ) -> SupportCheck:
     """Judge each row of ``draws`` (columns named as the models' parameters, φ in degrees).
 

@@ -29,11 +29,14 @@ Other models (Reece, Janosi, Mohr–Coulomb) are sampled in their own parameters
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from ..models import Model
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["Coordinates", "sampling_coordinates"]
 
@@ -123,7 +126,7 @@ class Coordinates:
         return j @ np.asarray(cov, float) @ j.T
 
 
-def _plate_moduli(model: Model, plate_sizes) -> np.ndarray | None:
+def _plate_moduli(model: Model, plate_sizes: ArrayLike) -> np.ndarray | None:
     """M: the power law's basis g(b) (``Model.power_law``) at the smallest and largest plate,
     one row per plate, so that M·a are the plate moduli (Bekker: rows (1/b, 1)); one row for
     a model with one modulus (Bernstein: M = 1).  None where the model is no power law or the

@@ -12,11 +12,12 @@ import numpy as np
 import pandas as pd
 
 from .schema import DERIVED_COLUMNS, FILES
+from .tables import CampaignTables
 
 __all__ = ["campaign_sha256"]
 
 
-def campaign_sha256(campaign) -> str:  # a Campaign (that module imports this one)
+def campaign_sha256(campaign: CampaignTables) -> str:
     """SHA-256 of a campaign's raw content (what ``Campaign.save`` writes), as hex.
 
     The same tables give the same hash whether they came from CSV, Parquet or DataFrames:
@@ -39,7 +40,7 @@ def campaign_sha256(campaign) -> str:  # a Campaign (that module imports this on
     return digest.hexdigest()
 
 
-def _cells(values) -> list[str]:
+def _cells(values: pd.Series) -> list[str]:
     """The text of every cell of a column, NUL (``"\\x00"``) where missing."""
     if isinstance(values.dtype, pd.StringDtype):
         # Every present cell is a str already: one conversion in C, not a Python loop over

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from .schema import KINDS
+from .tables import CampaignTables
 
 __all__ = ["CampaignIndex", "campaign_index", "grouped_by_code", "sample_test_positions"]
 
@@ -77,7 +78,7 @@ class CampaignIndex:
     _columns: dict[tuple[str, str], np.ndarray] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def of(cls, campaign) -> CampaignIndex:  # a Campaign (that module imports this one)
+    def of(cls, campaign: CampaignTables) -> CampaignIndex:
         tests = campaign.tests
         kind = _frozen(tests["kind"].to_numpy())
         return cls(
@@ -121,7 +122,7 @@ class CampaignIndex:
 _INDEX: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def campaign_index(campaign) -> CampaignIndex:  # a Campaign, unannotated as in of()
+def campaign_index(campaign: CampaignTables) -> CampaignIndex:
     """The :class:`CampaignIndex` of ``campaign``, built on first use."""
     index = _INDEX.get(campaign)
     if index is None:

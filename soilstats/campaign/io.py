@@ -15,7 +15,7 @@ import os
 import re
 import stat
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO, Literal
@@ -111,7 +111,7 @@ def _parent_denied(path: Path) -> CampaignError:
     )
 
 
-def _entry(path: Path, *, denied=_parent_denied) -> str | None:
+def _entry(path: Path, *, denied: Callable[[Path], Exception] = _parent_denied) -> str | None:
     """What is at ``path``: None if nothing, ``""`` for a regular file or a link to one, else
     what is there instead ("a directory", "a FIFO (named pipe)", "a symlink loop", ...).
 

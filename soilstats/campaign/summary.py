@@ -7,6 +7,7 @@ import pandas as pd
 from pandas.api.types import is_numeric_dtype
 
 from .schema import KINDS
+from .tables import CampaignTables
 
 __all__ = ["describe"]
 
@@ -56,9 +57,10 @@ def _samples(kind: str, table: pd.DataFrame, notes: list[str]) -> list[str]:
     return lines
 
 
-def describe(c) -> str:
-    """Return the readable overview of campaign ``c`` (see :meth:`Campaign.summary`; not
-    annotated, so that this module need not import the one that imports it).
+def describe(c: CampaignTables) -> str:
+    """Return the readable overview of campaign ``c`` (see :meth:`Campaign.summary`; typed by
+    the protocol :class:`~soilstats.campaign.tables.CampaignTables`, so that this module need
+    not import the one that imports it).
 
     Lists the tests per kind and soil, the log's columns and covariates (with how many tests
     record each), the sample counts and value ranges [SI units], the plates and rings, and the

@@ -223,7 +223,14 @@ def _implausible_units(
 ) -> list[UnitsFinding]:
     found: list[UnitsFinding] = []
 
-    def add(mask: pd.Series, values: pd.Series, file, column, what, fatal=False) -> None:
+    def add(
+        mask: pd.Series,
+        values: pd.Series,
+        file: str,
+        column: str,
+        what: str,
+        fatal: bool = False,
+    ) -> None:
         hits = list(mask[mask].index)
         if hits:
             found.append(

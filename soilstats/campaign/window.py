@@ -152,7 +152,7 @@ class FitWindow:
         ]
 
 
-def _positive(value, name: str) -> float | None:
+def _positive(value: float | None, name: str) -> float | None:
     if value is None:
         return None
     value = float(value)

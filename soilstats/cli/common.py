@@ -35,7 +35,7 @@ import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, TextIO, cast
 
 from .._text import plural
 from ..errors import InputError
@@ -200,7 +200,7 @@ def _seed(text: str) -> int:
     return value
 
 
-def prepared(args: argparse.Namespace, *, out=None) -> tuple[Campaign, Provenance]:
+def prepared(args: argparse.Namespace, *, out: TextIO | None = None) -> tuple[Campaign, Provenance]:
     """The campaign a command analyses and the provenance of its outputs.
 
     The campaign is loaded, screened (``--quality``), windowed (``--z-max``/``--p-max``)

@@ -27,6 +27,7 @@ from .common import (
 )
 
 if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
     from ..identification.conditions import ConditionPlan
 
 
@@ -95,11 +96,11 @@ class _SinkageModels:
     def __iter__(self):
         return iter(self._names())
 
-    def __contains__(self, name) -> bool:
+    def __contains__(self, name: object) -> bool:
         return name in self._names()
 
 
-def _check_series(campaign, series: str | None) -> None:
+def _check_series(campaign: Campaign, series: str | None) -> None:
     from ..errors import CampaignError
 
     if series is None:

@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -137,7 +138,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def split_prior_items(args, models) -> tuple[list[str], dict[str, tuple]]:
+def split_prior_items(
+    args: argparse.Namespace, models: Iterable[str]
+) -> tuple[list[str], dict[str, tuple]]:
     """``--prior`` items for the sampled models' parameters, and user priors: with
     ``--simulator``, items naming a parameter the simulator needs that no model identifies
     (c, phi, K without a shear model), as :mod:`soilstats.bayes.stated_priors` tuples."""
@@ -160,7 +163,7 @@ def split_prior_items(args, models) -> tuple[list[str], dict[str, tuple]]:
     return posterior, stated
 
 
-def priors_by_model(args, models) -> dict[str, dict]:
+def priors_by_model(args: argparse.Namespace, models: Sequence[str]) -> dict[str, dict]:
     """Each model's priors, read once: its ``[MODEL]`` table of ``--priors``, then the
     ``--prior`` items naming its parameters (they win). A name that belongs to no model — or,
     in a file, not to its table's model — is an error before any sampling. Items that are
@@ -284,7 +287,7 @@ def _check_simulator(args, models, stated: dict) -> None:
         sample_priors(stated, 10_000, prior_seed(args.seed, models))
 
 
-def prior_seed(seed: int, models) -> int:
+def prior_seed(seed: int, models: Sequence[str]) -> int:
     """The seed of the user priors' draws: one stream of its own after the models'
     (``SeedSequence([seed, len(models)])``), so they are independent of the posterior."""
     return model_seed(seed, len(models))
@@ -321,7 +324,9 @@ def _tested_widths(args, campaign) -> tuple[float, float] | None:
     return (float(b.min()), float(b.max())) if len(b) else None
 
 
-def extrapolation_warnings(widths, tested, models) -> list[str]:
+def extrapolation_warnings(
+    widths: tuple[float, float], tested: tuple[float, float] | None, models: Iterable[str]
+) -> list[str]:
     """Say when --contact-width leaves the tested plate sizes for a model whose modulus
     depends on b (Bekker kc/b + kφ, Reece k1 + k2·b): there it is extrapolated, and the
     support check only says it stays positive, not that it is right."""
@@ -370,7 +375,7 @@ def _pooled_columns(kind: str, models) -> tuple[str, ...]:
     return DEFAULT_CONDITION_COLUMNS[kind] + setup[kind]
 
 
-def pooling_warnings(campaign: Campaign, soil: str, models) -> list[str]:
+def pooling_warnings(campaign: Campaign, soil: str, models: Iterable[str]) -> list[str]:
     """Say when a posterior pools plate sizes (Bernstein) or test conditions."""
     tests = campaign.tests[campaign.tests["soil"].astype(str) == soil]
     out = []

@@ -29,9 +29,14 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from .common import add_common_options, add_data_options, prepared, progress_enabled
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
+    from ..wheel import StressAngles
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
 _GEOMETRY = {
@@ -139,7 +144,7 @@ def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
     return out
 
 
-def parse_angles(text: str | None):
+def parse_angles(text: str | None) -> StressAngles | None:
     from ..wheel import StressAngles
 
     if text is None:
@@ -236,7 +241,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pooling(campaign, args) -> list[str]:
+def _pooling(campaign: Campaign, args: argparse.Namespace) -> list[str]:
     """The posterior command's warning when the plates pool conditions (preparations,
     velocities, shapes …): the draws then describe their mixture, not one sand state."""
     from ..wheel.soil import choose_law, soil_tests

@@ -23,6 +23,7 @@ from .result import Finding
 
 if TYPE_CHECKING:
     from ..quality import ScreenedCampaign
+    from .data import Group
 
 __all__ = ["quality_record", "split_artefacts", "with_quality_caveat"]
 
@@ -171,7 +172,12 @@ def _flagged_trend(group, rows, labels) -> tuple[str | None, str | None]:
     )
 
 
-def split_artefacts(group, found, quality, table=None) -> tuple[list, list[dict]]:
+def split_artefacts(
+    group: Group,
+    found: list[Finding],
+    quality: dict | None,
+    table: pd.DataFrame | None = None,
+) -> tuple[list[Finding], list[dict]]:
     """Findings whose cause lines up with the data-quality artefacts of the tests are data
     problems, not causes: screening removes what it finds of an artefact, but what remains
     (an offset it did not find, a spike's neighbours) can still follow the tests it sits in.

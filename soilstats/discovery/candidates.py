@@ -34,11 +34,15 @@ Cullinan campaign).  Confounding is reported, never resolved by a guess.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from ..campaign import times
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "FIT_COLUMNS",
@@ -323,7 +327,7 @@ def level_codes(values: pd.Series) -> np.ndarray:
     return pd.factorize(values.astype(object).where(values.notna(), MISSING))[0]
 
 
-def _as_codes(values) -> np.ndarray:
+def _as_codes(values: ArrayLike) -> np.ndarray:
     """Non-negative integer codes of an array (unchanged when it already is one)."""
     values = np.asarray(values)
     if values.dtype.kind in "iu" and (values.size == 0 or values.min() >= 0):

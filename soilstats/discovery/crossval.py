@@ -23,17 +23,28 @@ evidence).
 from __future__ import annotations
 
 import zlib
+from collections.abc import Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol, cast
 
 import numpy as np
 
 from ..errors import ConvergenceError, IdentifiabilityError
 from .work import FitTask, Wave, per_test_error
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..fitting.result import FitResult
+    from .data import Group
+    from .extensions import Extension, FitStart
+    from .work import Outcome, Process, Start
+
 __all__ = [
     "FoldFits",
     "Gain",
     "GroupFolds",
+    "HeldOutModel",
     "campaign_gain",
     "compare",
     "cross_validation",
@@ -129,7 +140,7 @@ class Gain:
         }
 
 
-def group_rng(seed: int, group) -> np.random.Generator:
+def group_rng(seed: int, group: Group) -> np.random.Generator:
     """The stream one (kind, soil) group draws its folds from: seeded by ``seed`` and the
     group's name, so that a group's folds — and so its findings — depend neither on which
     other soils the campaign holds nor on the order the groups run in (they may run side by
@@ -164,7 +175,7 @@ def make_folds(
     return folds
 
 
-def fold_labels(group, rows, causes) -> np.ndarray:
+def fold_labels(group: Group, rows: np.ndarray, causes: Iterable[str]) -> np.ndarray:
     """Labels to stratify folds by: the joint level of the categorical ``causes`` on the
     tests ``rows`` (a trend, with a value per test, stratifies nothing)."""
     from .candidates import candidate_values
@@ -189,16 +200,27 @@ class GroupFolds:
     rows: np.ndarray  # the usable tests (rows of the group's table), sorted
     folds: np.ndarray  # the fold of each
 
-    def of(self, rows) -> np.ndarray:
+    def of(self, rows: ArrayLike) -> np.ndarray:
         """The folds of the tests ``rows`` (a subset of :attr:`rows`)."""
         return self.folds[np.searchsorted(self.rows, np.asarray(rows, int))]
 
 
-def group_folds(group, causes, rng: np.random.Generator) -> GroupFolds:
+def group_folds(group: Group, causes: Iterable[str], rng: np.random.Generator) -> GroupFolds:
     """The folds of a group's usable tests, stratified by the joint level of its leading
     ``causes`` (:func:`fold_labels`), drawn from ``rng``."""
     rows = np.unique(group.owner)
     return GroupFolds(rows, make_folds(fold_labels(group, rows, causes), "tests", rng))
+
+
+class HeldOutModel(Protocol):
+    """What :func:`campaign_gain` reads of a combined model (:class:`.selection
+    .CombinedModel`; that module imports this one, so an import back would close a loop)."""
+
+    @property
+    def held_out(self) -> tuple | None: ...
+
+    @property
+    def gain(self) -> Gain | None: ...
 
 
 #: A fold whose training tests did not choose the extension (:mod:`.nested`): its held-out
@@ -226,14 +248,14 @@ class FoldFits:
 
     def __init__(
         self,
-        rows,
-        ext,
-        folds,
+        rows: ArrayLike,
+        ext: Extension | dict[int, Extension | object | None],  # object: SAME
+        folds: ArrayLike,
         *,
         scheme: str,
-        starts: dict | None = None,
-        chain=0,
-        base_errors=None,
+        starts: Mapping[int, FitStart | None] | None = None,
+        chain: Hashable = 0,
+        base_errors: ArrayLike | None = None,
     ) -> None:
         self.rows = np.asarray(rows, int)
         self.folds = np.asarray(folds)
@@ -250,13 +272,17 @@ class FoldFits:
             elif model is SAME:
                 task = SAME
             else:
-                task = FitTask(model, train, start, test, chain) if train.size >= 2 else None
+                # Neither None nor SAME: an extension.
+                fit = cast("Extension", model)
+                task = FitTask(fit, train, start, test, chain) if train.size >= 2 else None
             self.plan.append((int(fold), task))
         self.tasks = [task for _, task in self.plan if isinstance(task, FitTask)]
         #: Folds whose training tests chose the extension (not predicted by the base model).
         self.extended = sum(task is not _BASE for _, task in self.plan)
 
-    def collect(self, outcomes, same_errors=None) -> tuple[dict, np.ndarray]:
+    def collect(
+        self, outcomes: Iterable[Outcome], same_errors: ArrayLike | None = None
+    ) -> tuple[dict[int, Start | None], np.ndarray]:
         """(fits by fold, each test's held-out error) from the outcomes of ``tasks``;
         ``same_errors``: the held-out errors (same rows) of the plan whose fold fits the
         :data:`SAME` folds share.
@@ -266,7 +292,7 @@ class FoldFits:
         is never computed from a failed fit.
         """
         outcomes = iter(outcomes)
-        fits: dict = {}
+        fits: dict[int, Start | None] = {}
         errors = np.empty(self.rows.size)
         for fold, task in self.plan:
             if task is _BASE or task is SAME:
@@ -283,12 +309,19 @@ class FoldFits:
             if isinstance(exc, ConvergenceError | IdentifiabilityError):
                 raise type(exc)(f"cross-validation fold {fold} ({self.scheme}): {exc}") from exc
             outcome.raise_error()
-            fits[fold] = outcome.fitted
+            fits[fold] = cast("Start", outcome.fitted)  # a fold fit comes back as its Start
             errors[self.folds == fold] = outcome.errors
         return fits, errors
 
 
-def compare(e_base, e_ext, *, scheme: str, folds, selected_folds: int | None = None) -> Gain:
+def compare(
+    e_base: np.ndarray,
+    e_ext: np.ndarray,
+    *,
+    scheme: str,
+    folds: ArrayLike,
+    selected_folds: int | None = None,
+) -> Gain:
     """The gain of the per-test errors ``e_ext`` over ``e_base`` (the same held-out tests);
     ``selected_folds``: see :class:`Gain`."""
     d = np.asarray(e_base) - np.asarray(e_ext)
@@ -310,7 +343,15 @@ def compare(e_base, e_ext, *, scheme: str, folds, selected_folds: int | None = N
     )
 
 
-def cross_validation(group, rows, base_ext, ext, folds, *, scheme):
+def cross_validation(
+    group: Group,
+    rows: np.ndarray,
+    base_ext: Extension,
+    ext: Extension | dict[int, Extension | object | None],
+    folds: np.ndarray,
+    *,
+    scheme: str,
+) -> Process[Gain]:
     """Process (:mod:`.work`) of the held-out prediction error of ``base_ext`` and ``ext``
     on the tests ``rows``: the base model's fold fits, then the extension's (each started
     from the base model's fit of its fold), each one wave; returns the :class:`Gain`.
@@ -327,14 +368,14 @@ def cross_validation(group, rows, base_ext, ext, folds, *, scheme):
     return compare(e_base, e_ext, scheme=scheme, folds=folds)
 
 
-def information_criteria(result) -> dict:
+def information_criteria(result: FitResult) -> dict:
     """AIC and BIC of a weighted least-squares fit: N ln(RSS/N) + 2p (or p ln N)."""
     n, p = result.nobs, len(result.param_names)
     ll = n * np.log(result.rss / n)
     return {"aic": float(ll + 2 * p), "bic": float(ll + p * np.log(n)), "nobs": n, "params": p}
 
 
-def campaign_gain(models) -> Gain | None:
+def campaign_gain(models: Sequence[HeldOutModel]) -> Gain | None:
     """The gain of the combined models over the base models, every extended (kind, soil)
     together: the same paired per-test comparison over all their held-out tests."""
     pairs = [m.held_out for m in models if m.held_out is not None]

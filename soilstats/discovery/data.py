@@ -11,8 +11,9 @@ every test counts alike.  ``owner`` maps each sample to its row of the table.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -28,6 +29,8 @@ if TYPE_CHECKING:
     from ..models.base import Model
 
 __all__ = ["Group", "build_groups"]
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,7 +78,7 @@ class Group:
     def label(self) -> str:
         return f"{self.kind} / {self.soil}"
 
-    def memo(self, key, compute):
+    def memo(self, key: Hashable, compute: Callable[[], T]) -> T:
         """``compute()``, once per group and ``key``: cross-validation refits the same
         extensions on the same tests hundreds of times, and the per-test features (a
         column's values as :func:`~.candidates.candidate_values` reads them) never change
@@ -97,7 +100,9 @@ class Group:
         return keep[self.owner]
 
 
-def _pool(campaign, kind: str, soil: str, table: pd.DataFrame, points: int):
+def _pool(
+    campaign: Campaign, kind: str, soil: str, table: pd.DataFrame, points: int
+) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Section 2.1's samples of one (kind, soil), in the rows of ``table`` (the per-test fits)."""
     if kind == "sinkage":
         pooled = pool_sinkage(campaign, points_per_test=points, on_unusable="skip", soil=soil)
@@ -125,7 +130,7 @@ def build_groups(
     points_per_test: int = 60,
     progress: bool = False,
     jobs: int | None = 1,
-    model=None,
+    model: Model | None = None,
 ) -> tuple[list[Group], list[str]]:
     """Split a campaign into (kind, soil) groups with per-test fits and pooled samples.
 

@@ -21,6 +21,7 @@ The p-values of all candidates × responses × groups form one family, adjusted 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
 from typing import TYPE_CHECKING
@@ -57,7 +58,7 @@ from .power import minimum_detectable
 
 if TYPE_CHECKING:
     from .data import Group
-    from .extensions import Fitted
+    from .extensions import FitStart, Fitted
 
 __all__ = [
     "INTERACTION",
@@ -102,7 +103,7 @@ def _shear_deviations(table: pd.DataFrame, idx, plateau, k_model) -> None:
     table.loc[idx, "_dev_K"] = np.where(np.isfinite(dev_k), dev_k, np.nan)
 
 
-def add_responses(group):
+def add_responses(group: Group) -> tuple[Group, Fitted | None, list[str]]:
     """Fit the base model on all usable tests and add the per-test response columns.
 
     Returns ``(group, base, notes)``; ``base`` is None (and responses NaN) when the base model
@@ -158,7 +159,7 @@ def _base_deviations(table: pd.DataFrame, kind: str, model, theta, rows, group=N
     table.loc[table.index[unused], [f"_dev_{r}" for r in RESPONSES[kind]]] = np.nan
 
 
-def training_responses(group, base, rows) -> pd.DataFrame:
+def training_responses(group: Group, base: FitStart, rows: np.ndarray) -> pd.DataFrame:
     """The per-test responses of the tests ``rows`` only, against a base model fitted on
     them (``base``: its extension and ``result.values``, e.g. a fold fit's
     :class:`~.work.Start`); every other test's responses are NaN.
@@ -470,7 +471,9 @@ def _interactions(group, table, cands, related, eligible, codes, values_of):
     return (table.assign(**columns) if columns else table), rows_out, rels
 
 
-def diagnose_groups(groups, *, alpha: float = 0.05) -> tuple[list[Diagnosis], pd.DataFrame]:
+def diagnose_groups(
+    groups: Iterable[Group], *, alpha: float = 0.05
+) -> tuple[list[Diagnosis], pd.DataFrame]:
     """Diagnose every group; one Holm family over all testable candidate × response rows.
 
     Returns the per-group diagnoses and a table with one row per (kind, soil, candidate,
@@ -611,7 +614,7 @@ def _model_deviations(table: pd.DataFrame, group, model, theta, rows) -> None:
     _sinkage_deviations(table, table.index[rows], lk_hat, n_hat)
 
 
-def conditional_responses(group, fitted) -> pd.DataFrame:
+def conditional_responses(group: Group, fitted: Fitted) -> pd.DataFrame:
     """The per-test responses measured against a fitted (extended) model instead of the base.
 
     The model's curve of each test is read on noiseless points: for sinkage its Bernstein
@@ -661,7 +664,7 @@ def _weighted_lines(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[np.nda
     return slope, np.where(enough, my - slope * mx, np.nan)
 
 
-def retest(group, table, row) -> dict[str, float]:
+def retest(group: Group, table: pd.DataFrame, row: pd.Series) -> dict[str, float]:
     """Raw p-value per response of one candidate (a row of the diagnosis table, main effect
     or interaction) against the responses in ``table``."""
     blocks_list = [b for b in row["blocks"].split(", ") if b]

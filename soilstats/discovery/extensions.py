@@ -24,7 +24,9 @@ of other tests, so that cross-validation can measure it out of sample.
 
 from __future__ import annotations
 
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Protocol, cast
 
 import numpy as np
 import pandas as pd
@@ -45,9 +47,13 @@ from ..models.wong import wong_start
 from .candidates import MISSING, WITHIN, candidate_values, spans_log
 from .separable import check_shear_terms, sinkage_keeps_bekker
 
+if TYPE_CHECKING:
+    from .data import Group
+
 __all__ = [
     "Extension",
     "Features",
+    "FitStart",
     "Fitted",
     "ModelExtension",
     "ReeceExtension",
@@ -78,11 +84,12 @@ class Features:
     log_scale: bool = True  # "linear" may use ln x (not for time/order: a drift)
     by: str | None = None  # "block-linear": the column of block labels
 
-    def prepare(self, group, rows) -> dict:
+    def prepare(self, group: Group, rows: np.ndarray) -> dict:
         """Reference values from the training tests only (no peeking at held-out tests)."""
         values = group.values(self.column).iloc[rows]
         if self.how == "block-linear":
-            blocks = group.values(self.by).iloc[rows].astype(object).fillna(MISSING)
+            by = cast(str, self.by)  # a block-linear trend names its blocks' column
+            blocks = group.values(by).iloc[rows].astype(object).fillna(MISSING)
             x = values.astype(float)
             state: dict[str, list] = {"blocks": [], "mean": [], "sd": []}
             for lv in dict.fromkeys(blocks):
@@ -105,7 +112,7 @@ class Features:
         g = np.log(x) if use_log else x
         return {"log": use_log, "mean": float(g.mean()), "sd": float(g.std()) or 1.0}
 
-    def names(self, state) -> list[str]:
+    def names(self, state: dict) -> list[str]:
         if self.how == "block-linear":
             return [f"{self.column} drift in {lv}" for lv in state["blocks"]]
         if self.how == "levels":
@@ -114,15 +121,16 @@ class Features:
             return ["ln(v/v_ref)"]
         return [f"{'ln ' if state['log'] else ''}{self.column} (standardised)"]
 
-    def matrix(self, group, state) -> np.ndarray:
+    def matrix(self, group: Group, state: dict) -> np.ndarray:
         """(n_tests, m) features of every test of the group (unseen levels → reference)."""
         if self.how == "block-linear":
             x = group.memo(
                 ("float", self.column), lambda: group.values(self.column).astype(float).to_numpy()
             )
+            by = cast(str, self.by)  # a block-linear trend names its blocks' column
             blocks = group.memo(
-                ("levels", self.by),
-                lambda: group.values(self.by).astype(object).fillna(MISSING).to_numpy(),
+                ("levels", by),
+                lambda: group.values(by).astype(object).fillna(MISSING).to_numpy(),
             )
             cols = [
                 np.where(blocks == lv, (x - m) / sd, 0.0)
@@ -221,7 +229,29 @@ class Fitted:
     state: dict = field(default_factory=dict)
 
 
-def _uses_bekker(fitted: Fitted) -> bool | None:
+class FitValues(Protocol):
+    """The parameter values of a fit (``FitResult.values``)."""
+
+    @property
+    def values(self) -> np.ndarray: ...
+
+
+class FitStart(Protocol):
+    """What a fit starts from (``Extension.fit``'s ``base``): a :class:`Fitted`, or a fold
+    fit's :class:`~.work.Start` as it comes back from a worker — the extension, its
+    parameter values (``result.values``) and the base form its fit chose (``state``)."""
+
+    @property
+    def extension(self) -> Extension: ...
+
+    @property
+    def result(self) -> FitValues: ...
+
+    @property
+    def state(self) -> dict: ...
+
+
+def _uses_bekker(fitted: FitStart) -> bool | None:
     """Whether a fitted sinkage model kept Eq. 7 (None for Reece and shear models)."""
     return fitted.state.get("bekker", getattr(fitted.extension, "bekker", None))
 
@@ -234,10 +264,14 @@ class Extension:
     physical: bool
     description: str
 
-    def fit(self, group, rows, base: Fitted | None = None) -> Fitted:  # pragma: no cover
+    def fit(
+        self, group: Group, rows: np.ndarray, base: FitStart | None = None
+    ) -> Fitted:  # pragma: no cover
         raise NotImplementedError
 
-    def predict(self, fitted: Fitted, group, rows) -> np.ndarray:  # pragma: no cover
+    def predict(
+        self, fitted: Fitted, group: Group, rows: np.ndarray
+    ) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
 
@@ -290,7 +324,7 @@ class SinkageExtension(Extension):
             units += ["m", "-"]
         return names, units
 
-    def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
+    def fit(self, group: Group, rows: np.ndarray, base: FitStart | None = None) -> Fitted:
         rows = np.asarray(rows, int)
         state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
         bekker = sinkage_keeps_bekker(
@@ -344,7 +378,7 @@ class SinkageExtension(Extension):
             raise ConvergenceError(f"{self.name}: no threshold converged — " + "; ".join(errors))
         return best
 
-    def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
+    def predict(self, fitted: Fitted, group: Group, rows: np.ndarray) -> np.ndarray:
         _, _, family = self._inputs(group, np.asarray(rows, int), fitted.state)
         return family.f(fitted.result.values)
 
@@ -353,7 +387,7 @@ class SinkageExtension(Extension):
 class ReeceExtension(Extension):
     """Reece's p = (k1 + k2·b)(z/b)^n: the plate size enters through z/b, not kc/b."""
 
-    def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
+    def fit(self, group: Group, rows: np.ndarray, base: FitStart | None = None) -> Fitted:
         mask = group.samples_of(np.asarray(rows, int))
         b, z, y, w = group.x["b"][mask], group.x["z"][mask], group.y[mask], group.w[mask]
         theta = base.result.values if base is not None else wong_start(b, z, y)
@@ -361,7 +395,7 @@ class ReeceExtension(Extension):
         result = identify(REECE, np.vstack([b, z]), y, p0, weights=w, name=self.name)
         return Fitted(self, result, {})
 
-    def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
+    def predict(self, fitted: Fitted, group: Group, rows: np.ndarray) -> np.ndarray:
         mask = group.samples_of(np.asarray(rows, int))
         return REECE.func(
             np.vstack([group.x["b"][mask], group.x["z"][mask]]), *fitted.result.values
@@ -374,7 +408,7 @@ class ReeceExtension(Extension):
 _GROUP_INPUTS = {"sinkage": {"b_m": "b", "z_m": "z"}, "shear": {"sigma_Pa": "sigma", "j_m": "j"}}
 
 
-def check_own_model(model) -> None:
+def check_own_model(model: Model) -> None:
     """Raise :class:`~soilstats.errors.ModelError` unless discovery has every input the
     registered ``model`` takes (``Model.columns``) and its starting values."""
     have = _GROUP_INPUTS.get(model.kind, {})
@@ -415,7 +449,7 @@ class ModelExtension(Extension):
         _add_term_names(names, units, self.terms, state)
         return names, units
 
-    def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
+    def fit(self, group: Group, rows: np.ndarray, base: FitStart | None = None) -> Fitted:
         rows = np.asarray(rows, int)
         state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
         sinkage_keeps_bekker(self.name, False, self.terms, state["terms"], group, rows)
@@ -433,7 +467,7 @@ class ModelExtension(Extension):
         result = _identify(family, y, w, p0, names, units, bounds, self.name)
         return Fitted(self, result, state)
 
-    def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
+    def predict(self, fitted: Fitted, group: Group, rows: np.ndarray) -> np.ndarray:
         _, _, family = self._inputs(group, np.asarray(rows, int), fitted.state)
         return family.f(fitted.result.values)
 
@@ -474,7 +508,7 @@ class ShearExtension(Extension):
             units.append("-")
         return names, units
 
-    def fit(self, group, rows, base: Fitted | None = None) -> Fitted:
+    def fit(self, group: Group, rows: np.ndarray, base: FitStart | None = None) -> Fitted:
         rows = np.asarray(rows, int)
         state: dict = {"terms": _prepare_terms(self.terms, group, rows)}
         check_shear_terms(self.name, self.terms, state["terms"], group, rows)
@@ -495,19 +529,19 @@ class ShearExtension(Extension):
         result = _identify(family, y, w, p0, names, units, bounds, self.name)
         return Fitted(self, result, state)
 
-    def predict(self, fitted: Fitted, group, rows) -> np.ndarray:
+    def predict(self, fitted: Fitted, group: Group, rows: np.ndarray) -> np.ndarray:
         _, _, family = self._inputs(group, np.asarray(rows, int), fitted.state)
         return family.f(fitted.result.values)
 
 
-def shear_inputs_a(group, rows) -> np.ndarray:
+def shear_inputs_a(group: Group, rows: np.ndarray) -> np.ndarray:
     """Side-wall ratio a of each of the tests ``rows``."""
     t = group.tests.iloc[np.asarray(rows, int)]
     return np.asarray(side_wall_ratio(t["r_inner_m"], t["r_outer_m"], t["grouser_height_m"]))
 
 
 # ------------------------------------------------------------------------------ the library
-def base_model(group, rows) -> Extension:
+def base_model(group: Group, rows: np.ndarray) -> Extension:
     """The paper's base model for these tests: Bekker (Eq. 7) where ``identify`` would fit
     it (two or more plate sizes at least 1.5× apart, :func:`bekker_refused`), else
     Bernstein (Eq. 8); Janosi–Hanamoto (Eq. 13) for shear — or the group's own registered
@@ -527,7 +561,7 @@ def base_model(group, rows) -> Extension:
     return SinkageExtension("bernstein (base)", False, "Eq. 8, one k, n", bekker=False)
 
 
-def bekker_refused(group, rows) -> str | None:
+def bekker_refused(group: Group, rows: np.ndarray) -> str | None:
     """Why Bekker (Eq. 7) cannot be the base of these sinkage tests, in ``identify``'s words,
     or None when it can: ``identify`` decides (:func:`soilstats.identification.conditions
     ._model_for`: one plate size, or plate sizes closer than ``MIN_SIZE_RATIO`` = 1.5×, leave
@@ -547,7 +581,14 @@ _RING = {"grouser_height_m", "r_inner_m", "r_outer_m", "ring_area_m2"}
 
 
 def library(
-    group, rows, cause, related, *, numeric: bool, responses, log_scale: bool = True
+    group: Group,
+    rows: np.ndarray,
+    cause: str,
+    related: Iterable[str],
+    *,
+    numeric: bool,
+    responses: Collection[str],
+    log_scale: bool = True,
 ) -> list[Extension]:
     """Extensions to try for ``cause`` (and the candidates confounded with it), physical first.
 
@@ -738,7 +779,7 @@ def _fixes_width(tests, column) -> bool:
     return bool(pd.Series(widths).groupby(levels.to_numpy()).nunique().max() == 1)
 
 
-def combine(extensions) -> Extension | None:
+def combine(extensions: Iterable[Extension]) -> Extension | None:
     """One model that carries the effects of every extension given (of one kind), or None
     when one of them cannot be combined: Reece replaces Eq. 7 rather than extending it.
 
@@ -753,29 +794,36 @@ def combine(extensions) -> Extension | None:
         not isinstance(e, SinkageExtension | ShearExtension | ModelExtension) for e in extensions
     ):
         return None
-    if any(isinstance(e, ModelExtension) for e in extensions) and not all(
-        isinstance(e, ModelExtension) and e.model == extensions[0].model for e in extensions
+    # Past this check every part is one of the three, and all are of one kind (the models of
+    # one group): a cast, for the attributes read below.
+    parts = cast("list[SinkageExtension | ShearExtension | ModelExtension]", extensions)
+    if any(isinstance(e, ModelExtension) for e in parts) and not all(
+        isinstance(e, ModelExtension) and e.model == cast(ModelExtension, parts[0]).model
+        for e in parts
     ):
         return None
     merged: dict[Features, tuple[str, ...]] = {}  # Features is frozen: its fields are the key
-    for e in extensions:
+    for e in parts:
         for t in e.terms:
             merged[t.features] = tuple(dict.fromkeys((*merged.get(t.features, ()), *t.targets)))
     terms = tuple(Term(features, targets) for features, targets in merged.items())
     name = " + ".join(e.name for e in extensions)
     description = "; ".join(e.description for e in extensions)
     physical = all(e.physical for e in extensions)
-    if isinstance(extensions[0], ModelExtension):
-        return ModelExtension(name, physical, description, model=extensions[0].model, terms=terms)
-    if isinstance(extensions[0], SinkageExtension):
+    first = parts[0]
+    if isinstance(first, ModelExtension):
+        return ModelExtension(name, physical, description, model=first.model, terms=terms)
+    if isinstance(first, SinkageExtension):
+        sinkage = cast("list[SinkageExtension]", parts)  # one kind: all sinkage
         return SinkageExtension(
             name,
             physical,
             description,
-            bekker=all(e.bekker for e in extensions),
+            bekker=all(e.bekker for e in sinkage),
             terms=terms,
-            soften=any(e.soften for e in extensions),
+            soften=any(e.soften for e in sinkage),
         )
+    shear = cast("list[ShearExtension]", parts)  # one kind: all shear
     return ShearExtension(
-        name, physical, description, terms=terms, side_walls=any(e.side_walls for e in extensions)
+        name, physical, description, terms=terms, side_walls=any(e.side_walls for e in shear)
     )

@@ -11,18 +11,27 @@ flags every :class:`~soilstats.fitting.FitResult` carries.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import ConvergenceError
 from ..identification.centring import centred
 from .extensions import base_model
 
+if TYPE_CHECKING:
+    from ..fitting.result import FitResult
+    from .diagnose import Diagnosis
+
 __all__ = ["physical_flags"]
 
 _CODES = {"outside-bounds", "high-correlation"}
 
 
-def _flags_of(fit, kind, soil, scope, z=None) -> list[dict]:
+def _flags_of(
+    fit: FitResult, kind: str, soil: str, scope: str, z: np.ndarray | None = None
+) -> list[dict]:
     if kind == "sinkage":
         # Judge correlations where the data measure each scale, as identify does (a scale at
         # z = 1 m is correlated with n by the parametrisation alone: Cullinan's k and n at
@@ -43,7 +52,7 @@ def _flags_of(fit, kind, soil, scope, z=None) -> list[dict]:
     return out
 
 
-def physical_flags(diagnoses) -> list[dict]:
+def physical_flags(diagnoses: Iterable[Diagnosis]) -> list[dict]:
     """Red flags of every diagnosed group (its base fit, and per velocity for sinkage)."""
     out: list[dict] = []
     for d in diagnoses:

@@ -269,7 +269,9 @@ def _contrast_f(y, contrasts, strata, nuisance=None, cells=None) -> dict:
     return out
 
 
-def strata_test(y, x, *, categorical: bool, strata, log_scale: bool = True) -> dict:
+def strata_test(
+    y: np.ndarray, x: np.ndarray, *, categorical: bool, strata: np.ndarray, log_scale: bool = True
+) -> dict:
     """F-test of X after stratum effects, on the strata in which X varies.
 
     Parameters
@@ -322,7 +324,9 @@ def strata_test(y, x, *, categorical: bool, strata, log_scale: bool = True) -> d
     return out
 
 
-def within_blocks_test(y, x, *, strata, min_tests: int = 3) -> dict:
+def within_blocks_test(
+    y: np.ndarray, x: np.ndarray, *, strata: np.ndarray, min_tests: int = 3
+) -> dict:
     """Test of a drift inside one block: the slope of a time/order candidate X in each
     stratum (a plate, a preparation) beside the common slope and the strata, one
     one-degree-of-freedom F-test per stratum with three or more tests and two or more
@@ -372,7 +376,9 @@ def within_blocks_test(y, x, *, strata, min_tests: int = 3) -> dict:
 INTERACTION_TESTS = ("cell", "omnibus")
 
 
-def interaction_test(y, a, b, *, strata, test: str = "cell") -> dict:
+def interaction_test(
+    y: np.ndarray, a: np.ndarray, b: np.ndarray, *, strata: np.ndarray, test: str = "cell"
+) -> dict:
     """Test of the A × B interaction of two categorical candidates after both main effects
     (and the strata), against the additive model.
 
@@ -430,7 +436,9 @@ def cell_codes(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return pd.factorize(pd.Series(a).astype(str) + "|" + pd.Series(b).astype(str))[0]
 
 
-def trend_slope(y, x, *, strata, log_scale: bool = True) -> float:
+def trend_slope(
+    y: np.ndarray, x: np.ndarray, *, strata: np.ndarray, log_scale: bool = True
+) -> float:
     """The slope of y on a continuous X within strata (the estimate :func:`strata_test`
     tests: within-stratum centring, on the strata in which X varies), per unit of the
     regressor (:func:`trend_regressor`); NaN when X varies within no stratum."""

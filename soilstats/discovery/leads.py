@@ -10,7 +10,8 @@ later lead that the kept extension already explains is no finding.  The examinat
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pandas as pd
@@ -33,10 +34,18 @@ from .result import Finding
 from .testlevel import scatter_caveat, test_level
 from .work import FIT_ERRORS, FitTask, Wave
 
+if TYPE_CHECKING:
+    from ..fitting.result import FitResult
+    from .candidates import Relation
+    from .crossval import GroupFolds
+    from .diagnose import Diagnosis
+    from .extensions import Fitted
+    from .work import Process, Start
+
 __all__ = ["discover_group", "leads_of"]
 
 
-def leads_of(rows: pd.DataFrame, relations) -> list[tuple[str, list[str]]]:
+def leads_of(rows: pd.DataFrame, relations: Iterable[Relation]) -> list[tuple[str, list[str]]]:
     """(lead, confounded members) per connected group of significant, confounded candidates."""
     sig = rows[rows["significant"]]
     if sig.empty:
@@ -188,7 +197,8 @@ def _try_extensions(
         base_failure = exc  # every extension's cross-validation fails with it
     plans, tasks = [], []
     if base_failure is None:
-        choices = fold_choices(group, lead_table, rows, folds, starts)
+        # The base model's fold fits: one per fold, none skipped.
+        choices = fold_choices(group, lead_table, rows, folds, cast("dict[int, Start]", starts))
         for i, ext in enumerate(extensions):  # chain i: the folds, then all tests
             fixed = FoldFits(rows, ext, folds, scheme="tests", starts=starts, chain=i)
             search = FoldFits(
@@ -250,7 +260,15 @@ def _try_extensions(
     return base_ext, base_fitted, max(options, key=lambda o: o[0])[1:], tried
 
 
-def discover_group(diag, rows, leads, *, alpha, folds, max_leads):
+def discover_group(
+    diag: Diagnosis,
+    rows: pd.DataFrame,
+    leads: Sequence[tuple[str, list[str]]],
+    *,
+    alpha: float,
+    folds: GroupFolds,
+    max_leads: int,
+) -> Process[tuple[list[Finding], list[dict]]]:
     """Process (:mod:`.work`) of the findings of one (kind, soil), leads strongest first, and
     the leads that an extension kept before them already explains: ``(findings,
     explained)``.  ``folds``: the group's folds (:class:`.crossval.GroupFolds`)."""
@@ -342,8 +360,9 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, ro
     fit = fitted.result if fitted is not None else None
     # The printed ± of the kept fit is Eq. 4's, which treats samples as independent: its
     # test-level counterpart (one Jacobian, no refit) says when the tests scatter more.
-    level = test_level(fitted, g, scope) if kept else None
-    if (scatter := scatter_caveat(fit, level)) is not None:
+    # kept: an extension was chosen, so ``fitted`` and ``fit`` are set.
+    level = test_level(cast("Fitted", fitted), g, scope) if kept else None
+    if (scatter := scatter_caveat(cast("FitResult", fit), level)) is not None:
         caveats.append(scatter)
     base_fit = base_fitted.result if chosen is not None else None
     info, gain_cond = {}, None

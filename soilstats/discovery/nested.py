@@ -37,16 +37,31 @@ significant (docs/discover.md, "Gain").
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 import pandas as pd
 
 from .diagnose import RESPONSES, retest, training_responses
 from .extensions import library
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .data import Group
+    from .extensions import Extension, FitStart
+
 __all__ = ["fold_choices", "fold_extensions"]
 
 
-def fold_choices(group, lead_table: pd.DataFrame, scope, folds, starts) -> dict[int, tuple]:
+def fold_choices(
+    group: Group,
+    lead_table: pd.DataFrame,
+    scope: ArrayLike,
+    folds: ArrayLike,
+    starts: Mapping[int, FitStart],
+) -> dict[int, tuple]:
     """The responses in which the lead is significant on each fold's training tests.
 
     Parameters
@@ -84,7 +99,11 @@ def fold_choices(group, lead_table: pd.DataFrame, scope, folds, starts) -> dict[
     return out
 
 
-def fold_extensions(ext, choices: dict[int, tuple], **library_args) -> dict:
+def fold_extensions(
+    ext: Extension,
+    choices: dict[int, tuple],
+    **library_args: Any,  # extensions.library's keywords but responses, of their own types
+) -> dict[int, Extension | None]:
     """fold → the extension ``ext`` as the fold's choice makes it, or None (the fold predicts
     with the base model: the lead is not significant on its training tests).
 

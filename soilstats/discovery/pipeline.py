@@ -28,6 +28,7 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -52,6 +53,9 @@ from .result import DiscoveryResult, Finding
 from .selection import CombinedModel, prepare_selection, selection_steps
 from .work import Pool, run_process, warm_workers
 
+if TYPE_CHECKING:
+    from ..models.base import Model
+
 __all__ = ["discover"]
 
 
@@ -71,7 +75,7 @@ def discover(
     progress: bool = False,
     provenance: Provenance | None = None,
     jobs: int = 1,
-    model=None,
+    model: str | Model | None = None,
 ) -> DiscoveryResult:
     """Find what the soil model gets wrong in a campaign, extend it, and measure the gain.
 
@@ -302,7 +306,7 @@ def _group_leads(d, rows, leads, quality, *, alpha, rng, max_leads):
     # Every named cause's best plausible extension is offered, kept alone or not: measured
     # alone, each gain had the other effects in its noise (two causes in one soil); forward
     # selection adds each only where it really gains over the model so far.
-    kept = [(f.cause, f.fitted.extension) for f in found if _offered(f)]
+    kept = [(f.cause, f.fitted.extension) for f in found if f.fitted is not None and _offered(f)]
     try:
         prepared, note = prepare_selection(d.group, kept, folds, base=d.base), None
     except (ConvergenceError, IdentifiabilityError) as exc:

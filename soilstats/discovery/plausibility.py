@@ -12,12 +12,21 @@ An extension is *implausible*, and never kept whatever its out-of-sample gain, w
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..fitting.result import FitResult
+    from .data import Group
+    from .extensions import Fitted
 
 __all__ = ["implausible"]
 
 
-def _outside_bounds(fit, base_fit) -> list[str]:
+def _outside_bounds(fit: FitResult, base_fit: FitResult) -> list[str]:
     own = set(fit.param_names) - set(base_fit.param_names)
     return [
         f.message
@@ -26,7 +35,7 @@ def _outside_bounds(fit, base_fit) -> list[str]:
     ]
 
 
-def _non_positive(fitted, group, rows) -> list[str]:
+def _non_positive(fitted: Fitted, group: Group, rows: np.ndarray) -> list[str]:
     with np.errstate(all="ignore"):
         y_hat = np.asarray(fitted.extension.predict(fitted, group, rows), float)
     # Sinkage samples all lie at z > 0 (p must be > 0); a shear record starts at j = 0, τ = 0.
@@ -40,7 +49,7 @@ def _non_positive(fitted, group, rows) -> list[str]:
     ]
 
 
-def implausible(fitted, base_fitted, group, rows) -> list[str]:
+def implausible(fitted: Fitted, base_fitted: Fitted, group: Group, rows: ArrayLike) -> list[str]:
     """Why the extension ``fitted`` (on the tests ``rows``) is not physical; empty if it is."""
     return _outside_bounds(fitted.result, base_fitted.result) + _non_positive(
         fitted, group, np.asarray(rows, int)

@@ -39,6 +39,7 @@ trend in ``test_number`` across 1..9 read "±86 % in pressure", on small campaig
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 from scipy import optimize, stats
 
 __all__ = [
@@ -122,7 +123,7 @@ def describe(
     return f"{_size(relative, delta)} in {what} {pattern}"
 
 
-def power_records(table, alpha: float) -> list[dict]:
+def power_records(table: pd.DataFrame, alpha: float) -> list[dict]:
     """One record per candidate of the diagnosis table that was tested and not found in any
     response: its minimum detectable effect per response, as a number and a sentence."""
     if table.empty or "mde" not in table:

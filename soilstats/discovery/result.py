@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -44,7 +44,7 @@ METHOD_NOTES = (
 )
 
 
-def parameter_table(fit, level=None) -> dict | None:
+def parameter_table(fit: FitResult | None, level: TestLevel | None = None) -> dict | None:
     """``{name: {"value", "stderr", "unit", "stderr_eq4", "stderr_level"}}`` of a fit
     (JSON-ready), or None.
 
@@ -86,7 +86,9 @@ SIGMA_NOTE = (
 )
 
 
-def parameter_lines(fit, indent: str = "    ", level=None) -> list[str]:
+def parameter_lines(
+    fit: FitResult | None, indent: str = "    ", level: TestLevel | None = None
+) -> list[str]:
     """A fit's parameters as aligned ``name = value +/- stderr unit [Eq. 4: σ]`` lines:
     ``stderr`` the test-level σ where five tests or more inform the parameter, with Eq. 4's
     in brackets (``*`` where it exceeds Eq. 4's by more than 2×: ``test-scatter``); else
@@ -347,7 +349,7 @@ class DiscoveryResult:
             "groups": [m.to_dict() for m in self.models],
         }
 
-    def all_groups_gain(self):
+    def all_groups_gain(self) -> Gain | None:
         """The combined models' gain on the held-out tests of all extended groups together,
         or None unless two or more groups are extended (one group's gain is its own)."""
         from .crossval import campaign_gain
@@ -397,7 +399,7 @@ class DiscoveryResult:
             "provenance": None if self.provenance is None else self.provenance.to_dict(),
         }
 
-    def to_json(self, **kwargs) -> str:
+    def to_json(self, **kwargs: Any) -> str:  # json.dumps's keywords, of their own types
         """One JSON object: ``{"findings": [...], "flags": [...], ..., "provenance": {...}}``."""
         return json.dumps(json_safe(self.to_dict()), **{"indent": 2, **kwargs})
 

@@ -20,8 +20,9 @@ combine with another extension (the step says so).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -36,8 +37,10 @@ from .work import FIT_ERRORS, FitTask, Wave
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
     from .crossval import Gain
+    from .data import Group
     from .extensions import Fitted
     from .testlevel import TestLevel
+    from .work import Process
 
 __all__ = [
     "CombinedModel",
@@ -152,7 +155,12 @@ class PreparedSelection:
     folds: np.ndarray
 
 
-def prepare_selection(group, kept, folds: GroupFolds, base=None) -> PreparedSelection | None:
+def prepare_selection(
+    group: Group,
+    kept: Iterable[tuple[str, Extension]],
+    folds: GroupFolds,
+    base: Fitted | None = None,
+) -> PreparedSelection | None:
     """Forward selection up to its first fit: ``kept`` reduced to one ``(cause,
     Extension)`` per extension (the strongest finding names it), the base model fitted to
     all tests if ``base`` is None, on the group's ``folds`` (those its findings were
@@ -168,7 +176,7 @@ def prepare_selection(group, kept, folds: GroupFolds, base=None) -> PreparedSele
     return PreparedSelection(kept, rows, base_full, folds.folds)
 
 
-def selection_steps(group, prepared: PreparedSelection):
+def selection_steps(group: Group, prepared: PreparedSelection) -> Process[CombinedModel]:
     """Process (:mod:`.work`) of forward selection after :func:`prepare_selection`: the
     base model's fold fits, then one wave per step with every candidate's fold fits and its
     fit on all tests.  Returns the :class:`CombinedModel`."""
@@ -202,7 +210,7 @@ def selection_steps(group, prepared: PreparedSelection):
             try:
                 errors = plan.collect(folds_out)[1]
                 full.raise_error()
-                fitted = full.fitted
+                fitted = cast("Fitted", full.fitted)  # a fit on all tests: a Fitted
             except FIT_ERRORS as exc:
                 failed.append({**step, "reason": _failure(exc)})
                 continue

@@ -21,11 +21,34 @@ other's; a trend in a column constant on the tests) raise :class:`Identifiabilit
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Protocol
+
 import numpy as np
 
 from ..errors import IdentifiabilityError
 
-__all__ = ["check_shear_terms", "sinkage_keeps_bekker"]
+if TYPE_CHECKING:
+    from .data import Group
+
+__all__ = ["FeatureMatrix", "TermLike", "check_shear_terms", "sinkage_keeps_bekker"]
+
+
+class FeatureMatrix(Protocol):
+    """What the checks read of a term's features (:class:`.extensions.Features`)."""
+
+    def matrix(self, group: Group, state: dict) -> np.ndarray: ...
+
+
+class TermLike(Protocol):
+    """What the checks read of a covariate term, :class:`.extensions.Term` (that module
+    imports this one: an import back would close a loop, tests/test_layers.py)."""
+
+    @property
+    def features(self) -> FeatureMatrix: ...
+
+    @property
+    def targets(self) -> tuple[str, ...]: ...
 
 
 def _columns(terms, states, group, rows, targets) -> list[np.ndarray]:
@@ -63,7 +86,14 @@ def _test_column(group, column: str, rows) -> np.ndarray:
     return group.tests[column].to_numpy(float)[rows]
 
 
-def sinkage_keeps_bekker(name, bekker: bool, terms, states, group, rows) -> bool:
+def sinkage_keeps_bekker(
+    name: str,
+    bekker: bool,
+    terms: Sequence[TermLike],
+    states: Sequence[dict],
+    group: Group,
+    rows: np.ndarray,
+) -> bool:
     """Whether Eq. 7's kc/b + kφ can stay beside ``terms`` on the tests ``rows`` (else
     Eq. 8's one k takes its place; ``bekker``: what the model asks for).  Raises
     :class:`IdentifiabilityError` when the terms themselves are redundant."""
@@ -79,7 +109,13 @@ def sinkage_keeps_bekker(name, bekker: bool, terms, states, group, rows) -> bool
     return _independent([one, 1.0 / _test_column(group, "b_m", rows), *k_cols])
 
 
-def check_shear_terms(name, terms, states, group, rows) -> None:
+def check_shear_terms(
+    name: str,
+    terms: Sequence[TermLike],
+    states: Sequence[dict],
+    group: Group,
+    rows: np.ndarray,
+) -> None:
     """Raise :class:`IdentifiabilityError` when the shear ``terms`` are redundant on the
     tests ``rows`` (σ: each test's mean normal stress, ``sigma_mean_Pa``)."""
     one = np.ones(len(rows))

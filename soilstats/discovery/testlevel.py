@@ -23,11 +23,19 @@ Those are NaN, and the single-test caveat of the finding names them.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..identification.bootstrap import MIN_TESTS
 from ..identification.result import DISAGREEMENT
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..fitting.result import FitResult
+    from .data import Group
+    from .extensions import Fitted
 
 __all__ = ["TestLevel", "eq4_reason", "quoted_sigma", "scatter_caveat", "test_level"]
 
@@ -72,7 +80,9 @@ class TestLevel:
         return ok & (np.where(ok, self.ratio, 0.0) > DISAGREEMENT)
 
 
-def _weighted_rows(fitted, group, rows) -> tuple[np.ndarray, np.ndarray] | None:
+def _weighted_rows(
+    fitted: Fitted, group: Group, rows: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
     """(p, N) rows of the weighted Jacobian at the estimate and the owner test of each
     sample, for the extensions whose family is at hand (all but Reece's)."""
     inputs = getattr(fitted.extension, "_inputs", None)
@@ -82,7 +92,7 @@ def _weighted_rows(fitted, group, rows) -> tuple[np.ndarray, np.ndarray] | None:
     return family.rows(np.asarray(fitted.result.values, float), group.w[mask]), group.owner[mask]
 
 
-def test_level(fitted, group, rows) -> TestLevel | None:
+def test_level(fitted: Fitted, group: Group, rows: ArrayLike) -> TestLevel | None:
     """The cluster-robust test-level σ of ``fitted`` (a :class:`~.extensions.Fitted` made on
     the tests ``rows`` of ``group``); None where it cannot be formed (no Eq. 4 covariance,
     fewer than 2 tests, a model without its family: Reece)."""
@@ -134,7 +144,9 @@ def _resting_on_one(jac: np.ndarray, idx: np.ndarray, n_tests: int) -> np.ndarra
     return ((np.abs(vecs) > 0.1) & null[:, None, :]).any(axis=(0, 2))
 
 
-def quoted_sigma(fit, level: TestLevel | None) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def quoted_sigma(
+    fit: FitResult, level: TestLevel | None
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """The σ to print of each parameter of ``fit`` (issue #36, docs/conventions.md):
     ``(stderr, stderr_eq4, stderr_level)`` per parameter, in the fit's order.
 
@@ -161,7 +173,7 @@ def eq4_reason(level: TestLevel | None, j: int) -> str:
     return f"{level.informed_by[j]} tests inform it, fewer than five"
 
 
-def scatter_caveat(fit, level: TestLevel | None) -> str | None:
+def scatter_caveat(fit: FitResult, level: TestLevel | None) -> str | None:
     """The ``test-scatter`` caveat of a fit whose tests scatter more than Eq. 4's σ says
     (None when no parameter is flagged)."""
     if level is None:

@@ -46,7 +46,9 @@ import tempfile
 import threading
 import uuid
 import weakref
+from collections.abc import Generator, Hashable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeAlias, TypeVar
 
 import numpy as np
 
@@ -54,11 +56,16 @@ from ..errors import ConvergenceError, IdentifiabilityError
 from ..parallel import effective_jobs, parallel_map
 from ..parallel import warm_workers as _warm_workers
 
+if TYPE_CHECKING:
+    from .data import Group
+    from .extensions import Extension, FitStart, Fitted
+
 __all__ = [
     "FIT_ERRORS",
     "FitTask",
     "Outcome",
     "Pool",
+    "Process",
     "Start",
     "Wave",
     "run_process",
@@ -76,7 +83,7 @@ class Start:
     values (``start.result.values``, as of a :class:`~.extensions.Fitted`) and the base form
     its fit chose (``state["bekker"]``, when it differs from the extension's)."""
 
-    extension: object
+    extension: Extension
     values: np.ndarray
     state: dict = field(default_factory=dict)
 
@@ -85,7 +92,7 @@ class Start:
         return self
 
     @classmethod
-    def of(cls, fitted) -> Start | None:
+    def of(cls, fitted: FitStart | None) -> Start | None:
         """The start part of a fitted model (None stays None)."""
         if fitted is None or isinstance(fitted, Start):
             return fitted
@@ -102,18 +109,18 @@ class FitTask:
     :class:`Start` only.  Tasks with the same ``chain`` stop at the first failure
     (:class:`Pool`)."""
 
-    extension: object
+    extension: Extension
     rows: np.ndarray
-    base: object | None = None
+    base: FitStart | None = None
     held_out: np.ndarray | None = None
-    chain: object = None
+    chain: Hashable = None
 
 
 @dataclass(frozen=True, eq=False)
 class Outcome:
     """What a :class:`FitTask` gave: the fitted model and held-out errors, or its error."""
 
-    fitted: object | None = None
+    fitted: Fitted | Start | None = None
     errors: np.ndarray | None = None
     error: Exception | None = None
     skipped: bool = False  # not run: an earlier task of its chain failed
@@ -124,7 +131,7 @@ class Outcome:
             raise self.error
 
 
-def per_test_error(group, rows, y_hat) -> np.ndarray:
+def per_test_error(group: Group, rows: np.ndarray, y_hat: np.ndarray) -> np.ndarray:
     """Each test's mean squared weighted prediction error (:mod:`.crossval`) over its
     samples, for the tests ``rows`` predicted as ``y_hat`` (their samples, in order); here,
     beside the fold fits that compute it, so that :mod:`.crossval` imports this module and
@@ -286,12 +293,18 @@ class Pool:
 class Wave:
     """The fits a discovery step needs next, yielded by a process (:func:`run_process`)."""
 
-    group: object
-    tasks: list
+    group: Group
+    tasks: list[FitTask]
     probe: bool = False
 
 
-def run_process(process, pool: Pool):
+T = TypeVar("T")
+#: A discovery step written as the fits it needs (:func:`run_process`): a generator that
+#: yields :class:`Wave` objects, receives each wave's outcomes and returns its result.
+Process: TypeAlias = Generator[Wave, list[Outcome], T]
+
+
+def run_process(process: Process[T], pool: Pool) -> T:
     """Run a *process* to its end on ``pool``; its value.
 
     A process is a generator that yields :class:`Wave` objects and receives each wave's
@@ -311,7 +324,7 @@ def run_process(process, pool: Pool):
         return stop.value
 
 
-def warm_workers(jobs: int | None):
+def warm_workers(jobs: int | None) -> threading.Thread | None:
     """Start the workers and the imports discovery's tasks need, in the background
     (:func:`soilstats.parallel.warm_workers`)."""
     return _warm_workers(

@@ -76,7 +76,7 @@ class _TestMoments:
         self.a *= _INV_FACTORIAL  # fold 1/k! in once
         self.b *= _INV_FACTORIAL
 
-    def sums(self, n: np.ndarray):
+    def sums(self, n: np.ndarray) -> tuple[np.ndarray, ...]:
         """(A_0, A_1, A_2, B_0, B_1), each (B, T), at the exponents n (B,)."""
         delta = n - self.n0
         k = np.arange(_TERMS)

@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 from typing import Literal, NamedTuple, Protocol, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import (
     ConvergenceError,
@@ -19,7 +20,7 @@ from ..errors import (
 from .jacobian import make_jacobian
 from .levenberg_marquardt import LMOutcome, _eigh, gram_matrix, levenberg_marquardt, scaled_svd
 from .result import FitResult, HealthFlag, epsilon
-from .separable import _refine_power_law, refine_exponent
+from .separable import PowerTerms, _refine_power_law, refine_exponent
 
 __all__ = ["RANK_CONDITION_LIMIT", "ModelRecord", "epsilon", "identify"]
 
@@ -39,9 +40,9 @@ class ModelRecord(Protocol):
     jac: Callable[..., np.ndarray]
     separable: Callable | None
 
-    def power_terms(self, x, weights): ...
+    def power_terms(self, x: ArrayLike, weights: ArrayLike) -> PowerTerms | None: ...
 
-    def evaluators(self, x, weights) -> tuple[Callable, Callable]: ...
+    def evaluators(self, x: ArrayLike, weights: ArrayLike) -> tuple[Callable, Callable]: ...
 
 
 def _is_record(model) -> bool:
@@ -109,11 +110,11 @@ def _covariance(
 
 def identify(
     model: Callable[..., np.ndarray] | ModelRecord,
-    x,
-    y,
+    x: ArrayLike,
+    y: ArrayLike,
     p0: Sequence[float] | np.ndarray,
     *,
-    weights=None,
+    weights: ArrayLike | None = None,
     jac: Callable[..., np.ndarray] | None = None,
     param_names: Sequence[str] | None = None,
     units: dict[str, str] | None = None,

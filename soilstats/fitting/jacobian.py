@@ -14,13 +14,14 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["make_jacobian"]
 
 _COMPLEX_STEP = 1e-30  # any h below ~1e-20 is exact for analytic f; it must not underflow
 
 
-def complex_step_jacobian(f: Callable, x, params: np.ndarray) -> np.ndarray:
+def complex_step_jacobian(f: Callable, x: ArrayLike, params: np.ndarray) -> np.ndarray:
     """∂f/∂θ by the complex step; shape (N, p)."""
     p = params.size
     cols = []
@@ -32,7 +33,9 @@ def complex_step_jacobian(f: Callable, x, params: np.ndarray) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def ridders_jacobian(f: Callable, x, params: np.ndarray, *, levels: int = 6) -> np.ndarray:
+def ridders_jacobian(
+    f: Callable, x: ArrayLike, params: np.ndarray, *, levels: int = 6
+) -> np.ndarray:
     """∂f/∂θ by Ridders' extrapolation of central differences; shape (N, p).
 
     Each column starts from a relative step of 1e-2 and shrinks it by 1.4 per level, keeping
@@ -70,7 +73,7 @@ def ridders_jacobian(f: Callable, x, params: np.ndarray, *, levels: int = 6) -> 
     return np.column_stack(cols)
 
 
-def central_difference_jacobian(f: Callable, x, params: np.ndarray) -> np.ndarray:
+def central_difference_jacobian(f: Callable, x: ArrayLike, params: np.ndarray) -> np.ndarray:
     """∂f/∂θ by central differences with step ε^(1/3)·|θ| (~1e-10 relative accuracy)."""
     cols = []
     for k in range(params.size):
@@ -84,7 +87,7 @@ def central_difference_jacobian(f: Callable, x, params: np.ndarray) -> np.ndarra
     return np.column_stack(cols)
 
 
-def _supports_complex_step(f: Callable, x, params: np.ndarray) -> bool:
+def _supports_complex_step(f: Callable, x: ArrayLike, params: np.ndarray) -> bool:
     """True when the complex step agrees with a central difference at ``params``.
 
     A model that silently drops the imaginary part (``abs``, ``np.real``, ``float()``) gives a
@@ -105,7 +108,7 @@ def _supports_complex_step(f: Callable, x, params: np.ndarray) -> bool:
     return bool(np.all(worst <= 1e-3 * scale))
 
 
-def make_jacobian(f: Callable, x, p0: np.ndarray) -> tuple[Callable, str]:
+def make_jacobian(f: Callable, x: ArrayLike, p0: np.ndarray) -> tuple[Callable, str]:
     """Pick the most accurate derivative the model allows; returns (jac(x, *θ), method name)."""
     p0 = np.asarray(p0, float)
     if _supports_complex_step(f, x, p0):

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy import linalg
 from scipy.special import fdtrc, stdtrit
 
@@ -89,7 +90,9 @@ class LinearFit:
         )
 
 
-def _refined_solve(q, r, scaled_x, y, iterations: int = 3) -> np.ndarray:
+def _refined_solve(
+    q: np.ndarray, r: np.ndarray, scaled_x: np.ndarray, y: np.ndarray, iterations: int = 3
+) -> np.ndarray:
     beta = linalg.solve_triangular(r, q.T @ y)
     xl = scaled_x.astype(np.longdouble)
     yl = y.astype(np.longdouble)
@@ -100,10 +103,10 @@ def _refined_solve(q, r, scaled_x, y, iterations: int = 3) -> np.ndarray:
 
 
 def linear_least_squares(
-    X,
-    y,
+    X: ArrayLike,
+    y: ArrayLike,
     *,
-    weights=None,
+    weights: ArrayLike | None = None,
     names: Sequence[str] | None = None,
 ) -> LinearFit:
     """Solve min ‖w·(y − Xβ)‖² with standard errors s·√diag (XᵀW²X)⁻¹.

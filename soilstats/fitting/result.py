@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import Protocol
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy.special import stdtrit
 
 from ..errors import InputError
@@ -19,7 +21,25 @@ __all__ = ["FitResult", "HealthFlag", "epsilon"]
 CORRELATION_LIMIT = 0.95
 
 
-def epsilon(residuals: np.ndarray, y: np.ndarray, *, rss: float | None = None) -> float:
+class NamedModel(Protocol):
+    """What :meth:`FitResult.closed_form` reads of a model record (:class:`soilstats.Model`,
+    a floor above fitting: docs/conventions.md, "Layers"); ``func`` and ``jac`` too where it
+    has them."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def param_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def units(self) -> tuple[str, ...]: ...
+
+    @property
+    def bounds(self) -> tuple[tuple[float, float], ...]: ...
+
+
+def epsilon(residuals: ArrayLike, y: ArrayLike, *, rss: float | None = None) -> float:
     """Fit quality ε = 1 − √(Σe²/(N−2)) / (Σ|y|/N) (Eq. 2); 1 is a perfect fit.
 
     ``rss`` = Σe² when the caller has it already (the optimiser does), else computed.
@@ -100,11 +120,11 @@ class FitResult:
     @classmethod
     def closed_form(
         cls,
-        model,
-        values,
-        covariance,
-        weighted_residuals,
-        weighted_y,
+        model: NamedModel,
+        values: ArrayLike,
+        covariance: ArrayLike,
+        weighted_residuals: ArrayLike,
+        weighted_y: ArrayLike,
         *,
         name: str | None = None,
         method: str,
@@ -197,7 +217,7 @@ class FitResult:
         return pd.DataFrame({"lower": self.params - t * sigma, "upper": self.params + t * sigma})
 
     # -- the fitted curve, as lmfit's ModelResult gives it --------------------------------
-    def eval(self, x) -> np.ndarray:
+    def eval(self, x: ArrayLike) -> np.ndarray:
         """The fitted model f(x, θ̂) at the inputs ``x``, in the form the fit took them: sinkage
         z [m] (N,) for Bernstein, the (b [m], z [m]) rows (2, N) for Bekker and Reece, σ [Pa]
         for Mohr–Coulomb, (σ [Pa], j [m]) for Janosi–Hanamoto; pressure or stress in Pa."""
@@ -208,14 +228,14 @@ class FitResult:
             )
         return np.asarray(self.model_func(x, *self.values), dtype=float)
 
-    def eval_uncertainty(self, x, sigma: float = 1.0) -> np.ndarray:
+    def eval_uncertainty(self, x: ArrayLike, sigma: float = 1.0) -> np.ndarray:
         """``sigma`` standard deviations of the fitted curve at ``x`` (as :meth:`eval` takes
         it), from the parameter covariance by the delta method: sigma·√diag(J Cov Jᵀ), J the
         model's Jacobian at θ̂ (lmfit's ``ModelResult.eval_uncertainty``). Cov is Eq. 4's
         here; a fit over tests uses the test-level one (:class:`CampaignFit`)."""
         return self._band(x, sigma, self.covariance)
 
-    def _band(self, x, sigma: float, covariance: np.ndarray) -> np.ndarray:
+    def _band(self, x: ArrayLike, sigma: float, covariance: np.ndarray) -> np.ndarray:
         if self.model_jac is None:
             raise InputError(
                 f"this {self.model_name} result carries no model Jacobian; fit it with "
@@ -264,7 +284,7 @@ class FitResult:
     def healthy(self) -> bool:
         return not self.flags
 
-    def annotated(self, notes=(), flags=()) -> FitResult:
+    def annotated(self, notes: Iterable[str] = (), flags: Iterable[HealthFlag] = ()) -> FitResult:
         """A copy with ``notes`` (str) and health ``flags`` (:class:`HealthFlag`) appended:
         what the caller knows about the data that the fit itself cannot see."""
         return replace(

@@ -19,12 +19,31 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .levenberg_marquardt import gram_matrix
 
-__all__ = ["refine_exponent", "refine_power_law"]
+__all__ = ["PowerTerms", "refine_exponent", "refine_power_law"]
+
+
+class PowerTerms(Protocol):
+    """What the variable projection and :func:`soilstats.identify` read of a power-law
+    model's weighted terms, :class:`soilstats.models.base.PowerLawTerms`. Fitting sits below
+    the models (docs/conventions.md, "Layers"), so it names what it needs of the class
+    instead of importing it."""
+
+    rows: np.ndarray
+    log_z: np.ndarray
+
+    def basis(self, n: float) -> np.ndarray: ...
+
+    def f(self, theta: ArrayLike) -> np.ndarray: ...
+
+    def jacobian_block(self, theta: ArrayLike) -> np.ndarray: ...
+
 
 #: Two basis columns count as collinear (one plate size, say) when the 2×2 Gram determinant
 #: falls below this fraction of the product of its diagonal: the same test in every solver.
@@ -237,7 +256,7 @@ def _reduced(mom: list, q: int, yy: float):
 
 
 def refine_power_law(
-    terms, wy: np.ndarray, theta0: np.ndarray, *, ftol: float, max_iter: int = 50
+    terms: PowerTerms, wy: np.ndarray, theta0: np.ndarray, *, ftol: float, max_iter: int = 50
 ) -> tuple[np.ndarray, int]:
     """:func:`refine_exponent` for a :class:`~soilstats.models.base.PowerLawTerms` model, fast.
 

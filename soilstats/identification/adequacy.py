@@ -39,6 +39,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.special import bdtr
 
 from ..fitting.result import HealthFlag
@@ -284,7 +285,12 @@ def _plates_disagree(forms: TestForms, sizes: np.ndarray) -> HealthFlag | None:
 
 
 def adequacy_findings(
-    z, p, test_index, n_pooled: float, b=None, n_stderr_tests: float | None = None
+    z: ArrayLike,
+    p: ArrayLike,
+    test_index: ArrayLike,
+    n_pooled: float,
+    b: ArrayLike | None = None,
+    n_stderr_tests: float | None = None,
 ) -> tuple[TestForms, list[HealthFlag]]:
     """The per-test forms and the ``lack-of-fit`` / ``plate-exponents`` / ``aggregation-bias``
     flags they raise.

@@ -20,15 +20,22 @@ sums too), as its fit is (Section 2.2).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from .._text import plural
 from ..fitting.clustered import fit_clustered_resamples, fit_linear_resamples
 from ..fitting.identify import RANK_CONDITION_LIMIT, _covariance
 from ..fitting.levenberg_marquardt import levenberg_marquardt
 from ..fitting.separable import BATCH_ELEMENTS, fit_separable_batch, refine_exponent
+
+if TYPE_CHECKING:
+    from ..fitting.result import FitResult
+    from ..models.base import Model
+    from .pooling import PooledData
 
 __all__ = ["TestBootstrap", "bootstrap_tests", "test_bootstrap"]
 
@@ -94,16 +101,16 @@ class TestBootstrap:
 
 
 def bootstrap_tests(
-    model,
-    x,
-    y,
-    weights,
-    test_index,
-    estimate,
+    model: Model,
+    x: ArrayLike,
+    y: ArrayLike,
+    weights: ArrayLike,
+    test_index: ArrayLike,
+    estimate: ArrayLike,
     *,
     n_resamples: int = 1000,
     seed: int = 0,
-    design=None,
+    design: ArrayLike | None = None,
 ) -> TestBootstrap:
     """Cluster bootstrap of a weighted LM fit over tests (see the module docstring).
 
@@ -214,7 +221,15 @@ def _spans_design(design, test_index, n_tests: int, counts: np.ndarray) -> np.nd
     return highest - lowest >= MIN_DESIGN_SPREAD * full
 
 
-def test_bootstrap(model, x, pooled, fit, n_resamples, seed: int, notes: list):
+def test_bootstrap(
+    model: Model,
+    x: ArrayLike,
+    pooled: PooledData,
+    fit: FitResult,
+    n_resamples: int | Literal["auto"],
+    seed: int,
+    notes: list,
+) -> TestBootstrap | None:
     """The bootstrap of a pooled fit, or None (0 resamples, or too few tests: said in
     ``notes`` when resamples were asked for).  Resamples start from the fit's estimate.
 

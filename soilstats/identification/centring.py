@@ -6,13 +6,14 @@ import math
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..fitting.result import FitResult
 
 __all__ = ["centred"]
 
 
-def centred(fit: FitResult, z) -> FitResult:
+def centred(fit: FitResult, z: ArrayLike) -> FitResult:
     """``fit`` with its ``high-correlation`` check judged where the data measure each scale.
 
     In p = s·z^n every scale s (k, kc, kφ, k1, k2) is the pressure at z = 1 m, far outside

@@ -20,7 +20,7 @@ data (docs/classical.md). Use :func:`soilstats.fit_sinkage` for parameters with 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
@@ -34,6 +34,7 @@ from .pooling import select_one_soil
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
 
 __all__ = ["ClassicalFit", "PlateWindow", "classical_bekker"]
 
@@ -228,13 +229,13 @@ def _windows(windows, sizes: np.ndarray) -> list[PlateWindow]:
 
 def classical_bekker(
     campaign: Campaign,
-    windows,
+    windows: Sequence[PlateWindow] | Mapping[float, float | tuple[float, float]],
     *,
     step: float = 500.0,
     weighting: Literal["pressure-squared", "uniform"] = "pressure-squared",
     exponent: Literal["averaged", "common"] = "averaged",
     non_increasing: Literal["raise", "drop"] = "raise",
-    **selection,
+    **selection: Criterion,
 ) -> ClassicalFit:
     """Bekker (kc, kφ, n) by Wong's procedure on ensemble-averaged curves (module docstring).
 

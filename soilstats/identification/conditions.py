@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -49,7 +49,7 @@ DEFAULT_CONDITION_COLUMNS = {
 }
 
 
-def condition_label(value) -> str:
+def condition_label(value: object) -> str:
     """A condition value as text: numbers in short general format (4.8e-3 → '0.0048')."""
     if isinstance(value, float | np.floating):
         return f"{value:g}"
@@ -209,7 +209,7 @@ def plan_conditions(
     fallback_model: str | None = None,
     soils: Sequence[str] | None = None,
     test_ids: Sequence[str] | None = None,
-    **options,
+    **options: Any,  # fit_sinkage's or fit_shear's keywords, each of its own type
 ) -> ConditionPlan:
     """The conditions :func:`fit_conditions` would fit (same arguments, no ``jobs``)."""
     prepared = screened(campaign, options.pop("quality", "clean"))
@@ -263,7 +263,7 @@ def fit_conditions(
     test_ids: Sequence[str] | None = None,
     jobs: int | None = 1,
     progress: bool = False,
-    **options,
+    **options: Any,  # as plan_conditions'
 ) -> ConditionFits:
     """Fit every soil × series × condition of ``kind`` in ``campaign`` separately.
 

@@ -12,6 +12,7 @@ instead (Eq. 11), with per-test weights; docs/classical.md shows what the two gi
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
@@ -67,8 +68,8 @@ class EnsembleCurve:
 
 
 def _rising_record(
-    test_id: str, p: np.ndarray, z: np.ndarray, rows, non_increasing: str, file: str
-):
+    test_id: str, p: np.ndarray, z: np.ndarray, rows: np.ndarray, non_increasing: str, file: str
+) -> tuple[np.ndarray, np.ndarray, int]:
     """The record with strictly rising pressure that a spline z(p) needs, and the count left
     out; ``file``: the sinkage file's name, for messages."""
     if not (np.all(np.isfinite(p)) and np.all(np.isfinite(z))):
@@ -96,7 +97,7 @@ def _rising_record(
 
 def ensemble_curve(
     campaign: Campaign,
-    test_ids,
+    test_ids: Iterable[str],
     *,
     p_max: float,
     step: float = 500.0,

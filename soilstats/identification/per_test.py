@@ -23,9 +23,11 @@ from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from ..errors import CampaignError, ConvergenceError, ConvergenceWarning, InputError
 from ..fitting.identify import identify
+from ..fitting.result import FitResult
 from ..kinds import TEST_KINDS
 from ..models import BERNSTEIN, SHEAR_CURVE
 from ..parallel import effective_jobs, parallel_map
@@ -36,6 +38,7 @@ from .steady_state import steady_state
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
 
 __all__ = ["fit_per_test", "not_converged_message"]
 
@@ -47,7 +50,7 @@ def fit_per_test(
     points_per_test: int | None = 100,
     progress: bool = False,
     jobs: int | None = 1,
-    **selection,
+    **selection: Criterion,
 ) -> pd.DataFrame:
     """Fit every selected test on its own; one row per test with its test-log columns.
 
@@ -158,7 +161,9 @@ def _fit_sinkage_test(tid: str, data: dict, points_per_test) -> dict:
 TEST_FIT_ERRORS = (ConvergenceError, ValueError, np.linalg.LinAlgError)
 
 
-def fit_bernstein_test(z, p, weights, *, name: str = "bernstein"):
+def fit_bernstein_test(
+    z: np.ndarray, p: np.ndarray, weights: ArrayLike | None, *, name: str = "bernstein"
+) -> FitResult:
     """Bernstein (Eq. 8) on one test's kept samples: z [m], p [Pa], per-sample weights.
 
     The one per-test sinkage fit of soilstats (per-test responses, discovery, the population
@@ -168,7 +173,9 @@ def fit_bernstein_test(z, p, weights, *, name: str = "bernstein"):
     return centred(identify(BERNSTEIN, z, p, p0, weights=weights, name=name), z)
 
 
-def fit_shear_test(j, tau, weights, *, name: str = "shear"):
+def fit_shear_test(
+    j: np.ndarray, tau: np.ndarray, weights: ArrayLike | None, *, name: str = "shear"
+) -> FitResult:
     """Eq. 13 at one normal pressure, τ = τ_max·(1 − e^(−j/K)), on one test's samples.
 
     j [m], τ [Pa], per-sample weights.  The one per-test shear fit of soilstats (per-test

@@ -24,6 +24,7 @@ from ..quality import screened
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
 
 __all__ = [
     "MIN_SAMPLES",
@@ -52,7 +53,14 @@ class PooledData:
     by_test: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     @classmethod
-    def of(cls, x, y, weights, test_index, by_test: dict) -> PooledData:
+    def of(
+        cls,
+        x: dict[str, np.ndarray],
+        y: np.ndarray,
+        weights: np.ndarray,
+        test_index: np.ndarray,
+        by_test: dict,
+    ) -> PooledData:
         """The pooled arrays and the per-test columns (``tests`` is built from them)."""
         return cls(x, y, weights, test_index, by_test)
 
@@ -269,7 +277,7 @@ def pool_sinkage(
     points_per_test: int | None = 100,
     weighting: str = "max-pressure",
     on_unusable: str = "raise",
-    **selection,
+    **selection: Criterion,
 ) -> PooledData:
     """Stack the selected sinkage tests into (b, z) → p arrays with per-test weights.
 
@@ -347,7 +355,7 @@ def pool_shear(
     weighting: str,
     points_per_test: int | None = None,
     on_unusable: str = "raise",
-    **selection,
+    **selection: Criterion,
 ) -> PooledData:
     """Stack the selected shear tests into (σ [Pa], j [m]) → τ [Pa] with per-test weights.
 
@@ -443,7 +451,9 @@ def _steady_parts(test, j_all, tau_all, test_ids, weighting, file: str):
     return used, weight, columns
 
 
-def select_one_soil(campaign: Campaign, kind: str, selection: dict):
+def select_one_soil(
+    campaign: Campaign, kind: str, selection: dict
+) -> tuple[Campaign, pd.DataFrame]:
     """Apply ``selection`` and keep the tests of ``kind``; demand exactly one soil.
 
     Pooling two soils into one parameter set is never what a user means, so it is an error

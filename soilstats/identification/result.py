@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 from scipy.special import stdtrit
 
 from .._text import plural
@@ -20,6 +22,7 @@ from .pooling import PooledData
 
 if TYPE_CHECKING:
     from ..quality import ScreenedCampaign
+    from ..quality.report import QualityReport
 
 __all__ = ["CampaignFit"]
 
@@ -44,7 +47,7 @@ class CampaignFit(FitResult):
         cls,
         fit: FitResult,
         pooled: PooledData,
-        notes=(),
+        notes: Iterable[str] = (),
         flags: tuple[HealthFlag, ...] | list[HealthFlag] = (),
         bootstrap: TestBootstrap | None = None,
         campaign: ScreenedCampaign | None = None,
@@ -147,7 +150,9 @@ class CampaignFit(FitResult):
             return None
         return np.atleast_2d(np.cov(self.bootstrap.draws, rowvar=False))
 
-    def eval_uncertainty(self, x, sigma: float = 1.0, *, level: str = "auto") -> np.ndarray:
+    def eval_uncertainty(
+        self, x: ArrayLike, sigma: float = 1.0, *, level: str = "auto"
+    ) -> np.ndarray:
         """``sigma`` standard deviations of the fitted curve at ``x`` (:meth:`eval`'s inputs)
         by the delta method, from the test-level covariance (``level="tests"``: what a new
         test of the soil scatters by, as the fit's stderr says) or Eq. 4's
@@ -245,7 +250,7 @@ ONSET_TOLERANCE = 1e-3
 
 
 def data_findings(
-    campaign: ScreenedCampaign, test_ids
+    campaign: ScreenedCampaign, test_ids: Iterable[str]
 ) -> tuple[list[str], list[HealthFlag], dict]:
     """Notes, health flags and the JSON record of the screening and window behind a fit.
 
@@ -332,7 +337,7 @@ def data_findings(
     return notes, flags, record
 
 
-def _proposed_items(report, tests_hit: list[str]) -> str:
+def _proposed_items(report: QualityReport, tests_hit: list[str]) -> str:
     """The ``--z-max`` items ``soilstats check`` proposes for these failed tests."""
     windows = report.proposed_windows()
     if not len(windows):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
@@ -19,6 +20,7 @@ from .reuse import reusable
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
 
 __all__ = ["fit_shear", "pool_shear"]
 
@@ -31,12 +33,12 @@ def fit_shear(
     model: str | Model = "mohr-coulomb",
     *,
     weighting: Literal["none", "max-stress"] | None = None,
-    p0=None,
+    p0: Sequence[float] | np.ndarray | None = None,
     on_failure: Literal["raise", "warn"] = "raise",
     test_resamples: int | Literal["auto"] = "auto",
     seed: int = 0,
     quality: Literal["off", "flag", "clean"] = "clean",
-    **selection,
+    **selection: Criterion,
 ) -> CampaignFit:
     """Identify c, φ (Mohr–Coulomb, Eq. 15) or c, φ, K (Janosi–Hanamoto, Eq. 13).
 

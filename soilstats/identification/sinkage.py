@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -22,6 +23,7 @@ from .reuse import reusable
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
     from ..quality import ScreenedCampaign
 
 __all__ = ["fit_sinkage", "pool_sinkage"]
@@ -79,13 +81,13 @@ def fit_sinkage(
     method: Literal["lm", "wong"] = "lm",
     points_per_test: int | None = 100,
     weighting: Literal["max-pressure", "none"] = "max-pressure",
-    p0=None,
+    p0: Sequence[float] | np.ndarray | None = None,
     on_failure: Literal["raise", "warn"] = "raise",
     test_resamples: int | Literal["auto"] = "auto",
     seed: int = 0,
     quality: Literal["off", "flag", "clean"] = "clean",
     window: FitWindow | None = None,
-    **selection,
+    **selection: Criterion,
 ) -> CampaignFit:
     """Identify Bekker (Eq. 7), Bernstein (Eq. 8) or Reece parameters from sinkage tests.
 

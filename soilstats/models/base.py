@@ -12,15 +12,18 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar, TypeAlias
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from ..kinds import MODEL_KINDS
+from .priors import Prior
 
 __all__ = [
     "KINDS",
+    "InputRows",
     "Model",
     "NonNegative",
     "ParamLabel",
@@ -29,6 +32,7 @@ __all__ = [
     "PositiveModulus",
     "PowerLawPopulation",
     "PowerLawTerms",
+    "Value",
     "Within",
     "power_law_population",
     "separable_from_power_law",
@@ -37,6 +41,13 @@ __all__ = [
 #: What a soil model describes: a sinkage (plate) test, a shear-ring campaign, or one
 #: shear test at one normal pressure (the per-test fit).
 KINDS = MODEL_KINDS
+
+#: A parameter or an input of a model equation where it broadcasts: one number, or an array
+#: of them (a posterior's draws, a plate size per sample).
+Value: TypeAlias = float | np.ndarray
+#: The inputs ``x`` of a model with k ≥ 2 inputs: the (k, N) stack, or the k inputs in a
+#: sequence (``x = (b, z)``).
+InputRows: TypeAlias = np.ndarray | Sequence[Value]
 
 
 class PowerLawTerms:
@@ -70,7 +81,7 @@ class PowerLawTerms:
     _f: np.ndarray
     _block: np.ndarray
 
-    def __init__(self, g: Sequence, z, w) -> None:
+    def __init__(self, g: Sequence[Value], z: ArrayLike, w: ArrayLike) -> None:
         z = np.asarray(z, dtype=float)
         w = np.asarray(w, dtype=float)
         # The usual case, one reduction (in C: ndarray.min goes through a Python wrapper);
@@ -98,7 +109,7 @@ class PowerLawTerms:
         """U(n) = rows·z^n, (q, N): the weighted basis of the linear parameters."""
         return self.rows * self.power(n)
 
-    def f(self, theta) -> np.ndarray:
+    def f(self, theta: ArrayLike) -> np.ndarray:
         """w·f(x, θ) = aᵀU(n), (N,) in the units of w·p.
 
         U(n) is formed in the first rows of the Jacobian's array, which J at the same θ —
@@ -115,7 +126,7 @@ class PowerLawTerms:
         self._key, self._f, self._block = key, value, block
         return value
 
-    def jacobian_block(self, theta) -> np.ndarray:
+    def jacobian_block(self, theta: ArrayLike) -> np.ndarray:
         """(q + 2, N): the rows of (w·∂f/∂θ)ᵀ — Uᵢ(n) and w·f·ln z — and a last row that is
         the caller's to overwrite (the optimiser puts the residuals there, so that JᵀJ and
         Jᵀr come from one matrix product; see :func:`~soilstats.fitting.levenberg_marquardt
@@ -128,13 +139,15 @@ class PowerLawTerms:
         np.multiply(self._f, self.log_z, out=block[q])
         return block
 
-    def jac(self, theta) -> np.ndarray:
+    def jac(self, theta: ArrayLike) -> np.ndarray:
         """(w·∂f/∂θ)ᵀ, (q + 1, N): rows Uᵢ·z^n and w·f·ln z."""
         theta = np.asarray(theta, dtype=float)
         return self.jacobian_block(theta)[: theta.size]
 
 
-def separable_from_power_law(power_law: Callable, x, weights) -> tuple[Callable, np.ndarray]:
+def separable_from_power_law(
+    power_law: Callable, x: ArrayLike, weights: ArrayLike
+) -> tuple[Callable, np.ndarray]:
     """``Model.separable`` of a power-law model, from its ``power_law``: (n ↦ U(n), ln z)."""
     g, z = power_law(x)
     terms = PowerLawTerms(g, z, weights)
@@ -157,7 +170,7 @@ class _ParameterRule:
     def label(self) -> str:
         return f"{self.name} {self.broken}"
 
-    def holds(self, values: Mapping[str, np.ndarray], widths) -> np.ndarray:
+    def holds(self, values: Mapping[str, np.ndarray], widths: tuple[float, float]) -> np.ndarray:
         return self._inside(values[self.name])
 
     def _inside(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover (abstract)
@@ -218,7 +231,7 @@ class PositiveModulus:
     def label(self) -> str:
         return f"{self.text} <= 0"
 
-    def holds(self, values: Mapping[str, np.ndarray], widths) -> np.ndarray:
+    def holds(self, values: Mapping[str, np.ndarray], widths: tuple[float, float]) -> np.ndarray:
         lo, hi = widths
         args = [values[n] for n in self.params]
         return (self.modulus(lo, *args) > 0) & (self.modulus(hi, *args) > 0)
@@ -276,16 +289,16 @@ class PowerLawPopulation(PopulationLayout):
     linear in the moduli a (``Model.power_law``'s basis at its b); the moduli are the
     parameters themselves, so their log-Jacobian is 0."""
 
-    def linear_log_jacobian(self, theta):
+    def linear_log_jacobian(self, theta: np.ndarray) -> np.ndarray:
         return np.zeros(theta.shape[0])
 
-    def linear(self, theta):
+    def linear(self, theta: np.ndarray) -> np.ndarray:
         return theta[:, :-1]
 
-    def second(self, theta):
+    def second(self, theta: np.ndarray) -> np.ndarray:
         return theta[:, -1]
 
-    def assemble(self, m, g):
+    def assemble(self, m: np.ndarray, g: np.ndarray) -> np.ndarray:
         return np.column_stack([m, g])
 
 
@@ -295,7 +308,7 @@ def power_law_population(scatter_note: str) -> PowerLawPopulation:
     return PowerLawPopulation(("k", "n"), scatter, "b_m", False, scatter_note)
 
 
-def _pairs(value) -> tuple:
+def _pairs(value: Mapping | tuple) -> tuple:
     """A mapping as a tuple of its items (the record stays hashable); a tuple as it is."""
     return tuple(value.items()) if isinstance(value, Mapping) else tuple(value)
 
@@ -412,15 +425,19 @@ class Model:
     start: Callable | None = field(default=None, repr=False)
     wong: Callable | None = field(default=None, repr=False)
     # priors, scm, labels: a mapping or (name, value) pairs; pairs after __post_init__.
-    priors: tuple | Mapping[str, Any] = field(default=(), repr=False)
+    priors: tuple[tuple[str, Prior], ...] | Mapping[str, Prior] = field(default=(), repr=False)
     support: tuple = field(default=(), repr=False)
     min_plate_sizes: int = 1
     design_input: str | None = None
     steady_state: bool = False
     weighting: str | None = None
     population: PopulationLayout | None = field(default=None, repr=False)
-    scm: tuple | Mapping[str, Any] = field(default=(), repr=False)
-    labels: tuple | Mapping[str, Any] = field(default=(), repr=False)
+    scm: tuple[tuple[str, tuple[str, str]], ...] | Mapping[str, tuple[str, str]] = field(
+        default=(), repr=False
+    )
+    labels: tuple[tuple[str, ParamLabel], ...] | Mapping[str, ParamLabel] = field(
+        default=(), repr=False
+    )
     signed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -439,14 +456,14 @@ class Model:
                 f"not parameters (parameters: {list(self.param_names)})"
             )
 
-    def power_terms(self, x, weights) -> PowerLawTerms | None:
+    def power_terms(self, x: ArrayLike, weights: ArrayLike) -> PowerLawTerms | None:
         """:class:`PowerLawTerms` of a power-law model for ``x`` and weights, else None."""
         if self.power_law is None:
             return None
         g, z = self.power_law(x)
         return PowerLawTerms(g, z, weights)
 
-    def evaluators(self, x, weights) -> tuple[Callable, Callable]:
+    def evaluators(self, x: ArrayLike, weights: ArrayLike) -> tuple[Callable, Callable]:
         """(θ ↦ w·f(x, θ), θ ↦ (w·∂f/∂θ)ᵀ of shape (p, N)) for fixed ``x`` and weights ``w``.
 
         The model's fast closures where it has them (see ``prepare`` and ``power_law``), else
@@ -469,7 +486,7 @@ class Model:
 
         return f_weighted, jac_rows
 
-    def __call__(self, x, *params) -> np.ndarray:
+    def __call__(self, x: ArrayLike, *params: Value) -> np.ndarray:
         return self.func(x, *params)
 
     @property
@@ -512,7 +529,7 @@ class Model:
         shape effect offsets (discovery)."""
         return "n" if "n" in self.param_names else None
 
-    def x_from(self, data: Mapping[str, np.ndarray]):
+    def x_from(self, data: Mapping[str, np.ndarray]) -> np.ndarray:
         """``x`` from the pooled data's columns (:attr:`columns`): the one array of a model
         with one input, else the (k, N) stack."""
         if not self.columns:

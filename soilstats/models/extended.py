@@ -43,10 +43,12 @@ chooses which family to fit; the equations live here with the base models.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from .base import Model
@@ -119,25 +121,27 @@ class _Family:
     def _compute(self, theta: np.ndarray) -> tuple:  # pragma: no cover (abstract)
         raise NotImplementedError
 
-    def value(self, theta) -> np.ndarray:  # pragma: no cover (abstract)
+    def value(self, theta: np.ndarray) -> np.ndarray:  # pragma: no cover (abstract)
         raise NotImplementedError
 
-    def rows(self, theta, w=None) -> np.ndarray:  # pragma: no cover (abstract)
+    def rows(
+        self, theta: np.ndarray, w: np.ndarray | None = None
+    ) -> np.ndarray:  # pragma: no cover (abstract)
         raise NotImplementedError
 
-    def f(self, theta) -> np.ndarray:
+    def f(self, theta: ArrayLike) -> np.ndarray:
         """The model's values at θ, (N,) (a copy: the cached parts stay untouched)."""
         return np.array(self.value(np.asarray(theta, float)))
 
-    def jac(self, theta) -> np.ndarray:
+    def jac(self, theta: ArrayLike) -> np.ndarray:
         """∂f/∂θ, (N, p) (a transposed view of the (p, N) rows)."""
         return self.rows(np.asarray(theta, float)).T
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[Callable[[ArrayLike], np.ndarray]]:
         """``f, jac = family``."""
         return iter((self.f, self.jac))
 
-    def weighted(self, w) -> tuple:
+    def weighted(self, w: ArrayLike) -> tuple:
         """(θ ↦ w·f(θ), θ ↦ (w·∂f/∂θ)ᵀ as (p, N) rows): the closures of ``Model.prepare``."""
         w = np.asarray(w, float)
 
@@ -152,7 +156,7 @@ class _Family:
     def _output(self) -> str:
         return "p [Pa]" if isinstance(self, SinkageFamily) else "tau [Pa]"
 
-    def model(self, names, units, bounds: dict, name: str) -> Model:
+    def model(self, names: Sequence[str], units: Sequence[str], bounds: dict, name: str) -> Model:
         """This family as a :class:`Model` over x = sample index (the inputs are fixed here)."""
         unbounded = (-np.inf, np.inf)
         return Model(
@@ -194,7 +198,15 @@ class SinkageFamily(_Family):
     (N,) marks the samples of narrow plates that soften beyond z_c.
     """
 
-    def __init__(self, layout: SinkageLayout, b, z, fs=None, gd=None, soft=None) -> None:
+    def __init__(
+        self,
+        layout: SinkageLayout,
+        b: ArrayLike,
+        z: ArrayLike,
+        fs: ArrayLike | None = None,
+        gd: ArrayLike | None = None,
+        soft: ArrayLike | None = None,
+    ) -> None:
         super().__init__()
         self.layout = layout
         self.size = layout.size
@@ -228,14 +240,14 @@ class SinkageFamily(_Family):
             soft = (zc, frac, lzc, pc, beyond)
         return kb, scale, expo, zn, k_eff, p, soft
 
-    def value(self, theta):
+    def value(self, theta: np.ndarray) -> np.ndarray:
         _, _, _, _, _, p, soft = self._parts_at(theta)
         if soft is None:
             return p
         _, frac, _, pc, beyond = soft
         return np.where(beyond, pc + frac * (p - pc), p)
 
-    def weighted(self, w) -> tuple:
+    def weighted(self, w: ArrayLike) -> tuple:
         """(θ ↦ w·p(θ), θ ↦ (w·∂p/∂θ)ᵀ as (p, N) rows), the closures of ``Model.prepare``.
 
         The weights enter the fixed inputs once (w/b), and w·p at the last θ is kept: it is
@@ -265,7 +277,7 @@ class SinkageFamily(_Family):
 
         return f_weighted, jac_rows
 
-    def rows(self, theta, w=None):
+    def rows(self, theta: ArrayLike, w: ArrayLike | None = None) -> np.ndarray:
         """(p, N) rows of ∂p/∂θ, times the weights ``w`` when given."""
         theta = np.asarray(theta, float)
         p = self._parts_at(theta)[5]
@@ -345,7 +357,14 @@ class SinkageFamily(_Family):
         out[i + 1, idx] = (p[idx] - pc_i) * wi
 
 
-def sinkage_family(layout: SinkageLayout, b, z, fs=None, gd=None, soft=None) -> SinkageFamily:
+def sinkage_family(
+    layout: SinkageLayout,
+    b: ArrayLike,
+    z: ArrayLike,
+    fs: ArrayLike | None = None,
+    gd: ArrayLike | None = None,
+    soft: ArrayLike | None = None,
+) -> SinkageFamily:
     """The extended pressure–sinkage family (:class:`SinkageFamily`); ``f, jac = family``."""
     return SinkageFamily(layout, b, z, fs, gd, soft)
 
@@ -371,7 +390,16 @@ class ShearFamily(_Family):
     (1 − exp(−j/(K·S_K))), with the wall terms only when ``layout.side_walls``.
     """
 
-    def __init__(self, layout: ShearLayout, sigma, j, fc=None, ft=None, fk=None, a=None) -> None:
+    def __init__(
+        self,
+        layout: ShearLayout,
+        sigma: ArrayLike,
+        j: ArrayLike,
+        fc: ArrayLike | None = None,
+        ft: ArrayLike | None = None,
+        fk: ArrayLike | None = None,
+        a: ArrayLike | None = None,
+    ) -> None:
         super().__init__()
         self.layout = layout
         self.size = layout.size
@@ -406,11 +434,11 @@ class ShearFamily(_Family):
         level = c_s + st_s
         return c, t, phi, s_c, s_t, k_eff, decay, g, c_s, st_s, level
 
-    def value(self, theta):
+    def value(self, theta: np.ndarray) -> np.ndarray:
         *_, g, _, _, level = self._parts_at(theta)
         return level * g
 
-    def rows(self, theta, w=None):
+    def rows(self, theta: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
         """(p, N) rows of ∂τ/∂θ, times the weights ``w`` when given."""
         lay = self.layout
         _, _, phi, s_c, s_t, k_eff, decay, g, c_s, st_s, level = self._parts_at(theta)
@@ -442,7 +470,15 @@ class ShearFamily(_Family):
         return out
 
 
-def shear_family(layout: ShearLayout, sigma, j, fc=None, ft=None, fk=None, a=None) -> ShearFamily:
+def shear_family(
+    layout: ShearLayout,
+    sigma: ArrayLike,
+    j: ArrayLike,
+    fc: ArrayLike | None = None,
+    ft: ArrayLike | None = None,
+    fk: ArrayLike | None = None,
+    a: ArrayLike | None = None,
+) -> ShearFamily:
     """The extended Janosi–Hanamoto family (:class:`ShearFamily`); ``f, jac = family``."""
     return ShearFamily(layout, sigma, j, fc, ft, fk, a)
 
@@ -457,7 +493,14 @@ class ModelFamily(_Family):
     ∂y/∂d_i = S·∂f/∂θ'_offset·G_i.
     """
 
-    def __init__(self, model: Model, x, fs=None, gd=None, offset: str | None = None) -> None:
+    def __init__(
+        self,
+        model: Model,
+        x: ArrayLike,
+        fs: ArrayLike | None = None,
+        gd: ArrayLike | None = None,
+        offset: str | None = None,
+    ) -> None:
         super().__init__()
         self.base = model
         self.x = x
@@ -485,10 +528,10 @@ class ModelFamily(_Family):
         scale = np.exp(self.fs_times(theta[p : p + n_s])) if n_s else None
         return scale, jac0, f0 if scale is None else f0 * scale
 
-    def value(self, theta):
+    def value(self, theta: np.ndarray) -> np.ndarray:
         return self._parts_at(theta)[2]
 
-    def rows(self, theta, w=None):
+    def rows(self, theta: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
         """(size, N) rows of ∂y/∂θ, times the weights ``w`` when given."""
         scale, jac0, value = self._parts_at(theta)
         p = self.p
@@ -506,6 +549,12 @@ class ModelFamily(_Family):
         return out
 
 
-def model_family(model: Model, x, fs=None, gd=None, offset: str | None = None) -> ModelFamily:
+def model_family(
+    model: Model,
+    x: ArrayLike,
+    fs: ArrayLike | None = None,
+    gd: ArrayLike | None = None,
+    offset: str | None = None,
+) -> ModelFamily:
     """The generic extended family of a model (:class:`ModelFamily`); ``f, jac = family``."""
     return ModelFamily(model, x, fs, gd, offset)

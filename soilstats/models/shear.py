@@ -9,11 +9,23 @@ Eq. 13 is used in the Janosi–Hanamoto form with exponent −j/K (the paper's t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .base import Model, NonNegative, ParamLabel, PopulationLayout, Positive, Within
+from .base import (
+    InputRows,
+    Model,
+    NonNegative,
+    ParamLabel,
+    PopulationLayout,
+    Positive,
+    Value,
+    Within,
+)
 from .priors import NON_NEGATIVE, POSITIVE, Uniform
 
 __all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "JanosiPopulation", "side_wall_ratio"]
@@ -21,37 +33,37 @@ __all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "JanosiPopulation", "side_wa
 RAD_PER_DEG = np.pi / 180.0
 
 
-def mohr_coulomb(sigma, c, phi):
+def mohr_coulomb(sigma: ArrayLike, c: Value, phi: Value) -> np.ndarray:
     """τ_max = c + σ·tan φ (Eq. 15).  ``x = σ [Pa]``; c in Pa, φ in degrees."""
     return c + np.asarray(sigma, float) * np.tan(phi * RAD_PER_DEG)
 
 
-def mohr_coulomb_jac(sigma, c, phi):
+def mohr_coulomb_jac(sigma: ArrayLike, c: Value, phi: Value) -> np.ndarray:
     sigma = np.asarray(sigma, float)
     return np.column_stack(
         [np.ones_like(sigma), sigma * RAD_PER_DEG / np.cos(phi * RAD_PER_DEG) ** 2]
     )
 
 
-def mohr_coulomb_linear(sigma):
+def mohr_coulomb_linear(sigma: ArrayLike) -> tuple[np.ndarray, Callable[[ArrayLike], np.ndarray]]:
     """Mohr–Coulomb as a linear model: the design [1, σ] of (c, tan φ), and the map of
     those coefficients to (c [Pa], φ [deg])."""
     sigma = np.asarray(sigma, float)
 
-    def to_params(beta):
+    def to_params(beta: ArrayLike) -> np.ndarray:
         beta = np.asarray(beta, float)
         return np.column_stack([beta[:, 0], np.degrees(np.arctan(beta[:, 1]))])
 
     return np.column_stack([np.ones_like(sigma), sigma]), to_params
 
 
-def janosi(x, c, phi, K):
+def janosi(x: InputRows, c: Value, phi: Value, K: Value) -> np.ndarray:
     """τ = (c + σ tan φ)(1 − exp(−j/K)) (Eq. 13).  ``x = (σ [Pa], j [m])``; K in m."""
     sigma, j = x
     return (c + sigma * np.tan(phi * RAD_PER_DEG)) * -np.expm1(-np.asarray(j, float) / K)
 
 
-def janosi_jac(x, c, phi, K):
+def janosi_jac(x: InputRows, c: Value, phi: Value, K: Value) -> np.ndarray:
     sigma, j = np.asarray(x[0], float), np.asarray(x[1], float)
     growth = -np.expm1(-j / K)
     tau_max = c + sigma * np.tan(phi * RAD_PER_DEG)
@@ -83,16 +95,16 @@ class JanosiPopulation(PopulationLayout):
     test's Eq. 13 at its own σ, (τ_max,t, K_t), with τ_max linear in (c, tan φ) and K
     entering as ln K."""
 
-    def linear_log_jacobian(self, theta):
+    def linear_log_jacobian(self, theta: np.ndarray) -> np.ndarray:
         return -2.0 * np.log(np.cos(theta[:, 1] * RAD_PER_DEG))
 
-    def linear(self, theta):
+    def linear(self, theta: np.ndarray) -> np.ndarray:
         return np.column_stack([theta[:, 0], np.tan(theta[:, 1] * RAD_PER_DEG)])
 
-    def second(self, theta):
+    def second(self, theta: np.ndarray) -> np.ndarray:
         return np.log(theta[:, 2])
 
-    def assemble(self, m, g):
+    def assemble(self, m: np.ndarray, g: np.ndarray) -> np.ndarray:
         return np.column_stack([m[:, 0], np.arctan(m[:, 1]) / RAD_PER_DEG, np.exp(g)])
 
 
@@ -156,7 +168,7 @@ JANOSI = Model(
 )
 
 
-def shear_curve(j, tau_max, K):
+def shear_curve(j: ArrayLike, tau_max: Value, K: Value) -> np.ndarray:
     """τ = τ_max·(1 − exp(−j/K)): Eq. 13 for one test at one normal pressure.
 
     ``x = j [m]``; τ_max in Pa (= c + σ tan φ of that test), K in m.  One test cannot separate
@@ -165,7 +177,7 @@ def shear_curve(j, tau_max, K):
     return tau_max * -np.expm1(-np.asarray(j, float) / K)
 
 
-def shear_curve_jac(j, tau_max, K):
+def shear_curve_jac(j: ArrayLike, tau_max: Value, K: Value) -> np.ndarray:
     j = np.asarray(j, float)
     decay = np.exp(-j / K)
     return np.column_stack([-np.expm1(-j / K), -tau_max * decay * j / K**2])
@@ -188,7 +200,15 @@ SHEAR_CURVE = Model(
 )
 
 
-def side_wall_ratio(r_inner, r_outer, height):
+@overload
+def side_wall_ratio(r_inner: float, r_outer: float, height: float) -> float: ...
+@overload
+def side_wall_ratio(
+    r_inner: ArrayLike, r_outer: ArrayLike, height: ArrayLike
+) -> float | np.ndarray: ...
+def side_wall_ratio(
+    r_inner: ArrayLike, r_outer: ArrayLike, height: ArrayLike
+) -> float | np.ndarray:
     """a = 3h(r_i² + r_o²)/(r_o³ − r_i³) [-]: side-wall over base-area torque per unit stress.
 
     Eq. 12 turns torque into τ over the ring's annulus only; the cylindrical walls of height h

@@ -11,12 +11,15 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .base import (
+    InputRows,
     Model,
     ParamLabel,
     Positive,
     PositiveModulus,
+    Value,
     power_law_population,
     separable_from_power_law,
 )
@@ -25,7 +28,7 @@ from .priors import FLAT, POSITIVE
 __all__ = ["BEKKER", "BERNSTEIN", "REECE"]
 
 
-def _power(z: np.ndarray, n: float) -> tuple[np.ndarray, np.ndarray]:
+def _power(z: ArrayLike, n: Value) -> tuple[np.ndarray, np.ndarray]:
     """(z^n, ln z) for z > 0, and (0, 0) elsewhere."""
     z = np.asarray(z, dtype=float)
     contact = z > 0
@@ -34,7 +37,7 @@ def _power(z: np.ndarray, n: float) -> tuple[np.ndarray, np.ndarray]:
     return zn, lnz
 
 
-def bekker(x, kc, kphi, n):
+def bekker(x: InputRows, kc: Value, kphi: Value, n: Value) -> np.ndarray:
     """Bekker p = (kc/b + kφ)·z^n (Eq. 7).
 
     ``x = (b [m], z [m])``; kc in N/m^(n+1), kφ in N/m^(n+2), p in Pa.
@@ -44,31 +47,31 @@ def bekker(x, kc, kphi, n):
     return (kc / b + kphi) * zn
 
 
-def bekker_jac(x, kc, kphi, n):
+def bekker_jac(x: InputRows, kc: Value, kphi: Value, n: Value) -> np.ndarray:
     b, z = x
     zn, lnz = _power(z, n)
     return np.column_stack([zn / b, zn, (kc / b + kphi) * zn * lnz])
 
 
-def bernstein(z, k, n):
+def bernstein(z: ArrayLike, k: Value, n: Value) -> np.ndarray:
     """Bernstein p = k·z^n (Eq. 8).  ``x = z [m]``; k in N/m^(n+2)."""
     zn, _ = _power(z, n)
     return k * zn
 
 
-def bernstein_jac(z, k, n):
+def bernstein_jac(z: ArrayLike, k: Value, n: Value) -> np.ndarray:
     zn, lnz = _power(z, n)
     return np.column_stack([zn, k * zn * lnz])
 
 
-def reece(x, k1, k2, n):
+def reece(x: InputRows, k1: Value, k2: Value, n: Value) -> np.ndarray:
     """Reece p = (k1 + k2·b)·(z/b)^n.  ``x = (b [m], z [m])``; k1 in Pa, k2 in Pa/m."""
     b, z = x
     zbn, _ = _power(np.asarray(z, float) / b, n)
     return (k1 + k2 * b) * zbn
 
 
-def reece_jac(x, k1, k2, n):
+def reece_jac(x: InputRows, k1: Value, k2: Value, n: Value) -> np.ndarray:
     b, z = x
     zbn, ln_zb = _power(np.asarray(z, float) / b, n)
     return np.column_stack([zbn, b * zbn, (k1 + k2 * b) * zbn * ln_zb])
@@ -96,12 +99,12 @@ def _separable_bernstein(z, w):
     return separable_from_power_law(_bernstein_terms, z, w)
 
 
-def bekker_modulus(b, kc, kphi, n):
+def bekker_modulus(b: Value, kc: np.ndarray, kphi: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Bekker's plate modulus kc/b + kφ [N/m^(n+2)]: the pressure at unit sinkage on width b."""
     return kc / b + kphi
 
 
-def reece_modulus(b, k1, k2, n):
+def reece_modulus(b: Value, k1: np.ndarray, k2: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Reece's plate modulus k1 + k2·b [Pa]: the pressure at z = b (at sinkage ratio 1)."""
     return k1 + k2 * b
 

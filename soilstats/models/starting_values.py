@@ -8,7 +8,10 @@ extended models of discovery ask the record, so that both start from the same pl
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from .wong import wong_start
@@ -24,7 +27,7 @@ __all__ = [
 ]
 
 
-def sinkage_start(model, b, z, p) -> np.ndarray:
+def sinkage_start(model: str, b: np.ndarray | None, z: np.ndarray, p: np.ndarray) -> np.ndarray:
     """The starting values of a registered sinkage model (its record's ``start``).
 
     b, z [m] (b may be None for a model without a plate size), p [Pa].  An unknown name, or
@@ -35,10 +38,11 @@ def sinkage_start(model, b, z, p) -> np.ndarray:
     spec = get_model(model, "sinkage")
     if spec.start is None:
         raise ModelError(f"model {spec.name!r} states no starting values (Model.start)")
-    return spec.start(spec.x_from({"b_m": b, "z_m": z}), p)
+    data = {"z_m": z} if b is None else {"b_m": b, "z_m": z}
+    return spec.start(spec.x_from(data), p)
 
 
-def bekker_start(b, z, p) -> np.ndarray:
+def bekker_start(b: ArrayLike, z: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Wong's linearised estimate (Fig. 3) of Bekker's (kc, kφ, n).
 
     b, z [m], p [Pa].  Where Wong's method is undefined (one plate size, no positive p) the
@@ -50,17 +54,17 @@ def bekker_start(b, z, p) -> np.ndarray:
         return np.array([0.0, np.median(p / np.maximum(z, 1e-9)), 1.0])
 
 
-def bernstein_start(z, p) -> np.ndarray:
+def bernstein_start(z: ArrayLike, p: ArrayLike) -> np.ndarray:
     """Wong's linearised estimate (Fig. 3) of Bernstein's (k, n); z [m], p [Pa]."""
     return wong_start(None, z, p)
 
 
-def reece_start(b, z, p) -> np.ndarray:
+def reece_start(b: ArrayLike, z: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Reece's (k1, k2, n) mapped from Bekker's start (:func:`reece_from_bekker`)."""
     return reece_from_bekker(bekker_start(b, z, p), b)
 
 
-def reece_from_bekker(theta, b) -> np.ndarray:
+def reece_from_bekker(theta: Sequence[float] | np.ndarray, b: ArrayLike) -> np.ndarray:
     """(k1, k2, n) of Reece equal to Bekker's (kc, kφ, n) at the geometric-mean plate size.
 
     (k1 + k2·b)(z/b)^n equals (kc/b + kφ)·z^n when k1 = kc·b^(n−1), k2 = kφ·b^(n−1) at the
@@ -71,7 +75,7 @@ def reece_from_bekker(theta, b) -> np.ndarray:
     return np.array([kc * b_ref ** (n - 1), kphi * b_ref ** (n - 1), n])
 
 
-def janosi_start(sigma, j, tau) -> np.ndarray:
+def janosi_start(sigma: ArrayLike, j: ArrayLike, tau: ArrayLike) -> np.ndarray:
     """(c [Pa], φ [deg], K [m]) for Eq. 13.
 
     c and tan φ from a straight line τ = c + σ·tan φ through the upper half of j (where the
@@ -90,7 +94,7 @@ def janosi_start(sigma, j, tau) -> np.ndarray:
     return np.array([max(float(c0), 1.0), float(phi0), max(float(k0), 1e-5)])
 
 
-def shear_curve_start(j, tau) -> np.ndarray:
+def shear_curve_start(j: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """(τ_max [Pa], K [m]) of Eq. 13 at one normal pressure, from one test's record.
 
     The plateau from the top decile, K from where τ first reaches 63 % of it (1 − 1/e).

@@ -11,6 +11,7 @@ regressions propagated to (kc, kφ, n) — they describe the linearised problem,
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import IdentifiabilityError
 from ..fitting.linear import linear_least_squares
@@ -24,7 +25,7 @@ def _log_regression(design, log_p, w):
     return fit.params.to_numpy(), fit.cov.to_numpy()
 
 
-def wong_start(b, z, p) -> np.ndarray:
+def wong_start(b: ArrayLike | None, z: ArrayLike, p: ArrayLike) -> np.ndarray:
     """Wong's estimate alone — Bekker (kc, kφ, n) if ``b`` is given, else Bernstein (k, n).
 
     The starting values of the LM identification: cheap, and usually a few steps from the
@@ -67,7 +68,9 @@ def wong_start(b, z, p) -> np.ndarray:
     return np.array([kc, float(k_b.mean() - kc * inv_b.mean()), n])
 
 
-def wong_bernstein(z, p, *, weights=None) -> tuple[np.ndarray, np.ndarray, int]:
+def wong_bernstein(
+    z: ArrayLike, p: ArrayLike, *, weights: ArrayLike | None = None
+) -> tuple[np.ndarray, np.ndarray, int]:
     """(k, n), their covariance, and the number of samples with p ≤ 0 excluded."""
     z, p = np.asarray(z, float), np.asarray(p, float)
     keep = (z > 0) & (p > 0)
@@ -80,7 +83,9 @@ def wong_bernstein(z, p, *, weights=None) -> tuple[np.ndarray, np.ndarray, int]:
     return np.array([k, n]), cov, int((~keep).sum())
 
 
-def wong_bekker(b, z, p, *, weights=None) -> tuple[np.ndarray, np.ndarray, int]:
+def wong_bekker(
+    b: ArrayLike, z: ArrayLike, p: ArrayLike, *, weights: ArrayLike | None = None
+) -> tuple[np.ndarray, np.ndarray, int]:
     """(kc, kφ, n), their covariance, and the number of samples with p ≤ 0 excluded."""
     b, z, p = (np.asarray(a, float) for a in (b, z, p))
     keep = (z > 0) & (p > 0)

@@ -293,7 +293,7 @@ def csv_text(frame: pd.DataFrame, float_format: str | None = None) -> str:
     import pandas as pd
     from pandas.api.types import is_object_dtype
 
-    def is_text(dtype) -> bool:
+    def is_text(dtype: object) -> bool:
         return isinstance(dtype, pd.StringDtype | pd.CategoricalDtype) or is_object_dtype(dtype)
 
     def numbers(part: pd.DataFrame) -> list[str]:

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 __all__ = ["notes_block"]
 
 
-def notes_block(notes) -> list[str]:
-    """``Notes:`` and each note numbered ``[1] …`` (nothing when there are none)."""
+def notes_block(notes: Iterable[object]) -> list[str]:
+    """``Notes:`` and each note numbered ``[1] …`` (nothing when there are none; each note as
+    its ``str``)."""
     notes = list(notes)
     if not notes:
         return []

@@ -17,10 +17,12 @@ the per-record detectors on planted artefacts of every kind.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import records
 from .records import (
@@ -50,7 +52,7 @@ class Blocks:
     sizes: IntArray
 
     @classmethod
-    def of_sizes(cls, sizes) -> Blocks:
+    def of_sizes(cls, sizes: ArrayLike) -> Blocks:
         """Blocks of the given sizes, laid end to end from position 0."""
         sizes = np.asarray(sizes, dtype=np.int64)
         starts = np.zeros(sizes.size, dtype=np.int64)
@@ -95,7 +97,7 @@ class Blocks:
         local = self.local
         return self.keep(local < self.spread(self.sizes) - k)
 
-    def reduce(self, ufunc: np.ufunc, values: np.ndarray, empty) -> np.ndarray:
+    def reduce(self, ufunc: np.ufunc, values: np.ndarray, empty: float) -> np.ndarray:
         """``ufunc.reduce`` over every block; ``empty`` for empty blocks."""
         out = np.full(self.count, empty, dtype=np.result_type(values, type(empty)))
         full = self.sizes > 0
@@ -137,7 +139,9 @@ class Blocks:
             out = step[kept] if kept.size else np.empty(0)
         return out, blocks
 
-    def padded(self, values: np.ndarray, fill: float):
+    def padded(
+        self, values: np.ndarray, fill: float
+    ) -> Iterator[tuple[IntArray, BoolArray, IntArray, FloatArray]]:
         """The non-empty blocks as rows of matrices, in buckets of similar size (the same bit
         length: within a factor two, so padding at most doubles the work).
 
@@ -226,7 +230,7 @@ class Blocks:
         return np.flatnonzero(mask & ~before), np.flatnonzero(mask & ~after) + 1
 
 
-def _runs_mask(blocks: Blocks, mask: BoolArray, keep) -> BoolArray:
+def _runs_mask(blocks: Blocks, mask: BoolArray, keep: Callable[[IntArray], BoolArray]) -> BoolArray:
     """``mask`` restricted to its runs whose length passes ``keep(length)``."""
     start, stop = blocks.runs(mask)
     chosen = keep(stop - start)
@@ -348,7 +352,12 @@ def _unfinite(blocks: Blocks, *arrays: np.ndarray) -> IntArray:
     return np.flatnonzero(blocks.total_of(bad)) if bad.any() else np.empty(0, np.int64)
 
 
-def _by_record(blocks: Blocks, batch, detector, *arrays: np.ndarray) -> BoolArray:
+def _by_record(
+    blocks: Blocks,
+    batch: Callable[..., BoolArray],
+    detector: Callable[..., BoolArray],
+    *arrays: np.ndarray,
+) -> BoolArray:
     """``batch(blocks, *arrays)``, with the blocks holding non-finite values decided by the
     per-record ``detector`` instead.
 

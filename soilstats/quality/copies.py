@@ -10,6 +10,7 @@ itself and is left to the other rules: a record counts only with at least
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
@@ -25,7 +26,9 @@ RECORDS = {
 }
 
 
-def find_copies(table: pd.DataFrame, columns, response: str) -> list[tuple[str, str, np.ndarray]]:
+def find_copies(
+    table: pd.DataFrame, columns: Sequence[str], response: str
+) -> list[tuple[str, str, np.ndarray]]:
     """``(copy, original, positions)`` of every test of ``table`` whose record (``columns``,
     in file order) repeats an earlier test's exactly; ``positions`` are the copy's rows of
     ``table``.

@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from ..campaign.times import time_columns
+from .blocks import Blocks
 
 __all__ = [
     "DRIFT_ALPHA",
@@ -91,7 +92,7 @@ class Drift:
     series_size: int
 
 
-def start_forces(blocks, z: np.ndarray, force: np.ndarray) -> np.ndarray:
+def start_forces(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> np.ndarray:
     """The median force [N] of the samples at or above the surface (z <= 0) among the first
     :data:`START_SAMPLES` of every record; NaN where there is none (a record logged from
     inside contact: its first readings carry the soil's response, which a trend in stiffness

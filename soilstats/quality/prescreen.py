@@ -55,7 +55,9 @@ _SIGN_TOLERANCE = 1e-8
 _FIT_TOLERANCE = 1e-9
 
 
-def _fit_lines(blocks: Blocks, x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None):
+def _fit_lines(
+    blocks: Blocks, x: np.ndarray, y: np.ndarray, w: np.ndarray | None = None
+) -> tuple[FloatArray, FloatArray, BoolArray]:
     """Weighted least-squares lines y ≈ a + b x of every block, in closed form.
 
     Centred sums (two passes) keep them accurate. Returns (slope, intercept, conditioned):
@@ -78,7 +80,9 @@ def _fit_lines(blocks: Blocks, x: np.ndarray, y: np.ndarray, w: np.ndarray | Non
     return slope, intercept, conditioned
 
 
-def contact_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
+def contact_statistics(
+    blocks: Blocks, z: np.ndarray, force: np.ndarray
+) -> tuple[BoolArray, FloatArray, FloatArray, FloatArray, BoolArray]:
     """What ``records.find_contact`` compares, for every block: (alive, from_zero, coarse,
     law_excess, trusted). ``alive``: the block passed the detector's exact early exits;
     ``from_zero`` and ``coarse``: the residual of the power law from z = 0 and the least
@@ -266,7 +270,9 @@ def _end_gain(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> FloatArray:
     return np.where(has & (tail >= 0), gain, np.nan)
 
 
-def runaway_statistics(blocks: Blocks, z: np.ndarray, force: np.ndarray):
+def runaway_statistics(
+    blocks: Blocks, z: np.ndarray, force: np.ndarray
+) -> tuple[BoolArray, FloatArray, BoolArray, BoolArray]:
     """What ``records.find_runaway`` compares, for every block: (alive, excess, safe,
     undecided). ``alive``: the block passed the detector's exact early exits with a clearly
     positive exponent; ``excess``: its final excess sinkage (closed-form fit); ``safe``: the

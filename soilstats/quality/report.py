@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import warnings
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, fields, replace
 from decimal import ROUND_CEILING, Decimal
-from typing import cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pandas as pd
@@ -22,6 +22,10 @@ from ..errors import RENAMED_GO_IN
 from ..outputs.files import json_safe
 from ..outputs.text import notes_block
 from .codes import CODES
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
+    from ..campaign.window import FitWindow
 
 __all__ = ["PLATE_WINDOW_SHARE", "QualityFlag", "QualityReport", "ScreenedCampaign"]
 
@@ -96,7 +100,7 @@ class QualityReport:
         """Tests whose z was re-zeroed at a seating contact (``pre-contact`` in mode clean)."""
         return frozenset(f.test_id for f in self.flags if f.code == "pre-contact" and f.excluded)
 
-    def for_tests(self, test_ids) -> QualityReport:
+    def for_tests(self, test_ids: Iterable[str]) -> QualityReport:
         """The findings of these tests only."""
         keep = set(map(str, test_ids))
         return replace(
@@ -106,7 +110,7 @@ class QualityReport:
             phases={t: p for t, p in self.phases.items() if t in keep},
         )
 
-    def flags_of(self, test_ids) -> tuple[QualityFlag, ...]:
+    def flags_of(self, test_ids: Iterable[str]) -> tuple[QualityFlag, ...]:
         """The findings of these tests, in report order: :meth:`for_tests`'s ``flags``
         without its table of tests (a fit asks this on every call)."""
         keep = set(map(str, test_ids))
@@ -186,7 +190,7 @@ class QualityReport:
                 rows.append((soil, b, onsets[t], 1, "test", t, len(plate), item))
         return pd.DataFrame(rows, columns=columns)
 
-    def proposed_window(self):
+    def proposed_window(self) -> FitWindow:
         """:meth:`proposed_windows` as one :class:`~soilstats.campaign.window.FitWindow`
         (``fit_sinkage(..., window=...)``; empty when nothing failed)."""
         from ..campaign.window import FitWindow
@@ -326,7 +330,7 @@ def _ceil4(z: float) -> str:
     return f"{float(exact.quantize(step, rounding=ROUND_CEILING)):.4g}"
 
 
-def _failed(windows: pd.DataFrame, w) -> int:
+def _failed(windows: pd.DataFrame, w: Any) -> int:  # w: a row of itertuples() (untyped)
     """Failed tests of ``w``'s plate (per-test rows)."""
     same = (windows["soil"] == w.soil) & (
         (windows["b_m"] == w.b_m) | (windows["b_m"].isna() & pd.isna(w.b_m))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, cast
 
@@ -32,6 +33,7 @@ from .report import QualityFlag, QualityReport, ScreenedCampaign
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.tables import Criterion
 
 __all__ = ["QualityFlag", "QualityReport", "ScreenedCampaign", "screen", "screened"]
 
@@ -279,7 +281,11 @@ def _sinkage_findings(
     return out, drop, offsets, ends, phases
 
 
-def seating_per_soil(found: dict, record, soils: list) -> dict:
+def seating_per_soil(
+    found: dict[int, records.ContactPoint],
+    record: Callable[[int], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    soils: list,
+) -> dict[int, records.ContactPoint]:
     """The seating offsets to re-zero, by record: one rule for the same toe in every test of
     a soil.
 
@@ -631,7 +637,9 @@ _SCREENED: weakref.WeakKeyDictionary[Campaign, dict[str, ScreenedCampaign]] = (
 )
 
 
-def screened(campaign: Campaign, quality: str = "clean", **selection) -> ScreenedCampaign:
+def screened(
+    campaign: Campaign, quality: str = "clean", **selection: Criterion
+) -> ScreenedCampaign:
     """``campaign`` (restricted to ``selection``) ready for analysis: screened in mode
     ``quality`` unless it was already (a :class:`ScreenedCampaign`, as :func:`screen`
     returns in its report's ``campaign``, is taken as it is).

@@ -22,6 +22,8 @@ from .labels import natural_key
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..outputs.provenance import Provenance
+    from ..quality.report import QualityReport
 
 __all__ = ["write_report"]
 
@@ -56,7 +58,12 @@ def _conclusion(doc_dict: dict, n_tests: int) -> list:
 
 
 def write_report(
-    report, path: str | Path, *, campaign: Campaign, provenance=None, overwrite: bool = False
+    report: QualityReport,
+    path: str | Path,
+    *,
+    campaign: Campaign,
+    provenance: Provenance | None = None,
+    overwrite: bool = False,
 ) -> int:
     """Write the typeset screening report of ``report`` (a QualityReport) of ``campaign``
     to ``path``.

@@ -28,8 +28,9 @@ from matplotlib.figure import Figure
 
 from .._text import plural
 from ..discovery.candidates import candidate_values
-from ..discovery.result import METHOD_NOTES, Finding
+from ..discovery.result import METHOD_NOTES, DiscoveryResult, Finding
 from ..outputs.files import output_path
+from ..outputs.provenance import Provenance
 from .document import GRID_STYLE, Document, strong
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
@@ -852,7 +853,13 @@ def _notes_appendix(doc: Document, result) -> None:
     doc.numbered([*untested, *result.notes] or ["No further notes."], small=True)
 
 
-def write_report(result, path: str | Path, *, provenance=None, overwrite: bool = False) -> int:
+def write_report(
+    result: DiscoveryResult,
+    path: str | Path,
+    *,
+    provenance: Provenance | None = None,
+    overwrite: bool = False,
+) -> int:
     """Write the typeset PDF report of ``result`` to ``path`` (its folder created if
     needed); return the number of pages.
 

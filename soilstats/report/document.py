@@ -22,7 +22,7 @@ import datetime as _dt
 import io
 import re
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -189,7 +189,7 @@ class Document:
             setup += f"#set text(size: {SMALL_PT}pt)\n"
         self._list(items, "+", setup)
 
-    def _list(self, items, marker: str, setup: str) -> None:
+    def _list(self, items: Iterable[object], marker: str, setup: str) -> None:
         lines = []
         for item in items:
             parts = item if isinstance(item, list | tuple) else (item,)
@@ -298,7 +298,7 @@ class Document:
         self._block(table)
 
     @contextmanager
-    def columns(self, n: int = 2):
+    def columns(self, n: int = 2) -> Iterator[Document]:
         """Set the blocks added inside ``with doc.columns(2):`` in ``n`` columns (narrow
         tables side by side: a long one flows on into the next column)."""
         start = len(self._blocks)
@@ -415,7 +415,7 @@ def page_count(pdf: bytes) -> int:
     return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", pdf))
 
 
-def _close(fig) -> None:
+def _close(fig: Figure) -> None:
     import matplotlib.pyplot as plt
 
     plt.close(fig)

@@ -12,6 +12,7 @@ notes every fit shares printed once, numbered). Everything in identify.json is i
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -28,6 +29,8 @@ from .parameters import EQ4_NOTE, condition_table
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..identification.conditions import ConditionFits
+    from ..outputs.provenance import Provenance
 
 __all__ = ["write_report"]
 
@@ -181,7 +184,12 @@ def _condition(record: dict) -> dict:
 
 
 def write_report(
-    results, path: str | Path, *, campaign: Campaign, provenance=None, overwrite: bool = False
+    results: Iterable[ConditionFits],
+    path: str | Path,
+    *,
+    campaign: Campaign,
+    provenance: Provenance | None = None,
+    overwrite: bool = False,
 ) -> int:
     """Write the typeset identification report of ``results`` (ConditionFits per kind) of
     ``campaign`` to ``path``.

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable, Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -17,6 +18,10 @@ import pandas as pd
 from ..identification.table import EQ4_MARK, format_value
 from .document import Document, Markup
 from .labels import natural_key, parameter_label, parameter_symbol
+
+if TYPE_CHECKING:
+    from ..discovery.testlevel import TestLevel
+    from ..fitting.result import FitResult
 
 __all__ = ["EQ4_NOTE", "condition_table", "fit_rows", "fit_table", "stderr_cell"]
 
@@ -90,7 +95,9 @@ def condition_table(
     )
 
 
-def fit_rows(fit, level=None, *, units: str = "column") -> list[dict]:
+def fit_rows(
+    fit: FitResult | None, level: TestLevel | None = None, *, units: str = "column"
+) -> list[dict]:
     """One fit's parameters as rows ``{"parameter", "value ± σ", "unit"}`` (none without a
     fit; ``units="name"``: no unit column, the unit in brackets after the name): each cell
     a :func:`stderr_cell` of the σ discovery quotes
@@ -118,7 +125,13 @@ def fit_rows(fit, level=None, *, units: str = "column") -> list[dict]:
 
 
 def fit_table(
-    doc: Document, fit, caption: str, level=None, *, units: str = "column", **table
+    doc: Document,
+    fit: FitResult | None,
+    caption: str,
+    level: TestLevel | None = None,
+    *,
+    units: str = "column",
+    **table: Any,  # Document.table's keywords (small, widths), of their own types
 ) -> None:
     """One fit's parameters as ``value ± σ`` with units (nothing without a fit): the cells of
     :func:`fit_rows` (:data:`EQ4_NOTE` says what they mean, once per report); ``table``

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pandas as pd
@@ -42,6 +42,9 @@ from ..bayes.predictive import input_name
 from ..errors import InputError
 from ..models import MODELS, Model, get_model
 from .document import FIGURE_STYLE
+
+if TYPE_CHECKING:
+    from ..bayes.result import PosteriorResult
 
 __all__ = [
     "FIGSIZE",
@@ -172,7 +175,10 @@ def _new_preparation_note(post: _Posterior) -> str:
 
 
 def trace_figure(
-    posterior, *, max_params: int = 4, figsize: tuple[float, float] = FIGSIZE
+    posterior: PosteriorResult | az.InferenceData,
+    *,
+    max_params: int = 4,
+    figsize: tuple[float, float] = FIGSIZE,
 ) -> tuple[Figure, str]:
     """Trace of every chain over the kept iterations, and the marginal density, per parameter.
 
@@ -256,7 +262,7 @@ def _diagnostics(data, names) -> str:
 
 
 def pair_figure(
-    posterior,
+    posterior: PosteriorResult | az.InferenceData,
     *,
     max_params: int = 4,
     max_points: int = 1500,
@@ -358,7 +364,7 @@ _PANELS = {
 
 
 def predictive_figure(
-    posterior,
+    posterior: PosteriorResult | az.InferenceData,
     *,
     prob: float = 0.9,
     max_panels: int = 6,

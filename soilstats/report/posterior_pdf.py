@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from ..bayes.result import PosteriorResult
 from ..identification.table import format_value
@@ -274,7 +275,7 @@ def write_report(
     overwrite: bool = False,
     record: dict | None = None,
     prob: float = 0.9,
-    handed_out=None,
+    handed_out: pd.DataFrame | None = None,
 ) -> int:
     """Write the typeset posterior report for ``results`` to ``path``; return its pages.
 

@@ -22,6 +22,7 @@ from .labels import column_label, natural_key, natural_sorted
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..study.result import StudyResult
 
 __all__ = ["FIGURES", "make_figures"]
 
@@ -33,7 +34,7 @@ def _panels(n: int):
     return fig, axes[0]
 
 
-def curves(result, campaign: Campaign) -> plt.Figure:
+def curves(result: StudyResult, campaign: Campaign) -> plt.Figure:
     """Pressure–sinkage curves per condition: mean and ± 1 sd band over the tests (Fig. 7/8)."""
     spec = result.spec
     tests = result.per_test
@@ -78,7 +79,7 @@ def _fixed_global_seed(seed: int):
         np.random.set_state(state)  # noqa: NPY002
 
 
-def responses(result, campaign: Campaign | None = None) -> plt.Figure:
+def responses(result: StudyResult, campaign: Campaign | None = None) -> plt.Figure:
     """One point per test, by condition, for each soil and response (the ANOVA's data)."""
     spec = result.spec
     names = [r.name for r in spec.responses if r.name in result.per_test.columns]
@@ -107,7 +108,7 @@ def responses(result, campaign: Campaign | None = None) -> plt.Figure:
     return fig
 
 
-def relative(result, campaign: Campaign | None = None) -> plt.Figure:
+def relative(result: StudyResult, campaign: Campaign | None = None) -> plt.Figure:
     """Pooled parameters relative to the reference condition, ± σ (Figs. 15, 16).
 
     A ratio means something only between values of one sign: a parameter that is zero or
@@ -163,7 +164,7 @@ def _spread(g) -> float:
     return out
 
 
-def moves_without_effect(result, factor_of: float = 2.0) -> list[str]:
+def moves_without_effect(result: StudyResult, factor_of: float = 2.0) -> list[str]:
     """Pooled parameters that move by more than ``factor_of`` (or change sign) in a soil whose
     verdicts all say no effect: ``["soil02 kphi ×95", …]``. The figure shows them beside a
     "no effect" verdict, so its caption must say why."""
@@ -183,7 +184,7 @@ def moves_without_effect(result, factor_of: float = 2.0) -> list[str]:
     return out
 
 
-def mohr_coulomb(result, campaign: Campaign | None = None) -> plt.Figure:
+def mohr_coulomb(result: StudyResult, campaign: Campaign | None = None) -> plt.Figure:
     """τ_ss against σ per test with each level's line τ = c + σ tanφ (Figs. 11–14)."""
     spec = result.spec
     fig, axes = _panels(len(result.soils))
@@ -208,7 +209,7 @@ def mohr_coulomb(result, campaign: Campaign | None = None) -> plt.Figure:
     return fig
 
 
-def epsilon(result, campaign: Campaign | None = None) -> plt.Figure:
+def epsilon(result: StudyResult, campaign: Campaign | None = None) -> plt.Figure:
     """Fit quality ε (Eq. 2) per preparation method and soil (Fig. 6)."""
     eps = result.parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
     order = natural_sorted(eps["condition"].unique())
@@ -232,7 +233,7 @@ FIGURES = {
 }
 
 
-def caption(name: str, result) -> str:
+def caption(name: str, result: StudyResult) -> str:
     """The caption of figure ``name``: what is shown, with units and the paper's figure."""
     spec = result.spec
     factor = column_label(spec.factor)
@@ -274,7 +275,7 @@ def _why_no_effect(result) -> str:
     )
 
 
-def make_figures(result, campaign: Campaign) -> list[tuple[str, plt.Figure, str]]:
+def make_figures(result: StudyResult, campaign: Campaign) -> list[tuple[str, plt.Figure, str]]:
     """The spec's figures in its order, as (name, figure, caption); ``relative`` is skipped
     without pooled parameters."""
     out = []

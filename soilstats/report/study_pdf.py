@@ -16,7 +16,7 @@ import pandas as pd
 
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
-from ..study.result import CRITERIA_COLUMNS
+from ..study.result import CRITERIA_COLUMNS, StudyResult
 from .document import Document, Markup, strong
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
@@ -344,7 +344,12 @@ def _pairs_and_criteria(doc: Document, result) -> None:
 
 
 def write_report(
-    result, path: str | Path, *, campaign: Campaign, provenance=None, overwrite: bool = False
+    result: StudyResult,
+    path: str | Path,
+    *,
+    campaign: Campaign,
+    provenance: Provenance | None = None,
+    overwrite: bool = False,
 ) -> int:
     """Write the typeset PDF report of ``result`` (a study of ``campaign``) to ``path``;
     return the number of pages.

@@ -15,7 +15,7 @@ numbers.  Object API only (no pyplot state), fonts of 8 pt and more, sinkage in 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from matplotlib import rc_context
@@ -24,7 +24,11 @@ from matplotlib.figure import Figure
 from .document import FIGURE_STYLE
 
 if TYPE_CHECKING:
+    import pandas as pd
     from matplotlib.typing import RcKeyType
+
+    from ..discovery.crossval import Gain
+    from ..wheel.validation_result import WheelDiscovery, WheelValidation
 
 __all__ = [
     "beta_figure",
@@ -82,7 +86,7 @@ def _finish(fig, axes, ylabel: str, title: str, *, zero=True, legend="axes", gri
     fig.suptitle(title)
 
 
-def predicted_title(result) -> str:
+def predicted_title(result: WheelValidation) -> str:
     runs = result.runs[result.runs["in_scope"]]
     near = runs[runs["slip_level"].abs() <= 0.05]
     locked = runs[runs["slip_level"] <= -0.95]
@@ -100,7 +104,7 @@ def predicted_title(result) -> str:
     return ";\n".join(parts)
 
 
-def predicted_figure(result) -> tuple[Figure, str]:
+def predicted_figure(result: WheelValidation) -> tuple[Figure, str]:
     """β = 0 runs: measured sinkage and each run's predicted 90 % band, against slip."""
     runs = result.runs[result.runs["in_scope"]]
     wheels = _wheels(result)
@@ -133,7 +137,7 @@ def predicted_figure(result) -> tuple[Figure, str]:
     return fig, caption
 
 
-def beta_figure(result) -> tuple[Figure, str]:
+def beta_figure(result: WheelValidation) -> tuple[Figure, str]:
     """All runs: measured − predicted median sinkage against β, coloured by slip."""
     runs = result.runs[result.runs["predicted"]]
     wheels = _wheels(result)
@@ -169,7 +173,7 @@ def beta_figure(result) -> tuple[Figure, str]:
     return fig, caption
 
 
-def day_effects(result):
+def day_effects(result: WheelValidation) -> tuple[pd.DataFrame, pd.Series]:
     """Each run's error less the mean error of its condition (wheel × slip × β): what the
     day test sees.  Returns the runs with ``within_cell_m`` and the day means per wheel."""
     runs = result.runs[result.runs["predicted"]].copy()
@@ -178,7 +182,7 @@ def day_effects(result):
     return runs, runs.groupby(["wheel", "date"])["within_cell_m"].mean()
 
 
-def day_figure(result) -> tuple[Figure, str]:
+def day_figure(result: WheelValidation) -> tuple[Figure, str]:
     """All runs: the error less its condition's mean, by day, per wheel."""
     runs, means = day_effects(result)
     wheels = _wheels(result)
@@ -214,11 +218,11 @@ def day_figure(result) -> tuple[Figure, str]:
     return fig, caption
 
 
-def extension_figure(result) -> tuple[Figure, str]:
+def extension_figure(result: WheelValidation) -> tuple[Figure, str]:
     """Held-out error per slip condition: plates only, and with the slip exponent."""
-    disc = result.discovery
+    disc = cast("WheelDiscovery", result.discovery)  # drawn where the extension was fitted
     cv = disc.heldout[disc.heldout["scheme"] == "slip"]
-    gain = disc.gains.get("slip")
+    gain = cast("Gain", disc.gains.get("slip"))  # its slip conditions were held out
     day = disc.gains.get("day")
     title = (
         f"Slip exponent, held out: error {1e3 * gain.base:.1f} → {1e3 * gain.extended:.1f} mm"
@@ -247,7 +251,7 @@ def extension_figure(result) -> tuple[Figure, str]:
     return fig, caption
 
 
-def drawbar_figure(result) -> tuple[Figure, str]:
+def drawbar_figure(result: WheelValidation) -> tuple[Figure, str]:
     """β = 0 drawbar pull, measured and predicted (shear from the stated priors)."""
     runs = result.runs[result.runs["in_scope"]]
     wheels = _wheels(result)

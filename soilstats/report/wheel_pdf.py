@@ -12,6 +12,7 @@ predicted), and the caveats of the data.  Everything in ``wheel.json`` but the p
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -26,6 +27,10 @@ from .wheel_figures import (
     extension_figure,
     predicted_figure,
 )
+
+if TYPE_CHECKING:
+    from ..outputs.provenance import Provenance
+    from ..wheel.validation_result import WheelValidation
 
 __all__ = ["write_report"]
 
@@ -226,7 +231,13 @@ def _group_table(doc, res, by, caption, level_label) -> None:
     )
 
 
-def write_report(result, path, *, provenance=None, overwrite: bool = False) -> int:
+def write_report(
+    result: WheelValidation,
+    path: str | Path,
+    *,
+    provenance: Provenance | None = None,
+    overwrite: bool = False,
+) -> int:
     """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages."""
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     res = result

@@ -47,7 +47,14 @@ _ALLOWED = {
 }
 
 
-def _num(options: dict, key: str, where: str, default=None, lo=None, hi=None) -> float:
+def _num(
+    options: dict,
+    key: str,
+    where: str,
+    default: float | None = None,
+    lo: float | None = None,
+    hi: float | None = None,
+) -> float:
     value = options.get(key, default)
     if value is None:
         raise SpecError(f"SPEC {where}.{key}: required for this effect kind")

@@ -169,6 +169,6 @@ class Spec:
     resolution: Resolution
     scatter: Scatter
     artefacts: tuple[Artefact, ...] = ()
-    raw: dict[str, Any] = field(repr=False, default_factory=dict)
+    raw: dict[str, Any] = field(repr=False, default_factory=dict)  # the TOML as read: any values
     source: str = "<memory>"
     sha256: str = ""

@@ -349,7 +349,9 @@ def simulate(
     return SimulatedCampaign(campaign, truth, test_truth, spec, seed, artefacts)
 
 
-def _plant_artefacts(spec: Spec, row: dict, z, force, rng) -> tuple:
+def _plant_artefacts(
+    spec: Spec, row: dict, z: np.ndarray, force: np.ndarray, rng: np.random.Generator
+) -> tuple:
     """``spec``'s artefacts planted in one sinkage record, in SPEC order: (z, force,
     [(kind, positions)]). One uniform number is drawn per matching artefact whether or not
     it is planted, so ``share`` leaves the other tests' draws alone."""

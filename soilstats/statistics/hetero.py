@@ -94,7 +94,9 @@ def _welch_t(y: np.ndarray, floor: np.ndarray) -> np.ndarray:
     return (w * (m - mw) ** 2).sum(-1)
 
 
-def _cell_fit(frame: pd.DataFrame, response: str, factor: str, fixed: list[str], random: str):
+def _cell_fit(
+    frame: pd.DataFrame, response: str, factor: str, fixed: list[str], random: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, pd.Index]:
     """Adjusted cell means (k × o), per-level s², its df and mean cell-mean variance factor."""
     levels = pd.Index(pd.unique(frame[factor]))
     randoms = pd.Index(pd.unique(frame[random]))

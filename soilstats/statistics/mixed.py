@@ -65,7 +65,15 @@ def _cells(frame: pd.DataFrame, a: str, b: str) -> np.ndarray:
     return np.eye(codes.max() + 1)[codes]
 
 
-def random_block_input(data, response: str, factor: str, blocks, random: str, *, dropna: bool):
+def random_block_input(
+    data: pd.DataFrame,
+    response: str,
+    factor: str,
+    blocks: str | Sequence[str],
+    random: str,
+    *,
+    dropna: bool,
+) -> tuple[list[str], pd.DataFrame, int]:
     """(blocks as a list, the prepared frame, rows dropped) for a test of ``factor`` with
     ``random`` one of ``blocks``: the input checks both random-block tests share (this
     module's and :func:`.hetero.welch_random_block`)."""

@@ -28,7 +28,9 @@ from ._data import StatisticsInputError, prepare
 __all__ = ["tukey_hsd", "tukey_lsmeans"]
 
 
-def _pair_data(data, response: str, factor: str, blocks: list, alpha: float, dropna: bool):
+def _pair_data(
+    data: pd.DataFrame, response: str, factor: str, blocks: list, alpha: float, dropna: bool
+) -> tuple[pd.DataFrame, int, pd.Series]:
     """The checked rows of a pairwise comparison, how many were dropped, and the factor's
     levels as text (which must stay distinct)."""
     if not 0.0 < alpha < 1.0:

@@ -12,11 +12,12 @@ from ..identification.conditions import condition_label
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from .spec import StudySpec
 
 __all__ = ["StudyDataError", "select_tests"]
 
 
-def select_tests(campaign: Campaign, spec) -> pd.DataFrame:
+def select_tests(campaign: Campaign, spec: StudySpec) -> pd.DataFrame:
     """The test-log rows of ``spec``: its kind, ``tests.where`` (columns required) and
     ``tests.where_present`` (applied only when the campaign has the column).
 
@@ -61,7 +62,7 @@ def select_tests(campaign: Campaign, spec) -> pd.DataFrame:
     return chosen[~missing].copy()
 
 
-def soils_with_levels(tests: pd.DataFrame, spec) -> tuple[list[str], list[str]]:
+def soils_with_levels(tests: pd.DataFrame, spec: StudySpec) -> tuple[list[str], list[str]]:
     """Soils with ≥ 2 levels of the factor, and notes on the soils left out.
 
     Raises
@@ -73,7 +74,7 @@ def soils_with_levels(tests: pd.DataFrame, spec) -> tuple[list[str], list[str]]:
     levels = tests.groupby("soil")[spec.factor].nunique()
     good = sorted(levels[levels >= 2].index.astype(str))
 
-    def values(soil) -> str:
+    def values(soil: object) -> str:
         return ", ".join(
             map(condition_label, tests.loc[tests["soil"] == soil, spec.factor].unique())
         )

@@ -27,6 +27,7 @@ The verdicts across soils and responses are then Holm-adjusted (:mod:`.verdict`)
 from __future__ import annotations
 
 import zlib
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -42,6 +43,9 @@ from ..statistics import (
     tukey_lsmeans,
     welch_random_block,
 )
+
+if TYPE_CHECKING:
+    from .spec import StudySpec
 
 __all__ = ["factor_effects"]
 
@@ -145,7 +149,9 @@ def _tidy_anova(table: pd.DataFrame, soil: str, response: str) -> pd.DataFrame:
     return out
 
 
-def factor_effects(per_test: pd.DataFrame, spec, soil: str, alpha: float, *, seed: int = 0) -> dict:
+def factor_effects(
+    per_test: pd.DataFrame, spec: StudySpec, soil: str, alpha: float, *, seed: int = 0
+) -> dict:
     """ANOVA, Tukey pairs and relevance of every response of ``spec`` for one soil.
 
     Parameters

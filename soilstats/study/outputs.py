@@ -2,14 +2,76 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
 
 import pandas as pd
 
 from ..outputs import Provenance, json_safe, output_path, write_csv, write_json
 from ..statistics import VERDICT_COLUMNS
 
-__all__ = ["to_json_dict", "write_outputs"]
+if TYPE_CHECKING:
+    from .spec import StudySpec
+
+__all__ = ["StudyRecord", "to_json_dict", "write_outputs"]
+
+
+class StudyRecord(Protocol):
+    """What the writers read of a :class:`~.result.StudyResult` (which imports this module
+    for its ``to_json``: an import back would close a loop, tests/test_layers.py)."""
+
+    @property
+    def spec(self) -> StudySpec: ...
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def source(self) -> str: ...
+
+    @property
+    def date(self) -> str | None: ...
+
+    @property
+    def soils(self) -> list: ...
+
+    @property
+    def effects(self) -> pd.DataFrame: ...
+
+    @property
+    def anova(self) -> pd.DataFrame: ...
+
+    @property
+    def pairs(self) -> pd.DataFrame: ...
+
+    @property
+    def parameters(self) -> pd.DataFrame: ...
+
+    @property
+    def lines(self) -> pd.DataFrame: ...
+
+    @property
+    def per_test(self) -> pd.DataFrame: ...
+
+    @property
+    def criteria(self) -> pd.DataFrame | None: ...
+
+    @property
+    def best(self) -> dict | None: ...
+
+    @property
+    def notes(self) -> tuple[str, ...]: ...
+
+    @property
+    def seed(self) -> int | None: ...
+
+    @property
+    def provenance(self) -> Provenance | None: ...
+
+    def reference_pairs(self) -> pd.DataFrame: ...
+
 
 _EFFECT_KEYS = [
     *VERDICT_COLUMNS,
@@ -25,14 +87,14 @@ _EFFECT_KEYS = [
 ]
 
 
-def _records(frame: pd.DataFrame | None, keys=None) -> list[dict]:
+def _records(frame: pd.DataFrame | None, keys: Iterable[str] | None = None) -> list[dict]:
     if frame is None or frame.empty:
         return []
     cols = [k for k in (keys or frame.columns) if k in frame.columns]
     return [json_safe(r) for r in frame[cols].to_dict("records")]
 
 
-def to_json_dict(result) -> dict:
+def to_json_dict(result: StudyRecord) -> dict:
     """The JSON document of a study: ``{"study", "effects": [...], "parameters": [...], …}``."""
     spec = result.spec
     doc = {
@@ -62,7 +124,11 @@ def to_json_dict(result) -> dict:
 
 
 def write_outputs(
-    result, out_dir: Path, provenance: Provenance | None = None, *, overwrite: bool = False
+    result: StudyRecord,
+    out_dir: Path,
+    provenance: Provenance | None = None,
+    *,
+    overwrite: bool = False,
 ) -> list[Path]:
     """Write ``NAME.json`` and the ``NAME_*.csv`` tables into ``out_dir``; return the paths.
 
@@ -71,7 +137,13 @@ def write_outputs(
     """
     out_dir = Path(out_dir)
     name = result.name
-    provenance = provenance or result.provenance
+    # A result built without one (StudyResult's default) records a library call on its
+    # source: the result holds no campaign to hash.
+    provenance = (
+        provenance
+        or result.provenance
+        or replace(Provenance.of(None, seed=result.seed), campaign=result.source)
+    )
     tables = {
         "effects": result.effects,
         "anova": result.anova,

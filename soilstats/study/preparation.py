@@ -37,6 +37,8 @@ in each soil, to the higher mean per-test ε otherwise.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import pandas as pd
@@ -44,6 +46,9 @@ import pandas as pd
 from .._text import plural
 from ..statistics import ConfoundingError, StatisticsInputError, anova_oneway, anova_twoway
 from ..statistics.verdict import adjust_p_values
+
+if TYPE_CHECKING:
+    from .spec import Criteria, StudySpec
 
 __all__ = ["evaluate_criteria"]
 
@@ -131,7 +136,11 @@ def _operator_p(g: pd.DataFrame, column: str) -> float:
 
 
 def evaluate_criteria(
-    per_test: pd.DataFrame, epsilons: pd.DataFrame, spec, alpha: float, failed=()
+    per_test: pd.DataFrame,
+    epsilons: pd.DataFrame,
+    spec: StudySpec,
+    alpha: float,
+    failed: Iterable[str] = (),
 ) -> tuple[pd.DataFrame, dict]:
     """Table 3: one row per soil and method with the three criteria, their reasons and Σ.
 
@@ -153,7 +162,7 @@ def evaluate_criteria(
     (pandas.DataFrame, dict)
         The criteria table and ``{"best": str | None, "reason": str}``.
     """
-    crit = spec.criteria
+    crit = cast("Criteria", spec.criteria)  # a preparation study states them (load_spec)
     rows = []
     for soil, soil_tests in per_test.groupby("soil", sort=True):
         eps = epsilons[epsilons["soil"] == soil].set_index("level")["epsilon"]

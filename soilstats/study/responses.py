@@ -17,7 +17,8 @@ refit the tests that several studies share.
 from __future__ import annotations
 
 import warnings
-from typing import Literal, cast
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -25,6 +26,9 @@ import pandas as pd
 from ..errors import ConvergenceWarning
 from ..identification import fit_per_test
 from ..kinds import TEST_KINDS
+
+if TYPE_CHECKING:
+    from ..campaign.campaign import Campaign
 
 __all__ = ["PerTestCache", "pressure_at"]
 
@@ -45,12 +49,12 @@ class PerTestCache:
         tqdm progress bars while fitting.
     """
 
-    def __init__(self, campaign, *, progress: bool = False) -> None:
+    def __init__(self, campaign: Campaign, *, progress: bool = False) -> None:
         self.campaign = campaign
         self.progress = progress
         self._fits: dict[str, pd.DataFrame] = {}
 
-    def fits(self, kind: str, test_ids) -> pd.DataFrame:
+    def fits(self, kind: str, test_ids: Iterable[str]) -> pd.DataFrame:
         """Rows of :func:`soilstats.fit_per_test` for ``test_ids`` (fitting those not yet done).
 
         A fit that did not converge keeps its row (NaN, ``converged`` False); the study
@@ -92,7 +96,7 @@ class PerTestCache:
         done = self._fits.get(kind)
         self._fits[kind] = new if done is None else pd.concat([done, new], ignore_index=True)
 
-    def sinkage(self, test_ids, z_ref_m: float, z_window_m: float) -> pd.DataFrame:
+    def sinkage(self, test_ids: Iterable[str], z_ref_m: float, z_window_m: float) -> pd.DataFrame:
         """Per-test sinkage responses: Bernstein k, n, log10_k, p_ref_Pa, log10_p_ref."""
         table = self.fits("sinkage", test_ids)
         samples = self.campaign.sinkage
@@ -104,6 +108,6 @@ class PerTestCache:
             table["log10_p_ref"] = np.log10(table["p_ref_Pa"].where(table["p_ref_Pa"] > 0))
         return table
 
-    def shear(self, test_ids) -> pd.DataFrame:
+    def shear(self, test_ids: Iterable[str]) -> pd.DataFrame:
         """Per-test shear responses: sigma_mean_Pa, tau_ss_Pa (NaN if never steady), steady."""
         return self.fits("shear", test_ids)

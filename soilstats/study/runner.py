@@ -27,11 +27,14 @@ from .verdict import classify
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from .spec import StudySpec
 
 __all__ = ["run_study"]
 
 
-def _pooled_fits(campaign, tests: pd.DataFrame, spec, soil: str, notes: list) -> pd.DataFrame:
+def _pooled_fits(
+    campaign: Campaign, tests: pd.DataFrame, spec: StudySpec, soil: str, notes: list
+) -> pd.DataFrame:
     """Per-condition identification of one soil (the paper's Tables 5–7), tidy."""
     result = fit_conditions(
         campaign,
@@ -68,7 +71,7 @@ def _failed_in_bearing(campaign: Campaign, per_test: pd.DataFrame) -> set[str]:
 
 
 def run_study(
-    spec,
+    spec: StudySpec,
     campaign: Campaign,
     *,
     cache: PerTestCache | None = None,

@@ -21,6 +21,8 @@ Pa of cohesion are often not resolved, as the paper notes for its Table 6.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 from scipy import stats
@@ -28,10 +30,14 @@ from scipy import stats
 from ..identification.conditions import condition_label
 from ..statistics import StatisticsInputError, TestResult, ancova, effect_row
 
+if TYPE_CHECKING:
+    from ..statistics.analysis_of_covariance import AncovaResult
+    from .spec import StudySpec
+
 __all__ = ["shear_effects"]
 
 
-def _line_test(result) -> TestResult:
+def _line_test(result: AncovaResult) -> TestResult:
     cmp = result.comparison
     ssr0, df0 = cmp.loc["common", "ssr"], cmp.loc["common", "df_resid"]
     ssr2, df2 = cmp.loc["separate", "ssr"], cmp.loc["separate", "df_resid"]
@@ -48,7 +54,7 @@ def _line_test(result) -> TestResult:
     )
 
 
-def shear_effects(per_test: pd.DataFrame, spec, soil: str) -> dict:
+def shear_effects(per_test: pd.DataFrame, spec: StudySpec, soil: str) -> dict:
     """ANCOVA tests of c, φ and the whole line for one soil (see the module docstring).
 
     Returns

@@ -145,7 +145,7 @@ class StudySpec:
     #: Blocks whose levels are a random sample (operators): the factor is tested against the
     #: factor × block mean square (:func:`soilstats.statistics.anova_random_block`).
     random_blocks: tuple[str, ...]
-    reference: object
+    reference: str | float | None  # a level of the factor as the TOML writes it, or None
     z_ref_m: float
     z_window_m: float
     model: str

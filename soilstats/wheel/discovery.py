@@ -25,6 +25,8 @@ for, and the held-out gain, are decided in :mod:`soilstats.wheel.validation`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pandas as pd
 
@@ -115,7 +117,7 @@ def residual_tests(
     return table
 
 
-def _row(name, kind, within, res) -> dict:
+def _row(name: str, kind: str, within: Sequence[str], res: dict) -> dict:
     return {
         "candidate": name,
         "kind": kind,

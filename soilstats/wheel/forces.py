@@ -29,8 +29,10 @@ for K/r ≥ 0.3 (``tests/test_wheel_model.py``).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .geometry import Wheel
 from .stress import RAD_PER_DEG, displacement, janosi
@@ -74,12 +76,23 @@ class Cases:
     def __len__(self) -> int:
         return len(self.prefactor)
 
-    def take(self, index) -> Cases:
+    def take(self, index: np.ndarray | slice) -> Cases:
         """The cases at ``index`` (an integer array or boolean mask)."""
         return Cases(**{f.name: _take(getattr(self, f.name), index) for f in fields(self)})
 
     @classmethod
-    def build(cls, *, prefactor, n, a, b, nu, c=None, phi_deg=None, K=None) -> Cases:
+    def build(
+        cls,
+        *,
+        prefactor: ArrayLike,
+        n: ArrayLike,
+        a: ArrayLike,
+        b: ArrayLike,
+        nu: ArrayLike,
+        c: ArrayLike | None = None,
+        phi_deg: ArrayLike | None = None,
+        K: ArrayLike | None = None,
+    ) -> Cases:
         """Broadcast every argument to one shape and flatten (C order)."""
         shear = None if c is None else (c, np.tan(np.asarray(phi_deg, float) * RAD_PER_DEG), K)
         arrays = [prefactor, n, a, b, nu, *(shear or ())]
@@ -109,7 +122,32 @@ class ContactForces:
         return self.thrust_N - self.resistance_N
 
 
-def contact_forces(theta1, cases: Cases, wheel: Wheel, rule=None, *, load_only: bool = False):
+@overload
+def contact_forces(
+    theta1: ArrayLike,
+    cases: Cases,
+    wheel: Wheel,
+    rule: tuple[np.ndarray, np.ndarray] | None = None,
+    *,
+    load_only: Literal[False] = False,
+) -> ContactForces: ...
+@overload
+def contact_forces(
+    theta1: ArrayLike,
+    cases: Cases,
+    wheel: Wheel,
+    rule: tuple[np.ndarray, np.ndarray] | None = None,
+    *,
+    load_only: Literal[True],
+) -> np.ndarray: ...
+def contact_forces(
+    theta1: ArrayLike,
+    cases: Cases,
+    wheel: Wheel,
+    rule: tuple[np.ndarray, np.ndarray] | None = None,
+    *,
+    load_only: bool = False,
+) -> ContactForces | np.ndarray:
     """Integrate σ and τ over the contact of every case at entry angle ``theta1`` [rad].
 
     Returns :class:`ContactForces`, or only the load W [N] (an array) with ``load_only``.

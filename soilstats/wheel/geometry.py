@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 
@@ -85,7 +86,7 @@ class Wheel:
         """Contact-circle diameter D = 2 r_c [m] (Bekker's D)."""
         return 2.0 * self.contact_radius_m
 
-    def stress_radius_power(self, n):
+    def stress_radius_power(self, n: ArrayLike) -> np.ndarray:
         """μ r_s^n + (1 − μ) r^n [m^n]: the radius factor of the normal stress (CMU's μ)."""
         mu, r, rs = self.grouser_area_ratio, self.radius_m, self.contact_radius_m
         n = np.asarray(n, dtype=float)
@@ -110,7 +111,7 @@ class Wheel:
         }
 
 
-def entry_angle(sinkage_m, contact_radius_m: float):
+def entry_angle(sinkage_m: ArrayLike, contact_radius_m: float) -> np.ndarray:
     """θ1 = arccos(1 − h/r_c) [rad] for sinkage h [m] (0 ≤ h ≤ r_c)."""
     h = np.asarray(sinkage_m, dtype=float)
     if np.any(h < 0) or np.any(h > contact_radius_m):
@@ -120,12 +121,12 @@ def entry_angle(sinkage_m, contact_radius_m: float):
     return np.arccos(1.0 - h / contact_radius_m)
 
 
-def sinkage_from_entry_angle(theta1_rad, contact_radius_m: float):
+def sinkage_from_entry_angle(theta1_rad: ArrayLike, contact_radius_m: float) -> np.ndarray:
     """h = r_c (1 − cos θ1) [m]."""
     return contact_radius_m * (1.0 - np.cos(np.asarray(theta1_rad, dtype=float)))
 
 
-def speed_ratio(slip):
+def speed_ratio(slip: ArrayLike) -> np.ndarray:
     """ν = V/(rω) from slip s = (rω − V)/max(rω, V): 1 − s (s ≥ 0), 1/(1 + s) (s < 0), ∞ at −1.
 
     Raises ValueError outside −1 ≤ s ≤ 1.

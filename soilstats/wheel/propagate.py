@@ -17,6 +17,7 @@ from typing import cast
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from ..bayes.stated_priors import describe_prior, sample_priors
 from ..errors import InputError, SoilstatsWarning
@@ -37,8 +38,8 @@ LONGITUDINAL_ONLY = (
 def predict_wheel(
     draws: pd.DataFrame | None,
     wheel: Wheel,
-    load_N,
-    slips,
+    load_N: ArrayLike,
+    slips: ArrayLike,
     *,
     law: str | None = None,
     priors: Mapping[str, tuple] | None = None,

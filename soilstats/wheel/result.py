@@ -146,5 +146,5 @@ class WheelPrediction:
         return self.summary()
 
 
-def _fmt(x) -> str:
+def _fmt(x: float) -> str:
     return "—" if not np.isfinite(x) else f"{x:.4g}"

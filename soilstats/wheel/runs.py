@@ -44,8 +44,9 @@ datum, unchecked forces …); reports print them (:func:`read_caveats`).
 
 from __future__ import annotations
 
+import os
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -106,7 +107,9 @@ class WheelDataError(SoilstatsError, ValueError):
         super().__init__(located(message, file=file, column=column, run=run_id, row=row))
 
 
-def read_runs(source, *, slip_gap: float = SLIP_GAP) -> pd.DataFrame:
+def read_runs(
+    source: pd.DataFrame | str | os.PathLike[str], *, slip_gap: float = SLIP_GAP
+) -> pd.DataFrame:
     """Read and validate a runs file (a path to CSV/Parquet, or a DataFrame).
 
     Returns a new DataFrame: the file's columns, ``beta_deg`` filled with 0 when absent, and
@@ -242,7 +245,7 @@ def slip_levels(slip: np.ndarray, gap: float = SLIP_GAP) -> np.ndarray:
 
 
 # -- geometry ----------------------------------------------------------------------------------
-def read_wheels(path) -> dict[str, dict]:
+def read_wheels(path: str | os.PathLike[str]) -> dict[str, dict]:
     """The wheel geometry of a TOML file: wheel type → {radius_m, width_m, ...} (module doc)."""
     path = Path(path)
     try:
@@ -270,7 +273,7 @@ def read_wheels(path) -> dict[str, dict]:
     return out
 
 
-def read_caveats(path) -> list[str]:
+def read_caveats(path: str | os.PathLike[str]) -> list[str]:
     """The data's caveats a ``wheels.toml`` states (``caveats = ["...", ...]``), in order."""
     table = tomllib.loads(Path(path).read_text(encoding="utf-8"))
     caveats = table.get("caveats", [])
@@ -280,7 +283,7 @@ def read_caveats(path) -> list[str]:
 
 
 def wheel_geometry(
-    types,
+    types: Iterable[str],
     tables: Mapping[str, Mapping] | None = None,
     overrides: Mapping[str, Mapping[str, float]] | None = None,
     *,

@@ -32,6 +32,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import optimize
 
 from .geometry import Wheel
@@ -46,7 +47,7 @@ BOUNDS = (-0.5, 3.0)
 SLIP_TOL = 0.02
 
 
-def exponent_shift(slip, n1: float, n2: float):
+def exponent_shift(slip: ArrayLike, n1: float, n2: float) -> np.ndarray:
     """Δn(s) = n1·s for s ≥ 0, n2·|s| for s < 0."""
     s = np.asarray(slip, dtype=float)
     return np.where(s >= 0, n1 * s, -n2 * s)
@@ -65,7 +66,7 @@ class SlipExponent:
     n_drive: int = 0
     n_skid: int = 0
 
-    def shift(self, slip):
+    def shift(self, slip: ArrayLike) -> np.ndarray:
         """Δn at each slip."""
         return exponent_shift(slip, self.n1, self.n2)
 
@@ -90,9 +91,9 @@ def _sinkage(point, wheel, slip, load, law, angles, n1, n2):
 def fit_slip_exponent(
     point: Mapping[str, float],
     wheel: Wheel,
-    slip,
-    load_N,
-    sinkage_m,
+    slip: ArrayLike,
+    load_N: ArrayLike,
+    sinkage_m: ArrayLike,
     *,
     law: str,
     angles: StressAngles | None = None,

@@ -24,6 +24,7 @@ from ..errors import InputError, SoilstatsError
 if TYPE_CHECKING:
     from ..bayes.result import PosteriorResult
     from ..campaign.campaign import Campaign
+    from ..models.base import Model
 
 __all__ = ["PlateDraws", "choose_law", "plate_draws", "soil_tests"]
 
@@ -99,7 +100,7 @@ def choose_law(tests: pd.DataFrame, law: str | None = None) -> str:
     return "bekker" if sizes >= get_model("bekker").min_plate_sizes else "bernstein"
 
 
-def _estimates(post) -> dict:
+def _estimates(post: PosteriorResult) -> dict:
     table = post.summary_table(0.9)
     out = {}
     for name, row in table.iterrows():
@@ -190,7 +191,7 @@ def plate_draws(
     )
 
 
-def _population_blocker(tests, law, spec) -> str | None:
+def _population_blocker(tests: pd.DataFrame, law: str, spec: Model) -> str | None:
     if spec.population is None:
         return f"the {law} model has no population layout"
     if len(tests) < 3:

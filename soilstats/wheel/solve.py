@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
 from .forces import N_NODES, Cases, ContactForces, contact_forces, gauss_rule
@@ -32,15 +33,15 @@ THETA1_MAX = 0.5 * np.pi
 
 
 def solve_entry_angle(
-    load_N,
+    load_N: ArrayLike,
     cases: Cases,
     wheel: Wheel,
-    rule=None,
+    rule: tuple[np.ndarray, np.ndarray] | None = None,
     *,
     xtol: float = 1e-10,
     rtol_load: float = 1e-10,
     max_iter: int = 100,
-):
+) -> tuple[np.ndarray, np.ndarray]:
     """θ1 [rad] with W(θ1) = load for every case, and a status code per case (:data:`STATUS`).
 
     A safeguarded secant on ln W against ln θ1 (W grows about as θ1^(2n+1)), inside a bracket
@@ -112,8 +113,13 @@ class WheelState:
 
 
 def model_cases(
-    params: Mapping, wheel: Wheel, slip, law: str, angles: StressAngles, exponent_shift=None
-):
+    params: Mapping,
+    wheel: Wheel,
+    slip: ArrayLike,
+    law: str,
+    angles: StressAngles,
+    exponent_shift: ArrayLike | None = None,
+) -> tuple[Cases, tuple[int, ...]]:
     """(Cases, shape) for the parameter arrays × the slips (outer product, slips last).
 
     ``exponent_shift`` (broadcast to P + S) is added to each case's exponent n: a slip-
@@ -152,15 +158,15 @@ def model_cases(
 def wheel_forces(
     params: Mapping,
     wheel: Wheel,
-    slip,
+    slip: ArrayLike,
     *,
     law: str,
-    load_N=None,
-    sinkage_m=None,
+    load_N: ArrayLike | None = None,
+    sinkage_m: ArrayLike | None = None,
     angles: StressAngles | None = None,
     slip_angle_deg: float = 0.0,
     n_nodes: int = N_NODES,
-    exponent_shift=None,
+    exponent_shift: ArrayLike | None = None,
 ) -> WheelState:
     """The Wong–Reece rigid wheel at a given load or a given sinkage, over parameter sets × slips.
 
@@ -218,7 +224,9 @@ def wheel_forces(
     return WheelState(slip=slip_b, status=status.reshape(shape), with_shear=cases.with_shear, **out)
 
 
-def _state_arrays(forces: ContactForces, theta1, cases: Cases, ok, rc) -> dict:
+def _state_arrays(
+    forces: ContactForces, theta1: np.ndarray, cases: Cases, ok: np.ndarray, rc: float
+) -> dict:
     nan = np.where(ok, 1.0, np.nan)
     shear_nan = nan if cases.with_shear else np.full(nan.shape, np.nan)
     theta1 = theta1 * nan

@@ -44,11 +44,18 @@ Skid (−1 < s < 0, ν = 1/(1 + s)): j = r[θ1 − θ − (sin θ1 − sin θ)/(
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError
+
+if TYPE_CHECKING:
+    from ..models.base import Value
+    from .geometry import Wheel
 
 __all__ = [
     "SHEAR_PARAMS",
@@ -84,7 +91,7 @@ PARAM_UNITS: dict[str, str] = {
 }
 
 
-def pressure_modulus(law: str, params, width_m: float):
+def pressure_modulus(law: str, params: Mapping[str, ArrayLike], width_m: float) -> np.ndarray:
     """k_eq [N/m^(n+2)] with which the law reads p = k_eq·z^n on a plate of width b [m].
 
     Bekker kc/b + kφ; Bernstein k; Reece (k1 + k2·b)·b^(−n).  ``params`` maps the law's
@@ -114,7 +121,7 @@ class StressAngles:
     b0: float = 0.0
     b1: float = 0.0
 
-    def ratios(self, slip):
+    def ratios(self, slip: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(θm/θ1, θ2/θ1) at slip s; ValueError naming the slip where they are not ordered."""
         s = np.asarray(slip, dtype=float)
         a = self.a0 + self.a1 * s
@@ -132,7 +139,7 @@ class StressAngles:
         return {"a0": self.a0, "a1": self.a1, "b0": self.b0, "b1": self.b1}
 
 
-def depth_factor(theta_e, theta1, n):
+def depth_factor(theta_e: Value, theta1: Value, n: Value) -> np.ndarray:
     """(cos θe − cos θ1)^n, computed as (2 sin((θ1+θe)/2) sin((θ1−θe)/2))^n (no cancellation)."""
     d = 2.0 * np.sin(0.5 * (theta1 + theta_e)) * np.sin(0.5 * (theta1 - theta_e))
     d = np.maximum(d, 0.0)
@@ -140,7 +147,7 @@ def depth_factor(theta_e, theta1, n):
         return np.where(d > 0, np.exp(n * np.log(np.where(d > 0, d, 1.0))), 0.0)
 
 
-def equivalent_angle(theta, theta1, theta_m, theta2):
+def equivalent_angle(theta: ArrayLike, theta1: Value, theta_m: Value, theta2: Value) -> np.ndarray:
     """θ in front of θm; Wong & Reece's mirrored θe = θ1 − (θ − θ2)/(θm − θ2)(θ1 − θm) behind."""
     theta = np.asarray(theta, dtype=float)
     span = np.where(theta_m > theta2, theta_m - theta2, 1.0)
@@ -148,7 +155,15 @@ def equivalent_angle(theta, theta1, theta_m, theta2):
     return np.where(theta >= theta_m, theta, rear)
 
 
-def normal_stress(theta, theta1, theta_m, theta2, k_eq, n, radius_power):
+def normal_stress(
+    theta: ArrayLike,
+    theta1: Value,
+    theta_m: Value,
+    theta2: Value,
+    k_eq: Value,
+    n: Value,
+    radius_power: Value,
+) -> np.ndarray:
     """σ(θ) [Pa] of Wong & Reece (1967) for a law p = k_eq·z^n (see :func:`pressure_modulus`).
 
     ``radius_power`` is R^n [m^n] (:meth:`Wheel.stress_radius_power`).  Zero outside
@@ -160,13 +175,13 @@ def normal_stress(theta, theta1, theta_m, theta2, k_eq, n, radius_power):
     return np.where((theta >= theta2) & (theta <= theta1), sigma, 0.0)
 
 
-def shear_displacement(theta, theta1, speed_ratio, wheel):
+def shear_displacement(theta: ArrayLike, theta1: Value, speed_ratio: Value, wheel: Wheel) -> Value:
     """j(θ) = r_s(θ1 − θ) − ν·r·(sin θ1 − sin θ) [m]; −∞ behind θ1 for a locked wheel (ν = ∞)."""
     theta = np.asarray(theta, dtype=float)
     return displacement(theta1 - theta, np.sin(theta1) - np.sin(theta), speed_ratio, wheel)
 
 
-def displacement(behind, ahead, speed_ratio, wheel):
+def displacement(behind: Value, ahead: Value, speed_ratio: Value, wheel: Wheel) -> Value:
     """j from θ1 − θ (``behind``) and sin θ1 − sin θ (``ahead``): the one formula of j."""
     finite = np.isfinite(speed_ratio)
     if np.all(finite):
@@ -178,11 +193,11 @@ def displacement(behind, ahead, speed_ratio, wheel):
     return np.where(finite | (ahead <= 0), j, -np.inf)
 
 
-def janosi(sigma, j, c, tan_phi, K):
+def janosi(sigma: Value, j: Value, c: Value, tan_phi: Value, K: Value) -> np.ndarray:
     """τ = sign(j)(c + σ tan φ)(1 − exp(−|j|/K)) [Pa] (Janosi–Hanamoto, signed)."""
     return (c + sigma * tan_phi) * np.copysign(1.0 - np.exp(-np.abs(j) / K), j)
 
 
-def shear_stress(sigma, j, c, phi_deg, K):
+def shear_stress(sigma: Value, j: Value, c: Value, phi_deg: Value, K: Value) -> np.ndarray:
     """Janosi–Hanamoto τ = sign(j)(c + σ tan φ)(1 − exp(−|j|/K)) [Pa]; c Pa, φ deg, K m."""
     return janosi(sigma, j, c, np.tan(np.asarray(phi_deg, float) * RAD_PER_DEG), K)

@@ -20,12 +20,13 @@ runs, the model's domain, and the runs left out of it are listed with that reaso
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from ..bayes.stated_priors import describe_prior, sample_priors
 from ..errors import InputError
@@ -63,12 +64,12 @@ CMU_TUNED = {
 
 def validate_wheel(
     campaign: Campaign | str | Path,
-    runs,
+    runs: pd.DataFrame | str | Path,
     *,
     wheels: Mapping[str, Wheel] | None = None,
     soil: str | None = None,
     law: str | None = None,
-    draws="auto",
+    draws: str | pd.DataFrame | PlateDraws = "auto",
     n_draws: int = 2000,
     priors: Mapping[str, tuple] | None = None,
     angles: StressAngles | None = None,
@@ -78,7 +79,7 @@ def validate_wheel(
     progress: bool = False,
     extension: bool = True,
     sensitivity: bool = True,
-    caveats=None,
+    caveats: Iterable[str] | None = None,
 ) -> WheelValidation:
     """Predict measured wheel runs from plate tests and say how well (module docstring).
 
@@ -257,7 +258,7 @@ def _parameters(plate: PlateDraws, priors, seed) -> dict:
     return {"values": values, "sources": sources, "priors": priors}
 
 
-def check_priors(priors) -> None:
+def check_priors(priors: Mapping[str, tuple]) -> None:
     """Priors are for what no test measured: the shear c, phi, K — all three, or none."""
     plates = sorted(set(priors) & {k for law in SINKAGE_LAWS.values() for k in law})
     if plates:
@@ -323,7 +324,16 @@ def _subset(params, use) -> dict[str, np.ndarray]:
     return {k: v[use] for k, v in params["values"].items()}
 
 
-def predict_runs(values, wheel, slip, load, law, angles, prob, shift=None) -> dict:
+def predict_runs(
+    values: Mapping[str, np.ndarray],
+    wheel: Wheel,
+    slip: ArrayLike,
+    load: ArrayLike,
+    law: str,
+    angles: StressAngles | None,
+    prob: float,
+    shift: ArrayLike | None = None,
+) -> dict:
     """Bands of sinkage (and drawbar pull, torque with shear) for runs of one wheel.
 
     ``values``: parameter arrays (P draws); ``slip``, ``load``: per run (R).  Returns arrays

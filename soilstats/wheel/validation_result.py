@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -11,6 +12,10 @@ from ..outputs.text import notes_block
 from .geometry import Wheel
 from .soil import PlateDraws
 from .stress import PARAM_UNITS, StressAngles
+
+if TYPE_CHECKING:
+    from ..discovery.crossval import Gain
+    from .slipsinkage import SlipExponent
 
 __all__ = ["OLD_BAND_COLUMNS", "RUN_COLUMNS", "WheelDiscovery", "WheelValidation"]
 
@@ -79,11 +84,11 @@ RUN_COLUMNS += tuple(OLD_BAND_COLUMNS[c] for c in RUN_COLUMNS if c in OLD_BAND_C
 WIDTH = 96
 
 
-def _mm(x) -> str:
+def _mm(x: float | None) -> str:
     return "–" if x is None or not np.isfinite(x) else f"{1e3 * x:+.1f} mm"
 
 
-def _pct(x) -> str:
+def _pct(x: float | None) -> str:
     return "–" if x is None or not np.isfinite(x) else f"{100 * x:.0f} %"
 
 
@@ -119,8 +124,8 @@ class WheelDiscovery:
     tests: pd.DataFrame
     findings: tuple[dict, ...]
     extension: str
-    coefficients: dict
-    gains: dict
+    coefficients: dict[str, SlipExponent]
+    gains: dict[str, Gain]
     heldout: pd.DataFrame = field(repr=False)
     still_fails: list
     runs: pd.DataFrame = field(repr=False)
