@@ -198,6 +198,7 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
     assert list(draws.columns) == ["kc", "kphi", "n", "c", "phi", "K"]
 
 
+@pytest.mark.slow  # a whole CLI run (2.4 s): CI runs it
 def test_cli_draws_csv_rows_are_in_random_order_not_walker_by_walker(campaign, tmp_path):
     # A user who reads the first N rows must get a fair sample, not one walker's
     # autocorrelated run: the lag-1 autocorrelation of the rows is that of independent draws.

@@ -166,6 +166,7 @@ def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
     )
 
 
+@pytest.mark.slow  # a population from the CLI on real data (3 s): CI runs it
 def test_cli_population_with_select_on_real_data(tmp_path):
     from soilstats.bayes._arviz import az
     from soilstats.cli.posterior import main

@@ -26,10 +26,18 @@ from soilstats import Campaign, fit_shear, fit_sinkage, load_campaign
 from soilstats.data import bundled_path
 from soilstats.models import BEKKER
 
+# A local run checks one soil and velocity (ring) per test; CI (SOILSTATS_SLOW=1) all of them.
+DEFAULT_CASES = {("soil01", 4.8e-4), ("soil08", 4.8e-3), ("soil02", "tool07")}
 SOILS_VELOCITIES = [
-    (s, v) for s in ("soil01", "soil02", "soil08") for v in (4.8e-4, 2.4e-3, 4.8e-3)
+    pytest.param(s, v, marks=() if (s, v) in DEFAULT_CASES else pytest.mark.slow)
+    for s in ("soil01", "soil02", "soil08")
+    for v in (4.8e-4, 2.4e-3, 4.8e-3)
 ]
-RINGS = [(s, t) for s in ("soil01", "soil02") for t in ("tool04", "tool07")]
+RINGS = [
+    pytest.param(s, t, marks=() if (s, t) in DEFAULT_CASES else pytest.mark.slow)
+    for s in ("soil01", "soil02")
+    for t in ("tool04", "tool07")
+]
 
 
 @pytest.fixture(scope="module")

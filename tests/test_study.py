@@ -183,6 +183,7 @@ def test_cullinan_criterion_3_does_not_reward_a_single_or_failed_test(cullinan):
     assert "per-test ε" in crit["3"]["crit3_reason"]
 
 
+@pytest.mark.slow  # two study PDFs (6 s): CI runs it; test_reports checks a study PDF by default
 def test_pdf_opens_has_its_pages_and_the_identified_values(reports, tmp_path):
     _, docs = reports
     out = tmp_path
