@@ -171,6 +171,12 @@ POPULATION_CASES = (
             ("simulated-paper", "janosi", {"soil": "soil01"}),
         ),
     ),
+    # The same on both cores: the second model sampled and drawn in a worker process.
+    (
+        "simulated soil01, bekker+janosi --jobs 2",
+        "--data simulated-paper --soil soil01 --model bekker+janosi --jobs 2",
+        (),
+    ),
 )
 
 

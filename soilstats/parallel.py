@@ -25,15 +25,19 @@ import os
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import Future
 from typing import TypeVar
 
 from .errors import InputError
 
 __all__ = [
     "effective_jobs",
+    "in_one_worker",
     "in_this_backend",
     "one_blas_thread",
     "parallel_map",
+    "stop_one_worker",
+    "warm_one_worker",
     "warm_workers",
 ]
 
@@ -176,6 +180,37 @@ def in_this_backend(target: Callable[..., R]) -> Callable[..., R]:
             return target(*args, **kwargs)
 
     return run
+
+
+def in_one_worker(function: Callable[[T], R], item: T) -> Future[R]:
+    """Start ``function(item)`` in a worker process and return its future, for a caller that
+    does its own share of the work meanwhile (``soilstats posterior --jobs 2`` samples one
+    model here and the other there).  The worker is loky's, the processes of
+    :func:`parallel_map`'s default backend, one at a time (always local: a Dask backend's
+    workers are reached through :func:`parallel_map`); submitting again reuses it, so a
+    first call that only imports (:func:`warm_one_worker`) takes its start-up off the clock."""
+    from joblib.externals.loky import get_reusable_executor
+
+    executor = get_reusable_executor(max_workers=1)
+    _ONE_WORKER.append(executor)
+    return executor.submit(_on_one_blas_thread, function, item)
+
+
+#: The executors :func:`in_one_worker` submitted to (for :func:`stop_one_worker`).
+_ONE_WORKER: list = []
+
+
+def warm_one_worker(modules: Sequence[str]) -> Future[int]:
+    """Start :func:`in_one_worker`'s process now, importing ``modules`` in it."""
+    return in_one_worker(_import, tuple(modules))
+
+
+def stop_one_worker(*, at_once: bool = False) -> None:
+    """Stop :func:`in_one_worker`'s process: when its work is done, or ``at_once`` whatever
+    it is doing (a command that ends early, by a refusal or an error, must not wait at exit
+    for its worker's warm-up)."""
+    while _ONE_WORKER:
+        _ONE_WORKER.pop().shutdown(wait=not at_once, kill_workers=at_once)
 
 
 def _import(modules: tuple[str, ...]) -> int:

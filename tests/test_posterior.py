@@ -402,3 +402,44 @@ def test_population_draws_of_a_model_flagged_plate_exponents_are_refused(tmp_pat
     assert main([*args, "--force", "--out", str(tmp_path / "forced")]) == 1
     record = json.loads((tmp_path / "forced" / "posterior.json").read_text())
     assert record["forced"] and any("plate-exponents" in f for f in record["failures"])
+
+
+@pytest.mark.slow  # two CLI runs and a worker process: CI runs it
+def test_cli_jobs_2_samples_the_second_model_in_a_worker_with_identical_outputs(
+    campaign, tmp_path, monkeypatch
+):
+    import arviz as az
+
+    from soilstats import parallel
+    from soilstats.cli.posterior import main
+
+    started = []
+    real = parallel.in_one_worker
+
+    def spying(function, item):
+        if function.__name__ == "_sample_and_draw":  # (not the warm-up's imports)
+            started.append(item[1])
+        return real(function, item)
+
+    monkeypatch.setattr(parallel, "in_one_worker", spying)
+    folder = campaign.save(tmp_path / "camp")
+    outs = {}
+    for jobs in (1, 2):
+        outs[jobs] = tmp_path / f"jobs{jobs}"
+        args = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker+janosi"]
+        args += ["--seed", "3", "--draws", "3000", "--out", str(outs[jobs]), "--jobs", str(jobs)]
+        assert main(args) == 0
+    assert started == ["janosi"]  # only --jobs 2 started a worker, for the second model
+    for name in ("draws.csv", "summary.csv"):
+        body = [
+            [line for line in (outs[j] / name).read_text().splitlines() if "command" not in line]
+            for j in (1, 2)
+        ]
+        assert body[0] == body[1], name
+    for name in ("posterior.nc", "posterior_janosi.nc"):
+        a, b = (az.from_netcdf(str(outs[j] / name)) for j in (1, 2))
+        for group in a.groups():
+            for var in a[group].data_vars:
+                np.testing.assert_array_equal(a[group][var].to_numpy(), b[group][var].to_numpy())
+    pdf = [(outs[j] / "report.pdf").stat().st_size for j in (1, 2)]
+    assert abs(pdf[0] - pdf[1]) < 200  # the same figures; the command line differs

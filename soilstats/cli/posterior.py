@@ -35,11 +35,18 @@ import argparse
 import sys
 import warnings
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError, ModelError
-from .common import add_common_options, add_data_options, prepared, progress_enabled
+from .common import (
+    add_common_options,
+    add_data_options,
+    add_jobs_option,
+    prepared,
+    progress_enabled,
+)
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -65,6 +72,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "into DIR (only when the checks pass, or with --force)",
     )
     add_data_options(parser)
+    add_jobs_option(parser, "the models of a MODEL+MODEL run, each sampled and drawn in its own")
     parser.add_argument(
         "--soil",
         help="soil name (the soil column of tests.csv); may be left out when the campaign "
@@ -238,12 +246,12 @@ def model_seed(seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(seed), index]).generate_state(1, np.uint32)[0])
 
 
-def _run(campaign, model, priors, args, index=0):
+def _run(campaign, model, priors, args, index=0, *, progress=True):
     from ..bayes import sample_population, sample_posterior
 
     kw = {
         "seed": model_seed(args.seed, index),
-        "progress": progress_enabled(args.progress),
+        "progress": progress and progress_enabled(args.progress),
         "soil": args.soil,
     }
     if args.draws is not None:
@@ -489,15 +497,35 @@ def run(args: argparse.Namespace) -> int:
     """Check what can be checked, sample, let the library decide (:mod:`soilstats.bayes
     .handout`), and only then write; exit 2 (nothing written, no folder made) when a check
     fails."""
-    from ..bayes.handout import preflight
-    from ..identification.reuse import reused_fits
-
     models = args.model.split("+")
     _check_models(models)
     priors = priors_by_model(args, models)
     stated = split_prior_items(args, models)[1]
     _check_simulator(args, models, stated)
     _check_draws(args)
+    if not _in_workers(args, models):
+        return _checked_sampled_written(args, models, priors, stated)
+    from ..parallel import stop_one_worker, warm_one_worker
+
+    # The worker imports the sampler and the report while this process reads and screens
+    # the campaign; a run that ends early (a refusal, an error) stops it at once instead of
+    # waiting at exit for its imports, and so does one that is done with it.
+    warm_one_worker(("soilstats.bayes.population", "soilstats.report.posterior_pdf"))
+    finished = False
+    try:
+        code = _checked_sampled_written(args, models, priors, stated)
+        finished = True
+        return code
+    finally:
+        stop_one_worker(at_once=not finished)
+
+
+def _checked_sampled_written(args, models, priors, stated) -> int:
+    """:func:`run` from reading the campaign on."""
+    from ..bayes.handout import preflight
+    from ..identification.reuse import reused_fits
+    from ..parallel import one_blas_thread
+
     campaign, provenance = prepared(args)
     args.soil = _soil(args, campaign)
     out = Path(args.out)
@@ -507,13 +535,24 @@ def run(args: argparse.Namespace) -> int:
     # Refusals knowable before sampling are made before it (in the time of a least-squares
     # fit), so no sampling is spent on draws that would be refused; the sampler then starts
     # from those very fits instead of making them again.
-    with reused_fits():
+    # One BLAS thread, as in a worker process: a product's last bits depend on the thread
+    # count, and neither the fits nor the draws may depend on --jobs.
+    with reused_fits(), one_blas_thread():
         early, _ = preflight(campaign, models, population=args.population, soil=args.soil)
         if early and not args.force:
             return _refuse(early, out, args, sampled=False)
-        results, caught = _sample(campaign, models, priors, args)
+        results, caught, figures = _sample(campaign, models, priors, args)
     return _decide_and_write(
-        args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance
+        args,
+        models,
+        results,
+        caught,
+        widths,
+        pooled_warnings,
+        stated,
+        campaign,
+        provenance,
+        figures,
     )
 
 
@@ -530,13 +569,67 @@ def _check_outputs(out: Path, models, args) -> None:
 
 
 def _sample(campaign, models, priors, args):
-    """The posterior of every model, and the warnings sampling raised."""
+    """The posterior of every model, the warnings sampling raised, and — where the models
+    were sampled in worker processes (``--jobs``) — each model's report figures, drawn there
+    too (model name → SVG and caption; empty when sampled here)."""
     from ..errors import ConvergenceWarning
 
-    with warnings.catch_warnings(record=True) as caught:
+    if _in_workers(args, models):
+        tasks = [(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
+        done = _here_and_away(tasks)
+        caught = [_Caught(category, message) for _, said, _ in done for category, message in said]
+        figures = {r.model_name: drawn for r, _, drawn in done}
+        return [r for r, _, _ in done], caught, figures
+    with warnings.catch_warnings(record=True) as recorded:
         warnings.simplefilter("always", ConvergenceWarning)
         results = [_run(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
-    return results, caught
+    return results, [_Caught(w.category, str(w.message)) for w in recorded], {}
+
+
+def _in_workers(args, models) -> bool:
+    """Sample in worker processes: two models or more and ``--jobs`` of 2 or more."""
+    return _workers(args, models) > 0
+
+
+def _workers(args, models) -> int:
+    """Worker processes of a run: 1 for two models and ``--jobs`` of 2 or more (this process
+    samples the first model, the worker the second), else 0."""
+    from ..parallel import effective_jobs
+
+    return int(len(models) == 2 and effective_jobs(getattr(args, "jobs", 1)) > 1)
+
+
+def _here_and_away(tasks: list) -> list:
+    """:func:`_sample_and_draw` of the first task in this process while the second runs in
+    a worker process; the results in the order of ``tasks``."""
+    from ..parallel import in_one_worker
+
+    away = in_one_worker(_sample_and_draw, tasks[1])
+    here = _sample_and_draw(tasks[0])
+    return [here, away.result()]
+
+
+@dataclass(frozen=True)
+class _Caught:
+    """A warning raised while sampling (here or in a worker): its class and its text."""
+
+    category: type[Warning]
+    message: str
+
+
+def _sample_and_draw(task):
+    """In a worker: one model's posterior (as :func:`_run`), the warnings it raised as
+    (class, text), and its report figures (:func:`soilstats.report.posterior_pdf
+    .model_figures`) — drawn where the draws are, so only SVG travels back."""
+    from ..errors import ConvergenceWarning
+    from ..report.posterior_pdf import model_figures
+
+    campaign, model, priors, args, index = task
+    with warnings.catch_warnings(record=True) as recorded:
+        warnings.simplefilter("always", ConvergenceWarning)
+        result = _run(campaign, model, priors, args, index, progress=index == 0)
+    said = [(w.category, str(w.message)) for w in recorded]
+    return result, said, model_figures(result)
 
 
 def _refuse(failures, out: Path, args, *, sampled: bool, simulator_only: bool = False) -> int:
@@ -609,7 +702,7 @@ def _warnings(caught, widths, args, campaign, models, handout, pooled_warnings) 
 
 
 def _decide_and_write(
-    args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance
+    args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance, figures
 ) -> int:
     """The library's decision on the draws, printed; the files written where it allows."""
     import pandas as pd
@@ -638,7 +731,7 @@ def _decide_and_write(
     record = _record(args, models, results, handout, failures, ours, pooled_warnings, provenance)
     if export is not None:
         record = json_safe(record | {"simulator": export.record()})
-    _write(out, args, results, record, table, kept, provenance)
+    _write(out, args, results, record, table, kept, provenance, figures)
     if export is not None:
         _write_export(out, export, record, handout.support, provenance, args)
     _print(args, out, results, record, table, handout)
@@ -682,7 +775,7 @@ def _record(args, models, results, handout, failures, ours, pooled_warnings, pro
     )
 
 
-def _write(out: Path, args, results, record: dict, table, kept, provenance) -> None:
+def _write(out: Path, args, results, record: dict, table, kept, provenance, figures) -> None:
     """posterior*.nc, draws.csv, summary.csv, posterior.json and report.pdf."""
     import json
 
@@ -712,6 +805,7 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance) -> N
         overwrite=True,
         record=record,
         handed_out=kept,
+        figures=figures,
     )
 
 

@@ -310,14 +310,13 @@ class Document:
 
     def figure(self, fig: Figure, caption: str, *, width: str = "100%") -> None:
         """A matplotlib figure (closed afterwards) as vector graphics with a numbered caption."""
-        import matplotlib as mpl
+        self.svg_figure(figure_svg(fig), caption, width=width)
 
+    def svg_figure(self, svg: bytes, caption: str, *, width: str = "100%") -> None:
+        """A figure already drawn as SVG (:func:`figure_svg`, e.g. in a worker process) with a
+        numbered caption."""
         name = f"figure-{len(self._images) + 1}.svg"
-        buffer = io.BytesIO()
-        with mpl.rc_context({"svg.hashsalt": "soilstats", "svg.fonttype": "path"}):
-            fig.savefig(buffer, format="svg", metadata={"Date": None})
-        self._images[name] = buffer.getvalue()
-        _close(fig)
+        self._images[name] = svg
         self._block(f'#figure(image("{name}", width: {width}), caption: {_typst_caption(caption)})')
 
     def page_break(self) -> None:
@@ -413,6 +412,18 @@ def render_page(pdf: str | Path, stem: str | Path, *, page: int = 1, dpi: int = 
 def page_count(pdf: bytes) -> int:
     """Pages of a PDF Typst wrote (its page objects are uncompressed: ``/Type /Page``)."""
     return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", pdf))
+
+
+def figure_svg(fig: Figure) -> bytes:
+    """A matplotlib figure as the SVG a report embeds (text as paths, a fixed hash salt and
+    no date: the same figure gives the same bytes, in any process); the figure is closed."""
+    import matplotlib as mpl
+
+    buffer = io.BytesIO()
+    with mpl.rc_context({"svg.hashsalt": "soilstats", "svg.fonttype": "path"}):
+        fig.savefig(buffer, format="svg", metadata={"Date": None})
+    _close(fig)
+    return buffer.getvalue()
 
 
 def _close(fig: Figure) -> None:

@@ -13,6 +13,7 @@ model the start fit's flags and the trace, pair and posterior-predictive figures
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ from ..identification.table import format_value
 from ..models import get_model
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
-from .document import Document, strong
+from .document import Document, figure_svg, strong
 from .front import data_origin, front_page
 from .labels import parameter_symbol
 from .methods import write_equations
@@ -267,6 +268,18 @@ def _diagnostics_table(doc: Document, res: PosteriorResult, prob: float, handed_
     )
 
 
+def model_figures(result: PosteriorResult) -> list[tuple[bytes, str]]:
+    """The report's figures of one posterior — trace, pair plot, predictive check — as SVG
+    with their captions (:func:`~soilstats.report.document.figure_svg`): what
+    :func:`write_report` embeds, drawable apart from it (``soilstats posterior --jobs``
+    draws each model's in the worker that sampled it)."""
+    out = []
+    for make in (trace_figure, pair_figure, predictive_figure):
+        fig, caption = make(result)
+        out.append((figure_svg(fig), caption))
+    return out
+
+
 def write_report(
     results: list[PosteriorResult],
     path: str | Path,
@@ -276,6 +289,7 @@ def write_report(
     record: dict | None = None,
     prob: float = 0.9,
     handed_out: pd.DataFrame | None = None,
+    figures: Mapping[str, Sequence[tuple[bytes, str]]] | None = None,
 ) -> int:
     """Write the typeset posterior report for ``results`` to ``path``; return its pages.
 
@@ -285,6 +299,8 @@ def write_report(
     ``record`` is the content of ``posterior.json`` (checks, warnings, priors); everything
     in it is printed. ``provenance`` goes into the PDF metadata and onto the last page.
     ``handed_out``: the draws written (as :meth:`PosteriorResult.summary_table`).
+    ``figures``: each model's figures as :func:`model_figures` drew them (in a worker
+    process, say); a model without an entry is drawn here.
     """
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     record = record or {}
@@ -345,9 +361,9 @@ def write_report(
         if res.notes:
             doc.paragraph(strong("Notes:"))
             doc.numbered(res.notes)
-        for make in (trace_figure, pair_figure, predictive_figure):
-            fig, caption = make(res)
-            doc.figure(fig, caption)
+        drawn = (figures or {}).get(res.model_name)
+        for svg, caption in drawn if drawn is not None else model_figures(res):
+            doc.svg_figure(svg, caption)
     if record.get("simulator"):
         _simulator_section(doc, record["simulator"])
     if record.get("support"):
