@@ -40,13 +40,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError, ModelError
-from .common import (
-    add_common_options,
-    add_data_options,
-    add_jobs_option,
-    prepared,
-    progress_enabled,
-)
+from .common import add_common_options, add_data_options, prepared, progress_enabled
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -72,6 +66,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "into DIR (only when the checks pass, or with --force)",
     )
     add_data_options(parser)
+    from .common import add_jobs_option  # (one import line above, not a sixth)
+
     add_jobs_option(parser, "the models of a MODEL+MODEL run, each sampled and drawn in its own")
     parser.add_argument(
         "--soil",

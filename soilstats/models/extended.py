@@ -110,6 +110,12 @@ class _Family:
         self._key: tuple | None = None
         self._parts: tuple = ()  # of self._key: none yet
 
+    def _scale_and_offset_features(self, fs: ArrayLike | None, gd: ArrayLike | None) -> None:
+        """The features of the scale (``fs``) and offset (``gd``) terms: their rows and their
+        products with coefficients (:func:`_rows_of`, :func:`_product_of`)."""
+        self.fs_rows, self.gd_rows = _rows_of(fs), _rows_of(gd)
+        self.fs_times, self.gd_times = _product_of(fs), _product_of(gd)
+
     def _parts_at(self, theta: np.ndarray) -> tuple:
         """The θ-dependent parts, computed once per θ: f and J at the same point share them."""
         key = tuple(theta.tolist())
@@ -212,8 +218,7 @@ class SinkageFamily(_Family):
         self.size = layout.size
         self.inv_b = 1.0 / np.asarray(b, float)
         self.lnz = np.log(np.asarray(z, float))
-        self.fs_rows, self.gd_rows = _rows_of(fs), _rows_of(gd)
-        self.fs_times, self.gd_times = _product_of(fs), _product_of(gd)
+        self._scale_and_offset_features(fs, gd)
         self.soft = None if soft is None else np.asarray(soft, bool)
 
     def _compute(self, theta):
@@ -357,16 +362,9 @@ class SinkageFamily(_Family):
         out[i + 1, idx] = (p[idx] - pc_i) * wi
 
 
-def sinkage_family(
-    layout: SinkageLayout,
-    b: ArrayLike,
-    z: ArrayLike,
-    fs: ArrayLike | None = None,
-    gd: ArrayLike | None = None,
-    soft: ArrayLike | None = None,
-) -> SinkageFamily:
-    """The extended pressure–sinkage family (:class:`SinkageFamily`); ``f, jac = family``."""
-    return SinkageFamily(layout, b, z, fs, gd, soft)
+#: The extended pressure–sinkage family (:class:`SinkageFamily`, the same arguments);
+#: ``f, jac = family``.
+sinkage_family = SinkageFamily
 
 
 @dataclass(frozen=True)
@@ -470,17 +468,9 @@ class ShearFamily(_Family):
         return out
 
 
-def shear_family(
-    layout: ShearLayout,
-    sigma: ArrayLike,
-    j: ArrayLike,
-    fc: ArrayLike | None = None,
-    ft: ArrayLike | None = None,
-    fk: ArrayLike | None = None,
-    a: ArrayLike | None = None,
-) -> ShearFamily:
-    """The extended Janosi–Hanamoto family (:class:`ShearFamily`); ``f, jac = family``."""
-    return ShearFamily(layout, sigma, j, fc, ft, fk, a)
+#: The extended Janosi–Hanamoto family (:class:`ShearFamily`, the same arguments);
+#: ``f, jac = family``.
+shear_family = ShearFamily
 
 
 class ModelFamily(_Family):
@@ -505,8 +495,7 @@ class ModelFamily(_Family):
         self.base = model
         self.x = x
         self.p = model.n_params
-        self.fs_rows, self.gd_rows = _rows_of(fs), _rows_of(gd)
-        self.fs_times, self.gd_times = _product_of(fs), _product_of(gd)
+        self._scale_and_offset_features(fs, gd)
         self.n_s = 0 if fs is None else self.fs_rows.shape[0]
         self.n_d = 0 if gd is None else self.gd_rows.shape[0]
         if self.n_d and offset not in model.param_names:
