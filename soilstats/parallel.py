@@ -192,7 +192,8 @@ def in_one_worker(function: Callable[[T], R], item: T) -> Future[R]:
     from joblib.externals.loky import get_reusable_executor
 
     executor = get_reusable_executor(max_workers=1)
-    _ONE_WORKER.append(executor)
+    if executor not in _ONE_WORKER:  # loky hands out one executor while it lives
+        _ONE_WORKER.append(executor)
     return executor.submit(_on_one_blas_thread, function, item)
 
 

@@ -568,31 +568,35 @@ def _sample(campaign, models, priors, args):
     """The posterior of every model, the warnings sampling raised, and — where the models
     were sampled in worker processes (``--jobs``) — each model's report figures, drawn there
     too (model name → SVG and caption; empty when sampled here)."""
-    from ..errors import ConvergenceWarning
-
     if _in_workers(args, models):
         tasks = [(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
         done = _here_and_away(tasks)
-        caught = [_Caught(category, message) for _, said, _ in done for category, message in said]
         figures = {r.model_name: drawn for r, _, drawn in done}
-        return [r for r, _, _ in done], caught, figures
-    with warnings.catch_warnings(record=True) as recorded:
-        warnings.simplefilter("always", ConvergenceWarning)
-        results = [_run(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
-    return results, [_Caught(w.category, str(w.message)) for w in recorded], {}
+        sampled = [(r, said) for r, said, _ in done]
+    else:
+        sampled = [_recorded(campaign, m, priors[m], args, i) for i, m in enumerate(models)]
+        figures = {}
+    caught = [_Caught(category, message) for _, said in sampled for category, message in said]
+    return [r for r, _ in sampled], caught, figures
 
 
 def _in_workers(args, models) -> bool:
-    """Sample in worker processes: two models or more and ``--jobs`` of 2 or more."""
-    return _workers(args, models) > 0
-
-
-def _workers(args, models) -> int:
-    """Worker processes of a run: 1 for two models and ``--jobs`` of 2 or more (this process
-    samples the first model, the worker the second), else 0."""
+    """Sample the second of two models in a worker process (``--jobs`` of 2 or more); this
+    process samples the first."""
     from ..parallel import effective_jobs
 
-    return int(len(models) == 2 and effective_jobs(getattr(args, "jobs", 1)) > 1)
+    return len(models) == 2 and effective_jobs(getattr(args, "jobs", 1)) > 1
+
+
+def _recorded(campaign, model, priors, args, index, *, progress=True):
+    """:func:`_run` and the warnings it raised, as (class, text) pairs (a worker's travel
+    back as such); the convergence warning every time it is raised."""
+    from ..errors import ConvergenceWarning
+
+    with warnings.catch_warnings(record=True) as recorded:
+        warnings.simplefilter("always", ConvergenceWarning)
+        result = _run(campaign, model, priors, args, index, progress=progress)
+    return result, [(w.category, str(w.message)) for w in recorded]
 
 
 def _here_and_away(tasks: list) -> list:
@@ -617,14 +621,10 @@ def _sample_and_draw(task):
     """In a worker: one model's posterior (as :func:`_run`), the warnings it raised as
     (class, text), and its report figures (:func:`soilstats.report.posterior_pdf
     .model_figures`) — drawn where the draws are, so only SVG travels back."""
-    from ..errors import ConvergenceWarning
     from ..report.posterior_pdf import model_figures
 
     campaign, model, priors, args, index = task
-    with warnings.catch_warnings(record=True) as recorded:
-        warnings.simplefilter("always", ConvergenceWarning)
-        result = _run(campaign, model, priors, args, index, progress=index == 0)
-    said = [(w.category, str(w.message)) for w in recorded]
+    result, said = _recorded(campaign, model, priors, args, index, progress=index == 0)
     return result, said, model_figures(result)
 
 

@@ -39,6 +39,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..bayes._arviz import az
 from ..bayes.predictive import input_name
+from ..campaign.index import grouped_by_code
 from ..errors import InputError
 from ..models import MODELS, Model, get_model
 from .document import FIGURE_STYLE
@@ -535,9 +536,7 @@ def _samples_by_test(tests: np.ndarray) -> dict[str, np.ndarray]:
     """Sample indices of each test (ascending), tests in the order they first appear: one
     sort, not a comparison of every sample with every test (soil01: 372 × 44,640)."""
     codes, names = pd.factorize(tests)
-    grouped = np.argsort(codes, kind="stable")
-    bounds = np.cumsum(np.bincount(codes, minlength=len(names)))[:-1]
-    return dict(zip(names.astype(str), np.split(grouped, bounds), strict=True))
+    return dict(zip(names.astype(str), grouped_by_code(codes, len(names)), strict=True))
 
 
 def _spread_out(bounds: np.ndarray, keep: np.ndarray, measured) -> np.ndarray:
