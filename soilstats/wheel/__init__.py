@@ -31,6 +31,7 @@ from .slipsinkage import SlipExponent, fit_slip_exponent
 from .soil import PlateDraws, plate_draws
 from .solve import STATUS, WheelState, wheel_forces
 from .stress import (
+    PARAM_UNITS,
     SHEAR_PARAMS,
     SINKAGE_LAWS,
     StressAngles,
@@ -44,6 +45,7 @@ from .validation_result import WheelDiscovery, WheelValidation
 
 __all__ = [
     "N_NODES",
+    "PARAM_UNITS",
     "QUANTITIES",
     "SHEAR_PARAMS",
     "SINKAGE_LAWS",

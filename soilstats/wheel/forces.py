@@ -28,6 +28,7 @@ for K/r ≥ 0.3 (``tests/test_wheel_model.py``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Literal, overload
 
@@ -37,7 +38,7 @@ from numpy.typing import ArrayLike
 from .geometry import Wheel
 from .stress import RAD_PER_DEG, displacement, janosi
 
-__all__ = ["N_NODES", "Cases", "ContactForces", "contact_forces", "gauss_rule"]
+__all__ = ["N_NODES", "Cases", "ContactForces", "PlateStress", "contact_forces", "gauss_rule"]
 
 #: Gauss–Legendre nodes on each piece of the contact (front and rear).
 N_NODES = 16
@@ -58,6 +59,11 @@ class Cases:
     ``prefactor`` is k_eq·R^n [Pa] (σ = prefactor·(cos θe − cos θ1)^n); ``a`` = θm/θ1 and
     ``b`` = θ2/θ1; ``nu`` = V/(rω) (∞ for a locked wheel); ``c`` [Pa], ``tan_phi`` [-] and
     ``K`` [m] are None when the shear is not modelled (τ = 0).
+
+    A plate law that is no power law (a sinkage offset …) sets ``plate``, a
+    :class:`PlateStress` (σ from the depth factor cos θe − cos θ1 and the law's parameters),
+    and ``plate_params``, the (cases, p) parameters of each case; ``prefactor`` is then NaN
+    and ``n`` only the solver's first guess.
     """
 
     prefactor: np.ndarray
@@ -68,6 +74,8 @@ class Cases:
     c: np.ndarray | None = None
     tan_phi: np.ndarray | None = None
     K: np.ndarray | None = None
+    plate: PlateStress | None = None
+    plate_params: np.ndarray | None = None
 
     @property
     def with_shear(self) -> bool:
@@ -104,7 +112,30 @@ class Cases:
 
 
 def _take(value, index):
-    return None if value is None else value[index]
+    if value is None or isinstance(value, PlateStress):
+        return value  # the law itself is shared by every case
+    return value[index]
+
+
+@dataclass(frozen=True)
+class PlateStress:
+    """σ of a general plate law at the contact: σ = μ·p(b, r_s·d) + (1 − μ)·p(b, r·d), with
+    d = cos θe − cos θ1 and p the record's plate hook (``Model.plate_law``) — the depth of a
+    plate sunk to the local depth, averaged over grouser tips and rim as CMU's μ does (for a
+    power law exactly k_eq·(μ r_s^n + (1 − μ) r^n)·d^n, the fast path)."""
+
+    pressure: Callable[..., np.ndarray]
+    wheel: Wheel
+
+    def __call__(self, depth_factor: np.ndarray, params: np.ndarray) -> np.ndarray:
+        """σ [Pa] at (cases, nodes) depth factors for (cases, p) parameters."""
+        wheel = self.wheel
+        cols = [params[:, i, None] for i in range(params.shape[1])]
+        rs, r, mu = wheel.contact_radius_m, wheel.radius_m, wheel.grouser_area_ratio
+        sigma = self.pressure(wheel.width_m, rs * depth_factor, *cols)
+        if mu != 1.0 and rs != r:
+            sigma = mu * sigma + (1.0 - mu) * self.pressure(wheel.width_m, r * depth_factor, *cols)
+        return np.asarray(sigma, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -186,8 +217,14 @@ def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
     len_front, len_rear = 1.0 - cases.a, cases.a - cases.b  # piece lengths in u = θ/θ1
     sin_f, sin_r = np.sin(t1 * u_front), np.sin(t1 * u_rear)
     cos_f, cos_r = np.sqrt(1.0 - sin_f**2), np.sqrt(1.0 - sin_r**2)
-    with np.errstate(divide="ignore"):
-        sig_f = cases.prefactor[:, None] * np.maximum(cos_f - np.cos(t1), 0.0) ** cases.n[:, None]
+    if cases.plate is None:
+        with np.errstate(divide="ignore"):
+            sig_f = (
+                cases.prefactor[:, None] * np.maximum(cos_f - np.cos(t1), 0.0) ** cases.n[:, None]
+            )
+    else:  # a law that is no power law: its own pressure at each node's depth
+        assert cases.plate_params is not None
+        sig_f = cases.plate(np.maximum(cos_f - np.cos(t1), 0.0), cases.plate_params)
     sig_r = sig_f  # the rear node v has Wong–Reece's equivalent angle θe = the front node v
 
     def integral(front, rear):

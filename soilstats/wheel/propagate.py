@@ -172,7 +172,7 @@ def _law(law, columns, priors) -> str:
     if len(fits) != 1:
         raise InputError(
             f"cannot tell the pressure-sinkage law from the draws' columns {columns} and priors "
-            f"{sorted(priors)} (laws that fit: {fits}); pass law='bekker', 'bernstein' or 'reece'"
+            f"{sorted(priors)} (laws that fit: {fits}); pass law= one of {sorted(SINKAGE_LAWS)}"
         )
     return fits[0]
 

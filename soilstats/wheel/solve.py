@@ -13,15 +13,15 @@ it is flagged ``not_carried`` and its outputs are NaN, never a number.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from .forces import N_NODES, Cases, ContactForces, contact_forces, gauss_rule
+from .forces import N_NODES, Cases, ContactForces, PlateStress, contact_forces, gauss_rule
 from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
-from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles, pressure_modulus
+from .stress import SHEAR_PARAMS, StressAngles, sinkage_law
 
 __all__ = ["STATUS", "WheelState", "solve_entry_angle", "wheel_forces"]
 
@@ -125,33 +125,43 @@ def model_cases(
     ``exponent_shift`` (broadcast to P + S) is added to each case's exponent n: a slip-
     dependent exponent n + Δn(s) (Ding et al. 2010; :mod:`soilstats.wheel.slipsinkage`).
     """
-    if law not in SINKAGE_LAWS:
-        raise InputError(
-            f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}"
-        )
-    missing = [k for k in SINKAGE_LAWS[law] if k not in params]
+    model = sinkage_law(law)
+    law_params = model.param_names
+    missing = [k for k in law_params if k not in params]
     if missing:
-        raise InputError(
-            f"the {law} law needs parameters {list(SINKAGE_LAWS[law])}; missing {missing}"
-        )
+        raise InputError(f"the {law} law needs parameters {list(law_params)}; missing {missing}")
     given = [k for k in SHEAR_PARAMS if k in params]
     if given and len(given) < len(SHEAR_PARAMS):
         raise InputError(
             f"shear needs all of c [Pa], phi [deg], K [m]; got only {given}: give all three or none"
         )
-    names = list(SINKAGE_LAWS[law]) + given
+    names = list(law_params) + given
     values = np.broadcast_arrays(*(np.asarray(params[k], dtype=float) for k in names))
     pshape = values[0].shape
     p = {k: v[..., None] for k, v in zip(names, (v.reshape(-1) for v in values), strict=True)}
     s = np.asarray(slip, dtype=float)
     a, b = angles.ratios(s.reshape(-1))
     nu = speed_ratio(s.reshape(-1))
+    exponent = model.exponent
     if exponent_shift is not None:
+        if exponent is None:
+            raise InputError(f"the {law} law has no exponent n for a slip-dependent exponent")
         shift = np.broadcast_to(np.asarray(exponent_shift, dtype=float), pshape + s.shape)
-        p["n"] = p["n"] + shift.reshape(p["n"].shape[0], -1)
-    prefactor = pressure_modulus(law, p, wheel.width_m) * wheel.stress_radius_power(p["n"])
+        p[exponent] = p[exponent] + shift.reshape(p[exponent].shape[0], -1)
+    n = p[exponent] if exponent is not None else np.ones_like(p[names[0]])
     shear = {"c": p["c"], "phi_deg": p["phi"], "K": p["K"]} if given else {}
-    cases = Cases.build(prefactor=prefactor, n=p["n"], a=a, b=b, nu=nu, **shear)
+    k_eq = model.plate_modulus(wheel.width_m, *(p[k] for k in law_params))
+    if k_eq is not None:  # a power law: σ = k_eq·R^n·(cos θe − cos θ1)^n, the fast path
+        prefactor = k_eq * wheel.stress_radius_power(n)
+        cases = Cases.build(prefactor=prefactor, n=n, a=a, b=b, nu=nu, **shear)
+        return cases, pshape + s.shape
+    # any other law: its pressure at each node's local depth (PlateStress)
+    cases = Cases.build(prefactor=np.nan, n=n, a=a, b=b, nu=nu, **shear)
+    stacked = np.broadcast_arrays(*(p[k] for k in law_params), np.empty((1, a.size)))[:-1]
+    plate_params = np.column_stack([v.reshape(-1) for v in stacked])
+    pressure = model.plate_law()
+    assert pressure is not None  # sinkage_law() admits only laws with a plate hook
+    cases = replace(cases, plate=PlateStress(pressure, wheel), plate_params=plate_params)
     return cases, pshape + s.shape
 
 

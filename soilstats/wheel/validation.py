@@ -36,7 +36,7 @@ from .runs import read_caveats, read_runs, read_wheels, wheel_geometry
 from .slipsinkage import SlipExponent, fit_slip_exponent
 from .soil import PlateDraws, plate_draws
 from .solve import wheel_forces
-from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
+from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles, unit_modulus
 from .validation_result import (
     OLD_BAND_COLUMNS,
     WheelDiscovery,
@@ -294,11 +294,9 @@ def _no_shear_reasons() -> dict[str, str]:
 def _moduli(params, law, wheels, notes) -> dict[str, dict]:
     """The plate modulus of every draw at each wheel's width b; draws where it is ≤ 0 are
     not used for that wheel (named in the notes)."""
-    from .stress import pressure_modulus
-
     out = {}
     for name, wheel in wheels.items():
-        k = np.asarray(pressure_modulus(law, params["values"], wheel.width_m), float)
+        k = unit_modulus(law, params["values"], wheel.width_m)
         bad = ~(k > 0)
         out[name] = {
             "b_m": wheel.width_m,
