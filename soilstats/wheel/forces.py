@@ -106,7 +106,8 @@ class Cases:
         arrays = [prefactor, n, a, b, nu, *(shear or ())]
         flat = [np.ravel(v).astype(float) for v in np.broadcast_arrays(*map(np.asarray, arrays))]
         if shear is None:
-            return cls(*flat)
+            prefactor, n, a, b, nu = flat
+            return cls(prefactor, n, a, b, nu)
         prefactor, n, a, b, nu, c, tan_phi, K = flat
         return cls(prefactor, n, a, b, nu, c=c, tan_phi=tan_phi, K=K)
 

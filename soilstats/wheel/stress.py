@@ -180,7 +180,7 @@ def plate_pressure(
     """p [Pa] of the law under a plate of width b [m] at sinkage z [m] (the record's hook)."""
     model = sinkage_law(law)
     args = [np.asarray(params[k], float) for k in model.param_names]
-    return model.pressure_under_plate(width_m, depth_m, *args)
+    return model.pressure_under_plate(width_m, np.asarray(depth_m, dtype=float), *args)
 
 
 @dataclass(frozen=True)
