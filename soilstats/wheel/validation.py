@@ -29,10 +29,10 @@ import pandas as pd
 from numpy.typing import ArrayLike  # noqa: F401
 
 from ..bayes.stated_priors import describe_prior, sample_priors
-from ..errors import InputError
+from ..errors import InputError, SoilstatsError
 from .discovery import READINGS, residual_tests  # noqa: F401
 from .geometry import Wheel
-from .runs import read_caveats, read_runs, read_wheels, wheel_geometry
+from .runs import read_caveats, read_runs, read_wheels, warn_load_units, wheel_geometry
 from .slipsinkage import SlipExponent, fit_slip_exponent  # noqa: F401
 from .soil import PlateDraws, plate_draws
 from .solve import wheel_forces  # noqa: F401
@@ -148,6 +148,7 @@ def validate_wheel(
     source = runs if isinstance(runs, str | Path) else None
     table = read_runs(runs)
     wheels = _wheels(wheels, table, source)
+    warn_load_units(table, wheels, str(table.attrs.get("file", "the runs")))
     if caveats is None:
         toml = None if source is None else Path(source).with_name("wheels.toml")
         caveats = read_caveats(toml) if toml is not None and toml.is_file() else []
@@ -169,6 +170,15 @@ def validate_wheel(
     checks = _moduli(params, law, wheels, notes)
     predicted = _predict_all(table, params, wheels, law, angles, prob, checks, bar)
     frame, excluded = _runs_frame(table, predicted, notes)
+    if not frame["predicted"].any():
+        raise SoilstatsError(_none_carried(table, wheels, law))
+    if "date" in table and table["date"].isna().any():
+        undated = table.loc[table["date"].isna(), "run_id"].tolist()
+        notes.append(
+            f"{len(undated)} runs are undated (empty date cells: {undated[:5]}"
+            f"{', …' if len(undated) > 5 else ''}): they are predicted and scored, and left "
+            "out of the by-day groups, the day test and the days-out folds only"
+        )
     unpredictable = {} if _has_shear(params) else _no_shear_reasons()
     groups = _groups(frame, with_dp="drawbar_pull_median_N" in frame)
     coverage, bias = _headline(frame, groups)
@@ -203,6 +213,20 @@ def validate_wheel(
         excluded=excluded,
         notes=tuple(notes),
         caveats=(*caveats, *_caveats(frame)),
+    )
+
+
+def _none_carried(table: pd.DataFrame, wheels: Mapping[str, Wheel], law: str) -> str:
+    """Why there is nothing to validate: no draw carries any run's load (issue #44: the
+    report used to fail half-written)."""
+    loads = table["W_N"].to_numpy(float)
+    sizes = "; ".join(w.describe() for w in wheels.values())
+    return (
+        f"no run can be predicted: for none of the {len(table)} runs (loads "
+        f"{loads.min():g}–{loads.max():g} N) does any draw of the {law} soil carry the load "
+        f"with the wheel sunk less than its radius ({sizes}); nothing is written. Check W_N "
+        "is in N and the wheel's radius and width in m, or the soil (a soil this soft "
+        "cannot carry these wheels in the model)"
     )
 
 
