@@ -131,13 +131,12 @@ def read_runs(
     if isinstance(source, pd.DataFrame):
         # a table read before (the CLI reads, then validates) keeps its file's name
         frame, name = source.copy(), str(source.attrs.get("file", "<DataFrame>"))
+        read_as_text = False
     else:
         path = Path(source)
         name = path.name
-        if path.suffix.lower() == ".parquet":
-            frame = pd.read_parquet(path)
-        else:
-            frame = _read_csv(path, name)
+        read_as_text = path.suffix.lower() != ".parquet"  # Parquet keeps its own types
+        frame = _read_csv(path, name) if read_as_text else pd.read_parquet(path)
     if frame.empty:
         raise WheelDataError("no runs in the file", file=name)
     frame.columns = [str(c).strip() for c in frame.columns]
@@ -192,7 +191,8 @@ def read_runs(
     if "date" in frame:
         _dates(frame, name)
     warn_unit_mistakes(frame, name)
-    _other_columns_as_numbers(frame)
+    if read_as_text:
+        _other_columns_as_numbers(frame)
     frame.attrs["file"] = name  # later checks (loads against the wheels) name it too
     frame["slip_level"] = slip_levels(frame["slip"].to_numpy(float), slip_gap)
     beta = frame["beta_cmd_deg"] if "beta_cmd_deg" in frame else frame["beta_deg"]

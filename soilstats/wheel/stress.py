@@ -76,6 +76,12 @@ __all__ = [
 RAD_PER_DEG = np.pi / 180.0
 
 
+def _janosi_params() -> tuple[str, ...]:
+    from ..models import get_model
+
+    return get_model("janosi").param_names
+
+
 class _SinkageLaws(Mapping[str, tuple[str, ...]]):
     """Law name → its parameter names, read from the model registry at each look-up: every
     registered sinkage model with a plate hook (``Model.plate_law``), built-in or one's own."""
@@ -125,8 +131,8 @@ class _ParamUnits(Mapping[str, str]):
 #: registry (docs/conventions.md, "The model record"), so a law registered through its
 #: record alone reaches the wheel.
 SINKAGE_LAWS: Mapping[str, tuple[str, ...]] = _SinkageLaws()
-#: Janosi–Hanamoto parameters: c [Pa], φ [deg], K [m].
-SHEAR_PARAMS: tuple[str, ...] = ("c", "phi", "K")
+#: Janosi–Hanamoto parameters: c [Pa], φ [deg], K [m] — the names of the registry's record.
+SHEAR_PARAMS: tuple[str, ...] = _janosi_params()
 #: SI unit of every parameter the wheel takes (a live view of the registry).
 PARAM_UNITS: Mapping[str, str] = _ParamUnits()
 
