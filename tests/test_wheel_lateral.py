@@ -274,3 +274,51 @@ def test_side_force_grows_with_unit_weight_and_vanishes_without_soil():
 def test_bad_lateral_soil_is_refused(bad):
     with pytest.raises(ValueError, match="must be"):
         LateralSoil(**bad)
+
+
+# ---------------------------------------------------------------------------------------------
+# predict_wheel carries β
+
+
+def test_predict_wheel_carries_the_slip_angle_into_a_lateral_force_band():
+    import pandas as pd
+
+    from soilstats.wheel import predict_wheel
+
+    rng = np.random.default_rng(7)
+    draws = pd.DataFrame(
+        {"k": rng.lognormal(np.log(8e6), 0.2, 200), "n": rng.normal(1.46, 0.05, 200)}
+    )
+    priors = {"c": ("uniform", 0, 2000), "phi": ("normal", 29, 2), "K": ("lognormal", 0.02, 0.3)}
+    slips = [0.0, 0.5]
+    pred = predict_wheel(draws, SMOOTH, 22.0, slips, priors=priors, slip_angle_deg=[30.0, 60.0])
+    assert pred.slip_angle_deg == (30.0, 60.0)
+    band = pred.band("lateral_force_N")
+    samples = pred.samples.pivot(index="draw", columns="slip", values="lateral_force_N")
+    np.testing.assert_allclose(band["median"], samples.median().to_numpy(), rtol=1e-12)
+    # each draw's value is the model applied to that row alone at that slip's β
+    row = {k: float(v) for k, v in draws.iloc[5].items()}
+    values = pred.samples[pred.samples["draw"] == 5]
+    for j, (s, b) in enumerate(zip(slips, (30.0, 60.0), strict=True)):
+        full = {**row, **_prior_row(pred, 5)}
+        st = wheel_forces(full, SMOOTH, s, law="bernstein", load_N=22.0, slip_angle_deg=b)
+        np.testing.assert_allclose(values["lateral_force_N"].iloc[j], st.lateral_force_N)
+    assert (band["lower"] > 0).all()
+    text = pred.summary()
+    assert "slip angle β = 30°–60° (per slip)" in text and "lateral_force_N" in text
+    assert "side-face bulldozing" in " ".join(pred.notes)
+    assert pred.to_dict()["slip_angle_deg"] == [30.0, 60.0]
+    zero = predict_wheel(draws, SMOOTH, 22.0, slips, priors=priors)
+    assert (zero.band("lateral_force_N")[["median", "lower", "upper"]] == 0).all().all()
+    assert "lateral_force_N" not in zero.summary()
+    with pytest.raises(ValueError, match="one per slip"):
+        predict_wheel(draws, SMOOTH, 22.0, slips, priors=priors, slip_angle_deg=[1.0, 2.0, 3.0])
+
+
+def _prior_row(pred, i):
+    """The prior draws of c, φ, K of row i, regenerated as predict_wheel draws them."""
+    from soilstats.bayes.stated_priors import sample_priors
+
+    priors = {"c": ("uniform", 0, 2000), "phi": ("normal", 29, 2), "K": ("lognormal", 0.02, 0.3)}
+    values = sample_priors(priors, pred.n_draws, pred.seed)
+    return {k: float(v[i]) for k, v in values.items()}
