@@ -157,7 +157,8 @@ def combined_shear(
     with np.errstate(over="ignore", invalid="ignore"):
         rho = np.hypot(j_x / K, j_y / K_y)  # hypot: no overflow for the locked wheel's 1e200
         norm = np.hypot(j_x, j_y)
-    mag = (c + np.asarray(sigma, dtype=float) * tan_phi) * (1.0 - np.exp(-rho))
+    strength = np.asarray(c, dtype=float) + np.asarray(sigma, dtype=float) * tan_phi
+    mag = strength * (1.0 - np.exp(-rho))
     safe = np.where(norm > 0, norm, 1.0)
     return mag * (j_x / safe), mag * (j_y / safe)
 
@@ -179,4 +180,5 @@ def bulldozing_resistance(
     """
     h = np.maximum(np.asarray(depth_m, dtype=float), 0.0)
     d1, d2 = bulldozing_coefficients(tan_phi)
-    return d1 * (c * h + 0.5 * d2 * unit_weight_N_m3 * h * h)
+    c, gamma = np.asarray(c, dtype=float), np.asarray(unit_weight_N_m3, dtype=float)
+    return d1 * (c * h + 0.5 * d2 * gamma * h * h)
