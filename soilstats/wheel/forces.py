@@ -9,6 +9,10 @@ radius R = r_s (:attr:`Wheel.contact_radius_m`) and width b:
     DP = H − Rc = R b ∫ (τ cos θ − σ sin θ) dθ          drawbar pull [N], + forward
     T  = R² b ∫ τ dθ                                    driving torque [N·m] the axle applies
 
+At a slip angle β (:mod:`.lateral`) τ_x replaces τ (the shear split along the resultant
+displacement) and the lateral force F_y = R b ∫ τ_y dθ + sin β ∫ R_b(h)(R − h cos θ) dθ is added;
+with no β set on the cases the code path is the longitudinal one, unchanged.
+
 A *case* is one (parameter set, slip) pair; the arrays of :class:`Cases` hold one value per
 case, so a batch of draws × slips is integrated in one pass of numpy and a root-finder can
 work on the cases that have not converged yet (:meth:`Cases.take`).
