@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 from .forces import N_NODES, Cases, ContactForces, PlateStress, contact_forces, gauss_rule
 from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
+from .lateral import LateralSoil, slip_angle_rad
 from .stress import SHEAR_PARAMS, StressAngles, sinkage_law
 
 __all__ = ["STATUS", "WheelState", "solve_entry_angle", "wheel_forces"]
@@ -96,6 +97,10 @@ class WheelState:
     torque the axle applies (+ driving).  Entries whose ``status`` is not 0 (:data:`STATUS`)
     are NaN.  Without shear parameters ``thrust_N``, ``drawbar_pull_N`` and ``torque_Nm`` are
     NaN and the load is carried by the normal stress alone (``with_shear`` False).
+
+    At a slip angle β (:mod:`.lateral`): ``slip_angle_deg`` (broadcast), ``lateral_force_N`` =
+    ``lateral_shear_N`` + ``side_force_N`` [N] along the axle, + opposing the wheel's sideways
+    sliding (the CMU data's sign; odd in β, 0 at β = 0); NaN without shear parameters.
     """
 
     slip: np.ndarray
@@ -110,6 +115,10 @@ class WheelState:
     torque_Nm: np.ndarray
     status: np.ndarray
     with_shear: bool
+    slip_angle_deg: np.ndarray
+    lateral_force_N: np.ndarray
+    lateral_shear_N: np.ndarray
+    side_force_N: np.ndarray
 
 
 def model_cases(
@@ -174,9 +183,10 @@ def wheel_forces(
     load_N: ArrayLike | None = None,
     sinkage_m: ArrayLike | None = None,
     angles: StressAngles | None = None,
-    slip_angle_deg: float = 0.0,
+    slip_angle_deg: ArrayLike = 0.0,
     n_nodes: int = N_NODES,
     exponent_shift: ArrayLike | None = None,
+    lateral: LateralSoil | None = None,
 ) -> WheelState:
     """The Wong–Reece rigid wheel at a given load or a given sinkage, over parameter sets × slips.
 
@@ -196,28 +206,42 @@ def wheel_forces(
         arccos(1 − h/r_s)).
     angles : StressAngles, optional
         θm and θ2 as fractions of θ1 (default a0 = 0.4, a1 = 0.15, b0 = b1 = 0).
-    slip_angle_deg : float
-        Must be 0: the model is longitudinal only (no lateral shear or side-wall force yet;
-        a lateral term would add the lateral displacement and τ_y of Ishigami et al. 2007 to
-        :mod:`.forces`).
+    slip_angle_deg : float or array broadcastable with P + S
+        Slip angle β [deg] in [−90, 90] between the heading and the travel direction; an array
+        that adds axes (e.g. shape (B, 1) against S slips) extends the outputs to them
+        (:mod:`.lateral`: lateral shear on the resultant displacement, Ishigami et al. 2007's
+        side-face force × sin β).  0 (default) is the longitudinal model, unchanged.
     exponent_shift : float or array broadcastable to P + S, optional
         Δn added to the exponent n of every case: a slip-dependent exponent n + Δn(s)
         (:func:`soilstats.wheel.slipsinkage.exponent_shift`). Default none.
+    lateral : LateralSoil, optional
+        Soil unit weight γ of the side-face force and K_y (default :class:`LateralSoil`():
+        γ of the CMU sand, K_y = K); used only where β ≠ 0.
 
     Returns
     -------
     WheelState
         Arrays of shape P + S.
     """
-    if slip_angle_deg != 0:
-        raise NotImplementedError(
-            "only the longitudinal model (slip angle β = 0) is implemented: no lateral shear, "
-            "side-wall or bulldozing force; pass slip_angle_deg=0"
-        )
     if (load_N is None) == (sinkage_m is None):
         raise InputError("give exactly one of load_N (load-controlled) or sinkage_m")
     angles = StressAngles() if angles is None else angles
+    beta = slip_angle_rad(slip_angle_deg)
     cases, shape = model_cases(params, wheel, slip, law, angles, exponent_shift)
+    try:
+        full = np.broadcast_shapes(shape, beta.shape)
+    except ValueError:
+        raise InputError(
+            f"slip_angle_deg of shape {beta.shape} does not broadcast with the cases' shape "
+            f"{shape} (parameters × slips)"
+        ) from None
+    if full != shape:  # β adds axes (e.g. a column of angles): repeat the cases along them
+        index = np.broadcast_to(np.arange(len(cases)).reshape(shape), full).reshape(-1)
+        cases, shape = cases.take(index), full
+    beta = np.broadcast_to(beta, shape)
+    if np.any(beta != 0):  # β = 0 everywhere: the longitudinal code path, unchanged
+        lateral = LateralSoil() if lateral is None else lateral
+        cases = cases.at_slip_angle(beta.reshape(-1), lateral.K_y_m, lateral.unit_weight_N_m3)
     rule = gauss_rule(n_nodes)
     rc = wheel.contact_radius_m
     if load_N is not None:
@@ -231,7 +255,13 @@ def wheel_forces(
     out = _state_arrays(forces, theta1, cases, ok, rc)
     out = {k: v.reshape(shape) for k, v in out.items()}
     slip_b = np.broadcast_to(np.asarray(slip, dtype=float), shape)
-    return WheelState(slip=slip_b, status=status.reshape(shape), with_shear=cases.with_shear, **out)
+    return WheelState(
+        slip=slip_b,
+        status=status.reshape(shape),
+        with_shear=cases.with_shear,
+        slip_angle_deg=np.rad2deg(beta),
+        **out,
+    )
 
 
 def _state_arrays(
@@ -250,4 +280,11 @@ def _state_arrays(
         "resistance_N": forces.resistance_N * nan,
         "drawbar_pull_N": forces.drawbar_pull_N * shear_nan,
         "torque_Nm": forces.torque_Nm * shear_nan,
+        "lateral_force_N": forces.lateral_force_N * shear_nan,
+        "lateral_shear_N": _or_zero(forces.lateral_shear_N, forces.load_N) * shear_nan,
+        "side_force_N": _or_zero(forces.side_force_N, forces.load_N) * shear_nan,
     }
+
+
+def _or_zero(value: np.ndarray | None, like: np.ndarray) -> np.ndarray:
+    return np.zeros_like(like) if value is None else value
