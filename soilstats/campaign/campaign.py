@@ -15,7 +15,7 @@ import pandas as pd
 
 from ..errors import RENAMED_GO_IN, CampaignError, InputError, SoilstatsWarning
 from . import io
-from ._cells import TEXT_DTYPE
+from ._cells import TEXT_DTYPE, without_controls
 from .derived import add_sample_columns, add_test_columns
 from .digest import campaign_sha256
 from .index import campaign_index, grouped_by_code
@@ -111,8 +111,19 @@ def _derive(tables: dict[str, pd.DataFrame]) -> tuple[dict, dict]:
 
 
 def _without(tables: dict[str, pd.DataFrame], bad: list[str]) -> dict[str, pd.DataFrame]:
-    """The tables without the tests ``bad`` (and their samples)."""
-    return {s: f[~f["test_id"].isin(bad)] for s, f in tables.items()}
+    """The tables without the tests ``bad`` (and their samples).
+
+    A row whose id differs from a bad test's only by control characters (``'c1\x00'``) was
+    counted against that test by validation, so it goes with it: left behind it would be an
+    orphan row of no test (issue #44).
+    """
+    gone = set(bad)
+
+    def dropped(ids: pd.Series) -> np.ndarray:
+        text = ids.astype(str)
+        return (text.isin(gone) | text.map(without_controls).isin(gone)).to_numpy(dtype=bool)
+
+    return {s: f[~dropped(f["test_id"])] for s, f in tables.items()}
 
 
 def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool) -> Campaign:

@@ -172,8 +172,10 @@ def priors_by_model(args: argparse.Namespace, models: Sequence[str]) -> dict[str
     ``--prior`` items naming its parameters (they win). A name that belongs to no model — or,
     in a file, not to its table's model — is an error before any sampling. Items that are
     user priors for ``--simulator`` (:func:`split_prior_items`) are not the models'."""
-    from ..bayes.priors import priors_from_items, priors_from_toml
+    from ..bayes.priors import check_priors_file, priors_from_items, priors_from_toml
 
+    if args.priors:
+        check_priors_file(args.priors)
     raw = split_prior_items(args, models)[0]
     params = {m: _checked_model(m).param_names for m in models}
     known = {n for names in params.values() for n in names}
