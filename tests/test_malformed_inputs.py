@@ -368,3 +368,78 @@ def test_numbers_are_kept_exactly_where_float64_holds_them(write_campaign, campa
     campaign = load_campaign(folder, check_units=False)
     assert campaign.tests["repetition"].iloc[0] == 2**53 - 1
     assert campaign.sinkage["force_N"].iloc[3] == 2.2250738585072014e-308
+
+
+# --- numeric options: finite, in a documented range, within the memory budget -------------------
+
+NUMERIC_OPTIONS = [
+    # (argv, what stderr must say); each once crashed, or ran on with a nonsense value
+    (
+        [
+            "posterior",
+            "--data",
+            "simulated-paper",
+            "--soil",
+            "soil01",
+            "--model",
+            "bekker+janosi",
+            "--simulator",
+            "chrono-scm",
+            "--scm-repair",
+            "1e308",
+        ],
+        "--scm-repair takes a multiple in (1, 1000]",
+    ),  # elastic_K = inf in all 6,000 rows, exit 0
+    (
+        ["posterior", "--data", "simulated-paper", "--model", "bekker", "--draws", "1000000000"],
+        "--draws 1000000000 needs about 298 GiB of memory, beyond the budget of 4 GiB",
+    ),  # a 15 GiB allocation traceback
+    (
+        ["posterior", "--data", "simulated-paper", "--model", "bekker", "--draws", "0"],
+        "--draws takes a whole number >= 1",
+    ),
+    (
+        [
+            "posterior",
+            "--data",
+            "simulated-paper",
+            "--soil",
+            "soil01",
+            "--model",
+            "bekker",
+            "--contact-width",
+            "0.01:inf",
+        ],
+        "--contact-width needs 0 < B_MIN <= B_MAX <= 10 m (finite), got '0.01:inf'",
+    ),  # TypeError
+    (["discover", "--alpha", "nan"], "argument --alpha: must be a finite number in (0, 0.5]"),
+    (["identify", "--points-per-test", "0"], "--points-per-test: must be a whole number in [3,"),
+    (["identify", "--test-resamples", "1e9"], "--test-resamples: must be a whole number in [0,"),
+    (["identify", "--jobs", "100000"], "--jobs: must be a whole number in [-1024, 1024]"),
+    (["wheel", "--n-draws", "-5"], "--n-draws: must be a whole number in [1, 1e+07]"),
+    (["wheel", "--alpha", "inf"], "--alpha: must be a finite number in (0, 0.5]"),
+]
+
+
+@pytest.mark.parametrize(("argv", "says"), NUMERIC_OPTIONS, ids=lambda v: " ".join(v)[:40])
+def test_numeric_options_out_of_range_exit_2_naming_the_range(argv, says, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main([*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_the_memory_budget_is_read_from_the_environment(monkeypatch):
+    from soilstats._budget import check_budget, memory_budget
+    from soilstats.errors import InputError
+
+    assert memory_budget() == 4 * 2**30
+    monkeypatch.setenv("SOILSTATS_MEMORY_BUDGET_GB", "0.5")
+    assert memory_budget() == 2**29
+    check_budget("x", 2**29, "")
+    with pytest.raises(InputError, match=r"x needs about 0\.5 GiB.*budget of 0\.5 GiB"):
+        check_budget("x", 2**29 + 1, "")
+    monkeypatch.setenv("SOILSTATS_MEMORY_BUDGET_GB", "lots")
+    with pytest.raises(InputError, match="SOILSTATS_MEMORY_BUDGET_GB must be"):
+        memory_budget()
