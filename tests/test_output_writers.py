@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 import soilstats
-from soilstats.campaign import load_campaign
+from soilstats.campaign import Campaign, load_campaign
 from soilstats.cli.main import main
 from soilstats.outputs import Provenance, write_atomic, write_csv, write_json
 from soilstats.outputs import files as output_files
@@ -121,6 +121,51 @@ def test_formula_cells_are_escaped_and_numbers_never_altered(tmp_path):
     assert back["value"].tolist() == frame["value"].tolist()  # negative numbers stay numbers
     assert back["'=n"].tolist() == list(range(-4, 4))  # a column name is text too
     assert list(back["mixed"]) == ["-1.5", "'-x", "2", "", "'=1", "0.0", "ok", "-7"]
+
+
+def test_formula_escaping_is_reversible():
+    cells = ["=1", "'=1", "''@x", "-x", "'plain", "it's", "", "a=b"]
+    escaped = [output_files.escape_formula(c) for c in cells]
+    assert escaped == ["'=1", "''=1", "'''@x", "'-x", "'plain", "it's", "", "a=b"]
+    assert [output_files.unescape_formula(c) for c in escaped] == cells
+
+
+HOSTILE_CELLS = ['=HYPERLINK("http://x")', "@SUM(A1)", "+cmd", "-x", "'=kept"]
+
+
+def test_campaign_files_of_import_and_simulate_escape_formulas_and_read_back_exactly(
+    tmp_path, campaign_frames
+):
+    """Campaign CSVs (what import and simulate write, through Campaign.save) were written raw:
+    a soil named =HYPERLINK(...) ran as a formula in a spreadsheet. Escaped now, and
+    load_campaign reads the very cells back."""
+    tests = campaign_frames["tests"]
+    tests["bin"] = HOSTILE_CELLS[:3]
+    tests["soil"] = [*HOSTILE_CELLS[3:], "loam"]
+    campaign = Campaign.from_frames(**campaign_frames)
+    assert campaign.tests["soil"].iloc[1] == "'=kept"
+    saved = campaign.save(tmp_path / "saved")
+    raw = pd.read_csv(saved / "tests.csv", dtype=str, keep_default_na=False)
+    assert list(raw["bin"]) == ["'" + c for c in HOSTILE_CELLS[:3]]
+    assert list(raw["soil"]) == ["'-x", "''=kept", "loam"]
+    back = load_campaign(saved)
+    assert list(back.tests["bin"]) == HOSTILE_CELLS[:3]
+    assert list(back.tests["soil"]) == [*HOSTILE_CELLS[3:], "loam"]
+    assert back.sinkage.equals(campaign.sinkage)  # numbers (negative ones too) untouched
+
+
+def test_simulation_truth_tables_escape_formulas(tmp_path):
+    from soilstats.simulation import parse_spec, simulate
+
+    spec = {
+        "soils": {"=s1": {"kc": 0.0, "kphi": 1e6, "n": 1.0}},
+        "series": [{"name": "@p", "kind": "sinkage", "soils": ["=s1"], "points": 10,
+                    "plates": [{"shape": "circle", "radius_m": 0.05}]}],
+    }  # fmt: skip
+    folder = simulate(parse_spec(spec), seed=1).save(tmp_path / "sim")
+    truth = pd.read_csv(folder / "truth_tests.csv", dtype=str)
+    assert set(truth["soil"]) == {"'=s1"} and set(truth["series"]) == {"'@p"}
+    assert set(load_campaign(folder).tests["soil"]) == {"=s1"}
 
 
 def test_line_breaks_hashes_commas_and_quotes_in_cells_read_back_whole(tmp_path):

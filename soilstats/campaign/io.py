@@ -426,7 +426,7 @@ def _read_csv(fh: BinaryIO, name: str) -> pd.DataFrame:
     # index_col=False: a row with extra fields must not silently become an index.
     with warnings.catch_warnings():
         warnings.simplefilter("error", pd.errors.ParserWarning)
-        return pd.read_csv(
+        frame = pd.read_csv(
             fh,
             dtype=str,
             keep_default_na=False,
@@ -434,6 +434,20 @@ def _read_csv(fh: BinaryIO, name: str) -> pd.DataFrame:
             index_col=False,
             encoding="utf-8-sig",
         )
+    return _formula_unescaped(frame)
+
+
+def _formula_unescaped(frame: pd.DataFrame) -> pd.DataFrame:
+    """Cells as given to :func:`write_table`: the apostrophe guarding a formula cell
+    (``'=x``, a spreadsheet's own escape too) dropped; a frame without one is returned as is."""
+    from ..outputs.files import unescape_formula
+
+    for col in frame.columns:
+        values = frame[col]
+        guarded = values.str.startswith("'", na=False)
+        if guarded.any():
+            frame[col] = values.where(~guarded, values[guarded].map(unescape_formula))
+    return frame
 
 
 def _unreadable(path: Path, exc: Exception) -> CampaignError:
@@ -500,14 +514,29 @@ def _csv_ready(frame: pd.DataFrame) -> pd.DataFrame:
 def write_table(frame: pd.DataFrame, path: Path, fmt: Format) -> None:
     """Write one table to ``path`` as CSV (missing → empty cell) or Parquet, without index.
 
-    The cells are written exactly (a campaign file is data, read back by
-    :func:`read_table`): no spreadsheet-formula escaping here, unlike the report CSVs.
+    A CSV text cell a spreadsheet would take for a formula (``=…``, ``+…``, ``-…``, ``@…``)
+    gets a leading apostrophe (:func:`~soilstats.outputs.files.escape_formula`, reversible),
+    which :func:`read_table` drops again: the cells read back exactly.
     """
     if fmt == "parquet":
         require_parquet(path.name)
         frame.to_parquet(path, index=False)
     else:
-        _csv_ready(frame).to_csv(path, index=False, na_rep="", lineterminator="\n")
+        _csv_ready(_formula_escaped(frame)).to_csv(
+            path, index=False, na_rep="", lineterminator="\n"
+        )
+
+
+def _formula_escaped(frame: pd.DataFrame) -> pd.DataFrame:
+    """The text cells of ``frame`` escaped against spreadsheet formulas (numbers untouched)."""
+    from ..outputs.files import escape_formula
+
+    out = frame.copy()
+    for col in out.columns:
+        if out[col].dtype == np.float64 or pd.api.types.is_integer_dtype(out[col].dtype):
+            continue
+        out[col] = out[col].map(lambda v: escape_formula(v) if isinstance(v, str) else v)
+    return out
 
 
 def save_tables(

@@ -46,10 +46,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "csv_text",
+    "escape_formula",
     "json_safe",
     "output_path",
     "replacing",
     "safe_stem",
+    "unescape_formula",
     "write_atomic",
     "write_csv",
     "write_json",
@@ -245,8 +247,6 @@ def write_json(
     return write_atomic(target, json.dumps(doc, indent=2, ensure_ascii=False) + "\n")
 
 
-#: First characters that make a spreadsheet read a cell as a formula (OWASP, CSV injection).
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 #: Characters that make a text cell need quotes: the CSV syntax, and the comment character
 #: readers are told to pass (``comment="#"`` cuts an unquoted line at its first ``#``).
 _NEEDS_QUOTES = re.compile(r'[,"\r\n#]')
@@ -256,10 +256,31 @@ _LINE_BREAKS: dict[str, str | int | None] = {
 }
 
 
+#: A cell a spreadsheet would take for a formula, behind any apostrophes already there.
+_FORMULA_CELL = re.compile(r"'*[=+\-@\t\r]")
+#: A cell escaped by :func:`escape_formula`.
+_ESCAPED_CELL = re.compile(r"'+[=+\-@\t\r]")
+
+
+def escape_formula(text: str) -> str:
+    """``text`` safe from spreadsheet formulas (OWASP, CSV injection): an apostrophe before a
+    cell that starts, after any apostrophes, with ``= + - @``, a tab or a carriage return.
+
+    Reversible (:func:`unescape_formula`): ``'=1`` is written ``''=1`` and reads back as
+    ``'=1``; every other text is written unchanged.
+    """
+    return "'" + text if _FORMULA_CELL.match(text) else text
+
+
+def unescape_formula(text: str) -> str:
+    """The cell :func:`escape_formula` was given: one leading apostrophe dropped where it
+    guards a formula character."""
+    return text[1:] if _ESCAPED_CELL.match(text) else text
+
+
 def _text_cell(text: str) -> str:
     """A text cell as written: formula-escaped, quoted where its content needs it."""
-    if text.startswith(_FORMULA_START):
-        text = "'" + text
+    text = escape_formula(text)
     if _NEEDS_QUOTES.search(text):
         return '"' + text.replace('"', '""') + '"'
     return text

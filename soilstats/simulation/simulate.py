@@ -106,7 +106,7 @@ class SimulatedCampaign:
         Path
             The folder.
         """
-        from ..outputs.files import output_path, write_atomic
+        from ..outputs.files import csv_text, output_path, write_atomic
 
         folder = Path(path)
         own = ("truth.json", "truth_tests.csv", "README.md")
@@ -120,15 +120,10 @@ class SimulatedCampaign:
         self.campaign.save(folder, overwrite=overwrite)
         truth, truth_tests, readme, artefacts = targets
         write_atomic(truth, json.dumps(self.truth, indent=2, sort_keys=True) + "\n")
-        write_atomic(
-            truth_tests,
-            lambda tmp: self.test_truth.to_csv(tmp, index=False, lineterminator="\n"),
-        )
+        # csv_text: text cells escaped against spreadsheet formulas, numbers as pandas writes.
+        write_atomic(truth_tests, csv_text(self.test_truth))
         if len(self.artefacts):
-            write_atomic(
-                artefacts,
-                lambda tmp: self.artefacts.to_csv(tmp, index=False, lineterminator="\n"),
-            )
+            write_atomic(artefacts, csv_text(self.artefacts))
         write_atomic(readme, self._readme())
         return folder
 
