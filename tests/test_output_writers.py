@@ -265,3 +265,66 @@ def test_report_csv_reads_back_as_documented():
         "a": ["x#y"],
         "b": [-1.0],
     }
+
+
+# --- a full disk, a table too large ------------------------------------------------------------
+
+
+def _full_disk_after(monkeypatch, n_bytes: int) -> None:
+    """Every write stops with ENOSPC after ``n_bytes`` bytes reached the file."""
+    import errno
+
+    def write(path, data):
+        Path(path).write_bytes(data[:n_bytes])
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(output_files, "_write_bytes", write)
+
+
+def test_a_full_disk_is_a_clear_error_and_leaves_the_old_file(tmp_path, monkeypatch):
+    path = write_atomic(tmp_path / "t.json", '{"old": 1}\n')
+    _full_disk_after(monkeypatch, 3)
+    with pytest.raises(OSError, match=r"no space left to write t\.json into .*nothing of it"):
+        write_atomic(path, '{"new": 2}\n' * 1000)
+    assert path.read_text() == '{"old": 1}\n'
+    assert [p.name for p in tmp_path.iterdir()] == ["t.json"]  # no temporary left
+
+
+def test_netcdf_is_built_in_memory_and_reads_back(tmp_path):
+    """No HDF5 handle on a file: a full disk cannot leave one half-closed (h5py segfaulted
+    freeing it at exit). The bytes are deterministic and ArviZ reads them back exactly."""
+    from soilstats.bayes._arviz import az
+
+    rng = np.random.default_rng(3)
+    idata = az.from_dict(
+        posterior={"kc": rng.normal(size=(4, 50)), "n": rng.uniform(size=(4, 50))},
+        observed_data={"y": rng.normal(size=7)},
+    )
+    idata.posterior.attrs["note"] = "x"
+    blob = output_files.netcdf_bytes(idata)
+    assert blob == output_files.netcdf_bytes(idata)
+    back = az.from_netcdf(write_atomic(tmp_path / "p.nc", blob))
+    assert set(back.groups()) == {"posterior", "observed_data"}
+    np.testing.assert_array_equal(back.posterior["kc"], idata.posterior["kc"])
+    assert back.posterior.attrs["note"] == "x"
+
+
+def test_a_parquet_table_beyond_the_memory_budget_is_refused_from_its_footer(
+    tmp_path, monkeypatch, write_campaign, campaign_frames
+):
+    """A compression bomb: 2 M zero rows are a few kB of gzip pages and ~150 MB in memory. The
+    footer's sizes are checked before a page is read (Arrow ran out of memory)."""
+    pytest.importorskip("pyarrow")
+    from soilstats.errors import CampaignError
+
+    folder = write_campaign(**campaign_frames)
+    zeros = pd.DataFrame({"test_id": ["c1"] * 2_000_000, "z_m": 0.0, "force_N": 0.0})
+    (folder / "sinkage.csv").unlink()
+    zeros.to_parquet(folder / "sinkage.parquet", compression="gzip", index=False)
+    assert (folder / "sinkage.parquet").stat().st_size < 200_000
+    monkeypatch.setenv("SOILSTATS_MEMORY_BUDGET_GB", "0.05")  # 51 MiB
+    monkeypatch.setattr(pd, "read_parquet", lambda *a, **k: pytest.fail("read the pages"))
+    says = r"reading sinkage\.parquet \(2000000 rows of 3 columns\)"
+    with pytest.raises(CampaignError, match=says) as err:
+        load_campaign(folder)
+    assert err.value.file == "sinkage.parquet" and "beyond the budget of 0.05 GiB" in str(err.value)

@@ -807,6 +807,7 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance, figu
     import json
 
     from ..outputs import json_safe, output_path, write_atomic, write_csv
+    from ..outputs.files import netcdf_bytes
     from ..report.posterior_pdf import write_report
 
     prov = provenance.to_dict() | {"forced": record["forced"]}
@@ -815,10 +816,8 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance, figu
         # netCDF attributes take no None: the record travels as JSON strings.
         res.idata.posterior.attrs["soilstats_provenance"] = json.dumps(json_safe(prov))
         res.idata.posterior.attrs["soilstats_record"] = json.dumps(record)
-        write_atomic(
-            output_path(out, name, overwrite=True),
-            lambda tmp, idata=res.idata: idata.to_netcdf(str(tmp)),
-        )
+        # Built in memory: no HDF5 handle is left open on a file if the disk is full.
+        write_atomic(output_path(out, name, overwrite=True), netcdf_bytes(res.idata))
     write_csv(out / "draws.csv", kept, provenance, overwrite=True, float_format="%.10g")
     write_csv(out / "summary.csv", table.reset_index(), provenance, overwrite=True)
     write_atomic(

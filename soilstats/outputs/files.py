@@ -48,6 +48,7 @@ __all__ = [
     "csv_text",
     "escape_formula",
     "json_safe",
+    "netcdf_bytes",
     "output_path",
     "replacing",
     "safe_stem",
@@ -201,12 +202,63 @@ def write_atomic(path: str | Path, content: str | bytes | Callable[..., object])
         If ``path`` is a symbolic link, or the write fails (then ``path`` is unchanged and no
         temporary file is left).
     """
-    with replacing(path) as (tmp,):
-        if callable(content):
-            content(tmp)
-        else:
-            tmp.write_bytes(content.encode("utf-8") if isinstance(content, str) else content)
+    try:
+        with replacing(path) as (tmp,):
+            if callable(content):
+                content(tmp)
+            else:
+                _write_bytes(tmp, content.encode("utf-8") if isinstance(content, str) else content)
+    except OSError as err:
+        if err.errno in _NO_SPACE:
+            raise OSError(
+                err.errno,
+                f"no space left to write {Path(path).name} into {str(Path(path).parent)!r} "
+                f"({os.strerror(err.errno or 0)}); nothing of it was written — free space "
+                "and run again",
+            ) from None
+        raise
     return Path(path)
+
+
+#: errno values of a full disk or an exhausted quota.
+_NO_SPACE = {errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)}
+
+
+def _write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to the (temporary) file ``path`` (a full disk raises here: on write, or
+    when the file is closed)."""
+    with open(path, "wb") as fh:
+        fh.write(data)
+
+
+def netcdf_bytes(idata: Any) -> bytes:
+    """An ArviZ InferenceData as the bytes of its netCDF-4 file (``az.from_netcdf`` reads
+    them), built in memory.
+
+    What :meth:`InferenceData.to_netcdf` writes (attributes, then each group, compressed
+    like ArviZ does), but no HDF5 handle is ever open on a file: a full disk is then a plain
+    OSError of :func:`write_atomic`, not an HDF5 file left half-closed (which ended in a
+    segmentation fault when h5py freed it at exit).
+    """
+    import io
+
+    import xarray as xr
+
+    buffer = io.BytesIO()
+    mode = "w"
+    if idata._attrs:
+        xr.Dataset(attrs=idata._attrs).to_netcdf(buffer, mode=mode, engine="h5netcdf", group="/")
+        mode = "a"
+    for group in idata._groups_all:
+        data = getattr(idata, group)
+        encoding = {
+            name: {"zlib": True}
+            for name, values in data.variables.items()
+            if values.dtype.kind in "biufcS"
+        }
+        data.to_netcdf(buffer, mode=mode, group=f"/{group}", engine="h5netcdf", encoding=encoding)
+        mode = "a"
+    return buffer.getvalue()
 
 
 def json_safe(value: Any) -> Any:
