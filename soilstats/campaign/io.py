@@ -434,8 +434,7 @@ def _check_parquet_size(fh: BinaryIO, name: str) -> None:
     # 8 bytes a number and a Python string's ~60 for text.
     schema = meta.schema
     width = sum(
-        60 if schema.column(j).physical_type == "BYTE_ARRAY" else 8
-        for j in range(meta.num_columns)
+        60 if schema.column(j).physical_type == "BYTE_ARRAY" else 8 for j in range(meta.num_columns)
     )
     nbytes = max(size * _PARQUET_MEMORY_FACTOR, meta.num_rows * width)
     _check_size(name, nbytes, f" ({meta.num_rows} rows of {meta.num_columns} columns)")

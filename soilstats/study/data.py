@@ -117,4 +117,3 @@ def check_reference(tests: pd.DataFrame, spec: StudySpec) -> list[str]:
         f"soil {soil}: no test at the reference {spec.factor} = {ref}; no reference pairs"
         for soil in sorted(set(tests["soil"].astype(str)) - set(has))
     ]
-
