@@ -596,7 +596,7 @@ def save_tables(
     OSError
         If a campaign file name in the folder is a symbolic link or a folder.
     """
-    from ..outputs.files import output_path, replacing
+    from ..outputs.files import output_path, replacing, staged
 
     existing = [folder / n for n in CAMPAIGN_FILE_NAMES if os.path.lexists(folder / n)]
     if existing and not overwrite:
@@ -612,5 +612,5 @@ def save_tables(
             write_table(table, tmp, fmt)
     for path in existing:
         if path.name not in written:
-            path.unlink()
+            staged(path).unlink()  # in the output set being written, if any
     return folder

@@ -430,7 +430,16 @@ def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) 
         with warnings.catch_warnings(), np.errstate(all="ignore"):  # both restored afterwards
             warnings.showwarning = _show_warning
             warnings.filterwarnings("ignore", category=RuntimeWarning)
-            return run(args)
+            out = getattr(args, "out", None)
+            if out is None:
+                return run(args)
+            from ..outputs.outset import output_set
+
+            # The whole run is one output set: locked, staged, swapped in at the end.
+            command = " ".join(["soilstats", *map(str, getattr(args, "argv", []))])
+            overwrite = bool(getattr(args, "overwrite", False))
+            with output_set(out, command=command, overwrite=overwrite):
+                return run(args)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

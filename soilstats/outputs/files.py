@@ -122,6 +122,7 @@ def output_path(
         )
     if folder.exists() and not folder.is_dir():
         raise NotADirectoryError(20, "not a folder", str(folder))
+    folder = staged(folder)  # an output set being written: its staging folder
     if create:
         folder.mkdir(parents=True, exist_ok=True)
     path = folder / filename
@@ -130,6 +131,36 @@ def output_path(
         raise IsADirectoryError(21, "is a folder", str(path))
     if path.exists() and not overwrite:
         raise FileExistsError(17, "exists already", str(path))
+    return path
+
+
+#: (output folder, its staging folder) of the output set being written (outputs.outset).
+_STAGES: list[tuple[Path, Path]] = []
+
+
+@contextmanager
+def staging(real: Path, stage: Path) -> Iterator[None]:
+    """Within the block, every writer of this module writes what belongs in ``real`` (a
+    resolved folder) into ``stage`` instead (:func:`soilstats.outputs.outset.output_set`)."""
+    _STAGES.append((real, stage))
+    try:
+        yield
+    finally:
+        _STAGES.remove((real, stage))
+
+
+def staged(path: str | Path) -> Path:
+    """Where ``path`` is written: in the staging folder when it lies in an output set being
+    written (its folder resolved, its own name kept), else ``path`` itself."""
+    path = Path(path)
+    if not _STAGES:
+        return path
+    where = Path(os.path.realpath(path.parent)) / path.name
+    for real, stage in reversed(_STAGES):
+        if where == real:
+            return stage
+        if real in where.parents:
+            return stage / where.relative_to(real)
     return path
 
 
@@ -160,7 +191,7 @@ def replacing(*paths: str | Path) -> Iterator[list[Path]]:
     OSError
         If a destination is a symbolic link (before anything is written).
     """
-    targets = [Path(p) for p in paths]
+    targets = [staged(p) for p in paths]
     for target in targets:
         _refuse_link(target)
     temporaries: list[Path] = []
