@@ -245,11 +245,9 @@ def _commit(real: Path, stage: Path, snap: dict, overwrite: bool, in_place: bool
     if not overwrite:  # existence checked again now: a file may have appeared since the start
         late = [rel for rel in written if rel in current and rel not in snap]
         if late:
-            raise FileExistsError(
-                17,
-                "appeared while this run was writing; nothing of the run was written "
-                "(give --overwrite to replace it)",
-                str(real / late[0]),
+            raise InputError(
+                f"{real / late[0]}: appeared in --out while this run was writing; nothing of "
+                "the run was written (give --overwrite to replace it)"
             )
     if in_place:
         for rel in written:
@@ -296,8 +294,7 @@ def output_set(out: str | os.PathLike[str], *, command: str, overwrite: bool) ->
     ------
     InputError
         Another live run holds ``out`` (exit 2, naming it).
-    FileExistsError
-        Without ``overwrite``, a file the run wrote appeared in ``out`` meanwhile.
+        Or, without ``overwrite``, a file the run wrote appeared in ``out`` meanwhile.
     """
     out = Path(out)
     if os.path.islink(out) and not out.exists():
