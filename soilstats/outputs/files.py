@@ -278,7 +278,12 @@ def netcdf_bytes(idata: Any) -> bytes:
     buffer = io.BytesIO()
     mode = "w"
     if idata._attrs:
-        xr.Dataset(attrs=idata._attrs).to_netcdf(buffer, mode=mode, engine="h5netcdf", group="/")
+        xr.Dataset(attrs=idata._attrs).to_netcdf(
+            buffer,  # type: ignore[call-overload]  # (xarray writes file objects too)
+            mode=mode,
+            engine="h5netcdf",
+            group="/",
+        )
         mode = "a"
     for group in idata._groups_all:
         data = getattr(idata, group)

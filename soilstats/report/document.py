@@ -456,7 +456,11 @@ def figure_svg(fig: Figure) -> bytes:
     plain_texts(fig)
     buffer = io.BytesIO()
     # Tick labels made while drawing (categorical axes: the data's levels) are plain too.
-    style = {"svg.hashsalt": "soilstats", "svg.fonttype": "path", "text.parse_math": False}
+    style: dict[RcKeyType, Any] = {
+        "svg.hashsalt": "soilstats",
+        "svg.fonttype": "path",
+        "text.parse_math": False,
+    }
     with mpl.rc_context(style):
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     _close(fig)

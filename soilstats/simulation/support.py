@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -34,18 +35,20 @@ def _rules() -> dict[str, tuple[str, Callable[[float], bool]]]:
         for name in record.param_names:
             rule = next((r for r in record.support if getattr(r, "name", None) == name), None)
             if rule is not None:
-                out[name] = (
-                    f"{rule.label} ({model})",
-                    lambda x, r=rule, n=name: bool(r.holds({n: np.float64(x)}, (1.0, 1.0))),
-                )
+                out[name] = (f"{rule.label} ({model})", _rule_test(rule, name))
                 continue
             lo, hi = record.bounds_of[name]
             if math.isfinite(lo) or math.isfinite(hi):
-                out[name] = (
-                    f"{name} outside ({lo:g}, {hi:g}) ({model})",
-                    lambda x, lo=lo, hi=hi: lo < x < hi,
-                )
+                out[name] = (f"{name} outside ({lo:g}, {hi:g}) ({model})", _open_range(lo, hi))
     return out
+
+
+def _rule_test(rule: Any, name: str) -> Callable[[float], bool]:
+    return lambda x: bool(rule.holds({name: np.float64(x)}, (1.0, 1.0)))
+
+
+def _open_range(lo: float, hi: float) -> Callable[[float], bool]:
+    return lambda x: lo < x < hi
 
 
 def outside_support(
