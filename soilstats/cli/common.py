@@ -36,7 +36,7 @@ import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TextIO, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 from .._text import plural
 from ..errors import InputError
@@ -192,7 +192,7 @@ def add_data_options(parser: argparse.ArgumentParser, *, window: bool = True) ->
 
 def number_in(
     kind: type, low: float, high: float, *, low_open: bool = False, high_open: bool = False
-):
+) -> Callable[[str], Any]:
     """An argparse ``type``: a finite ``kind`` (int or float) in [low, high] (``low_open``,
     ``high_open``: that end excluded).  ``nan``, ``inf`` and out-of-range numbers are usage
     errors (exit 2) naming the range, never passed on to fail later (``--alpha nan``)."""

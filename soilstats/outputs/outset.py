@@ -324,6 +324,8 @@ def output_set(out: str | os.PathLike[str], *, command: str, overwrite: bool) ->
             _commit(real, stage, snap, overwrite, in_place)
         except OSError as err:  # named as the user named it, not by the stage's name
             shutil.rmtree(stage, ignore_errors=True)
+            if isinstance(err.strerror, str):  # "no space left to write X into 'STAGE'"
+                err.strerror = err.strerror.replace(str(stage), str(out))
             for attr in ("filename", "filename2"):
                 name = getattr(err, attr, None)
                 if isinstance(name, str) and Path(name).is_relative_to(stage):
