@@ -25,7 +25,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from soilstats.campaign import load_campaign
+from soilstats.campaign import Campaign, load_campaign
 from soilstats.cli.main import main
 from soilstats.errors import CampaignError, SoilstatsWarning
 
@@ -443,3 +443,44 @@ def test_the_memory_budget_is_read_from_the_environment(monkeypatch):
     monkeypatch.setenv("SOILSTATS_MEMORY_BUDGET_GB", "lots")
     with pytest.raises(InputError, match="SOILSTATS_MEMORY_BUDGET_GB must be"):
         memory_budget()
+
+
+# --- from_frames: what no file could hold ------------------------------------------------------
+
+
+def _frames_with(campaign_frames, **change):
+    frames = dict(campaign_frames)
+    frames.update(change)
+    return frames
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        # numpy's warning only, the imaginary part dropped: force 10+3j became 10.0
+        (lambda f: f["sinkage"].assign(force_N=[-2.5, 10 + 3j, 0, 30.5, 20]),
+         "column 'force_N', row 1: holds complex numbers (e.g. (-2.5+0j))"),
+        (lambda f: f["sinkage"].assign(force_N=["-2.5", "10", 1 + 2j, "30.5", "20"]),
+         "row 3: holds complex numbers (e.g. (1+2j))"),
+        # AttributeError from pandas before
+        (lambda f: pd.concat([f["sinkage"], f["sinkage"][["force_N"]]], axis=1),
+         "column(s) ['force_N'] appear more than once"),
+        (lambda f: f["sinkage"].set_axis(
+            pd.MultiIndex.from_product([["a"], f["sinkage"].columns]), axis=1),
+         "column names must be text, got ('a', 'test_id')"),
+    ],
+)  # fmt: skip
+def test_from_frames_refuses_complex_numbers_and_odd_columns(campaign_frames, change, says):
+    frames = _frames_with(campaign_frames, sinkage=change(campaign_frames))
+    with pytest.raises(CampaignError, match=re.escape(says)) as err:
+        Campaign.from_frames(frames["tests"], frames["sinkage"], frames["shear"])
+    assert err.value.file == "sinkage.csv"
+
+
+@pytest.mark.parametrize("units", [{"z_m": None}, "mm", {"z_m": 1e-3}])
+def test_from_frames_refuses_units_that_are_not_a_mapping_of_texts(campaign_frames, units):
+    from soilstats.errors import InputError
+
+    f = campaign_frames
+    with pytest.raises(InputError, match="units must map format column names to unit texts"):
+        Campaign.from_frames(f["tests"], f["sinkage"], f["shear"], units=units)
