@@ -142,86 +142,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def split_prior_items(
-    args: argparse.Namespace, models: Iterable[str]
-) -> tuple[list[str], dict[str, tuple]]:
-    """``--prior`` items for the sampled models' parameters, and user priors: with
-    ``--simulator``, items naming a parameter the simulator needs that no model identifies
-    (c, phi, K without a shear model), as :mod:`soilstats.bayes.stated_priors` tuples."""
-    from ..bayes.export import parse_stated_prior, scm_plan
-
-    params = {n for m in models for n in _checked_model(m).param_names}
-    unmeasured = set()
-    if getattr(args, "simulator", None):
-        unmeasured = {k for k, v in scm_plan(params).items() if v == "missing"}
-    posterior, stated = [], {}
-    for item in args.prior or ():
-        name, eq, spec = str(item).partition("=")
-        if eq and name.strip() in unmeasured:
-            try:
-                stated[name.strip()] = parse_stated_prior(spec)
-            except ValueError as err:
-                raise InputError(f"--prior {item}: {err}") from None
-        else:
-            posterior.append(item)
-    return posterior, stated
-
-
-def priors_by_model(args: argparse.Namespace, models: Sequence[str]) -> dict[str, dict]:
-    """Each model's priors, read once: its ``[MODEL]`` table of ``--priors``, then the
-    ``--prior`` items naming its parameters (they win). A name that belongs to no model — or,
-    in a file, not to its table's model — is an error before any sampling. Items that are
-    user priors for ``--simulator`` (:func:`split_prior_items`) are not the models'."""
-    from ..bayes.priors import priors_from_items, priors_from_toml
-
-    raw = split_prior_items(args, models)[0]
-    params = {m: _checked_model(m).param_names for m in models}
-    known = {n for names in params.values() for n in names}
-    named = {str(item).partition("=")[0].strip() for item in raw if "=" in str(item)}
-    unknown = sorted(named - known)
-    if unknown:
-        hint = (
-            ""
-            if getattr(args, "simulator", None)
-            else "; with --simulator chrono-scm, the shear parameters a sinkage-only campaign "
-            "lacks take user priors (e.g. --prior c=uniform:0:2000)"
-        )
-        raise ModelError(
-            f"--prior names {unknown}, not parameters of {'+'.join(models)} "
-            f"(parameters: {sorted(known)}){hint}"
-        )
-    items = priors_from_items(raw)
-    out = {}
-    for model, names in params.items():
-        table = priors_from_toml(args.priors, model) if args.priors else {}
-        stray = sorted(set(table) - set(names))
-        if stray:
-            raise ModelError(
-                f"{args.priors}, [{model}]: {stray} are not parameters of {model} "
-                f"(parameters: {list(names)})"
-            )
-        out[model] = table | {k: v for k, v in items.items() if k in names}
-    return out
-
-
 def _checked_model(name: str):
-    """The record of one model of ``--model``: a registered sinkage or shear model."""
-    from ..errors import ModelError
-    from ..models import get_model, model_names
+    """The record of one model of ``--model`` (bayes.prior_options.posterior_model)."""
+    from ..bayes.prior_options import posterior_model  # bayes: too heavy for --help
 
-    spec = get_model(name)
-    if spec.kind not in ("sinkage", "shear"):
-        raise ModelError(
-            f"--model {name}: a {spec.kind or 'non-soil'} model has no posterior; choose "
-            f"from {model_names('sinkage') + model_names('shear')}"
-        )
-    return spec
+    return posterior_model(name)
 
 
 def _check_models(models) -> None:
     """``--model``: one registered model, or a sinkage and a shear model joined by '+'."""
-    from ..errors import ModelError
-
     kinds = [_checked_model(m).kind for m in models]
     if len(models) > 2 or len(set(kinds)) < len(kinds):
         raise ModelError(
@@ -362,43 +291,11 @@ def _contact_widths(args, campaign) -> tuple[float, float]:
     return _tested_widths(args, campaign) or (1.0, 1.0)
 
 
-def _pooled_columns(kind: str, models) -> tuple[str, ...]:
-    """Test-log columns whose different values a posterior should not silently mix: the
-    identification's condition columns (one home: identification.conditions) and the setup
-    columns of the paper's studies; plate size only where the model has no size term."""
-    from ..identification.conditions import DEFAULT_CONDITION_COLUMNS
-    from ..models import get_model
-
-    sizeless = any(
-        (spec := get_model(m)).kind == "sinkage" and "b_m" not in spec.columns for m in models
-    )
-    setup = {
-        "sinkage": ("shape", "series") + (("b_m",) if sizeless else ()),
-        "shear": ("grousers", "grouser_height_m", "omega_rpm", "series"),
-    }
-    return DEFAULT_CONDITION_COLUMNS[kind] + setup[kind]
-
-
 def pooling_warnings(campaign: Campaign, soil: str, models: Iterable[str]) -> list[str]:
-    """Say when a posterior pools plate sizes (Bernstein) or test conditions."""
-    tests = campaign.tests[campaign.tests["soil"].astype(str) == soil]
-    out = []
-    for kind in ("sinkage", "shear"):
-        chosen = tests[tests["kind"] == kind]
-        if chosen.empty:
-            continue
-        for column in _pooled_columns(kind, models):
-            if column not in chosen:
-                continue
-            values = chosen[column].dropna().unique()
-            if len(values) > 1:
-                shown = ", ".join(str(v) for v in sorted(values, key=str)[:6])
-                out.append(
-                    f"the {kind} posterior pools {len(values)} values of {column} ({shown}): "
-                    "its draws describe the mixture, not any one condition; select one with "
-                    f"--select {kind}:{column}=VALUE if they differ"
-                )
-    return out
+    """:func:`soilstats.bayes.pooling.pooling_warnings` (``soilstats wheel`` reads it here)."""
+    from ..bayes.pooling import pooling_warnings as pooled  # bayes: too heavy for --help
+
+    return pooled(campaign, soil, models)
 
 
 def _soil(args, campaign) -> str:
@@ -495,8 +392,10 @@ def run(args: argparse.Namespace) -> int:
     fails."""
     models = args.model.split("+")
     _check_models(models)
-    priors = priors_by_model(args, models)
-    stated = split_prior_items(args, models)[1]
+    from ..bayes.prior_options import priors_by_model, split_prior_items  # heavy for --help
+
+    priors = priors_by_model(args.prior, args.priors, models, args.simulator)
+    stated = split_prior_items(args.prior, models, args.simulator)[1]
     _check_simulator(args, models, stated)
     _check_draws(args)
     if not _in_workers(args, models):
@@ -722,9 +621,20 @@ def _decide_and_write(
     if failures and not args.force:
         simulator_only = export is not None and len(failures) == len(export.check.failures)
         return _refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
+    from ..bayes.run_record import posterior_record  # bayes: too heavy for --help
     from ..outputs import json_safe
 
-    record = _record(args, models, results, handout, failures, ours, pooled_warnings, provenance)
+    record = posterior_record(
+        args.soil,
+        models,
+        results,
+        handout,
+        failures,
+        ours,
+        pooled_warnings,
+        list(args.select or []),
+        provenance,
+    )
     if export is not None:
         record = json_safe(record | {"simulator": export.record()})
     _write(out, args, results, record, table, kept, provenance, figures)
@@ -735,40 +645,6 @@ def _decide_and_write(
         print("WARNING: FORCED — written although: " + "; ".join(failures), file=sys.stderr)
         return 1
     return 0
-
-
-def _record(args, models, results, handout, failures, ours, pooled_warnings, provenance) -> dict:
-    """posterior.json: the run, the decision and what it rests on."""
-    import json
-
-    from ..bayes.population import band_calibration
-    from ..outputs import json_safe
-
-    decision = handout.to_dict()
-    checks = {r.model_name: band_calibration(r) for r in results if r.kind == "population"}
-    return json_safe(
-        {
-            "soil": args.soil,
-            "models": models,
-            "kind": [r.kind for r in results],
-            "converged": all(r.converged for r in results),
-            "forced": bool(failures),
-            "failures": failures,
-            "support": decision["support"],
-            "draws_written": decision["draws_written"],
-            "negative_modulus_below_m": decision["negative_modulus_below_m"],
-            "priors": {r.model_name: r.idata.posterior.attrs.get("priors", "") for r in results},
-            "pooling_warnings": pooled_warnings,
-            "least_squares_health": decision["least_squares_health"],
-            # The population band against its own tests (issue #36): which criterion fails.
-            "band_check": {
-                name: json.loads(check.to_json()) for name, check in checks.items() if check
-            },
-            "warnings": ours,
-            "selection": list(args.select or []),
-            "provenance": provenance.to_dict(),
-        }
-    )
 
 
 def _write(out: Path, args, results, record: dict, table, kept, provenance, figures) -> None:
