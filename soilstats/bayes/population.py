@@ -26,7 +26,7 @@ from ..models import get_model, model_names
 from ._arviz import az
 from .data import pooled_problem
 from .population_model import POPULATION_MODELS, PopulationModel, reference_rows
-from .posterior import _attrs, finish
+from .posterior import finish, posterior_attrs
 from .predictive import (
     PREDICTIVE_DRAWS,
     log_likelihood_draws,
@@ -377,7 +377,7 @@ def _population_idata(pops: PopulationModel, run, rng, fits: PerTestFits, curves
     posterior = xr.Dataset(
         {k: (("chain", "draw"), v) for k, v in data.items()},
         coords=coords,
-        attrs=_attrs(pops.prior_only)
+        attrs=posterior_attrs(pops.prior_only)
         | {
             "kind": "population",
             "ln_zref": pops.ln_zref,

@@ -564,14 +564,14 @@ def base_model(group: Group, rows: np.ndarray) -> Extension:
 def bekker_refused(group: Group, rows: np.ndarray) -> str | None:
     """Why Bekker (Eq. 7) cannot be the base of these sinkage tests, in ``identify``'s words,
     or None when it can: ``identify`` decides (:func:`soilstats.identification.conditions
-    ._model_for`: one plate size, or plate sizes closer than ``MIN_SIZE_RATIO`` = 1.5×, leave
+    .model_for`: one plate size, or plate sizes closer than ``MIN_SIZE_RATIO`` = 1.5×, leave
     kc and kφ apart undetermined), and discovery follows — until issue #35 it fitted Bekker
     to any two sizes, and plates of 20 and 22.5 mm gave kc–kφ collinearity red flags where
     ``identify`` refused the design."""
-    from ..identification.conditions import _model_for
+    from ..identification.conditions import model_for
 
     tests = group.tests.iloc[np.asarray(rows, int)]
-    model, why = _model_for("sinkage", "auto", None, tests)
+    model, why = model_for("sinkage", "auto", None, tests)
     return None if model == "bekker" else why
 
 
