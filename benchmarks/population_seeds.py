@@ -43,7 +43,12 @@ def main(argv: list[str] | None = None) -> None:
     )
     args = p.parse_args(argv)
     if args.smoke:  # GRC-1's 51 mm plate, one seed
-        args.campaign, args.soil, args.model, args.seeds = "grc1-oravec2009", None, "bernstein", "0"
+        args.campaign, args.soil, args.model, args.seeds = (
+            "grc1-oravec2009",
+            "GRC-1",
+            "bernstein",
+            "0",
+        )
     elif args.model is None:
         p.error("campaign, soil and model are required")
     campaign = soilstats.load_campaign(bundled_path(args.campaign) or args.campaign)
