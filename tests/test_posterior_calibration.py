@@ -272,7 +272,7 @@ def test_population_band_inside_the_measured_range_is_as_wide_as_the_scatter_of_
 
 
 def test_band_check_says_which_criterion_fails_and_why():
-    from soilstats.bayes.population import _band_verdict
+    from soilstats.bayes.band_check import _band_verdict
 
     base = dict(
         tests=3,

@@ -26,10 +26,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         673,
         "the SCM export: mapping, constraint check, repair, record; to split in two",
     ),
-    "soilstats/bayes/population.py": (
-        714,
-        "population sampling and its band calibration; the calibration to its own module",
-    ),
     "soilstats/campaign/validate.py": (
         696,
         "every rule of the campaign format in one place; split by table (tests, sinkage, shear)",

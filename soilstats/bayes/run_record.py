@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..outputs import json_safe
-from .population import band_calibration
+from .band_check import band_calibration
 
 __all__ = ["posterior_record"]
 
