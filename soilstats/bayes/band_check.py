@@ -12,10 +12,12 @@ from __future__ import annotations
 
 import json
 import warnings
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.special import stdtrit
 
 from ._arviz import az
 from .population_model import PopulationModel
@@ -24,6 +26,8 @@ from .reduction import PerTestFits
 from .result import PosteriorResult
 
 if TYPE_CHECKING:
+    import xarray as xr
+
     from ..identification.pooling import PooledData
 
 __all__ = ["BandCalibration", "band_calibration", "band_check"]
@@ -117,7 +121,9 @@ def _measured_ln_p(z_sorted, ln_p_sorted, z):
     return np.where((z >= z_sorted[0]) & (z <= z_sorted[-1]), out, np.nan)
 
 
-def _band_quantiles(values: np.ndarray, weights: np.ndarray, q, order=None) -> np.ndarray:
+def _band_quantiles(
+    values: np.ndarray, weights: np.ndarray, q: Iterable[float], order: np.ndarray | None = None
+) -> np.ndarray:
     """Quantiles ``q`` of each column of ``values`` (S, M) under the weights ``weights``
     (S, M) (non-negative; a non-finite value must have weight 0) → (len(q), M); ``order``:
     ``np.argsort(values, axis=0)`` if already at hand."""
@@ -157,16 +163,12 @@ def _loo_weights(log_lik: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.exp(smoothed.T - np.max(smoothed.T, axis=0)), np.atleast_1d(np.asarray(k))
 
 
-def band_check(
-    pops: PopulationModel, fits: PerTestFits, pooled, posterior, chain: np.ndarray
-) -> BandCalibration:
-    """:class:`BandCalibration` of a sinkage population (see there)."""
-    from scipy.special import stdtrit
-
-    records, depths = _records(pooled, fits)
-    t_count, k_depths = depths.shape
-    # Measured ln p of every test at the depths of every test of its plate size: its own
-    # (the diagonal blocks) and the tests' own scatter there (sd over ≥ 3 tests).
+def _measured_and_scatter(
+    records: list[tuple[np.ndarray, np.ndarray]], depths: np.ndarray, fits: PerTestFits
+) -> tuple[np.ndarray, np.ndarray]:
+    """Measured ln p of every test at the depths of every test of its plate size: its own
+    (the diagonal blocks) and the tests' own scatter there (sd over ≥ 3 tests); (T, K) each."""
+    k_depths = depths.shape[1]
     measured = np.full(depths.shape, np.nan)
     own_sd = np.full(depths.shape, np.nan)
     for size in np.unique(fits.covariate):
@@ -180,6 +182,20 @@ def band_check(
         mean = np.where(ok, values, 0).sum(axis=0) / np.maximum(counts, 1)
         var = np.where(ok, (values - mean) ** 2, 0).sum(axis=0) / np.maximum(counts - 1, 1)
         own_sd[group] = np.where(counts >= 3, np.sqrt(var), np.nan).reshape(-1, k_depths)
+    return measured, own_sd
+
+
+def band_check(
+    pops: PopulationModel,
+    fits: PerTestFits,
+    pooled: PooledData,
+    posterior: xr.Dataset,
+    chain: np.ndarray,
+) -> BandCalibration:
+    """:class:`BandCalibration` of a sinkage population (see there)."""
+    records, depths = _records(pooled, fits)
+    t_count, k_depths = depths.shape
+    measured, own_sd = _measured_and_scatter(records, depths, fits)
     with np.errstate(divide="ignore", invalid="ignore"):
         own = np.log(fits.params[:, :1]) + fits.params[:, 1:] * np.log(depths)
     # The band at every test's plate and depths, from a subsample of the posterior draws
@@ -211,7 +227,7 @@ def band_check(
     inside = np.isfinite(measured) & enough & np.isfinite(lo_loo) & np.isfinite(hi_loo)
     points = int(inside.sum())
 
-    def mean_of(x) -> float:
+    def mean_of(x: np.ndarray) -> float:
         return float(np.mean(x)) if np.size(x) else float("nan")
 
     scale = inside & np.isfinite(own_sd) & (own_sd > 0)
@@ -239,7 +255,9 @@ def band_check(
     return BandCalibration(**check, failures=failures, sentence=sentence)
 
 
-def _band_verdict(c: dict, measured, own, missed) -> tuple[tuple[str, ...], str]:
+def _band_verdict(
+    c: dict, measured: np.ndarray, own: np.ndarray, missed: np.ndarray
+) -> tuple[tuple[str, ...], str]:
     """Which of the two criteria fail, and why, in one sentence with numbers."""
     lo_cov, hi_cov = COVERAGE_RANGE
     t = c["tests"]

@@ -318,6 +318,7 @@ def sample_population(
     var_names = [f"mu_{n}" for n in names] + list(layout.scatter)
     notes = _population_notes(pops, fits, ln_zref)
     if not shear:
+        assert pooled is not None  # population_setup pools every sinkage population
         check = band_check(pops, fits, pooled, idata.posterior, run.chain)
         idata.posterior.attrs["calibration"] = check.to_json()
         notes.append(check.sentence)
