@@ -30,10 +30,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         696,
         "every rule of the campaign format in one place; split by table (tests, sinkage, shear)",
     ),
-    "soilstats/cli/posterior.py": (
-        716,
-        "the command still runs sampling, refusal and writing; logic moving to bayes/ (#45)",
-    ),
     "soilstats/discovery/result.py": (
         628,
         "the result and its HTML and text views; the views to their own module",

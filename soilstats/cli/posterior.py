@@ -32,15 +32,22 @@ With two models, posterior.nc holds the first and posterior_<model>.nc the secon
 from __future__ import annotations
 
 import argparse
-import sys
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError, ModelError
 from .common import add_common_options, add_data_options, prepared, progress_enabled
+from .posterior_output import (
+    decide_and_write,
+    has_population,
+    model_seed,
+    prior_seed,
+    refuse,
+    tested_widths,
+)
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -48,13 +55,6 @@ if TYPE_CHECKING:
 #: Simulators whose parameter sets --simulator writes (soilstats.bayes.SIMULATOR_FORMATS; a
 #: test keeps the two in step, the bayes package being too heavy to import for --help).
 SIMULATORS = ("chrono-scm",)
-
-
-def _has_population(model: str) -> bool:
-    """Whether the model's record has a population layout (``Model.population``)."""
-    from ..models import get_model
-
-    return get_model(model).population is not None
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -159,18 +159,6 @@ def _check_models(models) -> None:
         )
 
 
-def model_seed(seed: int, index: int) -> int:
-    """The seed of the ``index``-th model of one run: ``seed`` itself for the first, one
-    drawn from ``SeedSequence([seed, index])`` for the others.  With one seed for both, the
-    sinkage and shear samplers drew the same random streams, and rows of their draws with
-    the same index were coupled (Spearman 0.9 between kφ and φ)."""
-    import numpy as np
-
-    if index == 0:
-        return int(seed)
-    return int(np.random.SeedSequence([int(seed), index]).generate_state(1, np.uint32)[0])
-
-
 def _run(campaign, model, priors, args, index=0, *, progress=True):
     from ..bayes import sample_population, sample_posterior
 
@@ -183,7 +171,7 @@ def _run(campaign, model, priors, args, index=0, *, progress=True):
         kw["draws"] = args.draws
     if priors:
         kw["priors"] = priors
-    if args.population and _has_population(model):
+    if args.population and has_population(model):
         return sample_population(campaign, model, **kw)
     return sample_posterior(campaign, model, **kw)
 
@@ -220,12 +208,6 @@ def _check_simulator(args, models, stated: dict) -> None:
         sample_priors(stated, 10_000, prior_seed(args.seed, models))
 
 
-def prior_seed(seed: int, models: Sequence[str]) -> int:
-    """The seed of the user priors' draws: one stream of its own after the models'
-    (``SeedSequence([seed, len(models)])``), so they are independent of the posterior."""
-    return model_seed(seed, len(models))
-
-
 def _check_draws(args) -> None:
     """--draws below the convergence check's ESS floor: refuse before sampling, not after.
 
@@ -249,33 +231,6 @@ def _check_draws(args) -> None:
         )
 
 
-def _tested_widths(args, campaign) -> tuple[float, float] | None:
-    """Smallest and largest plate dimension b [m] of the soil's sinkage tests, if any."""
-    tests = campaign.tests
-    b = tests.loc[(tests["kind"] == "sinkage") & (tests["soil"].astype(str) == args.soil), "b_m"]
-    b = b.dropna()
-    return (float(b.min()), float(b.max())) if len(b) else None
-
-
-def extrapolation_warnings(
-    widths: tuple[float, float], tested: tuple[float, float] | None, models: Iterable[str]
-) -> list[str]:
-    """Say when --contact-width leaves the tested plate sizes for a model whose modulus
-    depends on b (Bekker kc/b + kφ, Reece k1 + k2·b): there it is extrapolated, and the
-    support check only says it stays positive, not that it is right."""
-    from ..models import get_model
-
-    # The model's own inputs say whether it depends on the plate width b.
-    sized = [f"{m} ({spec.equation})" for m in models if "b [m]" in (spec := get_model(m)).inputs]
-    if not sized or tested is None or (tested[0] <= widths[0] and widths[1] <= tested[1]):
-        return []
-    return [
-        f"--contact-width {widths[0]:g}–{widths[1]:g} m leaves the plate sizes tested "
-        f"(b = {tested[0]:g}–{tested[1]:g} m): {', '.join(sized)} is extrapolated there, "
-        "unconstrained by the data; the support check only says it stays positive"
-    ]
-
-
 def _contact_widths(args, campaign) -> tuple[float, float]:
     if args.contact_width:
         lo, _, hi = args.contact_width.partition(":")
@@ -288,7 +243,7 @@ def _contact_widths(args, campaign) -> tuple[float, float]:
         if not 0 < widths[0] <= widths[1]:
             raise InputError(f"--contact-width needs 0 < B_MIN <= B_MAX, got {widths}")
         return widths
-    return _tested_widths(args, campaign) or (1.0, 1.0)
+    return tested_widths(args, campaign) or (1.0, 1.0)
 
 
 def pooling_warnings(campaign: Campaign, soil: str, models: Iterable[str]) -> list[str]:
@@ -306,84 +261,6 @@ def _soil(args, campaign) -> str:
     if len(soils) == 1:
         return soils[0]
     raise InputError(f"--soil is needed: the campaign has {len(soils)} soils ({', '.join(soils)})")
-
-
-def _export(args, models, results, kept, stated, campaign):
-    """The draws handed out as the simulator's parameter sets (checked, not yet written)."""
-    from ..bayes.export import export_simulator
-
-    taken = {
-        name: f"posterior draws ({r.model_name}, {r.kind})"
-        for r in results
-        for name in r.param_names
-    }
-    return export_simulator(
-        kept,
-        args.simulator,
-        elastic_K=args.scm_elastic_K,
-        damping_R=args.scm_damping_R,
-        priors=stated,
-        seed=prior_seed(args.seed, models),
-        repair=args.scm_repair,
-        draws_source=taken,
-        plate_widths=_tested_widths(args, campaign),
-    )
-
-
-def _export_failures(simulator: str, check) -> list[str]:
-    """The failed constraints, each with its fix (a larger elastic_K or --scm-repair)."""
-    from ..bayes.export import REPAIRABLE
-
-    fix = (
-        f". Fix: state --scm-elastic-K above {check.largest_kphi:.3g} Pa/m (the largest "
-        "Bekker_Kphi; best a measured unloading stiffness), or pass --scm-repair MULTIPLE to set "
-        "elastic_K = MULTIPLE x Bekker_Kphi in each such set (marked per row)"
-    )
-    return [
-        f"{simulator}: {failure}{fix if REPAIRABLE in failure else ''}"
-        for failure in check.failures
-    ]
-
-
-class _Annotated:
-    """A provenance whose CSV comment header carries more ``key: value`` lines."""
-
-    def __init__(self, provenance, extra: list[str]) -> None:
-        self._provenance, self._extra = provenance, extra
-
-    def lines(self) -> list[str]:
-        return [*self._provenance.lines(), *self._extra]
-
-
-def _write_export(out: Path, export, record: dict, support, provenance, args) -> None:
-    """``<simulator>.csv`` (each column's source and SCM's check in its comment lines) and
-    ``<simulator>.json``; the check, repairs and notes also to stderr."""
-    import json
-
-    from ..outputs import json_safe, output_path, write_atomic, write_csv
-
-    name = export.simulator
-    extra = export.comment_lines()
-    if record["forced"]:
-        extra.append("FORCED: written although: " + "; ".join(record["failures"]))
-    write_csv(
-        out / f"{name}.csv",
-        export.table,
-        _Annotated(provenance, extra),
-        overwrite=True,
-        float_format="%.10g",
-    )
-    context = {k: record[k] for k in ("soil", "models", "kind", "forced", "failures", "selection")}
-    context |= {"seed": args.seed, "version": provenance.to_dict().get("soilstats_version")}
-    write_atomic(
-        output_path(out, f"{name}.json", overwrite=True),
-        json.dumps(json_safe(export.record(support, context)), indent=2) + "\n",
-    )
-    repaired = export.check.repair_sentence()
-    if repaired:
-        print(f"WARNING: {name}: {repaired}", file=sys.stderr)
-    for note in export.notes:
-        print(f"note: {name}: {note}", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -435,9 +312,9 @@ def _checked_sampled_written(args, models, priors, stated) -> int:
     with reused_fits(), one_blas_thread():
         early, _ = preflight(campaign, models, population=args.population, soil=args.soil)
         if early and not args.force:
-            return _refuse(early, out, args, sampled=False)
+            return refuse(early, out, args, sampled=False)
         results, caught, figures = _sample(campaign, models, priors, args)
-    return _decide_and_write(
+    return decide_and_write(
         args,
         models,
         results,
@@ -525,188 +402,6 @@ def _sample_and_draw(task):
     campaign, model, priors, args, index = task
     result, said = _recorded(campaign, model, priors, args, index, progress=index == 0)
     return result, said, model_figures(result)
-
-
-def _refuse(failures, out: Path, args, *, sampled: bool, simulator_only: bool = False) -> int:
-    """Print why the draws are not handed out; exit 2 (nothing written)."""
-    for text in failures:
-        print(f"error: {text}", file=sys.stderr)
-    if simulator_only:
-        print(
-            f"error: nothing written to {out}: the posterior draws passed their checks, but "
-            f"their {args.simulator} parameter sets break the simulator's constraints. "
-            "Apply the fix above, or pass --force to write them anyway (marked FORCED)",
-            file=sys.stderr,
-        )
-        return 2
-    advice = (
-        "select fewer conditions, window the data (--z-max), state narrower --prior "
-        "ranges, or pass --force to write them anyway (marked FORCED; unphysical draws are "
-        "left out)"
-    )
-    if args.population and sampled:
-        # Where the tests agree to within their noise, the scatter sds (sd_p_ref, sd_n;
-        # sd_strength, sd_lnK) pile up at 0, the boundary of their support, and the chains
-        # mix badly there (a review: R-hat up to 2.0 on zero-scatter data).
-        advice = (
-            "With --population: if the tests agree to within their noise, the scatter "
-            "sds sit at 0 and the chains cannot mix there; the pooled posterior (without "
-            f"--population) is then the model the data support. Otherwise {advice}"
-        )
-    elif not sampled:
-        advice = (
-            "Refused before sampling. Fit each plate size on its own (--select radius_m=…), "
-            "or use the pooled posterior (without --population), or pass --force to sample "
-            "and write anyway (marked FORCED)"
-        )
-    else:
-        advice = advice[0].upper() + advice[1:]
-    print(
-        f"error: nothing written to {out}: these draws are not fit for a rover Monte Carlo. "
-        f"{advice}",
-        file=sys.stderr,
-    )
-    return 2
-
-
-def _warnings(caught, widths, args, campaign, models, handout, pooled_warnings) -> list[str]:
-    """The warnings of a run, printed one line each: the library's own, numerical ones
-    summed up, extrapolation, pooling and the flagged least-squares starts."""
-    from ..errors import SoilstatsWarning
-
-    ours = [str(w.message) for w in caught if issubclass(w.category, SoilstatsWarning)]
-    numeric = len(caught) - len(ours)
-    if numeric:  # numpy overflow/invalid while sampling: one line, not hundreds
-        ours.append(
-            f"{numeric} numerical warnings (overflow, invalid values) while sampling: the "
-            "sampler reached extreme parameter values (an improper or very wide posterior)"
-        )
-    ours += extrapolation_warnings(widths, _tested_widths(args, campaign), models)
-    for text in [*ours, *pooled_warnings]:
-        print(f"WARNING: {text}", file=sys.stderr)
-    for model, flags in handout.least_squares_health.items():
-        if flags:
-            codes = ", ".join(sorted({f["code"] for f in flags}))
-            print(
-                f"WARNING: the {model} least-squares fit these draws start from is flagged "
-                f"({codes}); the posterior inherits its data and model problems (messages in "
-                "posterior.json, least_squares_health; soilstats identify --verbose)",
-                file=sys.stderr,
-            )
-    return ours
-
-
-def _decide_and_write(
-    args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance, figures
-) -> int:
-    """The library's decision on the draws, printed; the files written where it allows."""
-    import pandas as pd
-
-    from ..bayes.handout import hand_out
-
-    out = Path(args.out)
-    handout = hand_out(results, widths, seed=args.seed, population=args.population)
-    kept = handout.draws
-    # What a user is handed (draws.csv) is what the summary describes; diagnostics stay the
-    # chains' (a review: k's interval started at a draw with n < 0 that draws.csv left out).
-    table = pd.concat(
-        [r.summary_table(0.9, kept).assign(model=r.model_name, kind=r.kind) for r in results]
-    )
-    table.index.name = "quantity"
-    failures = list(handout.failures)
-    export = _export(args, models, results, kept, stated, campaign) if args.simulator else None
-    if export is not None and not export.check.passed:
-        failures += _export_failures(args.simulator, export.check)
-    ours = _warnings(caught, widths, args, campaign, models, handout, pooled_warnings)
-    if failures and not args.force:
-        simulator_only = export is not None and len(failures) == len(export.check.failures)
-        return _refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
-    from ..bayes.run_record import posterior_record  # bayes: too heavy for --help
-    from ..outputs import json_safe
-
-    record = posterior_record(
-        args.soil,
-        models,
-        results,
-        handout,
-        failures,
-        ours,
-        pooled_warnings,
-        list(args.select or []),
-        provenance,
-    )
-    if export is not None:
-        record = json_safe(record | {"simulator": export.record()})
-    _write(out, args, results, record, table, kept, provenance, figures)
-    if export is not None:
-        _write_export(out, export, record, handout.support, provenance, args)
-    _print(args, out, results, record, table, handout)
-    if failures:
-        print("WARNING: FORCED — written although: " + "; ".join(failures), file=sys.stderr)
-        return 1
-    return 0
-
-
-def _write(out: Path, args, results, record: dict, table, kept, provenance, figures) -> None:
-    """posterior*.nc, draws.csv, summary.csv, posterior.json and report.pdf."""
-    import json
-
-    from ..outputs import json_safe, output_path, write_atomic, write_csv
-    from ..report.posterior_pdf import write_report
-
-    prov = provenance.to_dict() | {"forced": record["forced"]}
-    for i, res in enumerate(results):
-        name = "posterior.nc" if i == 0 else f"posterior_{res.model_name}.nc"
-        # netCDF attributes take no None: the record travels as JSON strings.
-        res.idata.posterior.attrs["soilstats_provenance"] = json.dumps(json_safe(prov))
-        res.idata.posterior.attrs["soilstats_record"] = json.dumps(record)
-        write_atomic(
-            output_path(out, name, overwrite=True),
-            lambda tmp, idata=res.idata: idata.to_netcdf(str(tmp)),
-        )
-    write_csv(out / "draws.csv", kept, provenance, overwrite=True, float_format="%.10g")
-    write_csv(out / "summary.csv", table.reset_index(), provenance, overwrite=True)
-    write_atomic(
-        output_path(out, "posterior.json", overwrite=True), json.dumps(record, indent=2) + "\n"
-    )
-    # Like the files above: the command checked --out before sampling (--overwrite).
-    write_report(
-        results,
-        out / "report.pdf",
-        provenance=provenance,
-        overwrite=True,
-        record=record,
-        handed_out=kept,
-        figures=figures,
-    )
-
-
-def _print(args, out: Path, results, record: dict, table, handout) -> None:
-    """The summary on stdout (or one JSON object with --json), and the notes on stderr."""
-    import json
-
-    from ..outputs import json_safe
-
-    if args.json:
-        print(
-            json.dumps(
-                json_safe(
-                    record | {"out": str(out), "summary": table.reset_index().to_dict("records")}
-                ),
-                indent=2,
-            )
-        )
-    else:
-        for res in results:
-            print(res.summary(handed_out=handout.draws))
-        print(f"Physical support: {handout.support.describe()}")
-    pooled_only = [m for m in record["models"] if not _has_population(m)]
-    if args.population and pooled_only:
-        print(
-            f"note: {', '.join(pooled_only)} has no population model (no per-test curve to "
-            "scatter); its block is the pooled posterior",
-            file=sys.stderr,
-        )
 
 
 def main(argv: list[str] | None = None) -> int:
