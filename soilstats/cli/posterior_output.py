@@ -3,13 +3,14 @@ the record and what is printed (the command's options and sampling: cli/posterio
 
 from __future__ import annotations
 
+import argparse
 import sys
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    pass
+    from ..campaign.campaign import Campaign
 
 __all__ = [
     "decide_and_write",
@@ -47,7 +48,7 @@ def prior_seed(seed: int, models: Sequence[str]) -> int:
     return model_seed(seed, len(models))
 
 
-def tested_widths(args, campaign) -> tuple[float, float] | None:
+def tested_widths(args: argparse.Namespace, campaign: Campaign) -> tuple[float, float] | None:
     """Smallest and largest plate dimension b [m] of the soil's sinkage tests, if any."""
     tests = campaign.tests
     b = tests.loc[(tests["kind"] == "sinkage") & (tests["soil"].astype(str) == args.soil), "b_m"]
@@ -152,7 +153,14 @@ def _write_export(out: Path, export, record: dict, support, provenance, args) ->
         print(f"note: {name}: {note}", file=sys.stderr)
 
 
-def refuse(failures, out: Path, args, *, sampled: bool, simulator_only: bool = False) -> int:
+def refuse(
+    failures: list[str],
+    out: Path,
+    args: argparse.Namespace,
+    *,
+    sampled: bool,
+    simulator_only: bool = False,
+) -> int:
     """Print why the draws are not handed out; exit 2 (nothing written)."""
     for text in failures:
         print(f"error: {text}", file=sys.stderr)
@@ -222,7 +230,16 @@ def _warnings(caught, widths, args, campaign, models, handout, pooled_warnings) 
 
 
 def decide_and_write(
-    args, models, results, caught, widths, pooled_warnings, stated, campaign, provenance, figures
+    args: argparse.Namespace,
+    models: list[str],
+    results: list[Any],
+    caught: Any,
+    widths: tuple[float, float],
+    pooled_warnings: list[str],
+    stated: dict,
+    campaign: Campaign,
+    provenance: Any,
+    figures: Any,
 ) -> int:
     """The library's decision on the draws, printed; the files written where it allows."""
     import pandas as pd

@@ -6,7 +6,7 @@ Holm adjustment covers them too).
 
 from __future__ import annotations
 
-from collections.abc import Collection, Hashable, Iterable, Mapping
+from collections.abc import Collection, Hashable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -49,7 +49,7 @@ INTERACTION = " × "
 
 def interaction_pairs(
     cands: Iterable[Candidate],
-    related: Mapping[str, Collection[str]],
+    related: Mapping[str, set[str]],
     eligible: Collection[str],
     partition_of: Mapping[str, Hashable],
 ) -> list[tuple[str, str]]:
@@ -88,7 +88,15 @@ def family_row(group: Group, name: str, response: str, res: Mapping[str, Any], *
     )
 
 
-def within_blocks(group, table, cands, related, eligible, codes, values_of):
+def within_blocks(
+    group: Group,
+    table: pd.DataFrame,
+    cands: Sequence[Candidate],
+    related: Mapping[str, set[str]],
+    eligible: Collection[str],
+    codes: Mapping[str, np.ndarray],
+    values_of: Mapping[str, pd.Series],
+) -> tuple[pd.DataFrame, list[dict]]:
     """A drift inside one block of the design (:func:`.ftests.within_blocks_test`) per
     time/order candidate: its strata are those of its own trend test (one per aliased
     partition), and the candidate ``T within B`` is a column of block labels (for the folds
@@ -182,7 +190,15 @@ def level_labels(values: pd.Series) -> pd.Series:
     return values.astype(str)
 
 
-def interactions(group, table, cands, related, eligible, codes, values_of):
+def interactions(
+    group: Group,
+    table: pd.DataFrame,
+    cands: Sequence[Candidate],
+    related: Mapping[str, set[str]],
+    eligible: Collection[str],
+    codes: Mapping[str, np.ndarray],
+    values_of: Mapping[str, pd.Series],
+) -> tuple[pd.DataFrame, list[dict], list[Relation]]:
     """Two-way interactions of crossed design-like factors (:func:`interaction_test`): the
     per-test rows of the family, the table with one cell-label column per pair (``A × B``,
     for the per-cell extension), and the main candidates each pair is aliased with.
@@ -252,8 +268,14 @@ def interactions(group, table, cands, related, eligible, codes, values_of):
                     rows=np.flatnonzero(ok),
                 )
             )
-    # Interactions of nested factors nest in turn (velocity × tool determines velocity ×
-    # area when tool determines area): related, so that one leads and the other is named.
+    rels += _related_interactions(cells)
+    return (table.assign(**columns) if columns else table), rows_out, rels
+
+
+def _related_interactions(cells: Mapping[str, np.ndarray]) -> list[Relation]:
+    """Interactions of nested factors nest in turn (velocity × tool determines velocity ×
+    area when tool determines area): related, so that one leads and the other is named."""
+    rels = []
     names = list(cells)
     for i, m in enumerate(names):
         for n in names[i + 1 :]:
@@ -262,4 +284,4 @@ def interactions(group, table, cands, related, eligible, codes, values_of):
                 rels.append(Relation("aliased", m, n))
             elif mn or nm:
                 rels.append(Relation("nested", *((m, n) if mn else (n, m))))
-    return (table.assign(**columns) if columns else table), rows_out, rels
+    return rels

@@ -151,7 +151,9 @@ class ConditionFits:
 MIN_SIZE_RATIO = 1.5
 
 
-def model_for(kind: str, model: str, fallback: str | None, tests: pd.DataFrame):
+def model_for(
+    kind: str, model: str, fallback: str | None, tests: pd.DataFrame
+) -> tuple[str | None, str | None]:
     """(model to fit or None, note): a model whose record needs several plate sizes
     (``Model.min_plate_sizes``: Bekker, Reece) falls back where the condition has fewer."""
     if kind == "shear":
