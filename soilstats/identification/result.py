@@ -82,13 +82,14 @@ class CampaignFit(FitResult):
         fields_ = {f.name: getattr(fit, f.name) for f in fields(FitResult)}
         out = cls(**fields_, test_columns=pooled.by_test)
         out.__dict__["_pending"] = finish
+        out.__dict__["_finishing"] = threading.Lock()  # this result's: others finish alongside
         return out
 
     def _finish(self) -> None:
         """Take the deferred fields from the pending ``finish`` (:meth:`deferred`), once."""
         if "_pending" not in self.__dict__:
             return
-        with _FINISHING:  # two threads reading one result: one finishes, the other waits
+        with self.__dict__["_finishing"]:  # two threads reading it: one finishes, one waits
             finish = self.__dict__.get("_pending")
             if finish is None:
                 return
@@ -100,7 +101,7 @@ class CampaignFit(FitResult):
     def __getstate__(self) -> dict:
         """Pickled (``--jobs`` workers) and copied finished: the pending work is a closure."""
         self._finish()
-        return dict(self.__dict__)
+        return {k: v for k, v in self.__dict__.items() if k != "_finishing"}
 
     @cached_property
     def tests(self) -> pd.DataFrame | None:
@@ -289,7 +290,6 @@ class _Deferred:
 #: The fields a deferred fit sets on first read: everything the test bootstrap and the
 #: adequacy checks decide.
 _DEFERRED = ("notes", "extra_flags", "bootstrap", "data")
-_FINISHING = threading.RLock()
 for _name in _DEFERRED:
     setattr(CampaignFit, _name, _Deferred(_name))
 
