@@ -122,7 +122,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--campaigns", type=int, default=200)
     parser.add_argument("--resamples", type=int, default=1000)
+    parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = parser.parse_args()
+    if args.smoke:
+        args.campaigns, args.resamples = 3, 20
     cost(args.resamples)
     if args.campaigns > 0:
         coverage(args.campaigns)

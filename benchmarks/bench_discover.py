@@ -15,6 +15,7 @@ medians, the speed-up, and whether the two JSON outputs are identical (they must
 
     python benchmarks/bench_discover.py [ROUNDS]
     python benchmarks/bench_discover.py [ROUNDS] --jobs /tmp/scale10
+    python benchmarks/bench_discover.py --smoke     # GRC-1 once: that it runs (tests, CI)
 
 A 10 000-test campaign: ``soilstats simulate SPEC --out /tmp/scale10 --seed 1`` with the
 bundled campaign's spec (soilstats/data/simulated-paper/spec.toml) scaled up tenfold.
@@ -74,9 +75,9 @@ def _without_command(text: str) -> dict:
     return doc
 
 
-def bundled(rounds: int) -> None:
+def bundled(rounds: int, campaigns: dict = CAMPAIGNS) -> None:
     print(f"soilstats {soilstats.__version__}: discover, median of {rounds} runs\n")
-    for name, target in CAMPAIGNS.items():
+    for name, target in campaigns.items():
         steps = _steps(name)
         tests = len(soilstats.load_campaign(name).tests)
         whole = statistics.median(_command(name)[0] for _ in range(rounds))
@@ -111,6 +112,9 @@ def jobs(data: str, rounds: int) -> None:
 
 def main() -> None:
     args = sys.argv[1:]
+    if args == ["--smoke"]:
+        bundled(1, {"grc1-oravec2009": None})
+        return
     rounds = int(args.pop(0)) if args and args[0].isdigit() else 3
     if args[:1] == ["--jobs"]:
         jobs(args[1], rounds)

@@ -57,7 +57,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("folders", nargs="*", type=Path, help="campaign folders to time too")
     parser.add_argument("-r", "--repeat", type=int, default=3, help="runs per step (median)")
     parser.add_argument("--bundled", default="simulated-paper", help="bundled campaign name")
+    parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = parser.parse_args(argv)
+    if args.smoke:
+        args.repeat, args.bundled = 1, "grc1-oravec2009"
     print(f"{'campaign':<28}{'tests':>7}{'samples':>10}{'load s':>9}{'screen s':>10}{'sha s':>8}")
     for source in [args.bundled, *args.folders]:
         r = bench(source, args.repeat)

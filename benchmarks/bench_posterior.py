@@ -319,8 +319,27 @@ def main() -> pd.DataFrame:
     return table
 
 
+def smoke() -> None:
+    """``--smoke``: each contender once at tiny sizes, seconds — that the script still runs
+    (tests/test_benchmarks.py); its numbers mean nothing."""
+    global STEPS, BURN
+    STEPS, BURN = 200, 50
+    campaign = paper_size_campaign()
+    problem, fit = pooled_problem(campaign, "bekker")
+    print("sample_posterior", ours(campaign, 500))
+    print("emcee", plain_emcee(problem, fit, vectorize=True))
+    label, args, runs = POPULATION_CASES[0]
+    print(label, "CLI (wall, CPU) s:", cli_seconds(args))
+    name, model, selection = runs[0]
+    campaign = load_campaign(name)
+    print("sample_population", population_ours(campaign, model, selection))
+    print("population emcee", population_emcee(campaign, model, selection))
+
+
 if __name__ == "__main__":
-    if "--population" in sys.argv[1:]:
+    if "--smoke" in sys.argv[1:]:
+        smoke()
+    elif "--population" in sys.argv[1:]:
         population_main()
     else:
         main()

@@ -48,15 +48,17 @@ SPEC = ROOT / "soilstats" / "data" / "simulated-paper" / "spec.toml"
 TARGETS = {"load": 3.0, "screen + identify": 10.0, "discover": 60.0}
 
 
-def build_campaigns(folder: Path, sizes: list[int], seed: int = 1) -> dict[int, Path]:
-    """The ×10 campaign and seeded subsets of it, saved as campaign folders."""
+def build_campaigns(
+    folder: Path, sizes: list[int], seed: int = 1, factor: int = 10
+) -> dict[int, Path]:
+    """The ×``factor`` campaign and seeded subsets of it, saved as campaign folders."""
     import numpy as np
 
     from soilstats.simulation import load_spec, simulate
 
     text = re.sub(
         r"^repetitions = (\d+)",
-        lambda m: f"repetitions = {int(m.group(1)) * 10}",
+        lambda m: f"repetitions = {int(m.group(1)) * factor}",
         SPEC.read_text(),
         flags=re.M,
     )
@@ -178,13 +180,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[100, 1000, 10000])
     parser.add_argument("--measure", help=argparse.SUPPRESS)  # internal: one fresh process
+    parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = parser.parse_args()
+    if args.smoke:
+        args.sizes = [20]
     if args.measure:
         print(json.dumps(measure(args.measure)))
         return
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        paths = build_campaigns(Path(tmp), args.sizes)
+        paths = build_campaigns(Path(tmp), args.sizes, factor=1 if args.smoke else 10)
         print(f"simulated and saved the campaigns in {time.perf_counter() - t0:.1f} s")
         rows = {}
         for size, path in paths.items():

@@ -5,6 +5,7 @@ Targets (issue: fast start): `import soilstats` under 1 s, `soilstats --help` an
 the median of ROUNDS runs is reported with the interpreter's own start-up for reference.
 
     python benchmarks/bench_startup.py [ROUNDS]
+    python benchmarks/bench_startup.py --smoke      # one round, two commands (tests, CI)
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ import time
 
 from soilstats.cli.main import SUBCOMMANDS
 
-ROUNDS = int(sys.argv[1]) if len(sys.argv) > 1 else 7
+SMOKE = sys.argv[1:] == ["--smoke"]
+ROUNDS = 1 if SMOKE else int(sys.argv[1]) if len(sys.argv) > 1 else 7
 
 
 def _median_seconds(argv: list[str]) -> tuple[float, int]:
@@ -37,7 +39,8 @@ def main() -> None:
         ("soilstats --help", [py, "-m", "soilstats", "--help"], 0.3),
     ]
     cases += [
-        (f"soilstats {s} --help", [py, "-m", "soilstats", s, "--help"], 0.3) for s in SUBCOMMANDS
+        (f"soilstats {s} --help", [py, "-m", "soilstats", s, "--help"], 0.3)
+        for s in list(SUBCOMMANDS)[: 1 if SMOKE else None]
     ]
     print(f"{'command':<36}{'median s':>10}{'target s':>10}{'exit':>6}  ok")
     for label, argv, target in cases:

@@ -6,6 +6,7 @@ shared).  Side by side, from the same run: the naive way — for each (draw, sli
 on a subset, as a time per case and a ratio, with the largest difference between the two.
 
     python benchmarks/bench_wheel.py            # prints the timings; not a unit test
+    python benchmarks/bench_wheel.py --smoke    # 50 draws, one round: that it runs (tests, CI)
 
 The naive loop calls the package's own (numpy) stress functions on scalars, so per-call
 overhead is part of its cost: a loop written with ``math`` would be faster, the model the same.
@@ -15,6 +16,7 @@ below; c, φ, K from stated priors), for a CMU-sized wheel (r = 58 mm, b = 50 mm
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -31,7 +33,8 @@ WHEEL = Wheel(radius_m=0.058, width_m=0.05)
 LOAD = 22.0
 SLIPS = np.linspace(-0.9, 0.9, 20)
 PRIORS = {"phi": ("normal", 30, 3), "c": ("uniform", 0, 1000), "K": ("lognormal", 0.01, 0.5)}
-N_DRAWS, N_NAIVE = 4000, 5
+SMOKE = "--smoke" in sys.argv[1:]
+N_DRAWS, N_NAIVE = (50, 1) if SMOKE else (4000, 5)
 
 
 def synthetic_draws(n: int, seed: int = 0) -> pd.DataFrame:
@@ -82,7 +85,7 @@ def main() -> None:
     draws = synthetic_draws(N_DRAWS)
     print(f"wheel: {WHEEL.describe()}, W = {LOAD} N, {N_DRAWS} draws x {len(SLIPS)} slips")
     times = []
-    for _ in range(3):
+    for _ in range(1 if SMOKE else 3):
         t0 = time.perf_counter()
         predict_wheel(draws, WHEEL, LOAD, SLIPS, priors=PRIORS, seed=1)
         times.append(time.perf_counter() - t0)

@@ -7,6 +7,7 @@ residual tests, 34 held-out fits, sensitivity, JSON, CSV and the typeset PDF), t
 in one process.
 
     python benchmarks/bench_wheel_validation.py            # prints the timings; not a test
+    python benchmarks/bench_wheel_validation.py --smoke    # the parts at 200 draws, no command
 """
 
 from __future__ import annotations
@@ -32,7 +33,21 @@ def timed(label: str, fn):
     return out
 
 
+def smoke() -> None:
+    """``--smoke``: load, 200 plate draws and the prediction with its tests, no extension or
+    sensitivity and no fresh command (tests/test_benchmarks.py): that it still runs."""
+    runs = bundled_path(CMU) / "wheel.csv"
+    campaign = timed("load and screen the plates", lambda: screen(load_campaign(CMU)).campaign)
+    plate = timed("posterior, 200 draws", lambda: plate_draws(campaign, n_draws=200, seed=0))
+    timed(
+        "validate_wheel, prediction and tests only (no extension)",
+        lambda: validate_wheel(campaign, runs, draws=plate, extension=False, sensitivity=False),
+    )
+
+
 def main() -> None:
+    if "--smoke" in sys.argv[1:]:
+        return smoke()
     with tempfile.TemporaryDirectory() as tmp:
         command = ["soilstats", "wheel", CMU, "--out", str(Path(tmp) / "w"), "--progress", "off"]
         timed(

@@ -30,14 +30,20 @@ CASES = [
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", type=int, nargs="+", default=[0])
+    p.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = p.parse_args(argv)
-    campaigns = {name: soilstats.load_campaign(name) for name in {c[0] for c in CASES}}
+    cases = CASES[-1:] if args.smoke else CASES  # smoke: Cullinan sand's Bernstein only
+    campaigns = {name: soilstats.load_campaign(name) for name in {c[0] for c in cases}}
     print(
         f"{'campaign':16} {'soil':14} {'model':13} {'kind':10} {'seed':>4} {'seconds':>8}"
         f" {'max R-hat':>9} {'min ESS bulk':>12} {'min ESS tail':>12}  converged"
     )
     for seed in args.seeds:
-        for name, soil, model in CASES:
+        for name, soil, model in cases:
             kinds = ("pooled", "population") if model in POPULATION_MODELS else ("pooled",)
             for kind in kinds:
                 fn = sample_posterior if kind == "pooled" else sample_population

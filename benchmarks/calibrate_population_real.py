@@ -280,8 +280,15 @@ def main(argv: list[str] | None = None) -> list[Row]:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--only", default="", help="groups whose label contains this text")
     p.add_argument("--json", default=None, help="also write the rows to this file")
+    p.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = p.parse_args(argv)
     groups = [g for g in GROUPS if args.only.lower() in g.label.lower()]
+    if args.smoke:
+        groups, args.draws = groups[:1], 200
     campaigns = {}
     for name in dict.fromkeys(g.campaign for g in groups):
         campaigns[name] = screen(soilstats.load_campaign(name), "clean").campaign

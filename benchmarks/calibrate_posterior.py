@@ -38,7 +38,14 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--sets", type=int, default=200, help="pooled campaigns per model")
     p.add_argument("--population-sets", type=int, default=20, help="population campaigns")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = p.parse_args(argv)
+    if args.smoke:
+        args.sets, args.population_sets = 2, 1
     print("Coverage of 90 % intervals (rate ± binomial se of independent trials)")
     total_hits = total = 0
     for model in ("bekker", "bernstein"):

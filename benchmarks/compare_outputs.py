@@ -3,6 +3,7 @@
     python benchmarks/compare_outputs.py capture /tmp/refactor-baseline   # before the change
     python benchmarks/compare_outputs.py capture /tmp/refactor-after      # after it
     python benchmarks/compare_outputs.py compare /tmp/refactor-baseline /tmp/refactor-after
+    python benchmarks/compare_outputs.py --smoke    # that it runs (tests/test_benchmarks.py)
 
 ``capture`` writes into DIR (created; must not exist yet):
 
@@ -37,6 +38,7 @@ import math
 import re
 import subprocess
 import sys
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -346,6 +348,11 @@ def main(argv=None) -> int:
     both = sub.add_parser("compare")
     both.add_argument("base", type=Path)
     both.add_argument("new", type=Path)
+    argv = sys.argv[1:] if argv is None else argv
+    if argv == ["--smoke"]:  # tests/test_benchmarks.py: the fits and `identify`, compared
+        with tempfile.TemporaryDirectory() as tmp:
+            capture(Path(tmp) / "a", {"identify"})
+            return compare(Path(tmp) / "a", Path(tmp) / "a")
     args = parser.parse_args(argv)
     if args.action == "capture":
         capture(args.directory, args.only)

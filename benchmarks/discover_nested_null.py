@@ -133,7 +133,7 @@ def main() -> None:
     if "--effect" in sys.argv:
         effect = float(sys.argv[sys.argv.index("--effect") + 1])
         args.remove(sys.argv[sys.argv.index("--effect") + 1])
-    seeds = int(args[0]) if args else 300
+    seeds = 2 if "--smoke" in sys.argv else int(args[0]) if args else 300  # smoke: it runs
     start = time.perf_counter()
     with Pool(2) as pool:
         jobs = [(s, alpha, effect) for s in range(seeds)]

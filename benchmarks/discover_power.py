@@ -341,7 +341,9 @@ def interaction_power(seeds: int) -> None:
 def main() -> None:
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     verbose = "--verbose" in sys.argv
-    if "--null" in sys.argv:
+    if "--smoke" in sys.argv:  # one seed of each situation: that it runs (tests, CI)
+        independent(1, verbose)
+    elif "--null" in sys.argv:
         null_rate(int(args[0]) if args else 200, verbose)
     elif "--tests" in sys.argv:
         tests_situations(int(args[0]) if args else 20)

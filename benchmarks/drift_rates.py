@@ -41,7 +41,14 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--campaigns", type=int, default=100)
     parser.add_argument("--repetitions", type=int, default=6)
+    parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = parser.parse_args(argv)
+    if args.smoke:
+        args.campaigns = 2
     print(f"{'drift/test':>10} {'campaigns':>9} {'flagged':>8} {'tests hit':>9} {'trend':>6}")
     for step in (0.0, 0.0025, 0.005, 0.01, 0.02, 0.05):
         n = 2 * args.campaigns if step == 0 else args.campaigns

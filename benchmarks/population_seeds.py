@@ -32,11 +32,25 @@ def _seeds(text: str) -> list[int]:
 
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("campaign", help="bundled campaign name or a campaign folder")
-    p.add_argument("soil")
-    p.add_argument("model", choices=("bekker", "bernstein", "janosi"))
+    p.add_argument("campaign", nargs="?", help="bundled campaign name or a campaign folder")
+    p.add_argument("soil", nargs="?")
+    p.add_argument("model", nargs="?", choices=("bekker", "bernstein", "janosi"))
     p.add_argument("--seeds", default="0-3", help="0-7 or 0,3,5")
+    p.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = p.parse_args(argv)
+    if args.smoke:  # GRC-1's 51 mm plate, one seed
+        args.campaign, args.soil, args.model, args.seeds = (
+            "grc1-oravec2009",
+            "GRC-1",
+            "bernstein",
+            "0",
+        )
+    elif args.model is None:
+        p.error("campaign, soil and model are required")
     campaign = soilstats.load_campaign(bundled_path(args.campaign) or args.campaign)
     for seed in _seeds(args.seeds):
         t0 = time.perf_counter()

@@ -92,7 +92,10 @@ def equal_scatter(n: int, shift: float) -> None:
 
 if __name__ == "__main__":
     warnings.filterwarnings("ignore")
-    if sys.argv[1] == "--equal-scatter":
+    if sys.argv[1] == "--smoke":  # one campaign of each: that it runs (tests, CI)
+        bundled(1, 0.0)
+        equal_scatter(2, 0.0)
+    elif sys.argv[1] == "--equal-scatter":
         equal_scatter(int(sys.argv[2]), float(sys.argv[3]))
     else:
         bundled(int(sys.argv[1]), float(sys.argv[2]) if len(sys.argv) > 2 else 0.0)

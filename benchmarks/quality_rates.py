@@ -170,7 +170,14 @@ def toe_rates(seeds: int) -> pd.DataFrame:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3, help="campaigns per design (3)")
+    parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
+    )
     args = parser.parse_args()
+    if args.smoke:
+        args.seeds = 1
     planted = planted_rates(args.seeds)
     table = planted.groupby("situation", sort=False)[
         ["events", "found", "other_tests", "false_flags"]

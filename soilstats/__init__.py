@@ -100,7 +100,24 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .wheel import Wheel, WheelPrediction, predict_wheel, wheel_forces
 
 
-__getattr__, __dir__ = lazy_names(__name__, _LAZY, globals())
+#: subpackages reached as attributes of ``soilstats`` (loaded on first access too)
+_SUBPACKAGES = (
+    "bayes",
+    "campaign",
+    "discovery",
+    "fitting",
+    "identification",
+    "models",
+    "outputs",
+    "quality",
+    "report",
+    "simulation",
+    "statistics",
+    "study",
+    "wheel",
+)
+
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, globals(), _SUBPACKAGES)
 
 
 __all__ = [

@@ -11,13 +11,20 @@ import importlib
 from collections.abc import Callable
 
 
-def lazy_names(package: str, names: dict[str, str], namespace: dict) -> tuple[Callable, Callable]:
+def lazy_names(
+    package: str, names: dict[str, str], namespace: dict, subpackages: tuple[str, ...] = ()
+) -> tuple[Callable, Callable]:
     """``(__getattr__, __dir__)`` for ``package``, whose public ``names`` map to the module
     (absolute, or relative to the package) that defines each; a name is imported on first
     access and then kept in ``namespace`` (the package's ``globals()``), so later lookups
-    skip the hook."""
+    skip the hook.  ``subpackages`` load the same way, as ``import package`` users expect
+    (``soilstats.identification.pool_sinkage`` after ``import soilstats``)."""
 
     def __getattr__(name: str) -> object:
+        if name in subpackages:
+            value = importlib.import_module(f"{package}.{name}")
+            namespace[name] = value
+            return value
         module = names.get(name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
@@ -26,6 +33,6 @@ def lazy_names(package: str, names: dict[str, str], namespace: dict) -> tuple[Ca
         return value
 
     def __dir__() -> list[str]:
-        return sorted(set(namespace) | set(names))
+        return sorted(set(namespace) | set(names) | set(subpackages))
 
     return __getattr__, __dir__

@@ -467,7 +467,8 @@ def test_time_order_trends_are_linear_in_time():
     against an ordinary least-squares slope test (scipy.stats.linregress)."""
     from scipy.stats import linregress
 
-    from soilstats.discovery.extensions import Features, SinkageExtension, Term, combine
+    from soilstats.discovery.extensions import Features, SinkageExtension, Term
+    from soilstats.discovery.library import combine
 
     rng = np.random.default_rng(5)
     order = np.arange(1.0, 35.0)

@@ -88,7 +88,8 @@ def test_failed_chain_is_not_fitted_further():
     loop stopped at the first failed fold), in this process and over workers (where the
     first task of each chain runs first); the other chains' outcomes are the same."""
     from soilstats.discovery.data import build_groups
-    from soilstats.discovery.extensions import SinkageExtension, base_model
+    from soilstats.discovery.extensions import SinkageExtension
+    from soilstats.discovery.library import base_model
     from soilstats.discovery.work import FitTask, Pool
     from soilstats.errors import IdentifiabilityError
 

@@ -15,14 +15,8 @@ import pandas as pd
 import pytest
 
 from soilstats.discovery.data import Group
-from soilstats.discovery.extensions import (
-    Features,
-    ShearExtension,
-    SinkageExtension,
-    Term,
-    combine,
-    library,
-)
+from soilstats.discovery.extensions import Features, ShearExtension, SinkageExtension, Term
+from soilstats.discovery.library import combine, library
 from soilstats.errors import IdentifiabilityError
 
 KC, KPHI, N = 2.0e4, 8.0e5, 1.1  # Eq. 7 [N/m^(n+1)], [N/m^(n+2)], [-]

@@ -138,11 +138,11 @@ def test_qr_then_svd_gives_the_svd_of_the_scaled_jacobian(shape):
 
 
 def test_covariance_of_an_ill_conditioned_jacobian_matches_the_plain_svd():
-    from soilstats.fitting.identify import _covariance
+    from soilstats.fitting.identify import eq4_covariance
 
     rows = collinear_rows(4000, 6, 1e-6)  # cond ~1e7: the SVD branch of Eq. 4
     scale = np.sqrt((rows * rows).sum(axis=1))
-    cond, cov = _covariance(rows.T, rss=3.0, dof=4000 - 6)
+    cond, cov = eq4_covariance(rows.T, rss=3.0, dof=4000 - 6)
     _, sv, vt = np.linalg.svd(rows.T / scale, full_matrices=False)
     reference = (vt.T / sv**2) @ vt / np.outer(scale, scale) * 3.0 / (4000 - 6)
     assert cond == pytest.approx(sv[0] / sv[-1], rel=1e-8) and cond > 1e6
@@ -151,7 +151,7 @@ def test_covariance_of_an_ill_conditioned_jacobian_matches_the_plain_svd():
     assert np.abs((cov - reference) / np.outer(sd, sd)).max() < 1e-7
     # The eigen branch (well conditioned) against the explicit inverse.
     rows = collinear_rows(4000, 3, 0.5)
-    cond, cov = _covariance(rows.T, rss=3.0, dof=4000 - 3)
+    cond, cov = eq4_covariance(rows.T, rss=3.0, dof=4000 - 3)
     reference = np.linalg.inv(rows @ rows.T) * 3.0 / (4000 - 3)
     assert cond < 1e4
     np.testing.assert_allclose(cov, reference, rtol=1e-10)
@@ -242,11 +242,11 @@ def test_every_stopping_rule_of_the_lm_says_why_it_stopped():
 
 
 def test_eigh_without_numpys_wrapper_matches_numpy():
-    from soilstats.fitting.levenberg_marquardt import _eigh
+    from soilstats.fitting.levenberg_marquardt import small_eigh
 
     a = np.random.default_rng(3).standard_normal((5, 5))
     a = a @ a.T
-    eig, vecs = _eigh(a)
+    eig, vecs = small_eigh(a)
     eig_ref, vecs_ref = np.linalg.eigh(a)
     np.testing.assert_allclose(eig, eig_ref, rtol=1e-13)
     np.testing.assert_allclose(np.abs(vecs), np.abs(vecs_ref), atol=1e-12)

@@ -98,11 +98,11 @@ def test_cli_shear_population_writes_new_preparation_draws(tmp_path):
 
 def test_population_models_are_those_whose_record_has_a_layout():
     from soilstats.bayes.population import POPULATION_MODELS
-    from soilstats.cli.posterior import _has_population
+    from soilstats.cli.posterior_output import has_population
     from soilstats.models import MODELS
 
     assert POPULATION_MODELS == ("bekker", "bernstein", "janosi")
-    assert [n for n in MODELS if _has_population(n)] == list(POPULATION_MODELS)
+    assert [n for n in MODELS if has_population(n)] == list(POPULATION_MODELS)
 
 
 def test_sampling_coordinates_round_trip_and_exact_jacobian():
@@ -272,7 +272,7 @@ def test_population_band_inside_the_measured_range_is_as_wide_as_the_scatter_of_
 
 
 def test_band_check_says_which_criterion_fails_and_why():
-    from soilstats.bayes.population import _band_verdict
+    from soilstats.bayes.band_check import _band_verdict
 
     base = dict(
         tests=3,

@@ -58,9 +58,9 @@ def test_plates_that_disagree_refuse_a_population_before_any_sampling(
 
     monkeypatch.setattr(population, "sample_population", never)
     campaign = load_campaign("grc1-oravec2009")
-    started = time.perf_counter()
+    # Before any sampling: `never` above fails the test if a sampler runs (its time, about
+    # that of a least-squares fit, is a benchmark's business, not a test's).
     failures, health = preflight(campaign, ["bekker"], population=True, soil="GRC-1")
-    assert time.perf_counter() - started < 1.0
     assert "plate-exponents" in failures[0] and "plate-exponents" in str(health["bekker"])
     assert preflight(campaign, ["bekker"], population=False, soil="GRC-1")[0] == []
     out = tmp_path / "never-made"

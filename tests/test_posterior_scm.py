@@ -21,8 +21,8 @@ from soilstats.bayes.export import (
     SimulatorConstraintError,
     check_scm,
     export_simulator,
-    parse_stated_prior,
 )
+from soilstats.bayes.stated_priors import parse_stated_prior
 from soilstats.cli.main import main
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "chrono_scm_loop.py"

@@ -7,10 +7,10 @@ import pandas as pd
 import pytest
 
 from soilstats.bayes import simulator_parameters, simulator_record
+from soilstats.bayes.pooling import pooling_warnings
 from soilstats.bayes.priors import Normal, Uniform, parse_prior, priors_from_toml
 from soilstats.bayes.support import MAX_OUTSIDE, check_support, negative_modulus_width
 from soilstats.campaign import load_campaign
-from soilstats.cli.posterior import pooling_warnings
 
 
 def test_each_rule_rejects_exactly_its_draws():
@@ -72,31 +72,39 @@ def test_prior_text_forms(tmp_path):
         priors_from_toml(path, "bekker")
 
 
-def test_pooling_conditions_is_said():
+def test_pooling_conditions_is_said_for_the_kinds_pooled_only():
     campaign = load_campaign("simulated-paper")
     said = pooling_warnings(campaign, "soil01", ["bekker"])
     assert any("velocity_m_s" in w for w in said)
+    # A sinkage-only posterior uses no shear test: it said six sentences about them (#45).
+    assert not [w for w in said if "shear" in w]
+    said = pooling_warnings(campaign, "soil01", ["bekker", "janosi"])
     # shear rings of two sizes (tool04, tool07) and three grouser counts are pooled too
     assert any("shear posterior pools 2 values of tool" in w for w in said)
     assert any("shear posterior pools 3 values of grousers" in w for w in said)
+    assert not [w for w in pooling_warnings(campaign, "soil01", ["janosi"]) if "sinkage" in w]
     one = campaign.select(velocity_m_s=4.8e-3, preparation="1")
     assert not [w for w in pooling_warnings(one, "soil01", ["bekker"]) if "sinkage" in w]
 
 
 def test_each_prior_reaches_its_model_or_is_refused(tmp_path):
-    from argparse import Namespace
-
-    from soilstats.cli.posterior import priors_by_model
+    from soilstats.bayes.prior_options import priors_by_model, split_prior_items
 
     path = tmp_path / "priors.toml"
     path.write_text('[bekker]\nn = "0.5:1.5"\n[janosi]\nK = "0:0.1"\n')
-    args = Namespace(prior=["n=0.6:1.2", "phi=20:40"], priors=str(path))
-    chosen = priors_by_model(args, ["bekker", "janosi"])
+    chosen = priors_by_model(["n=0.6:1.2", "phi=20:40"], path, ["bekker", "janosi"])
     assert chosen["bekker"] == {"n": Uniform(0.6, 1.2)}  # the command line wins
     assert chosen["janosi"] == {"K": Uniform(0.0, 0.1), "phi": Uniform(20.0, 40.0)}
     # kc is a parameter of bekker, not of janosi: a [janosi] kc must not vanish silently.
     path.write_text('[janosi]\nkc = "0:1"\n')
     with pytest.raises(ValueError, match=r"\[janosi\]: \['kc'\]"):
-        priors_by_model(Namespace(prior=[], priors=str(path)), ["bekker", "janosi"])
+        priors_by_model([], path, ["bekker", "janosi"])
     with pytest.raises(ValueError, match="--prior names"):
-        priors_by_model(Namespace(prior=["nn=0:1"], priors=None), ["bekker"])
+        priors_by_model(["nn=0:1"], None, ["bekker"])
+    # With a simulator export, c/phi/K of a sinkage-only run are user priors, not refused.
+    items = ["n=0.6:1.2", "c=uniform:0:2000"]
+    posterior, stated = split_prior_items(items, ["bekker"], "chrono-scm")
+    assert posterior == ["n=0.6:1.2"] and set(stated) == {"c"}
+    assert priors_by_model(items, None, ["bekker"], "chrono-scm") == {
+        "bekker": {"n": Uniform(0.6, 1.2)}
+    }

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from soilstats.bayes.export import (
+from soilstats.bayes.scm_wheel import (
     chrono_contact_width,
     contact_width_warning,
     pooled_series_failure,

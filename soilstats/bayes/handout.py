@@ -141,7 +141,7 @@ def preflight(
     will use; a fit that cannot be made at all raises its own error here, as sampling would.
     """
     from ..identification import fit_shear, fit_sinkage
-    from ..identification.conditions import _model_for
+    from ..identification.conditions import model_for
     from ..models import get_model
 
     health, unidentifiable = {}, []
@@ -153,7 +153,9 @@ def preflight(
         health[name] = [{"code": f.code, "message": f.message} for f in fit.flags]
         # identify's decision (plates closer than 1.5x cannot separate kc/b from kphi): the
         # posterior of such a design is its prior's shape along the ridge, not the soil's.
-        kept, why = _model_for(spec.kind, name, None, fit.tests)
+        tests = fit.tests
+        assert tests is not None  # a fit_sinkage/fit_shear result always carries its tests
+        kept, why = model_for(spec.kind, name, None, tests)
         if kept is None:
             unidentifiable.append(
                 f"{name}: {why} (identify would not fit it); sample --model bernstein per "

@@ -275,7 +275,7 @@ def _inference_data(
         {n: (("chain", "draw"), run.chain[:, :, i]) for i, n in enumerate(names)}
         | {"sigma_w": (("chain", "draw"), sigma)},
         coords=coords,
-        attrs=_attrs(problem),
+        attrs=posterior_attrs(problem),
     )
     stats = xr.Dataset({"lp": (("chain", "draw"), run.log_prob)}, coords=coords)
     # Keywords of InferenceData: Any, as arviz's signature types its options, not its groups.
@@ -306,7 +306,7 @@ def _check_start_in_prior(spec: Model, theta0: np.ndarray, problem: PooledProble
     )
 
 
-def _attrs(problem: PooledProblem) -> dict:
+def posterior_attrs(problem: PooledProblem) -> dict:
     """The posterior group's attributes. No clock is read: ``created_at`` only where
     ``SOURCE_DATE_EPOCH`` sets it, so that the same run writes a byte-identical file."""
     from ..outputs.provenance import source_date

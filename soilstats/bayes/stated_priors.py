@@ -26,7 +26,7 @@ from scipy.stats import truncnorm
 
 from ..errors import InputError
 
-__all__ = ["SUPPORT", "describe_prior", "sample_priors"]
+__all__ = ["SUPPORT", "describe_prior", "parse_stated_prior", "sample_priors"]
 
 #: Physical support of the parameters: (low, high, whether low itself is allowed).
 SUPPORT: dict[str, tuple[float, float, bool]] = {
@@ -45,6 +45,34 @@ _ARITY = {"normal": 2, "truncnormal": 4, "uniform": 2, "lognormal": 2}
 def describe_prior(spec: Sequence[str | float]) -> str:
     """``normal(30, 3)`` for ``("normal", 30, 3)``."""
     return f"{spec[0]}({', '.join(f'{float(v):g}' for v in spec[1:])})"
+
+
+_STATED_FORMS = (
+    "uniform:LO:HI (or LO:HI), normal:MU:SD, normal:MU:SD:LO:HI (truncated), "
+    "lognormal:MEDIAN:SIGMA_LOG"
+)
+
+
+def parse_stated_prior(text: str) -> tuple:
+    """A user prior's text form -> the tuple of this module.
+
+    ``uniform:LO:HI`` (or ``LO:HI``), ``normal:MU:SD``, ``normal:MU:SD:LO:HI`` (truncated:
+    ``truncnormal``), ``lognormal:MEDIAN:SIGMA_LOG`` (ln x ~ Normal(ln MEDIAN, SIGMA_LOG)), in
+    the parameter's unit (c Pa, φ deg, K m). The numbers are checked by
+    :func:`sample_priors` when drawn.
+    """
+    parts = [p.strip() for p in str(text).split(":")]
+    kind = parts[0].lower()
+    try:
+        if kind == "normal" and len(parts) == 5:
+            kind = "truncnormal"
+        if kind in ("uniform", "normal", "lognormal", "truncnormal"):
+            return (kind, *(float(p) for p in parts[1:]))
+        if len(parts) == 2:
+            return ("uniform", float(parts[0]), float(parts[1]))
+    except ValueError:
+        pass
+    raise InputError(f"cannot read the prior {text!r}: write {_STATED_FORMS}, e.g. normal:30:3")
 
 
 def _check(name: str, spec: object) -> tuple[str, tuple[float, ...]]:

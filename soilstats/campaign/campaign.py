@@ -18,6 +18,7 @@ from . import io
 from ._cells import TEXT_DTYPE, without_controls
 from .derived import add_sample_columns, add_test_columns
 from .digest import campaign_sha256
+from .frame_checks import check_frame
 from .index import campaign_index, grouped_by_code
 from .matching import match_values, values_present
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
@@ -108,43 +109,6 @@ def _derive(tables: dict[str, pd.DataFrame]) -> tuple[dict, dict]:
         tests = add_test_columns(base["tests"], n.to_numpy())
         sinkage, shear = add_sample_columns(tests, base["sinkage"], base["shear"])
     return {"tests": tests, "sinkage": sinkage, "shear": shear}, given
-
-
-def _check_frame(frame: pd.DataFrame, name: str) -> None:
-    """Refuse what a table read from a file could never hold: columns that are not unique
-    plain names, and complex numbers (casting drops the imaginary part silently)."""
-    if isinstance(frame.columns, pd.MultiIndex) or not all(
-        isinstance(c, str) for c in frame.columns
-    ):
-        bad = next(c for c in frame.columns if not isinstance(c, str))
-        raise CampaignError(
-            f"column names must be text, got {bad!r} — flatten or rename the columns",
-            file=name,
-        )
-    dup = sorted({c for c in frame.columns if list(frame.columns).count(c) > 1})
-    if dup:
-        raise CampaignError(
-            f"column(s) {dup} appear more than once; every column name must be unique",
-            file=name,
-            column=dup[0],
-        )
-    for col in frame.columns:
-        values = frame[col]
-        if np.iscomplexobj(values.to_numpy()):
-            cells = np.ones(len(values), dtype=bool)
-        elif values.dtype == object:
-            cells = np.array([isinstance(v, complex | np.complexfloating) for v in values])
-        else:
-            continue
-        if cells.any():
-            row = int(np.flatnonzero(cells)[0]) + 1
-            raise CampaignError(
-                f"holds complex numbers (e.g. {complex(values.iloc[row - 1])}); a measured "
-                "quantity is real — give the real part explicitly if that is what was meant",
-                file=name,
-                column=col,
-                row=row,
-            )
 
 
 def _without(tables: dict[str, pd.DataFrame], bad: list[str]) -> dict[str, pd.DataFrame]:
@@ -377,7 +341,7 @@ class Campaign:
             if frame is not None and not isinstance(frame, pd.DataFrame):
                 raise TypeError(f"{stem} must be a pandas DataFrame or None, not {type(frame)}")
             if frame is not None:
-                _check_frame(frame, f"{stem}.csv")
+                check_frame(frame, f"{stem}.csv")
             if units:
                 frame = convert_columns(frame, units, f"{stem}.csv")
             frames[stem] = (frame, f"{stem}.csv")

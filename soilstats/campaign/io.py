@@ -26,6 +26,7 @@ import pandas as pd
 from .._text import shown
 from ..data import bundled_names, bundled_path
 from ..errors import CampaignError
+from .read_budget import check_csv_size, check_parquet_size
 from .schema import FILES, MAX_CELL_CHARS
 
 __all__ = [
@@ -380,13 +381,13 @@ def read_table(path: Path) -> pd.DataFrame:
     with _open(path) as fh:
         if path.suffix == ".parquet":
             try:
-                _check_parquet_size(fh, path.name)
+                check_parquet_size(fh, path.name)
                 return pd.read_parquet(fh)
             except CampaignError:
                 raise
             except (OSError, ValueError) as exc:
                 raise _unreadable(path, exc) from exc
-        _check_size(path.name, os.fstat(fh.fileno()).st_size * _CSV_MEMORY_FACTOR, "")
+        check_csv_size(fh, path.name)
         try:
             return _read_csv(fh, path.name)
         except CampaignError:
@@ -403,41 +404,6 @@ def read_table(path: Path) -> pd.DataFrame:
             ) from None
         except (OSError, ValueError, csv.Error) as exc:
             raise _unreadable(path, exc) from exc
-
-
-#: Memory of a CSV read as text cells, per byte of the file (pandas' objects and strings).
-_CSV_MEMORY_FACTOR = 12
-#: Memory of a Parquet table, per byte of its uncompressed pages (Arrow, then pandas).
-_PARQUET_MEMORY_FACTOR = 3
-
-
-def _check_size(name: str, nbytes: float, detail: str) -> None:
-    """Refuse a file whose table would not fit the memory budget, before reading it."""
-    from .._budget import check_budget
-    from ..errors import InputError
-
-    try:
-        check_budget(f"reading {name}{detail}", nbytes, "split the campaign into smaller ones")
-    except InputError as err:
-        raise CampaignError(str(err), file=name) from None
-
-
-def _check_parquet_size(fh: BinaryIO, name: str) -> None:
-    """The rows and uncompressed size a Parquet footer declares, checked against the memory
-    budget before a page is decompressed (a 100 M-row table, a compression bomb)."""
-    import pyarrow.parquet as pq
-
-    meta = pq.ParquetFile(fh).metadata
-    size = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
-    fh.seek(0)
-    # Pages are encoded too (a run of equal values is a few bytes): count the cells as well,
-    # 8 bytes a number and a Python string's ~60 for text.
-    schema = meta.schema
-    width = sum(
-        60 if schema.column(j).physical_type == "BYTE_ARRAY" else 8 for j in range(meta.num_columns)
-    )
-    nbytes = max(size * _PARQUET_MEMORY_FACTOR, meta.num_rows * width)
-    _check_size(name, nbytes, f" ({meta.num_rows} rows of {meta.num_columns} columns)")
 
 
 def _read_csv(fh: BinaryIO, name: str) -> pd.DataFrame:

@@ -57,7 +57,7 @@ class Group:
         Columns of ``tests`` converted from dates/times to hours since the first test.
     model : Model, optional
         The registered model to use as the base of this kind instead of the paper's
-        (``discover(model=...)``; :func:`~.extensions.base_model`).
+        (``discover(model=...)``; :func:`~.library.base_model`).
     """
 
     kind: str

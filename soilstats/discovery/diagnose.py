@@ -34,27 +34,34 @@ from ..statistics import verdicts
 from .candidates import (
     FIT_COLUMNS,
     MISSING,
-    WITHIN,
     Candidate,
     ColumnRole,
     Relation,
     candidate_values,
     classify_columns,
-    determines,
     enumerate_candidates,
     level_codes,
     trend_on_log,
 )
 from .candidates import relations as find_relations
-from .extensions import ModelExtension, SinkageExtension, base_model, bekker_refused
+from .extensions import ModelExtension, SinkageExtension
 from .ftests import (
-    cell_codes,
     interaction_test,
     strata_codes,
     strata_test,
     within_blocks_test,
 )
+from .library import base_model, bekker_refused
 from .power import minimum_detectable
+from .within import (
+    INTERACTION,
+    RESPONSES,
+    family_row,
+    interactions,
+    response_range,
+    trend_span,
+    within_blocks,
+)
 
 if TYPE_CHECKING:
     from .data import Group
@@ -68,8 +75,6 @@ __all__ = [
     "diagnose_groups",
     "training_responses",
 ]
-
-RESPONSES = {"sinkage": ("level", "shape"), "shear": ("level", "K")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,44 +190,6 @@ def _block_eligible(table: pd.DataFrame, cand: Candidate) -> bool:
     return float(counts.median()) >= 3
 
 
-#: Joins the two columns of an interaction candidate's name and of its cell labels.
-INTERACTION = " × "
-
-
-def _interaction_pairs(cands, related, eligible, partition_of) -> list[tuple[str, str]]:
-    """Pairs of crossed, design-like categorical candidates (design or covariate role, ≥ 3
-    tests per level on median) whose interaction can be tested.  Of aliased candidates (the
-    same partition: ``tool`` and ``b_m``) only the first enters, so no pair is tested twice."""
-    pool, seen = [], set()
-    for c in cands:
-        if not (c.categorical and c.role in ("design", "covariate") and c.name in eligible):
-            continue
-        if partition_of[c.name] in seen:
-            continue
-        seen.add(partition_of[c.name])
-        pool.append(c.name)
-    return [(a, b) for i, a in enumerate(pool) for b in pool[i + 1 :] if b not in related[a]]
-
-
-def _row(group, name, response, res, **kw) -> dict:
-    return dict(
-        kind=group.kind,
-        soil=group.soil,
-        candidate=name,
-        response=response,
-        statistic=res["statistic"],
-        df1=res["df1"],
-        df2=res["df2"],
-        p_value=res["p_value"],
-        effect_size=res["effect_size"],
-        sigma=res["sigma"],
-        mde_norm2=res["mde_norm2"],
-        patterns=int(res.get("patterns", 1)),
-        reason=res["reason"],
-        **{"deviating": "", "within": "", **kw},
-    )
-
-
 def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
     table = group.tests
     have = table[[f"_dev_{r}" for r in RESPONSES[group.kind]]].notna().any(axis=1).to_numpy()
@@ -262,7 +229,7 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                 cx = x_all[ok][res["used"]]
                 singles = sorted({str(lv[cx == s][0]) for s in res["singletons"]})
             rows_out.append(
-                _row(
+                family_row(
                     group,
                     cand.name,
                     response,
@@ -275,16 +242,16 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     confounded_with=", ".join(sorted(related[cand.name])),
                     singleton_levels=", ".join(singles),
                     pair="",
-                    span=_span(x_all[ok][res["used"]], cand.categorical),
-                    y_range=_range(y_all[ok][res["used"]]),
+                    span=trend_span(x_all[ok][res["used"]], cand.categorical),
+                    y_range=response_range(y_all[ok][res["used"]]),
                     rows=used,
                 )
             )
-    table, inter_rows, inter_rels = _interactions(
+    table, inter_rows, inter_rels = interactions(
         group, table, cands, related, eligible, codes, values_of
     )
     rows_out += inter_rows
-    table, within_rows = _within_blocks(group, table, cands, related, eligible, codes, values_of)
+    table, within_rows = within_blocks(group, table, cands, related, eligible, codes, values_of)
     rows_out += within_rows
     roles = tuple(
         r for r in all_roles if r.column not in FIT_COLUMNS and sub[r.column].nunique() > 1
@@ -292,183 +259,6 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
     group = replace(group, tests=table)
     diag = Diagnosis(group, base, tuple(cands), (*rels, *inter_rels), tuple(notes), roles)
     return diag, rows_out
-
-
-def _within_blocks(group, table, cands, related, eligible, codes, values_of):
-    """A drift inside one block of the design (:func:`.ftests.within_blocks_test`) per
-    time/order candidate: its strata are those of its own trend test (one per aliased
-    partition), and the candidate ``T within B`` is a column of block labels (for the folds
-    and the per-block extension).  Two order columns that differ within every block by one
-    scale (``repetition`` and a ``test_number`` counting on across blocks) make one test:
-    only the first enters.  Returns the table with the label columns and the rows."""
-    rows_out: list = []
-    columns: dict = {}
-    seen: list = []
-    partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
-    for cand in cands:
-        if cand.categorical or cand.role != "time/order":
-            continue
-        blocks, partitions = [], set()
-        for b in sorted(eligible):
-            if b == cand.name or b in related[cand.name] or partition_of[b] in partitions:
-                continue
-            partitions.add(partition_of[b])
-            blocks.append(b)
-        if not blocks:
-            continue
-        strata = strata_codes([codes[b] for b in blocks], len(table))
-        x = values_of[cand.name].to_numpy(float)
-        # one test per scale-equivalent order column (centred within the blocks)
-        known = np.isfinite(x)
-        centred = x - pd.Series(np.where(known, x, 0)).groupby(strata).transform("mean").to_numpy()
-        centred = np.where(known, centred, 0.0)
-        norm = float(np.linalg.norm(centred))
-        if norm == 0 or any(abs(float(centred @ v)) / norm > 1 - 1e-9 for v in seen):
-            continue
-        seen.append(centred / norm)
-        name = f"{cand.name}{WITHIN}{', '.join(blocks)}"
-        shown = [f"{b}=" + _labels(values_of[b]) for b in blocks]
-        label = shown[0]
-        for more in shown[1:]:
-            label = label + ", " + more
-        columns[name] = label.where(known, np.nan)
-        for response in RESPONSES[group.kind]:
-            y_all = table[f"_dev_{response}"].to_numpy(float)
-            ok = np.isfinite(y_all) & known
-            res = within_blocks_test(y_all[ok], x[ok], strata=strata[ok])
-            deviating = ""
-            if res["block"] is not None:
-                at = np.flatnonzero(strata[ok] == res["block"])[0]
-                deviating = str(label[ok].to_numpy()[at])
-            used = np.flatnonzero(ok)[res["used"]]
-            rows_out.append(
-                _row(
-                    group,
-                    name,
-                    response,
-                    res,
-                    categorical=False,
-                    numeric=True,
-                    role="drift within blocks",
-                    n_tests=int(used.size),
-                    blocks=", ".join(blocks),
-                    confounded_with="",
-                    singleton_levels="",
-                    pair="",
-                    span=_span(x[ok][res["used"]], False),
-                    y_range=_range(y_all[ok][res["used"]]),
-                    deviating=deviating,
-                    within=cand.name,
-                    rows=used,
-                )
-            )
-    return (table.assign(**columns) if columns else table), rows_out
-
-
-def _span(x: np.ndarray, categorical: bool) -> str:
-    """The observed range of a trend candidate, for the power statement ("" for levels)."""
-    if categorical or x.size == 0:
-        return ""
-    x = np.asarray(x, float)
-    return f"{np.nanmin(x):.4g} to {np.nanmax(x):.4g}"
-
-
-def _range(y: np.ndarray) -> float:
-    """The observed range (max − min) of a response over the tests a candidate is tested on:
-    no effect larger than it shows in these data (:mod:`.power` caps its statements)."""
-    y = np.asarray(y, float)
-    y = y[np.isfinite(y)]
-    return float(np.ptp(y)) if y.size else float("nan")
-
-
-def _labels(values: pd.Series) -> pd.Series:
-    """Level labels as a reader writes them (0.00196 rather than 0.00196349541)."""
-    if pd.api.types.is_numeric_dtype(values):
-        return values.map(lambda v: f"{v:.4g}")
-    return values.astype(str)
-
-
-def _interactions(group, table, cands, related, eligible, codes, values_of):
-    """Two-way interactions of crossed design-like factors (:func:`interaction_test`): the
-    per-test rows of the family, the table with one cell-label column per pair (``A × B``,
-    for the per-cell extension), and the main candidates each pair is aliased with.
-
-    ``values_of`` holds :func:`candidate_values` of every candidate; labels, their codes and
-    the strata of a block set are computed once per candidate or set, not once per pair.
-    """
-    partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
-    pairs = _interaction_pairs(cands, related, eligible, partition_of)
-    rows_out, rels, columns, cells = [], [], {}, {}
-    labels: dict[str, pd.Series] = {}
-    label_codes: dict[str, np.ndarray] = {}
-    strata_of: dict[tuple, np.ndarray] = {}
-    for name in dict.fromkeys(x for pair in pairs for x in pair):
-        labels[name] = _labels(values_of[name])
-        label_codes[name] = pd.factorize(labels[name])[0]
-    for a, b in pairs:
-        name = f"{a}{INTERACTION}{b}"
-        va, vb = values_of[a], values_of[b]
-        recorded = (va.notna() & vb.notna()).to_numpy()
-        label = labels[a] + INTERACTION + labels[b]
-        columns[name] = label.where(recorded, np.nan)
-        # The cells' partition as codes in order of first appearance (tests without both
-        # values form one cell): the numbering of factorising the label column, from the
-        # labels' codes.
-        la, lb = label_codes[a], label_codes[b]
-        combined = np.where(recorded, la.astype(np.int64) * (int(lb.max()) + 1) + lb, -1)
-        cells[name] = pd.factorize(combined)[0]
-        cell = tuple(cells[name])
-        aliased = sorted(n for n, part in partition_of.items() if part == cell)
-        rels += [Relation("aliased", name, n) for n in aliased]
-        blocks = [
-            k for k in sorted(eligible) if k not in (a, b) and not ({k} & (related[a] | related[b]))
-        ]
-        key = tuple(blocks)
-        if key not in strata_of:
-            strata_of[key] = strata_codes([codes[k] for k in blocks], len(table))
-        strata = strata_of[key]
-        for response in RESPONSES[group.kind]:
-            y_all = table[f"_dev_{response}"].to_numpy(float)
-            ok = np.isfinite(y_all) & recorded
-            res = interaction_test(y_all[ok], codes[a][ok], codes[b][ok], strata=strata[ok])
-            deviating = ""
-            if res["cell"] is not None:
-                cell_of = cell_codes(codes[a][ok], codes[b][ok])
-                shown = label[ok].to_numpy()
-                deviating = " or ".join(
-                    str(shown[np.flatnonzero(cell_of == c)[0]]) for c in res["cells"]
-                )
-            rows_out.append(
-                _row(
-                    group,
-                    name,
-                    response,
-                    res,
-                    categorical=True,
-                    numeric=False,
-                    role="interaction",
-                    n_tests=int(ok.sum()),
-                    blocks=", ".join(blocks),
-                    confounded_with=", ".join(aliased),
-                    singleton_levels="",
-                    pair=f"{a}|{b}",
-                    span="",
-                    y_range=_range(y_all[ok]),
-                    deviating=deviating,
-                    rows=np.flatnonzero(ok),
-                )
-            )
-    # Interactions of nested factors nest in turn (velocity × tool determines velocity ×
-    # area when tool determines area): related, so that one leads and the other is named.
-    names = list(cells)
-    for i, m in enumerate(names):
-        for n in names[i + 1 :]:
-            mn, nm = determines(cells[m], cells[n]), determines(cells[n], cells[m])
-            if mn and nm:
-                rels.append(Relation("aliased", m, n))
-            elif mn or nm:
-                rels.append(Relation("nested", *((m, n) if mn else (n, m))))
-    return (table.assign(**columns) if columns else table), rows_out, rels
 
 
 def diagnose_groups(

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from ..identification.centring import centred
-from .extensions import base_model
+from .library import base_model
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult

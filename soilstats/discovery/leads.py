@@ -27,7 +27,7 @@ from .crossval import (
     make_folds,
 )
 from .diagnose import conditional_responses, retest
-from .extensions import base_model, library
+from .library import base_model, library
 from .nested import fold_choices, fold_extensions
 from .plausibility import implausible
 from .result import Finding

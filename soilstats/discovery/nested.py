@@ -12,7 +12,7 @@ established: a +14 % bin in 30 tests, named at Holm p = 0.027, "chosen in 2 of 5
 
 Diagnosis chooses, from F-tests on *all* tests, that a lead is significant at all and in
 which per-test responses it shows (``level``, ``shape``; ``level``, ``K``); the generic
-extension frees the parameters of those responses (:func:`.extensions.library`).  Measured
+extension frees the parameters of those responses (:func:`.library.library`).  Measured
 on folds of the same tests, the gain of the chosen extension is optimistic: the held-out
 tests helped choose it (a null factor kept at p < 0.01 in 16–24 tests gained a median
 +18 % in the review's toy).  So each fold repeats the choice on its training tests alone
@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 
 from .diagnose import RESPONSES, retest, training_responses
-from .extensions import library
+from .library import library
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -102,12 +102,12 @@ def fold_choices(
 def fold_extensions(
     ext: Extension,
     choices: dict[int, tuple],
-    **library_args: Any,  # extensions.library's keywords but responses, of their own types
+    **library_args: Any,  # library.library's keywords but responses, of their own types
 ) -> dict[int, Extension | None]:
     """fold → the extension ``ext`` as the fold's choice makes it, or None (the fold predicts
     with the base model: the lead is not significant on its training tests).
 
-    ``library_args`` are those :func:`.extensions.library` built ``ext`` with, but for
+    ``library_args`` are those :func:`.library.library` built ``ext`` with, but for
     ``responses``: the fold's extension is the one of the same name in the library built
     with the fold's responses (a physical extension does not depend on them; the generic
     one frees the parameters of the fold's responses only)."""

@@ -14,7 +14,7 @@ tests held out, :mod:`.crossval`, one set of folds for every step):
 3. repeat until no remaining extension adds a real gain; report the final model's
    parameters ± σ (Eq. 3) fitted to all tests and its gain over the base model.
 
-Extensions combine by :func:`.extensions.combine`; Reece's model replaces Eq. 7 and does not
+Extensions combine by :func:`.library.combine`; Reece's model replaces Eq. 7 and does not
 combine with another extension (the step says so).
 """
 
@@ -28,7 +28,8 @@ import numpy as np
 
 from ..outputs import json_safe
 from .crossval import FoldFits, GroupFolds, compare
-from .extensions import Extension, base_model, combine
+from .extensions import Extension
+from .library import base_model, combine
 from .plausibility import implausible
 from .result import parameter_lines, parameter_table
 from .testlevel import scatter_caveat, test_level

@@ -28,7 +28,7 @@ from math import factorial
 
 import numpy as np
 
-from .separable import _solve_rows
+from .separable import solve_rows
 
 __all__ = ["fit_clustered_resamples", "fit_linear_resamples"]
 
@@ -171,7 +171,7 @@ def _fit_rows(moments, g, counts, n0, rtol, max_iter):
         for col, (i, j) in enumerate(pairs):
             gram[:, i, j] = gram[:, j, i] = flat[:, col]
         rhs = (c * b0) @ g
-        coef = _solve_rows(gram, rhs)
+        coef = solve_rows(gram, rhs)
         cost = 0.5 * (c @ moments.c - np.einsum("bq,bq->b", rhs, coef))
         phi = coef @ g.T  # aᵀg_i, (B, T)
         slope = -np.einsum("bt,bt->b", c * phi, b1 - phi * a1)
@@ -179,7 +179,7 @@ def _fit_rows(moments, g, counts, n0, rtol, max_iter):
         slope_noise = 1e-13 * np.einsum("bt,bt->b", c, np.abs(phi * b1))
         uv = (c * phi * a1) @ g  # U·v
         curvature = np.einsum("bt,bt->b", c * phi * phi, a2) - np.einsum(
-            "bq,bq->b", uv, _solve_rows(gram, uv)
+            "bq,bq->b", uv, solve_rows(gram, uv)
         )
         return coef, cost, slope, curvature, slope_noise
 

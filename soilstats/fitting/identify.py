@@ -18,7 +18,7 @@ from ..errors import (
     StatisticsInputError,
 )
 from .jacobian import make_jacobian
-from .levenberg_marquardt import LMOutcome, _eigh, gram_matrix, levenberg_marquardt, scaled_svd
+from .levenberg_marquardt import LMOutcome, gram_matrix, levenberg_marquardt, scaled_svd, small_eigh
 from .result import FitResult, HealthFlag, epsilon
 from .separable import PowerTerms, _refine_power_law, refine_exponent
 
@@ -65,7 +65,7 @@ RANK_CONDITION_LIMIT = 1e12
 _GRAM_COND = 1e4
 
 
-def _covariance(
+def eq4_covariance(
     jac: np.ndarray,
     rss: float,
     dof: int,
@@ -97,7 +97,7 @@ def _covariance(
     if scaled is not None:
         eig, vecs, svd = scaled
     else:
-        eig, vecs = _eigh(gram / (scale[:, None] * scale))
+        eig, vecs = small_eigh(gram / (scale[:, None] * scale))
     if eig[0] > 0 and eig[-1] / eig[0] < _GRAM_COND**2:
         cond = math.sqrt(eig[-1] / eig[0])
         inv = (vecs / eig) @ vecs.T
@@ -401,7 +401,7 @@ def _judge_end_point(
     the fit as not converged, with a message and a health flag saying why.
     """
     converged, message = out.converged, out.reason
-    cond, cov = _covariance(out.jacobian, rss, dof, out.gram, out.scaled)
+    cond, cov = eq4_covariance(out.jacobian, rss, dof, out.gram, out.scaled)
     stderr = np.sqrt(cov.diagonal())
     flags: list[HealthFlag] = []
     undetermined = _undetermined(stderr, out.params, param_names)

@@ -128,7 +128,7 @@ except (ImportError, AttributeError):  # pragma: no cover - a numpy without it
     _eigh_lo = None  # type: ignore[assignment,misc]  # a numpy without the private gufunc
 
 
-def _eigh(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def small_eigh(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigen-decomposition (ascending eigenvalues, eigenvectors as columns) of a small
     symmetric matrix, reading its lower triangle, without np.linalg.eigh's wrapper."""
     if _eigh_lo is not None:
@@ -353,7 +353,7 @@ def _scaled_basis(gram: np.ndarray, rows: np.ndarray, diag: list) -> tuple:
     named one costs ~0.25 µs per iteration to build.
     """
     d = np.array(diag)
-    eig, vecs = _eigh(gram / (d[:, None] * d))
+    eig, vecs = small_eigh(gram / (d[:, None] * d))
     svd = None
     if eig[0] > eig[-1] / _NORMAL_EQUATIONS_COND**2:
         s2, directions = eig.tolist(), vecs.T.tolist()

@@ -390,7 +390,7 @@ def _refine_power_law(terms, wy, theta0, *, ftol, max_iter=50, yy=None):
     return best, iteration
 
 
-def _solve_rows(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+def solve_rows(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """gram_b⁻¹·rhs_b for every row b (q ≤ 2 in closed form); NaN for a singular row, which
     the caller then reports as not converged (one collinear resample must not sink the rest)."""
     q = gram.shape[-1]
@@ -464,7 +464,7 @@ def fit_separable_batch(
         u = we[:, None, :] * basis0[None]  # (B, q, N) weighted basis rows w·g·z^n
         gram = np.einsum("bkn,bln->bkl", u, u)
         wy = wy_all[idx]
-        a = _solve_rows(gram, np.einsum("bkn,bn->bk", u, wy))
+        a = solve_rows(gram, np.einsum("bkn,bn->bk", u, wy))
         fitted = np.einsum("bk,bkn->bn", a, u)
         r = wy - fitted
         return u, gram, a, fitted, r, 0.5 * np.einsum("bn,bn->b", r, r)
@@ -473,7 +473,7 @@ def fit_separable_batch(
         u, gram, a, fitted, r, cost = project(active, n)
         for _ in range(max_iter):
             v = fitted * log_z
-            coef = _solve_rows(gram, np.einsum("bkn,bn->bk", u, v))
+            coef = solve_rows(gram, np.einsum("bkn,bn->bk", u, v))
             pv = v - np.einsum("bk,bkn->bn", coef, u)
             curvature = np.einsum("bn,bn->b", pv, pv)
             slope = -np.einsum("bn,bn->b", r, v)

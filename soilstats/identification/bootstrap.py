@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from .._text import plural
 from ..fitting.clustered import fit_clustered_resamples, fit_linear_resamples
-from ..fitting.identify import RANK_CONDITION_LIMIT, _covariance
+from ..fitting.identify import RANK_CONDITION_LIMIT, eq4_covariance
 from ..fitting.levenberg_marquardt import levenberg_marquardt
 from ..fitting.separable import BATCH_ELEMENTS, fit_separable_batch, refine_exponent
 
@@ -281,7 +281,7 @@ def _refit(model, x, y, w, start) -> np.ndarray | None:
         out = levenberg_marquardt(lambda t: wy - f_weighted(t), jacobian, start, ftol=1e-15)
     if not out.converged or not np.all(np.isfinite(out.params)):
         return None
-    cond, _ = _covariance(out.jacobian, 2.0 * out.cost, w.size, out.gram, out.scaled)
+    cond, _ = eq4_covariance(out.jacobian, 2.0 * out.cost, w.size, out.gram, out.scaled)
     if not cond <= RANK_CONDITION_LIMIT:
         return None
     return out.params

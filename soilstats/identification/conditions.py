@@ -151,7 +151,9 @@ class ConditionFits:
 MIN_SIZE_RATIO = 1.5
 
 
-def _model_for(kind: str, model: str, fallback: str | None, tests: pd.DataFrame):
+def model_for(
+    kind: str, model: str, fallback: str | None, tests: pd.DataFrame
+) -> tuple[str | None, str | None]:
     """(model to fit or None, note): a model whose record needs several plate sizes
     (``Model.min_plate_sizes``: Bekker, Reece) falls back where the condition has fewer."""
     if kind == "shear":
@@ -239,7 +241,7 @@ def plan_conditions(
             label = condition_label(key[1]) if column else "all"
             where = soil + (f", series {series}" if series else "")
             where += f", {column} {label}" if column else ""
-            chosen, why = _model_for(kind, model, fallback_model, group)
+            chosen, why = model_for(kind, model, fallback_model, group)
             if why:
                 fallbacks.setdefault((why, chosen), []).append(where)
             if chosen is not None:

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import threading
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from typing import TYPE_CHECKING, cast
@@ -69,6 +70,38 @@ class CampaignFit(FitResult):
         base = fit.annotated(notes, flags)
         fields_ = {f.name: getattr(base, f.name) for f in fields(FitResult)}
         return cls(**fields_, test_columns=pooled.by_test, bootstrap=bootstrap, data=data)
+
+    @classmethod
+    def deferred(
+        cls, fit: FitResult, pooled: PooledData, finish: Callable[[], CampaignFit]
+    ) -> CampaignFit:
+        """``fit`` with its tests now and the rest (notes, flags, the test bootstrap, the data
+        record) from ``finish()`` when first read: what a loop that reads ``params`` only
+        skips.  ``finish`` returns the full :meth:`of` result the fields are taken from; its
+        work is seeded, so the values are those an eager fit gives (issue #45, item 7)."""
+        fields_ = {f.name: getattr(fit, f.name) for f in fields(FitResult)}
+        out = cls(**fields_, test_columns=pooled.by_test)
+        out.__dict__["_pending"] = finish
+        out.__dict__["_finishing"] = threading.Lock()  # this result's: others finish alongside
+        return out
+
+    def _finish(self) -> None:
+        """Take the deferred fields from the pending ``finish`` (:meth:`deferred`), once."""
+        if "_pending" not in self.__dict__:
+            return
+        with self.__dict__["_finishing"]:  # two threads reading it: one finishes, one waits
+            finish = self.__dict__.get("_pending")
+            if finish is None:
+                return
+            full = finish()
+            for name in _DEFERRED:
+                self.__dict__["_" + name] = full.__dict__["_" + name]
+            del self.__dict__["_pending"]
+
+    def __getstate__(self) -> dict:
+        """Pickled (``--jobs`` workers) and copied finished: the pending work is a closure."""
+        self._finish()
+        return {k: v for k, v in self.__dict__.items() if k != "_finishing"}
 
     @cached_property
     def tests(self) -> pd.DataFrame | None:
@@ -235,6 +268,30 @@ class CampaignFit(FitResult):
             sigma = "stderr: Eq. 4's σ (no test bootstrap was run: test_resamples=0)."
         head, _, tail = text.rpartition("Notes:")
         return f"{head}{sigma}\nNotes:{tail}" if tail else f"{text}\n{sigma}"
+
+
+class _Deferred:
+    """A field of :class:`CampaignFit` that :meth:`CampaignFit.deferred` fills on first read
+    (kept in the instance's ``__dict__`` as ``_<name>``)."""
+
+    def __init__(self, name: str) -> None:
+        self.slot = "_" + name
+
+    def __get__(self, obj: CampaignFit | None, owner: type | None = None) -> object:
+        if obj is None:
+            return self
+        obj._finish()
+        return obj.__dict__[self.slot]
+
+    def __set__(self, obj: CampaignFit, value: object) -> None:
+        obj.__dict__[self.slot] = value  # the dataclass __init__ (and replace) set it so
+
+
+#: The fields a deferred fit sets on first read: everything the test bootstrap and the
+#: adequacy checks decide.
+_DEFERRED = ("notes", "extra_flags", "bootstrap", "data")
+for _name in _DEFERRED:
+    setattr(CampaignFit, _name, _Deferred(_name))
 
 
 #: Screening codes that are findings of a fit (the samples of the excluded codes are left out

@@ -141,9 +141,9 @@ def fit_sinkage(
     _check_identifiable(spec, pooled)
     z, p, w = pooled.x["z_m"], pooled.y, pooled.weights
     x = spec.x_from(pooled.x)
-    notes = _notes(pooled, points_per_test, weighting)
 
     if method == "wong":
+        notes = _notes(pooled, points_per_test, weighting)
         if spec.wong is None:
             raise ModelError(
                 f"Wong's method is not defined for the {spec.name} model; it is for "
@@ -173,12 +173,28 @@ def fit_sinkage(
             raise ModelError(f"model {spec.name!r} states no starting values: pass p0")
         p0 = spec.start(x, p)
     result = centred(identify(spec, x, p, p0, weights=w, on_failure=on_failure), z)
-    bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
-    flags = _adequacy(spec, pooled, result, bootstrap)
-    flags += _rezero_sensitivity(
-        spec, campaign, window, pooled, result, bootstrap, p0, points_per_test, weighting, selection
-    )
-    return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)
+
+    def finish() -> CampaignFit:
+        # The test bootstrap (3/4 of an eager fit) and the adequacy checks run when the
+        # result's σ, flags, notes or summary are first read, not for a loop over params.
+        notes = _notes(pooled, points_per_test, weighting)
+        bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
+        flags = _adequacy(spec, pooled, result, bootstrap)
+        flags += _rezero_sensitivity(
+            spec,
+            campaign,
+            window,
+            pooled,
+            result,
+            bootstrap,
+            p0,
+            points_per_test,
+            weighting,
+            selection,
+        )
+        return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)
+
+    return CampaignFit.deferred(result, pooled, finish)
 
 
 #: Re-zeroing at a seating contact that moves a parameter by more than this many of its

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 from ..kinds import MODEL_KINDS
+from .plate_law import PlatePowerLaw, default_plate_law
 from .priors import Prior
 
 __all__ = [
@@ -153,56 +154,6 @@ def separable_from_power_law(
     g, z = power_law(x)
     terms = PowerLawTerms(g, z, weights)
     return terms.basis, terms.log_z
-
-
-@dataclass(frozen=True)
-class PlatePowerLaw:
-    """A plate law that is a power law in the sinkage: p(b, z) = k_eq(b)·z^n.
-
-    ``modulus(b, *params) -> k_eq`` [N/m^(n+2)] at plate width b [m], with ``params`` in the
-    record's order and n its ``"n"`` parameter.  As the record's ``plate_pressure`` hook it
-    tells the wheel (:mod:`soilstats.wheel`) to take its fast path, σ = k_eq·R^n·(cos θ −
-    cos θ1)^n, instead of evaluating the law at every node's depth.  Calling it gives the
-    pressure (0 where z ≤ 0), as every ``plate_pressure`` hook does.
-    """
-
-    modulus: Callable[..., np.ndarray]
-    exponent_index: int = -1  # where n stands among the parameters (last for a power law)
-
-    def __call__(self, b: Value, z: Value, *params: Value) -> np.ndarray:
-        z = np.asarray(z, dtype=float)
-        n = params[self.exponent_index]
-        contact = z > 0
-        zn = np.where(contact, np.exp(n * np.log(np.where(contact, z, 1.0))), 0.0)
-        return self.modulus(b, *params) * zn
-
-
-@dataclass(frozen=True)
-class _PowerLawModulus:
-    """k_eq(b) = Σ aᵢ·gᵢ(b) of a record's ``power_law`` basis (θ = (a₁ … a_q, n)): the
-    default plate hook of Bekker and Bernstein.  Module level, so a record pickles."""
-
-    power_law: Callable
-    columns: tuple[str, ...]
-
-    def __call__(self, b: Value, *params: Value) -> np.ndarray:
-        unit_depth = 1.0
-        x = (b, unit_depth) if self.columns == ("b_m", "z_m") else unit_depth
-        g, _ = self.power_law(x)
-        return sum((a * g_i for a, g_i in zip(params[:-1], g, strict=True)), np.asarray(0.0))
-
-
-@dataclass(frozen=True)
-class _FuncPlatePressure:
-    """p(b, z) from a sinkage record's own ``func`` on x = (b, z) or z (its ``columns``)."""
-
-    func: Callable
-    columns: tuple[str, ...]
-
-    def __call__(self, b: Value, z: Value, *params: Value) -> np.ndarray:
-        b, z = np.broadcast_arrays(np.asarray(b, float), np.asarray(z, float))
-        x = (b, z) if self.columns == ("b_m", "z_m") else z
-        return np.asarray(self.func(x, *params), dtype=float)
 
 
 # ------------------------------------------------------------------- parts of the record
@@ -554,11 +505,8 @@ class Model:
         or z; None for a record whose inputs are not a plate's (b, z)."""
         if self.plate_pressure is not None:
             return self.plate_pressure
-        if self.kind != "sinkage" or self.columns not in (("b_m", "z_m"), ("z_m",)):
-            return None
-        if self.power_law is not None and self.exponent == self.param_names[-1]:
-            return PlatePowerLaw(_PowerLawModulus(self.power_law, self.columns))
-        return _FuncPlatePressure(self.func, self.columns)
+        last = self.exponent is not None and self.exponent == self.param_names[-1]
+        return default_plate_law(self.kind, self.columns, self.func, self.power_law, last)
 
     def pressure_under_plate(self, b: Value, z: Value, *params: Value) -> np.ndarray:
         """p [Pa] under a plate of width b [m] at sinkage z [m] (:meth:`plate_law`)."""

@@ -17,6 +17,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.figure import Figure
 
 from .._text import plural
 from ..identification.table import EQ4_MARK
@@ -94,17 +96,14 @@ def _soil_figure(soil: str, pairs: list):
     curve and its band (eval_uncertainty: the test-level band where the fit rests on five
     tests or more), over the depth or stress its data span; each panel's title says how far
     the conditions' curves lie apart mid-range."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     kinds = list(dict.fromkeys(record["kind"] for record, _ in pairs))
-    fig, axes = plt.subplots(1, len(kinds), figsize=(6.4, 2.7), squeeze=False)
+    # A Figure of its own, not pyplot's: no backend is chosen for the caller (issue #45).
+    fig = Figure(figsize=(6.4, 2.7))
+    axes = fig.subplots(1, len(kinds), squeeze=False)
     for ax, kind in zip(axes[0], kinds, strict=True):
         mine = [(r, f) for r, f in pairs if r["kind"] == kind]
         series = list(dict.fromkeys(r.get("series") for r, _ in mine))
-        cmap = plt.get_cmap("tab10")
+        cmap = colormaps["tab10"]
         middle = []
         label = ""
         for record, fit in mine:

@@ -262,6 +262,10 @@ def _diagnostics(data, names) -> str:
     )
 
 
+#: The box behind a pair panel's correlation coefficient.
+_R_BOX = {"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.8}
+
+
 def pair_figure(
     posterior: PosteriorResult | az.InferenceData,
     *,
@@ -279,6 +283,7 @@ def pair_figure(
     post, names, capped = _shown(posterior, max_params)
     data = post.idata.posterior
     values = {n: data[n].to_numpy().ravel() * _scale(n) for n in names}
+    labels = [parameter_label(n, post.units.get(n)) for n in names]
     total = next(iter(values.values())).size
     step = max(1, math.ceil(total / max_points))
     shown = np.arange(0, total, step)
@@ -313,23 +318,16 @@ def pair_figure(
                         va="top",
                         ha="left",
                         fontsize=8,
-                        bbox={
-                            "boxstyle": "round,pad=0.2",
-                            "fc": "white",
-                            "ec": "none",
-                            "alpha": 0.8,
-                        },
+                        bbox=_R_BOX,
                     )
                     ax.yaxis.set_major_locator(MaxNLocator(3))
                     if j == 0:
-                        math_text(
-                            ax.set_ylabel(parameter_label(names[i], post.units.get(names[i])))
-                        )
+                        math_text(ax.set_ylabel(labels[i]))
                     else:
                         ax.tick_params(labelleft=False)
                 ax.xaxis.set_major_locator(MaxNLocator(3))
                 if i == k - 1:
-                    math_text(ax.set_xlabel(parameter_label(names[j], post.units.get(names[j]))))
+                    math_text(ax.set_xlabel(labels[j]))
                 else:
                     ax.tick_params(labelbottom=False)
                 if i != j and j > 0:

@@ -327,10 +327,7 @@ def write_report(
         )
     fig, caption = beta_figure(res)
     doc.figure(fig, caption)
-    dated = (
-        runs["date"].notna() & runs["date"].astype(str).str.len().gt(0) if "date" in runs else None
-    )
-    if dated is not None and dated.any():
+    if _dated(runs):
         fig, caption = day_figure(res)
         doc.figure(fig, caption)
 
@@ -422,6 +419,13 @@ def write_report(
         )
     doc.provenance_section()
     return doc.render(path)
+
+
+def _dated(runs: pd.DataFrame) -> bool:
+    """Whether any run has a date (a date cell neither missing nor empty)."""
+    if "date" not in runs:
+        return False
+    return bool((runs["date"].notna() & runs["date"].astype(str).str.len().gt(0)).any())
 
 
 class _Tests:

@@ -321,8 +321,7 @@ def simulate(
             shear_parts.append((row["test_id"], angle, torque, normal))
             record["torque_offset_Nm"] = offset
             a = side_wall_ratio(row["r_inner_m"], row["r_outer_m"], row["grouser_height_m"])
-            k0 = 0.0 if K0 is None else K0
-            a = 0.0 if K0 is None else a
+            k0, a = (0.0, 0.0) if K0 is None else (K0, a)
             record["normal_pressure_Pa"] = row["normal_pressure_Pa"]
             record["side_wall_K0"] = np.nan if K0 is None else K0
             record["c_apparent_Pa"], record["phi_apparent_deg"] = apparent_shear(
@@ -332,7 +331,6 @@ def simulate(
                 params["c_soil"], params["phi_soil"], a, k0
             )
         truth_rows.append(record)
-
     tests = pd.DataFrame([{k: v for k, v in r.items() if k not in _PRIVATE} for r in rows])
     order = [c for c in _LOG_ORDER if c in tests.columns]
     tests = tests[order + [c for c in tests.columns if c not in order]]

@@ -250,6 +250,26 @@ def _ring(r: Any, where: str) -> dict[str, str | float]:
     return out
 
 
+def _operators(
+    t: Any, where: str, name: str, prep_names: tuple[str, ...], preps: dict
+) -> tuple[str, ...]:
+    """A series' operators; a preparation's ``operator`` column must name one of them (its
+    columns must not rewrite what the design sets)."""
+    operators = tuple(
+        _text(o, f"{where}.operators")
+        for o in _list(t.get("operators", ["op1"]), f"{where}.operators")
+    )
+    for p in prep_names:
+        own = preps[p].columns
+        if "operator" in own and str(own["operator"]) not in operators:
+            raise _fail(
+                f"[preparations.{p}].operator",
+                f"{own['operator']!r} is not an operator of series {name!r} "
+                f"(operators: {list(operators)}); list it in [[series]].operators",
+            )
+    return operators
+
+
 def _series(i: int, t: Any, soils: dict, preps: dict) -> Series:
     where = f"[[series]][{i}]"
     _check_keys(t, (), where, extra_ok=True)
@@ -271,18 +291,7 @@ def _series(i: int, t: Any, soils: dict, preps: dict) -> Series:
         _text(p, f"{where}.preparations", tuple(preps))
         for p in _list(t.get("preparations", list(preps)[:1]), f"{where}.preparations")
     )
-    operators = tuple(
-        _text(o, f"{where}.operators")
-        for o in _list(t.get("operators", ["op1"]), f"{where}.operators")
-    )
-    for p in prep_names:  # a preparation's columns must not rewrite what the design sets
-        own = preps[p].columns
-        if "operator" in own and str(own["operator"]) not in operators:
-            raise _fail(
-                f"[preparations.{p}].operator",
-                f"{own['operator']!r} is not an operator of series {name!r} "
-                f"(operators: {list(operators)}); list it in [[series]].operators",
-            )
+    operators = _operators(t, where, name, prep_names, preps)
     common: dict[str, Any] = dict(
         name=name,
         kind=kind,

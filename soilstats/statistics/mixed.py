@@ -45,7 +45,7 @@ import pandas as pd
 from scipy import stats
 
 from ._data import StatisticsInputError, prepare
-from .twoway import _check_estimable, dummy_design
+from .twoway import check_estimable, dummy_design
 
 __all__ = ["anova_random_block"]
 
@@ -83,7 +83,7 @@ def random_block_input(
             f"the random block must be one of the blocks {blocks}", column=random
         )
     frame, n_dropped = prepare(data, [response], [factor, *blocks], dropna=dropna)
-    _check_estimable(frame, factor, blocks)
+    check_estimable(frame, factor, blocks)
     return blocks, frame, n_dropped
 
 

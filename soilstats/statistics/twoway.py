@@ -43,7 +43,7 @@ def dummy_design(frame: pd.DataFrame, columns: Sequence[str]) -> np.ndarray:
     return np.hstack(parts)
 
 
-def _check_estimable(frame: pd.DataFrame, factor: str, blocks: list[str]) -> None:
+def check_estimable(frame: pd.DataFrame, factor: str, blocks: list[str]) -> None:
     rank = np.linalg.matrix_rank
     x_blocks = dummy_design(frame, blocks)
     x_full = dummy_design(frame, [*blocks, factor])
@@ -118,7 +118,7 @@ def anova_twoway(
             f"interaction=True needs exactly one block, got {blocks}; pass a single block"
         )
     frame, n_dropped = prepare(data, [response], [factor, *blocks], dropna=dropna)
-    _check_estimable(frame, factor, blocks)
+    check_estimable(frame, factor, blocks)
     # Safe internal names (column names may hold spaces or operators); response centred on its
     # median, which changes no sum of squares but keeps the normal equations well scaled.
     names = {factor: "f", **{b: f"b{i}" for i, b in enumerate(blocks)}}

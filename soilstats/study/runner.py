@@ -113,9 +113,8 @@ def run_study(
     cache = cache or PerTestCache(campaign, progress=progress)
     tests = select_tests(campaign, spec)
     soils, notes = soils_with_levels(tests, spec)
-    notes = window_notes + notes
     tests = tests[tests["soil"].astype(str).isin(soils)]
-    notes += check_reference(tests, spec)
+    notes = window_notes + notes + check_reference(tests, spec)
     ids = tests["test_id"].astype(str).tolist()
     if spec.kind == "sinkage":
         per_test = cache.sinkage(ids, spec.z_ref_m, spec.z_window_m)

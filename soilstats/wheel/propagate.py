@@ -129,12 +129,7 @@ def predict_wheel(
     if s.ndim != 1 or s.size == 0:
         raise InputError(f"slips must be a 1-D array of slips, got {slips!r}")
     load = np.broadcast_to(np.asarray(load_N, dtype=float), s.shape).astype(float)
-    beta = np.asarray(slip_angle_deg, dtype=float)
-    if beta.ndim > 1 or (beta.ndim == 1 and beta.shape != s.shape):
-        raise InputError(
-            f"slip_angle_deg must be one angle or one per slip ({s.size}), got {slip_angle_deg!r}"
-        )
-    beta = np.broadcast_to(beta, s.shape).astype(float)
+    beta = _slip_angles(slip_angle_deg, s)
     lateral = LateralSoil() if lateral is None else lateral
     angles = StressAngles() if angles is None else angles
     state = wheel_forces(
@@ -158,14 +153,7 @@ def predict_wheel(
     bands = _bands(outputs, state.status, s, load, prob, unpredictable)
     samples = _samples(outputs, state.status, s)
     notes = _notes(state, s, load, wheel, law, unpredictable)
-    notes[0] = (
-        LONGITUDINAL_ONLY
-        if np.all(beta == 0)
-        else SLIP_ANGLE_MODEL.format(
-            gamma=lateral.unit_weight_N_m3,
-            ky="K" if lateral.K_y_m is None else f"{lateral.K_y_m:g} m",
-        )
-    )
+    notes[0] = _model_note(beta, lateral)
     _warn(state.status, unpredictable)
     return WheelPrediction(
         wheel=wheel,
@@ -182,6 +170,27 @@ def predict_wheel(
         seed=int(seed),
         notes=tuple(notes),
         slip_angle_deg=tuple(float(v) for v in beta),
+    )
+
+
+def _slip_angles(slip_angle_deg: ArrayLike, slips: np.ndarray) -> np.ndarray:
+    """β [deg] per slip: one angle for all, or one per slip."""
+    beta = np.asarray(slip_angle_deg, dtype=float)
+    if beta.ndim > 1 or (beta.ndim == 1 and beta.shape != slips.shape):
+        raise InputError(
+            f"slip_angle_deg must be one angle or one per slip ({slips.size}), "
+            f"got {slip_angle_deg!r}"
+        )
+    return np.broadcast_to(beta, slips.shape).astype(float)
+
+
+def _model_note(beta: np.ndarray, lateral: LateralSoil) -> str:
+    """The first note: the longitudinal model at β = 0, else the slip-angle model's terms."""
+    if np.all(beta == 0):
+        return LONGITUDINAL_ONLY
+    return SLIP_ANGLE_MODEL.format(
+        gamma=lateral.unit_weight_N_m3,
+        ky="K" if lateral.K_y_m is None else f"{lateral.K_y_m:g} m",
     )
 
 

@@ -145,13 +145,7 @@ def validate_wheel(
     if not 0 < prob < 1:
         raise InputError(f"prob must be in (0, 1), got {prob!r}")
     campaign = _campaign(campaign)
-    source = runs if isinstance(runs, str | Path) else None
-    table = read_runs(runs)
-    wheels = _wheels(wheels, table, source)
-    warn_load_units(table, wheels, str(table.attrs.get("file", "the runs")))
-    if caveats is None:
-        toml = None if source is None else Path(source).with_name("wheels.toml")
-        caveats = read_caveats(toml) if toml is not None and toml.is_file() else []
+    table, wheels, caveats = _runs_and_wheels(runs, wheels, caveats)
     angles = StressAngles() if angles is None else angles
     priors = dict(priors or {})
     check_priors(priors)
@@ -172,13 +166,7 @@ def validate_wheel(
     frame, excluded = _runs_frame(table, predicted, notes)
     if not frame["predicted"].any():
         raise SoilstatsError(_none_carried(table, wheels, law))
-    if "date" in table and table["date"].isna().any():
-        undated = table.loc[table["date"].isna(), "run_id"].tolist()
-        notes.append(
-            f"{len(undated)} runs are undated (empty date cells: {undated[:5]}"
-            f"{', …' if len(undated) > 5 else ''}): they are predicted and scored, and left "
-            "out of the by-day groups, the day test and the days-out folds only"
-        )
+    notes += _undated_note(table)
     unpredictable = {} if _has_shear(params) else _no_shear_reasons()
     groups = _groups(frame, with_dp="drawbar_pull_median_N" in frame)
     coverage, bias = _headline(frame, groups)
@@ -214,6 +202,35 @@ def validate_wheel(
         notes=tuple(notes),
         caveats=(*caveats, *_caveats(frame)),
     )
+
+
+def _runs_and_wheels(
+    runs: pd.DataFrame | str | Path,
+    wheels: Mapping[str, Wheel] | None,
+    caveats: Iterable[str] | None,
+) -> tuple[pd.DataFrame, dict[str, Wheel], Iterable[str]]:
+    """The runs table, the wheels (default: ``wheels.toml`` beside a runs file) with their
+    load units checked, and the caveats (default: that file's, if any)."""
+    source = runs if isinstance(runs, str | Path) else None
+    table = read_runs(runs)
+    wheels = _wheels(wheels, table, source)
+    warn_load_units(table, wheels, str(table.attrs.get("file", "the runs")))
+    if caveats is None:
+        toml = None if source is None else Path(source).with_name("wheels.toml")
+        caveats = read_caveats(toml) if toml is not None and toml.is_file() else []
+    return table, wheels, caveats
+
+
+def _undated_note(table: pd.DataFrame) -> list[str]:
+    """A note on the runs with an empty date cell (none when every run is dated)."""
+    if "date" not in table or not table["date"].isna().any():
+        return []
+    undated = table.loc[table["date"].isna(), "run_id"].tolist()
+    return [
+        f"{len(undated)} runs are undated (empty date cells: {undated[:5]}"
+        f"{', …' if len(undated) > 5 else ''}): they are predicted and scored, and left "
+        "out of the by-day groups, the day test and the days-out folds only"
+    ]
 
 
 def _none_carried(table: pd.DataFrame, wheels: Mapping[str, Wheel], law: str) -> str:
