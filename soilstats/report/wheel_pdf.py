@@ -20,6 +20,7 @@ import pandas as pd
 from ..outputs.files import output_path
 from .document import Document, strong
 from .front import data_origin, front_page
+from .wheel_calibration_pdf import calibration_conclusion, calibration_sections
 from .wheel_figures import (
     beta_figure,
     day_figure,
@@ -30,6 +31,7 @@ from .wheel_figures import (
 
 if TYPE_CHECKING:
     from ..outputs.provenance import Provenance
+    from ..wheel.calibration.validate import CalibrationReport
     from ..wheel.validation_result import WheelValidation
 
 __all__ = ["write_report"]
@@ -237,8 +239,12 @@ def write_report(
     *,
     provenance: Provenance | None = None,
     overwrite: bool = False,
+    calibration: CalibrationReport | None = None,
 ) -> int:
-    """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages."""
+    """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages.
+
+    With ``calibration`` (``--calibrate``) page 1 also gives the held-out answers of the
+    calibrated wheel and the body its sections (:mod:`.wheel_calibration_pdf`)."""
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     res = result
     doc = Document(
@@ -265,7 +271,8 @@ def write_report(
             f"{runs['W_N'].min():.0f}–{runs['W_N'].max():.0f} N. The wheel runs never enter the "
             "soil parameters that predict them.",
         ],
-        conclusion=_conclusion(res),
+        conclusion=_conclusion(res)
+        + (calibration_conclusion(calibration) if calibration is not None else []),
     )
     fig, caption = predicted_figure(res)
     doc.figure(fig, caption, width="94%")
@@ -410,6 +417,8 @@ def write_report(
         doc.heading("Not predicted")
         doc.bullets([strong(f"{q}: "), reason] for q, reason in res.unpredictable.items())
 
+    if calibration is not None:
+        calibration_sections(doc, calibration)
     doc.heading("Caveats of the data and notes")
     doc.numbered([*res.caveats, *res.notes])
     for e in res.excluded:
