@@ -45,9 +45,33 @@ def _signed_mm(x: float) -> str:
     return f"{1e3 * x:+.1f} mm"
 
 
+def _answer(res) -> list:
+    """The title's answer first: "no" while the band holds fewer than half the runs; what
+    the band holds; and the bias by slip (never a lone mean over a U-shaped error)."""
+    cov = res.coverage["beta_0"]
+    verdict = "No" if cov["coverage_90"] < 0.5 else (
+        "Partly" if cov["coverage_90"] < 0.8 else "Yes")
+    g = res.groups
+    slip = g[(g["by"] == "wheel × slip") & (g["quantity"] == "sinkage")]
+    by_slip = slip.groupby("level")["bias"].mean() if len(slip) else None
+    text = (
+        f"the 90 % band from plates alone holds {cov['covered']} of {cov['runs']} β = 0 runs "
+        f"({cov['coverage_90']:.0%}). It is PARAMETER UNCERTAINTY ONLY (plate posterior and "
+        "test-to-test scatter; no model discrepancy, stress angles and datum fixed)"
+    )
+    if by_slip is not None and len(by_slip):
+        worst = by_slip.abs().idxmax()
+        text += (
+            "; its bias (predicted − measured) by slip: "
+            + ", ".join(f"s = {lv:g}: {_signed_mm(v)}" for lv, v in by_slip.items())
+            + f" (largest at s = {worst:g})"
+        )
+    return [[strong(f"{verdict}: "), text + "."]]
+
+
 def _conclusion(res) -> list:
     c, b = res.coverage, res.bias
-    out: list = []
+    out: list = _answer(res)
     per_wheel = []
     for wheel, cov in c["by_wheel"].items():
         near, bw = cov["near_zero_slip_beta_0"], b["by_wheel"][wheel]
