@@ -83,7 +83,9 @@ def test_shear_priors_are_sampled_seeded_and_labelled():
     assert a.sources["phi"] == "user prior normal(30, 3)"
     assert a.sources["K"] == "user prior lognormal(0.01, 0.5)"
     assert not a.unpredictable
-    assert {"sinkage_m", "drawbar_pull_N", "torque_Nm"} == set(a.bands["quantity"])
+    assert {"sinkage_m", "drawbar_pull_N", "torque_Nm", "lateral_force_N"} == set(
+        a.bands["quantity"]
+    )
     # drawbar pull rises with slip from the skid side; the band has width from the priors
     dp = a.band("drawbar_pull_N")
     assert dp["median"].is_monotonic_increasing and np.all(dp["upper"] > dp["lower"])
@@ -167,7 +169,7 @@ def test_summary_and_strict_json():
     doc = json.loads(json.dumps(pred.to_dict(), allow_nan=False))
     assert doc["wheel"]["shear_radius_m"] == 0.063 and doc["units"]["phi"] == "deg"
     assert doc["sources"]["kc"] == "population draws"
-    assert len(doc["bands"]) == 3 * len(SLIPS) and doc["prob"] == 0.9
+    assert len(doc["bands"]) == 4 * len(SLIPS) and doc["prob"] == 0.9
     text = pred.summary()
     for needle in (
         "CMU grouser",

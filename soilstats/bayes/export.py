@@ -53,9 +53,12 @@ __all__ = [
     "SimulatorConstraintError",
     "SimulatorExport",
     "check_scm",
+    "chrono_contact_width",
+    "contact_width_warning",
     "export_simulator",
     "missing_message",
     "parse_stated_prior",
+    "pooled_series_failure",
     "scm_plan",
     "simulator_parameters",
     "simulator_record",
@@ -618,6 +621,67 @@ def export_simulator(
     width = negative_modulus_width(draws) if plan["kc"] == "draws" else None
     notes = _notes(table, draws, plan, priors, width, seed, plate_widths)
     return SimulatorExport(simulator, table, sources, stated, check, notes, width)
+
+
+#: SCM's modulus at its own contact width may differ from the wheel model's by this share
+#: before the export warns (issue #43: a 5.5x softer soil went unsaid).
+CONTACT_WIDTH_TOLERANCE = 0.25
+
+
+def chrono_contact_width(length_m: float, width_m: float) -> float:
+    """b [m] SCM takes for an l × w contact patch: l·w/(l + w) (its 1/b = perimeter / (2 area),
+    SCMTerrain.cpp:1671)."""
+    length_m, width_m = float(length_m), float(width_m)
+    if not (np.isfinite(length_m) and np.isfinite(width_m) and length_m > 0 and width_m > 0):
+        raise InputError(
+            f"the contact patch needs a positive, finite length and width in m, got "
+            f"l = {length_m!r}, w = {width_m!r}"
+        )
+    return length_m * width_m / (length_m + width_m)
+
+
+def contact_width_warning(
+    table: pd.DataFrame, length_m: float, width_m: float, tolerance: float = CONTACT_WIDTH_TOLERANCE
+) -> str | None:
+    """A warning naming both moduli when SCM's pressure modulus Kc/b + Kphi at its contact
+    width b = l·w/(l + w) differs by more than ``tolerance`` from the one at the wheel's width
+    w (the b of the Wong–Reece wheel, docs/wheel.md); None when they agree.
+
+    ``table`` is the export's (columns Bekker_Kc, Bekker_Kphi); the medians over its rows are
+    compared (each row's own ratio would mix rows whose modulus is near 0).
+    """
+    b_scm = chrono_contact_width(length_m, width_m)
+    kc, kphi = (table[c].to_numpy(float) for c in ("Bekker_Kc", "Bekker_Kphi"))
+    at_scm = float(np.median(kc / b_scm + kphi))
+    at_wheel = float(np.median(kc / width_m + kphi))
+    if at_wheel != 0 and abs(at_scm / at_wheel - 1.0) <= tolerance:
+        return None
+    ratio = at_scm / at_wheel if at_wheel != 0 else np.inf
+    return (
+        f"Chrono SCM sizes this {1e3 * length_m:g} x {1e3 * width_m:g} mm contact patch as "
+        f"b = l w/(l + w) = {1e3 * b_scm:.3g} mm, where the median pressure modulus Kc/b + Kphi "
+        f"is {at_scm:.4g} Pa/m^n, against {at_wheel:.4g} Pa/m^n at the wheel width "
+        f"b = {1e3 * width_m:g} mm the wheel model (soilstats wheel) uses: {ratio:.2g} times "
+        f"(more than {tolerance:.0%} apart), so SCM's soil is "
+        f"{'softer' if abs(at_scm) < abs(at_wheel) else 'stiffer'} than the one validated; "
+        "Kc was measured on plates, and SCM extrapolates it to its own width"
+    )
+
+
+def pooled_series_failure(shear_tests: pd.DataFrame) -> str | None:
+    """A refusal when the shear tests behind a shear posterior span more than one test series
+    (different rings, grousers, speeds: heterogeneous set-ups): its c, φ, K describe their
+    mixture, not the soil under any one wheel.  None for one series (or no series column)."""
+    if "series" not in shear_tests or shear_tests.empty:
+        return None
+    series = sorted(str(v) for v in shear_tests["series"].dropna().unique())
+    if len(series) < 2:
+        return None
+    return (
+        f"the shear posterior pools {len(series)} test series ({', '.join(series[:6])}) of "
+        "different set-ups: its c, phi, K are a mixture, not the soil under any one wheel; "
+        "select the series the wheel's shear is like with --select shear:series=NAME"
+    )
 
 
 def missing_message(simulator: str, missing: Iterable[str], available: Iterable[str]) -> str:

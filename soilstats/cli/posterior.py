@@ -140,6 +140,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "x Bekker_Kphi (MULTIPLE > 1), marked per row (column elastic_K_repaired), in the "
         "JSON and on page 1 of the report; without it such sets are refused",
     )
+    parser.add_argument(
+        "--scm-contact",
+        metavar="LENGTH:WIDTH",
+        help="the wheel's contact patch in SCM [m] (e.g. 0.039:0.05): warns when SCM's modulus "
+        "at its width l*w/(l+w) differs by more than 25 %% from the one at the wheel width w",
+    )
 
 
 def split_prior_items(
@@ -265,7 +271,10 @@ def _check_simulator(args, models, stated: dict) -> None:
     if not args.simulator:
         if args.scm_repair is not None:
             raise InputError("--scm-repair repairs a simulator export: give --simulator too")
+        if getattr(args, "scm_contact", None):
+            raise InputError("--scm-contact checks a simulator export: give --simulator too")
         return
+    _scm_contact(args)
     from ..bayes.export import missing_message, scm_plan, stated_inputs
     from ..bayes.stated_priors import sample_priors
 
@@ -411,6 +420,49 @@ def _soil(args, campaign) -> str:
     raise InputError(f"--soil is needed: the campaign has {len(soils)} soils ({', '.join(soils)})")
 
 
+def _scm_contact(args) -> tuple[float, float] | None:
+    """--scm-contact LENGTH:WIDTH in m, checked (None when not given)."""
+    from ..bayes.export import chrono_contact_width
+
+    text = getattr(args, "scm_contact", None)
+    if not text:
+        return None
+    length, _, width = str(text).partition(":")
+    try:
+        patch = (float(length), float(width))
+    except ValueError:
+        raise InputError(f"--scm-contact takes LENGTH:WIDTH in metres, got {text!r}") from None
+    chrono_contact_width(*patch)  # positive and finite, or an InputError naming both
+    return patch
+
+
+def _scm_warnings(args, export) -> list[str]:
+    """SCM's modulus at its own contact width against the wheel's (--scm-contact), printed."""
+    from ..bayes.export import contact_width_warning
+
+    patch = _scm_contact(args)
+    if export is None or patch is None:
+        return []
+    text = contact_width_warning(export.table, *patch)
+    if text is None:
+        return []
+    print(f"WARNING: {text}", file=sys.stderr)
+    return [text]
+
+
+def _series_refusal(args, models, campaign) -> str | None:
+    """A shear posterior exported for a simulator must not pool test series of different
+    set-ups without --select (docs/posterior.md)."""
+    from ..bayes.export import pooled_series_failure
+    from ..models import get_model
+
+    if not args.simulator or not any(get_model(m).kind == "shear" for m in models):
+        return None
+    tests = campaign.tests
+    shear = tests[(tests["kind"] == "shear") & (tests["soil"].astype(str) == args.soil)]
+    return pooled_series_failure(shear)
+
+
 def _export(args, models, results, kept, stated, campaign):
     """The draws handed out as the simulator's parameter sets (checked, not yet written)."""
     from ..bayes.export import export_simulator
@@ -528,6 +580,14 @@ def _checked_sampled_written(args, models, priors, stated) -> int:
     _check_outputs(out, models, args)
     widths = _contact_widths(args, campaign)
     pooled_warnings = pooling_warnings(campaign, args.soil, models)
+    series = _series_refusal(args, models, campaign)
+    if series is not None and not args.force:
+        print(
+            f"error: nothing written to {out}: {args.simulator}: {series} (or pass --force to "
+            "write them anyway, marked FORCED)",
+            file=sys.stderr,
+        )
+        return 2
     # Refusals knowable before sampling are made before it (in the time of a least-squares
     # fit), so no sampling is spent on draws that would be refused; the sampler then starts
     # from those very fits instead of making them again.
@@ -718,7 +778,11 @@ def _decide_and_write(
     export = _export(args, models, results, kept, stated, campaign) if args.simulator else None
     if export is not None and not export.check.passed:
         failures += _export_failures(args.simulator, export.check)
+    series = _series_refusal(args, models, campaign) if export is not None else None
+    if series is not None:  # only with --force: refused before sampling otherwise
+        failures.append(f"{args.simulator}: {series}")
     ours = _warnings(caught, widths, args, campaign, models, handout, pooled_warnings)
+    ours += _scm_warnings(args, export)
     if failures and not args.force:
         simulator_only = export is not None and len(failures) == len(export.check.failures)
         return _refuse(failures, out, args, sampled=True, simulator_only=simulator_only)

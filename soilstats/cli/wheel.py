@@ -48,6 +48,22 @@ _GEOMETRY = {
 }
 
 
+class _PlateLaws:
+    """``--law``'s choices: the plate laws of the model registry (``SINKAGE_LAWS``), read when
+    first needed (building the parser must stay cheap)."""
+
+    def _names(self) -> tuple[str, ...]:
+        from ..wheel.stress import SINKAGE_LAWS
+
+        return tuple(SINKAGE_LAWS)
+
+    def __iter__(self):
+        return iter(self._names())
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._names()
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     """The wheel subcommand's options."""
     add_common_options(parser, out_help="write wheel.json, wheel_runs.csv and wheel.pdf into DIR")
@@ -74,11 +90,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
             help=f"{key} of wheel TYPE (or of every type), replacing the file's (repeatable)",
         )
     parser.add_argument("--soil", help="soil of the plate tests (when the campaign has several)")
-    parser.add_argument(
+    law = parser.add_argument(
         "--law",
-        choices=("bekker", "bernstein", "reece"),
-        help="pressure-sinkage law (default bekker with two or more plate sizes, else bernstein)",
+        help="pressure-sinkage law: a registered plate law (default bekker with two or more "
+        "plate sizes, else bernstein)",
     )
+    law.choices = _PlateLaws()  # after add_argument, which would format them now
     parser.add_argument(
         "--draws",
         choices=("auto", "population", "pooled"),

@@ -27,6 +27,7 @@ __all__ = [
     "Model",
     "NonNegative",
     "ParamLabel",
+    "PlatePowerLaw",
     "PopulationLayout",
     "Positive",
     "PositiveModulus",
@@ -152,6 +153,56 @@ def separable_from_power_law(
     g, z = power_law(x)
     terms = PowerLawTerms(g, z, weights)
     return terms.basis, terms.log_z
+
+
+@dataclass(frozen=True)
+class PlatePowerLaw:
+    """A plate law that is a power law in the sinkage: p(b, z) = k_eq(b)·z^n.
+
+    ``modulus(b, *params) -> k_eq`` [N/m^(n+2)] at plate width b [m], with ``params`` in the
+    record's order and n its ``"n"`` parameter.  As the record's ``plate_pressure`` hook it
+    tells the wheel (:mod:`soilstats.wheel`) to take its fast path, σ = k_eq·R^n·(cos θ −
+    cos θ1)^n, instead of evaluating the law at every node's depth.  Calling it gives the
+    pressure (0 where z ≤ 0), as every ``plate_pressure`` hook does.
+    """
+
+    modulus: Callable[..., np.ndarray]
+    exponent_index: int = -1  # where n stands among the parameters (last for a power law)
+
+    def __call__(self, b: Value, z: Value, *params: Value) -> np.ndarray:
+        z = np.asarray(z, dtype=float)
+        n = params[self.exponent_index]
+        contact = z > 0
+        zn = np.where(contact, np.exp(n * np.log(np.where(contact, z, 1.0))), 0.0)
+        return self.modulus(b, *params) * zn
+
+
+@dataclass(frozen=True)
+class _PowerLawModulus:
+    """k_eq(b) = Σ aᵢ·gᵢ(b) of a record's ``power_law`` basis (θ = (a₁ … a_q, n)): the
+    default plate hook of Bekker and Bernstein.  Module level, so a record pickles."""
+
+    power_law: Callable
+    columns: tuple[str, ...]
+
+    def __call__(self, b: Value, *params: Value) -> np.ndarray:
+        unit_depth = 1.0
+        x = (b, unit_depth) if self.columns == ("b_m", "z_m") else unit_depth
+        g, _ = self.power_law(x)
+        return sum((a * g_i for a, g_i in zip(params[:-1], g, strict=True)), np.asarray(0.0))
+
+
+@dataclass(frozen=True)
+class _FuncPlatePressure:
+    """p(b, z) from a sinkage record's own ``func`` on x = (b, z) or z (its ``columns``)."""
+
+    func: Callable
+    columns: tuple[str, ...]
+
+    def __call__(self, b: Value, z: Value, *params: Value) -> np.ndarray:
+        b, z = np.broadcast_arrays(np.asarray(b, float), np.asarray(z, float))
+        x = (b, z) if self.columns == ("b_m", "z_m") else z
+        return np.asarray(self.func(x, *params), dtype=float)
 
 
 # ------------------------------------------------------------------- parts of the record
@@ -402,6 +453,13 @@ class Model:
         (:mod:`soilstats.bayes.export`); empty where SCM has none.
     labels : mapping or tuple of (name, ParamLabel)
         How reports show each parameter; a parameter without one is shown by its name.
+    plate_pressure : callable, optional
+        The one hook the wheel (:mod:`soilstats.wheel`) asks: ``plate_pressure(b, z,
+        *params) -> p`` [Pa], the pressure under a plate of width b [m] at sinkage z [m],
+        vectorised (b, z and the parameters broadcast; 0 where z ≤ 0).  A
+        :class:`PlatePowerLaw` (p = k_eq(b)·z^n) gives the wheel its power-law fast path.
+        Default (:meth:`plate_law`): for a power law (``power_law``), k_eq(b)·z^n from its
+        basis; else the record's ``func`` where its columns are (b, z) or z.
     signed : tuple of str
         Parameters whose sign is a physical statement (a modulus that may take either
         sign): the test bootstrap flags an unstable sign.
@@ -439,6 +497,7 @@ class Model:
         default=(), repr=False
     )
     signed: tuple[str, ...] = ()
+    plate_pressure: Callable | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         for name in ("priors", "scm", "labels"):
@@ -488,6 +547,36 @@ class Model:
 
     def __call__(self, x: ArrayLike, *params: Value) -> np.ndarray:
         return self.func(x, *params)
+
+    def plate_law(self) -> Callable[..., np.ndarray] | None:
+        """The plate hook ``(b, z, *params) -> p`` [Pa] (``plate_pressure``), or its default:
+        a :class:`PlatePowerLaw` from ``power_law`` for a power law, else ``func`` on (b, z)
+        or z; None for a record whose inputs are not a plate's (b, z)."""
+        if self.plate_pressure is not None:
+            return self.plate_pressure
+        if self.kind != "sinkage" or self.columns not in (("b_m", "z_m"), ("z_m",)):
+            return None
+        if self.power_law is not None and self.exponent == self.param_names[-1]:
+            return PlatePowerLaw(_PowerLawModulus(self.power_law, self.columns))
+        return _FuncPlatePressure(self.func, self.columns)
+
+    def pressure_under_plate(self, b: Value, z: Value, *params: Value) -> np.ndarray:
+        """p [Pa] under a plate of width b [m] at sinkage z [m] (:meth:`plate_law`)."""
+        law = self.plate_law()
+        if law is None:
+            raise ModelError(
+                f"model {self.name!r} gives no pressure under a plate (its inputs are "
+                f"{self.columns}): state Model.plate_pressure(b, z, *params)"
+            )
+        return np.asarray(law(b, z, *params), dtype=float)
+
+    def plate_modulus(self, b: Value, *params: Value) -> np.ndarray | None:
+        """k_eq(b) [N/m^(n+2)] of a plate law that is a power law (p = k_eq·z^n), else None:
+        the wheel's fast path."""
+        law = self.plate_law()
+        if not isinstance(law, PlatePowerLaw):
+            return None
+        return np.asarray(law.modulus(b, *params), dtype=float)
 
     @property
     def n_params(self) -> int:

@@ -17,6 +17,7 @@ from .base import (
     InputRows,
     Model,
     ParamLabel,
+    PlatePowerLaw,
     Positive,
     PositiveModulus,
     Value,
@@ -109,6 +110,16 @@ def reece_modulus(b: Value, k1: np.ndarray, k2: np.ndarray, n: np.ndarray) -> np
     return k1 + k2 * b
 
 
+def bernstein_modulus(b: Value, k: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Bernstein's plate modulus k [N/m^(n+2)], whatever the width."""
+    return np.asarray(k, dtype=float)
+
+
+def reece_pressure_modulus(b: Value, k1: np.ndarray, k2: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Reece's k_eq = (k1 + k2·b)·b^(−n) [N/m^(n+2)]: p = k_eq·z^n on a plate of width b."""
+    return (k1 + k2 * b) * b ** (-n)
+
+
 # Starting values and Wong's method have one home each (soilstats.models.starting_values
 # and .wong, below the identification that asks the record); imported when first used.
 def _start_bekker(x, p):
@@ -191,6 +202,7 @@ BEKKER = Model(
         "n": _N_LABEL,
     },
     signed=("kc", "kphi"),
+    plate_pressure=PlatePowerLaw(bekker_modulus),
 )
 
 BERNSTEIN = Model(
@@ -217,6 +229,7 @@ BERNSTEIN = Model(
         "k": ParamLabel("k", r"$k$", "k", "kN/m$^{n+2}$", "kN/m^(n+2)", 1e-3),
         "n": _N_LABEL,
     },
+    plate_pressure=PlatePowerLaw(bernstein_modulus),
 )
 
 REECE = Model(
@@ -239,4 +252,5 @@ REECE = Model(
         "n": _N_LABEL,
     },
     signed=("k1", "k2"),
+    plate_pressure=PlatePowerLaw(reece_pressure_modulus),
 )

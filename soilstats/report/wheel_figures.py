@@ -176,7 +176,7 @@ def beta_figure(result: WheelValidation) -> tuple[Figure, str]:
 def day_effects(result: WheelValidation) -> tuple[pd.DataFrame, pd.Series]:
     """Each run's error less the mean error of its condition (wheel × slip × β): what the
     day test sees.  Returns the runs with ``within_cell_m`` and the day means per wheel."""
-    runs = result.runs[result.runs["predicted"]].copy()
+    runs = result.runs[result.runs["predicted"] & result.runs["date"].notna()].copy()
     cell = runs.groupby(["wheel", "slip_level", "beta_level"])["residual_m"].transform("mean")
     runs["within_cell_m"] = runs["residual_m"] - cell
     return runs, runs.groupby(["wheel", "date"])["within_cell_m"].mean()

@@ -358,7 +358,10 @@ def write_report(
         )
     fig, caption = beta_figure(res)
     doc.figure(fig, caption)
-    if "date" in runs and runs["date"].astype(str).str.len().gt(0).any():
+    dated = (
+        runs["date"].notna() & runs["date"].astype(str).str.len().gt(0) if "date" in runs else None
+    )
+    if dated is not None and dated.any():
         fig, caption = day_figure(res)
         doc.figure(fig, caption)
 

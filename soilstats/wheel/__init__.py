@@ -2,7 +2,8 @@
 
 * :class:`Wheel` — radius, width, grouser shearing radius.
 * :func:`wheel_forces` — the Wong–Reece model at a given load (θ1 solved) or sinkage, for
-  parameter sets × slips at once: sinkage, drawbar pull, torque.
+  parameter sets × slips at once: sinkage, drawbar pull, torque, and at a slip angle β the
+  lateral force (:mod:`.lateral`, :class:`LateralSoil`).
 * :func:`predict_wheel` — posterior/population draws (plus stated priors for what no test
   measured) through the model: predictive bands against slip, a :class:`WheelPrediction`.
 * :func:`validate_wheel` — measured runs (:func:`read_runs`) against their prediction from
@@ -24,6 +25,7 @@ from __future__ import annotations
 from ..bayes.stated_priors import sample_priors
 from .forces import N_NODES, contact_forces
 from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
+from .lateral import LateralSoil
 from .propagate import predict_wheel
 from .result import QUANTITIES, WheelPrediction
 from .runs import WheelDataError, read_runs, read_wheels
@@ -31,6 +33,7 @@ from .slipsinkage import SlipExponent, fit_slip_exponent
 from .soil import PlateDraws, plate_draws
 from .solve import STATUS, WheelState, wheel_forces
 from .stress import (
+    PARAM_UNITS,
     SHEAR_PARAMS,
     SINKAGE_LAWS,
     StressAngles,
@@ -44,10 +47,12 @@ from .validation_result import WheelDiscovery, WheelValidation
 
 __all__ = [
     "N_NODES",
+    "PARAM_UNITS",
     "QUANTITIES",
     "SHEAR_PARAMS",
     "SINKAGE_LAWS",
     "STATUS",
+    "LateralSoil",
     "PlateDraws",
     "SlipExponent",
     "StressAngles",

@@ -89,13 +89,20 @@ def residual_tests(
     y = runs[residual].to_numpy(float)
     rows = []
     for name, (column, categorical, within) in CANDIDATES.items():
-        present = [c for c in (column, *within) if c in runs and runs[c].notna().all()]
-        if column not in present:
+        # runs without a value of the candidate (undated runs) are left out of its test only
+        given = runs[column].notna() if column in runs else pd.Series(False, index=runs.index)
+        if not given.any():
             rows.append(_row(name, "main", within, {"reason": f"no {column} column"}))
             continue
-        strata = strata_codes([_codes(runs, c) for c in within if c in present], len(runs))
-        x = _codes(runs, column) if categorical else runs[column].to_numpy(float)
-        res = strata_test(y, x, categorical=categorical, strata=strata, log_scale=False)
+        sub = runs[given]
+        present = [c for c in within if c in sub and sub[c].notna().all()]
+        strata = strata_codes([_codes(sub, c) for c in present], len(sub))
+        x = _codes(sub, column) if categorical else sub[column].to_numpy(float)
+        res = strata_test(
+            y[given.to_numpy()], x, categorical=categorical, strata=strata, log_scale=False
+        )
+        if not given.all():
+            res = {**res, "reason": f"{int((~given).sum())} runs without {column} left out"}
         rows.append(_row(name, "main", within, res))
     for name, (a, b, within) in INTERACTIONS.items():
         strata = strata_codes([_codes(runs, c) for c in within], len(runs))

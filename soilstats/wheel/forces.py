@@ -9,6 +9,10 @@ radius R = r_s (:attr:`Wheel.contact_radius_m`) and width b:
     DP = H − Rc = R b ∫ (τ cos θ − σ sin θ) dθ          drawbar pull [N], + forward
     T  = R² b ∫ τ dθ                                    driving torque [N·m] the axle applies
 
+At a slip angle β (:mod:`.lateral`) τ_x replaces τ (the shear split along the resultant
+displacement) and the lateral force F_y = R b ∫ τ_y dθ + sin β ∫ R_b(h)(R − h cos θ) dθ is added;
+with no β set on the cases the code path is the longitudinal one, unchanged.
+
 A *case* is one (parameter set, slip) pair; the arrays of :class:`Cases` hold one value per
 case, so a batch of draws × slips is integrated in one pass of numpy and a root-finder can
 work on the cases that have not converged yet (:meth:`Cases.take`).
@@ -28,16 +32,18 @@ for K/r ≥ 0.3 (``tests/test_wheel_model.py``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from collections.abc import Callable
+from dataclasses import dataclass, fields, replace
 from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .geometry import Wheel
+from .lateral import bulldozing_resistance, combined_shear
 from .stress import RAD_PER_DEG, displacement, janosi
 
-__all__ = ["N_NODES", "Cases", "ContactForces", "contact_forces", "gauss_rule"]
+__all__ = ["N_NODES", "Cases", "ContactForces", "PlateStress", "contact_forces", "gauss_rule"]
 
 #: Gauss–Legendre nodes on each piece of the contact (front and rear).
 N_NODES = 16
@@ -57,7 +63,14 @@ class Cases:
 
     ``prefactor`` is k_eq·R^n [Pa] (σ = prefactor·(cos θe − cos θ1)^n); ``a`` = θm/θ1 and
     ``b`` = θ2/θ1; ``nu`` = V/(rω) (∞ for a locked wheel); ``c`` [Pa], ``tan_phi`` [-] and
-    ``K`` [m] are None when the shear is not modelled (τ = 0).
+    ``K`` [m] are None when the shear is not modelled (τ = 0).  At a slip angle β
+    (:mod:`.lateral`) ``cos_beta``, ``sin_beta``, ``K_y`` [m] and ``unit_weight`` γ [N/m³] are
+    set (:meth:`with_slip_angle`); None is the longitudinal model, β = 0.
+
+    A plate law that is no power law (a sinkage offset …) sets ``plate``, a
+    :class:`PlateStress` (σ from the depth factor cos θe − cos θ1 and the law's parameters),
+    and ``plate_params``, the (cases, p) parameters of each case; ``prefactor`` is then NaN
+    and ``n`` only the solver's first guess.
     """
 
     prefactor: np.ndarray
@@ -68,10 +81,35 @@ class Cases:
     c: np.ndarray | None = None
     tan_phi: np.ndarray | None = None
     K: np.ndarray | None = None
+    cos_beta: np.ndarray | None = None
+    sin_beta: np.ndarray | None = None
+    K_y: np.ndarray | None = None
+    unit_weight: np.ndarray | None = None
+    plate: PlateStress | None = None
+    plate_params: np.ndarray | None = None
 
     @property
     def with_shear(self) -> bool:
         return self.c is not None
+
+    @property
+    def with_slip_angle(self) -> bool:
+        return self.sin_beta is not None
+
+    def at_slip_angle(
+        self, beta_rad: ArrayLike, K_y: ArrayLike | None, unit_weight: float
+    ) -> Cases:
+        """These cases at slip angle β [rad] (one per case or broadcast); K_y None: K."""
+        n = len(self)
+        beta = np.broadcast_to(np.asarray(beta_rad, dtype=float), (n,))
+        ky = self.K if K_y is None else np.broadcast_to(np.asarray(K_y, dtype=float), (n,))
+        return replace(
+            self,
+            cos_beta=np.cos(beta),
+            sin_beta=np.sin(beta),
+            K_y=None if ky is None else np.array(ky, dtype=float),
+            unit_weight=np.full(n, float(unit_weight)),
+        )
 
     def __len__(self) -> int:
         return len(self.prefactor)
@@ -98,13 +136,37 @@ class Cases:
         arrays = [prefactor, n, a, b, nu, *(shear or ())]
         flat = [np.ravel(v).astype(float) for v in np.broadcast_arrays(*map(np.asarray, arrays))]
         if shear is None:
-            return cls(*flat)
+            prefactor, n, a, b, nu = flat
+            return cls(prefactor, n, a, b, nu)
         prefactor, n, a, b, nu, c, tan_phi, K = flat
         return cls(prefactor, n, a, b, nu, c=c, tan_phi=tan_phi, K=K)
 
 
 def _take(value, index):
-    return None if value is None else value[index]
+    if value is None or isinstance(value, PlateStress):
+        return value  # the law itself is shared by every case
+    return value[index]
+
+
+@dataclass(frozen=True)
+class PlateStress:
+    """σ of a general plate law at the contact: σ = μ·p(b, r_s·d) + (1 − μ)·p(b, r·d), with
+    d = cos θe − cos θ1 and p the record's plate hook (``Model.plate_law``) — the depth of a
+    plate sunk to the local depth, averaged over grouser tips and rim as CMU's μ does (for a
+    power law exactly k_eq·(μ r_s^n + (1 − μ) r^n)·d^n, the fast path)."""
+
+    pressure: Callable[..., np.ndarray]
+    wheel: Wheel
+
+    def __call__(self, depth_factor: np.ndarray, params: np.ndarray) -> np.ndarray:
+        """σ [Pa] at (cases, nodes) depth factors for (cases, p) parameters."""
+        wheel = self.wheel
+        cols = [params[:, i, None] for i in range(params.shape[1])]
+        rs, r, mu = wheel.contact_radius_m, wheel.radius_m, wheel.grouser_area_ratio
+        sigma = self.pressure(wheel.width_m, rs * depth_factor, *cols)
+        if mu != 1.0 and rs != r:
+            sigma = mu * sigma + (1.0 - mu) * self.pressure(wheel.width_m, r * depth_factor, *cols)
+        return np.asarray(sigma, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -115,11 +177,21 @@ class ContactForces:
     thrust_N: np.ndarray
     resistance_N: np.ndarray
     torque_Nm: np.ndarray
+    #: R b ∫ τ_y dθ and sin β · F_s (:mod:`.lateral`); None for the longitudinal model.
+    lateral_shear_N: np.ndarray | None = None
+    side_force_N: np.ndarray | None = None
 
     @property
     def drawbar_pull_N(self) -> np.ndarray:
         """DP = thrust − resistance [N]."""
         return self.thrust_N - self.resistance_N
+
+    @property
+    def lateral_force_N(self) -> np.ndarray:
+        """F_y = lateral shear + side face [N], + opposing the sideways sliding (0 at β = 0)."""
+        if self.lateral_shear_N is None or self.side_force_N is None:
+            return np.zeros_like(self.load_N)
+        return self.lateral_shear_N + self.side_force_N
 
 
 @overload
@@ -167,13 +239,15 @@ def contact_forces(
     ]
     if load_only:
         return np.concatenate(parts)
-    return ContactForces(
-        *(np.concatenate(x) for x in zip(*(_astuple(p) for p in parts), strict=True))
-    )
+    return ContactForces(*(_concat(x) for x in zip(*(_astuple(p) for p in parts), strict=True)))
 
 
 def _astuple(f: ContactForces):
-    return f.load_N, f.thrust_N, f.resistance_N, f.torque_Nm
+    return (f.load_N, f.thrust_N, f.resistance_N, f.torque_Nm, f.lateral_shear_N, f.side_force_N)
+
+
+def _concat(arrays):
+    return None if arrays[0] is None else np.concatenate(arrays)
 
 
 def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
@@ -186,8 +260,14 @@ def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
     len_front, len_rear = 1.0 - cases.a, cases.a - cases.b  # piece lengths in u = θ/θ1
     sin_f, sin_r = np.sin(t1 * u_front), np.sin(t1 * u_rear)
     cos_f, cos_r = np.sqrt(1.0 - sin_f**2), np.sqrt(1.0 - sin_r**2)
-    with np.errstate(divide="ignore"):
-        sig_f = cases.prefactor[:, None] * np.maximum(cos_f - np.cos(t1), 0.0) ** cases.n[:, None]
+    if cases.plate is None:
+        with np.errstate(divide="ignore"):
+            sig_f = (
+                cases.prefactor[:, None] * np.maximum(cos_f - np.cos(t1), 0.0) ** cases.n[:, None]
+            )
+    else:  # a law that is no power law: its own pressure at each node's depth
+        assert cases.plate_params is not None
+        sig_f = cases.plate(np.maximum(cos_f - np.cos(t1), 0.0), cases.plate_params)
     sig_r = sig_f  # the rear node v has Wong–Reece's equivalent angle θe = the front node v
 
     def integral(front, rear):
@@ -195,7 +275,13 @@ def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
 
     vertical = integral(sig_f * cos_f, sig_r * cos_r)
     scale = wheel.contact_radius_m * wheel.width_m * t1[:, 0]
-    if cases.with_shear:
+    lateral = cases.with_shear and cases.with_slip_angle
+    if lateral:
+        sin1 = np.sin(t1)
+        tau_f, tau_y_f = _tau_xy(sig_f, t1, u_front, sin1 - sin_f, cases, wheel)
+        tau_r, tau_y_r = _tau_xy(sig_r, t1, u_rear, sin1 - sin_r, cases, wheel)
+        vertical = vertical + integral(tau_f * sin_f, tau_r * sin_r)
+    elif cases.with_shear:
         sin1 = np.sin(t1)
         tau_f = _tau(sig_f, t1, u_front, sin1 - sin_f, cases, wheel)
         tau_r = _tau(sig_r, t1, u_rear, sin1 - sin_r, cases, wheel)
@@ -208,11 +294,21 @@ def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
         torque = integral(tau_f, tau_r)
     else:
         thrust = torque = np.zeros_like(scale)
+    side = shear_y = None
+    if lateral:
+        shear_y = scale * integral(tau_y_f, tau_y_r)
+        cos1 = np.cos(t1)
+        side_f = _side_face(cos_f, cos1, cases, wheel)
+        side_r = _side_face(cos_r, cos1, cases, wheel)
+        assert cases.sin_beta is not None  # lateral
+        side = cases.sin_beta * t1[:, 0] * integral(side_f, side_r)
     return ContactForces(
         scale * vertical,
         scale * thrust,
         scale * resistance,
         wheel.contact_radius_m * scale * torque,
+        shear_y,
+        side,
     )
 
 
@@ -225,3 +321,38 @@ def _tau(sigma, t1, u, ahead, cases: Cases, wheel: Wheel):
     c, tan_phi, k = cases.c, cases.tan_phi, cases.K
     assert c is not None and tan_phi is not None and k is not None  # cases.with_shear
     return janosi(sigma, j, c[:, None], tan_phi[:, None], k[:, None])
+
+
+def _tau_xy(sigma, t1, u, ahead, cases: Cases, wheel: Wheel):
+    """(τ_x, τ_y) at the nodes at slip angle β (:func:`~soilstats.wheel.lateral.combined_shear`).
+
+    j_x with the heading component ν cos β of the travel speed, j_y = ν sin β r (θ1 − θ).
+    """
+    nu = cases.nu[:, None]
+    nu = np.where(np.isfinite(nu), nu, 1e200)  # locked: huge finite ν, as in _tau
+    cos_b, sin_b = cases.cos_beta, cases.sin_beta
+    assert cos_b is not None and sin_b is not None  # cases.with_slip_angle
+    behind = t1 * (1.0 - u)
+    j_x = displacement(behind, ahead, nu * cos_b[:, None], wheel)
+    j_y = (nu * sin_b[:, None]) * (wheel.radius_m * behind)
+    c, tan_phi, k, k_y = cases.c, cases.tan_phi, cases.K, cases.K_y
+    assert c is not None and tan_phi is not None and k is not None  # cases.with_shear
+    return combined_shear(
+        sigma,
+        j_x,
+        j_y,
+        c[:, None],
+        tan_phi[:, None],
+        k[:, None],
+        None if k_y is None else k_y[:, None],
+    )
+
+
+def _side_face(cos_theta, cos1, cases: Cases, wheel: Wheel):
+    """Ishigami's side-face integrand R_b(h) (R − h cos θ), h = R(cos θ − cos θ1) [N/m]."""
+    rc = wheel.contact_radius_m
+    h = rc * np.maximum(cos_theta - cos1, 0.0)
+    c, tan_phi, gamma = cases.c, cases.tan_phi, cases.unit_weight
+    assert c is not None and tan_phi is not None and gamma is not None
+    rb = bulldozing_resistance(h, c[:, None], tan_phi[:, None], gamma[:, None])
+    return rb * (rc - h * cos_theta)

@@ -23,6 +23,7 @@ from ..bayes.stated_priors import describe_prior, sample_priors
 from ..errors import InputError, SoilstatsWarning
 from .forces import N_NODES
 from .geometry import Wheel
+from .lateral import LateralSoil
 from .result import QUANTITIES, WheelPrediction
 from .solve import STATUS, wheel_forces
 from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
@@ -30,8 +31,13 @@ from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
 __all__ = ["predict_wheel"]
 
 LONGITUDINAL_ONLY = (
-    "Longitudinal model only (slip angle β = 0): no lateral shear, side-wall or bulldozing "
-    "force (Ishigami et al. 2007) is modelled."
+    "Slip angle β = 0: the longitudinal model (Wong & Reece 1967); no lateral force."
+)
+SLIP_ANGLE_MODEL = (
+    "Slip angle β ≠ 0: lateral shear j_y = ν sin β r (θ1 − θ) (Ishigami et al. 2007), "
+    "Janosi–Hanamoto on the resultant displacement split along it (|τ| ≤ c + σ tan φ, as CMU's "
+    "3D model), side-face bulldozing force (Hegedus, Ishigami et al. 2007) × sin β with soil unit "
+    "weight γ = {gamma:g} N/m³ and K_y = {ky}; lateral_force_N + opposes the sideways sliding."
 )
 
 
@@ -48,10 +54,11 @@ def predict_wheel(
     seed: int = 0,
     prob: float = 0.9,
     draws_source: str = "posterior draws",
-    slip_angle_deg: float = 0.0,
+    slip_angle_deg: ArrayLike = 0.0,
     n_nodes: int = N_NODES,
+    lateral: LateralSoil | None = None,
 ) -> WheelPrediction:
-    """Predictive bands (median, ``prob`` band) of sinkage, drawbar pull and torque vs slip.
+    """Predictive bands (median, ``prob`` band) of sinkage, drawbar pull, torque and lateral force.
 
     Parameters
     ----------
@@ -82,8 +89,12 @@ def predict_wheel(
     draws_source : str
         How the draws' parameters are labelled in :attr:`WheelPrediction.sources`
         (``"posterior draws"``, ``"population draws"`` …).
-    slip_angle_deg : float
-        Must be 0: only the longitudinal model is implemented.
+    slip_angle_deg : float or array of len(slips)
+        Slip angle β [deg] in [−90, 90], per slip if an array (:mod:`soilstats.wheel.lateral`);
+        0: the longitudinal model.
+    lateral : LateralSoil, optional
+        Soil unit weight γ of the side-face force and K_y at β ≠ 0 (default: γ of the CMU
+        sand, 13,047 N/m³, and K_y = K — stated in the notes).
 
     Returns
     -------
@@ -94,8 +105,8 @@ def predict_wheel(
     ValueError
         A parameter the law needs is in neither the draws nor the priors; a prior is given for
         a parameter the draws already hold or the model does not use; non-finite draws.
-    NotImplementedError
-        ``slip_angle_deg`` ≠ 0.
+    ValueError
+        ``slip_angle_deg`` outside [−90, 90] or not of len(slips).
     """
     if not 0 < prob < 1:
         raise InputError(f"prob must be in (0, 1), got {prob!r}")
@@ -118,6 +129,13 @@ def predict_wheel(
     if s.ndim != 1 or s.size == 0:
         raise InputError(f"slips must be a 1-D array of slips, got {slips!r}")
     load = np.broadcast_to(np.asarray(load_N, dtype=float), s.shape).astype(float)
+    beta = np.asarray(slip_angle_deg, dtype=float)
+    if beta.ndim > 1 or (beta.ndim == 1 and beta.shape != s.shape):
+        raise InputError(
+            f"slip_angle_deg must be one angle or one per slip ({s.size}), got {slip_angle_deg!r}"
+        )
+    beta = np.broadcast_to(beta, s.shape).astype(float)
+    lateral = LateralSoil() if lateral is None else lateral
     angles = StressAngles() if angles is None else angles
     state = wheel_forces(
         values,
@@ -126,18 +144,28 @@ def predict_wheel(
         law=law,
         load_N=load[None, :],
         angles=angles,
-        slip_angle_deg=slip_angle_deg,
+        slip_angle_deg=beta[None, :],
         n_nodes=n_nodes,
+        lateral=lateral,
     )
     unpredictable = {} if state.with_shear else _no_shear_reasons(columns, priors)
     outputs = {
         "sinkage_m": state.sinkage_m,
         "drawbar_pull_N": state.drawbar_pull_N,
         "torque_Nm": state.torque_Nm,
+        "lateral_force_N": state.lateral_force_N,
     }
     bands = _bands(outputs, state.status, s, load, prob, unpredictable)
     samples = _samples(outputs, state.status, s)
     notes = _notes(state, s, load, wheel, law, unpredictable)
+    notes[0] = (
+        LONGITUDINAL_ONLY
+        if np.all(beta == 0)
+        else SLIP_ANGLE_MODEL.format(
+            gamma=lateral.unit_weight_N_m3,
+            ky="K" if lateral.K_y_m is None else f"{lateral.K_y_m:g} m",
+        )
+    )
     _warn(state.status, unpredictable)
     return WheelPrediction(
         wheel=wheel,
@@ -153,6 +181,7 @@ def predict_wheel(
         n_draws=size,
         seed=int(seed),
         notes=tuple(notes),
+        slip_angle_deg=tuple(float(v) for v in beta),
     )
 
 
@@ -172,7 +201,7 @@ def _law(law, columns, priors) -> str:
     if len(fits) != 1:
         raise InputError(
             f"cannot tell the pressure-sinkage law from the draws' columns {columns} and priors "
-            f"{sorted(priors)} (laws that fit: {fits}); pass law='bekker', 'bernstein' or 'reece'"
+            f"{sorted(priors)} (laws that fit: {fits}); pass law= one of {sorted(SINKAGE_LAWS)}"
         )
     return fits[0]
 
@@ -216,7 +245,7 @@ def _no_shear_reasons(columns, priors) -> dict[str, str]:
         "priors={'c': ('uniform', 0, 1000), 'phi': ('normal', 30, 3), "
         "'K': ('lognormal', 0.01, 0.5)}, to predict it"
     )
-    return {"drawbar_pull_N": reason, "torque_Nm": reason}
+    return {"drawbar_pull_N": reason, "torque_Nm": reason, "lateral_force_N": reason}
 
 
 def _bands(outputs, status, slips, load, prob, unpredictable) -> pd.DataFrame:
@@ -261,7 +290,10 @@ def _warn(status, unpredictable) -> None:
     """One SoilstatsWarning for what the result cannot give: loud, details in its notes."""
     parts = []
     if unpredictable:
-        parts.append("drawbar pull and torque are not predicted (no c, phi, K in draws or priors)")
+        parts.append(
+            "drawbar pull and torque are not predicted, nor the lateral force (no c, phi, K "
+            "in draws or priors)"
+        )
     for code, what in ((1, "cannot carry the load within θ1 < 90°"), (2, "did not converge")):
         k = int(np.sum(np.any(status == code, axis=1)))
         if k:
@@ -291,7 +323,8 @@ def _notes(state, slips, load, wheel: Wheel, law, unpredictable) -> list[str]:
             )
     if unpredictable:
         notes.append(
-            "Drawbar pull and torque are NOT predicted: c, phi and K (Janosi–Hanamoto) are in "
+            "Drawbar pull, torque and lateral force are NOT predicted: c, phi and K "
+            "(Janosi–Hanamoto) are in "
             "neither the draws nor the priors, and soilstats does not invent them."
         )
         notes.append(

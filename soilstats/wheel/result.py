@@ -15,12 +15,17 @@ from .stress import PARAM_UNITS, StressAngles
 __all__ = ["QUANTITIES", "WheelPrediction"]
 
 #: Predicted quantities and their units.
-QUANTITIES: dict[str, str] = {"sinkage_m": "m", "drawbar_pull_N": "N", "torque_Nm": "N·m"}
+QUANTITIES: dict[str, str] = {
+    "sinkage_m": "m",
+    "drawbar_pull_N": "N",
+    "torque_Nm": "N·m",
+    "lateral_force_N": "N",
+}
 
 
 @dataclass(frozen=True, eq=False)
 class WheelPrediction:
-    """Predictive bands of a rigid wheel's sinkage, drawbar pull and torque against slip.
+    """Predictive bands of a rigid wheel's sinkage, drawbar pull, torque and lateral force.
 
     Attributes
     ----------
@@ -40,7 +45,8 @@ class WheelPrediction:
         predicted appear (see :attr:`unpredictable`).
     samples : DataFrame
         Per draw and slip: ``draw`` (row of the input draws), ``slip``, ``sinkage_m``,
-        ``drawbar_pull_N``, ``torque_Nm``, ``status`` (``ok``, ``not_carried``,
+        ``drawbar_pull_N``, ``torque_Nm``, ``lateral_force_N`` (+ opposing the sideways
+        sliding; 0 at slip angle 0), ``status`` (``ok``, ``not_carried``,
         ``not_converged``; NaN outputs where not ``ok``).
     sources : dict
         Where each parameter came from: the draws (``"posterior draws"`` or the label given)
@@ -50,6 +56,8 @@ class WheelPrediction:
     angles : StressAngles
     n_draws, seed : int
     notes : tuple of str
+    slip_angle_deg : tuple of float
+        Slip angle β [deg] at each slip (0: the longitudinal model).
     """
 
     wheel: Wheel
@@ -65,6 +73,7 @@ class WheelPrediction:
     n_draws: int
     seed: int
     notes: tuple[str, ...] = ()
+    slip_angle_deg: tuple[float, ...] = ()
 
     def band(self, quantity: str) -> pd.DataFrame:
         """``median``, ``lower``, ``upper`` of one quantity, indexed by slip."""
@@ -86,7 +95,8 @@ class WheelPrediction:
 
         return json_safe(
             {
-                "model": "Wong-Reece rigid wheel (longitudinal, slip angle 0)",
+                "model": self._model_name(),
+                "slip_angle_deg": list(self.slip_angle_deg),
                 "law": self.law,
                 "wheel": self.wheel.to_dict(),
                 "angles": self.angles.to_dict(),
@@ -112,7 +122,7 @@ class WheelPrediction:
         load = f"{loads[0]:g} N" if len(loads) == 1 else f"{loads[0]:g}–{loads[-1]:g} N (per slip)"
         lines = [
             " rigid-wheel prediction (Wong & Reece) ".center(width, "="),
-            f"Wheel: {self.wheel.describe()}; load W = {load}; slip angle 0 (longitudinal)",
+            f"Wheel: {self.wheel.describe()}; load W = {load}; {self._beta_text()}",
             f"Soil: {self.law} pressure–sinkage law + Janosi–Hanamoto shear; {self.n_draws} draws;"
             f" θm/θ1 = {self.angles.a0:g} + {self.angles.a1:g}·s,"
             f" θ2/θ1 = {self.angles.b0:g} + {self.angles.b1:g}·s",
@@ -121,7 +131,11 @@ class WheelPrediction:
         lines.extend(f"  {k:>5} [{PARAM_UNITS[k]}]: {v}" for k, v in self.sources.items())
         lines.append("-" * width)
         header = f"{'slip':>7} {'W [N]':>7}"
-        cols = [q for q in QUANTITIES if q not in self.unpredictable]
+        cols = [
+            q
+            for q in QUANTITIES
+            if q not in self.unpredictable and (q != "lateral_force_N" or self._lateral())
+        ]
         for q in cols:
             header += f" | {q + ' median [' + f'{lo:g}%, {hi:g}%]':>30}"
         lines.append(header + f" | {'used':>5}")
@@ -137,10 +151,28 @@ class WheelPrediction:
             lines.append(text + f" | {int(first['n_used']):>5}")
         lines.append("-" * width)
         for q, reason in self.unpredictable.items():
+            if q == "lateral_force_N" and not self._lateral():
+                continue
             lines.append(f"NOT PREDICTED: {q} — {reason}")
         lines.extend(notes_block(self.notes))
         lines.append("=" * width)
         return "\n".join(lines)
+
+    def _lateral(self) -> bool:
+        return any(b != 0 for b in self.slip_angle_deg)
+
+    def _model_name(self) -> str:
+        if self._lateral():
+            return "Wong-Reece rigid wheel at slip angle (Ishigami et al. 2007 lateral terms)"
+        return "Wong-Reece rigid wheel (longitudinal, slip angle 0)"
+
+    def _beta_text(self) -> str:
+        betas = sorted(set(self.slip_angle_deg))
+        if not self._lateral():
+            return "slip angle 0 (longitudinal)"
+        if len(betas) == 1:
+            return f"slip angle β = {betas[0]:g}°"
+        return f"slip angle β = {betas[0]:g}°–{betas[-1]:g}° (per slip)"
 
     def __str__(self) -> str:
         return self.summary()

@@ -44,8 +44,10 @@ datum, unchecked forces …); reports print them (:func:`read_caveats`).
 
 from __future__ import annotations
 
+import csv
 import os
 import tomllib
+import warnings
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
@@ -53,17 +55,21 @@ import numpy as np
 import pandas as pd
 
 from .._text import shown
-from ..errors import SoilstatsError, located, refuse_unknown_keys
+from ..errors import SoilstatsError, SoilstatsWarning, located, refuse_unknown_keys
 from .geometry import Wheel
 
 __all__ = [
+    "MISSING_MARKERS",
     "OPTIONAL_COLUMNS",
     "REQUIRED_COLUMNS",
     "STEADY_RATE_M_S",
+    "UnitWarning",
     "WheelDataError",
     "read_caveats",
     "read_runs",
     "read_wheels",
+    "warn_load_units",
+    "warn_unit_mistakes",
     "wheel_geometry",
 ]
 
@@ -89,6 +95,11 @@ STEADY_RATE_M_S = 1e-4
 #: Slips further apart than this start a new slip condition.
 SLIP_GAP = 0.1
 _WHEEL_KEYS = ("radius_m", "width_m", "shear_radius_m", "grouser_area_ratio")
+
+
+class UnitWarning(SoilstatsWarning):
+    """A runs file's or a wheel's numbers look like another unit (grams-force, kN, radians,
+    mm); the message names the column and the likely unit."""
 
 
 class WheelDataError(SoilstatsError, ValueError):
@@ -118,20 +129,18 @@ def read_runs(
     duplicate ``run_id``; ``OSError`` for a file that cannot be read.
     """
     if isinstance(source, pd.DataFrame):
-        frame, name = source.copy(), "<DataFrame>"
+        # a table read before (the CLI reads, then validates) keeps its file's name
+        frame, name = source.copy(), str(source.attrs.get("file", "<DataFrame>"))
+        read_as_text = False
     else:
         path = Path(source)
         name = path.name
-        if path.suffix.lower() == ".parquet":
-            frame = pd.read_parquet(path)
-        else:
-            try:
-                frame = pd.read_csv(path, comment=None)
-            except pd.errors.EmptyDataError:
-                raise WheelDataError("the file is empty", file=name) from None
+        read_as_text = path.suffix.lower() != ".parquet"  # Parquet keeps its own types
+        frame = _read_csv(path, name) if read_as_text else pd.read_parquet(path)
     if frame.empty:
         raise WheelDataError("no runs in the file", file=name)
     frame.columns = [str(c).strip() for c in frame.columns]
+    _refuse_duplicate_columns(list(frame.columns), name)
     missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
     if missing:
         raise WheelDataError(
@@ -181,6 +190,10 @@ def read_runs(
             _number(frame, column, name, lambda x: np.isfinite(x), "a finite number", empty=True)
     if "date" in frame:
         _dates(frame, name)
+    warn_unit_mistakes(frame, name)
+    if read_as_text:
+        _other_columns_as_numbers(frame)
+    frame.attrs["file"] = name  # later checks (loads against the wheels) name it too
     frame["slip_level"] = slip_levels(frame["slip"].to_numpy(float), slip_gap)
     beta = frame["beta_cmd_deg"] if "beta_cmd_deg" in frame else frame["beta_deg"]
     frame["beta_level"] = np.round(beta.to_numpy(float)).astype(int)
@@ -202,10 +215,86 @@ def _bad(frame, column, name, mask, what) -> None:
         )
 
 
+#: Cells that say "no value" in an optional column (a force not measured, a run undated):
+#: an empty cell or one of these markers (R's and pandas' NA, NaN).
+MISSING_MARKERS = ("", "NA", "NaN", "nan")
+
+
+def _read_csv(path: Path, name: str) -> pd.DataFrame:
+    """The CSV as text (ids stay as written: ``001`` is not 1; no cell becomes NaN unseen),
+    its header checked for duplicates before pandas would rename one ``W_N.1``."""
+    try:
+        with path.open(encoding="utf-8-sig", newline="") as handle:
+            header = next(csv.reader(handle), None)
+    except UnicodeDecodeError as err:
+        raise WheelDataError(
+            f"not UTF-8 text (byte {err.start}: {err.reason}); save the runs file as UTF-8 CSV",
+            file=name,
+        ) from None
+    if header is None:
+        raise WheelDataError("the file is empty", file=name)
+    _refuse_duplicate_columns([c.strip() for c in header], name)
+    try:
+        return pd.read_csv(
+            path, comment=None, dtype=str, keep_default_na=False, encoding="utf-8-sig"
+        )
+    except pd.errors.EmptyDataError:
+        raise WheelDataError("the file is empty", file=name) from None
+    except UnicodeDecodeError as err:
+        raise WheelDataError(
+            f"not UTF-8 text (byte {err.start}: {err.reason}); save the runs file as UTF-8 CSV",
+            file=name,
+        ) from None
+
+
+def _other_columns_as_numbers(frame: pd.DataFrame) -> None:
+    """Columns soilstats does not read, read from a CSV as text: numbers where every filled
+    cell is one (as pandas would have read them), else text as written."""
+    known = {*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS, "row"}
+    for column in frame.columns:
+        if column in known or frame[column].dtype != object:
+            continue
+        filled = ~_is_missing(frame[column])
+        values = pd.to_numeric(frame[column].where(filled), errors="coerce")
+        if filled.any() and values[filled].notna().all():
+            frame[column] = values
+
+
+def _refuse_duplicate_columns(columns: list[str], name: str) -> None:
+    seen: set[str] = set()
+    for column in columns:
+        if column in seen:
+            raise WheelDataError(
+                "the header names this column twice; which one holds the values is not for "
+                "soilstats to guess: keep one",
+                file=name,
+                column=column,
+            )
+        if column == "":
+            raise WheelDataError("a column has no name in the header", file=name)
+        seen.add(column)
+
+
 def _cell(value) -> str:
+    if value is None:
+        return "an empty cell"
+    if isinstance(value, bool | np.bool_):
+        return f"the boolean {value}"
+    if isinstance(value, complex | np.complexfloating):
+        return f"the complex number {value}"
     if isinstance(value, float | np.floating):
-        return "an empty cell" if np.isnan(value) else f"{float(value):g}"
+        return "a missing value (NaN)" if np.isnan(value) else f"{float(value):g}"
+    if isinstance(value, str) and value.strip() == "":
+        return "an empty cell"
+    if isinstance(value, str) and value.strip() in MISSING_MARKERS:
+        return f"{value.strip()!r} (a missing-value marker)"
     return shown(value)
+
+
+def _is_missing(values: pd.Series) -> np.ndarray:
+    """Empty cells and missing-value markers (``MISSING_MARKERS``), NaN and None."""
+    text = values.astype(str).str.strip()
+    return values.isna().to_numpy() | text.isin(MISSING_MARKERS).to_numpy()
 
 
 def _text(frame, column, name) -> None:
@@ -215,21 +304,96 @@ def _text(frame, column, name) -> None:
     frame[column] = values.astype(str).str.strip()
 
 
+def _not_real(raw: pd.Series) -> np.ndarray:
+    """Cells that are booleans or complex numbers (a DataFrame's or Parquet's own types): no
+    number a measurement is, though numpy would take True as 1.0 and drop an imaginary part."""
+    if pd.api.types.is_bool_dtype(raw) or pd.api.types.is_complex_dtype(raw):
+        return np.ones(len(raw), bool)
+    if raw.dtype != object:
+        return np.zeros(len(raw), bool)
+    return np.array(
+        [isinstance(v, bool | np.bool_ | complex | np.complexfloating) for v in raw], bool
+    )
+
+
 def _number(frame, column, name, valid, what, *, empty=False) -> None:
     raw = frame[column]
-    values = pd.to_numeric(raw, errors="coerce").to_numpy(float)
-    blank = raw.isna().to_numpy() | (raw.astype(str).str.strip() == "").to_numpy()
+    odd = _not_real(raw)
+    _bad(frame, column, name, odd, what)
+    text = raw.astype(str).str.strip() if raw.dtype == object else raw
+    values = pd.to_numeric(text, errors="coerce").to_numpy(float)
+    blank = _is_missing(raw)
     with np.errstate(invalid="ignore"):
         good = np.isfinite(values) & np.asarray(valid(values), bool)
     _bad(frame, column, name, ~(good | (blank & empty)), what)
-    frame[column] = values
+    frame[column] = np.where(blank, np.nan, values)
 
 
 def _dates(frame, name) -> None:
+    """ISO dates; an empty cell (or a missing-value marker) is an undated run (NaN)."""
+    undated = _is_missing(frame["date"])
     text = frame["date"].astype(str).str.strip()
-    parsed = pd.to_datetime(text, format="%Y-%m-%d", errors="coerce")
-    _bad(frame, "date", name, parsed.isna().to_numpy(), "a date YYYY-MM-DD")
-    frame["date"] = parsed.dt.strftime("%Y-%m-%d")
+    parsed = pd.to_datetime(text.where(~undated), format="%Y-%m-%d", errors="coerce")
+    _bad(frame, "date", name, parsed.isna().to_numpy() & ~undated, "a date YYYY-MM-DD")
+    frame["date"] = parsed.dt.strftime("%Y-%m-%d").where(~undated, np.nan)
+
+
+#: Loads per unit of wheel footprint (W / (b·r), Pa) outside which a unit mistake is likely.
+#: Rover, test-rig and tractor wheels on soft soil carry about 1–100 kPa (CMU's rig 7 kPa,
+#: a Mars rover wheel ~6 kPa, a loaded tractor tyre ~50–80 kPa); grams-force reads ~100×
+#: too much, kN ~1000× too little.
+FOOTPRINT_PA = (50.0, 4.0e5)
+
+
+def warn_unit_mistakes(frame: pd.DataFrame, name: str) -> list[str]:
+    """Warn (a :class:`~soilstats.errors.SoilstatsWarning` naming the column and the likely
+    unit) where the slip angles look like radians; returns the warnings' texts.  Loads are
+    checked against the wheels' geometry by :func:`warn_load_units`."""
+    out = []
+    for column in ("beta_deg", "beta_cmd_deg"):
+        if column not in frame:
+            continue
+        beta = np.abs(frame[column].to_numpy(float))
+        beta = beta[np.isfinite(beta) & (beta > 0)]
+        # radians: every angle within π/2, the largest a real slip angle (≥ 0.25 rad, 14°;
+        # not the noise of β = 0 runs, CMU's reach 0.18°) and some not a whole degree
+        largest = beta.max() if beta.size else 0.0
+        if 0.25 <= largest <= 0.5 * np.pi + 1e-3 and np.any(beta % 1 > 1e-6):
+            out.append(
+                f"{name}: column {column!r} holds slip angles of at most {beta.max():.4g} with "
+                "fractions of a degree: likely radians; give them in degrees "
+                f"(×{180 / np.pi:.4g})"
+            )
+    for text in out:
+        warnings.warn(text, UnitWarning, stacklevel=3)
+    return out
+
+
+def warn_load_units(frame: pd.DataFrame, wheels: Mapping[str, Wheel], name: str) -> list[str]:
+    """Warn where a wheel type's loads per footprint W/(b·r) lie outside :data:`FOOTPRINT_PA`
+    (likely grams-force, or kN); returns the warnings' texts."""
+    out = []
+    for wheel_type, rows in frame.groupby("wheel", sort=True):
+        wheel = wheels.get(str(wheel_type))
+        if wheel is None:
+            continue
+        load = float(np.median(rows["W_N"].to_numpy(float)))
+        pressure = load / (wheel.width_m * wheel.radius_m)
+        if pressure > FOOTPRINT_PA[1]:
+            unit = "grams-force (gf; 1 gf = 0.00981 N)"
+        elif pressure < FOOTPRINT_PA[0]:
+            unit = "kN (1 kN = 1000 N)"
+        else:
+            continue
+        out.append(
+            f"{name}: column 'W_N' of wheel {wheel_type!r}: a median load of {load:g} on a "
+            f"{1e3 * wheel.width_m:g} mm x {1e3 * wheel.radius_m:g} mm wheel is "
+            f"{pressure:.3g} Pa per footprint (b·r), outside {FOOTPRINT_PA[0]:g}–"
+            f"{FOOTPRINT_PA[1]:.0e} Pa: likely {unit}; give W_N in N"
+        )
+    for text in out:
+        warnings.warn(text, UnitWarning, stacklevel=3)
+    return out
 
 
 def slip_levels(slip: np.ndarray, gap: float = SLIP_GAP) -> np.ndarray:
@@ -282,6 +446,23 @@ def read_caveats(path: str | os.PathLike[str]) -> list[str]:
     return caveats
 
 
+#: A wheel dimension above this [m] is likely given in mm.
+LARGEST_WHEEL_M = 3.0
+
+
+def _warn_length_units(name: str, entry: Mapping, source: str) -> None:
+    for key in ("radius_m", "width_m", "shear_radius_m"):
+        value = entry.get(key)
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            if value > LARGEST_WHEEL_M:
+                warnings.warn(
+                    f"{source}: {key} = {value:g} of wheel type {name!r} is over "
+                    f"{LARGEST_WHEEL_M:g} m: likely mm; give it in metres (/1000)",
+                    UnitWarning,
+                    stacklevel=3,
+                )
+
+
 def wheel_geometry(
     types: Iterable[str],
     tables: Mapping[str, Mapping] | None = None,
@@ -311,6 +492,7 @@ def wheel_geometry(
                 "--wheels FILE.toml (docs/wheel.md)",
                 column="wheel",
             )
+        _warn_length_units(name, entry, source)
         try:
             out[name] = Wheel(
                 radius_m=float(entry["radius_m"]),

@@ -13,15 +13,16 @@ it is flagged ``not_carried`` and its outputs are NaN, never a number.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
-from .forces import N_NODES, Cases, ContactForces, contact_forces, gauss_rule
+from .forces import N_NODES, Cases, ContactForces, PlateStress, contact_forces, gauss_rule
 from .geometry import Wheel, entry_angle, sinkage_from_entry_angle, speed_ratio
-from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles, pressure_modulus
+from .lateral import LateralSoil, slip_angle_rad
+from .stress import SHEAR_PARAMS, StressAngles, sinkage_law
 
 __all__ = ["STATUS", "WheelState", "solve_entry_angle", "wheel_forces"]
 
@@ -96,6 +97,10 @@ class WheelState:
     torque the axle applies (+ driving).  Entries whose ``status`` is not 0 (:data:`STATUS`)
     are NaN.  Without shear parameters ``thrust_N``, ``drawbar_pull_N`` and ``torque_Nm`` are
     NaN and the load is carried by the normal stress alone (``with_shear`` False).
+
+    At a slip angle β (:mod:`.lateral`): ``slip_angle_deg`` (broadcast), ``lateral_force_N`` =
+    ``lateral_shear_N`` + ``side_force_N`` [N] along the axle, + opposing the wheel's sideways
+    sliding (the CMU data's sign; odd in β, 0 at β = 0); NaN without shear parameters.
     """
 
     slip: np.ndarray
@@ -110,6 +115,10 @@ class WheelState:
     torque_Nm: np.ndarray
     status: np.ndarray
     with_shear: bool
+    slip_angle_deg: np.ndarray
+    lateral_force_N: np.ndarray
+    lateral_shear_N: np.ndarray
+    side_force_N: np.ndarray
 
 
 def model_cases(
@@ -125,33 +134,43 @@ def model_cases(
     ``exponent_shift`` (broadcast to P + S) is added to each case's exponent n: a slip-
     dependent exponent n + Δn(s) (Ding et al. 2010; :mod:`soilstats.wheel.slipsinkage`).
     """
-    if law not in SINKAGE_LAWS:
-        raise InputError(
-            f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}"
-        )
-    missing = [k for k in SINKAGE_LAWS[law] if k not in params]
+    model = sinkage_law(law)
+    law_params = model.param_names
+    missing = [k for k in law_params if k not in params]
     if missing:
-        raise InputError(
-            f"the {law} law needs parameters {list(SINKAGE_LAWS[law])}; missing {missing}"
-        )
+        raise InputError(f"the {law} law needs parameters {list(law_params)}; missing {missing}")
     given = [k for k in SHEAR_PARAMS if k in params]
     if given and len(given) < len(SHEAR_PARAMS):
         raise InputError(
             f"shear needs all of c [Pa], phi [deg], K [m]; got only {given}: give all three or none"
         )
-    names = list(SINKAGE_LAWS[law]) + given
+    names = list(law_params) + given
     values = np.broadcast_arrays(*(np.asarray(params[k], dtype=float) for k in names))
     pshape = values[0].shape
     p = {k: v[..., None] for k, v in zip(names, (v.reshape(-1) for v in values), strict=True)}
     s = np.asarray(slip, dtype=float)
     a, b = angles.ratios(s.reshape(-1))
     nu = speed_ratio(s.reshape(-1))
+    exponent = model.exponent
     if exponent_shift is not None:
+        if exponent is None:
+            raise InputError(f"the {law} law has no exponent n for a slip-dependent exponent")
         shift = np.broadcast_to(np.asarray(exponent_shift, dtype=float), pshape + s.shape)
-        p["n"] = p["n"] + shift.reshape(p["n"].shape[0], -1)
-    prefactor = pressure_modulus(law, p, wheel.width_m) * wheel.stress_radius_power(p["n"])
+        p[exponent] = p[exponent] + shift.reshape(p[exponent].shape[0], -1)
+    n = p[exponent] if exponent is not None else np.ones_like(p[names[0]])
     shear = {"c": p["c"], "phi_deg": p["phi"], "K": p["K"]} if given else {}
-    cases = Cases.build(prefactor=prefactor, n=p["n"], a=a, b=b, nu=nu, **shear)
+    k_eq = model.plate_modulus(wheel.width_m, *(p[k] for k in law_params))
+    if k_eq is not None:  # a power law: σ = k_eq·R^n·(cos θe − cos θ1)^n, the fast path
+        prefactor = k_eq * wheel.stress_radius_power(n)
+        cases = Cases.build(prefactor=prefactor, n=n, a=a, b=b, nu=nu, **shear)
+        return cases, pshape + s.shape
+    # any other law: its pressure at each node's local depth (PlateStress)
+    cases = Cases.build(prefactor=np.nan, n=n, a=a, b=b, nu=nu, **shear)
+    stacked = np.broadcast_arrays(*(p[k] for k in law_params), np.empty((1, a.size)))[:-1]
+    plate_params = np.column_stack([v.reshape(-1) for v in stacked])
+    pressure = model.plate_law()
+    assert pressure is not None  # sinkage_law() admits only laws with a plate hook
+    cases = replace(cases, plate=PlateStress(pressure, wheel), plate_params=plate_params)
     return cases, pshape + s.shape
 
 
@@ -164,9 +183,10 @@ def wheel_forces(
     load_N: ArrayLike | None = None,
     sinkage_m: ArrayLike | None = None,
     angles: StressAngles | None = None,
-    slip_angle_deg: float = 0.0,
+    slip_angle_deg: ArrayLike = 0.0,
     n_nodes: int = N_NODES,
     exponent_shift: ArrayLike | None = None,
+    lateral: LateralSoil | None = None,
 ) -> WheelState:
     """The Wong–Reece rigid wheel at a given load or a given sinkage, over parameter sets × slips.
 
@@ -186,28 +206,42 @@ def wheel_forces(
         arccos(1 − h/r_s)).
     angles : StressAngles, optional
         θm and θ2 as fractions of θ1 (default a0 = 0.4, a1 = 0.15, b0 = b1 = 0).
-    slip_angle_deg : float
-        Must be 0: the model is longitudinal only (no lateral shear or side-wall force yet;
-        a lateral term would add the lateral displacement and τ_y of Ishigami et al. 2007 to
-        :mod:`.forces`).
+    slip_angle_deg : float or array broadcastable with P + S
+        Slip angle β [deg] in [−90, 90] between the heading and the travel direction; an array
+        that adds axes (e.g. shape (B, 1) against S slips) extends the outputs to them
+        (:mod:`.lateral`: lateral shear on the resultant displacement, Ishigami et al. 2007's
+        side-face force × sin β).  0 (default) is the longitudinal model, unchanged.
     exponent_shift : float or array broadcastable to P + S, optional
         Δn added to the exponent n of every case: a slip-dependent exponent n + Δn(s)
         (:func:`soilstats.wheel.slipsinkage.exponent_shift`). Default none.
+    lateral : LateralSoil, optional
+        Soil unit weight γ of the side-face force and K_y (default :class:`LateralSoil`():
+        γ of the CMU sand, K_y = K); used only where β ≠ 0.
 
     Returns
     -------
     WheelState
         Arrays of shape P + S.
     """
-    if slip_angle_deg != 0:
-        raise NotImplementedError(
-            "only the longitudinal model (slip angle β = 0) is implemented: no lateral shear, "
-            "side-wall or bulldozing force; pass slip_angle_deg=0"
-        )
     if (load_N is None) == (sinkage_m is None):
         raise InputError("give exactly one of load_N (load-controlled) or sinkage_m")
     angles = StressAngles() if angles is None else angles
+    beta = slip_angle_rad(slip_angle_deg)
     cases, shape = model_cases(params, wheel, slip, law, angles, exponent_shift)
+    try:
+        full = np.broadcast_shapes(shape, beta.shape)
+    except ValueError:
+        raise InputError(
+            f"slip_angle_deg of shape {beta.shape} does not broadcast with the cases' shape "
+            f"{shape} (parameters × slips)"
+        ) from None
+    if full != shape:  # β adds axes (e.g. a column of angles): repeat the cases along them
+        index = np.broadcast_to(np.arange(len(cases)).reshape(shape), full).reshape(-1)
+        cases, shape = cases.take(index), full
+    beta = np.broadcast_to(beta, shape)
+    if np.any(beta != 0):  # β = 0 everywhere: the longitudinal code path, unchanged
+        lateral = LateralSoil() if lateral is None else lateral
+        cases = cases.at_slip_angle(beta.reshape(-1), lateral.K_y_m, lateral.unit_weight_N_m3)
     rule = gauss_rule(n_nodes)
     rc = wheel.contact_radius_m
     if load_N is not None:
@@ -221,7 +255,13 @@ def wheel_forces(
     out = _state_arrays(forces, theta1, cases, ok, rc)
     out = {k: v.reshape(shape) for k, v in out.items()}
     slip_b = np.broadcast_to(np.asarray(slip, dtype=float), shape)
-    return WheelState(slip=slip_b, status=status.reshape(shape), with_shear=cases.with_shear, **out)
+    return WheelState(
+        slip=slip_b,
+        status=status.reshape(shape),
+        with_shear=cases.with_shear,
+        slip_angle_deg=np.rad2deg(beta),
+        **out,
+    )
 
 
 def _state_arrays(
@@ -240,4 +280,11 @@ def _state_arrays(
         "resistance_N": forces.resistance_N * nan,
         "drawbar_pull_N": forces.drawbar_pull_N * shear_nan,
         "torque_Nm": forces.torque_Nm * shear_nan,
+        "lateral_force_N": forces.lateral_force_N * shear_nan,
+        "lateral_shear_N": _or_zero(forces.lateral_shear_N, forces.load_N) * shear_nan,
+        "side_force_N": _or_zero(forces.side_force_N, forces.load_N) * shear_nan,
     }
+
+
+def _or_zero(value: np.ndarray | None, like: np.ndarray) -> np.ndarray:
+    return np.zeros_like(like) if value is None else value

@@ -8,9 +8,11 @@ maneuver of planetary exploration rovers on loose soil", J. Field Robotics 24(3)
 
 Angles θ in rad from the downward vertical, + towards the front (see :mod:`.geometry`).
 
-**Normal stress.**  Each pressure–sinkage law of soilstats is a power law p = k_eq·z^n on a
-plate of width b (:func:`pressure_modulus`), and the wheel of width b carries at angle θ the
-pressure of a plate sunk to the local depth R(cos θ − cos θ1):
+**Normal stress.**  The wheel of width b carries at angle θ the pressure of a plate of width b
+sunk to the local depth R(cos θ − cos θ1): σ(θ) = p(b, R(cos θ − cos θ1)), with p the plate
+law's hook in the model record (``Model.plate_law``, :func:`plate_pressure`), so that any
+registered law reaches the wheel.  Where the law is a power law p = k_eq·z^n
+(:func:`pressure_modulus`) this is the fast path
 
 * Bekker:    σ(θ) = (kc/b + kφ)·R^n·(cos θ − cos θ1)^n
 * Bernstein: σ(θ) = k·R^n·(cos θ − cos θ1)^n
@@ -44,7 +46,7 @@ Skid (−1 < s < 0, ν = 1/(1 + s)): j = r[θ1 − θ − (sin θ1 − sin θ)/(
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -54,57 +56,137 @@ from numpy.typing import ArrayLike
 from ..errors import InputError
 
 if TYPE_CHECKING:
-    from ..models.base import Value
+    from ..models.base import Model, Value
     from .geometry import Wheel
 
 __all__ = [
+    "PARAM_UNITS",
     "SHEAR_PARAMS",
     "SINKAGE_LAWS",
     "StressAngles",
     "normal_stress",
+    "plate_pressure",
     "pressure_modulus",
     "shear_displacement",
     "shear_stress",
+    "sinkage_law",
+    "unit_modulus",
 ]
 
 RAD_PER_DEG = np.pi / 180.0
 
-#: Parameters of each pressure–sinkage law (names and SI units as in soilstats.models).
-SINKAGE_LAWS: dict[str, tuple[str, ...]] = {
-    "bekker": ("kc", "kphi", "n"),
-    "bernstein": ("k", "n"),
-    "reece": ("k1", "k2", "n"),
-}
-#: Janosi–Hanamoto parameters: c [Pa], φ [deg], K [m].
-SHEAR_PARAMS: tuple[str, ...] = ("c", "phi", "K")
 
-PARAM_UNITS: dict[str, str] = {
-    "kc": "N/m^(n+1)",
-    "kphi": "N/m^(n+2)",
-    "k": "N/m^(n+2)",
-    "k1": "Pa",
-    "k2": "Pa/m",
-    "n": "-",
-    "c": "Pa",
-    "phi": "deg",
-    "K": "m",
-}
+def _janosi_params() -> tuple[str, ...]:
+    from ..models import get_model
+
+    return get_model("janosi").param_names
+
+
+class _SinkageLaws(Mapping[str, tuple[str, ...]]):
+    """Law name → its parameter names, read from the model registry at each look-up: every
+    registered sinkage model with a plate hook (``Model.plate_law``), built-in or one's own."""
+
+    def _laws(self) -> dict[str, tuple[str, ...]]:
+        from ..models import models_of_kind
+
+        return {m.name: m.param_names for m in models_of_kind("sinkage") if m.plate_law()}
+
+    def __getitem__(self, name: str) -> tuple[str, ...]:
+        return self._laws()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._laws())
+
+    def __len__(self) -> int:
+        return len(self._laws())
+
+    def __repr__(self) -> str:
+        return f"SINKAGE_LAWS({self._laws()!r})"
+
+
+class _ParamUnits(Mapping[str, str]):
+    """Parameter name → SI unit, from the registry: the plate laws' (first registered wins
+    where two share a name) and the Janosi–Hanamoto shear's."""
+
+    def _units(self) -> dict[str, str]:
+        from ..models import get_model, models_of_kind
+
+        units: dict[str, str] = {}
+        for model in (*models_of_kind("sinkage"), get_model("janosi")):
+            for name, unit in model.unit_of.items():
+                units.setdefault(name, unit)
+        return units
+
+    def __getitem__(self, name: str) -> str:
+        return self._units()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._units())
+
+    def __len__(self) -> int:
+        return len(self._units())
+
+
+#: Parameters of each pressure–sinkage law the wheel can use: a live view of the model
+#: registry (docs/conventions.md, "The model record"), so a law registered through its
+#: record alone reaches the wheel.
+SINKAGE_LAWS: Mapping[str, tuple[str, ...]] = _SinkageLaws()
+#: Janosi–Hanamoto parameters: c [Pa], φ [deg], K [m] — the names of the registry's record.
+SHEAR_PARAMS: tuple[str, ...] = _janosi_params()
+#: SI unit of every parameter the wheel takes (a live view of the registry).
+PARAM_UNITS: Mapping[str, str] = _ParamUnits()
+
+
+def sinkage_law(law: str) -> Model:
+    """The registry's record of a plate law the wheel can use; InputError naming the laws."""
+    from ..models import MODELS
+
+    model = MODELS.get(law)
+    if model is None or model.kind != "sinkage" or model.plate_law() is None:
+        raise InputError(
+            f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}"
+        )
+    return model
 
 
 def pressure_modulus(law: str, params: Mapping[str, ArrayLike], width_m: float) -> np.ndarray:
-    """k_eq [N/m^(n+2)] with which the law reads p = k_eq·z^n on a plate of width b [m].
+    """k_eq [N/m^(n+2)] with which a power law reads p = k_eq·z^n on a plate of width b [m].
 
-    Bekker kc/b + kφ; Bernstein k; Reece (k1 + k2·b)·b^(−n).  ``params`` maps the law's
-    parameter names to floats or arrays (broadcast together).
+    Bekker kc/b + kφ; Bernstein k; Reece (k1 + k2·b)·b^(−n); any registered power law its
+    record's ``PlatePowerLaw`` modulus.  ``params`` maps the law's parameter names to floats
+    or arrays (broadcast together).  A law that is no power law in z (e.g. one with a
+    sinkage offset) has no k_eq: InputError (ask :func:`plate_pressure` instead).
     """
-    if law == "bekker":
-        return np.asarray(params["kc"], float) / width_m + np.asarray(params["kphi"], float)
-    if law == "bernstein":
-        return np.asarray(params["k"], float)
-    if law == "reece":
-        k1, k2, n = (np.asarray(params[k], float) for k in ("k1", "k2", "n"))
-        return (k1 + k2 * width_m) * width_m ** (-n)
-    raise InputError(f"unknown pressure-sinkage law {law!r}; choose one of {sorted(SINKAGE_LAWS)}")
+    model = sinkage_law(law)
+    args = [np.asarray(params[k], float) for k in model.param_names]
+    k_eq = model.plate_modulus(width_m, *args)
+    if k_eq is None:
+        raise InputError(
+            f"the {law} law is no power law p = k_eq·z^n: it has no pressure modulus; "
+            "use its pressure at a depth (plate_pressure)"
+        )
+    return k_eq
+
+
+def unit_modulus(law: str, params: Mapping[str, ArrayLike], width_m: float) -> np.ndarray:
+    """The plate modulus as the registry's support rules read it: the pressure at unit
+    sinkage (z = 1 m) on width b — k_eq for a power law (:func:`pressure_modulus`), the
+    law's own pressure there for any other (:func:`plate_pressure`)."""
+    model = sinkage_law(law)
+    args = [np.asarray(params[k], float) for k in model.param_names]
+    k_eq = model.plate_modulus(width_m, *args)
+    if k_eq is None:
+        k_eq = model.pressure_under_plate(width_m, 1.0, *args)
+    return np.asarray(k_eq, dtype=float)
+
+
+def plate_pressure(
+    law: str, params: Mapping[str, ArrayLike], width_m: float, depth_m: ArrayLike
+) -> np.ndarray:
+    """p [Pa] of the law under a plate of width b [m] at sinkage z [m] (the record's hook)."""
+    model = sinkage_law(law)
+    args = [np.asarray(params[k], float) for k in model.param_names]
+    return model.pressure_under_plate(width_m, np.asarray(depth_m, dtype=float), *args)
 
 
 @dataclass(frozen=True)
