@@ -77,6 +77,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "stated prior (default none: the band is parameter uncertainty only)",
     )
     group.add_argument(
+        "--scope",
+        choices=("beta0", "all"),
+        default="beta0",
+        help="--calibrate: the runs at slip angle 0 (default), or all runs (the slip-angle "
+        "model, validated also by leaving each slip angle out; slow)",
+    )
+    group.add_argument(
         "--calibration-draws",
         type=int,
         default=8000,
@@ -137,7 +144,7 @@ def calibrate(
     from ..wheel.calibration import RunDesign
     from ..wheel.calibration.validate import calibrate_and_validate
 
-    scope = runs[runs["beta_level"] == 0]
+    scope = runs if args.scope == "all" else runs[runs["beta_level"] == 0]
     design = RunDesign.from_runs(scope.reset_index(drop=True))
     report = calibrate_and_validate(
         design,
@@ -153,8 +160,10 @@ def calibrate(
     )
     doc = report.to_dict()
     doc["calibration"]["scope"] = (
-        f"the {len(scope)} runs at slip angle β = 0 (the calibration's model is longitudinal); "
-        f"{len(runs) - len(scope)} runs at β ≠ 0 are not calibrated"
+        f"all {len(scope)} runs (slip angles {sorted(set(scope['beta_level']))})"
+        if args.scope == "all"
+        else f"the {len(scope)} runs at slip angle β = 0; {len(runs) - len(scope)} runs at "
+        "β ≠ 0 are not calibrated (--scope all)"
     )
     return doc, report
 
@@ -165,7 +174,8 @@ def apply_calibration(args: argparse.Namespace, runs: pd.DataFrame) -> dict:
     from ..wheel.calibration.heldout import score, score_by_slip
 
     cal = load_calibration(args.calibration)
-    scope = runs[runs["beta_level"] == 0].reset_index(drop=True)
+    angles = set(np.unique(cal.design.beta_level))
+    scope = (runs if angles != {0.0} else runs[runs["beta_level"] == 0]).reset_index(drop=True)
     design = RunDesign.from_runs(scope)
     pred = cal.predict(design, seed=args.seed)
     out: dict = {"file": str(args.calibration), "runs": len(design), "converged": cal.converged}

@@ -275,9 +275,10 @@ class WheelCalibration:
             else:
                 mean, sd = np.zeros_like(model_new), np.full(len(runs), disc.noise)
             out[q] = model_new + mean + sd[None, :] * rng.standard_normal(model_new.shape)
-        for q in ("drawbar_pull_N", "torque_Nm"):
-            if shear and q not in out:
-                out[q] = new[q]
+        for q in self.uncalibrated:
+            out[q] = new[q]
+        if shear and np.any(runs.beta_deg != 0) and "lateral_force_N" not in out:
+            out["lateral_force_N"] = new["lateral_force_N"]
         return out
 
     @property
@@ -501,7 +502,10 @@ def calibrate_wheel(
     use = WHEEL_INPUTS + (SHEAR_INPUTS if shear else ())
     fixed = {k: v for k, v in FIXED_INPUTS.items() if k not in (priors or {})}
     layout = Layout(plate, tuple(stated[n] for n in use if n not in fixed), tuple(fixed.items()))
-    quantities = [q for q in design.measured if q != "drawbar_pull_N" or shear]
+    forces = ("drawbar_pull_N", "lateral_force_N")
+    quantities = [q for q in design.measured if q not in forces or shear]
+    if not np.any(design.beta_deg != 0):  # the model's lateral force is 0 at β = 0
+        quantities = [q for q in quantities if q != "lateral_force_N"]
     quantities = [q for q in quantities if np.isfinite(design.measured[q]).sum() >= 5]
     if "sinkage_m" not in quantities:
         raise InputError("a calibration needs measured sinkage (sinkage_m) on at least 5 runs")

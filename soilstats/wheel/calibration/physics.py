@@ -5,11 +5,13 @@ measured; :func:`simulate` evaluates the Wong–Reece wheel (:mod:`soilstats.whe
 :func:`~soilstats.wheel.solve.solve_entry_angle`) for P parameter sets × R runs in one
 vectorised pass per wheel type, with every uncertain input of :mod:`.inputs` per case:
 
-* the plate law's parameters (from the plate posterior),
+* the plate law's parameters (from the plate posterior; any law of the model record, through
+  :func:`~soilstats.wheel.solve.model_cases`),
 * θm/θ1 = a0 + a1·s and θ2/θ1 = b0 + b1·s per case,
 * the slip-dependent exponent n + n1·s (s ≥ 0), n + n2·|s| (s < 0) (Ding et al. 2011),
 * the datum offset added to the model's sinkage,
-* c, φ, K where the shear is carried.
+* c, φ, K where the shear is carried, and at a slip angle β ≠ 0 the lateral shear and side
+  face of :mod:`soilstats.wheel.lateral`.
 
 A case whose stress angles are out of order (−1 ≤ θ2/θ1 ≤ θm/θ1 ≤ 1 broken) or whose load the
 soil cannot carry is NaN; the likelihood reads a NaN as "this parameter set cannot produce the
@@ -24,10 +26,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..forces import Cases, contact_forces, gauss_rule
-from ..geometry import Wheel, sinkage_from_entry_angle, speed_ratio
-from ..solve import solve_entry_angle
-from ..stress import pressure_modulus
+from ..forces import contact_forces, gauss_rule
+from ..geometry import Wheel, sinkage_from_entry_angle
+from ..lateral import LateralSoil, slip_angle_rad
+from ..solve import model_cases, solve_entry_angle
+from ..stress import sinkage_law
 
 __all__ = ["MEASURED", "RunDesign", "simulate"]
 
@@ -110,52 +113,56 @@ def simulate(
     *,
     n_nodes: int = SAMPLER_NODES,
     with_shear: bool = True,
+    lateral: LateralSoil | None = None,
 ) -> dict[str, np.ndarray]:
     """Model outputs (P, R) for P parameter sets (arrays of shape (P,)) × the R runs.
 
-    ``params`` holds the law's parameters, ``a0, a1, b0, b1, datum_mm, n1, n2`` and, with
-    ``with_shear``, ``c_kPa, phi, log_K``.  Returns ``sinkage_m`` (datum included),
-    ``drawbar_pull_N``, ``torque_Nm`` and ``ok`` (bool).
+    ``params`` holds the law's parameters (the model record's names), ``a0, a1, b0, b1,
+    datum_mm, n1, n2`` and, with ``with_shear``, ``c_kPa, phi, log_K``.  Runs at a slip angle
+    β ≠ 0 take the lateral terms of :mod:`soilstats.wheel.lateral` (``lateral``: γ and K_y,
+    default :class:`LateralSoil`).  Returns ``sinkage_m`` (datum included),
+    ``drawbar_pull_N``, ``torque_Nm``, ``lateral_force_N`` and ``ok`` (bool).
     """
     n_sets = len(np.atleast_1d(params["a0"]))
-    runs = len(design)
-    out = {k: np.full((n_sets, runs), np.nan) for k in ("sinkage_m", "drawbar_pull_N", "torque_Nm")}
+    out = {
+        k: np.full((n_sets, len(design)), np.nan)
+        for k in ("sinkage_m", "drawbar_pull_N", "torque_Nm", "lateral_force_N")
+    }
     rule = gauss_rule(n_nodes)
+    model = sinkage_law(law)
+    exponent = model.exponent
 
     def col(name: str) -> np.ndarray:
         return np.asarray(params[name], float).reshape(-1, 1)
 
+    law_params = {k: np.asarray(params[k], float).reshape(-1) for k in model.param_names}
+    if with_shear:
+        law_params.update(c=1e3 * col("c_kPa")[:, 0], phi=col("phi")[:, 0],
+                          K=np.exp(col("log_K")[:, 0]))
     for name in np.unique(design.wheel):
         wheel = wheels[str(name)]
         idx = np.flatnonzero(design.wheel == name)
-        s = design.slip[idx][None, :]
-        a = col("a0") + col("a1") * s
-        b = col("b0") + col("b1") * s
+        s = design.slip[idx]
+        a = col("a0") + col("a1") * s[None, :]
+        b = col("b0") + col("b1") * s[None, :]
+        shift = col("n1") * np.maximum(s, 0.0) + col("n2") * np.maximum(-s, 0.0)
         ordered = (b >= -1.0) & (b <= a) & (a <= 1.0)
-        n = col("n") + col("n1") * np.maximum(s, 0.0) + col("n2") * np.maximum(-s, 0.0)
-        ordered &= n > 0
-        law_params = {k: np.broadcast_to(col(k), n.shape) for k in params if k not in n_skip}
-        law_params["n"] = np.where(n > 0, n, 1.0)
-        prefactor = pressure_modulus(law, law_params, wheel.width_m) * wheel.stress_radius_power(
-            law_params["n"]
+        if exponent is not None:
+            ordered &= law_params[exponent][:, None] + shift > 0
+        cases, shape = model_cases(
+            law_params, wheel, s, law,
+            (np.where(ordered, a, 0.4), np.where(ordered, b, 0.0)),
+            exponent_shift=np.where(ordered, shift, 0.0) if exponent is not None else None,
         )
-        ordered &= prefactor > 0
-        shape = n.shape
-        shear = {}
-        if with_shear:
-            shear = {
-                "c": np.broadcast_to(col("c_kPa") * 1e3, shape),
-                "phi_deg": np.broadcast_to(col("phi"), shape),
-                "K": np.broadcast_to(np.exp(col("log_K")), shape),
-            }
-        cases = Cases.build(
-            prefactor=np.where(ordered, prefactor, 1.0),
-            n=law_params["n"],
-            a=np.where(ordered, a, 0.4),
-            b=np.where(ordered, b, 0.0),
-            nu=np.broadcast_to(speed_ratio(s), shape),
-            **shear,
-        )
+        if cases.plate is None:
+            ordered &= (cases.prefactor > 0).reshape(shape)
+        beta = design.beta_deg[idx]
+        if with_shear and np.any(beta != 0):
+            soil = LateralSoil() if lateral is None else lateral
+            cases = cases.at_slip_angle(
+                np.broadcast_to(slip_angle_rad(beta), shape).reshape(-1), soil.K_y_m,
+                soil.unit_weight_N_m3,
+            )
         load = np.broadcast_to(design.load_N[idx][None, :], shape).reshape(-1)
         theta1, status = solve_entry_angle(load, cases, wheel, rule)
         good = (status == 0) & ordered.reshape(-1)
@@ -166,9 +173,6 @@ def simulate(
         if with_shear:
             out["drawbar_pull_N"][:, idx] = forces.drawbar_pull_N.reshape(shape) * nan
             out["torque_Nm"][:, idx] = forces.torque_Nm.reshape(shape) * nan
+            out["lateral_force_N"][:, idx] = forces.lateral_force_N.reshape(shape) * nan
     out["ok"] = np.isfinite(out["sinkage_m"])
     return out
-
-
-#: Parameters of the calibration that are not the plate law's.
-n_skip = frozenset({"a0", "a1", "b0", "b1", "datum_mm", "n1", "n2", "c_kPa", "phi", "log_K", "n"})
