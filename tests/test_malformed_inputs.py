@@ -25,7 +25,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from soilstats.campaign import load_campaign
+from soilstats.campaign import Campaign, load_campaign
 from soilstats.cli.main import main
 from soilstats.errors import CampaignError, SoilstatsWarning
 
@@ -328,7 +328,9 @@ def test_a_nul_in_a_sample_id_skips_its_test_whole_and_says_so(write_campaign, c
     edit("sinkage.csv", "c1,0.001,10", "c1\x00,0.001,10")(folder)
     campaign, warned = _skipping(folder)
     assert list(campaign.tests["test_id"]) == ["r1", "s1"]
-    assert "c1" not in set(campaign.sinkage["test_id"])
+    # Not even the row written with the NUL stays behind (it once did, with NaN pressure).
+    assert set(campaign.sinkage["test_id"]) == {"r1"} and len(campaign.sinkage) == 2
+    assert campaign.sinkage["pressure_Pa"].notna().all()
     (row,) = campaign.skipped.itertuples()
     assert (row.test_id, row.file, row.column, row.row) == ("c1", "sinkage.csv", "test_id", 2)
     assert "control character (U+0000)" in row.reason and "'c1'" in warned
@@ -366,3 +368,119 @@ def test_numbers_are_kept_exactly_where_float64_holds_them(write_campaign, campa
     campaign = load_campaign(folder, check_units=False)
     assert campaign.tests["repetition"].iloc[0] == 2**53 - 1
     assert campaign.sinkage["force_N"].iloc[3] == 2.2250738585072014e-308
+
+
+# --- numeric options: finite, in a documented range, within the memory budget -------------------
+
+NUMERIC_OPTIONS = [
+    # (argv, what stderr must say); each once crashed, or ran on with a nonsense value
+    (
+        [
+            "posterior",
+            "--data",
+            "simulated-paper",
+            "--soil",
+            "soil01",
+            "--model",
+            "bekker+janosi",
+            "--simulator",
+            "chrono-scm",
+            "--scm-repair",
+            "1e308",
+        ],
+        "--scm-repair takes a multiple in (1, 1000]",
+    ),  # elastic_K = inf in all 6,000 rows, exit 0
+    (
+        ["posterior", "--data", "simulated-paper", "--model", "bekker", "--draws", "1000000000"],
+        "--draws 1000000000 needs about 298 GiB of memory, beyond the budget of 4 GiB",
+    ),  # a 15 GiB allocation traceback
+    (
+        ["posterior", "--data", "simulated-paper", "--model", "bekker", "--draws", "0"],
+        "--draws takes a whole number >= 1",
+    ),
+    (
+        [
+            "posterior",
+            "--data",
+            "simulated-paper",
+            "--soil",
+            "soil01",
+            "--model",
+            "bekker",
+            "--contact-width",
+            "0.01:inf",
+        ],
+        "--contact-width needs 0 < B_MIN <= B_MAX <= 10 m (finite), got '0.01:inf'",
+    ),  # TypeError
+    (["discover", "--alpha", "nan"], "argument --alpha: must be a finite number in (0, 0.5]"),
+    (["identify", "--points-per-test", "0"], "--points-per-test: must be a whole number in [3,"),
+    (["identify", "--test-resamples", "1e9"], "--test-resamples: must be a whole number in [0,"),
+    (["identify", "--jobs", "100000"], "--jobs: must be a whole number in [-1024, 1024]"),
+    (["wheel", "--n-draws", "-5"], "--n-draws: must be a whole number in [1, 1e+07]"),
+    (["wheel", "--alpha", "inf"], "--alpha: must be a finite number in (0, 0.5]"),
+]
+
+
+@pytest.mark.parametrize(("argv", "says"), NUMERIC_OPTIONS, ids=lambda v: " ".join(v)[:40])
+def test_numeric_options_out_of_range_exit_2_naming_the_range(argv, says, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main([*argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_the_memory_budget_is_read_from_the_environment(monkeypatch):
+    from soilstats._budget import check_budget, memory_budget
+    from soilstats.errors import InputError
+
+    assert memory_budget() == 4 * 2**30
+    monkeypatch.setenv("SOILSTATS_MEMORY_BUDGET_GB", "0.5")
+    assert memory_budget() == 2**29
+    check_budget("x", 2**29, "")
+    with pytest.raises(InputError, match=r"x needs about 0\.5 GiB.*budget of 0\.5 GiB"):
+        check_budget("x", 2**29 + 1, "")
+    monkeypatch.setenv("SOILSTATS_MEMORY_BUDGET_GB", "lots")
+    with pytest.raises(InputError, match="SOILSTATS_MEMORY_BUDGET_GB must be"):
+        memory_budget()
+
+
+# --- from_frames: what no file could hold ------------------------------------------------------
+
+
+def _frames_with(campaign_frames, **change):
+    frames = dict(campaign_frames)
+    frames.update(change)
+    return frames
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        # numpy's warning only, the imaginary part dropped: force 10+3j became 10.0
+        (lambda f: f["sinkage"].assign(force_N=[-2.5, 10 + 3j, 0, 30.5, 20]),
+         "column 'force_N', row 1: holds complex numbers (e.g. (-2.5+0j))"),
+        (lambda f: f["sinkage"].assign(force_N=["-2.5", "10", 1 + 2j, "30.5", "20"]),
+         "row 3: holds complex numbers (e.g. (1+2j))"),
+        # AttributeError from pandas before
+        (lambda f: pd.concat([f["sinkage"], f["sinkage"][["force_N"]]], axis=1),
+         "column(s) ['force_N'] appear more than once"),
+        (lambda f: f["sinkage"].set_axis(
+            pd.MultiIndex.from_product([["a"], f["sinkage"].columns]), axis=1),
+         "column names must be text, got ('a', 'test_id')"),
+    ],
+)  # fmt: skip
+def test_from_frames_refuses_complex_numbers_and_odd_columns(campaign_frames, change, says):
+    frames = _frames_with(campaign_frames, sinkage=change(campaign_frames))
+    with pytest.raises(CampaignError, match=re.escape(says)) as err:
+        Campaign.from_frames(frames["tests"], frames["sinkage"], frames["shear"])
+    assert err.value.file == "sinkage.csv"
+
+
+@pytest.mark.parametrize("units", [{"z_m": None}, "mm", {"z_m": 1e-3}])
+def test_from_frames_refuses_units_that_are_not_a_mapping_of_texts(campaign_frames, units):
+    from soilstats.errors import InputError
+
+    f = campaign_frames
+    with pytest.raises(InputError, match="units must map format column names to unit texts"):
+        Campaign.from_frames(f["tests"], f["sinkage"], f["shear"], units=units)

@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 import soilstats
-from soilstats.campaign import load_campaign
+from soilstats.campaign import Campaign, load_campaign
 from soilstats.cli.main import main
 from soilstats.outputs import Provenance, write_atomic, write_csv, write_json
 from soilstats.outputs import files as output_files
@@ -123,6 +123,51 @@ def test_formula_cells_are_escaped_and_numbers_never_altered(tmp_path):
     assert list(back["mixed"]) == ["-1.5", "'-x", "2", "", "'=1", "0.0", "ok", "-7"]
 
 
+def test_formula_escaping_is_reversible():
+    cells = ["=1", "'=1", "''@x", "-x", "'plain", "it's", "", "a=b"]
+    escaped = [output_files.escape_formula(c) for c in cells]
+    assert escaped == ["'=1", "''=1", "'''@x", "'-x", "'plain", "it's", "", "a=b"]
+    assert [output_files.unescape_formula(c) for c in escaped] == cells
+
+
+HOSTILE_CELLS = ['=HYPERLINK("http://x")', "@SUM(A1)", "+cmd", "-x", "'=kept"]
+
+
+def test_campaign_files_of_import_and_simulate_escape_formulas_and_read_back_exactly(
+    tmp_path, campaign_frames
+):
+    """Campaign CSVs (what import and simulate write, through Campaign.save) were written raw:
+    a soil named =HYPERLINK(...) ran as a formula in a spreadsheet. Escaped now, and
+    load_campaign reads the very cells back."""
+    tests = campaign_frames["tests"]
+    tests["bin"] = HOSTILE_CELLS[:3]
+    tests["soil"] = [*HOSTILE_CELLS[3:], "loam"]
+    campaign = Campaign.from_frames(**campaign_frames)
+    assert campaign.tests["soil"].iloc[1] == "'=kept"
+    saved = campaign.save(tmp_path / "saved")
+    raw = pd.read_csv(saved / "tests.csv", dtype=str, keep_default_na=False)
+    assert list(raw["bin"]) == ["'" + c for c in HOSTILE_CELLS[:3]]
+    assert list(raw["soil"]) == ["'-x", "''=kept", "loam"]
+    back = load_campaign(saved)
+    assert list(back.tests["bin"]) == HOSTILE_CELLS[:3]
+    assert list(back.tests["soil"]) == [*HOSTILE_CELLS[3:], "loam"]
+    assert back.sinkage.equals(campaign.sinkage)  # numbers (negative ones too) untouched
+
+
+def test_simulation_truth_tables_escape_formulas(tmp_path):
+    from soilstats.simulation import parse_spec, simulate
+
+    spec = {
+        "soils": {"=s1": {"kc": 0.0, "kphi": 1e6, "n": 1.0}},
+        "series": [{"name": "@p", "kind": "sinkage", "soils": ["=s1"], "points": 10,
+                    "plates": [{"shape": "circle", "radius_m": 0.05}]}],
+    }  # fmt: skip
+    folder = simulate(parse_spec(spec), seed=1).save(tmp_path / "sim")
+    truth = pd.read_csv(folder / "truth_tests.csv", dtype=str)
+    assert set(truth["soil"]) == {"'=s1"} and set(truth["series"]) == {"'@p"}
+    assert set(load_campaign(folder).tests["soil"]) == {"=s1"}
+
+
 def test_line_breaks_hashes_commas_and_quotes_in_cells_read_back_whole(tmp_path):
     cells = ["two\nlines", "cr\rinside", "bin #3", 'say "hi", twice', "", "#start"]
     frame = pd.DataFrame({"note": cells, "x": [1.0, 2.0, np.nan, 4.0, 5.0, 6.0]})
@@ -220,3 +265,66 @@ def test_report_csv_reads_back_as_documented():
         "a": ["x#y"],
         "b": [-1.0],
     }
+
+
+# --- a full disk, a table too large ------------------------------------------------------------
+
+
+def _full_disk_after(monkeypatch, n_bytes: int) -> None:
+    """Every write stops with ENOSPC after ``n_bytes`` bytes reached the file."""
+    import errno
+
+    def write(path, data):
+        Path(path).write_bytes(data[:n_bytes])
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(output_files, "_write_bytes", write)
+
+
+def test_a_full_disk_is_a_clear_error_and_leaves_the_old_file(tmp_path, monkeypatch):
+    path = write_atomic(tmp_path / "t.json", '{"old": 1}\n')
+    _full_disk_after(monkeypatch, 3)
+    with pytest.raises(OSError, match=r"no space left to write t\.json into .*nothing of it"):
+        write_atomic(path, '{"new": 2}\n' * 1000)
+    assert path.read_text() == '{"old": 1}\n'
+    assert [p.name for p in tmp_path.iterdir()] == ["t.json"]  # no temporary left
+
+
+def test_netcdf_is_built_in_memory_and_reads_back(tmp_path):
+    """No HDF5 handle on a file: a full disk cannot leave one half-closed (h5py segfaulted
+    freeing it at exit). The bytes are deterministic and ArviZ reads them back exactly."""
+    from soilstats.bayes._arviz import az
+
+    rng = np.random.default_rng(3)
+    idata = az.from_dict(
+        posterior={"kc": rng.normal(size=(4, 50)), "n": rng.uniform(size=(4, 50))},
+        observed_data={"y": rng.normal(size=7)},
+    )
+    idata.posterior.attrs["note"] = "x"
+    blob = output_files.netcdf_bytes(idata)
+    assert blob == output_files.netcdf_bytes(idata)
+    back = az.from_netcdf(write_atomic(tmp_path / "p.nc", blob))
+    assert set(back.groups()) == {"posterior", "observed_data"}
+    np.testing.assert_array_equal(back.posterior["kc"], idata.posterior["kc"])
+    assert back.posterior.attrs["note"] == "x"
+
+
+def test_a_parquet_table_beyond_the_memory_budget_is_refused_from_its_footer(
+    tmp_path, monkeypatch, write_campaign, campaign_frames
+):
+    """A compression bomb: 2 M zero rows are a few kB of gzip pages and ~150 MB in memory. The
+    footer's sizes are checked before a page is read (Arrow ran out of memory)."""
+    pytest.importorskip("pyarrow")
+    from soilstats.errors import CampaignError
+
+    folder = write_campaign(**campaign_frames)
+    zeros = pd.DataFrame({"test_id": ["c1"] * 2_000_000, "z_m": 0.0, "force_N": 0.0})
+    (folder / "sinkage.csv").unlink()
+    zeros.to_parquet(folder / "sinkage.parquet", compression="gzip", index=False)
+    assert (folder / "sinkage.parquet").stat().st_size < 200_000
+    monkeypatch.setenv("SOILSTATS_MEMORY_BUDGET_GB", "0.05")  # 51 MiB
+    monkeypatch.setattr(pd, "read_parquet", lambda *a, **k: pytest.fail("read the pages"))
+    says = r"reading sinkage\.parquet \(2000000 rows of 3 columns\)"
+    with pytest.raises(CampaignError, match=says) as err:
+        load_campaign(folder)
+    assert err.value.file == "sinkage.parquet" and "beyond the budget of 0.05 GiB" in str(err.value)

@@ -307,6 +307,20 @@ def test_cli_refuses_a_prior_for_no_parameter_before_sampling(campaign, tmp_path
     assert code == 2 and not (tmp_path / "o").exists()
 
 
+def test_cli_refuses_a_priors_table_for_no_model_before_sampling(campaign, tmp_path, capsys):
+    """A [bekkr] table used to be ignored: the run went on with bekker's default priors."""
+    from soilstats.cli.posterior import main
+
+    folder = campaign.save(tmp_path / "camp")
+    table = tmp_path / "priors.toml"
+    table.write_text('[bekkr]\nn = "uniform:0.5:1.5"\n[janosi]\nK = "uniform:0.001:0.1"\n')
+    argv = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker"]
+    code = main([*argv, "--priors", str(table), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and not (tmp_path / "o").exists()
+    assert "priors.toml: tables ['bekkr'] name no model" in err and "[bekker]?" in err
+
+
 def test_a_run_whose_autocorrelation_time_is_not_finite_is_reported_not_raised(monkeypatch):
     """Walkers that overflow leave emcee's τ NaN; the sampler used it for its burn-in and
     raised 'cannot convert float NaN to integer'. It now keeps a short stretch and reports

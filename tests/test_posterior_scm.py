@@ -106,8 +106,8 @@ def test_repair_sets_elastic_K_to_the_stated_multiple_and_marks_each_row():
     assert check.passed and check.counts()["elastic_K > Bekker_Kphi"] == 2
     assert "elastic_K repaired in 2 of 3 parameter sets" in check.describe()
     assert table["elastic_K"].tolist() == [4e7] * 3  # the input is not changed
-    for bad in (1.0, 0.5, np.nan):
-        with pytest.raises(ValueError, match="multiple must be a number above 1"):
+    for bad in (1.0, 0.5, np.nan, 1001.0, 1e308, np.inf):
+        with pytest.raises(ValueError, match=r"multiple must be a number in \(1, 1000\]"):
             check_scm(table, repair=bad)
 
 

@@ -339,6 +339,61 @@ def test_malformed_spec_names_key_and_options(edit, match):
         parse_spec(_broken(edit))
 
 
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        # The models' support (issue #44): each of these was simulated without a word.
+        (lambda d: d["soils"]["s1"].update(n=0.0), r"\[soils\.s1\]\.n: .*n = 0 \(n <= 0"),
+        (lambda d: d["soils"]["s1"].update(n=-0.5), r"n = -0\.5 \(n <= 0 \(bekker\)"),
+        (lambda d: d["soils"]["s1"].update(kphi=0.0), r"kphi = 0 \(kphi outside \(0, inf\)"),
+        (lambda d: d["soils"]["s1"].update(phi=95.0), r"phi = 95 \(phi outside \(0, 90\) deg"),
+        (lambda d: d["soils"]["s1"].update(c=-1.0), r"\.c: .*c = -1 \(c < 0"),
+        (
+            lambda d: d["soils"]["s1"].update(conditions=[{"where": {"tool": "x"}, "phi": 90}]),
+            r"conditions\[0\]\.phi: .*phi = 90",
+        ),
+        (
+            lambda d: d.update(preparations={"rake": {"operator": "C"}}),
+            r"\[preparations\.rake\]\.operator: 'C' is not an operator of series 'plates'",
+        ),
+        (
+            lambda d: d.update(preparations={"rake": {"soil": "s2"}}),
+            r"\[preparations\.rake\]\.soil: 'soil' is a column the design writes",
+        ),
+    ],
+)
+def test_impossible_spec_values_are_refused(edit, match):
+    with pytest.raises(SpecError, match=match):
+        parse_spec(_broken(edit))
+
+
+def _effect(**options):
+    return lambda d: d.update(effects=[options])
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        (
+            _effect(kind="covariate", column="moisture", parameters="c", slope=0.1),
+            r"\[\[effects\]\]\[0\]\.column: 'moisture' is not a test-log column.*'tool'",
+        ),
+        (  # a planted effect pushing phi past 90 degrees at one level
+            _effect(kind="covariate", column="tool", parameters="phi", levels={"tool04": 3.1}),
+            r"test ring-0001 \(soil s1, series ring\) draws phi = 9\d\.\d+ \(phi outside",
+        ),
+        (  # kc/b + kphi < 0 on the narrow plate only
+            lambda d: d["soils"]["s1"].update(kc=-4e4),
+            r"test plates-0001 .* kc/b \+ kphi = -[0-9.e+]+ at b = 0\.025 m",
+        ),
+    ],
+)
+def test_impossible_effects_are_refused_when_simulated(edit, match):
+    spec = parse_spec(_broken(edit))
+    with pytest.raises(SpecError, match=match):
+        simulate(spec, seed=1)
+
+
 def test_spec_file_errors_are_value_errors(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("name = ")

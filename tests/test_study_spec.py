@@ -86,3 +86,17 @@ def test_a_window_in_the_spec_reaches_every_fit(tmp_path):
     path.write_text(text + '\n[window]\nz_max = ["radius_m=0.05"]\n')
     with pytest.raises(SpecError, match="window"):
         load_spec(path)
+
+
+def test_a_reference_level_absent_from_the_data_is_an_error(tmp_path):
+    """A reference the factor never takes used to give an empty reference-pairs table."""
+    from soilstats.campaign import load_campaign
+    from soilstats.errors import StudyDataError
+    from soilstats.study import run_study
+
+    text = (studies_dir() / "tool-shape.toml").read_text()
+    path = tmp_path / "typo.toml"
+    path.write_text(text.replace('reference = "tool02"', 'reference = "tool2"'))
+    campaign = load_campaign("simulated-paper").select(soil="soil01")
+    with pytest.raises(StudyDataError, match=r"reference = 'tool2' is not a tool value.*tool02"):
+        run_study(load_spec(path), campaign)

@@ -183,6 +183,8 @@ SCM_CONSTRAINTS: tuple[Constraint, ...] = (
     ),
 )
 
+#: Largest elastic_K repair multiple: beyond 1000 x Bekker_Kphi it is no repair but a typo.
+REPAIR_MAX = 1000.0
 #: The constraint a repair may fix (elastic_K is a stated input, not a measured parameter).
 REPAIRABLE = "elastic_K > Bekker_Kphi"
 
@@ -297,10 +299,10 @@ def check_scm(
     """Check every row of an SCM table against :data:`SCM_CONSTRAINTS`; with ``repair`` (a
     multiple > 1), set elastic_K = repair × Bekker_Kphi in the rows where elastic_K ≤
     Bekker_Kphi, and mark them. Returns the (repaired) table and the check."""
-    if repair is not None and not (np.isfinite(repair) and repair > 1):
+    if repair is not None and not (np.isfinite(repair) and 1 < repair <= REPAIR_MAX):
         raise InputError(
-            f"the elastic_K repair multiple must be a number above 1 (elastic_K = multiple x "
-            f"Bekker_Kphi must exceed Bekker_Kphi), got {repair!r}"
+            f"the elastic_K repair multiple must be a number in (1, {REPAIR_MAX:g}] (elastic_K "
+            f"= multiple x Bekker_Kphi must exceed Bekker_Kphi), got {repair!r}"
         )
     with np.errstate(invalid="ignore"):
         broken = {c.label: ~np.asarray(c.holds(table), bool) for c in SCM_CONSTRAINTS}
@@ -308,7 +310,14 @@ def check_scm(
     repaired = broken[REPAIRABLE] & (kphi > 0) if repair is not None else np.zeros(len(table), bool)
     table = table.copy()
     if repaired.any():
-        table.loc[repaired, "elastic_K"] = repair * kphi[repaired]
+        with np.errstate(over="ignore"):
+            new_K = cast(float, repair) * kphi[repaired]
+        if not np.all(np.isfinite(new_K)):  # a Bekker_Kphi near the float maximum
+            raise InputError(
+                f"repairing elastic_K = {repair:g} x Bekker_Kphi overflows in "
+                f"{int((~np.isfinite(new_K)).sum())} rows; state --scm-elastic-K instead"
+            )
+        table.loc[repaired, "elastic_K"] = new_K
     table[REPAIRED] = repaired.astype(int)
     largest = float(np.nanmax(kphi)) if len(kphi) else float("nan")
     return table, ConstraintCheck(broken, repaired, repair, largest)

@@ -158,21 +158,45 @@ def priors_from_items(items: Iterable[str] | None) -> dict[str, Prior]:
     return out
 
 
+def _read_priors_toml(path: os.PathLike[str] | str) -> dict:
+    import tomllib
+    from pathlib import Path
+
+    try:
+        return tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        raise InputError(f"cannot read the priors file {str(path)!r}: {err}") from None
+
+
+def check_priors_file(path: str | os.PathLike[str]) -> None:
+    """Refuse a priors file with a table naming no registered model (``[bekkr]``): its priors
+    would otherwise be ignored silently. Tables for other registered models are allowed (one
+    file may serve several runs)."""
+    import difflib
+
+    from ..models import model_names
+
+    known = list(model_names())
+    stray = sorted(set(_read_priors_toml(path)) - set(known))
+    if stray:
+        near = {s: difflib.get_close_matches(s, known, n=1) for s in stray}
+        hint = "; ".join(f"[{s}] → [{m[0]}]?" for s, m in near.items() if m)
+        raise InputError(
+            f"{path}: tables {stray} name no model (models: {sorted(known)})"
+            + (f"; did you mean {hint}" if hint else "")
+        )
+
+
 def priors_from_toml(path: str | os.PathLike[str], model_name: str) -> dict[str, Prior]:
     """The ``[MODEL]`` table of a TOML file: ``NAME = "SPEC"`` (as :func:`parse_prior`).
 
     A file may hold tables for several models (``[bekker]``, ``[janosi]``); a model without a
     table keeps its defaults. Unknown parameter names are refused by :func:`resolve_priors`.
     """
-    import tomllib
     from pathlib import Path
 
     path = Path(path)
-    try:
-        table = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError) as err:
-        raise InputError(f"cannot read the priors file {str(path)!r}: {err}") from None
-    section = table.get(model_name, {})
+    section = _read_priors_toml(path).get(model_name, {})
     if not isinstance(section, dict):
         raise InputError(f'{path}: [{model_name}] must be a table of NAME = "SPEC" entries')
     try:

@@ -15,7 +15,7 @@ import pandas as pd
 
 from ..errors import RENAMED_GO_IN, CampaignError, InputError, SoilstatsWarning
 from . import io
-from ._cells import TEXT_DTYPE
+from ._cells import TEXT_DTYPE, without_controls
 from .derived import add_sample_columns, add_test_columns
 from .digest import campaign_sha256
 from .index import campaign_index, grouped_by_code
@@ -110,9 +110,57 @@ def _derive(tables: dict[str, pd.DataFrame]) -> tuple[dict, dict]:
     return {"tests": tests, "sinkage": sinkage, "shear": shear}, given
 
 
+def _check_frame(frame: pd.DataFrame, name: str) -> None:
+    """Refuse what a table read from a file could never hold: columns that are not unique
+    plain names, and complex numbers (casting drops the imaginary part silently)."""
+    if isinstance(frame.columns, pd.MultiIndex) or not all(
+        isinstance(c, str) for c in frame.columns
+    ):
+        bad = next(c for c in frame.columns if not isinstance(c, str))
+        raise CampaignError(
+            f"column names must be text, got {bad!r} — flatten or rename the columns",
+            file=name,
+        )
+    dup = sorted({c for c in frame.columns if list(frame.columns).count(c) > 1})
+    if dup:
+        raise CampaignError(
+            f"column(s) {dup} appear more than once; every column name must be unique",
+            file=name,
+            column=dup[0],
+        )
+    for col in frame.columns:
+        values = frame[col]
+        if np.iscomplexobj(values.to_numpy()):
+            cells = np.ones(len(values), dtype=bool)
+        elif values.dtype == object:
+            cells = np.array([isinstance(v, complex | np.complexfloating) for v in values])
+        else:
+            continue
+        if cells.any():
+            row = int(np.flatnonzero(cells)[0]) + 1
+            raise CampaignError(
+                f"holds complex numbers (e.g. {complex(values.iloc[row - 1])}); a measured "
+                "quantity is real — give the real part explicitly if that is what was meant",
+                file=name,
+                column=col,
+                row=row,
+            )
+
+
 def _without(tables: dict[str, pd.DataFrame], bad: list[str]) -> dict[str, pd.DataFrame]:
-    """The tables without the tests ``bad`` (and their samples)."""
-    return {s: f[~f["test_id"].isin(bad)] for s, f in tables.items()}
+    """The tables without the tests ``bad`` (and their samples).
+
+    A row whose id differs from a bad test's only by control characters (``'c1\x00'``) was
+    counted against that test by validation, so it goes with it: left behind it would be an
+    orphan row of no test (issue #44).
+    """
+    gone = set(bad)
+
+    def dropped(ids: pd.Series) -> np.ndarray:
+        text = ids.astype(str)
+        return (text.isin(gone) | text.map(without_controls).isin(gone)).to_numpy(dtype=bool)
+
+    return {s: f[~dropped(f["test_id"])] for s, f in tables.items()}
 
 
 def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool) -> Campaign:
@@ -317,9 +365,19 @@ class Campaign:
         input frames are never modified. ``check_units`` as in :func:`load_campaign`.
         """
         frames: Frames = {}
+        if units is not None and (
+            not isinstance(units, Mapping)
+            or not all(isinstance(k, str) and isinstance(v, str) for k, v in units.items())
+        ):
+            raise InputError(
+                f"units must map format column names to unit texts, e.g. {{'z_m': 'mm'}}; "
+                f"got {units!r}"
+            )
         for stem, frame in zip(FILES, (tests, sinkage, shear), strict=True):
             if frame is not None and not isinstance(frame, pd.DataFrame):
                 raise TypeError(f"{stem} must be a pandas DataFrame or None, not {type(frame)}")
+            if frame is not None:
+                _check_frame(frame, f"{stem}.csv")
             if units:
                 frame = convert_columns(frame, units, f"{stem}.csv")
             frames[stem] = (frame, f"{stem}.csv")

@@ -380,9 +380,13 @@ def read_table(path: Path) -> pd.DataFrame:
     with _open(path) as fh:
         if path.suffix == ".parquet":
             try:
+                _check_parquet_size(fh, path.name)
                 return pd.read_parquet(fh)
+            except CampaignError:
+                raise
             except (OSError, ValueError) as exc:
                 raise _unreadable(path, exc) from exc
+        _check_size(path.name, os.fstat(fh.fileno()).st_size * _CSV_MEMORY_FACTOR, "")
         try:
             return _read_csv(fh, path.name)
         except CampaignError:
@@ -399,6 +403,41 @@ def read_table(path: Path) -> pd.DataFrame:
             ) from None
         except (OSError, ValueError, csv.Error) as exc:
             raise _unreadable(path, exc) from exc
+
+
+#: Memory of a CSV read as text cells, per byte of the file (pandas' objects and strings).
+_CSV_MEMORY_FACTOR = 12
+#: Memory of a Parquet table, per byte of its uncompressed pages (Arrow, then pandas).
+_PARQUET_MEMORY_FACTOR = 3
+
+
+def _check_size(name: str, nbytes: float, detail: str) -> None:
+    """Refuse a file whose table would not fit the memory budget, before reading it."""
+    from .._budget import check_budget
+    from ..errors import InputError
+
+    try:
+        check_budget(f"reading {name}{detail}", nbytes, "split the campaign into smaller ones")
+    except InputError as err:
+        raise CampaignError(str(err), file=name) from None
+
+
+def _check_parquet_size(fh: BinaryIO, name: str) -> None:
+    """The rows and uncompressed size a Parquet footer declares, checked against the memory
+    budget before a page is decompressed (a 100 M-row table, a compression bomb)."""
+    import pyarrow.parquet as pq
+
+    meta = pq.ParquetFile(fh).metadata
+    size = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
+    fh.seek(0)
+    # Pages are encoded too (a run of equal values is a few bytes): count the cells as well,
+    # 8 bytes a number and a Python string's ~60 for text.
+    schema = meta.schema
+    width = sum(
+        60 if schema.column(j).physical_type == "BYTE_ARRAY" else 8 for j in range(meta.num_columns)
+    )
+    nbytes = max(size * _PARQUET_MEMORY_FACTOR, meta.num_rows * width)
+    _check_size(name, nbytes, f" ({meta.num_rows} rows of {meta.num_columns} columns)")
 
 
 def _read_csv(fh: BinaryIO, name: str) -> pd.DataFrame:
@@ -426,7 +465,7 @@ def _read_csv(fh: BinaryIO, name: str) -> pd.DataFrame:
     # index_col=False: a row with extra fields must not silently become an index.
     with warnings.catch_warnings():
         warnings.simplefilter("error", pd.errors.ParserWarning)
-        return pd.read_csv(
+        frame = pd.read_csv(
             fh,
             dtype=str,
             keep_default_na=False,
@@ -434,6 +473,20 @@ def _read_csv(fh: BinaryIO, name: str) -> pd.DataFrame:
             index_col=False,
             encoding="utf-8-sig",
         )
+    return _formula_unescaped(frame)
+
+
+def _formula_unescaped(frame: pd.DataFrame) -> pd.DataFrame:
+    """Cells as given to :func:`write_table`: the apostrophe guarding a formula cell
+    (``'=x``, a spreadsheet's own escape too) dropped; a frame without one is returned as is."""
+    from ..outputs.files import unescape_formula
+
+    for col in frame.columns:
+        values = frame[col]
+        guarded = values.str.startswith("'", na=False)
+        if guarded.any():
+            frame[col] = values.where(~guarded, values[guarded].map(unescape_formula))
+    return frame
 
 
 def _unreadable(path: Path, exc: Exception) -> CampaignError:
@@ -500,14 +553,29 @@ def _csv_ready(frame: pd.DataFrame) -> pd.DataFrame:
 def write_table(frame: pd.DataFrame, path: Path, fmt: Format) -> None:
     """Write one table to ``path`` as CSV (missing → empty cell) or Parquet, without index.
 
-    The cells are written exactly (a campaign file is data, read back by
-    :func:`read_table`): no spreadsheet-formula escaping here, unlike the report CSVs.
+    A CSV text cell a spreadsheet would take for a formula (``=…``, ``+…``, ``-…``, ``@…``)
+    gets a leading apostrophe (:func:`~soilstats.outputs.files.escape_formula`, reversible),
+    which :func:`read_table` drops again: the cells read back exactly.
     """
     if fmt == "parquet":
         require_parquet(path.name)
         frame.to_parquet(path, index=False)
     else:
-        _csv_ready(frame).to_csv(path, index=False, na_rep="", lineterminator="\n")
+        _csv_ready(_formula_escaped(frame)).to_csv(
+            path, index=False, na_rep="", lineterminator="\n"
+        )
+
+
+def _formula_escaped(frame: pd.DataFrame) -> pd.DataFrame:
+    """The text cells of ``frame`` escaped against spreadsheet formulas (numbers untouched)."""
+    from ..outputs.files import escape_formula
+
+    out = frame.copy()
+    for col in out.columns:
+        if out[col].dtype == np.float64 or pd.api.types.is_integer_dtype(out[col].dtype):
+            continue
+        out[col] = out[col].map(lambda v: escape_formula(v) if isinstance(v, str) else v)
+    return out
 
 
 def save_tables(
@@ -528,7 +596,7 @@ def save_tables(
     OSError
         If a campaign file name in the folder is a symbolic link or a folder.
     """
-    from ..outputs.files import output_path, replacing
+    from ..outputs.files import output_path, replacing, staged
 
     existing = [folder / n for n in CAMPAIGN_FILE_NAMES if os.path.lexists(folder / n)]
     if existing and not overwrite:
@@ -544,5 +612,5 @@ def save_tables(
             write_table(table, tmp, fmt)
     for path in existing:
         if path.name not in written:
-            path.unlink()
+            staged(path).unlink()  # in the output set being written, if any
     return folder

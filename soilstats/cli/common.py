@@ -29,13 +29,14 @@ This module imports nothing heavy: ``soilstats --help`` must answer at once.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import traceback
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TextIO, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 from .._text import plural
 from ..errors import InputError
@@ -153,7 +154,7 @@ def add_jobs_option(parser: argparse.ArgumentParser, what: str) -> None:
     """``--jobs N``: worker processes over ``what`` (soilstats.parallel, joblib)."""
     parser.add_argument(
         "--jobs",
-        type=int,
+        type=JOBS,
         default=1,
         metavar="N",
         help=f"worker processes over {what} (joblib; -1: every core; default 1); the results "
@@ -187,6 +188,42 @@ def add_data_options(parser: argparse.ArgumentParser, *, window: bool = True) ->
         metavar="[COLUMN=VALUE:]LIMIT",
         help="fit sinkage only up to pressure LIMIT Pa (as --z-max)",
     )
+
+
+def number_in(
+    kind: type, low: float, high: float, *, low_open: bool = False, high_open: bool = False
+) -> Callable[[str], Any]:
+    """An argparse ``type``: a finite ``kind`` (int or float) in [low, high] (``low_open``,
+    ``high_open``: that end excluded).  ``nan``, ``inf`` and out-of-range numbers are usage
+    errors (exit 2) naming the range, never passed on to fail later (``--alpha nan``)."""
+    lo, hi = ("(" if low_open else "["), (")" if high_open else "]")
+    what = "a whole number" if kind is int else "a finite number"
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except (TypeError, ValueError):
+            value = None
+        inside = (
+            value is not None
+            and math.isfinite(value)
+            and (low < value if low_open else low <= value)
+            and (value < high if high_open else value <= high)
+        )
+        if not inside:
+            raise argparse.ArgumentTypeError(
+                f"must be {what} in {lo}{low:g}, {high:g}{hi}, got {text!r}"
+            )
+        return value
+
+    parse.__name__ = kind.__name__  # argparse names the type in its messages
+    return parse
+
+
+#: ``--alpha``: a family-wise error rate.
+ALPHA = number_in(float, 0.0, 0.5, low_open=True)
+#: ``--jobs``: -1 every core, −2 all but one, …, at most 1024 workers.
+JOBS = number_in(int, -1024, 1024)
 
 
 def _seed(text: str) -> int:
@@ -393,7 +430,16 @@ def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) 
         with warnings.catch_warnings(), np.errstate(all="ignore"):  # both restored afterwards
             warnings.showwarning = _show_warning
             warnings.filterwarnings("ignore", category=RuntimeWarning)
-            return run(args)
+            out = getattr(args, "out", None)
+            if out is None:
+                return run(args)
+            from ..outputs.outset import output_set
+
+            # The whole run is one output set: locked, staged, swapped in at the end.
+            command = " ".join(["soilstats", *map(str, getattr(args, "argv", []))])
+            overwrite = bool(getattr(args, "overwrite", False))
+            with output_set(out, command=command, overwrite=overwrite):
+                return run(args)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from .common import (
+    ALPHA,
     add_common_options,
     add_data_options,
     add_jobs_option,
@@ -29,7 +30,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_common_options(parser, out_help="write discover.json and discover.pdf into DIR")
     add_data_options(parser)
     parser.add_argument(
-        "--alpha", type=float, default=0.05, help="family-wise error rate (default 0.05)"
+        "--alpha",
+        type=ALPHA,
+        default=0.05,
+        help="family-wise error rate in (0, 0.5] (default 0.05)",
     )
     add_jobs_option(parser, "the per-test fits and the cross-validation fits")
 

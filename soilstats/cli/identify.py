@@ -22,6 +22,7 @@ from .common import (
     add_common_options,
     add_data_options,
     add_jobs_option,
+    number_in,
     prepared,
     progress_enabled,
 )
@@ -69,15 +70,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--points-per-test",
-        type=int,
+        type=number_in(int, 3, 1_000_000),
         default=100,
-        help="samples per test after equal-sinkage thinning (Section 2.1; default 100)",
+        help="samples per test after equal-sinkage thinning, 3 to 1e6 (Section 2.1; default 100)",
     )
     parser.add_argument(
         "--test-resamples",
-        type=int,
+        type=number_in(int, 0, 100_000),
         default=200,
-        help="resamples of the cluster bootstrap over tests behind stderr_tests (0: off; "
+        help="resamples of the cluster bootstrap over tests behind stderr_tests, 0 to 1e5 (0: off; "
         "default 200, seeded by --seed)",
     )
     parser.add_argument("--verbose", action="store_true", help="print every fit's summary()")

@@ -83,7 +83,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="population model: draws for a NEW preparation (bekker, bernstein, janosi; "
         "mohr-coulomb stays pooled)",
     )
-    parser.add_argument("--draws", type=int, default=None, help="kept draws (default per model)")
+    parser.add_argument(
+        "--draws",
+        type=int,
+        default=None,
+        help="kept draws, >= 1 and within the memory budget (default per model)",
+    )
     parser.add_argument(
         "--prior",
         action="append",
@@ -137,7 +142,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="MULTIPLE",
         help="where a set breaks SCM's elastic_K > Bekker_Kphi, set its elastic_K to MULTIPLE "
-        "x Bekker_Kphi (MULTIPLE > 1), marked per row (column elastic_K_repaired), in the "
+        "x Bekker_Kphi (1 < MULTIPLE <= 1000), marked per row (column elastic_K_repaired), in the "
         "JSON and on page 1 of the report; without it such sets are refused",
     )
     parser.add_argument(
@@ -178,8 +183,10 @@ def priors_by_model(args: argparse.Namespace, models: Sequence[str]) -> dict[str
     ``--prior`` items naming its parameters (they win). A name that belongs to no model — or,
     in a file, not to its table's model — is an error before any sampling. Items that are
     user priors for ``--simulator`` (:func:`split_prior_items`) are not the models'."""
-    from ..bayes.priors import priors_from_items, priors_from_toml
+    from ..bayes.priors import check_priors_file, priors_from_items, priors_from_toml
 
+    if args.priors:
+        check_priors_file(args.priors)
     raw = split_prior_items(args, models)[0]
     params = {m: _checked_model(m).param_names for m in models}
     known = {n for names in params.values() for n in names}
@@ -275,7 +282,7 @@ def _check_simulator(args, models, stated: dict) -> None:
             raise InputError("--scm-contact checks a simulator export: give --simulator too")
         return
     _scm_contact(args)
-    from ..bayes.export import missing_message, scm_plan, stated_inputs
+    from ..bayes.export import REPAIR_MAX, missing_message, scm_plan, stated_inputs
     from ..bayes.stated_priors import sample_priors
 
     params = [n for m in models for n in _checked_model(m).param_names]
@@ -291,10 +298,10 @@ def _check_simulator(args, models, stated: dict) -> None:
     if missing:
         raise InputError(f"--simulator {missing_message(args.simulator, missing, params)}")
     stated_inputs(args.scm_elastic_K, args.scm_damping_R)
-    if args.scm_repair is not None and not args.scm_repair > 1:
+    if args.scm_repair is not None and not 1 < args.scm_repair <= REPAIR_MAX:
         raise InputError(
-            f"--scm-repair takes a multiple above 1 (elastic_K = MULTIPLE x Bekker_Kphi must "
-            f"exceed Bekker_Kphi), got {args.scm_repair:g}"
+            f"--scm-repair takes a multiple in (1, {REPAIR_MAX:g}] (elastic_K = MULTIPLE x "
+            f"Bekker_Kphi must exceed Bekker_Kphi), got {args.scm_repair:g}"
         )
     if stated:  # a prior that cannot be drawn, or leaves the support: say so now
         sample_priors(stated, 10_000, prior_seed(args.seed, models))
@@ -306,13 +313,30 @@ def prior_seed(seed: int, models: Sequence[str]) -> int:
     return model_seed(seed, len(models))
 
 
-def _check_draws(args) -> None:
+#: Bytes per kept draw and column, all copies together: emcee's unthinned chain (thinning
+#: τ/2, a few steps), the thinned chain, the InferenceData and the draws table.
+_BYTES_PER_DRAW_VALUE = 8 * 8
+
+
+def _check_draws(args, models: Sequence[str] = ()) -> None:
     """--draws below the convergence check's ESS floor: refuse before sampling, not after.
 
     N draws carry an effective sample size of about N at most, so fewer than
     :data:`~soilstats.bayes.result.ESS_MIN` fail the check and exit 2 after all the
-    sampling; with --force the user has accepted unconverged (FORCED) draws.
+    sampling; with --force the user has accepted unconverged (FORCED) draws.  A number of
+    draws that cannot be held in memory (:mod:`soilstats._budget`) is refused even then.
     """
+    if args.draws is not None:
+        from .._budget import check_budget
+
+        if args.draws < 1:
+            raise InputError(f"--draws takes a whole number >= 1, got {args.draws}")
+        columns = sum(len(_checked_model(m).param_names) + 2 for m in models) or 4
+        check_budget(
+            f"--draws {args.draws}",
+            float(args.draws) * columns * _BYTES_PER_DRAW_VALUE,
+            "ask for fewer draws (the default is enough for every summary soilstats writes)",
+        )
     if args.draws is None or args.force:
         return  # (the bayes modules cost seconds to import: not for a refusal before sampling)
     from ..bayes.population import POPULATION_DRAWS
@@ -356,6 +380,10 @@ def extrapolation_warnings(
     ]
 
 
+#: Largest contact width --contact-width takes [m]: wider is no wheel or track of a vehicle.
+CONTACT_WIDTH_MAX_M = 10.0
+
+
 def _contact_widths(args, campaign) -> tuple[float, float]:
     if args.contact_width:
         lo, _, hi = args.contact_width.partition(":")
@@ -365,8 +393,11 @@ def _contact_widths(args, campaign) -> tuple[float, float]:
             raise InputError(
                 f"--contact-width takes B_MIN[:B_MAX] in metres, got {args.contact_width!r}"
             ) from None
-        if not 0 < widths[0] <= widths[1]:
-            raise InputError(f"--contact-width needs 0 < B_MIN <= B_MAX, got {widths}")
+        if not 0 < widths[0] <= widths[1] <= CONTACT_WIDTH_MAX_M:
+            raise InputError(
+                f"--contact-width needs 0 < B_MIN <= B_MAX <= {CONTACT_WIDTH_MAX_M:g} m "
+                f"(finite), got {args.contact_width!r}"
+            )
         return widths
     return _tested_widths(args, campaign) or (1.0, 1.0)
 
@@ -550,7 +581,7 @@ def run(args: argparse.Namespace) -> int:
     priors = priors_by_model(args, models)
     stated = split_prior_items(args, models)[1]
     _check_simulator(args, models, stated)
-    _check_draws(args)
+    _check_draws(args, models)
     if not _in_workers(args, models):
         return _checked_sampled_written(args, models, priors, stated)
     from ..parallel import stop_one_worker, warm_one_worker
@@ -840,6 +871,7 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance, figu
     import json
 
     from ..outputs import json_safe, output_path, write_atomic, write_csv
+    from ..outputs.files import netcdf_bytes
     from ..report.posterior_pdf import write_report
 
     prov = provenance.to_dict() | {"forced": record["forced"]}
@@ -848,10 +880,8 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance, figu
         # netCDF attributes take no None: the record travels as JSON strings.
         res.idata.posterior.attrs["soilstats_provenance"] = json.dumps(json_safe(prov))
         res.idata.posterior.attrs["soilstats_record"] = json.dumps(record)
-        write_atomic(
-            output_path(out, name, overwrite=True),
-            lambda tmp, idata=res.idata: idata.to_netcdf(str(tmp)),
-        )
+        # Built in memory: no HDF5 handle is left open on a file if the disk is full.
+        write_atomic(output_path(out, name, overwrite=True), netcdf_bytes(res.idata))
     write_csv(out / "draws.csv", kept, provenance, overwrite=True, float_format="%.10g")
     write_csv(out / "summary.csv", table.reset_index(), provenance, overwrite=True)
     write_atomic(

@@ -33,7 +33,14 @@ from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from . import wheel_modes
-from .common import add_common_options, add_data_options, prepared, progress_enabled
+from .common import (
+    ALPHA,
+    add_common_options,
+    add_data_options,
+    number_in,
+    prepared,
+    progress_enabled,
+)
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -104,7 +111,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "population where the plates support it (default)",
     )
     parser.add_argument(
-        "--n-draws", type=int, default=2000, help="draws through the wheel model (default 2000)"
+        "--n-draws",
+        type=number_in(int, 1, 10_000_000),
+        default=2000,
+        help="draws through the wheel model, 1 to 1e7 (default 2000)",
     )
     parser.add_argument(
         "--prior",
@@ -121,7 +131,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "(default 0.4,0.15,0,0: Ishigami et al. 2007)",
     )
     parser.add_argument(
-        "--alpha", type=float, default=0.05, help="family-wise error rate of the residual tests"
+        "--alpha",
+        type=ALPHA,
+        default=0.05,
+        help="family-wise error rate of the residual tests, in (0, 0.5]",
     )
     parser.add_argument(
         "--no-extension",

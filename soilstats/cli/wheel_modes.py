@@ -260,11 +260,14 @@ def predict(
 
 def _draws_netcdf(draws: pd.DataFrame, path: Path, overwrite: bool) -> None:
     """The joint draws as netCDF: one variable per quantity over (draw, slip)."""
+    import io
+
     import xarray as xr
 
-    from ..outputs import output_path
+    from ..outputs import output_path, write_atomic
 
     target = output_path(path.parent, path.name, overwrite=overwrite)
-    indexed = draws.set_index(["draw", "slip"])
-    ds = xr.Dataset.from_dataframe(indexed)
-    ds.to_netcdf(target)
+    ds = xr.Dataset.from_dataframe(draws.set_index(["draw", "slip"]))
+    buffer = io.BytesIO()
+    ds.to_netcdf(buffer, engine="h5netcdf")  # in memory: no HDF5 handle on a file
+    write_atomic(target, buffer.getvalue())

@@ -46,10 +46,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "csv_text",
+    "escape_formula",
     "json_safe",
+    "netcdf_bytes",
     "output_path",
     "replacing",
     "safe_stem",
+    "unescape_formula",
     "write_atomic",
     "write_csv",
     "write_json",
@@ -119,6 +122,7 @@ def output_path(
         )
     if folder.exists() and not folder.is_dir():
         raise NotADirectoryError(20, "not a folder", str(folder))
+    folder = staged(folder)  # an output set being written: its staging folder
     if create:
         folder.mkdir(parents=True, exist_ok=True)
     path = folder / filename
@@ -127,6 +131,36 @@ def output_path(
         raise IsADirectoryError(21, "is a folder", str(path))
     if path.exists() and not overwrite:
         raise FileExistsError(17, "exists already", str(path))
+    return path
+
+
+#: (output folder, its staging folder) of the output set being written (outputs.outset).
+_STAGES: list[tuple[Path, Path]] = []
+
+
+@contextmanager
+def staging(real: Path, stage: Path) -> Iterator[None]:
+    """Within the block, every writer of this module writes what belongs in ``real`` (a
+    resolved folder) into ``stage`` instead (:func:`soilstats.outputs.outset.output_set`)."""
+    _STAGES.append((real, stage))
+    try:
+        yield
+    finally:
+        _STAGES.remove((real, stage))
+
+
+def staged(path: str | Path) -> Path:
+    """Where ``path`` is written: in the staging folder when it lies in an output set being
+    written (its folder resolved, its own name kept), else ``path`` itself."""
+    path = Path(path)
+    if not _STAGES:
+        return path
+    where = Path(os.path.realpath(path.parent)) / path.name
+    for real, stage in reversed(_STAGES):
+        if where == real:
+            return stage
+        if real in where.parents:
+            return stage / where.relative_to(real)
     return path
 
 
@@ -157,7 +191,7 @@ def replacing(*paths: str | Path) -> Iterator[list[Path]]:
     OSError
         If a destination is a symbolic link (before anything is written).
     """
-    targets = [Path(p) for p in paths]
+    targets = [staged(p) for p in paths]
     for target in targets:
         _refuse_link(target)
     temporaries: list[Path] = []
@@ -199,12 +233,68 @@ def write_atomic(path: str | Path, content: str | bytes | Callable[..., object])
         If ``path`` is a symbolic link, or the write fails (then ``path`` is unchanged and no
         temporary file is left).
     """
-    with replacing(path) as (tmp,):
-        if callable(content):
-            content(tmp)
-        else:
-            tmp.write_bytes(content.encode("utf-8") if isinstance(content, str) else content)
+    try:
+        with replacing(path) as (tmp,):
+            if callable(content):
+                content(tmp)
+            else:
+                _write_bytes(tmp, content.encode("utf-8") if isinstance(content, str) else content)
+    except OSError as err:
+        if err.errno in _NO_SPACE:
+            raise OSError(
+                err.errno,
+                f"no space left to write {Path(path).name} into {str(Path(path).parent)!r} "
+                f"({os.strerror(err.errno or 0)}); nothing of it was written — free space "
+                "and run again",
+            ) from None
+        raise
     return Path(path)
+
+
+#: errno values of a full disk or an exhausted quota.
+_NO_SPACE = {errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)}
+
+
+def _write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to the (temporary) file ``path`` (a full disk raises here: on write, or
+    when the file is closed)."""
+    with open(path, "wb") as fh:
+        fh.write(data)
+
+
+def netcdf_bytes(idata: Any) -> bytes:
+    """An ArviZ InferenceData as the bytes of its netCDF-4 file (``az.from_netcdf`` reads
+    them), built in memory.
+
+    What :meth:`InferenceData.to_netcdf` writes (attributes, then each group, compressed
+    like ArviZ does), but no HDF5 handle is ever open on a file: a full disk is then a plain
+    OSError of :func:`write_atomic`, not an HDF5 file left half-closed (which ended in a
+    segmentation fault when h5py freed it at exit).
+    """
+    import io
+
+    import xarray as xr
+
+    buffer = io.BytesIO()
+    mode = "w"
+    if idata._attrs:
+        xr.Dataset(attrs=idata._attrs).to_netcdf(
+            buffer,  # type: ignore[call-overload]  # (xarray writes file objects too)
+            mode=mode,
+            engine="h5netcdf",
+            group="/",
+        )
+        mode = "a"
+    for group in idata._groups_all:
+        data = getattr(idata, group)
+        encoding = {
+            name: {"zlib": True}
+            for name, values in data.variables.items()
+            if values.dtype.kind in "biufcS"
+        }
+        data.to_netcdf(buffer, mode=mode, group=f"/{group}", engine="h5netcdf", encoding=encoding)
+        mode = "a"
+    return buffer.getvalue()
 
 
 def json_safe(value: Any) -> Any:
@@ -245,8 +335,6 @@ def write_json(
     return write_atomic(target, json.dumps(doc, indent=2, ensure_ascii=False) + "\n")
 
 
-#: First characters that make a spreadsheet read a cell as a formula (OWASP, CSV injection).
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 #: Characters that make a text cell need quotes: the CSV syntax, and the comment character
 #: readers are told to pass (``comment="#"`` cuts an unquoted line at its first ``#``).
 _NEEDS_QUOTES = re.compile(r'[,"\r\n#]')
@@ -256,10 +344,31 @@ _LINE_BREAKS: dict[str, str | int | None] = {
 }
 
 
+#: A cell a spreadsheet would take for a formula, behind any apostrophes already there.
+_FORMULA_CELL = re.compile(r"'*[=+\-@\t\r]")
+#: A cell escaped by :func:`escape_formula`.
+_ESCAPED_CELL = re.compile(r"'+[=+\-@\t\r]")
+
+
+def escape_formula(text: str) -> str:
+    """``text`` safe from spreadsheet formulas (OWASP, CSV injection): an apostrophe before a
+    cell that starts, after any apostrophes, with ``= + - @``, a tab or a carriage return.
+
+    Reversible (:func:`unescape_formula`): ``'=1`` is written ``''=1`` and reads back as
+    ``'=1``; every other text is written unchanged.
+    """
+    return "'" + text if _FORMULA_CELL.match(text) else text
+
+
+def unescape_formula(text: str) -> str:
+    """The cell :func:`escape_formula` was given: one leading apostrophe dropped where it
+    guards a formula character."""
+    return text[1:] if _ESCAPED_CELL.match(text) else text
+
+
 def _text_cell(text: str) -> str:
     """A text cell as written: formula-escaped, quoted where its content needs it."""
-    if text.startswith(_FORMULA_START):
-        text = "'" + text
+    text = escape_formula(text)
     if _NEEDS_QUOTES.search(text):
         return '"' + text.replace('"', '""') + '"'
     return text

@@ -34,6 +34,7 @@ from ..outputs.files import write_atomic
 if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure
+    from matplotlib.text import Text
     from matplotlib.typing import RcKeyType
 
     from ..outputs.provenance import Provenance
@@ -414,13 +415,53 @@ def page_count(pdf: bytes) -> int:
     return len(re.findall(rb"/Type\s*/Page(?![a-zA-Z])", pdf))
 
 
-def figure_svg(fig: Figure) -> bytes:
-    """A matplotlib figure as the SVG a report embeds (text as paths, a fixed hash salt and
-    no date: the same figure gives the same bytes, in any process); the figure is closed."""
+#: Attribute marking a figure text of soilstats' own written in mathtext (:func:`math_text`).
+_MATH = "_soilstats_math"
+
+
+def math_text(text: Text) -> Text:
+    """Mark ``text`` (a label soilstats wrote, e.g. ``$k_c$ (kN/m$^{n+1}$)``) as mathtext;
+    every other text of a report figure is printed as written (:func:`figure_svg`)."""
+    setattr(text, _MATH, True)
+    return text
+
+
+def plain_texts(fig: Figure) -> None:
+    """Print every text of ``fig`` not marked by :func:`math_text` as written: data labels
+    (soil names, levels, test ids) never go through mathtext, so a ``$`` is a ``$`` and a
+    ``$x^{`` in a soil name cannot stop a report with a parser error."""
+    from matplotlib.text import Text
+
+    for text in fig.findobj(Text):
+        if not getattr(text, _MATH, False):
+            text.set_parse_math(False)
+
+
+def tight_layout(fig: Figure) -> None:
+    """``fig.tight_layout()`` with every data label plain (:func:`plain_texts`): laying out
+    measures the texts, and measuring parses them."""
     import matplotlib as mpl
 
+    plain_texts(fig)
+    with mpl.rc_context({"text.parse_math": False}):
+        fig.tight_layout()
+
+
+def figure_svg(fig: Figure) -> bytes:
+    """A matplotlib figure as the SVG a report embeds (text as paths, a fixed hash salt and
+    no date: the same figure gives the same bytes, in any process); the figure is closed.
+    Data labels are printed as written (:func:`plain_texts`)."""
+    import matplotlib as mpl
+
+    plain_texts(fig)
     buffer = io.BytesIO()
-    with mpl.rc_context({"svg.hashsalt": "soilstats", "svg.fonttype": "path"}):
+    # Tick labels made while drawing (categorical axes: the data's levels) are plain too.
+    style: dict[RcKeyType, Any] = {
+        "svg.hashsalt": "soilstats",
+        "svg.fonttype": "path",
+        "text.parse_math": False,
+    }
+    with mpl.rc_context(style):
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     _close(fig)
     return buffer.getvalue()

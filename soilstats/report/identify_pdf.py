@@ -21,7 +21,7 @@ import numpy as np
 from .._text import plural
 from ..identification.table import EQ4_MARK
 from ..outputs.files import output_path
-from .document import Document, strong
+from .document import Document, strong, tight_layout
 from .front import data_origin, front_page
 from .labels import natural_key
 from .methods import write_equations
@@ -136,7 +136,7 @@ def _soil_figure(soil: str, pairs: list):
             finding += f" within a factor {max(middle) / min(middle):.2g} mid-range"
         ax.set_title(finding, fontsize=7)
     fig.suptitle(soil, fontsize=8)
-    fig.tight_layout()
+    tight_layout(fig)
     return fig
 
 

@@ -42,7 +42,7 @@ from ..bayes.predictive import input_name
 from ..campaign.index import grouped_by_code
 from ..errors import InputError
 from ..models import MODELS, Model, get_model
-from .document import FIGURE_STYLE
+from .document import FIGURE_STYLE, math_text
 
 if TYPE_CHECKING:
     from ..bayes.result import PosteriorResult
@@ -215,7 +215,7 @@ def trace_figure(
                 dens.plot(pdf_i, grid_i, lw=0.4, alpha=0.5, color=colours[i])
             grid_all, pdf_all = az.kde(values.ravel())
             dens.plot(pdf_all, grid_all, lw=1.2, color="k")
-            trace.set_ylabel(parameter_label(name, post.units.get(name)))
+            math_text(trace.set_ylabel(parameter_label(name, post.units.get(name))))
             trace.set_xlim(0, max(draws - 1, 1))
             trace.yaxis.set_major_locator(MaxNLocator(4))
             dens.tick_params(labelleft=False)
@@ -322,12 +322,14 @@ def pair_figure(
                     )
                     ax.yaxis.set_major_locator(MaxNLocator(3))
                     if j == 0:
-                        ax.set_ylabel(parameter_label(names[i], post.units.get(names[i])))
+                        math_text(
+                            ax.set_ylabel(parameter_label(names[i], post.units.get(names[i])))
+                        )
                     else:
                         ax.tick_params(labelleft=False)
                 ax.xaxis.set_major_locator(MaxNLocator(3))
                 if i == k - 1:
-                    ax.set_xlabel(parameter_label(names[j], post.units.get(names[j])))
+                    math_text(ax.set_xlabel(parameter_label(names[j], post.units.get(names[j]))))
                 else:
                     ax.tick_params(labelbottom=False)
                 if i != j and j > 0:
@@ -466,14 +468,14 @@ def predictive_figure(
                 ax.plot(x_all[where] * xs, y_all[where] * ys, color=colour, lw=0.9)
                 drawn += 1
             if np.isfinite(level):
-                ax.set_title(gtitle.format(level * gs))
+                math_text(ax.set_title(gtitle.format(level * gs)))
             ax.xaxis.set_major_locator(MaxNLocator(4))
             ax.yaxis.set_major_locator(MaxNLocator(5))
             row, col = divmod(p, ncols)
             if row == nrows - 1 or p + ncols >= len(panels):
-                ax.set_xlabel(xlabel)
+                math_text(ax.set_xlabel(xlabel))
             if col == 0:
-                ax.set_ylabel(ylabel)
+                math_text(ax.set_ylabel(ylabel))
         fig.legend(
             handles=[
                 Line2D([], [], color="0.2", lw=0.9, label="measured (one line per test)"),

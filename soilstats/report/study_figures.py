@@ -18,6 +18,7 @@ import seaborn as sns
 
 from ..campaign.matching import match_values
 from ..identification.conditions import condition_label
+from .document import tight_layout
 from .labels import column_label, natural_key, natural_sorted
 
 if TYPE_CHECKING:
@@ -64,7 +65,7 @@ def curves(result: StudyResult, campaign: Campaign) -> plt.Figure:
             ax.fill_between(z, m - s, m + s, color=colour, alpha=0.2)
         ax.set(title=soil, xlabel="sinkage z (mm)", ylabel="pressure p (kPa)")
         ax.legend(title=column_label(spec.factor), fontsize=7, title_fontsize=7)
-    fig.tight_layout()
+    tight_layout(fig)
     return fig
 
 
@@ -104,7 +105,7 @@ def responses(result: StudyResult, campaign: Campaign | None = None) -> plt.Figu
             )
         ax.set(xlabel=column_label(spec.factor), ylabel=labels.get(name, column_label(name)))
         ax.legend(fontsize=7)
-    fig.tight_layout()
+    tight_layout(fig)
     return fig
 
 
@@ -148,7 +149,7 @@ def relative(result: StudyResult, campaign: Campaign | None = None) -> plt.Figur
         ax.set(xlabel=column_label(spec.factor))
         ax.tick_params(axis="x", rotation=45, labelsize=7)
         ax.legend(fontsize=7)
-    fig.tight_layout()
+    tight_layout(fig)
     return fig
 
 
@@ -205,7 +206,7 @@ def mohr_coulomb(result: StudyResult, campaign: Campaign | None = None) -> plt.F
             )
         ax.set(title=soil, xlabel="normal pressure σ (kPa)", ylabel="shear stress τ_ss (kPa)")
         ax.legend(title=column_label(spec.factor), fontsize=6, title_fontsize=7)
-    fig.tight_layout()
+    tight_layout(fig)
     return fig
 
 
@@ -220,7 +221,7 @@ def epsilon(result: StudyResult, campaign: Campaign | None = None) -> plt.Figure
         ylabel="ε (Eq. 2)",
         ylim=(max(0, eps["epsilon"].min() - 0.1), 1),
     )
-    fig.tight_layout()
+    tight_layout(fig)
     return fig
 
 

@@ -22,10 +22,11 @@ from ..models.shear import side_wall_ratio
 from .artefacts import plant
 from .design import draw_parameters, expand, operator_biases
 from .effects import apparent_shear, side_wall_K0, softening_of
-from .records import SHEAR_PARAMS, SINKAGE_PARAMS, Spec
+from .records import SHEAR_PARAMS, SINKAGE_PARAMS, Spec, SpecError
 from .shear import shear_samples
 from .sinkage import quantise, sinkage_samples
 from .spec import load_spec, parse_spec
+from .support import outside_support
 
 __all__ = ["SimulatedCampaign", "simulate"]
 
@@ -105,7 +106,7 @@ class SimulatedCampaign:
         Path
             The folder.
         """
-        from ..outputs.files import output_path, write_atomic
+        from ..outputs.files import csv_text, output_path, write_atomic
 
         folder = Path(path)
         own = ("truth.json", "truth_tests.csv", "README.md")
@@ -119,15 +120,10 @@ class SimulatedCampaign:
         self.campaign.save(folder, overwrite=overwrite)
         truth, truth_tests, readme, artefacts = targets
         write_atomic(truth, json.dumps(self.truth, indent=2, sort_keys=True) + "\n")
-        write_atomic(
-            truth_tests,
-            lambda tmp: self.test_truth.to_csv(tmp, index=False, lineterminator="\n"),
-        )
+        # csv_text: text cells escaped against spreadsheet formulas, numbers as pandas writes.
+        write_atomic(truth_tests, csv_text(self.test_truth))
         if len(self.artefacts):
-            write_atomic(
-                artefacts,
-                lambda tmp: self.artefacts.to_csv(tmp, index=False, lineterminator="\n"),
-            )
+            write_atomic(artefacts, csv_text(self.artefacts))
         write_atomic(readme, self._readme())
         return folder
 
@@ -263,6 +259,7 @@ def simulate(
     param_rng, noise_rng, artefact_rng = np.random.default_rng(seed).spawn(3)
     biases = operator_biases(spec, param_rng)
     rows = expand(spec)
+    _check_effect_columns(spec, rows)
     series_of = {s.name: s for s in spec.series}
     sink_parts: list[tuple[str, np.ndarray, np.ndarray]] = []
     shear_parts: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -277,6 +274,7 @@ def simulate(
         series = series_of[row["series"]]
         bias = biases[(row["preparation"], row["operator"])]
         params = draw_parameters(spec, row, param_rng, bias)
+        _check_drawn(row, params)
         # The other law's parameters were drawn too (to keep the streams aligned) but do not
         # act on this test: report them as missing.
         unused = SHEAR_PARAMS if row["kind"] == "sinkage" else SINKAGE_PARAMS
@@ -347,6 +345,34 @@ def simulate(
     artefacts = _artefact_table(planted, sink_parts)
     truth = _truth(spec, seed, biases)
     return SimulatedCampaign(campaign, truth, test_truth, spec, seed, artefacts)
+
+
+def _check_effect_columns(spec: Spec, rows: list[dict[str, Any]]) -> None:
+    """A covariate effect on a column no test it applies to has: refused (it would plant
+    nothing, silently)."""
+    for i, effect in enumerate(spec.effects):
+        if effect.kind != "covariate":
+            continue
+        column = effect.options["column"]
+        applies = [r for r in rows if effect.applies(r["soil"], r["series"])]
+        if not any(column in r for r in applies):
+            have = sorted({k for r in applies for k in r if k not in _PRIVATE})
+            raise SpecError(
+                f"SPEC [[effects]][{i}].column: {column!r} is not a test-log column of the "
+                f"tests this effect applies to (columns: {have}); add it as a covariate, a "
+                "preparation key or a plate/ring key"
+            )
+
+
+def _check_drawn(row: dict[str, Any], params: dict[str, float]) -> None:
+    """A test's parameters after effects and scatter must lie in the models' support."""
+    bad = outside_support(params, row["kind"], row.get("b_m") if row["kind"] == "sinkage" else None)
+    if bad:
+        raise SpecError(
+            f"SPEC: test {row['test_id']} (soil {row['soil']}, series {row['series']}) draws "
+            f"{'; '.join(bad)} — the soil's values with the effects and scatter leave the "
+            "models' support; move the soil's value or reduce the effect or the scatter"
+        )
 
 
 def _plant_artefacts(

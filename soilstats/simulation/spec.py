@@ -125,6 +125,14 @@ def _params(table: dict, where: str, allowed=PARAMS) -> dict[str, float]:
         out[k] = _number(v, f"{where}.{k}")
     if "K" in out and out["K"] <= 0:
         raise _fail(f"{where}.K", f"the shear deformation modulus K must be > 0 m, got {out['K']}")
+    from .support import outside_support
+
+    bad = outside_support(out)
+    if bad:
+        raise _fail(
+            f"{where}.{bad[0].split(' ')[0]}",
+            f"outside the models' support: {'; '.join(bad)} (docs/simulator.md)",
+        )
     return out
 
 
@@ -148,6 +156,8 @@ def _soil(name: str, table: Any) -> Soil:
 
 
 _PREP_RESERVED = ("scatter", "operator_cv")
+#: Log columns the design itself writes: a preparation may not set them.
+_DESIGN_COLUMNS = ("test_id", "kind", "soil", "preparation", "repetition", "series")
 
 
 def _preparation(name: str, table: Any, scatter: Scatter) -> Preparation:
@@ -156,6 +166,13 @@ def _preparation(name: str, table: Any, scatter: Scatter) -> Preparation:
     own = _dataclass_table(Scatter, table.get("scatter"), f"{where}.scatter", base=scatter)
     op = _number(table.get("operator_cv", 0.0), f"{where}.operator_cv", nonneg=True)
     cols = {k: _scalar_cell(v, f"{where}.{k}") for k, v in table.items() if k not in _PREP_RESERVED}
+    taken = [k for k in cols if k in _DESIGN_COLUMNS]
+    if taken:
+        raise _fail(
+            f"{where}.{taken[0]}",
+            f"{taken[0]!r} is a column the design writes ({list(_DESIGN_COLUMNS)}); "
+            "a preparation's keys add test-log columns of their own",
+        )
     return Preparation(name, own, op, cols)
 
 
@@ -254,15 +271,24 @@ def _series(i: int, t: Any, soils: dict, preps: dict) -> Series:
         _text(p, f"{where}.preparations", tuple(preps))
         for p in _list(t.get("preparations", list(preps)[:1]), f"{where}.preparations")
     )
+    operators = tuple(
+        _text(o, f"{where}.operators")
+        for o in _list(t.get("operators", ["op1"]), f"{where}.operators")
+    )
+    for p in prep_names:  # a preparation's columns must not rewrite what the design sets
+        own = preps[p].columns
+        if "operator" in own and str(own["operator"]) not in operators:
+            raise _fail(
+                f"[preparations.{p}].operator",
+                f"{own['operator']!r} is not an operator of series {name!r} "
+                f"(operators: {list(operators)}); list it in [[series]].operators",
+            )
     common: dict[str, Any] = dict(
         name=name,
         kind=kind,
         soils=soil_names,
         preparations=prep_names,
-        operators=tuple(
-            _text(o, f"{where}.operators")
-            for o in _list(t.get("operators", ["op1"]), f"{where}.operators")
-        ),
+        operators=operators,
         repetitions=_int(t.get("repetitions", 1), f"{where}.repetitions"),
         points=_int(t.get("points", 120), f"{where}.points", minimum=10),
         covariates={

@@ -89,3 +89,31 @@ def soils_with_levels(tests: pd.DataFrame, spec: StudySpec) -> tuple[list[str], 
             f"per soil; found {', '.join(f'{s}: {n}' for s, n in levels.items())}"
         )
     return good, notes
+
+
+def check_reference(tests: pd.DataFrame, spec: StudySpec) -> list[str]:
+    """Notes on soils lacking the spec's ``reference`` level; an error when no soil has it.
+
+    A reference absent from the data would leave the reference-pairs table empty without a
+    word (a typo such as ``reference = 0.11`` for 0.1).
+
+    Raises
+    ------
+    StudyDataError
+        The reference level is not a value of the factor in any selected test.
+    """
+    if spec.reference is None:
+        return []
+    ref = condition_label(spec.reference)
+    labels = tests[spec.factor].map(condition_label)
+    found = sorted(labels.unique())
+    if ref not in set(found):
+        raise StudyDataError(
+            f"{spec.name} study: reference = {spec.reference!r} is not a {spec.factor} value of "
+            f"the selected tests (values: {', '.join(found)})"
+        )
+    has = tests.loc[labels == ref, "soil"].astype(str).unique()
+    return [
+        f"soil {soil}: no test at the reference {spec.factor} = {ref}; no reference pairs"
+        for soil in sorted(set(tests["soil"].astype(str)) - set(has))
+    ]

@@ -17,7 +17,7 @@ from ..identification.per_test import not_converged_message
 from ..identification.result import ONSET_TOLERANCE
 from ..outputs import Provenance, source_date
 from ..quality import ScreenedCampaign
-from .data import StudyDataError, select_tests, soils_with_levels
+from .data import StudyDataError, check_reference, select_tests, soils_with_levels
 from .effects import factor_effects
 from .preparation import evaluate_criteria
 from .responses import PerTestCache
@@ -115,6 +115,7 @@ def run_study(
     soils, notes = soils_with_levels(tests, spec)
     notes = window_notes + notes
     tests = tests[tests["soil"].astype(str).isin(soils)]
+    notes += check_reference(tests, spec)
     ids = tests["test_id"].astype(str).tolist()
     if spec.kind == "sinkage":
         per_test = cache.sinkage(ids, spec.z_ref_m, spec.z_window_m)

@@ -35,6 +35,8 @@ import pandas as pd
 from scipy.optimize import least_squares
 
 from ...errors import InputError, SoilstatsError
+from ...outputs import write_atomic
+from ...outputs.files import netcdf_bytes
 from ..geometry import Wheel
 from .discrepancy import Discrepancy, fit_discrepancy, repeat_scatter
 from .inputs import SHEAR_INPUTS, WHEEL_INPUTS, InputPrior, input_priors
@@ -356,7 +358,8 @@ class WheelCalibration:
         }
         idata.posterior.attrs["soilstats_wheel_calibration"] = json.dumps(meta)
         idata.posterior.attrs.pop("created_at", None)
-        idata.to_netcdf(str(path))
+        # built in memory, written atomically (and into a command's staged output set)
+        write_atomic(path, netcdf_bytes(idata))
 
 
 def band_frame(run_id: np.ndarray, draws: Mapping[str, np.ndarray], prob: float) -> pd.DataFrame:

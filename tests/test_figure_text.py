@@ -1,0 +1,73 @@
+"""Text stays text in figures (issue #44, item 6): data labels never go through mathtext.
+
+A soil, level or series name is data: ``$x^{$`` once stopped identify and study with
+matplotlib's mathtext parser error, and ``$5 and $6`` printed in italics without its dollars.
+soilstats' own symbols (``$k_c$``) are marked as mathtext where they are made.
+"""
+
+from __future__ import annotations
+
+import matplotlib
+import pytest
+from matplotlib.figure import Figure
+
+from soilstats.report.document import figure_svg, math_text, tight_layout
+
+HOSTILE = ["$x^{$", "$5 and $6", "a_b $\\alpha$"]
+
+
+def _figure(labels: list[str], *, layout: object = None) -> Figure:
+    fig = Figure(figsize=(3, 2))
+    ax = fig.subplots()
+    ax.bar(labels, [1, 2, 3], label=labels[0])  # categorical ticks: made while drawing
+    ax.set_title(labels[1])
+    ax.legend()
+    fig.suptitle(labels[2])
+    if layout is not None:
+        layout(fig)
+    return fig
+
+
+def _matplotlib_svg(fig: Figure) -> bytes:
+    """What figure_svg writes, by matplotlib alone (mathtext on, as by default)."""
+    import io
+
+    buffer = io.BytesIO()
+    style = {"svg.hashsalt": "soilstats", "svg.fonttype": "path", "text.parse_math": True}
+    with matplotlib.rc_context(style):
+        fig.savefig(buffer, format="svg", metadata={"Date": None})
+    return buffer.getvalue()
+
+
+def test_data_labels_print_as_written():
+    """The truth: the same labels with every ``$`` escaped (matplotlib's documented way to
+    print a dollar sign) render to the very same SVG."""
+    escaped = [t.replace("$", r"\$") for t in HOSTILE]
+    assert figure_svg(_figure(HOSTILE)) == _matplotlib_svg(_figure(escaped))
+    # Laid out, the labels are measured before any drawing (where the parser error came from).
+    expected = _matplotlib_svg(_figure(escaped, layout=Figure.tight_layout))
+    assert figure_svg(_figure(HOSTILE, layout=tight_layout)) == expected
+
+
+def test_our_own_symbols_stay_mathtext():
+    def labelled(mark: bool) -> bytes:
+        fig = Figure(figsize=(2, 2))
+        text = fig.subplots().set_ylabel(r"$k_\varphi$ (kN/m$^{n+2}$)")
+        if mark:
+            math_text(text)
+        return figure_svg(fig)
+
+    assert labelled(True) != labelled(False)  # typeset, not printed with its dollars
+
+
+@pytest.mark.parametrize("command", ["identify"])
+def test_a_soil_named_like_mathtext_gives_a_report(command, tmp_path, capsys):
+    from soilstats.campaign import load_campaign
+    from soilstats.cli.main import main
+
+    folder = load_campaign("simulated-paper").select(soil="soil01").save(tmp_path / "camp")
+    tests = folder / "tests.csv"
+    tests.write_text(tests.read_text(encoding="utf-8").replace("soil01", "$x^{$"), "utf-8")
+    assert main([command, "--data", str(folder), "--out", str(tmp_path / "o")]) == 0
+    assert "ParseSyntaxException" not in capsys.readouterr().err
+    assert (tmp_path / "o" / "identify.pdf").stat().st_size > 0
