@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -639,7 +640,11 @@ def calibrate_wheel(
 def _diagnostics(chain: np.ndarray) -> tuple[float, float]:
     from ...bayes._arviz import az
 
-    data = az.convert_to_dataset(chain)
-    rhat = float(np.nanmax(az.rhat(data)["x"].values))
-    ess = float(np.nanmin(az.ess(data, method="bulk")["x"].values))
+    with warnings.catch_warnings():
+        # a short run (fewer draws per walker than walkers) is judged all the same: its
+        # R-hat and ESS say it is short
+        warnings.filterwarnings("ignore", message="More chains", category=UserWarning)
+        data = az.convert_to_dataset(chain)
+        rhat = float(np.nanmax(az.rhat(data)["x"].values))
+        ess = float(np.nanmin(az.ess(data, method="bulk")["x"].values))
     return rhat, ess if math.isfinite(ess) else 0.0

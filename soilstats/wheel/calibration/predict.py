@@ -34,13 +34,14 @@ from .physics import RunDesign, simulate
 
 __all__ = ["CMU_DISCREPANCY", "OwnWheelPrediction", "predict_own_wheel"]
 
-#: The discrepancy learned on the CMU sand and wheels (378 runs' β = 0 subset, both wheels;
-#: ``soilstats wheel cmu-3d-terramechanics --calibrate --json``, seed 0, 2026-11-29): offered
-#: to a plates-only prediction as a *stated prior* (``--discrepancy-prior cmu``), zero-mean:
-#: its width only, not the CMU wheels' error shape.
+#: The error of the plates-only model on the CMU sand and wheels, as a Gaussian process
+#: fitted to its β = 0 sinkage residuals (54 runs, both wheels; type-II maximum likelihood,
+#: σ floored at the runs' repeat scatter 0.66 mm; ``fit_discrepancy`` on measured − plate-only
+#: median, seed 0, 2026-11-29).  Offered to a plates-only prediction as a *stated prior*
+#: (``--discrepancy-prior cmu``), zero-mean: its width only (sd √(τ² + τ_w² + σ²) ≈ 29 mm for
+#: a new wheel), not the CMU wheels' error shape.  Sinkage only: the plates predict no force.
 CMU_DISCREPANCY: dict[str, Discrepancy] = {
-    "sinkage_m": Discrepancy("sinkage_m", 0.0388, 1.03, 360.0, 0.0007, 0.002),
-    "drawbar_pull_N": Discrepancy("drawbar_pull_N", 12.7, 0.44, 360.0, 0.5, 1.0),
+    "sinkage_m": Discrepancy("sinkage_m", 0.0204, 0.55, 360.0, 0.00079, 0.0212),
 }
 UNITS = {"sinkage_m": "m", "drawbar_pull_N": "N", "torque_Nm": "N·m", "lateral_force_N": "N"}
 

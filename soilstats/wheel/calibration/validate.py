@@ -310,6 +310,15 @@ def calibrate_and_validate(
     if not cal.converged:
         notes.append("the calibration did not converge: " + "; ".join(cal.flags))
     heldout = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    if not heldout.empty:
+        folds = heldout.groupby(["scheme", "fold"])["fold_converged"].first()
+        if not folds.all():
+            notes.append(
+                f"{int((~folds).sum())} of {len(folds)} held-out calibrations did not reach "
+                f"R-hat ≤ 1.01 and bulk ESS ≥ 400 with {fold_draws} draws "
+                f"({', '.join(f'{a} {b}' for a, b in folds[~folds].index)}): their bands "
+                "rest on shorter chains than the final calibration's"
+            )
     return CalibrationReport(
         calibration=cal,
         heldout=heldout,
