@@ -47,12 +47,18 @@ def main() -> None:
     )
     t0 = time.perf_counter()
     pred = predict_own_wheel(
-        Wheel(0.1, 0.08, name="own"), 40.0, np.arange(-0.5, 0.91, 0.1), calibration=cal,
+        Wheel(0.1, 0.08, name="own"),
+        40.0,
+        np.arange(-0.5, 0.91, 0.1),
+        calibration=cal,
         wheel_amplitude={q: 0.005 if q == "sinkage_m" else 2.0 for q in cal.discrepancy},
-        n_draws=200 if args.smoke else 2000, seed=0,
+        n_draws=200 if args.smoke else 2000,
+        seed=0,
     )
-    print(f"--predict with the calibration, {len(pred.draws)} draw × slip rows: "
-          f"{time.perf_counter() - t0:.2f} s [target <= 5 s]")
+    print(
+        f"--predict with the calibration, {len(pred.draws)} draw × slip rows: "
+        f"{time.perf_counter() - t0:.2f} s [target <= 5 s]"
+    )
 
 
 if __name__ == "__main__":

@@ -107,8 +107,17 @@ def calibrated(tmp_path_factory):
     """`--calibrate` on the CMU runs, once, with shorter chains than the documented defaults
     (the README's command runs those in CI: tests/test_readme_commands.py)."""
     out = tmp_path_factory.mktemp("calibrated")
-    code, text, err = _run(CMU, "--calibrate", "--json", "--out", str(out),
-                           "--calibration-draws", "2000", "--fold-draws", "800")
+    code, text, err = _run(
+        CMU,
+        "--calibrate",
+        "--json",
+        "--out",
+        str(out),
+        "--calibration-draws",
+        "2000",
+        "--fold-draws",
+        "800",
+    )
     assert code == 0, err
     return json.loads(text), out
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -69,7 +69,9 @@ __all__ = [
 POPULATION_DRAWS = 12000
 
 
-def laplace_mode(log_prob, x0: np.ndarray, n_mu: int) -> tuple[np.ndarray, np.ndarray]:
+def laplace_mode(
+    log_prob: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, n_mu: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Mode and inverse negative Hessian (central differences) of ``log_prob``."""
     scale = np.where(np.abs(x0) > 0, np.abs(x0), 1.0)
     scale[n_mu:] = 1.0  # log-sds and atanh-correlations are O(1) already

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 
     from ..outputs.provenance import Provenance
     from ..wheel import Wheel
+    from ..wheel.calibration.validate import CalibrationReport
     from ..wheel.soil import PlateDraws
 
 CALIBRATION_FILE = "wheel_calibration.nc"
@@ -139,7 +140,7 @@ def calibrate(
     plate: PlateDraws,
     priors: dict,
     progress: bool,
-) -> tuple[dict, object]:
+) -> tuple[dict, CalibrationReport]:
     """``--calibrate``: (the JSON part, the report object)."""
     from ..wheel.calibration import RunDesign
     from ..wheel.calibration.validate import calibrate_and_validate

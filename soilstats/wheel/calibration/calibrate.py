@@ -30,6 +30,7 @@ import os
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -360,7 +361,7 @@ class WheelCalibration:
         idata.posterior.attrs["soilstats_wheel_calibration"] = json.dumps(meta)
         idata.posterior.attrs.pop("created_at", None)
         # built in memory, written atomically (and into a command's staged output set)
-        write_atomic(path, netcdf_bytes(idata))
+        write_atomic(Path(path), netcdf_bytes(idata))
 
 
 def band_frame(run_id: np.ndarray, draws: Mapping[str, np.ndarray], prob: float) -> pd.DataFrame:

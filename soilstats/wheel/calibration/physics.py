@@ -137,8 +137,9 @@ def simulate(
 
     law_params = {k: np.asarray(params[k], float).reshape(-1) for k in model.param_names}
     if with_shear:
-        law_params.update(c=1e3 * col("c_kPa")[:, 0], phi=col("phi")[:, 0],
-                          K=np.exp(col("log_K")[:, 0]))
+        law_params.update(
+            c=1e3 * col("c_kPa")[:, 0], phi=col("phi")[:, 0], K=np.exp(col("log_K")[:, 0])
+        )
     for name in np.unique(design.wheel):
         wheel = wheels[str(name)]
         idx = np.flatnonzero(design.wheel == name)
@@ -150,7 +151,10 @@ def simulate(
         if exponent is not None:
             ordered &= law_params[exponent][:, None] + shift > 0
         cases, shape = model_cases(
-            law_params, wheel, s, law,
+            law_params,
+            wheel,
+            s,
+            law,
             (np.where(ordered, a, 0.4), np.where(ordered, b, 0.0)),
             exponent_shift=np.where(ordered, shift, 0.0) if exponent is not None else None,
         )
@@ -160,7 +164,8 @@ def simulate(
         if with_shear and np.any(beta != 0):
             soil = LateralSoil() if lateral is None else lateral
             cases = cases.at_slip_angle(
-                np.broadcast_to(slip_angle_rad(beta), shape).reshape(-1), soil.K_y_m,
+                np.broadcast_to(slip_angle_rad(beta), shape).reshape(-1),
+                soil.K_y_m,
                 soil.unit_weight_N_m3,
             )
         load = np.broadcast_to(design.load_N[idx][None, :], shape).reshape(-1)

@@ -29,7 +29,7 @@ from ...errors import InputError
 from ..geometry import Wheel
 from .calibrate import WheelCalibration, quantiles
 from .discrepancy import Discrepancy
-from .inputs import SHEAR_INPUTS, WHEEL_INPUTS, input_priors
+from .inputs import SHEAR_INPUTS, WHEEL_INPUTS, InputPrior, input_priors
 from .physics import RunDesign, simulate
 
 __all__ = ["CMU_DISCREPANCY", "OwnWheelPrediction", "predict_own_wheel"]
@@ -129,7 +129,7 @@ def _grid_design(wheel: Wheel, load_N: float, slips: np.ndarray, beta: float) ->
 def predict_own_wheel(
     wheel: Wheel,
     load_N: float,
-    slips: Sequence[float],
+    slips: Sequence[float] | np.ndarray,
     *,
     calibration: WheelCalibration | None = None,
     plate_draws: pd.DataFrame | None = None,
@@ -150,19 +150,19 @@ def predict_own_wheel(
     K [m] (and may replace any input prior); without them and without a calibration that
     carries the shear, drawbar pull and torque are not predicted.
     """
-    slips = np.asarray(slips, float)
+    grid = np.asarray(slips, float)
     if (
-        slips.ndim != 1
-        or slips.size == 0
-        or np.any(np.abs(slips) > 1)
-        or not np.all(np.isfinite(slips))
+        grid.ndim != 1
+        or grid.size == 0
+        or np.any(np.abs(grid) > 1)
+        or not np.all(np.isfinite(grid))
     ):
         raise InputError(f"slips must be finite values in [-1, 1], got {slips!r}")
     if not (np.isfinite(load_N) and load_N > 0):
         raise InputError(f"the load must be a positive force in N, got {load_N!r}")
-    if slip_angle_deg != 0:
-        raise InputError("slip angle β ≠ 0 is not yet carried by the prediction of a wheel")
-    design = _grid_design(wheel, float(load_N), slips, float(slip_angle_deg))
+    if not (np.isfinite(slip_angle_deg) and abs(slip_angle_deg) <= 90):
+        raise InputError(f"the slip angle must lie in [-90, 90] degrees, got {slip_angle_deg!r}")
+    design = _grid_design(wheel, float(load_N), grid, float(slip_angle_deg))
     notes: list[str] = []
     sources: dict[str, str] = {}
     if calibration is not None:
@@ -210,7 +210,7 @@ def predict_own_wheel(
         wheel,
         float(load_N),
         float(slip_angle_deg),
-        slips,
+        grid,
         samples,
         prob,
         pull_N,
@@ -241,6 +241,8 @@ def _plates_only(
     samples = {"sinkage_m": out["sinkage_m"]}
     if shear:
         samples.update(drawbar_pull_N=out["drawbar_pull_N"], torque_Nm=out["torque_Nm"])
+        if np.any(design.beta_deg != 0):
+            samples["lateral_force_N"] = out["lateral_force_N"]
     notes = []
     if not shear:
         notes.append(
@@ -265,7 +267,7 @@ def _plates_only(
     return samples, kind, sources, notes
 
 
-def _draw(p, size, rng) -> np.ndarray:
+def _draw(p: InputPrior, size: int, rng: np.random.Generator) -> np.ndarray:
     if p.sd is None:
         return rng.uniform(p.low, p.high, size)
     spec = (

@@ -139,7 +139,10 @@ def _scopes(frame: pd.DataFrame, q: str, bands: bool = True) -> dict:
     if frame.empty or f"{q}_measured" not in frame:
         return {}
     beta0 = frame["beta_level"] == 0 if "beta_level" in frame else np.ones(len(frame), bool)
-    out = {"beta_0": score(frame[beta0], q, bands=bands), "all_runs": score(frame, q, bands=bands)}
+    out: dict = {
+        "beta_0": score(frame[beta0], q, bands=bands),
+        "all_runs": score(frame, q, bands=bands),
+    }
     if "interpolated" in frame:
         out["interpolated"] = score(frame[frame["interpolated"]], q, bands=bands)
         out["extrapolated"] = score(frame[~frame["interpolated"]], q, bands=bands)
@@ -180,9 +183,8 @@ def offset_budget(
     base = mean_sinkage(ref)
     error = base - measured
     rows = [{"input": "plate-only error", "absorbed_m": error, "share": 1.0}]
-    groups: list[tuple[str, Sequence[str]]] = [("plate law", plate_names)] + [
-        (k, (k,)) for k in REFERENCE
-    ]
+    groups: list[tuple[str, Sequence[str]]] = [("plate law", plate_names)]
+    groups += [(k, (k,)) for k in REFERENCE]
     for label, keys in groups:
         trial = dict(ref)
         trial.update({k: post_mean[k] for k in keys})
