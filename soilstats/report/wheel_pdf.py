@@ -47,26 +47,50 @@ def _signed_mm(x: float) -> str:
 
 def _answer(res) -> list:
     """The title's answer first: "no" while the band holds fewer than half the runs; what
-    the band holds; and the bias by slip (never a lone mean over a U-shaped error)."""
+    the band holds; and the bias by slip (never a lone mean over a U-shaped error), with the
+    MAE beside it for drawbar pull, whose errors of either sign a mean would cancel."""
     cov = res.coverage["beta_0"]
-    verdict = "No" if cov["coverage_90"] < 0.5 else (
-        "Partly" if cov["coverage_90"] < 0.8 else "Yes")
+    verdict = (
+        "No" if cov["coverage_90"] < 0.5 else ("Partly" if cov["coverage_90"] < 0.8 else "Yes")
+    )
     g = res.groups
-    slip = g[(g["by"] == "wheel × slip") & (g["quantity"] == "sinkage")]
-    by_slip = slip.groupby("level")["bias"].mean() if len(slip) else None
     text = (
         f"the 90 % band from plates alone holds {cov['covered']} of {cov['runs']} β = 0 runs "
         f"({cov['coverage_90']:.0%}). It is PARAMETER UNCERTAINTY ONLY (plate posterior and "
         "test-to-test scatter; no model discrepancy, stress angles and datum fixed)"
     )
-    if by_slip is not None and len(by_slip):
-        worst = by_slip.abs().idxmax()
+    sink = _by_slip(g, "sinkage")
+    if sink is not None:
+        worst = sink["bias"].abs().idxmax()
         text += (
-            "; its bias (predicted − measured) by slip: "
-            + ", ".join(f"s = {lv:g}: {_signed_mm(v)}" for lv, v in by_slip.items())
+            "; its sinkage bias (predicted − measured) by slip: "
+            + ", ".join(f"s = {lv:g}: {_signed_mm(r.bias)}" for lv, r in sink.iterrows())
             + f" (largest at s = {worst:g})"
         )
-    return [[strong(f"{verdict}: "), text + "."]]
+    out = [[strong(f"{verdict}: "), text + "."]]
+    pull = _by_slip(g, "drawbar_pull")
+    if pull is not None:
+        out.append(
+            [
+                strong("Drawbar pull by slip (from the stated shear priors): "),
+                "MAE / bias "
+                + ", ".join(
+                    f"s = {lv:g}: {r.mae:.1f} / {r.bias:+.1f} N" for lv, r in pull.iterrows()
+                )
+                + ".",
+            ]
+        )
+    return out
+
+
+def _by_slip(groups: pd.DataFrame, quantity: str) -> pd.DataFrame | None:
+    """Mean bias and MAE over the wheel types at each slip condition (β = 0), or None."""
+    if groups.empty:
+        return None
+    rows = groups[(groups["by"] == "wheel × slip") & (groups["quantity"] == quantity)]
+    if rows.empty:
+        return None
+    return rows.groupby("level")[["bias", "mae"]].mean()
 
 
 def _conclusion(res) -> list:
@@ -126,8 +150,9 @@ def _conclusion(res) -> list:
             )
         if day_gain is not None:
             text += (
-                f", to {_mm(day_gain.extended)} ({day_gain.relative:+.0%}, {_real(day_gain)}) "
-                "leaving whole days out"
+                f"; leaving whole days out — repeatability: the same slip conditions stay in the "
+                f"fit through other days' repeats, so this does not test new slips — "
+                f"{_mm(day_gain.extended)} ({day_gain.relative:+.0%}, {_real(day_gain)})"
             )
         out.append([strong("Slip sinkage: "), text + ". " + _fails_sentence(disc)])
     if res.unpredictable:

@@ -116,7 +116,9 @@ def _band_frame(run_ids, band, prefix) -> pd.DataFrame:
 
 SCHEMES = {
     "slip": "leave one slip condition out (all its β = 0 runs, per wheel)",
-    "day": "leave one day out (all its β = 0 runs, per wheel)",
+    "day": "leave one day out (all its β = 0 runs, per wheel): repeatability — the same slip "
+    "conditions are in the fit through other days' repeats; it never supports 'predicts new "
+    "slips'",
 }
 METRIC = "mean absolute error of the median sinkage [m], held-out β = 0 runs"
 

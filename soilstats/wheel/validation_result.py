@@ -186,6 +186,8 @@ class WheelDiscovery:
             )
         lines.append("Held-out gain (mean absolute sinkage error):")
         for key, g in self.gains.items():
+            if key.startswith("day"):  # the same slip conditions stay in the fit
+                key = f"{key} (repeatability)"
             lines.append(
                 f"  {key:<14} {1e3 * g.base:.2f} -> {1e3 * g.extended:.2f} mm ({g.relative:+.0%}; "
                 f"difference {1e3 * g.difference:.2f} ± {1e3 * g.stderr:.2f} mm, {g.folds} folds): "
