@@ -74,9 +74,7 @@ class RunDesign:
             run_id=runs["run_id"].astype(str).to_numpy(),
             wheel=runs["wheel"].astype(str).to_numpy(),
             slip=runs["slip"].to_numpy(float),
-            beta_deg=runs["beta_deg"].to_numpy(float)
-            if "beta_deg" in runs
-            else np.zeros(len(runs)),
+            beta_deg=_slip_angle(runs),
             load_N=runs["W_N"].to_numpy(float),
             slip_level=runs["slip_level"].to_numpy(float),
             beta_level=runs["beta_level"].to_numpy(float),
@@ -103,6 +101,16 @@ class RunDesign:
             },
             measured={q: v[index] for q, v in self.measured.items()},
         )
+
+
+def _slip_angle(runs: pd.DataFrame) -> np.ndarray:
+    """β [deg] of each run as the model takes it: the commanded angle where the file gives it
+    (CMU's model uses it; the measured one scatters ±0.6° around it, up to 90.13°), else the
+    measured one, else 0."""
+    for column in ("beta_cmd_deg", "beta_deg"):
+        if column in runs and runs[column].notna().all():
+            return runs[column].to_numpy(float)
+    return np.zeros(len(runs))
 
 
 def simulate(
