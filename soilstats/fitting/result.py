@@ -428,8 +428,7 @@ class FitResult:
         """The parameter lines of :meth:`summary`: value, σ (Eq. 3), relative σ, the 95 %
         t-interval and the unit."""
         lines = [
-            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} "
-            f"{'95% CI (t)':>25}  unit"
+            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} {'95% CI (t)':>25}  unit"
         ]
         ci = self.conf_int(0.05)
         for name, v, s in zip(self.param_names, self.values, self.stderr_values, strict=True):
