@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from .. import evidence
 from .._text import plural
 from ..outputs import Provenance, json_safe
 from ..outputs.text import notes_block
@@ -233,8 +234,7 @@ class Finding:
             lines.append(
                 f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds, "
                 f"cause fixed): base {g.base:.4f} -> extended {g.extended:.4f} (gain "
-                f"{g.relative:+.1%}, paired difference {g.difference:.3g} +/- {g.stderr:.2g}, "
-                f"{g.z:.1f} SE: {'real' if g.real else 'not real'})"
+                f"{g.relative:+.1%}, paired difference {g.text()})"
             )
             s = self.gain_search
             if s is not None:
@@ -248,7 +248,7 @@ class Finding:
             g = self.gain_conditions
             lines.append(
                 f"  leave-one-condition-out ({g.folds} conditions): base {g.base:.4f} -> "
-                f"extended {g.extended:.4f} (gain {g.relative:+.1%}, real: {g.real})"
+                f"extended {g.extended:.4f} (gain {g.relative:+.1%}, {g.text()})"
             )
         lines += parameter_lines(self.fit, level=self.test_level)
         for t in self.tried:
@@ -256,7 +256,7 @@ class Finding:
                 lines.append(f"  tried {t['extension']}: failed — {t['error']}")
             elif t["extension"] != self.extension:
                 lines.append(
-                    f"  tried {t['extension']}: gain {t['relative']:+.1%} (real: {t['real']})"
+                    f"  tried {t['extension']}: gain {t['relative']:+.1%} ({_tried_text(t)})"
                 )
         lines += [f"  caveat: {c}" for c in self.caveats]
         return lines
@@ -264,6 +264,14 @@ class Finding:
     def summary(self) -> str:
         """The finding in a few readable lines (as in :meth:`DiscoveryResult.summary`)."""
         return "\n".join(self.summary_lines())
+
+
+def _tried_text(tried: dict) -> str:
+    """A tried extension's gain in the words of :mod:`soilstats.evidence` (an older record
+    without the difference and its SE: its word alone)."""
+    if "difference" in tried and "stderr" in tried:
+        return evidence.describe(tried["difference"], tried["stderr"], tried.get("relative"))
+    return "real" if tried.get("real") else "not real"
 
 
 def _section(width: int, title: str, texts: list[str], records) -> list[str]:

@@ -29,6 +29,7 @@ from matplotlib.figure import Figure
 from .._text import plural
 from ..discovery.candidates import candidate_values
 from ..discovery.result import METHOD_NOTES, DiscoveryResult, Finding
+from ..evidence import REAL_SE, RULE
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
 from .document import GRID_STYLE, Document, strong
@@ -68,8 +69,32 @@ def _shows_in(f) -> str:
 def _gain_words(g) -> str:
     return (
         f"{g.relative:+.1%} in held-out error ({g.base:.4f} → {g.extended:.4f}, "
-        f"{g.scheme} cross-validation, {g.folds} folds, {g.n_tests} tests)"
+        f"{g.scheme} cross-validation, {g.folds} folds, {g.n_tests} tests; {g.text()})"
     )
+
+
+def _schemes(f) -> list[tuple[str, object]]:
+    """The held-out gains measured for a finding's extension: (scheme in words, Gain)."""
+    out = [("tests held out", f.gain)]
+    if f.gain_search is not None:
+        out.append(("the whole search nested", f.gain_search))
+    if f.gain_conditions is not None:
+        out.append(("a whole condition held out", f.gain_conditions))
+    return [(name, g) for name, g in out if g is not None and np.isfinite(g.relative)]
+
+
+def _worst_scheme(f) -> tuple[str, object] | None:
+    """The held-out scheme in which a kept extension does worst, where it is another than the
+    one that kept it (tests held out, the cause fixed)."""
+    schemes = _schemes(f)
+    if f.extension is None or len(schemes) < 2:
+        return None
+    worst = min(schemes[1:], key=lambda s: s[1].relative)
+    return worst if worst[1].relative < schemes[0][1].relative else None
+
+
+def _gain_cell_page1(g) -> str:
+    return f"{g.relative:+.1%}; {g.text()}"
 
 
 def _all_groups_words(g) -> str:
@@ -84,6 +109,18 @@ def _group(record) -> str:
 
 
 # -- page 1 ---------------------------------------------------------------------------------
+
+
+def _words_count(result) -> str:
+    """How many kept extensions' gains are real, and how many weak (soilstats.evidence)."""
+    words = [
+        f.gain.verdict for f in result.findings if f.extension is not None and f.gain is not None
+    ]
+    real, weak = words.count("real"), words.count("weak")
+    return (
+        f"{real} of them real (≥ {REAL_SE:g} standard errors)"
+        + (f", {weak} kept on a weak gain (below {REAL_SE:g} standard errors)" if weak else "")
+    )
 
 
 def _conclusion(result, all_groups) -> list:
@@ -110,16 +147,28 @@ def _conclusion(result, all_groups) -> list:
                 ),
                 f"each passes its F-test at α = {result.alpha:g} (Holm over {n_tests} tests); "
                 f"{kept} keep an extension that predicts held-out tests better (Table 1; "
-                "the evidence in the figures of the next pages).",
+                "the evidence in the figures of the next pages), "
+                f"{_words_count(result)}.",
             ]
         )
+        failures = _failures_out_of_sample(result)
+        if failures:
+            out.append(
+                [
+                    strong("Where a kept extension fails out of sample: "),
+                    "; ".join(failures)
+                    + ". An extension that does not carry to an unseen condition describes the "
+                    "conditions measured, not new ones.",
+                ]
+            )
     extended = [m for m in result.models if m.extensions and m.gain is not None]
     if extended:
         parts: list = [strong("Combined model: ")]
         parts.append(
             "; ".join(
                 f"{m.kind} / {m.soil}: {' + '.join(m.extensions)} "
-                f"({m.gain.relative:+.1%} in held-out error, {m.gain.n_tests} tests)"
+                f"({m.gain.relative:+.1%} in held-out error, {m.gain.n_tests} tests; "
+                f"{m.gain.text()})"
                 for m in extended
             )
             + ". "
@@ -163,19 +212,48 @@ def _findings_table(doc: Document, result) -> None:
             "Holm p": f.p_adjusted,
             "tests": f.n_tests,
             "extension kept": f.extension or "none",
-            "gain": f.gain.relative if f.extension and f.gain is not None else None,
+            "held-out gain (tests)": _gain_cell_page1(f.gain)
+            if f.extension and f.gain is not None
+            else "–",
+            "worst held-out scheme": _worst_cell(f),
         }
         for i, f in enumerate(result.findings, 1)
     ]
     doc.table(
         pd.DataFrame(rows),
         caption="The causes found, strongest first: where the per-test responses change with "
-        "the cause, and the extension kept with its gain in held-out error (tests left out, "
-        "the cause fixed).",
-        formats={"Holm p": ".2g", "gain": "+.1%", "tests": ".0f"},
+        "the cause, and the extension kept with its gain in held-out error: tests left out "
+        "with the cause fixed (what decides keeping), and beside it the worst other scheme "
+        "measured (a whole condition left out, or the whole search nested). Gain: relative "
+        f"change of the RMS error; then the paired difference ± its standard error; {RULE}.",
+        formats={"Holm p": ".2g", "tests": ".0f"},
         align_numbers=False,
-        widths=["auto", "auto", "1fr", "auto", "auto", "auto", "1fr", "auto"],
+        widths=["auto", "auto", "1fr", "auto", "auto", "auto", "1fr", "1.3fr", "1.3fr"],
     )
+
+
+def _worst_cell(f) -> str:
+    worst = _worst_scheme(f)
+    if worst is None:
+        return "–" if f.extension is None else "no other scheme measured"
+    name, g = worst
+    return f"{name}: {_gain_cell_page1(g)}"
+
+
+def _failures_out_of_sample(result) -> list[str]:
+    """Sentences for page 1: kept extensions that predict worse, or gain nothing real, in
+    another held-out scheme than the one that kept them."""
+    out = []
+    for f in result.findings:
+        worst = _worst_scheme(f)
+        if worst is None or worst[1].verdict == "real":
+            continue
+        name, g = worst
+        out.append(
+            f"{_group({'kind': f.kind, 'soil': f.soil})} {f.extension}: {f.gain.relative:+.1%} "
+            f"with tests held out but {g.relative:+.1%} with {name} ({g.verdict})"
+        )
+    return out
 
 
 # -- the findings' figures ------------------------------------------------------------------
@@ -374,7 +452,8 @@ def _model_section(doc: Document, result, all_groups) -> None:
     doc.paragraph(
         "Forward selection over each finding's best plausible extension, on all tests of each "
         "kind and soil with one fold set for every step (steps: appendix): an extension is "
-        "added only on a real cross-validated gain over the model before it, and only if the "
+        "added only on a cross-validated gain over the model before it of at least 1 standard "
+        "error (the keep rule; 'real' is said only at 2), and only if the "
         "combined fit is physically plausible and its parameters are determined."
     )
     doc.note(f"In the parameter tables: {_SIGMA_NOTE}")
@@ -390,7 +469,7 @@ def _model_table(doc: Document, m) -> None:
     if not m.extensions:
         doc.paragraph(
             strong(f"{m.kind} / {m.soil}: "),
-            "base model: no extension adds a real gain on all tests.",
+            "base model: no extension gains enough to be kept on all tests.",
         )
         return
     gain = _gain_words(m.gain) if m.gain is not None else "not measured"
@@ -472,7 +551,7 @@ def _gain_cell(g, name: str) -> str:
         return f"{name}: {g.relative:+.1%} (lead chosen in {g.selected_folds} of {g.folds} folds)"
     return (
         f"{name}: {g.relative:+.1%} ({g.base:.4f} → {g.extended:.4f}; paired difference "
-        f"{g.difference:.3g} ± {g.stderr:.2g}, {g.z:.1f} SE; real: {g.real}; {g.scheme} CV, "
+        f"{g.text()}; {g.scheme} CV, "
         f"{g.folds} folds, {g.n_tests} tests)"
     )
 
@@ -580,7 +659,7 @@ def _tried_appendix(doc: Document, result) -> None:
             "description": described(t),
             "gain": t.get("relative"),
             "search": t.get("relative_search"),
-            "real": t.get("real"),
+            "evidence": t.get("verdict", "real" if t.get("real") else "none"),
             "physical": t.get("physical"),
             "outcome": t.get("error")
             or ("kept" if t.get("extension") == f.extension else t.get("reason", "not kept")),
