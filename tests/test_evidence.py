@@ -59,6 +59,8 @@ def test_discover_keeps_at_its_rule_but_calls_a_gain_real_only_at_two_standard_e
     assert record["real"] is False and record["verdict"] == "weak" and record["kept"] is True
     base, ext = _errors(2.5e-2, 1e-2)
     strong = compare(base, ext, scheme="tests", folds=np.arange(25) % 5)
-    assert strong.real and strong.verdict == "real" and "real: 0.025 ± 0.01 (2.5 SE)" in (
-        strong.summary()
+    assert (
+        strong.real
+        and strong.verdict == "real"
+        and "real: 0.025 ± 0.01 (2.5 SE)" in (strong.summary())
     )

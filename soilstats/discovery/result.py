@@ -234,7 +234,7 @@ class Finding:
             lines.append(
                 f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds, "
                 f"cause fixed): base {g.base:.4f} -> extended {g.extended:.4f} (gain "
-                f"{g.relative:+.1%}, paired difference {g.text()})"
+                f"{g.relative:+.1%}; paired difference base − extended, {g.text()})"
             )
             s = self.gain_search
             if s is not None:

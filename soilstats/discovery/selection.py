@@ -123,7 +123,7 @@ class CombinedModel:
             head + " + ".join(self.extensions) + f"  (causes: {', '.join(self.causes)})",
             f"  gain over the base model, {self.n_tests} tests, {g.scheme} CV ({g.folds} folds): "
             f"{g.base:.4f} -> {g.extended:.4f} ({g.relative:+.1%}, paired difference "
-            f"{g.text()})",
+            f"base − extended, {g.text()})",
         ]
         lines += parameter_lines(self.fit, level=self.test_level)
         lines += [f"  caveat: {c}" for c in self.caveats]

@@ -117,9 +117,8 @@ def _words_count(result) -> str:
         f.gain.verdict for f in result.findings if f.extension is not None and f.gain is not None
     ]
     real, weak = words.count("real"), words.count("weak")
-    return (
-        f"{real} of them real (≥ {REAL_SE:g} standard errors)"
-        + (f", {weak} kept on a weak gain (below {REAL_SE:g} standard errors)" if weak else "")
+    return f"{real} of them real (≥ {REAL_SE:g} standard errors)" + (
+        f", {weak} kept on a weak gain (below {REAL_SE:g} standard errors)" if weak else ""
     )
 
 
@@ -228,7 +227,7 @@ def _findings_table(doc: Document, result) -> None:
         f"change of the RMS error; then the paired difference ± its standard error; {RULE}.",
         formats={"Holm p": ".2g", "tests": ".0f"},
         align_numbers=False,
-        widths=["auto", "auto", "1fr", "auto", "auto", "auto", "1fr", "1.3fr", "1.3fr"],
+        widths=["auto", "auto", "1.2fr", "1fr", "auto", "auto", "1fr", "1.3fr", "1.3fr"],
     )
 
 
