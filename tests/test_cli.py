@@ -400,3 +400,12 @@ def test_soilstats_warnings_reach_the_user_as_one_plain_line(tmp_path):
     lines = [ln for ln in done.stderr.splitlines() if "differ only in case" in ln]
     assert len(lines) == 1 and lines[0].startswith("warning: file 'tests.csv', column 'soil'")
     assert "common.py" not in done.stderr and "SoilstatsWarning" not in done.stderr
+
+
+def test_help_texts_are_written_for_users_not_developers(capsys):
+    """Every subcommand's --help (issue #47 item 5): no Sphinx roles, no reST literals."""
+    for name in SUBCOMMANDS:
+        assert main([name, "--help"]) == 0
+        text = capsys.readouterr().out
+        leaks = re.findall(r":(?:func|mod|class|data|meth|attr):|``|~soilstats", text)
+        assert not leaks, (name, leaks)
