@@ -64,3 +64,44 @@ def test_discover_keeps_at_its_rule_but_calls_a_gain_real_only_at_two_standard_e
         and strong.verdict == "real"
         and "real: 0.025 ± 0.01 (2.5 SE)" in (strong.summary())
     )
+
+
+def test_a_combined_parameter_far_from_the_findings_own_fit_is_flagged_and_explained():
+    """Item 2: K0 of the combined model 7 σ from the finding's is said, with why; one within
+    its σ is not; the base law's parameters are never compared."""
+    from types import SimpleNamespace
+
+    from soilstats import identify
+    from soilstats.discovery.result import DISAGREE_SIGMA, DiscoveryResult
+
+    rng = np.random.default_rng(2)
+    x = np.linspace(0.0, 1.0, 50)
+
+    def fit_with(k0: float, n: float):
+        y = k0 + n * x + rng.normal(0, 0.05, x.size)
+        return identify(lambda x, K0, n: K0 + n * x, x, y, [0.5, 1.0])
+
+    finding_fit, far, near = fit_with(0.42, 1.0), fit_with(0.92, 2.0), fit_with(0.43, 1.0)
+
+    def result(combined):
+        finding = SimpleNamespace(
+            kind="shear", soil="s", fit=finding_fit, test_level=None, extension="side-walls"
+        )
+        model = SimpleNamespace(
+            kind="shear",
+            soil="s",
+            fit=combined,
+            test_level=None,
+            extensions=("side-walls", "velocity"),
+        )
+        return SimpleNamespace(models=[model], findings=[finding])
+
+    flagged = DiscoveryResult.disagreements(result(far))
+    assert [d["parameter"] for d in flagged] == ["K0"]  # n is the base law's: not compared
+    d = flagged[0]
+    expected = abs(far.params["K0"] - finding_fit.params["K0"]) / np.hypot(
+        far.stderr["K0"], finding_fit.stderr["K0"]
+    )
+    assert d["sigmas"] == pytest.approx(expected) and d["sigmas"] > DISAGREE_SIGMA
+    assert "also carries velocity" in d["explanation"]
+    assert DiscoveryResult.disagreements(result(near)) == []

@@ -77,6 +77,11 @@ def parameter_table(fit: FitResult | None, level: TestLevel | None = None) -> di
     return out
 
 
+#: A combined model's parameter is flagged when it differs from the finding's own fit by more
+#: than this many σ of the difference (σ_f and σ_c combined as if independent: both fits use
+#: the same tests, so the real σ of the difference is smaller and the flag conservative).
+DISAGREE_SIGMA = 2.0
+
 #: What the ``+/-`` of discovery's parameter lines is (the console's legend, said once).
 SIGMA_NOTE = (
     "Parameters: value +/- stderr, the test-level σ (cluster-robust over tests, the "
@@ -357,6 +362,80 @@ class DiscoveryResult:
             "groups": [m.to_dict() for m in self.models],
         }
 
+    def disagreements(self) -> list[dict]:
+        """Parameters of a combined model that differ from the same parameter of a finding's
+        own fit by more than their σ allow: |Δ| > :data:`DISAGREE_SIGMA`·√(σ_f² + σ_c²).
+
+        Only an extension's own parameters (K0, a velocity factor …) are compared, where the
+        combined model carries that finding's extension; the base law's (kc, kφ, n; c, φ, K)
+        change meaning with every extension added. Each record says why it differs.
+        """
+        from ..models import models_of_kind
+        from .testlevel import quoted_sigma
+
+        base_names = {
+            n for kind in ("sinkage", "shear") for m in models_of_kind(kind) for n in m.param_names
+        }
+        out = []
+        for m in self.models:
+            if m.fit is None or not m.extensions:
+                continue
+            c_sigma = dict(
+                zip(m.fit.param_names, quoted_sigma(m.fit, m.test_level)[0], strict=True)
+            )
+            c_value = dict(zip(m.fit.param_names, m.fit.values, strict=True))
+            for i, f in enumerate(self.findings, 1):
+                if (f.kind, f.soil) != (m.kind, m.soil) or f.fit is None:
+                    continue
+                if f.extension not in m.extensions:
+                    continue
+                f_sigma = quoted_sigma(f.fit, f.test_level)[0]
+                for name, v, sf in zip(f.fit.param_names, f.fit.values, f_sigma, strict=True):
+                    if name in base_names or name not in c_value:
+                        continue
+                    vc, sc = float(c_value[name]), float(c_sigma[name])
+                    allowed = DISAGREE_SIGMA * float(np.hypot(sf, sc))
+                    if not abs(vc - v) > allowed:
+                        continue
+                    others = [e for e in m.extensions if e != f.extension]
+                    out.append(
+                        {
+                            "kind": m.kind,
+                            "soil": m.soil,
+                            "parameter": name,
+                            "finding": i,
+                            "extension": f.extension,
+                            "finding_value": float(v),
+                            "finding_stderr": float(sf),
+                            "combined_value": vc,
+                            "combined_stderr": sc,
+                            "sigmas": float(abs(vc - v) / np.hypot(sf, sc)),
+                            "explanation": (
+                                f"the combined model also carries {', '.join(others)}, which "
+                                f"takes up part of what {name} describes alone (the "
+                                "extensions overlap), and is fitted to every test of the "
+                                "group, not the finding's scope: the finding's value describes "
+                                "the cause alone, the combined one is for prediction with all "
+                                "extensions in"
+                                if others
+                                else "the combined model is fitted to every test of the "
+                                "group, the finding to its scope only: the cause does not "
+                                "act alike on all tests"
+                            ),
+                        }
+                    )
+        return out
+
+    def disagreement_lines(self) -> list[str]:
+        """One sentence per :meth:`disagreements` record (after its ``kind / soil: ``)."""
+        return [
+            f"{d['parameter']} = {d['combined_value']:.3g} ± "
+            f"{d['combined_stderr']:.2g} in the combined model against "
+            f"{d['finding_value']:.3g} ± {d['finding_stderr']:.2g} in finding [{d['finding']}] "
+            f"({d['extension']}), {d['sigmas']:.1f} σ apart: {d['explanation']}"
+            for d in self.disagreements()
+        ]
+
     def all_groups_gain(self) -> Gain | None:
         """The combined models' gain on the held-out tests of all extended groups together,
         or None unless two or more groups are extended (one group's gain is its own)."""
@@ -391,6 +470,7 @@ class DiscoveryResult:
         """JSON-ready content (no run time: outputs are byte-identical between runs)."""
         return {
             "model": self.model(),
+            "disagreements": self.disagreements(),
             "findings": [f.to_dict() for f in self.findings],
             "flags": list(self.flags),
             "confounded": list(self.confounded),
@@ -428,6 +508,13 @@ class DiscoveryResult:
             lines.append(f"[{i}] {first}")
             lines.extend(rest)
         lines.extend(self._model_lines(width))
+        lines += _section(
+            width,
+            f"Combined-model parameters that disagree with a finding's own fit "
+            f"(> {DISAGREE_SIGMA:g} σ):",
+            self.disagreement_lines(),
+            self.disagreements(),
+        )
         lines += _section(
             width,
             "Significant at first, explained by a stronger finding's extension:",

@@ -175,6 +175,17 @@ def _conclusion(result, all_groups) -> list:
         if all_groups is not None:
             parts.append(_all_groups_words(all_groups))
         out.append(parts)
+    disagree = [
+        f"{d['kind']} / {d['soil']}: {line}"
+        for d, line in zip(result.disagreements(), result.disagreement_lines(), strict=True)
+    ]
+    if disagree:
+        out.append(
+            [
+                strong("Parameters that disagree between the finding and the combined model: "),
+                "; ".join(disagree) + ".",
+            ]
+        )
     said = []
     caveats = sum(len(f.caveats) for f in result.findings)
     if caveats:
