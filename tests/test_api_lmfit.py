@@ -143,3 +143,19 @@ def test_export_simulator_refuses_what_chrono_would_change_unless_asked_to_repai
     pd.testing.assert_frame_equal(a, export_simulator(_draws(1e6), priors=texts, seed=3).table)
     with pytest.raises(InputError, match="NAME=FORM"):
         export_simulator(_draws(1e6), priors=["uniform:0:2000"], seed=3)
+
+
+def test_identifys_figure_shows_the_measured_points_under_the_fit():
+    """Issue #47 item 5: the identify report's figure draws the samples the fit was made on."""
+    import matplotlib.pyplot as plt
+
+    from soilstats.report.identify_pdf import _MAX_POINTS, _soil_figure
+
+    fit = fit_sinkage(load_campaign("cullinan-sand"), "bernstein", preparation="2")
+    fig = _soil_figure("cullinan", [({"kind": "sinkage", "series": None}, fit)])
+    dots = [ln for ln in fig.axes[0].get_lines() if ln.get_marker() == "."]
+    assert len(dots) == 1
+    step = max(1, fit.nobs // _MAX_POINTS)
+    np.testing.assert_allclose(dots[0].get_ydata(), fit.y_data[::step] / 1e3)  # kPa
+    np.testing.assert_allclose(dots[0].get_xdata(), fit.x_data[::step] * 1e3)  # mm
+    plt.close(fig)

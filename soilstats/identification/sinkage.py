@@ -163,6 +163,8 @@ def fit_sinkage(
             name=f"{spec.name} (Wong)",
             method="Wong: p^2-weighted log-log regression",
             message="closed-form linear regressions",
+            x=x,
+            y=p,
         )
         closed = centred(closed, z)
         flags = _adequacy(spec, pooled, closed, None)
