@@ -50,3 +50,13 @@ def test_the_support_check_prints_as_rows_of_words():
     assert rows["reasons: K <= 0"] == "2" and rows["passed"] == "yes"
     assert rows["contact widths m"] == "0.025 – 0.075"
     assert not any("{" in v or "[" in v for v in rows.values())
+
+
+def test_levels_are_named_in_natural_order():
+    """1, 2, 3 … 10, not 1, 10, 11, 2 (the posterior's pooling warning named them so)."""
+    from soilstats import load_campaign
+    from soilstats.cli.posterior import pooling_warnings
+
+    warnings = pooling_warnings(load_campaign("simulated-paper"), "soil01", ["bekker"])
+    text = next(w for w in warnings if "values of preparation" in w)
+    assert "(1, 2, 3, 4, 5, 6)" in text
