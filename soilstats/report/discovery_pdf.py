@@ -775,21 +775,42 @@ def _caveats_appendix(doc: Document, result) -> None:
     )
 
 
+#: Most candidates-not-found listed in the PDF; beyond, the interactions go to the JSON only.
+POWER_ROWS = 30
+
+
+def _power_rows_shown(power: list[dict]) -> tuple[list[dict], list[dict]]:
+    """(records listed in the PDF, records left to the JSON): all of them up to
+    :data:`POWER_ROWS`, else the main effects (the interactions' records stay in the JSON)."""
+    if len(power) <= POWER_ROWS:
+        return list(power), []
+    main = [p for p in power if " × " not in str(p["candidate"])]
+    return main, [p for p in power if " × " in str(p["candidate"])]
+
+
 def _power_appendix(doc: Document, result) -> None:
     if not result.power:
         doc.paragraph("Every candidate tested was either found or not testable (see the notes).")
         return
     first = result.power[0]
-    slots = max(len(p["responses"]) for p in result.power)
+    shown, left = _power_rows_shown(result.power)
+    if left:
+        doc.paragraph(
+            f"{len(result.power)} candidates were tested and not found. The "
+            f"{len(shown)} main effects are below; the smallest detectable effect of the other "
+            f"{plural(len(left), 'candidate')} (two-way interactions) is in the JSON "
+            '("power"), one record each: listed here they would need small type.'
+        )
+    slots = max(len(p["responses"]) for p in shown)
     labels = {
         f"r{j}": " / ".join(
-            dict.fromkeys(list(p["responses"])[j] for p in result.power if len(p["responses"]) > j)
+            dict.fromkeys(list(p["responses"])[j] for p in shown if len(p["responses"]) > j)
         )
         + " (raw p)"
         for j in range(slots)
     }
     rows = []
-    for p in result.power:
+    for p in shown:
         row: dict[str, Any] = {
             "group": _group(p),
             "candidate": f"{p['candidate']} ({p['role']}, {p['n_tests']} tests)",
@@ -926,15 +947,31 @@ def _confounded_appendix(doc: Document, result) -> None:
         for g, records in by_group.items()
         for text in _merged(records)
     ]
+    left = ""
+    if sum(len(r["cannot be told apart"]) for r in rows) > CONFOUNDED_CHARS:
+        # Where the list would need small type: the main effects' confounding here, that of
+        # interactions (implied by the design, "A × B determines …") in the JSON only.
+        kept = [r for r in rows if "×" not in r["cannot be told apart"].split(" determines")[0]]
+        left = (
+            f" {plural(len(rows) - len(kept), 'further line')} on interactions that the design "
+            "determines (an interaction of two factors fixing the others' interactions) "
+            'are in the JSON ("confounded") only: here they would need small type.'
+        )
+        rows = kept or rows[:1]
     _small_table(
         doc,
         pd.DataFrame(rows),
         f"Confounded candidates: the {plural(len(result.confounded), 'pair')} of columns "
         "(and their interactions) whose effects this design cannot separate, the pairs that "
-        "share a column said together.",
+        "share a column said together." + left,
         ["1fr"],
         sections="group",
     )
+
+
+#: Most characters of the confounded-candidates table before the interactions' lines go to
+#: the JSON only (about a page at 8 pt).
+CONFOUNDED_CHARS = 6000
 
 
 def _notes_appendix(doc: Document, result) -> None:
