@@ -285,3 +285,14 @@ def test_no_text_below_8_pt_and_no_overlapping_text(reports):
                     and min(a["bottom"], b["bottom"]) - max(a["top"], b["top"]) > 1.0
                 ]
                 assert not clashes, (name, page.page_number, clashes[:5])
+
+
+def test_a_studys_methods_describe_the_campaign_before_the_papers_design(reports):
+    """Issue #47 item 5: the Cullinan preparation study has 13 tests of 5 methods, not the
+    paper's thirteen methods; the Methods say the campaign's design first, from its tests."""
+    pdf, _ = reports["study"]
+    text = pdf_text(pdf)
+    methods = text[text.index("4Methods") + 1 :]
+    assert methods.startswith("MethodsThiscampaign:13testsofcullinan-sandanalysed"), methods[:80]
+    assert "preparation:1(6tests),2(4tests),3(1test),4(1test),5(1test)" in methods
+    assert methods.index("Thiscampaign") < methods.index("Thepaper'sdesign,forcomparison")
