@@ -184,7 +184,10 @@ def run(args: argparse.Namespace) -> int:
             "no condition could be identified in the selected tests (see the messages above)",
             file=campaign.file_name("tests"),
         )
-    document: dict[str, Any] = {"fits": records}
+    from .common import defaults_not_given
+
+    defaults = defaults_not_given(args)
+    document: dict[str, Any] = {"defaults": defaults, "fits": records}
     if args.out:
         import pandas as pd
 
@@ -200,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
             campaign=campaign,
             provenance=provenance,
             overwrite=args.overwrite,
+            defaults=defaults,
         )
         print(f"wrote {folder / 'identify.json'}, identify.csv and identify.pdf", file=sys.stderr)
     if args.json:

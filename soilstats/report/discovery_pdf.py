@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import re
 import textwrap
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -985,6 +986,7 @@ def write_report(
     *,
     provenance: Provenance | None = None,
     overwrite: bool = False,
+    defaults: Mapping[str, str] | None = None,
 ) -> int:
     """Write the typeset PDF report of ``result`` to ``path`` (its folder created if
     needed); return the number of pages.
@@ -1015,6 +1017,7 @@ def write_report(
             f"α = {result.alpha:g}, seed {result.seed}.",
         ],
         conclusion=_conclusion(result, all_groups),
+        defaults=defaults,
     )
     if result.findings:
         _findings_table(doc, result)

@@ -12,7 +12,7 @@ notes every fit shares printed once, numbered). Everything in identify.json is i
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -220,6 +220,7 @@ def write_report(
     campaign: Campaign,
     provenance: Provenance | None = None,
     overwrite: bool = False,
+    defaults: Mapping[str, str] | None = None,
 ) -> int:
     """Write the typeset identification report of ``results`` (ConditionFits per kind) of
     ``campaign`` to ``path``.
@@ -253,6 +254,7 @@ def write_report(
             f": {len(campaign.tests)} tests; kinds identified: {', '.join(kinds)}.",
         ],
         conclusion=_conclusion(records, len(failures)),
+        defaults=defaults,
     )
     doc.heading("Parameters per soil and condition")
     doc.note(
