@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
@@ -531,7 +531,8 @@ class FitResult:
         return table_html(frame, index=True, caption="Correlations")
 
     # -- figures, as lmfit's ModelResult.plot_fit / plot_residuals ------------------------
-    def plot_fit(self, ax=None, *, sigma: float = 2.0, points: int = 200):
+    # ``Any``: matplotlib's Axes, not named here (no analysis module imports matplotlib at all).
+    def plot_fit(self, ax: Any = None, *, sigma: float = 2.0, points: int = 200) -> Any:
         """The measured points, the fitted curve and its ±``sigma`` band
         (:meth:`eval_uncertainty`) on ``ax`` (a new figure if None); returns the axes.
 
@@ -560,7 +561,7 @@ class FitResult:
         ax.legend(fontsize="small")
         return ax
 
-    def plot_residuals(self, ax=None):
+    def plot_residuals(self, ax: Any = None) -> Any:
         """Measured minus fitted values against the last input, on ``ax`` (a new figure if
         None), one colour per value of the leading inputs; returns the axes."""
         import matplotlib.pyplot as plt

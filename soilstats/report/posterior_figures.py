@@ -25,7 +25,7 @@ preparation* (what :meth:`~soilstats.bayes.PosteriorResult.draws` returns).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
@@ -267,7 +267,8 @@ def _kde(values: np.ndarray, log: bool, **kwargs) -> tuple[np.ndarray, np.ndarra
     return 10.0**grid, pdf
 
 
-def values_of(data, names) -> dict[str, np.ndarray]:
+def values_of(data: Any, names: Iterable[str]) -> dict[str, np.ndarray]:
+    """Each parameter's draws (all chains, flattened) in its display unit."""
     return {n: data[n].to_numpy().ravel() * _scale(n) for n in names}
 
 
