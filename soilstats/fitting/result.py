@@ -297,7 +297,7 @@ class FitResult:
             )
         return np.asarray(self.model_func(self._inputs(x, inputs), *self.values), dtype=float)
 
-    def _inputs(self, x: ArrayLike | None, inputs: dict[str, ArrayLike]):
+    def _inputs(self, x: ArrayLike | None, inputs: dict[str, ArrayLike]) -> Any:
         """The model's ``x`` from a positional ``x`` or the named inputs (checked: a clear
         error for a missing, unknown or 1-D input where the model needs several rows)."""
         names = self.input_names
@@ -320,13 +320,17 @@ class FitResult:
                 )
             if len(names) == 1:
                 return np.asarray(inputs[names[0]], float)
-            rows = np.broadcast_arrays(*(np.asarray(inputs[n], float) for n in names))
-            return np.stack([np.atleast_1d(r) for r in rows])
+            stacked = np.broadcast_arrays(*(np.asarray(inputs[n], float) for n in names))
+            return np.stack([np.atleast_1d(r) for r in stacked])
         if x is None:
             raise InputError(f"{self.model_name}: give the inputs, eval({how})")
         if len(names) > 1:
-            arr = np.asarray(x, float) if not isinstance(x, tuple | list) else None
-            rows = len(x) if arr is None else (arr.shape[0] if arr.ndim == 2 else 1)
+            # a (b, z) tuple or list of rows, or a (k, N) array: k rows; anything else one
+            rows = (
+                len(x)
+                if isinstance(x, tuple | list)
+                else (np.shape(x)[0] if np.ndim(x) == 2 else 1)
+            )
             if rows != len(names):
                 raise InputError(
                     f"{self.model_name} needs {len(names)} inputs ({', '.join(names)}) but got "
@@ -604,7 +608,7 @@ class FitResult:
             out.append((label, (lead == v).all(axis=1), tuple(v)))
         return out
 
-    def _label_axes(self, ax, prefix: str) -> None:
+    def _label_axes(self, ax: Any, prefix: str) -> None:
         last = self.input_names[-1] if self.input_names else "x"
         ax.set_xlabel(_AXIS_LABELS.get(last, last))
         y = {"z": "pressure p [Pa]", "j": "shear stress τ [Pa]", "sigma": "shear stress τ [Pa]"}

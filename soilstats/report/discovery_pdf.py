@@ -21,7 +21,7 @@ import re
 import textwrap
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -38,6 +38,9 @@ from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
 from .parameters import EQ4_NOTE, fit_rows, fit_table
+
+if TYPE_CHECKING:
+    from ..discovery.crossval import Gain
 
 __all__ = ["write_report"]
 
@@ -74,7 +77,7 @@ def _gain_words(g) -> str:
     )
 
 
-def _schemes(f) -> list[tuple[str, object]]:
+def _schemes(f) -> list[tuple[str, Gain]]:
     """The held-out gains measured for a finding's extension: (scheme in words, Gain)."""
     out = [("tests held out", f.gain)]
     if f.gain_search is not None:
@@ -84,7 +87,7 @@ def _schemes(f) -> list[tuple[str, object]]:
     return [(name, g) for name, g in out if g is not None and np.isfinite(g.relative)]
 
 
-def _worst_scheme(f) -> tuple[str, object] | None:
+def _worst_scheme(f) -> tuple[str, Gain] | None:
     """The held-out scheme in which a kept extension does worst, where it is another than the
     one that kept it (tests held out, the cause fixed)."""
     schemes = _schemes(f)
