@@ -251,40 +251,13 @@ def test_reports_are_byte_identical_between_runs(tmp_path, monkeypatch):
     assert paths[0].read_bytes() == paths[1].read_bytes()
 
 
-#: Equation glyphs (Typst's math font) set their sub- and superscripts at 70 % and 50 % of
-#: the body, and stack them: typesetting, not small print. Everything else is judged.
-def _is_math(char: dict) -> bool:
-    return "Math" in char.get("fontname", "")
-
-
-def _text_boxes(page) -> list[dict]:
-    """Words of one page as boxes, equation glyphs left out."""
-    words = page.extract_words(extra_attrs=["fontname", "size"])
-    return [w for w in words if "Math" not in w["fontname"]]
-
-
 def test_no_text_below_8_pt_and_no_overlapping_text(reports):
-    """Issue #47 item 5: a test that reads the PDF's text boxes — none below 8 pt, none
-    overlapping another (an overlap is where a title runs into a label or a cell into the
-    next: shared area of more than 1 pt each way)."""
+    """Issue #47 item 5: every report's PDF read by its text boxes — none below 8 pt, none
+    overlapping another (tests/pdf_text.py)."""
+    from pdf_text import small_and_overlapping
+
     for name, (pdf, _) in reports.items():
-        with pdfplumber.open(pdf) as doc:
-            for page in doc.pages:
-                small = [
-                    c["text"]
-                    for c in page.chars
-                    if c["size"] < 7.95 and c["text"].strip() and not _is_math(c)
-                ]
-                assert not small, (name, page.page_number, "".join(small)[:80])
-                boxes = _text_boxes(page)
-                clashes = [
-                    (a["text"], b["text"])
-                    for i, a in enumerate(boxes)
-                    for b in boxes[i + 1 :]
-                    if min(a["x1"], b["x1"]) - max(a["x0"], b["x0"]) > 1.0
-                    and min(a["bottom"], b["bottom"]) - max(a["top"], b["top"]) > 1.0
-                ]
-                assert not clashes, (name, page.page_number, clashes[:5])
+        assert small_and_overlapping(pdf) == [], name
 
 
 def test_a_studys_methods_describe_the_campaign_before_the_papers_design(reports):
