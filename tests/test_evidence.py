@@ -105,3 +105,16 @@ def test_a_combined_parameter_far_from_the_findings_own_fit_is_flagged_and_expla
     assert d["sigmas"] == pytest.approx(expected) and d["sigmas"] > DISAGREE_SIGMA
     assert "also carries velocity" in d["explanation"]
     assert DiscoveryResult.disagreements(result(near)) == []
+
+
+def test_study_posterior_and_identify_reports_never_say_real_of_anything():
+    """Study, posterior and identify make no held-out-gain claim, so the word "real" (reserved
+    for a gain of 2 SE or more) must not appear in their texts."""
+    import re
+
+    from soilstats import fit_sinkage, load_campaign, run_study
+
+    study = run_study("preparation", "cullinan-sand")
+    fit = fit_sinkage(load_campaign("simulated-paper"), "bekker", soil="soil01", series="velocity")
+    for text in (study.summary(), fit.summary(), study._repr_html_(), fit._repr_html_()):
+        assert not re.search(r"\breal\b", text), re.findall(r".{30}\breal\b.{30}", text)

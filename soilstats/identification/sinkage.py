@@ -68,7 +68,7 @@ def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
     dropped = int(g["excluded_z_nonpositive"].sum())
     if dropped:
         notes.append(
-            f"{dropped} samples with z <= 0 excluded (no real z^n; per test in result.tests)."
+            f"{dropped} samples with z <= 0 excluded (z^n undefined; per test in result.tests)."
         )
     return notes
 
