@@ -421,6 +421,8 @@ def _pooled_columns(kind: str, models) -> tuple[str, ...]:
 
 def pooling_warnings(campaign: Campaign, soil: str, models: Iterable[str]) -> list[str]:
     """Say when a posterior pools plate sizes (Bernstein) or test conditions."""
+    from .._text import natural_key  # levels in natural order: 1, 2, 10 (not 1, 10, 2)
+
     tests = campaign.tests[campaign.tests["soil"].astype(str) == soil]
     out = []
     for kind in ("sinkage", "shear"):
@@ -432,7 +434,7 @@ def pooling_warnings(campaign: Campaign, soil: str, models: Iterable[str]) -> li
                 continue
             values = chosen[column].dropna().unique()
             if len(values) > 1:
-                shown = ", ".join(str(v) for v in sorted(values, key=str)[:6])
+                shown = ", ".join(str(v) for v in sorted(values, key=natural_key)[:6])
                 out.append(
                     f"the {kind} posterior pools {len(values)} values of {column} ({shown}): "
                     "its draws describe the mixture, not any one condition; select one with "
@@ -513,6 +515,7 @@ def _export(args, models, results, kept, stated, campaign):
         repair=args.scm_repair,
         draws_source=taken,
         plate_widths=_tested_widths(args, campaign),
+        on_failure="return",  # refused below with the CLI's own words (_export_failures)
     )
 
 

@@ -68,7 +68,7 @@ def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
     dropped = int(g["excluded_z_nonpositive"].sum())
     if dropped:
         notes.append(
-            f"{dropped} samples with z <= 0 excluded (no real z^n; per test in result.tests)."
+            f"{dropped} samples with z <= 0 excluded (z^n undefined; per test in result.tests)."
         )
     return notes
 
@@ -163,6 +163,8 @@ def fit_sinkage(
             name=f"{spec.name} (Wong)",
             method="Wong: p^2-weighted log-log regression",
             message="closed-form linear regressions",
+            x=x,
+            y=p,
         )
         closed = centred(closed, z)
         flags = _adequacy(spec, pooled, closed, None)
