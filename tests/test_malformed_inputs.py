@@ -366,3 +366,57 @@ def test_numbers_are_kept_exactly_where_float64_holds_them(write_campaign, campa
     campaign = load_campaign(folder, check_units=False)
     assert campaign.tests["repetition"].iloc[0] == 2**53 - 1
     assert campaign.sinkage["force_N"].iloc[3] == 2.2250738585072014e-308
+
+
+# --- Campaign.from_frames: one clear InputError, nothing dropped ------------------------------
+
+
+def _frames():
+    tests = pd.DataFrame(
+        {
+            "test_id": ["a"],
+            "kind": ["sinkage"],
+            "soil": ["s"],
+            "shape": ["circle"],
+            "radius_m": [0.05],
+        }
+    )
+    sinkage = pd.DataFrame(
+        {
+            "test_id": ["a"] * 20,
+            "z_m": [0.001 * i for i in range(1, 21)],
+            "force_N": [50.0 * i for i in range(1, 21)],
+        }
+    )
+    return tests, sinkage
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (lambda t, s: {"units": {"z_m": None}}, r"units\['z_m'\] = None"),
+        (lambda t, s: {"units": "mm"}, "units must map format columns"),
+        (lambda t, s: {"sinkage": pd.concat([s, s[["z_m"]]], axis=1)}, "'z_m' twice"),
+        (
+            lambda t, s: {
+                "sinkage": s.set_axis(pd.MultiIndex.from_product([["x"], s.columns]), axis=1)
+            },
+            "MultiIndex",
+        ),
+        (lambda t, s: {"sinkage": s.assign(force_N=s["force_N"] + 1j)}, "'force_N'.*complex"),
+        (
+            lambda t, s: {
+                "sinkage": s.assign(force_N=s["force_N"].astype(object).where(s.index > 0, 3 + 2j))
+            },
+            "'force_N'.*complex",
+        ),
+    ],
+)
+def test_from_frames_refuses_what_it_cannot_read_faithfully(change, says):
+    from soilstats import Campaign
+    from soilstats.errors import InputError
+
+    tests, sinkage = _frames()
+    kwargs = {"sinkage": sinkage, **change(tests, sinkage)}
+    with pytest.raises(InputError, match=says):
+        Campaign.from_frames(tests, **kwargs)

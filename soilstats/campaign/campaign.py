@@ -317,9 +317,12 @@ class Campaign:
         input frames are never modified. ``check_units`` as in :func:`load_campaign`.
         """
         frames: Frames = {}
+        _check_units_argument(units)
         for stem, frame in zip(FILES, (tests, sinkage, shear), strict=True):
             if frame is not None and not isinstance(frame, pd.DataFrame):
                 raise TypeError(f"{stem} must be a pandas DataFrame or None, not {type(frame)}")
+            if frame is not None:
+                _check_frame(frame, stem)
             if units:
                 frame = convert_columns(frame, units, f"{stem}.csv")
             frames[stem] = (frame, f"{stem}.csv")
@@ -560,3 +563,43 @@ class Campaign:
     def summary(self) -> str:
         """A readable overview: tests by kind and soil, columns, covariates, samples, skips."""
         return describe(self)
+
+
+def _check_units_argument(units: object) -> None:
+    """``from_frames(units=...)`` is a mapping of format column to unit name, or None."""
+    if units is None:
+        return
+    if not isinstance(units, Mapping):
+        raise InputError(
+            f"units must map format columns to unit names, e.g. {{'z_m': 'mm'}}; got "
+            f"{type(units).__name__} {units!r}"
+        )
+    for column, unit in units.items():
+        if not isinstance(column, str) or not isinstance(unit, str):
+            raise InputError(
+                f"units[{column!r}] = {unit!r}: give the unit's name as text, e.g. 'mm' "
+                "(leave a column in SI out of units)"
+            )
+
+
+def _check_frame(frame: pd.DataFrame, stem: str) -> None:
+    """Columns a table can be read by: flat, unique, text names; no complex numbers (whose
+    imaginary part would be dropped without a word)."""
+    if isinstance(frame.columns, pd.MultiIndex):
+        raise InputError(
+            f"the {stem} frame has MultiIndex columns; give one level of column names "
+            "(e.g. frame.columns = frame.columns.get_level_values(-1))"
+        )
+    names = [str(c) for c in frame.columns]
+    twice = sorted({c for c in names if names.count(c) > 1})
+    if twice:
+        raise InputError(f"the {stem} frame has the column {twice[0]!r} twice; rename one")
+    for column in frame.columns:
+        values = frame[column]
+        if pd.api.types.is_complex_dtype(values.dtype) or (
+            values.dtype == object and any(isinstance(v, complex) for v in values)
+        ):
+            raise InputError(
+                f"column {column!r} of the {stem} frame holds complex numbers; give real "
+                "values (the imaginary part is never dropped silently)"
+            )
