@@ -69,6 +69,22 @@ CODES: dict[str, QualityCode] = {
             excluded=True,
         ),
         QualityCode(
+            "glitch-cluster",
+            "A dense run of 5 or more samples (at most a quarter of the record; candidates at "
+            "most 3 samples apart) whose z or force lies beyond the record's own robust range "
+            "(its 5 % to 70 % quantiles) by more than that range's width, and departs by as "
+            "much (and 10 noise widths) from the 3 samples on each side: the channel went "
+            "somewhere the plate cannot be and came back. Runs first, on the raw records; a "
+            "run-away at the record's end (nothing after it) is never one.",
+            "A portable rig's z can jump to 2-12x the record's depth for up to ~50 samples. "
+            "Kept, such clusters moved a soil's pooled n from 1.38 +/- 0.06 to 0.52 +/- 0.23, "
+            "made the good samples behind them look non-monotone and hid a real drift.",
+            "Nothing by default: the samples are excluded from every fit and listed. Use "
+            "--quality flag to keep them; check the displacement sensor's cable, connector "
+            "and logger if clusters recur.",
+            excluded=True,
+        ),
+        QualityCode(
             "pre-contact",
             "The force stays at its noise floor while the sinkage grows: the plate was zeroed "
             "above the surface (seating offset). Either a power law measured from a contact "

@@ -23,7 +23,7 @@ import pandas as pd
 from ..campaign.units import implausible_units
 from ..errors import CampaignError, InputError
 from . import blocks as blocks_mod
-from . import prescreen, records, staging
+from . import glitches, prescreen, records, staging
 from .blocks import Blocks
 from .codes import CODES, MODES
 from .copies import RECORDS, find_copies
@@ -124,8 +124,18 @@ def _sinkage_findings(
     """
     clean = mode == "clean"
     rec = _Records.of(sink, ("z_m", "force_N"))
+    # Glitch clusters first: a dense run of impossible samples owns every running median
+    # the spike and burst rules compare with.
+    glitched_out, drop, glitched = glitches.glitch_flags(
+        rec.ids, rec.blocks, rec.columns, rec.labels, clean
+    )
+    if glitched.any():
+        rest, at = rec.blocks.keep(~glitched)
+        rec = _Records(rec.ids, rest, rec.labels[at], {c: v[at] for c, v in rec.columns.items()})
     blocks, z, force = rec.blocks, rec.columns["z_m"], rec.columns["force_N"]
-    out, drop, spiked = _spike_findings(rec, "sinkage", ("z_m", "force_N"), clean)
+    out, spike_drop, spiked = _spike_findings(rec, "sinkage", ("z_m", "force_N"), clean)
+    drop += spike_drop
+    _merge(out, glitched_out)
     unspiked, kept = blocks.keep(~spiked)
     found, burst_drop, bursts = staging.burst_flags(
         rec.ids, unspiked, {"z_m": z[kept], "force_N": force[kept]}, rec.labels[kept], clean
