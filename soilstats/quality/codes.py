@@ -96,11 +96,14 @@ CODES: dict[str, QualityCode] = {
             "rise). The contact is never placed past a sample held 5 noise widths off the "
             "floor. A record that starts under load (its first samples above 5 % of its peak "
             "force and 5 noise widths) or climbing (its first four samples rising by more "
-            "than 5 noise widths) is not searched. One rule per soil: where most of a soil's "
-            "tests show a toe (median residual ratio at most 0.8), the soil's median contact "
-            "decides whether it is material (2 % of the median travel) and every test is "
-            "treated alike: re-zeroed at its own contact, or at the soil's median where its "
-            "own record cannot place it; elsewhere a test needs the evidence above on its own.",
+            "than 5 noise widths) is not searched. One rule per soil and preparation: where most "
+            "of its tests show a toe (median residual ratio at most 0.8), their median "
+            "contact decides whether it is material (2 % of the median travel) and every "
+            "test is treated alike: re-zeroed at its own contact, or at the median where its "
+            "own record cannot place it; elsewhere a test needs the evidence above on its own "
+            "(a shifted law on 20 loaded samples at least). The message gives the record's "
+            "log-log n from z = 0 and from the contact. A contact that would leave out more "
+            "than half of the record is not applied: the flag asks the question instead.",
             "Bekker's and Bernstein's z is the sinkage below the surface. An offset zero bends "
             "the curve and biases n and k; the free travel adds samples with p ~ 0.",
             "Nothing by default: samples before the contact are excluded and z is re-zeroed "

@@ -184,10 +184,27 @@ def _sinkage_findings(
             found_contacts[k] = contact
     contact_of = seating_per_soil(found_contacts, record, [(soil_of or {}).get(t) for t in rec.ids])
     for k, contact in sorted(contact_of.items()):
-        _, _, lk = record(k)
+        zk, fk, lk = record(k)
+        rows = lk[contact.before]
+        if rows.size > 0.5 * lk.size:
+            # Leaving out most of a record is a question for the user, never a silent window.
+            del contact_of[k]
+            out[k].append(
+                QualityFlag(
+                    rec.ids[k],
+                    "sinkage",
+                    "pre-contact",
+                    _rows(rows),
+                    f"a contact at z = {contact.z_contact:.4g} m would leave out {rows.size} of "
+                    f"{lk.size} samples (more than half): not applied; is the plate really "
+                    "off the soil that long? Re-zero the test by hand if it is",
+                    value=contact.z_contact,
+                )
+            )
+            continue
         if clean and contact.z_contact:
             offsets[rec.ids[k]] = float(contact.z_contact)
-        rows = lk[contact.before]
+        effect = _exponent_effect(zk, fk, contact.z_contact)
         out[k].append(
             QualityFlag(
                 rec.ids[k],
@@ -196,7 +213,8 @@ def _sinkage_findings(
                 _rows(rows),
                 f"force at its noise floor over the first {contact.z_contact * 1e3:.3g} mm; "
                 f"contact found at z = {contact.z_contact:.4g} m ({contact.describe()})"
-                + ("; z re-zeroed there" if clean else ""),
+                + ("; z re-zeroed there" if clean else "")
+                + effect,
                 excluded=clean,
                 value=contact.z_contact,
             )
@@ -357,6 +375,19 @@ def seating_per_soil(
     return chosen
 
 
+def _exponent_effect(z: np.ndarray, force: np.ndarray, z_contact: float) -> str:
+    """The re-zeroing's effect on the record's exponent, for the message: the log-log slope
+    of force on sinkage past the contact (force above 5 % of its peak), from z = 0 and from
+    the contact."""
+    past = (z > z_contact) & (force > 0.05 * float(np.max(force, initial=0.0)))
+    if past.sum() < 4 or not z_contact > 0:
+        return ""
+    log_f = np.log(force[past])
+    n_zero = np.polyfit(np.log(z[past]), log_f, 1)[0]
+    n_contact = np.polyfit(np.log(z[past] - z_contact), log_f, 1)[0]
+    return f"; the record's log-log n {n_zero:.3g} from z = 0, {n_contact:.3g} from the contact"
+
+
 def _merge(out: list[list[QualityFlag]], found: list[list[QualityFlag]]) -> None:
     """Append each test's new flags to its list."""
     for mine, new in zip(out, found, strict=True):
@@ -487,7 +518,11 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
         b_of = dict(
             zip(tests["test_id"], pd.to_numeric(tests["b_m"], errors="coerce"), strict=True)
         )
-        soil_of = dict(zip(tests["test_id"], tests["soil"].astype(str), strict=True))
+        # A seating toe is decided once per soil and preparation (one bed, one procedure).
+        group = tests["soil"].astype(str)
+        if "preparation" in tests.columns:
+            group = group + "\x00" + tests["preparation"].astype(str)
+        soil_of = dict(zip(tests["test_id"], group, strict=True))
         per_test, drop["sinkage"], offsets, ends, phases = _sinkage_findings(
             sink, mode, progress, b_of, soil_of
         )
