@@ -105,3 +105,24 @@ def test_a_run_away_at_the_end_or_a_steep_clean_record_is_no_glitch():
     # a cluster longer than a quarter of the record is not read as a glitch
     glitched[80:140] = 0.15
     assert find_glitch_clusters(glitched).size == 0
+
+
+def test_a_record_that_starts_under_load_and_one_with_a_gap_are_named():
+    """``starts-loaded`` and ``gap`` on simulated records with known truth: the first 4 mm of
+    one record cut off (it starts under load at z = 4 mm), 6 mm of samples taken out of
+    another; the other records of the campaign carry neither."""
+    from dataclasses import replace
+
+    campaign = simulate(_spec([], points=150), seed=2).campaign
+    sink = campaign.sinkage
+    ids = list(campaign.tests.loc[campaign.tests["soil"] == "loam", "test_id"])
+    first, second = ids[0], ids[1]  # n 0.8: 20 % of the peak force at 4 mm of 30
+    cut = (sink["test_id"] == first) & (sink["z_m"] < 0.004)
+    hole = (sink["test_id"] == second) & (sink["z_m"] > 0.012) & (sink["z_m"] < 0.018)
+    report = screen(replace(campaign, sinkage=sink[~(cut | hole)]))
+    starts = [f for f in report.flags if f.code == "starts-loaded"]
+    gaps = [f for f in report.flags if f.code == "gap"]
+    assert [f.test_id for f in starts] == [first]
+    assert starts[0].value == pytest.approx(0.004, abs=0.0003)
+    assert [f.test_id for f in gaps] == [second]
+    assert gaps[0].value == pytest.approx(0.006, abs=0.0005)

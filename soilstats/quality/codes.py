@@ -171,7 +171,10 @@ CODES: dict[str, QualityCode] = {
             "over the last 25 % of the sinkage is flagged whatever the law says (a plateau: "
             "the soil failed or the rig reached a force limit; onset where the force first "
             "comes within 2 % of its end). Where a seating offset was found, the rule runs on "
-            "the loaded record with z from the contact.",
+            "the loaded record with z from the contact. Noise is allowed for: the excess must "
+            "hold once 2.5 standard errors of the early law's log-force at the record's end "
+            "are taken off, and a plateau must be flat beyond the noise (a line through the "
+            "tail gains under 2 %, and under 10 % with two standard errors).",
             "The soil under the plate failed (punch-through), or the rig stopped loading (a "
             "force limit); pressure–sinkage models describe the loading before. Samples past "
             "the onset drag n toward 0.",
@@ -275,6 +278,30 @@ CODES: dict[str, QualityCode] = {
             "compare the fit with one of the unflagged tests (a fit of flagged tests carries "
             "the flag). Discovery reports causes that follow test order as a residue of the "
             "data, not a cause.",
+        ),
+        QualityCode(
+            "starts-loaded",
+            "The loading record's first samples (median of 3) already carry more than 5 % of "
+            "its peak force and 5 force-noise widths, at a first z beyond 2 % of the travel: "
+            "the logger started after the plate was loaded, and the record's first "
+            "millimetres are missing. Flag only.",
+            "Without its toe a record cannot show a seating offset or a late zero, and its "
+            "early law (bearing failure, the contact rules) starts mid-curve; the fit covers "
+            "only the sinkage recorded.",
+            "Nothing is excluded. Check that z was zeroed at the surface (not where logging "
+            "began); if it was, the fit holds for the range recorded. Start logging before "
+            "contact in future tests.",
+        ),
+        QualityCode(
+            "gap",
+            "A step in z of more than 20 times the record's median step and 5 % of its "
+            "travel: a stretch of sinkage with no samples (the logger paused or dropped "
+            "data). Flag only; rows: the first sample after each gap.",
+            "A fit has no information inside the gap; a gap where the curve bends (toe, "
+            "failure onset) hides where it bends, and a thinning by equal sinkage weighs the "
+            "samples around it differently.",
+            "Nothing is excluded. Check the logger's buffer and sampling settings; when a "
+            "gap falls where a window or onset is decided, read that decision with care.",
         ),
         QualityCode(
             "non-monotone",

@@ -289,6 +289,10 @@ def _sinkage_findings(
                 f"z falls back below its running maximum in {hits.size} samples",
             )
         )
+    for k in range(loaded.count):
+        zk, fk, lk = record(k)
+        failed = failure_of.get(k)  # a run-on's load steps jump in z by nature: not gaps
+        out[k].extend(_record_shape_flags(rec.ids[k], zk, fk, lk, failed))
     peaks = {"force_N": contacted.max(fc), "z_m": contacted.max(zc)}
     for values, other, column in ((fc, zc, "force_N"), (zc, fc, "z_m")):
         clipped = blocks_mod.saturation(contacted, values, other)
@@ -373,6 +377,75 @@ def seating_per_soil(
             before = np.flatnonzero((z > 0) & (z <= contact))
             chosen[k] = records.ContactPoint(contact, before, np.nan, evidence="soil")
     return chosen
+
+
+#: starts-loaded: the first samples' force (median of 3) above this share of the peak ...
+STARTS_LOADED_SHARE = 0.05
+#: ... and this many force-noise widths, at a first z beyond this share of the travel.
+STARTS_LOADED_WIDTHS = 5.0
+STARTS_LOADED_TRAVEL = 0.02
+#: gap: a z step more than this many times the record's median step ...
+GAP_STEPS = 20.0
+#: ... and more than this share of the travel.
+GAP_TRAVEL = 0.05
+
+
+def _record_shape_flags(
+    test_id: str,
+    z: np.ndarray,
+    force: np.ndarray,
+    labels: np.ndarray,
+    failed_row: int | None = None,
+) -> list[QualityFlag]:
+    """``starts-loaded`` and ``gap`` flags of one loading record (flag only); gaps are
+    judged before a bearing failure's first failed row (label) only."""
+    out: list[QualityFlag] = []
+    if z.size < 8:
+        return out
+    travel = float(z.max() - min(float(z.min()), 0.0))
+    peak = float(force.max())
+    if travel <= 0 or peak <= 0:
+        return out
+    start = float(np.median(force[:3]))
+    noise = records._robust_width(np.diff(force, 2)) / np.sqrt(6.0)
+    z0 = float(z[0])
+    if (
+        start > STARTS_LOADED_SHARE * peak
+        and start > STARTS_LOADED_WIDTHS * noise
+        and z0 > STARTS_LOADED_TRAVEL * travel
+    ):
+        out.append(
+            QualityFlag(
+                test_id,
+                "sinkage",
+                "starts-loaded",
+                _rows(labels[:1]),
+                f"the record starts under load: {start:.4g} N ({start / peak:.0%} of its peak) "
+                f"at z = {z0 * 1e3:.3g} mm; its first {z0 * 1e3:.3g} mm are missing",
+                value=z0,
+            )
+        )
+    steps = np.diff(z)
+    forward = steps[steps > 0]
+    if forward.size >= 4:
+        usual = float(np.median(forward))
+        judged = labels[1:] < failed_row if failed_row is not None else True
+        big = np.flatnonzero((steps > GAP_STEPS * usual) & (steps > GAP_TRAVEL * travel) & judged)
+        if big.size:
+            widest = float(steps[big].max())
+            out.append(
+                QualityFlag(
+                    test_id,
+                    "sinkage",
+                    "gap",
+                    _rows(labels[big + 1]),
+                    f"{big.size} gap(s) in z, up to {widest * 1e3:.3g} mm "
+                    f"({widest / usual:.0f}x the record's median step of {usual * 1e3:.3g} mm): "
+                    "no samples there",
+                    value=widest,
+                )
+            )
+    return out
 
 
 def _exponent_effect(z: np.ndarray, force: np.ndarray, z_contact: float) -> str:
