@@ -1,0 +1,59 @@
+"""Flags that travel (#46 item 5): a pooled fit the posterior starts from carries
+``aggregation-bias`` when its n lies outside every test's own n, with the test-level σ, so
+``PosteriorResult.least_squares_health()`` (and every report of it) names it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from soilstats import Campaign
+from soilstats.bayes.data import pooled_problem
+
+
+def _load_capped(cap_pa: float = 60e3) -> Campaign:
+    """Six tests of one soil on one plate, each an exact p = k z (n = 1) with k spread 8x,
+    every test stopped at the same pressure: the soft ones run deeper, so the pooled curve
+    through all samples bends below every test's own exponent."""
+    rng = np.random.default_rng(4)
+    radius = 0.05
+    area = np.pi * radius**2
+    tests, rows = [], []
+    for i, k in enumerate(np.geomspace(1e6, 8e6, 6)):
+        tid = f"t{i}"
+        tests.append(
+            {"test_id": tid, "kind": "sinkage", "soil": "s", "shape": "circle", "radius_m": radius}
+        )
+        z = np.linspace(0.0005, cap_pa / k, 60)
+        p = k * z * (1 + 0.002 * rng.standard_normal(z.size))
+        rows += [{"test_id": tid, "z_m": a, "force_N": b * area} for a, b in zip(z, p, strict=True)]
+    return Campaign.from_frames(pd.DataFrame(tests), pd.DataFrame(rows))
+
+
+def test_the_pooled_fit_below_every_test_carries_aggregation_bias_with_the_test_sigma():
+    _, fit = pooled_problem(_load_capped(), "bernstein")
+    flags = [f for f in fit.flags if f.code == "aggregation-bias"]
+    assert fit.params["n"] < 0.95  # the tests' own n are 1.00 +/- 0.01
+    assert len(flags) == 1
+    assert "below all 6 tests' own n" in flags[0].message
+    assert "test-level σ of n" in flags[0].message
+
+
+def test_a_pooled_fit_inside_the_tests_range_carries_none():
+    # Every test stopped at the same depth instead: the pooled n is the tests' n.
+    rng = np.random.default_rng(5)
+    tests, rows = [], []
+    for i, k in enumerate(np.geomspace(1e6, 8e6, 6)):
+        tid = f"t{i}"
+        tests.append(
+            {"test_id": tid, "kind": "sinkage", "soil": "s", "shape": "circle", "radius_m": 0.05}
+        )
+        z = np.linspace(0.0005, 0.03, 60)
+        p = k * z ** (1.0 + 0.05 * rng.standard_normal()) * (1 + 0.002 * rng.standard_normal(60))
+        rows += [
+            {"test_id": tid, "z_m": a, "force_N": b * np.pi * 0.05**2}
+            for a, b in zip(z, p, strict=True)
+        ]
+    campaign = Campaign.from_frames(pd.DataFrame(tests), pd.DataFrame(rows))
+    _, fit = pooled_problem(campaign, "bernstein")
+    assert not [f for f in fit.flags if f.code == "aggregation-bias"]
