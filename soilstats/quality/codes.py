@@ -269,8 +269,8 @@ CODES: dict[str, QualityCode] = {
             "the soils; in a series whose own trend has that sign (one-sided p at most 0.1, so "
             "at least 4 tests) and a Theil-Sen drift of at least 1 % of its median peak force "
             "across it, its slope at least 3 standard errors (from the start forces' robust "
-            "scatter around the trend). Flagged: the tests whose drift since the series' first test reaches "
-            "that 1 %.",
+            "scatter around the trend). Flagged: the tests whose drift since the series' "
+            "first test reaches that 1 %.",
             "A load cell whose zero drifts over a test day adds a constant force to each "
             "record that grows with test order. It fits silently (the offset bends n and k) "
             "and makes test order (repetition) look like a cause of the soil's behaviour.",
