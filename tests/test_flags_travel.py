@@ -57,3 +57,40 @@ def test_a_pooled_fit_inside_the_tests_range_carries_none():
     campaign = Campaign.from_frames(pd.DataFrame(tests), pd.DataFrame(rows))
     _, fit = pooled_problem(campaign, "bernstein")
     assert not [f for f in fit.flags if f.code == "aggregation-bias"]
+
+
+def test_the_rezeroing_message_quotes_the_test_level_sigma_without_the_bootstrap():
+    """Every test of a soil zeroed 2 mm above the surface: screening re-zeroes them, the fit
+    moves far from the one on z as logged, and the flag quotes the move of n in test-level σ
+    (the tests' own n) even where the fit has no test bootstrap, as a posterior's start."""
+    from soilstats import fit_sinkage
+    from soilstats.campaign.schema import DERIVED_COLUMNS
+    from soilstats.simulation import simulate
+
+    toe = 2e-3
+    spec = {
+        "name": "toe",
+        "scatter": {"stiffness_cv": 0.1, "n_sd": 0.03},
+        "noise": {"force_N": 0.2, "force_offset_N": 0.2},
+        "soils": {"loam": {"kc": 1.0e4, "kphi": 2.0e6, "n": 1.1}},
+        "series": [
+            {
+                "name": "plates",
+                "kind": "sinkage",
+                "soils": ["loam"],
+                "plates": [{"shape": "circle", "radius_m": r} for r in (0.025, 0.05, 0.075)],
+                "repetitions": 6,
+                "points": 150,
+                "sinkage_m": 0.03,
+                "start_m": -5e-4 - toe,
+            }
+        ],
+    }
+    sim = simulate(spec, seed=3).campaign
+    tests = sim.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
+    sink = sim.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
+    sink = sink.reset_index(drop=True).assign(z_m=lambda t: t["z_m"] + toe)
+    fit = fit_sinkage(Campaign.from_frames(tests, sink), "bernstein", test_resamples=0)
+    flags = [f for f in fit.flags if f.code == "rezero-sensitive"]
+    assert len(flags) == 1
+    assert "Eq. 4 σ" in flags[0].message and "test-level σ (σ = " in flags[0].message
