@@ -94,3 +94,29 @@ def test_the_rezeroing_message_quotes_the_test_level_sigma_without_the_bootstrap
     flags = [f for f in fit.flags if f.code == "rezero-sensitive"]
     assert len(flags) == 1
     assert "Eq. 4 σ" in flags[0].message and "test-level σ (σ = " in flags[0].message
+
+
+def test_a_plate_size_run_in_time_blocks_is_confounded_with_test_order():
+    """Plate size changed only between blocks of the sequence: discover must say its effect
+    cannot be told apart from test order; interleaved, it says nothing of the kind."""
+    from soilstats.discovery.candidates import enumerate_candidates, relation_text, relations
+
+    def table(b_values):
+        return pd.DataFrame(
+            {
+                "test_id": [f"t{i}" for i in range(12)],
+                "soil": "s",
+                "sequence": np.arange(1, 13),
+                "b_m": b_values,
+                "n": np.linspace(0.8, 1.0, 12),
+            }
+        )
+
+    blocked = table(np.repeat([0.025, 0.05, 0.075], 4))
+    cands, _ = enumerate_candidates(blocked, "sinkage")
+    found = [r for r in relations(blocked, cands) if r.kind == "time-blocks"]
+    assert [(r.finer, r.coarser) for r in found] == [("b_m", "sequence")]
+    assert "cannot be told apart from test order" in relation_text(found[0], blocked)
+    mixed = table(np.tile([0.025, 0.05, 0.075], 4))
+    cands, _ = enumerate_candidates(mixed, "sinkage")
+    assert not [r for r in relations(mixed, cands) if r.kind == "time-blocks"]
