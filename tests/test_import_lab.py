@@ -287,3 +287,21 @@ def test_header_patterns_need_per_test_files_and_must_match(tmp_path):
         CampaignError, match=r"A01\.csv.*sinkage\.header\.operator.*matches nothing"
     ):
         import_campaign(mapping)
+
+
+def test_the_test_id_can_come_from_a_header_line(tmp_path):
+    records = _export(tmp_path)
+    for path in records.iterdir():  # the id in the preamble, the file named otherwise
+        text = path.read_text().replace("Bevameter logger v2 export", f"Test: lab-{path.stem}")
+        (records / f"export_{path.stem}.csv").write_text(text)
+        path.unlink()
+    mapping = _mapping(tmp_path)
+    mapping.write_text(
+        mapping.read_text().replace(
+            "[sinkage.header]\n", '[sinkage.header]\ntest_id = "Test: *(\\\\S+)"\n'
+        )
+    )
+    campaign = import_campaign(mapping)
+    assert sorted(campaign.tests["test_id"]) == sorted(f"lab-{t}" for t in PLATES_MM)
+    radius = campaign.tests.set_index("test_id").loc["lab-B07", "radius_m"]
+    assert radius == pytest.approx(0.1)
