@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from .. import evidence
 from ..outputs.files import output_path
 from .document import Document, strong
 from .front import data_origin, front_page
@@ -204,8 +205,8 @@ def _p(disc, cause) -> str:
 
 
 def _real(gain) -> str:
-    z = gain.difference / gain.stderr if gain.stderr > 0 else np.inf
-    return f"{z:.1f} standard errors, " + ("real" if gain.real else "not beyond 2 SE")
+    """The gain in the one vocabulary of evidence (soilstats.evidence): word, d ± SE, z."""
+    return evidence.describe(gain.difference, gain.stderr, gain.relative, unit="mm", scale=1e3)
 
 
 def _beta_sentence(res) -> str:

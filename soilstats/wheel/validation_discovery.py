@@ -10,6 +10,7 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
+from .. import evidence
 from .discovery import READINGS
 from .slipsinkage import SlipExponent, fit_slip_exponent
 from .validation_predict import _subset, predict_runs
@@ -170,7 +171,7 @@ def _gain(rows: pd.DataFrame, scheme: str):
         relative=float(relative),
         difference=mean,
         stderr=stderr,
-        real=bool(mean > 2 * stderr and relative > 0),
+        real=evidence.is_real(mean, stderr, relative),
     )
 
 
