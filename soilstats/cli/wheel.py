@@ -254,7 +254,9 @@ def run(args: argparse.Namespace) -> int:
         extension=not args.no_extension,
         caveats=[*(read_caveats(toml) if tables else []), *pooled],
     )
-    document = result.to_dict() | {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
+    defaults = _defaults(args, tables, overrides, wheels)
+    document = {"defaults": defaults} | result.to_dict()
+    document |= {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
     calibration = None
     if args.calibrate:
         part, calibration = wheel_modes.calibrate(
@@ -281,6 +283,7 @@ def run(args: argparse.Namespace) -> int:
             provenance=provenance,
             overwrite=args.overwrite,
             calibration=calibration,
+            defaults=defaults,
         )
         if calibration is not None:
             calibration.calibration.to_netcdf(
@@ -295,6 +298,27 @@ def run(args: argparse.Namespace) -> int:
         if calibration is not None:
             print("\n" + calibration.summary())
     return 0
+
+
+def _defaults(
+    args: argparse.Namespace, tables: dict, overrides: dict, wheels: dict
+) -> dict[str, str]:
+    """The analysis options left at their defaults, and every wheel geometry the user did not
+    give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
+    depends on it), for the JSON's ``"defaults"`` and page 1."""
+    from .common import defaults_not_given
+
+    out = defaults_not_given(args)
+    for name, wheel in sorted(wheels.items()):
+        given = {**tables.get(name, {}), **overrides.get("*", {}), **overrides.get(name, {})}
+        if "shear_radius_m" not in given:
+            out[f"{name}: shear_radius_m"] = (
+                f"{wheel.radius_m:g} (= radius_m: no grousers assumed; give --shear-radius "
+                f"{name}=RS for a grousered wheel)"
+            )
+        if "grouser_area_ratio" not in given:
+            out[f"{name}: grouser_area_ratio"] = "1"
+    return out
 
 
 def _predict(args: argparse.Namespace, priors: dict, overrides: dict) -> int:

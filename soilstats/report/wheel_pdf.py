@@ -290,6 +290,7 @@ def write_report(
     provenance: Provenance | None = None,
     overwrite: bool = False,
     calibration: CalibrationReport | None = None,
+    defaults: dict[str, str] | None = None,
 ) -> int:
     """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages.
 
@@ -323,6 +324,7 @@ def write_report(
         ],
         conclusion=_conclusion(res)
         + (calibration_conclusion(calibration) if calibration is not None else []),
+        defaults=defaults,
     )
     fig, caption = predicted_figure(res)
     doc.figure(fig, caption, width="94%")
