@@ -309,6 +309,10 @@ def _defaults(
     from .common import defaults_not_given
 
     out = defaults_not_given(args)
+    unused = set(wheel_modes.PREDICT_OPTIONS) if not args.predict else set()
+    if not args.calibrate:
+        unused |= set(wheel_modes.CALIBRATE_OPTIONS)
+    out = {k: v for k, v in out.items() if k not in unused}
     for name, wheel in sorted(wheels.items()):
         given = {**tables.get(name, {}), **overrides.get("*", {}), **overrides.get(name, {})}
         if "shear_radius_m" not in given:

@@ -27,6 +27,16 @@ if TYPE_CHECKING:
     from ..wheel.soil import PlateDraws
 
 CALIBRATION_FILE = "wheel_calibration.nc"
+#: Options of one mode only (left out of another mode's "defaults").
+PREDICT_OPTIONS = (
+    "--load",
+    "--slips",
+    "--slip-angle",
+    "--pull",
+    "--wheel-type",
+    "--discrepancy-prior",
+)
+CALIBRATE_OPTIONS = ("--scope", "--calibration-draws", "--fold-draws")
 PREDICT_OUTPUTS = ("wheel.json", "wheel.pdf", "wheel_draws.nc", "wheel_draws.csv")
 
 
