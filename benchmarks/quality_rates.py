@@ -13,9 +13,15 @@ the tests, and screened with the default rules.
 * **seating toe**: every test of a soil zeroed a given distance above the surface (the
   free travel sampled at the force's noise floor): the share of tests re-zeroed, and the
   share of soils whose tests were all treated alike (all re-zeroed or none).
+* **false flags per design cell** (``--cells``): clean campaigns over the simulator's stated
+  range — n 0.3-1.8 (60 kPa at 30 mm), plates r 25/50/75 mm, 15/50/300 samples, quiet
+  (0.2 N) or noisy (3 N + 2 % + 1 N offset) force, depth 20/50 mm, the record starting
+  0.5 mm above the surface or at it — every flag of any code counted, per cell of plate
+  size x sample count x noise x n (#46: no cell above 0.5 %).
 
     python benchmarks/quality_rates.py            # ~1-2 minutes on 2 cores
     python benchmarks/quality_rates.py --seeds 2  # quicker
+    python benchmarks/quality_rates.py --cells    # the per-cell false flags only (~1 min)
 
 One run on this machine; the numbers are what it printed, not a unit test.
 """
@@ -54,8 +60,19 @@ PLANTED = {
         "burst",
         {"channel": "force_N", "length": [2, 3], "cluster": True, "size": 0.3},
     ),
+    "glitch cluster (z, 5-60 samples, 3-15x)": ("glitch-cluster", {"channel": "z_m"}),
+    "glitch cluster (force, 5-60 samples, 3-15x)": ("glitch-cluster", {"channel": "force_N"}),
 }
-CLEAN_CODES = ("release", "hold", "unload-reload", "step", "burst", "pre-contact")
+CLEAN_CODES = (
+    "release",
+    "hold",
+    "unload-reload",
+    "step",
+    "burst",
+    "glitch-cluster",
+    "pre-contact",
+    "bearing-failure",
+)
 
 
 def spec(design: dict, artefacts: list[dict] | None = None, start_m: float = -5e-4) -> dict:
@@ -167,6 +184,75 @@ def toe_rates(seeds: int) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+CELL_NS = (0.3, 0.6, 1.0, 1.4, 1.8)
+CELL_NOISE = {
+    "quiet": {"force_N": 0.2, "force_offset_N": 0.3},
+    "noisy": {"force_N": 3.0, "force_rel": 0.02, "force_offset_N": 1.0},
+}
+
+
+def cell_spec(points: int, noise: str, depth: float, start_m: float, repetitions: int) -> dict:
+    """One clean campaign holding every n x plate cell of one sample count and noise."""
+    return {
+        "name": "cells",
+        "scatter": {"stiffness_cv": 0.12, "n_sd": 0.04},
+        "noise": CELL_NOISE[noise],
+        "soils": {f"n{n}": {"kc": 0.0, "kphi": 6.0e4 / 0.03**n, "n": n} for n in CELL_NS},
+        "series": [
+            {
+                "name": "cells",
+                "kind": "sinkage",
+                "soils": [f"n{n}" for n in CELL_NS],
+                "plates": [{"shape": "circle", "radius_m": r} for r in (0.025, 0.05, 0.075)],
+                "repetitions": repetitions,
+                "points": points,
+                "sinkage_m": depth,
+                "start_m": start_m,
+            }
+        ],
+    }
+
+
+def cell_rates(seeds: int, repetitions: int = 25) -> pd.DataFrame:
+    """Every clean test's flags, one row per test, with its design cell."""
+    rows = []
+    jobs = list(itertools.product((15, 50, 300), CELL_NOISE, range(seeds)))
+    for points, noise, seed in tqdm(jobs, desc="clean cells", unit="campaign"):
+        depth = (0.02, 0.05)[seed % 2]
+        start = (-5e-4, 0.0)[(seed // 2) % 2]
+        sim = simulate(cell_spec(points, noise, depth, start, repetitions), seed=3000 + seed)
+        codes: dict[str, set] = {}
+        for f in screen(sim.campaign).flags:
+            codes.setdefault(f.test_id, set()).add(f.code)
+        for t in sim.campaign.tests.itertuples():
+            rows.append(
+                {
+                    "points": points,
+                    "noise": noise,
+                    "n": t.soil,
+                    "r_mm": round(t.radius_m * 1e3),
+                    "codes": ",".join(sorted(codes.get(t.test_id, ()))),
+                }
+            )
+    out = pd.DataFrame(rows)
+    out["flagged"] = out["codes"] != ""
+    return out
+
+
+def print_cells(seeds: int) -> None:
+    cells = cell_rates(seeds)
+    per = cells.groupby(["r_mm", "points", "noise", "n"])["flagged"].agg(["size", "sum"])
+    per["rate"] = per["sum"] / per["size"]
+    print(
+        f"\nClean designs: {len(cells)} tests in {len(per)} cells "
+        f"({int(per['size'].min())}-{int(per['size'].max())} tests each); "
+        f"flagged {int(cells['flagged'].sum())}; worst cell {per['rate'].max():.2%}"
+    )
+    if cells["flagged"].any():
+        print(cells.loc[cells["flagged"], "codes"].value_counts().to_string())
+        print(per[per["sum"] > 0].to_string())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3, help="campaigns per design (3)")
@@ -175,9 +261,14 @@ def main() -> None:
         action="store_true",
         help="tiny sizes, seconds: that it runs (tests/test_benchmarks.py)",
     )
+    parser.add_argument("--cells", action="store_true", help="only the per-cell false flags")
+    parser.add_argument("--cell-seeds", type=int, default=8, help="campaigns per cell design (8)")
     args = parser.parse_args()
     if args.smoke:
         args.seeds = 1
+    if args.cells:
+        print_cells(1 if args.smoke else args.cell_seeds)
+        return
     planted = planted_rates(args.seeds)
     table = planted.groupby("situation", sort=False)[
         ["events", "found", "other_tests", "false_flags"]
@@ -203,6 +294,7 @@ def main() -> None:
     summary["soils all alike"] = (summary["soils_alike"] / summary["soils"]).map("{:.1%}".format)
     print("\nSeating toe in every test of a soil (depth 25/50 mm):")
     print(summary[["tests", "re-zeroed", "soils all alike"]].to_string())
+    print_cells(args.cell_seeds)
 
 
 if __name__ == "__main__":

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-__all__ = ["plural", "shown"]
+import re
+
+__all__ = ["natural_key", "plural", "shown"]
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:
@@ -22,3 +24,19 @@ def shown(value: object, width: int = 60) -> str:
     if len(text) <= width:
         return text
     return f"{text[: width - 1]}…' ({len(str(value))} characters)"
+
+
+def natural_key(value: object) -> tuple:
+    """Sort key that orders numbers by value and text by its digit runs as numbers."""
+    if isinstance(value, int | float):  # bool included
+        return (0, float(value), "")
+    text = str(value)
+    try:
+        return (0, float(text), "")
+    except ValueError:
+        parts = re.split(r"(\d+(?:\.\d+)?)", text)
+        return (
+            1,
+            0.0,
+            tuple((0, float(p), "") if i % 2 else (1, 0.0, p) for i, p in enumerate(parts)),
+        )

@@ -292,7 +292,7 @@ def combined_beats_each(result, causes) -> bool:
     for m in result.models:
         if set(causes) <= set(m.causes) and m.gain is not None:
             alone = [f.gain.relative for f in result.findings if f.gain is not None]
-            return m.gain.real and all(m.gain.relative > g for g in alone)
+            return m.gain.kept and all(m.gain.relative > g for g in alone)
     return False
 
 
@@ -328,7 +328,7 @@ SITUATIONS = {
             lambda r: (
                 {"velocity_m_s", "bin"} <= _names(r)
                 and len(r.model()["extensions"]) == 2
-                and r.model()["gain"]["real"]
+                and r.model()["gain"]["kept"]
             ),
             True,
         ),

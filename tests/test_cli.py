@@ -400,3 +400,27 @@ def test_soilstats_warnings_reach_the_user_as_one_plain_line(tmp_path):
     lines = [ln for ln in done.stderr.splitlines() if "differ only in case" in ln]
     assert len(lines) == 1 and lines[0].startswith("warning: file 'tests.csv', column 'soil'")
     assert "common.py" not in done.stderr and "SoilstatsWarning" not in done.stderr
+
+
+def test_help_texts_are_written_for_users_not_developers(capsys):
+    """Every subcommand's --help (issue #47 item 5): no Sphinx roles, no reST literals."""
+    for name in SUBCOMMANDS:
+        assert main([name, "--help"]) == 0
+        text = capsys.readouterr().out
+        leaks = re.findall(r":(?:func|mod|class|data|meth|attr):|``|~soilstats", text)
+        assert not leaks, (name, leaks)
+
+
+def test_defaults_the_user_did_not_give_are_in_the_json_and_on_page_one(tmp_path):
+    """Issue #47 item 3: what the result rests on without the user having said so."""
+    from pypdf import PdfReader
+
+    argv = ["identify", "--data", "cullinan-sand", "--model", "bernstein", "--by=preparation"]
+    assert main([*argv, "--out", str(tmp_path), "--progress", "off"]) == 0
+    defaults = json.loads((tmp_path / "identify.json").read_text())["defaults"]
+    # given (either spelling) -> not a default; left out -> its parser default, as text
+    assert "--model" not in defaults and "--by" not in defaults
+    assert defaults["--points-per-test"] == "100" and defaults["--test-resamples"] == "200"
+    assert defaults["--seed"] == "0" and "--out" not in defaults and "--progress" not in defaults
+    page = re.sub(r"\s+", "", PdfReader(tmp_path / "identify.pdf").pages[0].extract_text())
+    assert "Settingsleftattheirdefaults" in page and "--points-per-test100" in page

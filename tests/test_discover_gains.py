@@ -43,7 +43,7 @@ def test_a_level_effect_is_kept_with_the_cause_fixed_and_the_search_reported():
     result = discover(simulate(SINGLE_LEVEL, seed=0).campaign, seed=0)
     assert kept(result, "bin"), result.summary()
     finding = next(f for f in result.findings if f.cause == "bin")
-    assert finding.gain.selected_folds is None and finding.gain.real
+    assert finding.gain.selected_folds is None and finding.gain.kept
     assert finding.gain_search is not None and 0 <= finding.gain_search.selected_folds <= 5
     doc = finding.to_dict()
     assert doc["gain"]["z"] == pytest.approx(finding.gain.z)
@@ -233,7 +233,7 @@ def test_a_drift_inside_one_plate_block_is_named_and_extended():
     result = discover(simulate(BLOCK_DRIFT, seed=7).campaign, seed=0)
     finding = next(f for f in result.findings if f.cause.startswith("repetition within"))
     assert finding.extension == f"{finding.cause} (linear per block)"
-    assert finding.gain.real and finding.gain.relative > 0.1
+    assert finding.gain.kept and finding.gain.relative > 0.1
     row = result.tests[(result.tests["candidate"] == finding.cause)].iloc[0]
     assert row["deviating"].endswith("0.004418")  # the middle plate, 37.5 mm: area 4.4e-3 m²
     fitted = dict(zip(finding.fit.param_names, finding.fit.values, strict=True))

@@ -63,7 +63,10 @@ def test_every_public_name_resolves_and_is_listed():
 
 
 def test_only_the_report_package_renders():
-    """Figures and PDFs have one home: no analysis module imports a plotting library."""
+    """Figures and PDFs have one home: no analysis module imports a plotting library.
+
+    One known departure (docs/conventions.md): a fit's ``plot_fit``/``plot_residuals``, the
+    lmfit-level API of issue #47, import matplotlib inside those methods (never at import)."""
     import ast
     from pathlib import Path
 
@@ -72,7 +75,15 @@ def test_only_the_report_package_renders():
     for path in package.rglob("*.py"):
         if path.relative_to(package).parts[0] == "report":
             continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        allowed = set()
+        if path.relative_to(package).as_posix() == "fitting/result.py":
+            for fn in ast.walk(tree):
+                if isinstance(fn, ast.FunctionDef) and fn.name in ("plot_fit", "plot_residuals"):
+                    allowed |= {id(n) for n in ast.walk(fn)}
+        for node in ast.walk(tree):
+            if id(node) in allowed:
+                continue
             names = []
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]

@@ -203,7 +203,7 @@ def test_laplace_finds_the_mode_and_covariance_of_a_known_gaussian():
     # log-density, from a start far off in the scaled coordinates (the gradient search); and
     # from a start just outside a support where the density is -inf (the gradient search
     # stops there at once: the derivative-free fallback).
-    from soilstats.bayes.population import _laplace
+    from soilstats.bayes.population import laplace_mode
 
     mean = np.array([1.0e6, -3.0, 0.5, 2.0])
     sd = np.array([1.0e4, 0.2, 0.05, 0.3])
@@ -222,6 +222,6 @@ def test_laplace_finds_the_mode_and_covariance_of_a_known_gaussian():
         return np.where(np.atleast_2d(theta)[:, 0] < 5.0e5, -np.inf, lp)
 
     for density, start in ((log_prob, mean + 3 * sd), (bounded, np.array([4.9e5, 0, 1, 1]))):
-        mode, got = _laplace(density, start, n_mu=2)
+        mode, got = laplace_mode(density, start, n_mu=2)
         np.testing.assert_allclose(mode, mean, atol=1e-4 * sd.max(), rtol=1e-6)
         np.testing.assert_allclose(got, cov, rtol=2e-3, atol=1e-9 * sd.max() ** 2)

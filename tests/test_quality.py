@@ -166,7 +166,15 @@ def test_real_campaigns_grc1_load_capped_and_small_plates_fail_cullinan_phases_n
         ("method4-test1", "hold"),
         ("method3-test1", "hold"),
         ("method3-test1", "step"),
+        # #46: method2-test4 starts at 1,054 N at z = 3.4 mm (its first 3.4 mm missing);
+        # method1-test1 and -test3 have 5.5 mm with no samples (113-142x their step).
+        ("method2-test4", "starts-loaded"),
+        ("method1-test1", "gap"),
+        ("method1-test3", "gap"),
     }
+    starts = next(f for f in cullinan.flags if f.code == "starts-loaded")
+    assert 3.3e-3 < starts.value < 3.5e-3
+    assert all(5.4e-3 < f.value < 5.6e-3 for f in cullinan.flags if f.code == "gap")
 
 
 def test_spike_rule_ignores_steps_ramps_and_noise_but_finds_a_lone_sample():

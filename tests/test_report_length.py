@@ -10,6 +10,7 @@ import json
 import re
 
 import pytest
+from pdf_text import small_and_overlapping
 from pypdf import PdfReader
 
 from soilstats.cli.main import main
@@ -33,6 +34,7 @@ def test_identify_report_fits_in_eight_pages_with_a_figure_per_soil(campaign, tm
     _run(["identify", "--data", campaign], tmp_path)
     reader = PdfReader(tmp_path / "identify.pdf")
     assert len(reader.pages) <= IDENTIFY_MAX_PAGES, len(reader.pages)
+    assert small_and_overlapping(tmp_path / "identify.pdf") == []  # issue #47
     soils = {fit["soil"] for fit in json.loads((tmp_path / "identify.json").read_text())["fits"]}
     text = re.sub(r"\s+", "", "".join(page.extract_text() for page in reader.pages))
     captions = [f"Figure{k}:" for k in range(1, len(soils) + 1)]
@@ -67,6 +69,7 @@ def test_discover_report_fits_in_twelve_pages_with_its_findings_drawn(campaign, 
     _run(["discover", "--data", campaign], tmp_path)
     reader = PdfReader(tmp_path / "discover.pdf")
     assert len(reader.pages) <= DISCOVER_MAX_PAGES, len(reader.pages)
+    assert small_and_overlapping(tmp_path / "discover.pdf") == []  # issue #47
     findings = json.loads((tmp_path / "discover.json").read_text())["findings"]
     text = re.sub(r"\s+", "", "".join(page.extract_text() for page in reader.pages))
     figures = -(-len(findings) // 8)

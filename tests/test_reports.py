@@ -249,3 +249,23 @@ def test_reports_are_byte_identical_between_runs(tmp_path, monkeypatch):
         assert main(["discover", "--data", "cullinan-sand", "--out", "rep"]) == 0
         paths.append(tmp_path / run / "rep" / "discover.pdf")
     assert paths[0].read_bytes() == paths[1].read_bytes()
+
+
+def test_no_text_below_8_pt_and_no_overlapping_text(reports):
+    """Issue #47 item 5: every report's PDF read by its text boxes — none below 8 pt, none
+    overlapping another (tests/pdf_text.py)."""
+    from pdf_text import small_and_overlapping
+
+    for name, (pdf, _) in reports.items():
+        assert small_and_overlapping(pdf) == [], name
+
+
+def test_a_studys_methods_describe_the_campaign_before_the_papers_design(reports):
+    """Issue #47 item 5: the Cullinan preparation study has 13 tests of 5 methods, not the
+    paper's thirteen methods; the Methods say the campaign's design first, from its tests."""
+    pdf, _ = reports["study"]
+    text = pdf_text(pdf)
+    methods = text[text.index("4Methods") + 1 :]
+    assert methods.startswith("MethodsThiscampaign:13testsofcullinan-sandanalysed"), methods[:80]
+    assert "preparation:1(6tests),2(4tests),3(1test),4(1test),5(1test)" in methods
+    assert methods.index("Thiscampaign") < methods.index("Thepaper'sdesign,forcomparison")

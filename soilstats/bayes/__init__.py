@@ -27,8 +27,8 @@ from .._lazy import lazy_names
 _NAMES = {
     "SCM_DEFAULTS": ".export",
     "SIMULATOR_FORMATS": ".export",
-    "simulator_parameters": ".export",
-    "simulator_record": ".export",
+    "simulator_parameters": ".simulator_api",
+    "simulator_record": ".simulator_api",
     "joint_draws": ".joint",
     "sample_population": ".population",
     "sample_posterior": ".posterior",

@@ -61,7 +61,7 @@ def pooled_problem(
             plate_sizes=np.unique(pooled.x["b_m"]),
             inputs={k: np.asarray(v, float) for k, v in pooled.x.items()},
         )
-        return problem, fit
+        return problem, _with_aggregation_bias(fit, problem)
     if spec.kind == "shear":
         fit = fit_shear(campaign, spec, test_resamples=0, **selection)
         pooled = pool_shear(
@@ -83,8 +83,22 @@ def pooled_problem(
             priors=resolve_priors(spec, spec.param_names, priors),
             inputs={k: np.asarray(v, float) for k, v in pooled.x.items()},
         )
-        return problem, fit
+        return problem, _with_aggregation_bias(fit, problem)
     raise ModelError(
         f"no posterior for model {spec.name!r} (a {spec.kind or 'non-soil'} model); choose "
         f"one of {model_names('sinkage') + model_names('shear')}"
     )
+
+
+def _with_aggregation_bias(fit: FitResult, problem: PooledProblem) -> FitResult:
+    """``fit`` with an ``aggregation-bias`` flag where its pooled n lies outside the range
+    of every test's own n (:func:`~soilstats.identification.adequacy.outside_own_range`):
+    the posterior starts from it and reports its flags (``least_squares_health``), which
+    its fit without the test bootstrap would not raise."""
+    from ..identification.adequacy import outside_own_range, test_forms
+
+    if "n" not in fit.params.index or any(f.code == "aggregation-bias" for f in fit.flags):
+        return fit
+    forms = test_forms(problem.inputs["z_m"], problem.y, problem.test_index)
+    flag = outside_own_range(forms.n, float(fit.params["n"]))
+    return fit if flag is None else fit.annotated(flags=[flag])

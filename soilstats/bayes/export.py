@@ -36,12 +36,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError, SoilstatsError, warn_renamed
+from .stated_priors import stated_priors_of
 from .support import SupportCheck, negative_modulus_width
 
 __all__ = [
@@ -56,8 +57,6 @@ __all__ = [
     "export_simulator",
     "missing_message",
     "scm_plan",
-    "simulator_parameters",
-    "simulator_record",
     "stated_inputs",
 ]
 
@@ -521,11 +520,12 @@ def export_simulator(
     *,
     elastic_K: float | None = None,
     damping_R: float | None = None,
-    priors: Mapping[str, tuple] | None = None,
+    priors: Mapping[str, tuple | str] | Iterable[str] | None = None,
     seed: int | None = None,
     repair: float | None = None,
     draws_source: str | Mapping[str, str] = "posterior draws",
     plate_widths: tuple[float, float] | None = None,
+    on_failure: str = "raise",
 ) -> SimulatorExport:
     """The draws as a simulator's parameter sets, with their sources and SCM's check.
 
@@ -537,10 +537,12 @@ def export_simulator(
     elastic_K, damping_R : float, optional
         SCM's elastic stiffness [Pa/m] (> 0) and damping [Pa s/m] (>= 0); default
         :data:`SCM_DEFAULTS`.
-    priors : mapping, optional
+    priors : mapping or sequence of str, optional
         User priors for the parameters the draws lack, as :mod:`soilstats.bayes.stated_priors`
         tuples (``{"c": ("uniform", 0, 2000), "phi": ("normal", 30, 3), "K": ("lognormal",
-        0.02, 0.5)}``; c Pa, φ deg, K m). A prior for a parameter the draws hold is an error.
+        0.02, 0.5)}``; c Pa, φ deg, K m), as the CLI's text forms (``{"c": "uniform:0:2000"}``)
+        or as the CLI's ``--prior`` strings (``["c=uniform:0:2000", "phi=normal:30:3"]``).
+        A prior for a parameter the draws hold is an error.
     seed : int, optional
         Seed of the prior draws (required with ``priors``); give one independent of the
         posterior's.
@@ -551,22 +553,31 @@ def export_simulator(
         How the draws' columns are described in ``sources`` (per parameter if a mapping).
     plate_widths : (b_min, b_max), optional
         The plate sizes [m] the sinkage draws were measured on (named in the Bernstein note).
+    on_failure : {"raise", "return"}
+        Rows that break SCM's constraints (sets Chrono would silently change) raise
+        :class:`SimulatorConstraintError` naming each failure and its fix, as
+        ``soilstats posterior --simulator`` refuses them (the default); ``"return"`` returns
+        the export with its failed ``check`` for the caller to inspect.
 
     Raises
     ------
+    SimulatorConstraintError
+        With ``on_failure="raise"``: a row breaks SCM's constraints (see ``repair``).
     ValueError
         A parameter SCM needs is neither in the draws nor given a prior; a prior for a
         parameter the draws hold; bad stated inputs or prior draws outside the support.
     """
     from .stated_priors import sample_priors
 
+    if on_failure not in ("raise", "return"):
+        raise InputError(f"on_failure must be 'raise' or 'return', got {on_failure!r}")
     try:
         spec = SIMULATOR_FORMATS[simulator]
     except KeyError:
         raise InputError(
             f"unknown simulator {simulator!r}; choose one of {sorted(SIMULATOR_FORMATS)}"
         ) from None
-    priors = dict(priors or {})
+    priors = stated_priors_of(priors)
     plan = scm_plan(draws.columns, priors)
     missing = [k for k, v in plan.items() if v == "missing"]
     if missing:
@@ -597,7 +608,24 @@ def export_simulator(
         )
     width = negative_modulus_width(draws) if plan["kc"] == "draws" else None
     notes = _notes(table, draws, plan, priors, width, seed, plate_widths)
+    if on_failure == "raise" and not check.passed:
+        raise SimulatorConstraintError("; ".join(constraint_failures(simulator, check)), check)
     return SimulatorExport(simulator, table, sources, stated, check, notes, width)
+
+
+def constraint_failures(simulator: str, check: ConstraintCheck) -> list[str]:
+    """The failed constraints, each with its fix (a larger elastic_K or a repair multiple):
+    the words of the CLI's refusal and of :class:`SimulatorConstraintError`."""
+    fix = (
+        f". Fix: state --scm-elastic-K (elastic_K=) above {check.largest_kphi:.3g} Pa/m (the "
+        "largest Bekker_Kphi; best a measured unloading stiffness), or pass --scm-repair "
+        "MULTIPLE (repair=) to set elastic_K = MULTIPLE x Bekker_Kphi in each such set (marked "
+        "per row)"
+    )
+    return [
+        f"{simulator}: {failure}{fix if REPAIRABLE in failure else ''}"
+        for failure in check.failures
+    ]
 
 
 def missing_message(simulator: str, missing: Iterable[str], available: Iterable[str]) -> str:
@@ -617,37 +645,3 @@ def missing_message(simulator: str, missing: Iterable[str], available: Iterable[
         f"{simulator} needs {named}, which the draws ({', '.join(available) or 'none'}) lack "
         f"and no prior gives: {fix}"
     )
-
-
-def simulator_parameters(
-    draws: pd.DataFrame,
-    simulator: str = "chrono-scm",
-    **options: Any,  # export_simulator's keywords, each of its own type
-) -> pd.DataFrame:
-    """Joint draws as a simulator's parameter table (:func:`export_simulator`'s ``table``;
-    ``options`` are its keywords: elastic_K, damping_R, priors, seed, repair, ...).
-
-    Raises :class:`SimulatorConstraintError` when a row breaks SCM's constraints (a table
-    Chrono would silently change is never returned); ``repair`` repairs elastic_K.
-    """
-    export = export_simulator(draws, simulator, **options)
-    if not export.check.passed:
-        raise SimulatorConstraintError("; ".join(export.check.failures), export.check)
-    return export.table
-
-
-def simulator_record(
-    draws: pd.DataFrame,
-    simulator: str = "chrono-scm",
-    *,
-    support: SupportCheck | None = None,
-    context: dict | None = None,
-    **options: Any,  # export_simulator's keywords, each of its own type
-) -> dict:
-    """The JSON record beside a simulator's CSV (:meth:`SimulatorExport.record`).
-
-    ``support``: the :class:`~soilstats.bayes.support.SupportCheck` of the draws; ``context``:
-    seed, soil, selection, version and any other facts of the run, copied in; ``options``:
-    the keywords of :func:`export_simulator`.
-    """
-    return export_simulator(draws, simulator, **options).record(support, context)

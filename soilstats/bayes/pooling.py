@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
+from .._text import natural_key  # levels in natural order: 1, 2, 10 (not 1, 10, 2)
 from ..identification.conditions import DEFAULT_CONDITION_COLUMNS
 from ..models import get_model
 
@@ -54,7 +55,7 @@ def pooling_warnings(campaign: Campaign, soil: str, models: Iterable[str]) -> li
                 continue
             values = chosen[column].dropna().unique()
             if len(values) > 1:
-                shown = ", ".join(str(v) for v in sorted(values, key=str)[:6])
+                shown = ", ".join(str(v) for v in sorted(values, key=natural_key)[:6])
                 out.append(
                     f"the {kind} posterior pools {len(values)} values of {column} ({shown}): "
                     "its draws describe the mixture, not any one condition; select one with "

@@ -10,7 +10,7 @@ groups and notes of the result.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -68,7 +68,9 @@ __all__ = [
 POPULATION_DRAWS = 12000
 
 
-def _laplace(log_prob, x0: np.ndarray, n_mu: int) -> tuple[np.ndarray, np.ndarray]:
+def laplace_mode(
+    log_prob: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, n_mu: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Mode and inverse negative Hessian (central differences) of ``log_prob``."""
     scale = np.where(np.abs(x0) > 0, np.abs(x0), 1.0)
     scale[n_mu:] = 1.0  # log-sds and atanh-correlations are O(1) already
@@ -220,7 +222,7 @@ def population_setup(
             f" gives a non-positive {layout.per_test[0]} or {layout.per_test[1]} for some test; "
             "the population model cannot start there"
         )
-    centre, cov_v = _laplace(pops.log_prob, x0, pops.p)
+    centre, cov_v = laplace_mode(pops.log_prob, x0, pops.p)
     return PopulationSetup(spec, layout, shear, problem, pooled, lsq, fits, pops, centre, cov_v)
 
 

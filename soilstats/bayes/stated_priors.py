@@ -19,14 +19,14 @@ silently clipped.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 from scipy.stats import truncnorm
 
 from ..errors import InputError
 
-__all__ = ["SUPPORT", "describe_prior", "parse_stated_prior", "sample_priors"]
+__all__ = ["SUPPORT", "describe_prior", "parse_stated_prior", "sample_priors", "stated_priors_of"]
 
 #: Physical support of the parameters: (low, high, whether low itself is allowed).
 SUPPORT: dict[str, tuple[float, float, bool]] = {
@@ -138,3 +138,28 @@ def sample_priors(priors: Mapping[str, tuple], size: int, seed: int) -> dict[str
             )
         out[name] = x
     return out
+
+
+def stated_priors_of(
+    priors: Mapping[str, tuple | str] | Iterable[str] | None,
+) -> dict[str, tuple]:
+    """User priors as :mod:`soilstats.bayes.stated_priors` tuples, from tuples, the CLI's text
+    forms (``{"c": "uniform:0:2000"}``) or its ``--prior`` strings (``["c=uniform:0:2000"]``)."""
+    if priors is None:
+        return {}
+    if isinstance(priors, str):
+        priors = [priors]
+    if not isinstance(priors, Mapping):
+        pairs = {}
+        for item in priors:
+            name, sep, form = str(item).partition("=")
+            if not sep or not name.strip():
+                raise InputError(
+                    f"cannot read the prior {item!r}: write NAME=FORM, e.g. c=uniform:0:2000"
+                )
+            pairs[name.strip()] = form
+        priors = pairs
+    return {
+        name: parse_stated_prior(spec) if isinstance(spec, str) else tuple(spec)
+        for name, spec in priors.items()
+    }

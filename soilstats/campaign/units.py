@@ -191,6 +191,7 @@ class UnitsFinding:
     values: tuple[float, ...]  # the offending size, one per test
     what: str  # the reason and the fix
     fatal: bool  # a length that cannot be right (stops a load), or a warning
+    kind: str = "unit"  # "unit" (a unit slip) or "sign" (a reversed channel)
 
 
 #: The findings of the last few campaigns judged, by the identity of their tables: loading
@@ -230,6 +231,7 @@ def _implausible_units(
         column: str,
         what: str,
         fatal: bool = False,
+        kind: str = "unit",
     ) -> None:
         hits = list(mask[mask].index)
         if hits:
@@ -241,6 +243,7 @@ def _implausible_units(
                     tuple(float(values[t]) for t in hits),
                     what,
                     fatal,
+                    kind,
                 )
             )
 
@@ -281,6 +284,7 @@ def _implausible_units(
             "z_m",
             "a sinkage that falls through the record (the plate rises?): the displacement "
             "sign looks reversed (multiply z_m by -1)",
+            kind="sign",
         )
         soil = tests.set_index("test_id")["soil"] if "soil" in tests.columns else None
         above = _times_soil_median(z_range, soil)
@@ -303,6 +307,7 @@ def _implausible_units(
             "force_N",
             "no positive force where the plate is in contact: the load cell's sign looks "
             "reversed (multiply force_N by -1)",
+            kind="sign",
         )
         add(
             (peak > 0) & (peak < MIN_PEAK_PRESSURE_PA),

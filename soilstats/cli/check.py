@@ -1,4 +1,4 @@
-"""``soilstats check``: screen a campaign's records for data-quality problems (docs/quality.md).
+"""Screen a campaign's records for data-quality problems (codes explained in docs/quality.md).
 
 Every test is run through the screening rules (spikes, implausible units, pre-contact
 segments, a displacement zeroed after contact, load-capped tests, bearing failure, copied
@@ -6,6 +6,8 @@ records, a force zero drifting with test order, non-monotone sinkage, saturation
 lists each finding with its test, code and file rows, what the default cleaning leaves out
 of fits, and the sinkage windows that bearing failure proposes. Units are judged here, not
 at loading, so a campaign in the wrong unit is reported rather than refused.
+
+Example:  soilstats check --data grc1-oravec2009 --out reports/
 """
 
 from __future__ import annotations

@@ -55,6 +55,7 @@ __all__ = [
     "add_common_options",
     "add_data_options",
     "apply_selection",
+    "defaults_not_given",
     "guarded",
     "parse_selection",
     "prepared",
@@ -277,6 +278,47 @@ def prepared(args: argparse.Namespace, *, out: TextIO | None = None) -> tuple[Ca
             file=out or sys.stderr,
         )
     return campaign, provenance
+
+
+#: Options that change what is computed, never listed as defaults: where output goes, how
+#: it is shown, how fast it runs.
+_NOT_ANALYSIS = {
+    "help",
+    "version",
+    "out",
+    "overwrite",
+    "progress",
+    "json",
+    "jobs",
+    "verbose",
+    "select",
+    "data",
+    "campaign",
+    "argv",
+}
+
+
+def defaults_not_given(args: argparse.Namespace) -> dict[str, str]:
+    """``{"--option": "value"}`` for every analysis option the user left at its default
+    (the JSON's ``"defaults"``, page 1 of the report): what the result rests on without the
+    user having said so. Output, display and speed options are left out."""
+    parser = getattr(args, "_parser", None)
+    if parser is None:
+        return {}
+    given = {token.split("=", 1)[0] for token in getattr(args, "argv", []) or []}
+    out: dict[str, str] = {}
+    for action in parser._actions:  # argparse keeps no public list of a parser's options
+        if not action.option_strings or action.dest in _NOT_ANALYSIS:
+            continue
+        if given & set(action.option_strings):
+            continue
+        value = getattr(args, action.dest, None)
+        if value is None or value is False or value == []:
+            continue
+        out[max(action.option_strings, key=len)] = (
+            " ".join(map(str, value)) if isinstance(value, list | tuple) else str(value)
+        )
+    return out
 
 
 def check_out(folder: str | None) -> None:

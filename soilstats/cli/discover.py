@@ -56,12 +56,17 @@ def run(args: argparse.Namespace) -> int:
         from ..report.discovery_pdf import write_report
 
         folder = Path(args.out)
-        document = {k: v for k, v in result.to_dict().items() if k != "provenance"}
+        from .common import defaults_not_given
+
+        defaults = defaults_not_given(args)
+        document = {"defaults": defaults} | {
+            k: v for k, v in result.to_dict().items() if k != "provenance"
+        }
         json_path = write_json(
             folder / "discover.json", document, provenance, overwrite=args.overwrite
         )
         pdf_path = folder / "discover.pdf"
-        write_report(result, pdf_path, overwrite=args.overwrite)
+        write_report(result, pdf_path, overwrite=args.overwrite, defaults=defaults)
         print(f"wrote {json_path} and {pdf_path}", file=sys.stderr)
     print(result.to_json() if args.json else result.summary())
     return 0

@@ -1,14 +1,21 @@
-"""``soilstats identify``: parameters per soil and condition, as the paper's Tables 5 and 6.
+"""Soil parameters per soil and test condition, as the paper's Tables 5 and 6.
 
-The work is :func:`soilstats.identification.conditions.plan_conditions` for each kind, then
-:func:`~soilstats.identification.conditions.fit_planned` for both at once (one queue of
-conditions for ``--jobs``); this module parses options and prints.  Sinkage conditions are
-one test-log column's values (``--by``; default the first of velocity_m_s, preparation that
-varies), shear conditions ``--shear-by`` (default tool, else r_inner_m).  Bekker where a
-condition has two or more plate sizes, Bernstein otherwise (``--model auto``).  A
-campaign's ``series`` are never pooled: each is tabulated on its own; ``--series NAME``
-keeps one.
+Fits the pressure-sinkage law (Bekker where a condition has two or more plate sizes,
+Bernstein otherwise; --model to choose) and the shear law (Janosi-Hanamoto, with
+Mohr-Coulomb) to the pooled tests of each soil and condition, and prints each parameter with
+its standard deviation, the fit quality and any health flag.
+
+A condition is one value of a test-log column: --by for sinkage (default: the first of
+velocity_m_s, preparation that varies), --shear-by for shear (default: tool, else
+r_inner_m). A campaign's series are never pooled: each is tabulated on its own, and
+--series NAME keeps one. --out DIR also writes identify.json, identify.csv and a PDF report.
+
+Example:  soilstats identify --data cullinan-sand --by preparation --out reports/
 """
+
+# Developer note: the work is soilstats.identification.conditions.plan_conditions for each
+# kind, then fit_planned for both at once (one queue of conditions for --jobs); this module
+# parses options and prints.
 
 from __future__ import annotations
 
@@ -178,7 +185,10 @@ def run(args: argparse.Namespace) -> int:
             "no condition could be identified in the selected tests (see the messages above)",
             file=campaign.file_name("tests"),
         )
-    document: dict[str, Any] = {"fits": records}
+    from .common import defaults_not_given
+
+    defaults = defaults_not_given(args)
+    document: dict[str, Any] = {"defaults": defaults, "fits": records}
     if args.out:
         import pandas as pd
 
@@ -194,6 +204,7 @@ def run(args: argparse.Namespace) -> int:
             campaign=campaign,
             provenance=provenance,
             overwrite=args.overwrite,
+            defaults=defaults,
         )
         print(f"wrote {folder / 'identify.json'}, identify.csv and identify.pdf", file=sys.stderr)
     if args.json:

@@ -4,7 +4,9 @@ MAPPING is a small TOML file that names the lab's CSV files (relative to the TOM
 their columns onto the campaign format's columns with each column's unit (mm, kN, N*mm,
 deg, ...) and may set constant test-log values; the format is documented in
 docs/importing.md. The result is checked exactly like any campaign (and for implausible
-units) before anything is written; --out receives tests.csv, sinkage.csv and/or shear.csv.
+units) before anything is written; a reversed sign or a unit slip the mapping does not state
+is refused. --out receives tests.csv, sinkage.csv and/or shear.csv, and import.json: the
+source files with their SHA-256, the mapping and the soilstats version.
 """
 
 from __future__ import annotations
@@ -19,6 +21,14 @@ from .common import add_common_options
 def configure(parser: argparse.ArgumentParser) -> None:
     """The import subcommand's options."""
     parser.add_argument("mapping", metavar="MAPPING", help="the TOML mapping file")
+    parser.add_argument(
+        "--skip-rows",
+        type=int,
+        default=None,
+        metavar="N",
+        help="lines above the header line of the record files (sinkage, shear), overriding "
+        "the mapping's skip_rows for a one-off file",
+    )
     add_common_options(
         parser,
         data=False,
@@ -30,10 +40,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Import, validate, save; report what was written."""
-    from ..campaign import import_campaign
+    from ..campaign.importing import import_campaign_record
+    from ..outputs.files import output_path, write_atomic
 
-    campaign = import_campaign(args.mapping)
+    campaign, record = import_campaign_record(args.mapping, skip_rows=args.skip_rows)
     folder = campaign.save(args.out, overwrite=args.overwrite)
+    # What was imported from where, beside the campaign (load_campaign ignores it).
+    target = output_path(folder, "import.json", overwrite=True)
+    write_atomic(target, json.dumps(record.to_dict(), indent=2, sort_keys=True) + "\n")
     kinds = campaign.tests["kind"].value_counts()
     counts = {k: int(kinds.get(k, 0)) for k in TEST_KINDS}
     if args.json:

@@ -134,6 +134,7 @@ def _export(args, models, results, kept, stated, campaign):
         repair=args.scm_repair,
         draws_source=taken,
         plate_widths=tested_widths(args, campaign),
+        on_failure="return",  # refused below with the CLI's own words (_export_failures)
     )
 
 

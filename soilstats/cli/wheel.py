@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError
+from . import wheel_modes
 from .common import (
     ALPHA,
     add_common_options,
@@ -140,6 +141,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="skip the slip-sinkage extension and its held-out gain",
     )
+    wheel_modes.configure(parser)
 
 
 def parse_prior(item: str) -> tuple[str, tuple]:
@@ -214,13 +216,17 @@ def run(args: argparse.Namespace) -> int:
 
     if args.n_draws < 100:
         raise InputError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
+    wheel_modes.check_modes(args)
     priors = dict(parse_prior(p) for p in args.prior)
     check_priors(priors)
     angles = parse_angles(args.angles)
     overrides = parse_geometry(args)
+    if args.predict:
+        return _predict(args, priors, overrides)
     path = runs_path(args)
+    outputs = OUTPUTS + ((wheel_modes.CALIBRATION_FILE,) if args.calibrate else ())
     if args.out:  # refuse before the work, not after
-        for name in OUTPUTS:
+        for name in outputs:
             output_path(Path(args.out), name, overwrite=args.overwrite)
     runs = read_runs(path)
     toml = Path(args.wheels) if args.wheels else path.with_name("wheels.toml")
@@ -248,7 +254,17 @@ def run(args: argparse.Namespace) -> int:
         extension=not args.no_extension,
         caveats=[*(read_caveats(toml) if tables else []), *pooled],
     )
-    document = result.to_dict() | {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
+    defaults = _defaults(args, tables, overrides, wheels)
+    document = {"defaults": defaults} | result.to_dict()
+    document |= {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
+    calibration = None
+    if args.calibrate:
+        part, calibration = wheel_modes.calibrate(
+            args, runs, wheels, result.plate, priors, progress_enabled(args.progress)
+        )
+        document |= part
+    if args.calibration:
+        document["calibration_applied"] = wheel_modes.apply_calibration(args, runs)
     if args.out:
         from ..report.wheel_pdf import write_report
 
@@ -261,14 +277,75 @@ def run(args: argparse.Namespace) -> int:
             overwrite=args.overwrite,
             float_format="%.6g",
         )
-        write_report(result, folder / "wheel.pdf", provenance=provenance, overwrite=args.overwrite)
-        print(f"wrote {', '.join(str(folder / n) for n in OUTPUTS)}", file=sys.stderr)
+        write_report(
+            result,
+            folder / "wheel.pdf",
+            provenance=provenance,
+            overwrite=args.overwrite,
+            calibration=calibration,
+            defaults=defaults,
+        )
+        if calibration is not None:
+            calibration.calibration.to_netcdf(
+                output_path(folder, wheel_modes.CALIBRATION_FILE, overwrite=args.overwrite)
+            )
+        print(f"wrote {', '.join(str(folder / n) for n in outputs)}", file=sys.stderr)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
     else:
         print(result.summary())
+        if calibration is not None:
+            print("\n" + calibration.summary())
     return 0
+
+
+def _defaults(
+    args: argparse.Namespace, tables: dict, overrides: dict, wheels: dict
+) -> dict[str, str]:
+    """The analysis options left at their defaults, and every wheel geometry the user did not
+    give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
+    depends on it), for the JSON's ``"defaults"`` and page 1."""
+    from .common import defaults_not_given
+
+    out = defaults_not_given(args)
+    unused = set(wheel_modes.PREDICT_OPTIONS) if not args.predict else set()
+    if not args.calibrate:
+        unused |= set(wheel_modes.CALIBRATE_OPTIONS)
+    out = {k: v for k, v in out.items() if k not in unused}
+    for name, wheel in sorted(wheels.items()):
+        given = {**tables.get(name, {}), **overrides.get("*", {}), **overrides.get(name, {})}
+        if "shear_radius_m" not in given:
+            out[f"{name}: shear_radius_m"] = (
+                f"{wheel.radius_m:g} (= radius_m: no grousers assumed; give --shear-radius "
+                f"{name}=RS for a grousered wheel)"
+            )
+        if "grouser_area_ratio" not in given:
+            out[f"{name}: grouser_area_ratio"] = "1"
+    return out
+
+
+def _predict(args: argparse.Namespace, priors: dict, overrides: dict) -> int:
+    """--predict: the plate draws (unless a calibration carries them) and the prediction."""
+    from ..outputs import output_path
+    from ..wheel.soil import plate_draws
+
+    if args.out:
+        for name in wheel_modes.PREDICT_OUTPUTS:
+            output_path(Path(args.out), name, overwrite=args.overwrite)
+    campaign, provenance = prepared(args)
+    plate = None
+    if not args.calibration:
+        plate = plate_draws(
+            campaign,
+            soil=args.soil,
+            law=args.law,
+            kind=args.draws,
+            n_draws=args.n_draws,
+            seed=args.seed,
+            progress=progress_enabled(args.progress),
+        )
+    return wheel_modes.predict(args, provenance, plate, priors, overrides)
 
 
 def _pooling(campaign: Campaign, args: argparse.Namespace) -> list[str]:

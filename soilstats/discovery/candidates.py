@@ -166,7 +166,10 @@ class Relation:
     * ``explains`` — the levels of the categorical ``finer`` carry ``share`` (≥ 95 %) of the
       variance of the continuous ``coarser``: it varies little within them, but it does vary
       (a start time within each test day), so neither determines the other;
-    * ``correlated`` — two continuous candidates with |r| = ``share`` ≥ 0.98.
+    * ``correlated`` — two continuous candidates with |r| = ``share`` ≥ 0.98;
+    * ``time-blocks`` — the categorical ``finer`` changed only between blocks of the test
+      order ``coarser`` (a time/order column): each level's tests run one after another, so
+      its effect cannot be told apart from a drift over the test order.
 
     :func:`relation_text` says which in words, checked against the data.
     """
@@ -390,6 +393,9 @@ def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation
                     # Determined only when it does not vary within any level at all.
                     kind = "nested" if ss_within <= 1e-12 * ss_tot else "explains"
                     out.append(Relation(kind, cat.name, con.name, float(share)))
+                elif con.role == "time/order" and _in_time_blocks(xs, codes[cat.name][ok]):
+                    share = 1.0 - ss_within / ss_tot if ss_tot > 0 else 1.0
+                    out.append(Relation("time-blocks", cat.name, con.name, float(share)))
             else:
                 x = cols[a.name].astype(float)
                 y = cols[b.name].astype(float)
@@ -399,6 +405,17 @@ def relations(table: pd.DataFrame, candidates: list[Candidate]) -> list[Relation
                     if r >= 0.98:
                         out.append(Relation("correlated", a.name, b.name, r))
     return out
+
+
+def _in_time_blocks(order: np.ndarray, levels: np.ndarray) -> bool:
+    """Whether the levels (codes) occupy one contiguous run each along ``order`` (at least
+    two levels of two tests each, their order ranges disjoint)."""
+    counts = np.bincount(levels)
+    counts = counts[counts > 0]
+    if counts.size < 2 or counts.min() < 2:
+        return False
+    ranked = levels[np.argsort(order, kind="stable")]
+    return int((np.diff(ranked) != 0).sum()) == counts.size - 1
 
 
 def relation_text(relation: Relation, table: pd.DataFrame | None = None) -> str:
@@ -411,6 +428,11 @@ def relation_text(relation: Relation, table: pd.DataFrame | None = None) -> str:
     a, b = relation.finer, relation.coarser
     if relation.kind == "aliased":
         return f"{a} and {b} are aliased (the same partition of the tests)"
+    if relation.kind == "time-blocks":
+        return (
+            f"{a} changed only between time blocks of {b} (each {a} ran as one block): its "
+            "effect cannot be told apart from test order (a drifting zero, a changing bed)"
+        )
     if relation.kind == "correlated":
         return (
             f"{a} and {b} are correlated (|r| = {relation.share:.3f}): their trends cannot be "

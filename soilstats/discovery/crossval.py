@@ -14,10 +14,11 @@ The error of a held-out test is the mean squared prediction error of its curve w
 1/max of its own response (Section 2.1: every test spans 0..1), so the metric is the RMS of
 the max-normalised prediction error.  The gain's uncertainty comes from the paired per-test
 differences base − extended (each test is held out exactly once): mean ± standard error.  An
-extension is kept only when the gain is real: mean difference > :data:`Z_KEEP` standard
-errors and the extended model's RMS lower.  AIC and BIC of the full fits are reported beside
-it, with the caveat that samples within a test are not independent (they overstate the
-evidence).
+extension is kept when the mean difference exceeds :data:`Z_KEEP` standard errors and the
+extended model's RMS is lower; the gain is called real only at 2 SE and more
+(:mod:`soilstats.evidence`: one vocabulary for every command), weak below.  AIC and BIC of
+the full fits are reported beside it, with the caveat that samples within a test are not
+independent (they overstate the evidence).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from typing import TYPE_CHECKING, Protocol, cast
 
 import numpy as np
 
+from .. import evidence
 from ..errors import ConvergenceError, IdentifiabilityError
 from .work import FitTask, Wave, per_test_error
 
@@ -57,7 +59,9 @@ __all__ = [
 ]
 
 METRIC = "rms of max-normalised prediction error, held-out tests"
-#: A gain is real when the mean paired difference exceeds this many standard errors.  It
+#: An extension is kept when the mean paired difference exceeds this many standard errors (its
+#: gain is called real only at :data:`soilstats.evidence.REAL_SE`; below, "kept on a weak
+#: gain").  It
 #: judges an extension of a cause the Holm-controlled test has already named, on held-out
 #: tests with that cause fixed: of 280 null leads (causes with no effect, named at a lenient
 #: alpha) it kept 67 (24 %), of a 15 % bin effect named in 104 campaigns 102 (at 2 SE: 0 and
@@ -83,12 +87,16 @@ class Gain:
         Mean paired per-test difference of squared errors (base − extended) and its standard
         error.
     real : bool
-        ``difference > Z_KEEP·stderr`` and ``relative > 0`` (:data:`Z_KEEP`).
+        The gain is real in the one vocabulary of :mod:`soilstats.evidence`: difference ≥ 2
+        standard errors and ``relative > 0``.
     selected_folds : int or None
         Folds whose training tests chose the extension (the lead significant on them,
         :mod:`.nested`: the gain of the whole search); the others' held-out tests were
         predicted by the base model.  None when the cause was held fixed (the gain that
         decides what is kept; leave-one-condition-out; forward selection).
+    kept : bool or None
+        discover's rule for keeping the extension: ``difference > Z_KEEP·stderr`` and
+        ``relative > 0`` (:data:`Z_KEEP`); None where no such decision is made.
     """
 
     metric: str
@@ -102,6 +110,16 @@ class Gain:
     stderr: float
     real: bool
     selected_folds: int | None = None
+    kept: bool | None = None
+
+    @property
+    def verdict(self) -> str:
+        """The word for the gain: "real", "weak" or "none" (:func:`soilstats.evidence.verdict`)."""
+        return evidence.verdict(self.difference, self.stderr, self.relative)
+
+    def text(self) -> str:
+        """``"real: 0.021 ± 0.0052 (4.0 SE)"``: the word, the gain, its standard error."""
+        return evidence.describe(self.difference, self.stderr, self.relative)
 
     @property
     def z(self) -> float:
@@ -119,8 +137,7 @@ class Gain:
         )
         return (
             f"{self.metric} {self.base:.4g} -> {self.extended:.4g} ({self.relative:+.1%}; "
-            f"difference {self.difference:.3g} ± {self.stderr:.2g}, {self.scheme}, "
-            f"{self.folds} folds{chosen}): {'real' if self.real else 'not real'}"
+            f"{self.scheme}, {self.folds} folds{chosen}): {self.text()}"
         )
 
     def to_dict(self) -> dict:
@@ -135,6 +152,8 @@ class Gain:
             "folds": self.folds,
             "n_tests": self.n_tests,
             "real": self.real,
+            "verdict": self.verdict,
+            "kept": self.kept,
             "z": self.z,
             "selected_folds": self.selected_folds,
         }
@@ -338,8 +357,9 @@ def compare(
         relative=float(relative),
         difference=float(d.mean()),
         stderr=stderr,
-        real=bool(d.mean() > Z_KEEP * stderr and relative > 0 and d.mean() > 0),
+        real=evidence.is_real(float(d.mean()), stderr, float(relative)),
         selected_folds=selected_folds,
+        kept=bool(d.mean() > Z_KEEP * stderr and relative > 0 and d.mean() > 0),
     )
 
 

@@ -243,6 +243,10 @@ def _try_extensions(
         entry.update(
             relative=gain.relative,
             real=gain.real,
+            verdict=gain.verdict,
+            kept=gain.kept,
+            difference=gain.difference,
+            stderr=gain.stderr,
             z=gain.z,
             base=gain.base,
             extended=gain.extended,
@@ -252,7 +256,7 @@ def _try_extensions(
         )
         tried.append(entry)
         # An implausible extension is never kept, however much it gains.
-        plausible = gain.real and not reasons
+        plausible = bool(gain.kept) and not reasons
         rank = (plausible, plausible and ext.physical, gain.relative)
         options.append((rank, ext, gain, fitted, reasons, search_gain))
     if not options:
@@ -352,7 +356,7 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, ro
             caveats.append(f"cross-validation on the tests in scope failed: {exc}")
     else:
         caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
-    kept = chosen is not None and chosen[1].real and not chosen[3]
+    kept = chosen is not None and bool(chosen[1].kept) and not chosen[3]
     if kept and chosen[0].physical:
         lead = _physical_name(lead, chosen[0].name, relations)
         confounded_with = [m for m in [top["candidate"], *confounded_with] if m != lead]
@@ -372,12 +376,16 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, ro
             caveats.append(f"{chosen[0].name}: physically implausible: " + "; ".join(chosen[3]))
         if kept:
             gain_cond = yield from _condition_gain(g, scope, base_ext, chosen[0], levels, caveats)
-        elif chosen[1].real:
+        elif chosen[1].kept:
             caveats.append(
-                "no plausible extension gives a real out-of-sample gain; the base model is kept"
+                "no plausible extension gains enough out of sample to be kept; the base model "
+                "is kept"
             )
         else:
-            caveats.append("no extension gives a real out-of-sample gain; the base model is kept")
+            caveats.append(
+                f"no extension gains enough out of sample to be kept (best: "
+                f"{chosen[1].text()}); the base model is kept"
+            )
     return Finding(
         kind=g.kind,
         soil=g.soil,

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from .. import evidence
 from .._text import plural
 from ..outputs import Provenance, json_safe
 from ..outputs.text import notes_block
@@ -75,6 +76,11 @@ def parameter_table(fit: FitResult | None, level: TestLevel | None = None) -> di
             out[name] |= {"stderr_tests": json_safe(st), "test_scatter": bool(hit)}
     return out
 
+
+#: A combined model's parameter is flagged when it differs from the finding's own fit by more
+#: than this many σ of the difference (σ_f and σ_c combined as if independent: both fits use
+#: the same tests, so the real σ of the difference is smaller and the flag conservative).
+DISAGREE_SIGMA = 2.0
 
 #: What the ``+/-`` of discovery's parameter lines is (the console's legend, said once).
 SIGMA_NOTE = (
@@ -233,8 +239,7 @@ class Finding:
             lines.append(
                 f"  extension: {self.extension or 'none kept'}; {g.scheme} CV ({g.folds} folds, "
                 f"cause fixed): base {g.base:.4f} -> extended {g.extended:.4f} (gain "
-                f"{g.relative:+.1%}, paired difference {g.difference:.3g} +/- {g.stderr:.2g}, "
-                f"{g.z:.1f} SE: {'real' if g.real else 'not real'})"
+                f"{g.relative:+.1%}; paired difference base − extended, {g.text()})"
             )
             s = self.gain_search
             if s is not None:
@@ -248,7 +253,7 @@ class Finding:
             g = self.gain_conditions
             lines.append(
                 f"  leave-one-condition-out ({g.folds} conditions): base {g.base:.4f} -> "
-                f"extended {g.extended:.4f} (gain {g.relative:+.1%}, real: {g.real})"
+                f"extended {g.extended:.4f} (gain {g.relative:+.1%}, {g.text()})"
             )
         lines += parameter_lines(self.fit, level=self.test_level)
         for t in self.tried:
@@ -256,7 +261,7 @@ class Finding:
                 lines.append(f"  tried {t['extension']}: failed — {t['error']}")
             elif t["extension"] != self.extension:
                 lines.append(
-                    f"  tried {t['extension']}: gain {t['relative']:+.1%} (real: {t['real']})"
+                    f"  tried {t['extension']}: gain {t['relative']:+.1%} ({_tried_text(t)})"
                 )
         lines += [f"  caveat: {c}" for c in self.caveats]
         return lines
@@ -264,6 +269,14 @@ class Finding:
     def summary(self) -> str:
         """The finding in a few readable lines (as in :meth:`DiscoveryResult.summary`)."""
         return "\n".join(self.summary_lines())
+
+
+def _tried_text(tried: dict) -> str:
+    """A tried extension's gain in the words of :mod:`soilstats.evidence` (an older record
+    without the difference and its SE: its word alone)."""
+    if "difference" in tried and "stderr" in tried:
+        return evidence.describe(tried["difference"], tried["stderr"], tried.get("relative"))
+    return "real" if tried.get("real") else "not real"
 
 
 def _section(width: int, title: str, texts: list[str], records) -> list[str]:
@@ -349,6 +362,80 @@ class DiscoveryResult:
             "groups": [m.to_dict() for m in self.models],
         }
 
+    def disagreements(self) -> list[dict]:
+        """Parameters of a combined model that differ from the same parameter of a finding's
+        own fit by more than their σ allow: |Δ| > :data:`DISAGREE_SIGMA`·√(σ_f² + σ_c²).
+
+        Only an extension's own parameters (K0, a velocity factor …) are compared, where the
+        combined model carries that finding's extension; the base law's (kc, kφ, n; c, φ, K)
+        change meaning with every extension added. Each record says why it differs.
+        """
+        from ..models import models_of_kind
+        from .testlevel import quoted_sigma
+
+        base_names = {
+            n for kind in ("sinkage", "shear") for m in models_of_kind(kind) for n in m.param_names
+        }
+        out = []
+        for m in self.models:
+            if m.fit is None or not m.extensions:
+                continue
+            c_sigma = dict(
+                zip(m.fit.param_names, quoted_sigma(m.fit, m.test_level)[0], strict=True)
+            )
+            c_value = dict(zip(m.fit.param_names, m.fit.values, strict=True))
+            for i, f in enumerate(self.findings, 1):
+                if (f.kind, f.soil) != (m.kind, m.soil) or f.fit is None:
+                    continue
+                if f.extension not in m.extensions:
+                    continue
+                f_sigma = quoted_sigma(f.fit, f.test_level)[0]
+                for name, v, sf in zip(f.fit.param_names, f.fit.values, f_sigma, strict=True):
+                    if name in base_names or name not in c_value:
+                        continue
+                    vc, sc = float(c_value[name]), float(c_sigma[name])
+                    allowed = DISAGREE_SIGMA * float(np.hypot(sf, sc))
+                    if not abs(vc - v) > allowed:
+                        continue
+                    others = [e for e in m.extensions if e != f.extension]
+                    out.append(
+                        {
+                            "kind": m.kind,
+                            "soil": m.soil,
+                            "parameter": name,
+                            "finding": i,
+                            "extension": f.extension,
+                            "finding_value": float(v),
+                            "finding_stderr": float(sf),
+                            "combined_value": vc,
+                            "combined_stderr": sc,
+                            "sigmas": float(abs(vc - v) / np.hypot(sf, sc)),
+                            "explanation": (
+                                f"the combined model also carries {', '.join(others)}, which "
+                                f"takes up part of what {name} describes alone (the "
+                                "extensions overlap), and is fitted to every test of the "
+                                "group, not the finding's scope: the finding's value describes "
+                                "the cause alone, the combined one is for prediction with all "
+                                "extensions in"
+                                if others
+                                else "the combined model is fitted to every test of the "
+                                "group, the finding to its scope only: the cause does not "
+                                "act alike on all tests"
+                            ),
+                        }
+                    )
+        return out
+
+    def disagreement_lines(self) -> list[str]:
+        """One sentence per :meth:`disagreements` record (after its ``kind / soil: ``)."""
+        return [
+            f"{d['parameter']} = {d['combined_value']:.3g} ± "
+            f"{d['combined_stderr']:.2g} in the combined model against "
+            f"{d['finding_value']:.3g} ± {d['finding_stderr']:.2g} in finding [{d['finding']}] "
+            f"({d['extension']}), {d['sigmas']:.1f} σ apart: {d['explanation']}"
+            for d in self.disagreements()
+        ]
+
     def all_groups_gain(self) -> Gain | None:
         """The combined models' gain on the held-out tests of all extended groups together,
         or None unless two or more groups are extended (one group's gain is its own)."""
@@ -383,6 +470,7 @@ class DiscoveryResult:
         """JSON-ready content (no run time: outputs are byte-identical between runs)."""
         return {
             "model": self.model(),
+            "disagreements": self.disagreements(),
             "findings": [f.to_dict() for f in self.findings],
             "flags": list(self.flags),
             "confounded": list(self.confounded),
@@ -420,6 +508,13 @@ class DiscoveryResult:
             lines.append(f"[{i}] {first}")
             lines.extend(rest)
         lines.extend(self._model_lines(width))
+        lines += _section(
+            width,
+            f"Combined-model parameters that disagree with a finding's own fit "
+            f"(> {DISAGREE_SIGMA:g} σ):",
+            self.disagreement_lines(),
+            self.disagreements(),
+        )
         lines += _section(
             width,
             "Significant at first, explained by a stronger finding's extension:",

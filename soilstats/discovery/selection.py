@@ -6,12 +6,13 @@ Forward selection builds it on all tests of the group, by the same cross-validat
 tests held out, :mod:`.crossval`, one set of folds for every step):
 
 1. start from the base model (Eq. 7/8 or Eq. 13);
-2. add, of the extensions the findings kept, the one whose addition gives the largest real
-   gain over the current model (mean paired difference > ``Z_KEEP`` SE, :mod:`.crossval`)
+2. add, of the extensions the findings kept, the one whose addition gives the largest gain
+   over the current model that passes the keep rule (mean paired difference > ``Z_KEEP`` SE,
+   :mod:`.crossval`; called real only at 2 SE, :mod:`soilstats.evidence`)
    **and** leaves the combined fit physically plausible (:mod:`.plausibility`) and
    determined (it converges, no rank deficiency: an interaction's cells already carry its
    main effect, say);
-3. repeat until no remaining extension adds a real gain; report the final model's
+3. repeat until no remaining extension passes the keep rule; report the final model's
    parameters ± σ (Eq. 3) fitted to all tests and its gain over the base model.
 
 Extensions combine by :func:`.library.combine`; Reece's model replaces Eq. 7 and does not
@@ -26,6 +27,7 @@ from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
+from .. import evidence
 from ..outputs import json_safe
 from .crossval import FoldFits, GroupFolds, compare
 from .extensions import Extension
@@ -115,14 +117,14 @@ class CombinedModel:
     def summary_lines(self) -> list[str]:
         head = f"{self.kind} / {self.soil}: "
         if not self.extensions:
-            return [head + "base model (no extension adds a real gain on all tests)"]
+            return [head + "base model (no extension gains enough to be kept on all tests)"]
         g = self.gain
         assert g is not None  # an extended model has its gain (selection_steps)
         lines = [
             head + " + ".join(self.extensions) + f"  (causes: {', '.join(self.causes)})",
             f"  gain over the base model, {self.n_tests} tests, {g.scheme} CV ({g.folds} folds): "
             f"{g.base:.4f} -> {g.extended:.4f} ({g.relative:+.1%}, paired difference "
-            f"{g.difference:.3g} +/- {g.stderr:.2g})",
+            f"base − extended, {g.text()})",
         ]
         lines += parameter_lines(self.fit, level=self.test_level)
         lines += [f"  caveat: {c}" for c in self.caveats]
@@ -220,9 +222,9 @@ def selection_steps(group: Group, prepared: PreparedSelection) -> Process[Combin
             step.update(relative=gain.relative, gain=gain.to_dict())
             if reasons:
                 step["reason"] = "physically implausible: " + "; ".join(reasons)
-            elif not gain.real:
-                step["reason"] = "no real gain over the model before it"
-            good = not reasons and gain.real
+            elif not gain.kept:
+                step["reason"] = f"too little gain over the model before it ({gain.text()})"
+            good = not reasons and bool(gain.kept)
             options.append((good, gain.relative, cause, ext, step, fitted, errors, model))
         steps += failed  # a model that fails or does not combine now will not later
         goods = [o for o in options if o[0]]
@@ -230,7 +232,9 @@ def selection_steps(group: Group, prepared: PreparedSelection) -> Process[Combin
             steps += [o[4] for o in options]
             break
         _, _, cause, ext, step, fitted, errors, model = max(goods, key=lambda o: o[1])
-        steps.append({**step, "added": True, "reason": "real gain, plausible"})
+        steps.append(
+            {**step, "added": True, "reason": "plausible, gain " + _described(step["gain"])}
+        )
         chosen.append((cause, ext))
         current = (model, fitted, errors)
         e_current = errors
@@ -253,3 +257,8 @@ def selection_steps(group: Group, prepared: PreparedSelection) -> Process[Combin
         caveats=() if scatter is None else (scatter,),
         held_out=(e_base, current[2]),
     )
+
+
+def _described(gain: dict) -> str:
+    """A step's gain (its ``to_dict``) in the words of :mod:`soilstats.evidence`."""
+    return evidence.describe(gain["difference"], gain["stderr"], gain["relative"])

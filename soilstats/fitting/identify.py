@@ -19,7 +19,7 @@ from ..errors import (
 )
 from .jacobian import make_jacobian
 from .levenberg_marquardt import LMOutcome, gram_matrix, levenberg_marquardt, scaled_svd, small_eigh
-from .result import FitResult, HealthFlag, epsilon
+from .result import FitResult, HealthFlag, epsilon, function_arguments, input_names_of
 from .separable import PowerTerms, _refine_power_law, refine_exponent
 
 __all__ = ["RANK_CONDITION_LIMIT", "ModelRecord", "epsilon", "identify"]
@@ -208,6 +208,9 @@ def identify(
         extra_flags=end.flags,
         model_func=f,
         model_jac=jac,
+        input_names=input_names_of(model),
+        x_data=_as_array(x),
+        y_data=y,
     )
     if not result.converged:
         text = f"{name}: identification did not converge — {result.message}"
@@ -236,15 +239,31 @@ def _model_parts(model, jac, param_names, units, bounds, name) -> tuple:
             name or model.name,
         )
     name = name or getattr(model, "__name__", "model")
+    if name == "<lambda>":
+        name = "model"
+    if param_names is None:  # f(x, a, b): the parameters are a and b, as lmfit names them
+        param_names = function_arguments(model)[1:] or None
     return False, model, jac, param_names, dict(units or {}), dict(bounds or {}), name
 
 
+def _as_array(x) -> np.ndarray | None:
+    """The inputs as one float array (None when they do not stack: a model's own object)."""
+    try:
+        return np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        return None
+
+
 def _checked_names(param_names, n_obs: int, n_par: int) -> tuple[str, ...]:
-    """The parameter names (``p0``, ``p1`` … by default), refusing a problem that cannot be
+    """The parameter names (``p0``, ``p1`` … where the function does not name them, as
+    ``f(x, *p)`` does not), refusing a problem that cannot be
     solved: a name per starting value, and more observations than parameters."""
     param_names = tuple(param_names or (f"p{i}" for i in range(n_par)))
     if len(param_names) != n_par:
-        raise InputError(f"{len(param_names)} parameter names given for {n_par} starting values")
+        raise InputError(
+            f"{len(param_names)} parameter names ({', '.join(param_names)}) for {n_par} "
+            "starting values: give one starting value per parameter (or param_names=)"
+        )
     if n_obs <= n_par:
         raise IdentifiabilityError(f"{n_obs} observations cannot determine {n_par} parameters")
     return param_names

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
@@ -53,6 +53,33 @@ def epsilon(residuals: ArrayLike, y: ArrayLike, *, rss: float | None = None) -> 
         rss = residuals @ residuals
     # np.add.reduce: ndarray.sum goes through a Python wrapper.
     return float(1.0 - np.sqrt(rss / (n - 2)) / (np.add.reduce(np.abs(y), axis=None) / n))
+
+
+def input_names_of(model: object) -> tuple[str, ...]:
+    """Short names of a model's inputs: a model record's ``inputs`` without their units
+    (``"b [m]"`` -> ``"b"``), else the first argument of a plain ``f(x, *params)``."""
+    inputs = getattr(model, "inputs", None)
+    if inputs:
+        return tuple(str(i).split()[0] for i in inputs)
+    args = function_arguments(model)
+    return args[:1]
+
+
+def function_arguments(func: object) -> tuple[str, ...]:
+    """The positional argument names of ``func`` (empty when it has none to read, or takes
+    ``*args``): ``lambda x, a, b: …`` -> ``("x", "a", "b")``."""
+    import inspect
+
+    try:
+        sig = inspect.signature(func)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return ()
+    names = []
+    for p in sig.parameters.values():
+        if p.kind not in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD):
+            return ()  # *args: the parameters have no names to read
+        names.append(p.name)
+    return tuple(names)
 
 
 @dataclass(frozen=True)
@@ -116,6 +143,13 @@ class FitResult:
     #: and :meth:`eval_uncertainty` use; None for a result built without them).
     model_func: Callable | None = field(default=None, repr=False, compare=False)
     model_jac: Callable | None = field(default=None, repr=False, compare=False)
+    #: Short names of the rows of ``x`` (``("b", "z")`` for Bekker, ``("x",)`` for a plain
+    #: ``f(x, a, b)``): the keywords :meth:`eval` takes. Empty: unnamed.
+    input_names: tuple[str, ...] = ()
+    #: The inputs and measurements the fit was made on (what :meth:`plot_fit` draws; None for
+    #: a result built without them).
+    x_data: np.ndarray | None = field(default=None, repr=False, compare=False)
+    y_data: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @classmethod
     def closed_form(
@@ -130,11 +164,14 @@ class FitResult:
         method: str,
         message: str,
         condition_number: float = np.nan,
+        x: ArrayLike | None = None,
+        y: ArrayLike | None = None,
     ) -> FitResult:
         """Result of a non-iterative estimate (Wong's regressions, linear Mohr–Coulomb).
 
         ``model`` supplies names, units and bounds; ε (Eq. 2) and the RSS come from the
         weighted residuals and data, exactly as for the LM fits, so the two compare directly.
+        ``x`` and ``y``: the unweighted inputs and measurements (for :meth:`plot_fit`).
         """
         names = model.param_names
         covariance = np.asarray(covariance, float)
@@ -161,6 +198,9 @@ class FitResult:
             residuals=resid,
             model_func=getattr(model, "func", None),
             model_jac=getattr(model, "jac", None),
+            input_names=input_names_of(model),
+            x_data=None if x is None else np.asarray(x, float),
+            y_data=None if y is None else np.asarray(y, float).ravel(),
         )
 
     # -- named views, built on first use (pandas construction costs more than a whole fit) --
@@ -207,6 +247,30 @@ class FitResult:
         """Residual variance s² = RSS/(N − Np) of the weighted residuals."""
         return self.rss / self.dof if self.dof > 0 else np.nan
 
+    # -- lmfit's goodness-of-fit statistics (its definitions, on the weighted residuals) -----
+    @property
+    def chisqr(self) -> float:
+        """χ² = Σ(w·e)², the weighted RSS (lmfit's ``chisqr``)."""
+        return self.rss
+
+    @property
+    def redchi(self) -> float:
+        """Reduced χ² = χ²/(N − Np) (lmfit's ``redchi``; :attr:`scale`)."""
+        return self.scale
+
+    @property
+    def aic(self) -> float:
+        """Akaike's criterion N·ln(χ²/N) + 2·Np, as lmfit defines it (lower is better;
+        only differences between fits of the same data mean anything)."""
+        n, k = self.nobs, len(self.param_names)
+        return float(n * np.log(self.rss / n) + 2 * k) if self.rss > 0 else -np.inf
+
+    @property
+    def bic(self) -> float:
+        """Bayesian criterion N·ln(χ²/N) + ln(N)·Np, as lmfit defines it."""
+        n, k = self.nobs, len(self.param_names)
+        return float(n * np.log(self.rss / n) + np.log(n) * k) if self.rss > 0 else -np.inf
+
     def conf_int(self, alpha: float = 0.05) -> pd.DataFrame:
         """Two-sided (1 − alpha) Student-t intervals θ̂ ± t(1−α/2, dof)·σ."""
         if not 0 < alpha < 1:
@@ -217,25 +281,78 @@ class FitResult:
         return pd.DataFrame({"lower": self.params - t * sigma, "upper": self.params + t * sigma})
 
     # -- the fitted curve, as lmfit's ModelResult gives it --------------------------------
-    def eval(self, x: ArrayLike) -> np.ndarray:
-        """The fitted model f(x, θ̂) at the inputs ``x``, in the form the fit took them: sinkage
-        z [m] (N,) for Bernstein, the (b [m], z [m]) rows (2, N) for Bekker and Reece, σ [Pa]
-        for Mohr–Coulomb, (σ [Pa], j [m]) for Janosi–Hanamoto; pressure or stress in Pa."""
+    def eval(self, x: ArrayLike | None = None, **inputs: ArrayLike) -> np.ndarray:
+        """The fitted model f(x, θ̂), as lmfit's ``ModelResult.eval``.
+
+        Give the inputs by name — ``fit.eval(z=z)`` for Bernstein, ``fit.eval(b=0.1, z=z)``
+        for Bekker and Reece (b [m], z [m]; a scalar broadcasts), ``sigma=`` [Pa] for
+        Mohr–Coulomb, ``sigma=, j=`` [Pa, m] for Janosi–Hanamoto, the function's own first
+        argument for :func:`~soilstats.identify` on a plain f(x, …) — or positionally as
+        the fit took them (the (b, z) rows (2, N) for Bekker). Pressure or stress in Pa.
+        """
         if self.model_func is None:
             raise InputError(
                 f"this {self.model_name} result carries no model to evaluate (it was built "
                 "without one); fit it with soilstats.identify or a fit_* function"
             )
-        return np.asarray(self.model_func(x, *self.values), dtype=float)
+        return np.asarray(self.model_func(self._inputs(x, inputs), *self.values), dtype=float)
 
-    def eval_uncertainty(self, x: ArrayLike, sigma: float = 1.0) -> np.ndarray:
+    def _inputs(self, x: ArrayLike | None, inputs: dict[str, ArrayLike]) -> Any:
+        """The model's ``x`` from a positional ``x`` or the named inputs (checked: a clear
+        error for a missing, unknown or 1-D input where the model needs several rows)."""
+        names = self.input_names
+        how = ", ".join(f"{n}=…" for n in names) if names else "x"
+        if inputs:
+            if x is not None:
+                raise InputError(f"give the inputs of {self.model_name} by name or as x, not both")
+            if not names:
+                raise InputError(
+                    f"this {self.model_name} result does not name its inputs: pass x positionally"
+                )
+            unknown = sorted(set(inputs) - set(names))
+            missing = [n for n in names if n not in inputs]
+            if unknown or missing:
+                raise InputError(
+                    f"{self.model_name} takes the inputs ({', '.join(names)}): "
+                    + (f"unknown {unknown}; " if unknown else "")
+                    + (f"missing {missing}; " if missing else "")
+                    + f"call eval({how})"
+                )
+            if len(names) == 1:
+                return np.asarray(inputs[names[0]], float)
+            stacked = np.broadcast_arrays(*(np.asarray(inputs[n], float) for n in names))
+            return np.stack([np.atleast_1d(r) for r in stacked])
+        if x is None:
+            raise InputError(f"{self.model_name}: give the inputs, eval({how})")
+        if len(names) > 1:
+            # a (b, z) tuple or list of rows, or a (k, N) array: k rows; anything else one
+            rows = (
+                len(x)
+                if isinstance(x, tuple | list)
+                else (np.shape(x)[0] if np.ndim(x) == 2 else 1)
+            )
+            if rows != len(names):
+                raise InputError(
+                    f"{self.model_name} needs {len(names)} inputs ({', '.join(names)}) but got "
+                    f"one array of shape {np.shape(x)}: call eval({how}) (a scalar broadcasts, "
+                    f"e.g. eval({names[0]}=0.1, {names[-1]}=...))"
+                )
+            return x
+        return np.asarray(x, float) if isinstance(x, list | tuple) else x
+
+    def eval_uncertainty(
+        self, x: ArrayLike | None = None, sigma: float = 1.0, **inputs: ArrayLike
+    ) -> np.ndarray:
         """``sigma`` standard deviations of the fitted curve at ``x`` (as :meth:`eval` takes
         it), from the parameter covariance by the delta method: sigma·√diag(J Cov Jᵀ), J the
         model's Jacobian at θ̂ (lmfit's ``ModelResult.eval_uncertainty``). Cov is Eq. 4's
-        here; a fit over tests uses the test-level one (:class:`CampaignFit`)."""
-        return self._band(x, sigma, self.covariance)
+        here; a fit over tests uses the test-level one (:class:`CampaignFit`). Inputs by name
+        as for :meth:`eval` (``fit.eval_uncertainty(b=0.1, z=z)``)."""
+        return self._band(x, sigma, self.covariance, **inputs)
 
-    def _band(self, x: ArrayLike, sigma: float, covariance: np.ndarray) -> np.ndarray:
+    def _band(
+        self, x: ArrayLike | None, sigma: float, covariance: np.ndarray, **inputs: ArrayLike
+    ) -> np.ndarray:
         if self.model_jac is None:
             raise InputError(
                 f"this {self.model_name} result carries no model Jacobian; fit it with "
@@ -243,6 +360,7 @@ class FitResult:
             )
         if not sigma > 0:
             raise InputError(f"sigma must be positive, got {sigma!r}")
+        x = self._inputs(x, inputs)
         jac = np.atleast_2d(np.asarray(self.model_jac(x, *self.values), dtype=float))
         variance = np.einsum("ij,jk,ik->i", jac, covariance, jac)
         return sigma * np.sqrt(np.maximum(variance, 0.0))
@@ -314,8 +432,7 @@ class FitResult:
         """The parameter lines of :meth:`summary`: value, σ (Eq. 3), relative σ, the 95 %
         t-interval and the unit."""
         lines = [
-            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} "
-            f"{'95% CI (t)':>25}  unit"
+            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} {'95% CI (t)':>25}  unit"
         ]
         ci = self.conf_int(0.05)
         for name, v, s in zip(self.param_names, self.values, self.stderr_values, strict=True):
@@ -338,6 +455,8 @@ class FitResult:
             f"{'DoF:':<6}{self.dof}",
             f"{'Function evals:':<18}{self.nfev:<12d}{'Iterations:':<14}{self.niter}",
             f"{'epsilon (Eq. 2):':<18}{self.epsilon:<12.4f}{'Weighted RSS:':<14}{self.rss:.6g}",
+            f"{'Reduced chi^2:':<18}{self.redchi:<12.4g}{'AIC:':<14}{self.aic:<12.6g}"
+            f"{'BIC:':<6}{self.bic:.6g}",
             f"{'Jacobian:':<18}{self.jacobian_method:<12}{'cond(J):':<14}"
             f"{self.condition_number:.3g}",
             "-" * width,
@@ -393,12 +512,112 @@ class FitResult:
             "converged": f"{self.converged} ({self.message})",
             "observations": self.nobs,
             "epsilon (Eq. 2)": f"{self.epsilon:.4f}",
+            "reduced chi-square": f"{self.redchi:.4g}",
+            "AIC / BIC": f"{self.aic:.4f} / {self.bic:.4f}",
         }
         health = [str(f) for f in self.flags] or ["OK"]
         return result_html(
             f"{self.model_name} fit",
             facts_html(facts),
             table_html(self._parameter_table()),
+            self._correlation_html(),
             notes_html(health, "Health"),
             notes_html(self.notes),
         )
+
+    def _correlation_html(self) -> str:
+        """The correlations of the estimates as a table (empty for one parameter)."""
+        from .._html import table_html
+
+        if len(self.param_names) < 2:
+            return ""
+        frame = self.corr.map(lambda v: f"{v:+.3f}" if np.isfinite(v) else "–")
+        return table_html(frame, index=True, caption="Correlations")
+
+    # -- figures, as lmfit's ModelResult.plot_fit / plot_residuals ------------------------
+    # ``Any``: matplotlib's Axes, not named here (no analysis module imports matplotlib at all).
+    def plot_fit(self, ax: Any = None, *, sigma: float = 2.0, points: int = 200) -> Any:
+        """The measured points, the fitted curve and its ±``sigma`` band
+        (:meth:`eval_uncertainty`) on ``ax`` (a new figure if None); returns the axes.
+
+        For a model of several inputs (Bekker's (b, z), Janosi's (σ, j)) one curve per value
+        of the leading inputs (plate width, normal pressure), against the last input."""
+        import matplotlib.pyplot as plt
+
+        x, y = self._data("plot_fit")
+        ax = ax if ax is not None else plt.subplots()[1]
+        for k, (label, mask, lead) in enumerate(self._groups(x)):
+            last = x[-1][mask] if x.ndim == 2 else x[mask]
+            data_label = "measured" + (f" ({label.strip(', ')})" if label else "")
+            line = ax.plot(last, y[mask], "o", ms=3, alpha=0.5, label=data_label)[0]
+            grid = np.linspace(np.nanmin(last), np.nanmax(last), points)
+            xg = grid if x.ndim == 1 else np.vstack([*(np.full(points, v) for v in lead), grid])
+            fit = self.eval(xg)
+            fit_label = f"fit ± {sigma:g} σ" if k == 0 else "_nolegend_"
+            ax.plot(grid, fit, "-", color=line.get_color(), label=fit_label)
+            try:
+                band = self.eval_uncertainty(xg, sigma)
+            except InputError:
+                continue  # no Jacobian: the curve alone
+            ax.fill_between(grid, fit - band, fit + band, color=line.get_color(), alpha=0.2)
+        self._label_axes(ax, "")
+        ax.set_title(f"{self.model_name} fit (band ±{sigma:g} σ)")
+        ax.legend(fontsize="small")
+        return ax
+
+    def plot_residuals(self, ax: Any = None) -> Any:
+        """Measured minus fitted values against the last input, on ``ax`` (a new figure if
+        None), one colour per value of the leading inputs; returns the axes."""
+        import matplotlib.pyplot as plt
+
+        x, y = self._data("plot_residuals")
+        ax = ax if ax is not None else plt.subplots()[1]
+        resid = y - self.eval(x)
+        for label, mask, _ in self._groups(x):
+            last = x[-1][mask] if x.ndim == 2 else x[mask]
+            ax.plot(last, resid[mask], "o", ms=3, alpha=0.6, label=label.strip(", ") or None)
+        ax.axhline(0.0, color="k", lw=0.8)
+        self._label_axes(ax, "measured − fitted ")
+        ax.set_title(f"{self.model_name}: residuals")
+        if x.ndim == 2:
+            ax.legend(fontsize="small")
+        return ax
+
+    def _data(self, what: str) -> tuple[np.ndarray, np.ndarray]:
+        if self.x_data is None or self.y_data is None or self.model_func is None:
+            raise InputError(
+                f"{what}: this {self.model_name} result carries no data (it was built without "
+                "them); fit with soilstats.identify or a fit_* function"
+            )
+        return np.asarray(self.x_data, float), np.asarray(self.y_data, float)
+
+    def _groups(self, x: np.ndarray) -> list[tuple[str, np.ndarray, tuple[float, ...]]]:
+        """(label, mask, leading input values) per distinct value of the leading inputs (all
+        points together when there are none, or more than 12 distinct values)."""
+        every = np.ones(x.shape[-1], bool)
+        if x.ndim == 1 or x.shape[0] < 2:
+            return [("", every, ())]
+        lead = x[:-1].T
+        values = np.unique(lead, axis=0)
+        if len(values) > 12:
+            return [("", every, tuple(np.median(lead, axis=0)))]
+        names = self.input_names[:-1] or tuple(f"x{i}" for i in range(len(lead[0])))
+        out = []
+        for v in values:
+            label = ", " + ", ".join(f"{n} = {u:.4g}" for n, u in zip(names, v, strict=True))
+            out.append((label, (lead == v).all(axis=1), tuple(v)))
+        return out
+
+    def _label_axes(self, ax: Any, prefix: str) -> None:
+        last = self.input_names[-1] if self.input_names else "x"
+        ax.set_xlabel(_AXIS_LABELS.get(last, last))
+        y = {"z": "pressure p [Pa]", "j": "shear stress τ [Pa]", "sigma": "shear stress τ [Pa]"}
+        ax.set_ylabel(prefix + y.get(last, "y"))
+
+
+_AXIS_LABELS = {
+    "z": "sinkage z [m]",
+    "j": "shear displacement j [m]",
+    "sigma": "normal stress σ [Pa]",
+    "b": "plate width b [m]",
+}

@@ -243,11 +243,7 @@ def _aggregation_bias(forms: TestForms, n_pooled: float, se_n: float | None) -> 
     gap = n_pooled - float(np.median(n))
     material = abs(gap) > max(MIN_EXPONENT_GAP, GAP_SIGMAS * se_n)
     # The sign test last: it costs more than the rest of the check (every fit runs it).
-    if (
-        side <= MAX_SIDE_SHARE * n.size
-        and material
-        and _binomtest(below, n.size) < SIGN_TEST_P
-    ):
+    if side <= MAX_SIDE_SHARE * n.size and material and _binomtest(below, n.size) < SIGN_TEST_P:
         return HealthFlag(
             "aggregation-bias",
             f"the pooled n = {n_pooled:.3g} is {'below' if gap < 0 else 'above'} "
@@ -257,6 +253,28 @@ def _aggregation_bias(forms: TestForms, n_pooled: float, se_n: float | None) -> 
             "stiffness); quote per-test parameters (fit_per_test) or window all tests alike",
         )
     return None
+
+
+def outside_own_range(own_n: np.ndarray, n_pooled: float) -> HealthFlag | None:
+    """``aggregation-bias`` where the pooled n lies outside the range of every test's own n
+    (at least 3 tests): the check a pooled posterior carries, whose least-squares start has
+    no test bootstrap. The message quotes the test-level σ of n (the tests' own n: standard
+    deviation over the square root of their number), as identify's flag does."""
+    own = np.asarray(own_n, float)
+    own = own[np.isfinite(own)]
+    if own.size < 3 or not np.isfinite(n_pooled) or own.min() <= n_pooled <= own.max():
+        return None
+    sigma = float(np.std(own, ddof=1) / np.sqrt(own.size))
+    side = "below" if n_pooled < own.min() else "above"
+    away = abs(n_pooled - float(np.median(own))) / sigma if sigma > 0 else np.inf
+    return HealthFlag(
+        "aggregation-bias",
+        f"the pooled n = {n_pooled:.3g} lies {side} all {own.size} tests' own n "
+        f"({own.min():.3g}-{own.max():.3g}, median {np.median(own):.3g}; test-level σ of n "
+        f"{sigma:.2g}, {away:.1f} σ from the median): the pooled curve is no test's curve "
+        "(tests stopped at one load, or depth ranges differ with stiffness); quote per-test "
+        "parameters (fit_per_test) or window all tests alike",
+    )
 
 
 def _plates_disagree(forms: TestForms, sizes: np.ndarray) -> HealthFlag | None:

@@ -183,15 +183,22 @@ class CampaignFit(FitResult):
             return None
         return np.atleast_2d(np.cov(self.bootstrap.draws, rowvar=False))
 
-    def eval_uncertainty(
-        self, x: ArrayLike, sigma: float = 1.0, *, level: str = "auto"
+    # mypy: ``level`` narrows what the parent's **inputs would take under that name; a model
+    # input is never called "level", so no call the parent accepts means something else here.
+    def eval_uncertainty(  # type: ignore[override]
+        self,
+        x: ArrayLike | None = None,
+        sigma: float = 1.0,
+        *,
+        level: str = "auto",
+        **inputs: ArrayLike,
     ) -> np.ndarray:
         """``sigma`` standard deviations of the fitted curve at ``x`` (:meth:`eval`'s inputs)
         by the delta method, from the test-level covariance (``level="tests"``: what a new
         test of the soil scatters by, as the fit's stderr says) or Eq. 4's
         (``"samples"``); ``"auto"`` (default): the test-level one where the fit rests on
         :data:`~soilstats.identification.bootstrap.MIN_TESTS` tests or more and the test
-        bootstrap ran, else Eq. 4's."""
+        bootstrap ran, else Eq. 4's. Inputs by name as for :meth:`eval`."""
         if level not in ("auto", "tests", "samples"):
             raise InputError(f"level must be 'auto', 'tests' or 'samples', got {level!r}")
         tests = self.covariance_tests
@@ -202,7 +209,8 @@ class CampaignFit(FitResult):
         use_tests = level == "tests" or (
             level == "auto" and tests is not None and self.n_tests >= MIN_TESTS
         )
-        return self._band(x, sigma, cast(np.ndarray, tests) if use_tests else self.covariance)
+        covariance = cast(np.ndarray, tests) if use_tests else self.covariance
+        return self._band(x, sigma, covariance, **inputs)
 
     @property
     def n_tests(self) -> int:

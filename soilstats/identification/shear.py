@@ -109,6 +109,8 @@ def fit_shear(
             method="linear least squares on the steady-state part (Eq. 15)",
             message="linear least squares (closed form)",
             condition_number=lin.condition_number,
+            x=sigma,
+            y=tau,
         )
         bootstrap = test_bootstrap(spec, sigma, pooled, mohr_coulomb, test_resamples, seed, notes)
         return CampaignFit.of(mohr_coulomb, pooled, notes, flags, bootstrap, campaign)

@@ -14,7 +14,7 @@ from ..fitting.identify import identify
 from ..fitting.result import FitResult, HealthFlag
 from ..models import Model, get_model
 from ..quality import screened
-from .adequacy import adequacy_findings
+from .adequacy import adequacy_findings, test_forms
 from .bootstrap import test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
@@ -68,7 +68,7 @@ def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
     dropped = int(g["excluded_z_nonpositive"].sum())
     if dropped:
         notes.append(
-            f"{dropped} samples with z <= 0 excluded (no real z^n; per test in result.tests)."
+            f"{dropped} samples with z <= 0 excluded (z^n undefined; per test in result.tests)."
         )
     return notes
 
@@ -163,6 +163,8 @@ def fit_sinkage(
             name=f"{spec.name} (Wong)",
             method="Wong: p^2-weighted log-log regression",
             message="closed-form linear regressions",
+            x=x,
+            y=p,
         )
         closed = centred(closed, z)
         flags = _adequacy(spec, pooled, closed, None)
@@ -234,14 +236,24 @@ def _rezero_sensitivity(
     if not abs(moved[worst]) > REZERO_SIGMAS:
         return []
     which = "test-level" if bootstrap is not None else "Eq. 4"
+    level = ""
+    if bootstrap is None and "n" in result.params.index:
+        # Without the test bootstrap (a posterior's start) the test-level σ of n still comes
+        # from the tests' own n, so the message quotes it as identify's does (#46).
+        own = test_forms(pooled.x["z_m"], pooled.y, pooled.test_index).n
+        own = own[np.isfinite(own)]
+        if own.size >= 3 and np.std(own, ddof=1) > 0:
+            sigma_n = float(np.std(own, ddof=1) / np.sqrt(own.size))
+            shift = float(result.params["n"] - alt.params["n"])
+            level = f"; n moves {shift / sigma_n:+.1f} test-level σ (σ = {sigma_n:.2g})"
     return [
         HealthFlag(
             "rezero-sensitive",
             f"{plural(len(rezeroed), 'test')} re-zeroed at a seating contact "
             f"({', '.join(rezeroed[:4])}{', …' if len(rezeroed) > 4 else ''}) move "
             f"{worst} by {moved[worst]:+.1f} {which} σ ({alt.params[worst]:.4g} with z as "
-            f"logged, {result.params[worst]:.4g} re-zeroed); the fit uses the re-zeroed "
-            "records: check the contacts with soilstats check",
+            f"logged, {result.params[worst]:.4g} re-zeroed){level}; the fit uses the "
+            "re-zeroed records: check the contacts with soilstats check",
         )
     ]
 

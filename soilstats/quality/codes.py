@@ -69,6 +69,22 @@ CODES: dict[str, QualityCode] = {
             excluded=True,
         ),
         QualityCode(
+            "glitch-cluster",
+            "A dense run of 5 or more samples (at most a quarter of the record; candidates at "
+            "most 3 samples apart) whose z or force lies beyond the record's own robust range "
+            "(its 5 % to 70 % quantiles) by more than that range's width, and departs by as "
+            "much (and 10 noise widths) from the 3 samples on each side: the channel went "
+            "somewhere the plate cannot be and came back. Runs first, on the raw records; a "
+            "run-away at the record's end (nothing after it) is never one.",
+            "A portable rig's z can jump to 2-12x the record's depth for up to ~50 samples. "
+            "Kept, such clusters moved a soil's pooled n from 1.38 +/- 0.06 to 0.52 +/- 0.23, "
+            "made the good samples behind them look non-monotone and hid a real drift.",
+            "Nothing by default: the samples are excluded from every fit and listed. Use "
+            "--quality flag to keep them; check the displacement sensor's cable, connector "
+            "and logger if clusters recur.",
+            excluded=True,
+        ),
+        QualityCode(
             "pre-contact",
             "The force stays at its noise floor while the sinkage grows: the plate was zeroed "
             "above the surface (seating offset). Either a power law measured from a contact "
@@ -80,11 +96,14 @@ CODES: dict[str, QualityCode] = {
             "rise). The contact is never placed past a sample held 5 noise widths off the "
             "floor. A record that starts under load (its first samples above 5 % of its peak "
             "force and 5 noise widths) or climbing (its first four samples rising by more "
-            "than 5 noise widths) is not searched. One rule per soil: where most of a soil's "
-            "tests show a toe (median residual ratio at most 0.8), the soil's median contact "
-            "decides whether it is material (2 % of the median travel) and every test is "
-            "treated alike: re-zeroed at its own contact, or at the soil's median where its "
-            "own record cannot place it; elsewhere a test needs the evidence above on its own.",
+            "than 5 noise widths) is not searched. One rule per soil and preparation: where most "
+            "of its tests show a toe (median residual ratio at most 0.8), their median "
+            "contact decides whether it is material (2 % of the median travel) and every "
+            "test is treated alike: re-zeroed at its own contact, or at the median where its "
+            "own record cannot place it; elsewhere a test needs the evidence above on its own "
+            "(a shifted law on 20 loaded samples at least). The message gives the record's "
+            "log-log n from z = 0 and from the contact. A contact that would leave out more "
+            "than half of the record is not applied: the flag asks the question instead.",
             "Bekker's and Bernstein's z is the sinkage below the surface. An offset zero bends "
             "the curve and biases n and k; the free travel adds samples with p ~ 0.",
             "Nothing by default: samples before the contact are excluded and z is re-zeroed "
@@ -152,7 +171,10 @@ CODES: dict[str, QualityCode] = {
             "over the last 25 % of the sinkage is flagged whatever the law says (a plateau: "
             "the soil failed or the rig reached a force limit; onset where the force first "
             "comes within 2 % of its end). Where a seating offset was found, the rule runs on "
-            "the loaded record with z from the contact.",
+            "the loaded record with z from the contact. Noise is allowed for: the excess must "
+            "hold once 2.5 standard errors of the early law's log-force at the record's end "
+            "are taken off, and a plateau must be flat beyond the noise (a line through the "
+            "tail gains under 2 %, and under 10 % with two standard errors).",
             "The soil under the plate failed (punch-through), or the rig stopped loading (a "
             "force limit); pressure–sinkage models describe the loading before. Samples past "
             "the onset drag n toward 0.",
@@ -246,8 +268,9 @@ CODES: dict[str, QualityCode] = {
             "stratified by series, exact permutation p-value below 0.01 after Bonferroni over "
             "the soils; in a series whose own trend has that sign (one-sided p at most 0.1, so "
             "at least 4 tests) and a Theil-Sen drift of at least 1 % of its median peak force "
-            "across it. Flagged: the tests whose drift since the series' first test reaches "
-            "that 1 %.",
+            "across it, its slope at least 3 standard errors (from the start forces' robust "
+            "scatter around the trend). Flagged: the tests whose drift since the series' "
+            "first test reaches that 1 %.",
             "A load cell whose zero drifts over a test day adds a constant force to each "
             "record that grows with test order. It fits silently (the offset bends n and k) "
             "and makes test order (repetition) look like a cause of the soil's behaviour.",
@@ -256,6 +279,30 @@ CODES: dict[str, QualityCode] = {
             "compare the fit with one of the unflagged tests (a fit of flagged tests carries "
             "the flag). Discovery reports causes that follow test order as a residue of the "
             "data, not a cause.",
+        ),
+        QualityCode(
+            "starts-loaded",
+            "The loading record's first samples (median of 3) already carry more than 5 % of "
+            "its peak force and 5 force-noise widths, at a first z beyond 2 % of the travel: "
+            "the logger started after the plate was loaded, and the record's first "
+            "millimetres are missing. Flag only.",
+            "Without its toe a record cannot show a seating offset or a late zero, and its "
+            "early law (bearing failure, the contact rules) starts mid-curve; the fit covers "
+            "only the sinkage recorded.",
+            "Nothing is excluded. Check that z was zeroed at the surface (not where logging "
+            "began); if it was, the fit holds for the range recorded. Start logging before "
+            "contact in future tests.",
+        ),
+        QualityCode(
+            "gap",
+            "A step in z of more than 20 times the record's median step and 5 % of its "
+            "travel: a stretch of sinkage with no samples (the logger paused or dropped "
+            "data). Flag only; rows: the first sample after each gap.",
+            "A fit has no information inside the gap; a gap where the curve bends (toe, "
+            "failure onset) hides where it bends, and a thinning by equal sinkage weighs the "
+            "samples around it differently.",
+            "Nothing is excluded. Check the logger's buffer and sampling settings; when a "
+            "gap falls where a window or onset is decided, read that decision with care.",
         ),
         QualityCode(
             "non-monotone",

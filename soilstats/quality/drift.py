@@ -61,6 +61,10 @@ DRIFT_ALPHA = 0.01
 #: The smallest drift that is flagged: across a series, and per flagged test since the
 #: series' first, as a fraction of the series' median peak force.
 DRIFT_MIN_PEAK = 0.01
+#: ... and its slope at least this many standard errors (from the start forces' robust
+#: scatter around the trend): on a 25 mm plate 1 % of the peak is ~1 N, the size of a
+#: load cell's per-test offset, and 8 of 200 clean noisy tests of one series were flagged.
+DRIFT_SLOPE_SE = 3.0
 #: A series of a drifting soil is flagged only when its own trend is clear: Kendall's S in
 #: the soil's direction with a one-sided exact p-value at most this (so at least 4 tests);
 #: one preloaded start does not drag a clean series in.
@@ -245,6 +249,18 @@ def _in_order(tests: pd.DataFrame) -> tuple[pd.DataFrame, pd.Series]:
     return ranked, source.groupby(tests["series"]).first()
 
 
+def _slope_se(values: np.ndarray, slope: float) -> float:
+    """Standard error of a trend's slope per test, from the robust scatter (1.4826 MAD) of
+    the values around the Theil-Sen line."""
+    m = values.size
+    k = np.arange(m, dtype=float)
+    residual = values - slope * k
+    residual = residual - np.median(residual)
+    width = 1.4826 * float(np.median(np.abs(residual)))
+    spread = float(((k - k.mean()) ** 2).sum())
+    return width / np.sqrt(spread) if spread > 0 else np.inf
+
+
 def find_drift(log: pd.DataFrame, starts: pd.DataFrame) -> list[Drift]:
     """The tests whose force zero drifted (module docstring).
 
@@ -285,6 +301,8 @@ def find_drift(log: pd.DataFrame, starts: pd.DataFrame) -> list[Drift]:
             least = DRIFT_MIN_PEAK * peak
             if np.sign(slope) != np.sign(s) or abs(slope) * (len(g) - 1) < least:
                 continue
+            if abs(slope) < DRIFT_SLOPE_SE * _slope_se(offsets, slope):
+                continue  # within the offsets' own scatter (1 N offsets, 1 % of 100 N)
             own, p_two = kendall_p([offsets])
             if np.sign(own) != np.sign(s) or p_two / 2 > SERIES_P:  # symmetric: one-sided
                 continue

@@ -23,7 +23,7 @@ import pandas as pd
 from ..campaign.units import implausible_units
 from ..errors import CampaignError, InputError
 from . import blocks as blocks_mod
-from . import prescreen, records, staging
+from . import glitches, prescreen, records, staging
 from .blocks import Blocks
 from .codes import CODES, MODES
 from .copies import RECORDS, find_copies
@@ -124,8 +124,18 @@ def _sinkage_findings(
     """
     clean = mode == "clean"
     rec = _Records.of(sink, ("z_m", "force_N"))
+    # Glitch clusters first: a dense run of impossible samples owns every running median
+    # the spike and burst rules compare with.
+    glitched_out, drop, glitched = glitches.glitch_flags(
+        rec.ids, rec.blocks, rec.columns, rec.labels, clean
+    )
+    if glitched.any():
+        rest, at = rec.blocks.keep(~glitched)
+        rec = _Records(rec.ids, rest, rec.labels[at], {c: v[at] for c, v in rec.columns.items()})
     blocks, z, force = rec.blocks, rec.columns["z_m"], rec.columns["force_N"]
-    out, drop, spiked = _spike_findings(rec, "sinkage", ("z_m", "force_N"), clean)
+    out, spike_drop, spiked = _spike_findings(rec, "sinkage", ("z_m", "force_N"), clean)
+    drop += spike_drop
+    _merge(out, glitched_out)
     unspiked, kept = blocks.keep(~spiked)
     found, burst_drop, bursts = staging.burst_flags(
         rec.ids, unspiked, {"z_m": z[kept], "force_N": force[kept]}, rec.labels[kept], clean
@@ -174,10 +184,27 @@ def _sinkage_findings(
             found_contacts[k] = contact
     contact_of = seating_per_soil(found_contacts, record, [(soil_of or {}).get(t) for t in rec.ids])
     for k, contact in sorted(contact_of.items()):
-        _, _, lk = record(k)
+        zk, fk, lk = record(k)
+        rows = lk[contact.before]
+        if rows.size > 0.5 * lk.size:
+            # Leaving out most of a record is a question for the user, never a silent window.
+            del contact_of[k]
+            out[k].append(
+                QualityFlag(
+                    rec.ids[k],
+                    "sinkage",
+                    "pre-contact",
+                    _rows(rows),
+                    f"a contact at z = {contact.z_contact:.4g} m would leave out {rows.size} of "
+                    f"{lk.size} samples (more than half): not applied; is the plate really "
+                    "off the soil that long? Re-zero the test by hand if it is",
+                    value=contact.z_contact,
+                )
+            )
+            continue
         if clean and contact.z_contact:
             offsets[rec.ids[k]] = float(contact.z_contact)
-        rows = lk[contact.before]
+        effect = _exponent_effect(zk, fk, contact.z_contact)
         out[k].append(
             QualityFlag(
                 rec.ids[k],
@@ -186,7 +213,8 @@ def _sinkage_findings(
                 _rows(rows),
                 f"force at its noise floor over the first {contact.z_contact * 1e3:.3g} mm; "
                 f"contact found at z = {contact.z_contact:.4g} m ({contact.describe()})"
-                + ("; z re-zeroed there" if clean else ""),
+                + ("; z re-zeroed there" if clean else "")
+                + effect,
                 excluded=clean,
                 value=contact.z_contact,
             )
@@ -261,6 +289,10 @@ def _sinkage_findings(
                 f"z falls back below its running maximum in {hits.size} samples",
             )
         )
+    for k in range(loaded.count):
+        zk, fk, lk = record(k)
+        failed = failure_of.get(k)  # a run-on's load steps jump in z by nature: not gaps
+        out[k].extend(_record_shape_flags(rec.ids[k], zk, fk, lk, failed))
     peaks = {"force_N": contacted.max(fc), "z_m": contacted.max(zc)}
     for values, other, column in ((fc, zc, "force_N"), (zc, fc, "z_m")):
         clipped = blocks_mod.saturation(contacted, values, other)
@@ -345,6 +377,88 @@ def seating_per_soil(
             before = np.flatnonzero((z > 0) & (z <= contact))
             chosen[k] = records.ContactPoint(contact, before, np.nan, evidence="soil")
     return chosen
+
+
+#: starts-loaded: the first samples' force (median of 3) above this share of the peak ...
+STARTS_LOADED_SHARE = 0.05
+#: ... and this many force-noise widths, at a first z beyond this share of the travel.
+STARTS_LOADED_WIDTHS = 5.0
+STARTS_LOADED_TRAVEL = 0.02
+#: gap: a z step more than this many times the record's median step ...
+GAP_STEPS = 20.0
+#: ... and more than this share of the travel.
+GAP_TRAVEL = 0.05
+
+
+def _record_shape_flags(
+    test_id: str,
+    z: np.ndarray,
+    force: np.ndarray,
+    labels: np.ndarray,
+    failed_row: int | None = None,
+) -> list[QualityFlag]:
+    """``starts-loaded`` and ``gap`` flags of one loading record (flag only); gaps are
+    judged before a bearing failure's first failed row (label) only."""
+    out: list[QualityFlag] = []
+    if z.size < 8:
+        return out
+    travel = float(z.max() - min(float(z.min()), 0.0))
+    peak = float(force.max())
+    if travel <= 0 or peak <= 0:
+        return out
+    start = float(np.median(force[:3]))
+    noise = records._robust_width(np.diff(force, 2)) / np.sqrt(6.0)
+    z0 = float(z[0])
+    if (
+        start > STARTS_LOADED_SHARE * peak
+        and start > STARTS_LOADED_WIDTHS * noise
+        and z0 > STARTS_LOADED_TRAVEL * travel
+    ):
+        out.append(
+            QualityFlag(
+                test_id,
+                "sinkage",
+                "starts-loaded",
+                _rows(labels[:1]),
+                f"the record starts under load: {start:.4g} N ({start / peak:.0%} of its peak) "
+                f"at z = {z0 * 1e3:.3g} mm; its first {z0 * 1e3:.3g} mm are missing",
+                value=z0,
+            )
+        )
+    steps = np.diff(z)
+    forward = steps[steps > 0]
+    if forward.size >= 4:
+        usual = float(np.median(forward))
+        judged = labels[1:] < failed_row if failed_row is not None else True
+        big = np.flatnonzero((steps > GAP_STEPS * usual) & (steps > GAP_TRAVEL * travel) & judged)
+        if big.size:
+            widest = float(steps[big].max())
+            out.append(
+                QualityFlag(
+                    test_id,
+                    "sinkage",
+                    "gap",
+                    _rows(labels[big + 1]),
+                    f"{big.size} gap(s) in z, up to {widest * 1e3:.3g} mm "
+                    f"({widest / usual:.0f}x the record's median step of {usual * 1e3:.3g} mm): "
+                    "no samples there",
+                    value=widest,
+                )
+            )
+    return out
+
+
+def _exponent_effect(z: np.ndarray, force: np.ndarray, z_contact: float) -> str:
+    """The re-zeroing's effect on the record's exponent, for the message: the log-log slope
+    of force on sinkage past the contact (force above 5 % of its peak), from z = 0 and from
+    the contact."""
+    past = (z > z_contact) & (force > 0.05 * float(np.max(force, initial=0.0)))
+    if past.sum() < 4 or not z_contact > 0:
+        return ""
+    log_f = np.log(force[past])
+    n_zero = np.polyfit(np.log(z[past]), log_f, 1)[0]
+    n_contact = np.polyfit(np.log(z[past] - z_contact), log_f, 1)[0]
+    return f"; the record's log-log n {n_zero:.3g} from z = 0, {n_contact:.3g} from the contact"
 
 
 def _merge(out: list[list[QualityFlag]], found: list[list[QualityFlag]]) -> None:
@@ -477,7 +591,11 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
         b_of = dict(
             zip(tests["test_id"], pd.to_numeric(tests["b_m"], errors="coerce"), strict=True)
         )
-        soil_of = dict(zip(tests["test_id"], tests["soil"].astype(str), strict=True))
+        # A seating toe is decided once per soil and preparation (one bed, one procedure).
+        group = tests["soil"].astype(str)
+        if "preparation" in tests.columns:
+            group = group + "\x00" + tests["preparation"].astype(str)
+        soil_of = dict(zip(tests["test_id"], group, strict=True))
         per_test, drop["sinkage"], offsets, ends, phases = _sinkage_findings(
             sink, mode, progress, b_of, soil_of
         )

@@ -19,8 +19,9 @@ from __future__ import annotations
 import math
 import re
 import textwrap
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -29,6 +30,7 @@ from matplotlib.figure import Figure
 from .._text import plural
 from ..discovery.candidates import candidate_values
 from ..discovery.result import METHOD_NOTES, DiscoveryResult, Finding
+from ..evidence import REAL_SE, RULE
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
 from .document import GRID_STYLE, Document, strong
@@ -36,6 +38,9 @@ from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
 from .methods import write_equations
 from .parameters import EQ4_NOTE, fit_rows, fit_table
+
+if TYPE_CHECKING:
+    from ..discovery.crossval import Gain
 
 __all__ = ["write_report"]
 
@@ -68,8 +73,32 @@ def _shows_in(f) -> str:
 def _gain_words(g) -> str:
     return (
         f"{g.relative:+.1%} in held-out error ({g.base:.4f} → {g.extended:.4f}, "
-        f"{g.scheme} cross-validation, {g.folds} folds, {g.n_tests} tests)"
+        f"{g.scheme} cross-validation, {g.folds} folds, {g.n_tests} tests; {g.text()})"
     )
+
+
+def _schemes(f) -> list[tuple[str, Gain]]:
+    """The held-out gains measured for a finding's extension: (scheme in words, Gain)."""
+    out = [("tests held out", f.gain)]
+    if f.gain_search is not None:
+        out.append(("the whole search nested", f.gain_search))
+    if f.gain_conditions is not None:
+        out.append(("a whole condition held out", f.gain_conditions))
+    return [(name, g) for name, g in out if g is not None and np.isfinite(g.relative)]
+
+
+def _worst_scheme(f) -> tuple[str, Gain] | None:
+    """The held-out scheme in which a kept extension does worst, where it is another than the
+    one that kept it (tests held out, the cause fixed)."""
+    schemes = _schemes(f)
+    if f.extension is None or len(schemes) < 2:
+        return None
+    worst = min(schemes[1:], key=lambda s: s[1].relative)
+    return worst if worst[1].relative < schemes[0][1].relative else None
+
+
+def _gain_cell_page1(g) -> str:
+    return f"{g.relative:+.1%}; {g.text()}"
 
 
 def _all_groups_words(g) -> str:
@@ -84,6 +113,17 @@ def _group(record) -> str:
 
 
 # -- page 1 ---------------------------------------------------------------------------------
+
+
+def _words_count(result) -> str:
+    """How many kept extensions' gains are real, and how many weak (soilstats.evidence)."""
+    words = [
+        f.gain.verdict for f in result.findings if f.extension is not None and f.gain is not None
+    ]
+    real, weak = words.count("real"), words.count("weak")
+    return f"{real} of them real (≥ {REAL_SE:g} standard errors)" + (
+        f", {weak} kept on a weak gain (below {REAL_SE:g} standard errors)" if weak else ""
+    )
 
 
 def _conclusion(result, all_groups) -> list:
@@ -110,16 +150,28 @@ def _conclusion(result, all_groups) -> list:
                 ),
                 f"each passes its F-test at α = {result.alpha:g} (Holm over {n_tests} tests); "
                 f"{kept} keep an extension that predicts held-out tests better (Table 1; "
-                "the evidence in the figures of the next pages).",
+                "the evidence in the figures of the next pages), "
+                f"{_words_count(result)}.",
             ]
         )
+        failures = _failures_out_of_sample(result)
+        if failures:
+            out.append(
+                [
+                    strong("Where a kept extension fails out of sample: "),
+                    "; ".join(failures)
+                    + ". An extension that does not carry to an unseen condition describes the "
+                    "conditions measured, not new ones.",
+                ]
+            )
     extended = [m for m in result.models if m.extensions and m.gain is not None]
     if extended:
         parts: list = [strong("Combined model: ")]
         parts.append(
             "; ".join(
                 f"{m.kind} / {m.soil}: {' + '.join(m.extensions)} "
-                f"({m.gain.relative:+.1%} in held-out error, {m.gain.n_tests} tests)"
+                f"({m.gain.relative:+.1%} in held-out error, {m.gain.n_tests} tests; "
+                f"{m.gain.text()})"
                 for m in extended
             )
             + ". "
@@ -127,6 +179,17 @@ def _conclusion(result, all_groups) -> list:
         if all_groups is not None:
             parts.append(_all_groups_words(all_groups))
         out.append(parts)
+    disagree = [
+        f"{d['kind']} / {d['soil']}: {line}"
+        for d, line in zip(result.disagreements(), result.disagreement_lines(), strict=True)
+    ]
+    if disagree:
+        out.append(
+            [
+                strong("Parameters that disagree between the finding and the combined model: "),
+                "; ".join(disagree) + ".",
+            ]
+        )
     said = []
     caveats = sum(len(f.caveats) for f in result.findings)
     if caveats:
@@ -163,19 +226,48 @@ def _findings_table(doc: Document, result) -> None:
             "Holm p": f.p_adjusted,
             "tests": f.n_tests,
             "extension kept": f.extension or "none",
-            "gain": f.gain.relative if f.extension and f.gain is not None else None,
+            "held-out gain (tests)": _gain_cell_page1(f.gain)
+            if f.extension and f.gain is not None
+            else "–",
+            "worst held-out scheme": _worst_cell(f),
         }
         for i, f in enumerate(result.findings, 1)
     ]
     doc.table(
         pd.DataFrame(rows),
         caption="The causes found, strongest first: where the per-test responses change with "
-        "the cause, and the extension kept with its gain in held-out error (tests left out, "
-        "the cause fixed).",
-        formats={"Holm p": ".2g", "gain": "+.1%", "tests": ".0f"},
+        "the cause, and the extension kept with its gain in held-out error: tests left out "
+        "with the cause fixed (what decides keeping), and beside it the worst other scheme "
+        "measured (a whole condition left out, or the whole search nested). Gain: relative "
+        f"change of the RMS error; then the paired difference ± its standard error; {RULE}.",
+        formats={"Holm p": ".2g", "tests": ".0f"},
         align_numbers=False,
-        widths=["auto", "auto", "1fr", "auto", "auto", "auto", "1fr", "auto"],
+        widths=["auto", "auto", "1.2fr", "1fr", "auto", "auto", "1fr", "1.3fr", "1.3fr"],
     )
+
+
+def _worst_cell(f) -> str:
+    worst = _worst_scheme(f)
+    if worst is None:
+        return "–" if f.extension is None else "no other scheme measured"
+    name, g = worst
+    return f"{name}: {_gain_cell_page1(g)}"
+
+
+def _failures_out_of_sample(result) -> list[str]:
+    """Sentences for page 1: kept extensions that predict worse, or gain nothing real, in
+    another held-out scheme than the one that kept them."""
+    out = []
+    for f in result.findings:
+        worst = _worst_scheme(f)
+        if worst is None or worst[1].verdict == "real":
+            continue
+        name, g = worst
+        out.append(
+            f"{_group({'kind': f.kind, 'soil': f.soil})} {f.extension}: {f.gain.relative:+.1%} "
+            f"with tests held out but {g.relative:+.1%} with {name} ({g.verdict})"
+        )
+    return out
 
 
 # -- the findings' figures ------------------------------------------------------------------
@@ -374,7 +466,8 @@ def _model_section(doc: Document, result, all_groups) -> None:
     doc.paragraph(
         "Forward selection over each finding's best plausible extension, on all tests of each "
         "kind and soil with one fold set for every step (steps: appendix): an extension is "
-        "added only on a real cross-validated gain over the model before it, and only if the "
+        "added only on a cross-validated gain over the model before it of at least 1 standard "
+        "error (the keep rule; 'real' is said only at 2), and only if the "
         "combined fit is physically plausible and its parameters are determined."
     )
     doc.note(f"In the parameter tables: {_SIGMA_NOTE}")
@@ -390,7 +483,7 @@ def _model_table(doc: Document, m) -> None:
     if not m.extensions:
         doc.paragraph(
             strong(f"{m.kind} / {m.soil}: "),
-            "base model: no extension adds a real gain on all tests.",
+            "base model: no extension gains enough to be kept on all tests.",
         )
         return
     gain = _gain_words(m.gain) if m.gain is not None else "not measured"
@@ -472,7 +565,7 @@ def _gain_cell(g, name: str) -> str:
         return f"{name}: {g.relative:+.1%} (lead chosen in {g.selected_folds} of {g.folds} folds)"
     return (
         f"{name}: {g.relative:+.1%} ({g.base:.4f} → {g.extended:.4f}; paired difference "
-        f"{g.difference:.3g} ± {g.stderr:.2g}, {g.z:.1f} SE; real: {g.real}; {g.scheme} CV, "
+        f"{g.text()}; {g.scheme} CV, "
         f"{g.folds} folds, {g.n_tests} tests)"
     )
 
@@ -580,7 +673,7 @@ def _tried_appendix(doc: Document, result) -> None:
             "description": described(t),
             "gain": t.get("relative"),
             "search": t.get("relative_search"),
-            "real": t.get("real"),
+            "evidence": t.get("verdict", "real" if t.get("real") else "none"),
             "physical": t.get("physical"),
             "outcome": t.get("error")
             or ("kept" if t.get("extension") == f.extension else t.get("reason", "not kept")),
@@ -686,21 +779,42 @@ def _caveats_appendix(doc: Document, result) -> None:
     )
 
 
+#: Most candidates-not-found listed in the PDF; beyond, the interactions go to the JSON only.
+POWER_ROWS = 30
+
+
+def _power_rows_shown(power: list[dict]) -> tuple[list[dict], list[dict]]:
+    """(records listed in the PDF, records left to the JSON): all of them up to
+    :data:`POWER_ROWS`, else the main effects (the interactions' records stay in the JSON)."""
+    if len(power) <= POWER_ROWS:
+        return list(power), []
+    main = [p for p in power if " × " not in str(p["candidate"])]
+    return main, [p for p in power if " × " in str(p["candidate"])]
+
+
 def _power_appendix(doc: Document, result) -> None:
     if not result.power:
         doc.paragraph("Every candidate tested was either found or not testable (see the notes).")
         return
     first = result.power[0]
-    slots = max(len(p["responses"]) for p in result.power)
+    shown, left = _power_rows_shown(result.power)
+    if left:
+        doc.paragraph(
+            f"{len(result.power)} candidates were tested and not found. The "
+            f"{len(shown)} main effects are below; the smallest detectable effect of the other "
+            f"{plural(len(left), 'candidate')} (two-way interactions) is in the JSON "
+            '("power"), one record each: listed here they would need small type.'
+        )
+    slots = max(len(p["responses"]) for p in shown)
     labels = {
         f"r{j}": " / ".join(
-            dict.fromkeys(list(p["responses"])[j] for p in result.power if len(p["responses"]) > j)
+            dict.fromkeys(list(p["responses"])[j] for p in shown if len(p["responses"]) > j)
         )
         + " (raw p)"
         for j in range(slots)
     }
     rows = []
-    for p in result.power:
+    for p in shown:
         row: dict[str, Any] = {
             "group": _group(p),
             "candidate": f"{p['candidate']} ({p['role']}, {p['n_tests']} tests)",
@@ -837,15 +951,31 @@ def _confounded_appendix(doc: Document, result) -> None:
         for g, records in by_group.items()
         for text in _merged(records)
     ]
+    left = ""
+    if sum(len(r["cannot be told apart"]) for r in rows) > CONFOUNDED_CHARS:
+        # Where the list would need small type: the main effects' confounding here, that of
+        # interactions (implied by the design, "A × B determines …") in the JSON only.
+        kept = [r for r in rows if "×" not in r["cannot be told apart"].split(" determines")[0]]
+        left = (
+            f" {plural(len(rows) - len(kept), 'further line')} on interactions that the design "
+            "determines (an interaction of two factors fixing the others' interactions) "
+            'are in the JSON ("confounded") only: here they would need small type.'
+        )
+        rows = kept or rows[:1]
     _small_table(
         doc,
         pd.DataFrame(rows),
         f"Confounded candidates: the {plural(len(result.confounded), 'pair')} of columns "
         "(and their interactions) whose effects this design cannot separate, the pairs that "
-        "share a column said together.",
+        "share a column said together." + left,
         ["1fr"],
         sections="group",
     )
+
+
+#: Most characters of the confounded-candidates table before the interactions' lines go to
+#: the JSON only (about a page at 8 pt).
+CONFOUNDED_CHARS = 6000
 
 
 def _notes_appendix(doc: Document, result) -> None:
@@ -859,6 +989,7 @@ def write_report(
     *,
     provenance: Provenance | None = None,
     overwrite: bool = False,
+    defaults: Mapping[str, str] | None = None,
 ) -> int:
     """Write the typeset PDF report of ``result`` to ``path`` (its folder created if
     needed); return the number of pages.
@@ -889,6 +1020,7 @@ def write_report(
             f"α = {result.alpha:g}, seed {result.seed}.",
         ],
         conclusion=_conclusion(result, all_groups),
+        defaults=defaults,
     )
     if result.findings:
         _findings_table(doc, result)

@@ -44,7 +44,7 @@ __all__ = ["Document", "Markup", "esc", "math", "strong"]
 PAGE = "a4"
 BODY_PT = 10
 TABLE_PT = 8
-SMALL_PT = 7  # appendix tables and lists: complete, but the reader's last stop
+SMALL_PT = 8  # appendix tables and lists: the reader's last stop, and never smaller
 #: matplotlib rc of the report figures (``rc_context(FIGURE_STYLE)``): 9 pt text and titles,
 #: 8 pt ticks and legends at print width, a step below the body, and no top or right spine.
 FIGURE_STYLE: dict[RcKeyType, Any] = {

@@ -4,7 +4,7 @@ the conclusion in sentences — so a reader who stops after one page has the ans
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from .document import Document, Markup
@@ -37,12 +37,21 @@ def front_page(
     question: Sequence[Markup | str],
     data: Sequence[Markup | str],
     conclusion: Sequence[Sequence[Markup | str] | Markup | str],
+    defaults: Mapping[str, str] | None = None,
 ) -> None:
-    """Question, data and conclusion sections; each conclusion item is one paragraph."""
+    """Question, data and conclusion sections; each conclusion item is one paragraph.
+    ``defaults``: the options the user left at their defaults (``{"--alpha": "0.05"}``),
+    said under Data, since the result rests on them."""
     doc.heading("Question")
     doc.paragraph(*question)
     doc.heading("Data")
     doc.paragraph(*data)
+    if defaults:
+        doc.paragraph(
+            "Settings left at their defaults (not given on the command line): "
+            + ", ".join(f"{k} {v}" for k, v in defaults.items())
+            + "."
+        )
     doc.heading("Conclusion")
     for item in conclusion:
         parts = item if isinstance(item, list | tuple) else (item,)

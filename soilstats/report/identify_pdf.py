@@ -12,7 +12,7 @@ notes every fit shares printed once, numbered). Everything in identify.json is i
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -92,10 +92,10 @@ def _conclusion(records: list[dict], failures: int) -> list:
 
 
 def _soil_figure(soil: str, pairs: list):
-    """One figure per soil: a panel per kind (sinkage, shear) with every condition's fitted
-    curve and its band (eval_uncertainty: the test-level band where the fit rests on five
-    tests or more), over the depth or stress its data span; each panel's title says how far
-    the conditions' curves lie apart mid-range."""
+    """One figure per soil: a panel per kind (sinkage, shear) with the measured samples as
+    dots under every condition's fitted curve and its band (eval_uncertainty: the test-level
+    band where the fit rests on five tests or more), over the depth or stress its data span;
+    each panel's title says how far the conditions' curves lie apart mid-range."""
     kinds = list(dict.fromkeys(record["kind"] for record, _ in pairs))
     # A Figure of its own, not pyplot's: no backend is chosen for the caller (issue #45).
     fig = Figure(figsize=(6.4, 2.7))
@@ -112,6 +112,7 @@ def _soil_figure(soil: str, pairs: list):
             curves = _curve_inputs(kind, fit, every_plate=len(mine) == 1)
             label = curves[0][3] if curves else label
             for (x, grid, scale, _), style in zip(curves, ("-", "--", ":", "-."), strict=False):
+                _measured_points(ax, fit, x, scale, colour)
                 y, band = fit.eval(x), fit.eval_uncertainty(x)
                 ax.plot(grid * scale, y / 1e3, color=colour, lw=0.8, ls=style)
                 ax.fill_between(
@@ -137,6 +138,35 @@ def _soil_figure(soil: str, pairs: list):
     fig.suptitle(soil, fontsize=8)
     tight_layout(fig)
     return fig
+
+
+#: Most measured points drawn under one curve (every k-th sample beyond: the figure shows
+#: where the data lie, the JSON and CSV hold every value).
+_MAX_POINTS = 400
+
+
+def _measured_points(ax, fit, x, scale: float, colour) -> None:
+    """The samples the fit was made on, as small dots under its curve: for a plate-size
+    model only those of the plate the curve is drawn at."""
+    if fit.x_data is None or fit.y_data is None:
+        return
+    xs, ys = np.asarray(fit.x_data, float), np.asarray(fit.y_data, float)
+    if xs.ndim == 2:
+        keep = np.isclose(xs[0], np.asarray(x)[0][0])
+        xs, ys = xs[-1][keep], ys[keep]
+    if xs.size == 0:
+        return
+    step = max(1, xs.size // _MAX_POINTS)
+    ax.plot(
+        xs[::step] * scale,
+        ys[::step] / 1e3,
+        ".",
+        ms=1.5,
+        color=colour,
+        alpha=0.35,
+        zorder=1,
+        rasterized=True,
+    )
 
 
 def _curve_inputs(kind: str, fit, *, every_plate: bool = False) -> list[tuple]:
@@ -189,6 +219,7 @@ def write_report(
     campaign: Campaign,
     provenance: Provenance | None = None,
     overwrite: bool = False,
+    defaults: Mapping[str, str] | None = None,
 ) -> int:
     """Write the typeset identification report of ``results`` (ConditionFits per kind) of
     ``campaign`` to ``path``.
@@ -222,6 +253,7 @@ def write_report(
             f": {len(campaign.tests)} tests; kinds identified: {', '.join(kinds)}.",
         ],
         conclusion=_conclusion(records, len(failures)),
+        defaults=defaults,
     )
     doc.heading("Parameters per soil and condition")
     doc.note(
@@ -232,7 +264,8 @@ def write_report(
         doc.heading(soil, level=2)
         doc.figure(
             _soil_figure(soil, mine),
-            f"{soil}: each condition's fitted curve with its one-σ band (the test-level band "
+            f"{soil}: the measured samples (dots; at most {_MAX_POINTS} per curve) under each "
+            "condition's fitted curve with its one-σ band (the test-level band "
             "where the fit rests on five tests or more, Eq. 4's otherwise), coloured by series; "
             "a plate-size model at the plate widths named on its axis.",
         )

@@ -7,9 +7,9 @@ levels sort as a person counts (1, 2, 10 — not 1, 10, 2).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable
 
+from .._text import natural_key
 from .document import Markup, esc, math
 
 __all__ = [
@@ -77,22 +77,6 @@ _UNITS = (
     ("_s", "s"),
     ("_kg", "kg"),
 )
-
-
-def natural_key(value: object) -> tuple:
-    """Sort key that orders numbers by value and text by its digit runs as numbers."""
-    if isinstance(value, int | float):  # bool included
-        return (0, float(value), "")
-    text = str(value)
-    try:
-        return (0, float(text), "")
-    except ValueError:
-        parts = re.split(r"(\d+(?:\.\d+)?)", text)
-        return (
-            1,
-            0.0,
-            tuple((0, float(p), "") if i % 2 else (1, 0.0, p) for i, p in enumerate(parts)),
-        )
 
 
 def natural_sorted(values: Iterable[object]) -> list:

@@ -25,7 +25,7 @@ preparation* (what :meth:`~soilstats.bayes.PosteriorResult.draws` returns).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
@@ -209,15 +209,19 @@ def trace_figure(
             dens = fig.add_subplot(grid[row, 1], sharey=trace)
             colours = [_chain_colour(i, chains) for i in range(chains)]
             steps = np.arange(draws)
+            log = spans_decades(values)
             for i in range(chains):
                 trace.plot(steps, values[i], lw=0.4, alpha=0.6, color=colours[i], rasterized=True)
-                grid_i, pdf_i = az.kde(values[i], bw="scott")
+                grid_i, pdf_i = _kde(values[i], log, bw="scott")
                 dens.plot(pdf_i, grid_i, lw=0.4, alpha=0.5, color=colours[i])
-            grid_all, pdf_all = az.kde(values.ravel())
+            grid_all, pdf_all = _kde(values.ravel(), log)
             dens.plot(pdf_all, grid_all, lw=1.2, color="k")
+            if log:
+                trace.set_yscale("log")
             math_text(trace.set_ylabel(parameter_label(name, post.units.get(name))))
             trace.set_xlim(0, max(draws - 1, 1))
-            trace.yaxis.set_major_locator(MaxNLocator(4))
+            if not log:
+                trace.yaxis.set_major_locator(MaxNLocator(4))
             dens.tick_params(labelleft=False)
             dens.set_xticks([])
             if row == len(names) - 1:
@@ -233,10 +237,52 @@ def trace_figure(
         f"the value of each of the {chains} emcee walkers (one line per walker) over its "
         f"{draws} kept draws after burn-in and thinning; right, the marginal posterior "
         f"density of all {chains * draws} draws (black) and of each walker (thin lines). "
-        f"{_units_sentence(names, post.units)} {diag}"
+        f"{_units_sentence(names, post.units)} {diag}{_log_note(values_of(data, names))}"
         f"{_new_preparation_note(post)}{capped}"
     )
     return fig, caption
+
+
+#: A parameter whose draws (1st to 99th percentile) span this ratio or more is drawn on a
+#: logarithmic axis: on a linear one its lower decade is a line at zero.
+DECADES_RATIO = 10.0
+
+
+def spans_decades(values: np.ndarray) -> bool:
+    """Whether positive draws span a decade or more (1st to 99th percentile)."""
+    v = np.asarray(values, float).ravel()
+    v = v[np.isfinite(v)]
+    if v.size < 2 or not (v > 0).all():
+        return False
+    lo, hi = np.quantile(v, [0.01, 0.99])
+    return bool(hi / lo >= DECADES_RATIO)
+
+
+def _kde(values: np.ndarray, log: bool, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+    """Kernel density of ``values`` (for a log axis: of their log10, per decade, returned
+    at the values themselves)."""
+    if not log:
+        return az.kde(values, **kwargs)
+    grid, pdf = az.kde(np.log10(values), **kwargs)
+    return 10.0**grid, pdf
+
+
+def values_of(data: Any, names: Iterable[str]) -> dict[str, np.ndarray]:
+    """Each parameter's draws (all chains, flattened) in its display unit."""
+    return {n: data[n].to_numpy().ravel() * _scale(n) for n in names}
+
+
+def _log_note(values: dict[str, np.ndarray]) -> str:
+    """The caption's sentence naming the parameters drawn on log axes (empty: none)."""
+    logs = [n for n, v in values.items() if spans_decades(v)]
+    if not logs:
+        return ""
+    listed = ", ".join(_caption_name(n) for n in logs)
+    return (
+        f" {listed} {'spans' if len(logs) == 1 else 'span'} a decade or more and "
+        f"{'is' if len(logs) == 1 else 'are'} drawn on a logarithmic axis (its density per "
+        "decade)."
+    )
 
 
 def _signed(value: float) -> str:
@@ -282,7 +328,8 @@ def pair_figure(
     """
     post, names, capped = _shown(posterior, max_params)
     data = post.idata.posterior
-    values = {n: data[n].to_numpy().ravel() * _scale(n) for n in names}
+    values = values_of(data, names)
+    logs = {n: spans_decades(v) for n, v in values.items()}
     labels = [parameter_label(n, post.units.get(n)) for n in names]
     total = next(iter(values.values())).size
     step = max(1, math.ceil(total / max_points))
@@ -300,7 +347,7 @@ def pair_figure(
                     continue
                 x = values[names[j]]
                 if i == j:
-                    grid, pdf = az.kde(x)
+                    grid, pdf = _kde(x, logs[names[j]])
                     ax.plot(grid, pdf, color="k", lw=1.0)
                     ax.fill_between(grid, pdf, color="0.8", lw=0)
                     ax.set_yticks([])
@@ -320,12 +367,18 @@ def pair_figure(
                         fontsize=8,
                         bbox=_R_BOX,
                     )
-                    ax.yaxis.set_major_locator(MaxNLocator(3))
+                    if logs[names[i]]:
+                        ax.set_yscale("log")
+                    else:
+                        ax.yaxis.set_major_locator(MaxNLocator(3))
                     if j == 0:
                         math_text(ax.set_ylabel(labels[i]))
                     else:
                         ax.tick_params(labelleft=False)
-                ax.xaxis.set_major_locator(MaxNLocator(3))
+                if logs[names[j]]:
+                    ax.set_xscale("log")
+                else:
+                    ax.xaxis.set_major_locator(MaxNLocator(3))
                 if i == k - 1:
                     math_text(ax.set_xlabel(labels[j]))
                 else:
@@ -346,7 +399,7 @@ def pair_figure(
         f"{shown.size} of the {total} posterior draws ({every}) of one pair of "
         f"parameters, with Pearson's correlation coefficient r of all draws printed in the "
         f"panel{f' ({pairs})' if pairs else ''}; the diagonal shows each parameter's marginal "
-        f"posterior density. {_units_sentence(names, post.units)}"
+        f"posterior density. {_units_sentence(names, post.units)}{_log_note(values)}"
         f"{_new_preparation_note(post)}{capped}"
     )
     return fig, caption

@@ -368,10 +368,32 @@ def write_report(
         _simulator_section(doc, record["simulator"])
     if record.get("support"):
         doc.heading("Physical support of the draws")
-        support = record["support"]
-        doc.key_values((str(k).replace("_", " "), v) for k, v in support.items())
+        doc.key_values(_support_rows(record["support"]))
     if record.get("failures"):
         doc.heading("Failed checks")
         doc.numbered(record["failures"])
     doc.provenance_section()
     return doc.render(path)
+
+
+def _support_rows(support: dict) -> list[tuple[str, str]]:
+    """The physical-support check as label/value rows in words: one row per reason a draw
+    can fall outside (never a printed mapping)."""
+    rows: list[tuple[str, str]] = []
+    for key, value in support.items():
+        label = str(key).replace("_", " ")
+        if isinstance(value, dict):
+            rows += [(f"{label}: {k}", _support_value(v)) for k, v in value.items()]
+        elif isinstance(value, list | tuple):
+            rows.append((label, " – ".join(_support_value(v) for v in value)))
+        else:
+            rows.append((label, _support_value(value)))
+    return rows
+
+
+def _support_value(value) -> str:
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return "" if value is None else str(value)

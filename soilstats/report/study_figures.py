@@ -122,32 +122,41 @@ def relative(result: StudyResult, campaign: Campaign | None = None) -> plt.Figur
     for ax, (name, g) in zip(axes, params.groupby("parameter", sort=False), strict=False):
         ratio = bool((g["value"] > 0).all() or (g["value"] < 0).all())
         unit = g["unit"].iloc[0]
-        for soil, gs in g.groupby("soil"):
+        # Levels are categories: points at their places in natural order (1, 2, 10), one
+        # small offset per soil, never joined by lines (a line between levels would claim a
+        # trend between conditions that have no order in between).
+        levels = natural_sorted(g["condition"].astype(str).unique())
+        soils = list(g.groupby("soil").groups)
+        width = 0.5 / max(len(soils), 1)
+        for k, (soil, gs) in enumerate(g.groupby("soil")):
             gs = gs.iloc[sorted(range(len(gs)), key=lambda i: natural_key(gs["condition"].iloc[i]))]
             base = gs[gs["condition"] == ref] if ref else gs.iloc[:1]
             if base.empty:
                 base = gs.iloc[:1]
             v0 = float(base["value"].iloc[0]) if ratio else 1.0
+            x = [levels.index(str(c)) + (k - (len(soils) - 1) / 2) * width for c in gs["condition"]]
             ax.errorbar(
-                gs["condition"],
+                x,
                 gs["value"] / v0,
                 yerr=gs["stderr"] / abs(v0),
                 marker="o",
+                linestyle="none",
                 capsize=3,
                 label=soil,
             )
+        ax.set_xticks(range(len(levels)), levels)
         if ratio:
             ax.axhline(1.0, color="grey", lw=0.8)
             spread = _spread(g)
-            ax.set(
-                title=f"{name} / {name}({ref or 'first'}): up to ×{spread:.2g}",
-                ylabel="ratio",
-            )
+            ylabel = f"{name} / {name}({ref or 'first'})"
+            ax.set(title=f"{name}: up to ×{spread:.2g}", ylabel=ylabel)
+            if spread >= 10:  # ratios over a decade or more: equal factors, equal steps
+                ax.set_yscale("log")
         else:
             ax.axhline(0.0, color="grey", lw=0.8)
             ax.set(title=f"{name} changes sign", ylabel=f"{name} ({unit})")
         ax.set(xlabel=column_label(spec.factor))
-        ax.tick_params(axis="x", rotation=45, labelsize=7)
+        ax.tick_params(axis="x", rotation=45 if len(levels) > 4 else 0, labelsize=7)
         ax.legend(fontsize=7)
     tight_layout(fig)
     return fig

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from .._text import plural
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
 from ..study.result import CRITERIA_COLUMNS, StudyResult
@@ -115,10 +116,44 @@ def _conclusion(result) -> list[list]:
     return out
 
 
+def _campaign_design(result) -> str:
+    """The design of the tests this study analysed, read from them (never the paper's): the
+    soils, the factor's levels with their test counts in natural order, and the blocks."""
+    spec, tests = result.spec, result.per_test
+    factor = spec.factor
+    counts = tests[factor].astype(str).value_counts() if factor in tests else None
+    levels = (
+        ", ".join(
+            f"{lv} ({plural(int(counts[lv]), 'test')})" for lv in natural_sorted(counts.index)
+        )
+        if counts is not None
+        else "not recorded"
+    )
+    soils = ", ".join(natural_sorted(result.soils))
+    blocks = [
+        f"{column_label(b)} ({plural(int(tests[b].nunique()), 'value')})"
+        for b in spec.blocks
+        if b in tests and tests[b].nunique() > 1
+    ]
+    return (
+        f"This campaign: {plural(len(tests), 'test')} of {soils} analysed; "
+        f"{column_label(factor)}: {levels}"
+        + (
+            f"; blocking columns that vary: {', '.join(blocks)} (the notes say where one "
+            "cannot be separated from the factor)."
+            if blocks
+            else "; no blocking column varies."
+        )
+    )
+
+
 def _methods(doc: Document, result) -> None:
     spec = result.spec
     doc.heading("Methods")
-    doc.paragraph(" ".join(spec.description.split()))
+    doc.paragraph(_campaign_design(result))
+    doc.paragraph(
+        f"The paper's design, for comparison ({spec.paper}): ", " ".join(spec.description.split())
+    )
     write_equations(doc, (spec.kind,))
     if spec.kind == "shear":
         doc.paragraph(

@@ -227,7 +227,7 @@ def extension_figure(result: WheelValidation) -> tuple[Figure, str]:
     title = (
         f"Slip exponent, held out: error {1e3 * gain.base:.1f} → {1e3 * gain.extended:.1f} mm"
         f" ({gain.relative:+.0%}) leaving slip conditions out"
-        + (f", {day.relative:+.0%} leaving days out" if day else "")
+        + (f", {day.relative:+.0%} leaving days out (repeatability)" if day else "")
         + ";\nit still misses locked wheels and small skid"
     )
     wheels = sorted(cv["wheel"].unique())

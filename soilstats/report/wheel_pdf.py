@@ -17,9 +17,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from .. import evidence
 from ..outputs.files import output_path
 from .document import Document, strong
 from .front import data_origin, front_page
+from .wheel_calibration_pdf import calibration_conclusion, calibration_sections
 from .wheel_figures import (
     beta_figure,
     day_figure,
@@ -30,6 +32,7 @@ from .wheel_figures import (
 
 if TYPE_CHECKING:
     from ..outputs.provenance import Provenance
+    from ..wheel.calibration.validate import CalibrationReport
     from ..wheel.validation_result import WheelValidation
 
 __all__ = ["write_report"]
@@ -43,9 +46,57 @@ def _signed_mm(x: float) -> str:
     return f"{1e3 * x:+.1f} mm"
 
 
+def _answer(res) -> list:
+    """The title's answer first: "no" while the band holds fewer than half the runs; what
+    the band holds; and the bias by slip (never a lone mean over a U-shaped error), with the
+    MAE beside it for drawbar pull, whose errors of either sign a mean would cancel."""
+    cov = res.coverage["beta_0"]
+    verdict = (
+        "No" if cov["coverage_90"] < 0.5 else ("Partly" if cov["coverage_90"] < 0.8 else "Yes")
+    )
+    g = res.groups
+    text = (
+        f"the 90 % band from plates alone holds {cov['covered']} of {cov['runs']} β = 0 runs "
+        f"({cov['coverage_90']:.0%}). It is PARAMETER UNCERTAINTY ONLY (plate posterior and "
+        "test-to-test scatter; no model discrepancy, stress angles and datum fixed)"
+    )
+    sink = _by_slip(g, "sinkage")
+    if sink is not None:
+        worst = sink["bias"].abs().idxmax()
+        text += (
+            "; its sinkage bias (predicted − measured) by slip: "
+            + ", ".join(f"s = {lv:g}: {_signed_mm(r.bias)}" for lv, r in sink.iterrows())
+            + f" (largest at s = {worst:g})"
+        )
+    out = [[strong(f"{verdict}: "), text + "."]]
+    pull = _by_slip(g, "drawbar_pull")
+    if pull is not None:
+        out.append(
+            [
+                strong("Drawbar pull by slip (from the stated shear priors): "),
+                "MAE / bias "
+                + ", ".join(
+                    f"s = {lv:g}: {r.mae:.1f} / {r.bias:+.1f} N" for lv, r in pull.iterrows()
+                )
+                + ".",
+            ]
+        )
+    return out
+
+
+def _by_slip(groups: pd.DataFrame, quantity: str) -> pd.DataFrame | None:
+    """Mean bias and MAE over the wheel types at each slip condition (β = 0), or None."""
+    if groups.empty:
+        return None
+    rows = groups[(groups["by"] == "wheel × slip") & (groups["quantity"] == quantity)]
+    if rows.empty:
+        return None
+    return rows.groupby("level")[["bias", "mae"]].mean()
+
+
 def _conclusion(res) -> list:
     c, b = res.coverage, res.bias
-    out: list = []
+    out: list = _answer(res)
     per_wheel = []
     for wheel, cov in c["by_wheel"].items():
         near, bw = cov["near_zero_slip_beta_0"], b["by_wheel"][wheel]
@@ -100,8 +151,9 @@ def _conclusion(res) -> list:
             )
         if day_gain is not None:
             text += (
-                f", to {_mm(day_gain.extended)} ({day_gain.relative:+.0%}, {_real(day_gain)}) "
-                "leaving whole days out"
+                f"; leaving whole days out — repeatability: the same slip conditions stay in the "
+                f"fit through other days' repeats, so this does not test new slips — "
+                f"{_mm(day_gain.extended)} ({day_gain.relative:+.0%}, {_real(day_gain)})"
             )
         out.append([strong("Slip sinkage: "), text + ". " + _fails_sentence(disc)])
     if res.unpredictable:
@@ -153,8 +205,8 @@ def _p(disc, cause) -> str:
 
 
 def _real(gain) -> str:
-    z = gain.difference / gain.stderr if gain.stderr > 0 else np.inf
-    return f"{z:.1f} standard errors, " + ("real" if gain.real else "not beyond 2 SE")
+    """The gain in the one vocabulary of evidence (soilstats.evidence): word, d ± SE, z."""
+    return evidence.describe(gain.difference, gain.stderr, gain.relative, unit="mm", scale=1e3)
 
 
 def _beta_sentence(res) -> str:
@@ -237,8 +289,13 @@ def write_report(
     *,
     provenance: Provenance | None = None,
     overwrite: bool = False,
+    calibration: CalibrationReport | None = None,
+    defaults: dict[str, str] | None = None,
 ) -> int:
-    """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages."""
+    """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages.
+
+    With ``calibration`` (``--calibrate``) page 1 also gives the held-out answers of the
+    calibrated wheel and the body its sections (:mod:`.wheel_calibration_pdf`)."""
     path = output_path(Path(path).parent, Path(path).name, overwrite=overwrite)
     res = result
     doc = Document(
@@ -265,7 +322,9 @@ def write_report(
             f"{runs['W_N'].min():.0f}–{runs['W_N'].max():.0f} N. The wheel runs never enter the "
             "soil parameters that predict them.",
         ],
-        conclusion=_conclusion(res),
+        conclusion=_conclusion(res)
+        + (calibration_conclusion(calibration) if calibration is not None else []),
+        defaults=defaults,
     )
     fig, caption = predicted_figure(res)
     doc.figure(fig, caption, width="94%")
@@ -410,6 +469,8 @@ def write_report(
         doc.heading("Not predicted")
         doc.bullets([strong(f"{q}: "), reason] for q, reason in res.unpredictable.items())
 
+    if calibration is not None:
+        calibration_sections(doc, calibration)
     doc.heading("Caveats of the data and notes")
     doc.numbered([*res.caveats, *res.notes])
     for e in res.excluded:

@@ -20,6 +20,10 @@ kind            options (defaults)
 ``burst``       ``channel`` ("z_m" or "force_N"), ``count`` (2), ``length`` ([3, 4]: fewest
                 and most samples), ``size`` (0.1: share of the record's span), ``cluster``
                 (false: true plants ``length`` one-sample spikes two samples apart instead)
+``glitch-cluster`` ``channel`` ("z_m" or "force_N"), ``count`` (1), ``length`` ([5, 60]:
+                fewest and most samples; all of a record's together at most a quarter of
+                it), ``times`` ([3, 15]:
+                each sample's value, as a multiple of the record's depth or peak force)
 ============== =================================================================================
 
 Every kind also takes ``share`` (1.0: the probability that a matching test gets it),
@@ -47,6 +51,7 @@ ARTEFACT_KINDS: dict[str, dict[str, Any]] = {
     "unload-reload": {"at": 0.5, "samples": 20, "to": 0.05, "reload": 3},
     "step": {"at": 0.7, "drop": 0.12, "recovery": 15},
     "burst": {"channel": "z_m", "count": 2, "length": [3, 4], "size": 0.1, "cluster": False},
+    "glitch-cluster": {"channel": "z_m", "count": 1, "length": [5, 60], "times": [3.0, 15.0]},
 }
 _COMMON = ("kind", "share", "soils", "series")
 
@@ -104,6 +109,22 @@ def check_artefact(kind: str, options: dict[str, Any], where: str) -> dict[str, 
         out["length"] = [lo, hi]
         if not isinstance(out["cluster"], bool):
             raise SpecError(f"{where}.cluster must be true or false, got {out['cluster']!r}")
+    if kind == "glitch-cluster":
+        if out["channel"] not in ("z_m", "force_N"):
+            raise SpecError(f"{where}.channel must be 'z_m' or 'force_N', got {out['channel']!r}")
+        length, times = out["length"], out["times"]
+        if not (isinstance(length, list) and len(length) == 2):
+            raise SpecError(f"{where}.length must be [fewest, most], got {length!r}")
+        lo, hi = (_count(v, f"{where}.length", 5) for v in length)
+        if lo > hi:
+            raise SpecError(f"{where}.length must satisfy 5 <= fewest <= most, got {length!r}")
+        out["length"] = [lo, hi]
+        if not (isinstance(times, list) and len(times) == 2):
+            raise SpecError(f"{where}.times must be [lowest, highest], got {times!r}")
+        t_lo, t_hi = (_fraction(v, f"{where}.times", 2.0, 1000.0) for v in times)
+        if t_lo > t_hi:
+            raise SpecError(f"{where}.times must satisfy lowest <= highest, got {times!r}")
+        out["times"] = [t_lo, t_hi]
     return out
 
 
@@ -203,10 +224,36 @@ def _burst(o, z, force, rng, noise):
     return z, force, planted, np.zeros(values.size, dtype=bool)
 
 
+def _glitch_cluster(o, z, force, rng, noise):
+    """Dense clusters: every sample of a run jumps to ``times`` x the record's depth (or peak
+    force) and the record comes back after it, inside the record (8 good samples at least
+    on each side); a record's clusters together hold at most a quarter of its samples."""
+    values = z if o["channel"] == "z_m" else force
+    top = float(np.abs(values).max())
+    planted = np.zeros(values.size, dtype=bool)
+    lo, most = o["length"]
+    budget = values.size // 4  # all clusters of a record together: a quarter at most
+    for _ in range(o["count"]):
+        hi = min(most, budget - int(planted.sum()))
+        if hi < lo or values.size - hi - 16 <= 8:
+            break  # a record too short for (another) cluster of this length
+        length = int(rng.integers(lo, hi + 1))
+        start = int(rng.integers(8, values.size - length - 8))
+        if planted[max(0, start - 8) : start + length + 8].any():
+            continue  # keep clusters apart: each needs good samples on both sides
+        at = np.arange(start, start + length)
+        values[at] = rng.uniform(*o["times"], size=length) * top
+        if o["channel"] == "force_N":
+            values[at] += noise * rng.standard_normal(length)
+        planted[at] = True
+    return z, force, planted, np.zeros(values.size, dtype=bool)
+
+
 _PLANTERS = {
     "release": _release,
     "hold": _hold,
     "unload-reload": _unload_reload,
     "step": _step,
     "burst": _burst,
+    "glitch-cluster": _glitch_cluster,
 }

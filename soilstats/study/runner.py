@@ -8,6 +8,7 @@ outputs and the PDF only read the result.
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pandas as pd
@@ -71,8 +72,8 @@ def _failed_in_bearing(campaign: Campaign, per_test: pd.DataFrame) -> set[str]:
 
 
 def run_study(
-    spec: StudySpec,
-    campaign: Campaign,
+    spec: StudySpec | str | Path,
+    campaign: Campaign | str | Path,
     *,
     cache: PerTestCache | None = None,
     progress: bool = False,
@@ -83,9 +84,11 @@ def run_study(
 
     Parameters
     ----------
-    spec : StudySpec
-        From :func:`soilstats.study.load_spec`.
-    campaign : Campaign
+    spec : StudySpec, str or Path
+        A shipped study's name (``"velocity"``, as ``soilstats study velocity``), the path of
+        a specification file (.toml), or a spec from :func:`soilstats.study.load_spec`.
+    campaign : Campaign, str or Path
+        A campaign, or what :func:`soilstats.load_campaign` takes (a folder or a bundled name).
     cache : PerTestCache, optional
         Shared per-test fits (for several studies on one campaign).
     progress : bool
@@ -103,6 +106,14 @@ def run_study(
         The campaign lacks what the study needs (also: no soil has a repeated factor level).
     """
     start = time.perf_counter()
+    if isinstance(spec, str | Path):
+        from .spec import load_spec
+
+        spec = load_spec(spec)
+    if isinstance(campaign, str | Path):
+        from ..campaign import load_campaign
+
+        campaign = load_campaign(campaign)
     # The provenance names the campaign as given, before this study's window.
     provenance = provenance or Provenance.of(campaign, seed=seed)
     window_notes = []

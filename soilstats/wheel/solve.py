@@ -126,13 +126,16 @@ def model_cases(
     wheel: Wheel,
     slip: ArrayLike,
     law: str,
-    angles: StressAngles,
+    angles: StressAngles | tuple[np.ndarray, np.ndarray],
     exponent_shift: ArrayLike | None = None,
 ) -> tuple[Cases, tuple[int, ...]]:
     """(Cases, shape) for the parameter arrays × the slips (outer product, slips last).
 
-    ``exponent_shift`` (broadcast to P + S) is added to each case's exponent n: a slip-
-    dependent exponent n + Δn(s) (Ding et al. 2010; :mod:`soilstats.wheel.slipsinkage`).
+    ``angles`` is a :class:`StressAngles`, or per case the ratios (θm/θ1, θ2/θ1) as two
+    arrays broadcast to P + S (a calibration's stress angles differ by draw; the caller
+    checks their order).  ``exponent_shift`` (broadcast to P + S) is added to each case's
+    exponent n: a slip-dependent exponent n + Δn(s) (Ding et al. 2010;
+    :mod:`soilstats.wheel.slipsinkage`).
     """
     model = sinkage_law(law)
     law_params = model.param_names
@@ -149,7 +152,11 @@ def model_cases(
     pshape = values[0].shape
     p = {k: v[..., None] for k, v in zip(names, (v.reshape(-1) for v in values), strict=True)}
     s = np.asarray(slip, dtype=float)
-    a, b = angles.ratios(s.reshape(-1))
+    if isinstance(angles, StressAngles):
+        a, b = angles.ratios(s.reshape(-1))
+    else:
+        a, b = (np.broadcast_to(np.asarray(r, float), pshape + s.shape).reshape(-1, s.size)
+                for r in angles)
     nu = speed_ratio(s.reshape(-1))
     exponent = model.exponent
     if exponent_shift is not None:

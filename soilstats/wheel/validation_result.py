@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from .. import evidence
 from ..outputs.text import notes_block
 from .geometry import Wheel
 from .soil import PlateDraws
@@ -186,10 +187,12 @@ class WheelDiscovery:
             )
         lines.append("Held-out gain (mean absolute sinkage error):")
         for key, g in self.gains.items():
+            if key.startswith("day"):  # the same slip conditions stay in the fit
+                key = f"{key} (repeatability)"
             lines.append(
                 f"  {key:<14} {1e3 * g.base:.2f} -> {1e3 * g.extended:.2f} mm ({g.relative:+.0%}; "
                 f"difference {1e3 * g.difference:.2f} ± {1e3 * g.stderr:.2f} mm, {g.folds} folds): "
-                + ("real" if g.real else "not real")
+                + evidence.verdict(g.difference, g.stderr, g.relative)
             )
         lines.append("Where the extended model still fails:")
         for r in self.still_fails:

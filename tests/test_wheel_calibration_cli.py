@@ -1,0 +1,186 @@
+"""`soilstats wheel --calibrate / --calibration / --predict` (issue #43, items 3, 4, 6, 7):
+the held-out validation on the CMU runs (slow: CI runs it), a saved calibration applied to
+runs it never saw, a rover team's own wheel from the command line, and one-line refusals."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from soilstats.cli.main import main
+from soilstats.data import bundled_path
+from soilstats.wheel.calibration import load_calibration
+
+CMU = "cmu-3d-terramechanics"
+SLOW = pytest.mark.skipif(not os.environ.get("SOILSTATS_SLOW"), reason="slow: SOILSTATS_SLOW=1")
+
+
+def _run(*argv: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["wheel", *argv, "--progress", "off"])
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--calibrate", "--calibration", "x.nc"], "not both"),
+        (["--predict", "--calibrate"], "calibrate first"),
+        (["--predict", "--wheel-radius", "0.1", "--wheel-width", "0.05"], "--load"),
+        (["--predict", "--load", "20", "--wheel-width", "0.05"], "--wheel-radius"),
+        (
+            [
+                "--predict",
+                "--load",
+                "20",
+                "--wheel-radius",
+                "0.1",
+                "--wheel-width",
+                "0.05",
+                "--slips",
+                "0:2:0.1",
+            ],
+            "--slips",
+        ),
+        (["--calibrate", "--calibration-draws", "10"], "at least 400"),
+    ],
+)
+def test_modes_refuse_with_one_line(argv, message):
+    code, _, err = _run(CMU, *argv)
+    assert code == 2
+    assert message in err
+    assert "Traceback" not in err
+
+
+def test_predict_own_wheel_json_has_the_issues_keys(tmp_path):
+    code, out, err = _run(
+        CMU,
+        "--predict",
+        "--wheel-radius",
+        "0.1",
+        "--wheel-width",
+        "0.08",
+        "--load",
+        "40",
+        "--slips",
+        "0:0.6:0.2",
+        "--prior",
+        "phi=normal:29:4",
+        "--prior",
+        "c=uniform:0:1500",
+        "--prior",
+        "K=lognormal:0.01:0.8",
+        "--pull",
+        "2",
+        "--n-draws",
+        "300",
+        "--json",
+        "--out",
+        str(tmp_path),
+    )
+    assert code == 0, err
+    doc = json.loads(out)
+    assert {"bands", "p_drawbar_pull_negative", "slip_for_pull", "sources"} <= set(doc)
+    assert doc["band_kind"].startswith("PARAMETER UNCERTAINTY ONLY")
+    slips = sorted({b["slip"] for b in doc["bands"]})
+    assert slips == pytest.approx([0.0, 0.2, 0.4, 0.6])
+    p = [r["p"] for r in doc["p_drawbar_pull_negative"]]
+    assert all(0 <= x <= 1 for x in p)
+    for name in ("wheel.json", "wheel.pdf", "wheel_draws.nc", "wheel_draws.csv"):
+        assert (tmp_path / name).is_file(), name
+    draws = pd.read_csv(tmp_path / "wheel_draws.csv", comment="#")
+    assert len(draws) == 300 * 4 and {"draw", "slip", "drawbar_pull_N"} <= set(draws)
+    # the stall probability is the share of the written joint draws with negative pull
+    at0 = draws[np.isclose(draws["slip"], 0.0)]["drawbar_pull_N"].dropna()
+    assert p[0] == pytest.approx(float((at0 < 0).mean()), abs=1e-9)
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    """`--calibrate` on the CMU runs, once, with shorter chains than the documented defaults
+    (the README's command runs those in CI: tests/test_readme_commands.py)."""
+    out = tmp_path_factory.mktemp("calibrated")
+    code, text, err = _run(
+        CMU,
+        "--calibrate",
+        "--json",
+        "--out",
+        str(out),
+        "--calibration-draws",
+        "2000",
+        "--fold-draws",
+        "800",
+    )
+    assert code == 0, err
+    return json.loads(text), out
+
+
+@SLOW
+def test_cmu_calibration_held_out_by_slip_and_wheel(calibrated):
+    doc, out = calibrated
+    held = doc["held_out"]
+    s = held["slip_condition"]["sinkage"]
+    assert s["beta_0"]["runs"] == 54
+    assert s["interpolated"]["runs"] + s["extrapolated"]["runs"] == 54
+    for key in ("coverage_90", "median_width_m", "mae_m"):
+        assert key in s["beta_0"]
+    assert {"smooth->grouser", "grouser->smooth"} == set(held["wheel_transfer"])
+    assert "sinkage" in held["baseline"]
+    # measured on the CMU runs (docs/wheel.md): the calibrated wheel beats the no-physics
+    # baseline on held-out slips, and every missed target is named in the JSON
+    assert s["beta_0"]["mae_m"] < held["baseline"]["sinkage"]["beta_0"]["mae_m"]
+    assert s["beta_0"]["coverage_90"] > 0.5
+    for t in doc["targets"]:
+        assert isinstance(t["met"], bool) and t["text"]
+    assert (out / "wheel_calibration.nc").is_file()
+
+
+@SLOW
+def test_saved_calibration_applied_to_runs_it_never_saw(tmp_path):
+    """Calibrate without the s ≈ 0.5 runs, save, apply the file to those runs: the coverage
+    of a slip the calibration never saw, from the saved file alone."""
+    runs = pd.read_csv(bundled_path(CMU) / "wheel.csv")
+    beta0 = runs[runs["beta_cmd_deg"] == 0]
+    held = np.isclose(beta0["slip"], 0.5, atol=0.05)
+    beta0[~held].to_csv(tmp_path / "kept.csv", index=False)
+    beta0[held].to_csv(tmp_path / "held.csv", index=False)
+    wheels = str(bundled_path(CMU) / "wheels.toml")
+    code, _, err = _run(
+        CMU,
+        "--runs",
+        str(tmp_path / "kept.csv"),
+        "--wheels",
+        wheels,
+        "--calibrate",
+        "--out",
+        str(tmp_path / "cal"),
+        "--fold-draws",
+        "400",
+        "--calibration-draws",
+        "2000",
+    )
+    assert code == 0, err
+    saved = tmp_path / "cal" / "wheel_calibration.nc"
+    cal = load_calibration(saved)
+    assert not np.any(np.isclose(cal.design.slip, 0.5, atol=0.05))
+    code, out, err = _run(
+        CMU,
+        "--runs",
+        str(tmp_path / "held.csv"),
+        "--wheels",
+        wheels,
+        "--calibration",
+        str(saved),
+        "--json",
+    )
+    assert code == 0, err
+    applied = json.loads(out)["calibration_applied"]
+    assert applied["runs"] == int(held.sum()) == 6
+    assert applied["sinkage_m"]["coverage_90"] >= 0.5
