@@ -44,7 +44,10 @@ from .common import (
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..outputs.provenance import Provenance
     from ..wheel import StressAngles
+    from ..wheel.calibration.validate import CalibrationReport
+    from ..wheel.validation_result import WheelValidation
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
 _GEOMETRY = {
@@ -210,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
     import json
 
-    from ..outputs import json_safe, output_path, write_csv, write_json
+    from ..outputs import json_safe, output_path
     from ..wheel.runs import read_caveats, read_runs, read_wheels, wheel_geometry
     from ..wheel.validation import check_priors, validate_wheel
 
@@ -266,30 +269,7 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration:
         document["calibration_applied"] = wheel_modes.apply_calibration(args, runs)
     if args.out:
-        from ..report.wheel_pdf import write_report
-
-        folder = Path(args.out)
-        write_json(folder / "wheel.json", document, provenance, overwrite=args.overwrite)
-        write_csv(
-            folder / "wheel_runs.csv",
-            result.runs,
-            provenance,
-            overwrite=args.overwrite,
-            float_format="%.6g",
-        )
-        write_report(
-            result,
-            folder / "wheel.pdf",
-            provenance=provenance,
-            overwrite=args.overwrite,
-            calibration=calibration,
-            defaults=defaults,
-        )
-        if calibration is not None:
-            calibration.calibration.to_netcdf(
-                output_path(folder, wheel_modes.CALIBRATION_FILE, overwrite=args.overwrite)
-            )
-        print(f"wrote {', '.join(str(folder / n) for n in outputs)}", file=sys.stderr)
+        _write(args, document, result, calibration, defaults, provenance, outputs)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
@@ -298,6 +278,43 @@ def run(args: argparse.Namespace) -> int:
         if calibration is not None:
             print("\n" + calibration.summary())
     return 0
+
+
+def _write(
+    args: argparse.Namespace,
+    document: dict,
+    result: WheelValidation,
+    calibration: CalibrationReport | None,
+    defaults: dict[str, str],
+    provenance: Provenance,
+    outputs: tuple[str, ...],
+) -> None:
+    """wheel.json, wheel_runs.csv, wheel.pdf (and wheel_calibration.nc) into --out."""
+    from ..outputs import output_path, write_csv, write_json
+    from ..report.wheel_pdf import write_report
+
+    folder = Path(args.out)
+    write_json(folder / "wheel.json", document, provenance, overwrite=args.overwrite)
+    write_csv(
+        folder / "wheel_runs.csv",
+        result.runs,
+        provenance,
+        overwrite=args.overwrite,
+        float_format="%.6g",
+    )
+    write_report(
+        result,
+        folder / "wheel.pdf",
+        provenance=provenance,
+        overwrite=args.overwrite,
+        calibration=calibration,
+        defaults=defaults,
+    )
+    if calibration is not None:
+        calibration.calibration.to_netcdf(
+            output_path(folder, wheel_modes.CALIBRATION_FILE, overwrite=args.overwrite)
+        )
+    print(f"wrote {', '.join(str(folder / n) for n in outputs)}", file=sys.stderr)
 
 
 def _defaults(

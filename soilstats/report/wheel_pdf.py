@@ -132,30 +132,9 @@ def _conclusion(res) -> list:
                 + _beta_sentence(res),
             ]
         )
-    disc = res.discovery
-    if disc is not None and disc.gains:
-        slip_gain, day_gain = disc.gains.get("slip"), disc.gains.get("day")
-        coefs = "; ".join(
-            f"{w}: n1 = {f.n1:.2f}, n2 = {f.n2:.2f}" for w, f in disc.coefficients.items()
-        )
-        text = (
-            f"the residual tests name slip (Holm p = {_p(disc, 'slip')}) as the cause. The "
-            "exponent N = n + n1·s, n + n2·|s| in skid (Ding et al. 2010), fitted on the runs "
-            f"({coefs}), "
-        )
-        if slip_gain is not None:
-            text += (
-                f"cuts the held-out mean absolute error from {_mm(slip_gain.base)} to "
-                f"{_mm(slip_gain.extended)} ({slip_gain.relative:+.0%}, {_real(slip_gain)}) "
-                "leaving whole slip conditions out"
-            )
-        if day_gain is not None:
-            text += (
-                f"; leaving whole days out — repeatability: the same slip conditions stay in the "
-                f"fit through other days' repeats, so this does not test new slips — "
-                f"{_mm(day_gain.extended)} ({day_gain.relative:+.0%}, {_real(day_gain)})"
-            )
-        out.append([strong("Slip sinkage: "), text + ". " + _fails_sentence(disc)])
+    slip_sinkage = _slip_sinkage(res.discovery)
+    if slip_sinkage:
+        out.append(slip_sinkage)
     if res.unpredictable:
         out.append(
             [
@@ -175,6 +154,34 @@ def _conclusion(res) -> list:
             ]
         )
     return out
+
+
+def _slip_sinkage(disc) -> list:
+    """Page 1's sentence on the named cause, its extension and the held-out gains."""
+    if disc is None or not disc.gains:
+        return []
+    slip_gain, day_gain = disc.gains.get("slip"), disc.gains.get("day")
+    coefs = "; ".join(
+        f"{w}: n1 = {f.n1:.2f}, n2 = {f.n2:.2f}" for w, f in disc.coefficients.items()
+    )
+    text = (
+        f"the residual tests name slip (Holm p = {_p(disc, 'slip')}) as the cause. The "
+        "exponent N = n + n1·s, n + n2·|s| in skid (Ding et al. 2010), fitted on the runs "
+        f"({coefs}), "
+    )
+    if slip_gain is not None:
+        text += (
+            f"cuts the held-out mean absolute error from {_mm(slip_gain.base)} to "
+            f"{_mm(slip_gain.extended)} ({slip_gain.relative:+.0%}, {_real(slip_gain)}) "
+            "leaving whole slip conditions out"
+        )
+    if day_gain is not None:
+        text += (
+            f"; leaving whole days out — repeatability: the same slip conditions stay in the "
+            f"fit through other days' repeats, so this does not test new slips — "
+            f"{_mm(day_gain.extended)} ({day_gain.relative:+.0%}, {_real(day_gain)})"
+        )
+    return [strong("Slip sinkage: "), text + ". " + _fails_sentence(disc)]
 
 
 _LAW = {"bekker": "Bekker", "bernstein": "Bernstein", "reece": "Reece"}

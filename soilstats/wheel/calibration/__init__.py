@@ -9,10 +9,11 @@
   beside the no-physics baseline.
 """
 
-from .calibrate import WheelCalibration, calibrate_wheel, load_calibration
+from .calibrate import calibrate_wheel
 from .discrepancy import Discrepancy, fit_discrepancy
 from .inputs import DEFAULT_INPUTS, InputPrior, input_priors
 from .physics import RunDesign, simulate
+from .result import WheelCalibration, load_calibration
 
 __all__ = [
     "DEFAULT_INPUTS",

@@ -16,35 +16,31 @@ out of the likelihood.  Procedure:
    and differential-evolution moves, burn-in and thinning from the autocorrelation time),
    vectorised over walkers × runs; R-hat and ESS checked with ArviZ, a failure is a flag.
 
-The result, a :class:`WheelCalibration`, predicts any run — measured or not — as
-model(x, θ) + δ(x) + ε over its posterior draws (:meth:`WheelCalibration.predict`), and
-saves to / loads from ArviZ netCDF (:meth:`~WheelCalibration.to_netcdf`,
-:func:`load_calibration`).
+The result is a :class:`~.result.WheelCalibration` (:mod:`.result`).
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import warnings
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from pathlib import Path
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 
+from ...bayes.population import laplace_mode
+from ...bayes.sampler import EnsembleRun, run_ensemble
 from ...errors import InputError, SoilstatsError
-from ...outputs import write_atomic
-from ...outputs.files import netcdf_bytes
+from ...models import get_model
 from ..geometry import Wheel
 from .discrepancy import Discrepancy, fit_discrepancy, repeat_scatter
-from .inputs import SHEAR_INPUTS, WHEEL_INPUTS, InputPrior, input_priors
+from .inputs import SHEAR_INPUTS, WHEEL_INPUTS, input_priors
 from .physics import RunDesign, simulate
+from .result import Layout, PlatePrior, WheelCalibration, design_inputs
 
-__all__ = ["PlatePrior", "WheelCalibration", "calibrate_wheel", "load_calibration"]
+__all__ = ["ESS_MIN", "FIXED_INPUTS", "RHAT_MAX", "calibrate_wheel"]
 
 #: Smallest error of a measurement (the discrepancy's noise floor) by quantity.
 FLOOR = {"sinkage_m": 2e-4, "drawbar_pull_N": 0.1, "lateral_force_N": 0.1}
@@ -54,420 +50,200 @@ PILOT = {"sinkage_m": 3e-3, "drawbar_pull_N": 2.0, "lateral_force_N": 2.0}
 #: slip b1 (0: CMU's value at β = 0), which the runs cannot tell from a1 and n1 — sampling it
 #: only slowed the sampler (R-hat 1.2 on simulated runs), its posterior staying its prior.
 FIXED_INPUTS = {"b1": 0.0}
+#: emcee's moves: differential evolution (R-hat 1.03 on the CMU runs where the Student-t
+#: independence move of the Laplace approximation gave 1.11 at the same cost).
 MOVES = "de"
 #: Convergence checks of the posterior (as soilstats.bayes': docs/posterior.md).
 RHAT_MAX, ESS_MIN = 1.01, 400
-UNITS = {"sinkage_m": "m", "drawbar_pull_N": "N", "lateral_force_N": "N"}
-
-
-@dataclass(frozen=True)
-class PlatePrior:
-    """The plate posterior as a multivariate normal: x = mean + chol·z, z ~ N(0, I).
-
-    ``log`` marks the parameters modelled on a log scale (all their draws positive).
-    """
-
-    names: tuple[str, ...]
-    log: tuple[bool, ...]
-    mean: np.ndarray
-    chol: np.ndarray
-    source: str
-
-    @classmethod
-    def from_draws(cls, draws: pd.DataFrame, names: Sequence[str], source: str) -> PlatePrior:
-        values = draws[list(names)].to_numpy(float)
-        log = tuple(bool(np.all(values[:, i] > 0)) for i in range(len(names)))
-        t = np.where(log, np.log(np.where(values > 0, values, 1.0)), values)
-        cov = np.atleast_2d(np.cov(t, rowvar=False))
-        cov += 1e-12 * np.diag(np.diag(cov))
-        return cls(tuple(names), log, t.mean(axis=0), np.linalg.cholesky(cov), source)
-
-    def values(self, z: np.ndarray) -> dict[str, np.ndarray]:
-        """Law parameters (P,) from whitened z (P, d)."""
-        t = self.mean + z @ self.chol.T
-        return {
-            n: (np.exp(t[:, i]) if lg else t[:, i])
-            for i, (n, lg) in enumerate(zip(self.names, self.log, strict=True))
-        }
-
-    def to_dict(self) -> dict:
-        return {
-            "names": list(self.names),
-            "log": list(self.log),
-            "mean": self.mean.tolist(),
-            "chol": self.chol.tolist(),
-            "source": self.source,
-        }
-
-    @classmethod
-    def from_dict(cls, d: Mapping) -> PlatePrior:
-        return cls(
-            tuple(d["names"]),
-            tuple(d["log"]),
-            np.asarray(d["mean"]),
-            np.asarray(d["chol"]),
-            d["source"],
-        )
-
-
-@dataclass(frozen=True)
-class Layout:
-    """Names of the sampled vector: whitened plate z's, then the wheel inputs."""
-
-    plate: PlatePrior
-    inputs: tuple[InputPrior, ...]
-    fixed: tuple[tuple[str, float], ...] = ()
-
-    @property
-    def names(self) -> list[str]:
-        return [f"z_{n}" for n in self.plate.names] + [p.name for p in self.inputs]
-
-    @property
-    def dim(self) -> int:
-        return len(self.plate.names) + len(self.inputs)
-
-    @property
-    def with_shear(self) -> bool:
-        return any(p.name == "c_kPa" for p in self.inputs)
-
-    def params(self, theta: np.ndarray) -> dict[str, np.ndarray]:
-        theta = np.atleast_2d(theta)
-        d = len(self.plate.names)
-        out = self.plate.values(theta[:, :d])
-        out.update({p.name: theta[:, d + i] for i, p in enumerate(self.inputs)})
-        out.update({name: np.full(len(theta), value) for name, value in self.fixed})
-        return out
-
-    def log_prior(self, theta: np.ndarray) -> np.ndarray:
-        theta = np.atleast_2d(theta)
-        d = len(self.plate.names)
-        lp = -0.5 * np.sum(theta[:, :d] ** 2, axis=1)
-        for i, p in enumerate(self.inputs):
-            lp = lp + p.log_pdf(theta[:, d + i])
-        return lp
-
-    def prior_residuals(self, theta: np.ndarray) -> np.ndarray:
-        d = len(self.plate.names)
-        out = list(theta[:d])
-        out += [(theta[d + i] - p.mean) / p.sd for i, p in enumerate(self.inputs) if p.sd]
-        return np.asarray(out)
-
-    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        d = len(self.plate.names)
-        lo = np.r_[np.full(d, -np.inf), [p.low for p in self.inputs]]
-        hi = np.r_[np.full(d, np.inf), [p.high for p in self.inputs]]
-        return lo, hi
-
-    def start(self) -> np.ndarray:
-        return np.r_[np.zeros(len(self.plate.names)), [p.start() for p in self.inputs]]
 
 
 @dataclass(frozen=True, eq=False)
-class WheelCalibration:
-    """Posterior of a wheel calibration and what it needs to predict new runs.
+class _Problem:
+    """The runs, the model and the layout of one calibration: residuals and log-density."""
 
-    ``chain`` (walkers, draws, dim) on the sampling scale (names ``names``); ``design`` the
-    runs it was calibrated on; ``discrepancy`` one :class:`Discrepancy` per quantity;
-    ``flags`` convergence problems (empty: converged); ``law`` the plate law.
-    """
-
+    design: RunDesign
+    wheels: Mapping[str, Wheel]
     law: str
     layout: Layout
-    chain: np.ndarray = field(repr=False)
-    design: RunDesign = field(repr=False)
-    wheels: dict[str, Wheel]
-    discrepancy: dict[str, Discrepancy]
-    flags: tuple[str, ...]
-    runtime_s: float
-    rhat_max: float
-    ess_min: float
+    quantities: tuple[str, ...]
+    shear: bool
 
-    @property
-    def names(self) -> list[str]:
-        return self.layout.names
+    def mask(self, q: str) -> np.ndarray:
+        return np.isfinite(self.design.measured[q])
 
-    @property
-    def converged(self) -> bool:
-        return not self.flags
+    def model(self, theta: np.ndarray) -> dict[str, np.ndarray]:
+        """Model outputs (P, R) at the sampling-scale vectors ``theta`` (P, d)."""
+        params = self.layout.params(np.atleast_2d(theta))
+        return simulate(params, self.design, self.wheels, self.law, with_shear=self.shear)
 
-    @property
-    def quantities(self) -> tuple[str, ...]:
-        return tuple(self.discrepancy)
+    def residuals(self, theta: np.ndarray, sigma: Mapping[str, float]) -> np.ndarray:
+        """Prior pseudo-observations and the runs' standardised residuals (least squares)."""
+        out = self.model(theta)
+        parts = [self.layout.prior_residuals(theta)]
+        for q in self.quantities:
+            m = self.mask(q)
+            r = (out[q][0, m] - self.design.measured[q][m]) / sigma[q]
+            parts.append(np.where(np.isfinite(r), r, 1e3))
+        return np.concatenate(parts)
 
-    def flat(self) -> np.ndarray:
-        return self.chain.reshape(-1, self.layout.dim)
-
-    def parameter_table(self) -> pd.DataFrame:
-        """Posterior mean, sd and 5/95 % quantiles of every physical input (natural units)."""
-        p = self.layout.params(self.flat())
-        rows = []
-        for name, v in p.items():
-            nat, unit = _natural(name, v)
-            rows.append(
-                {
-                    "name": nat[0],
-                    "unit": unit,
-                    "mean": float(np.mean(nat[1])),
-                    "sd": float(np.std(nat[1])),
-                    "q05": float(np.quantile(nat[1], 0.05)),
-                    "q95": float(np.quantile(nat[1], 0.95)),
-                }
+    def rms(self, theta: np.ndarray) -> dict[str, float]:
+        """RMS residual of each quantity at ``theta`` (at least its floor)."""
+        out = self.model(theta)
+        return {
+            q: max(
+                float(np.sqrt(np.nanmean((out[q][0, m] - self.design.measured[q][m]) ** 2))),
+                FLOOR[q],
             )
-        return pd.DataFrame(rows).set_index("name")
-
-    def samples(
-        self,
-        runs: RunDesign,
-        *,
-        wheels: Mapping[str, Wheel] | None = None,
-        n_draws: int = 400,
-        seed: int = 0,
-        discrepancy: bool = True,
-        wheel_amplitude: Mapping[str, float] | None = None,
-        datum: bool = True,
-    ) -> dict[str, np.ndarray]:
-        """Predictive draws (n_draws, R) of every quantity at ``runs`` (their slip, β, load,
-        wheel), plus ``torque_Nm`` where the shear is carried.
-
-        Each posterior draw gives model(x, θ) + the discrepancy's conditional mean given that
-        draw's residuals on the calibration runs + a normal draw of its conditional variance
-        and the repeat scatter σ.  ``discrepancy=False``: the calibrated model alone
-        (parameter uncertainty and σ).  A quantity the calibration did not see measured
-        (torque here) carries parameter uncertainty only (:attr:`uncalibrated`).
-
-        ``datum=False`` leaves out the sinkage datum offset (a property of how the calibration
-        runs were measured, not of a wheel): the prediction of a wheel's true sinkage.
-
-        A wheel type the calibration did not see takes the wheel part of the discrepancy at
-        its full variance τ_w²; where the calibration saw one wheel type only τ_w is unknown
-        and must be stated per quantity in ``wheel_amplitude`` (an error otherwise).
-        """
-        wheels = {**self.wheels, **dict(wheels or {})}
-        missing = sorted(set(runs.wheel) - set(wheels))
-        if missing:
-            raise InputError(f"no geometry for wheel type(s) {missing}: pass wheels=")
-        rng = np.random.default_rng(seed)
-        flat = self.flat()
-        pick = rng.choice(len(flat), size=min(n_draws, len(flat)), replace=False)
-        params = self.layout.params(flat[np.sort(pick)])
-        shear = self.layout.with_shear
-        with np.errstate(all="ignore"):
-            new_params = params if datum else {**params, "datum_mm": 0.0 * params["datum_mm"]}
-            new = simulate(new_params, runs, wheels, self.law, n_nodes=16, with_shear=shear)
-            old = simulate(params, self.design, self.wheels, self.law, n_nodes=16, with_shear=shear)
-        codes = {w: i for i, w in enumerate(sorted(set(self.design.wheel)))}
-        x_old, x_new = _x(self.design, codes), _x(runs, codes)
-        out: dict[str, np.ndarray] = {}
-        unseen = sorted(set(runs.wheel) - set(self.design.wheel))
-        for q, disc in self.discrepancy.items():
-            have = np.isfinite(self.design.measured[q])
-            model_new = new[q]
-            if unseen and not np.isfinite(disc.wheel_amplitude):
-                if q not in (wheel_amplitude or {}):
-                    raise InputError(
-                        f"wheel type(s) {unseen} were not in the calibration, which saw one "
-                        f"wheel type only: how much a new wheel's discrepancy of {q} differs "
-                        "is unknown; state it (wheel_amplitude=) or calibrate on two wheel types"
-                    )
-                disc = replace(disc, wheel_amplitude=float(wheel_amplitude[q]))  # type: ignore[index]
-            if discrepancy:
-                resid = self.design.measured[q][have][None, :] - old[q][:, have]
-                ok = np.all(np.isfinite(resid), axis=1)
-                mean, var = disc.conditional(x_old[have], np.where(ok[:, None], resid, 0.0), x_new)
-                mean[~ok] = np.nan
-                sd = np.sqrt(var + disc.noise**2)
-            else:
-                mean, sd = np.zeros_like(model_new), np.full(len(runs), disc.noise)
-            out[q] = model_new + mean + sd[None, :] * rng.standard_normal(model_new.shape)
-        for q in self.uncalibrated:
-            out[q] = new[q]
-        if shear and np.any(runs.beta_deg != 0) and "lateral_force_N" not in out:
-            out["lateral_force_N"] = new["lateral_force_N"]
-        return out
-
-    @property
-    def uncalibrated(self) -> tuple[str, ...]:
-        """Predicted quantities no measurement calibrated (parameter uncertainty only)."""
-        shear = ("drawbar_pull_N", "torque_Nm") if self.layout.with_shear else ()
-        return tuple(q for q in shear if q not in self.discrepancy)
-
-    def predict(
-        self,
-        runs: RunDesign,
-        *,
-        wheels: Mapping[str, Wheel] | None = None,
-        n_draws: int = 400,
-        prob: float = 0.9,
-        seed: int = 0,
-        discrepancy: bool = True,
-        wheel_amplitude: Mapping[str, float] | None = None,
-    ) -> pd.DataFrame:
-        """Bands of :meth:`samples` per run: ``{q}_median``, ``{q}_lower``, ``{q}_upper`` and
-        ``{q}_not_carried`` (share of draws whose soil cannot carry the load)."""
-        draws = self.samples(
-            runs,
-            wheels=wheels,
-            n_draws=n_draws,
-            seed=seed,
-            discrepancy=discrepancy,
-            wheel_amplitude=wheel_amplitude,
-        )
-        return band_frame(runs.run_id, draws, prob)
-
-    def summary(self) -> str:
-        lines = [
-            f"Wheel calibration ({self.law} plate law, {len(self.design)} runs, "
-            f"{self.chain.shape[0]} walkers × {self.chain.shape[1]} draws, "
-            f"{self.runtime_s:.1f} s)",
-            f"converged: {'yes' if self.converged else 'NO — ' + '; '.join(self.flags)} "
-            f"(R-hat max {self.rhat_max:.3f}, ESS min {self.ess_min:.0f})",
-            "",
-            f"{'input':<10} {'unit':<10} {'mean':>11} {'sd':>10} {'5 %':>11} {'95 %':>11}",
-        ]
-        for name, r in self.parameter_table().iterrows():
-            lines.append(
-                f"{name:<10} {r['unit']:<10} {r['mean']:>11.4g} {r['sd']:>10.3g} "
-                f"{r['q05']:>11.4g} {r['q95']:>11.4g}"
-            )
-        lines.append("")
-        for q, d in self.discrepancy.items():
-            lines.append(
-                f"discrepancy of {q}: amplitude {d.amplitude:.3g} {UNITS[q]}, slip length "
-                f"{d.length_slip:.2f}, β length {d.length_beta_deg:.0f}°, repeat scatter "
-                f"{d.noise:.3g} {UNITS[q]}"
-            )
-        return "\n".join(lines)
-
-    def to_netcdf(self, path: str | os.PathLike[str]) -> None:
-        """Save as ArviZ netCDF: the posterior group holds the sampled vector; the attributes
-        hold the law, plate prior, input priors, wheels, discrepancy and calibration runs."""
-        from ...bayes._arviz import az
-
-        post = {n: self.chain[:, :, i] for i, n in enumerate(self.names)}
-        idata = az.from_dict(posterior=post)
-        meta = {
-            "law": self.law,
-            "plate_prior": self.layout.plate.to_dict(),
-            "inputs": [p.to_dict() for p in self.layout.inputs],
-            "fixed": dict(self.layout.fixed),
-            "wheels": {k: w.to_dict() for k, w in self.wheels.items()},
-            "discrepancy": {k: d.to_dict() for k, d in self.discrepancy.items()},
-            "design": _design_dict(self.design),
-            "flags": list(self.flags),
-            "runtime_s": self.runtime_s,
-            "rhat_max": self.rhat_max,
-            "ess_min": self.ess_min,
+            for q in self.quantities
+            for m in (self.mask(q),)
         }
-        idata.posterior.attrs["soilstats_wheel_calibration"] = json.dumps(meta)
-        idata.posterior.attrs.pop("created_at", None)
-        # built in memory, written atomically (and into a command's staged output set)
-        write_atomic(Path(path), netcdf_bytes(idata))
 
 
-def band_frame(run_id: np.ndarray, draws: Mapping[str, np.ndarray], prob: float) -> pd.DataFrame:
-    """Equal-tailed ``prob`` bands of predictive draws (D, R) per quantity, one row per run."""
-    out = pd.DataFrame({"run_id": run_id})
-    tail = (1.0 - prob) / 2.0
-    for q, y in draws.items():
-        finite = np.isfinite(y)
-        lo, med, hi = quantiles(y, (tail, 0.5, 1.0 - tail))
-        out[f"{q}_median"], out[f"{q}_lower"], out[f"{q}_upper"] = med, lo, hi
-        out[f"{q}_not_carried"] = 1.0 - finite.mean(axis=0)
-    return out
+def _layout(
+    design: RunDesign,
+    plate_draws: pd.DataFrame,
+    law: str,
+    priors: Mapping[str, Sequence] | None,
+    shear: bool | None,
+    plate_source: str,
+) -> tuple[Layout, bool, tuple[str, ...]]:
+    """The sampled vector's layout, whether the shear is carried, and the quantities used."""
+    names = get_model(law, kind="sinkage").param_names
+    plate = PlatePrior.from_draws(plate_draws, names, plate_source)
+    stated = input_priors(priors)
+    if shear is None:
+        shear = "drawbar_pull_N" in design.measured or any(
+            k in (priors or {}) for k in ("c", "phi", "K")
+        )
+    use = WHEEL_INPUTS + (SHEAR_INPUTS if shear else ())
+    fixed = {k: v for k, v in FIXED_INPUTS.items() if k not in (priors or {})}
+    layout = Layout(plate, tuple(stated[n] for n in use if n not in fixed), tuple(fixed.items()))
+    forces = ("drawbar_pull_N", "lateral_force_N")
+    quantities = [q for q in design.measured if q not in forces or shear]
+    if not np.any(design.beta_deg != 0):  # the model's lateral force is 0 at β = 0
+        quantities = [q for q in quantities if q != "lateral_force_N"]
+    quantities = [q for q in quantities if np.isfinite(design.measured[q]).sum() >= 5]
+    if "sinkage_m" not in quantities:
+        raise InputError("a calibration needs measured sinkage (sinkage_m) on at least 5 runs")
+    return layout, shear, tuple(quantities)
 
 
-def quantiles(y: np.ndarray, probs: Sequence[float]) -> list[np.ndarray]:
-    """Quantiles over axis 0 of the finite values; NaN in a column with none."""
-    y = np.asarray(y, float)
-    have = np.isfinite(y).any(axis=0)
-    out = [np.full(y.shape[1], np.nan) for _ in probs]
-    if have.any():
-        qs = np.nanquantile(y[:, have], list(probs), axis=0)
-        for o, v in zip(out, qs, strict=True):
-            o[have] = v
-    return out
-
-
-def _natural(name: str, v: np.ndarray) -> tuple[tuple[str, np.ndarray], str]:
-    if name == "c_kPa":
-        return ("c", v * 1e3), "Pa"
-    if name == "log_K":
-        return ("K", np.exp(v)), "m"
-    if name == "datum_mm":
-        return ("datum", v * 1e-3), "m"
-    unit = {"phi": "deg"}.get(name, "-")
-    return (name, v), unit
-
-
-def _x(design: RunDesign, wheel_codes: Mapping[str, int] | None = None) -> np.ndarray:
-    """Discrepancy inputs (slip, β deg, wheel code); codes by sorted wheel name, new ones
-    numbered after the known ones."""
-    names = sorted(set(design.wheel))
-    codes = dict(wheel_codes or {})
-    for n in names:
-        codes.setdefault(n, len(codes) + 1000)
-    # β enters as its condition (the commanded level), not the measured steering angle
-    return np.column_stack([design.slip, design.beta_level, [codes[str(w)] for w in design.wheel]])
-
-
-def _design_dict(d: RunDesign) -> dict:
-    return {
-        "run_id": d.run_id.tolist(),
-        "wheel": d.wheel.tolist(),
-        "slip": d.slip.tolist(),
-        "beta_deg": d.beta_deg.tolist(),
-        "load_N": d.load_N.tolist(),
-        "slip_level": d.slip_level.tolist(),
-        "beta_level": d.beta_level.tolist(),
-        "measured": {
-            q: [None if not np.isfinite(x) else float(x) for x in v] for q, v in d.measured.items()
-        },
-    }
-
-
-def _design_from(d: Mapping) -> RunDesign:
-    arr = {k: np.asarray(d[k]) for k in ("run_id", "wheel")}
-    num = {
-        k: np.asarray(d[k], float)
-        for k in ("slip", "beta_deg", "load_N", "slip_level", "beta_level")
-    }
-    meas = {
-        q: np.asarray([np.nan if x is None else x for x in v], float)
-        for q, v in d["measured"].items()
-    }
-    return RunDesign(**arr, **num, measured=meas)
-
-
-def load_calibration(path: str | os.PathLike[str]) -> WheelCalibration:
-    """A :class:`WheelCalibration` saved by :meth:`WheelCalibration.to_netcdf`."""
-    from ...bayes._arviz import az
-
-    try:
-        idata = az.from_netcdf(str(path))
-        meta = json.loads(idata.posterior.attrs["soilstats_wheel_calibration"])
-    except (OSError, KeyError, ValueError) as err:
-        raise InputError(f"{path}: not a soilstats wheel calibration ({err})") from None
-    inputs = tuple(
-        InputPrior(**{k: v for k, v in p.items() if k != "kind"}) for p in meta["inputs"]
+def _least_squares_start(problem: _Problem) -> OptimizeResult:
+    """Prior pseudo-observations + runs with a provisional iid error, re-estimated once."""
+    lo, hi = problem.layout.bounds()
+    start = np.clip(
+        problem.layout.start(),
+        np.where(np.isfinite(lo), lo + 1e-6, lo),
+        np.where(np.isfinite(hi), hi - 1e-6, hi),
     )
-    layout = Layout(
-        PlatePrior.from_dict(meta["plate_prior"]), inputs, tuple(meta.get("fixed", {}).items())
+    sigma = {q: PILOT[q] for q in problem.quantities}
+    fit = None
+    for _ in range(2):
+        fit = least_squares(
+            problem.residuals, start, args=(sigma,), bounds=(lo, hi), x_scale="jac", max_nfev=400
+        )
+        start, sigma = fit.x, problem.rms(fit.x[None, :])
+    assert fit is not None
+    return fit
+
+
+def _discrepancies(problem: _Problem, start: np.ndarray) -> dict[str, Discrepancy]:
+    """Each quantity's discrepancy from the residuals at the start (:mod:`.discrepancy`),
+    σ floored at the runs' repeat scatter."""
+    design = problem.design
+    out = problem.model(start[None, :])
+    x = design_inputs(design, {w: i for i, w in enumerate(sorted(set(design.wheel)))})
+    conditions = np.array(
+        [
+            f"{w}|{s}|{b}"
+            for w, s, b in zip(design.wheel, design.slip_level, design.beta_level, strict=True)
+        ]
     )
-    chain = np.stack([idata.posterior[n].values for n in layout.names], axis=-1)
-    wheels = {k: Wheel(**w) for k, w in meta["wheels"].items()}
-    disc = {k: Discrepancy(**d) for k, d in meta["discrepancy"].items()}
-    return WheelCalibration(
-        law=meta["law"],
-        layout=layout,
-        chain=chain,
-        design=_design_from(meta["design"]),
-        wheels=wheels,
-        discrepancy=disc,
-        flags=tuple(meta["flags"]),
-        runtime_s=float(meta["runtime_s"]),
-        rhat_max=float(meta["rhat_max"]),
-        ess_min=float(meta["ess_min"]),
+    disc = {}
+    for q in problem.quantities:
+        m = problem.mask(q)
+        r = design.measured[q][m] - out[q][0, m]
+        if not np.all(np.isfinite(r)):
+            raise SoilstatsError(
+                f"the least-squares start of the wheel calibration cannot carry "
+                f"{int(np.sum(~np.isfinite(r)))} of the runs' loads: check the plate law and "
+                "the wheel geometry"
+            )
+        sigma_rep, dof = repeat_scatter(design.measured[q][m], conditions[m])
+        floor = max(FLOOR[q], sigma_rep) if dof >= 5 else FLOOR[q]
+        disc[q] = fit_discrepancy(q, x[m], r, floor=floor)
+    return disc
+
+
+def _log_density(
+    problem: _Problem, disc: Mapping[str, Discrepancy]
+) -> Callable[[np.ndarray], np.ndarray]:
+    """log p(θ | runs) up to a constant, δ integrated out (Gaussian, covariance K + σ²I),
+    vectorised over walkers; −∞ where a run cannot be produced."""
+    x = design_inputs(
+        problem.design, {w: i for i, w in enumerate(sorted(set(problem.design.wheel)))}
     )
+    prec = {q: np.linalg.inv(disc[q].covariance(x[problem.mask(q)])) for q in problem.quantities}
+
+    def log_prob(theta: np.ndarray) -> np.ndarray:
+        lp = problem.layout.log_prior(theta)
+        ok = np.isfinite(lp)
+        if not ok.any():
+            return lp
+        sim = problem.model(theta[ok])
+        ll = np.zeros(int(ok.sum()))
+        for q in problem.quantities:
+            m = problem.mask(q)
+            r = problem.design.measured[q][m][None, :] - sim[q][:, m]
+            ll += -0.5 * np.einsum("wi,ij,wj->w", r, prec[q], r)
+        lp[ok] = lp[ok] + np.where(np.isfinite(ll), ll, -np.inf)
+        return lp
+
+    return log_prob
+
+
+def _sample(
+    log_prob: Callable[[np.ndarray], np.ndarray],
+    layout: Layout,
+    start: np.ndarray,
+    draws: int,
+    seed: int,
+    progress: bool,
+) -> EnsembleRun:
+    """emcee from the Laplace approximation of the posterior itself (mode and inverse Hessian
+    of ``log_prob``; with δ in the likelihood many inputs stay near their priors, so the
+    least-squares covariance would be far too narrow), the prior's variances where it fails."""
+    with np.errstate(all="ignore"):  # a walker beyond the support gives NaN, read as -inf
+        centre, cov = laplace_mode(log_prob, start, layout.dim)
+        if not np.isfinite(log_prob(centre[None])[0]):
+            centre = start
+        if not (np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov) > 0)):
+            cov = np.diag(
+                np.r_[
+                    np.ones(len(layout.plate.names)),
+                    [
+                        (p.sd if p.sd else (p.high - p.low) / np.sqrt(12.0)) ** 2
+                        for p in layout.inputs
+                    ],
+                ]
+            )
+
+        def accept(chain: np.ndarray) -> bool:
+            rhat, ess = diagnostics(chain)
+            return rhat <= RHAT_MAX and ess >= ESS_MIN
+
+        return run_ensemble(
+            log_prob,
+            centre,
+            cov,
+            draws=draws,
+            seed=seed,
+            n_walkers=max(32, 2 * layout.dim + 2),
+            progress=progress,
+            description="wheel calibration",
+            accept=accept,
+            moves=MOVES,
+        )
 
 
 def calibrate_wheel(
@@ -488,137 +264,17 @@ def calibrate_wheel(
     ``plate_draws`` are the plate posterior's joint draws of the law's parameters (their
     multivariate normal is the plate law's prior).  ``shear`` (default: when drawbar pull is
     measured or c, φ, K priors are given) carries c, φ, K.  ``draws`` kept draws over all
-    walkers.  A sampler that does not converge returns its flags (``converged`` False) and
-    :func:`soilstats.wheel.calibration.heldout` reports it; it is never silent.
+    walkers.  A sampler that does not converge returns its flags (``converged`` False), which
+    every report prints; it is never silent.
     """
-    from ...bayes.population import laplace_mode
-    from ...bayes.sampler import run_ensemble
-    from ...models import get_model
-
     if len(design) < 5:
         raise InputError(f"a calibration needs at least 5 measured runs, got {len(design)}")
-    names = get_model(law, kind="sinkage").param_names
-    plate = PlatePrior.from_draws(plate_draws, names, plate_source)
-    stated = input_priors(priors)
-    if shear is None:
-        shear = "drawbar_pull_N" in design.measured or any(
-            k in (priors or {}) for k in ("c", "phi", "K")
-        )
-    use = WHEEL_INPUTS + (SHEAR_INPUTS if shear else ())
-    fixed = {k: v for k, v in FIXED_INPUTS.items() if k not in (priors or {})}
-    layout = Layout(plate, tuple(stated[n] for n in use if n not in fixed), tuple(fixed.items()))
-    forces = ("drawbar_pull_N", "lateral_force_N")
-    quantities = [q for q in design.measured if q not in forces or shear]
-    if not np.any(design.beta_deg != 0):  # the model's lateral force is 0 at β = 0
-        quantities = [q for q in quantities if q != "lateral_force_N"]
-    quantities = [q for q in quantities if np.isfinite(design.measured[q]).sum() >= 5]
-    if "sinkage_m" not in quantities:
-        raise InputError("a calibration needs measured sinkage (sinkage_m) on at least 5 runs")
-
-    masks = {q: np.isfinite(design.measured[q]) for q in quantities}
-
-    def residuals(theta: np.ndarray, sigma: Mapping[str, float]) -> np.ndarray:
-        out = simulate(layout.params(theta[None, :]), design, wheels, law, with_shear=shear)
-        parts = [layout.prior_residuals(theta)]
-        for q in quantities:
-            r = (out[q][0, masks[q]] - design.measured[q][masks[q]]) / sigma[q]
-            parts.append(np.where(np.isfinite(r), r, 1e3))
-        return np.concatenate(parts)
-
-    lo, hi = layout.bounds()
-    start = np.clip(
-        layout.start(),
-        np.where(np.isfinite(lo), lo + 1e-6, lo),
-        np.where(np.isfinite(hi), hi - 1e-6, hi),
-    )
-    sigma = {q: PILOT[q] for q in quantities}
-    fit = None
-    for _ in range(2):  # the provisional error re-estimated once from the residuals
-        fit = least_squares(
-            residuals, start, args=(sigma,), bounds=(lo, hi), x_scale="jac", max_nfev=400
-        )
-        start = fit.x
-        out = simulate(layout.params(fit.x[None, :]), design, wheels, law, with_shear=shear)
-        sigma = {
-            q: max(
-                float(
-                    np.sqrt(np.nanmean((out[q][0, masks[q]] - design.measured[q][masks[q]]) ** 2))
-                ),
-                FLOOR[q],
-            )
-            for q in quantities
-        }
-    assert fit is not None
-    out = simulate(layout.params(fit.x[None, :]), design, wheels, law, with_shear=shear)
-    x = _x(design, {w: i for i, w in enumerate(sorted(set(design.wheel)))})
-    disc = {}
-    prec = {}
-    for q in quantities:
-        r = design.measured[q][masks[q]] - out[q][0, masks[q]]
-        if not np.all(np.isfinite(r)):
-            raise SoilstatsError(
-                f"the least-squares start of the wheel calibration cannot carry "
-                f"{int(np.sum(~np.isfinite(r)))} of the runs' loads: check the plate law and "
-                "the wheel geometry"
-            )
-        groups = np.char.add(
-            np.char.add(design.wheel.astype(str), "|"),
-            np.char.add(
-                design.slip_level.astype(str), np.char.add("|", design.beta_level.astype(str))
-            ),
-        )
-        sigma_rep, dof = repeat_scatter(design.measured[q][masks[q]], groups[masks[q]])
-        floor = max(FLOOR[q], sigma_rep) if dof >= 5 else FLOOR[q]
-        disc[q] = fit_discrepancy(q, x[masks[q]], r, floor=floor)
-        prec[q] = np.linalg.inv(disc[q].covariance(x[masks[q]]))
-
-    def log_prob(theta: np.ndarray) -> np.ndarray:
-        lp = layout.log_prior(theta)
-        ok = np.isfinite(lp)
-        if not ok.any():
-            return lp
-        sim = simulate(layout.params(theta[ok]), design, wheels, law, with_shear=shear)
-        ll = np.zeros(int(ok.sum()))
-        for q in quantities:
-            r = design.measured[q][masks[q]][None, :] - sim[q][:, masks[q]]
-            ll += -0.5 * np.einsum("wi,ij,wj->w", r, prec[q], r)
-        ll = np.where(np.isfinite(ll), ll, -np.inf)
-        lp[ok] = lp[ok] + ll
-        return lp
-
-    # Start and proposal: the Laplace approximation of the posterior itself (mode and
-    # inverse Hessian of log_prob, the discrepancy integrated out), not the least-squares
-    # one: with δ in the likelihood many inputs stay close to their priors.
-    with np.errstate(all="ignore"):
-        centre, cov = laplace_mode(log_prob, fit.x, layout.dim)
-    prior_var = np.r_[
-        np.ones(len(plate.names)),
-        [(p.sd if p.sd else (p.high - p.low) / np.sqrt(12.0)) ** 2 for p in layout.inputs],
-    ]
-    if not np.isfinite(log_prob(centre[None])[0]):
-        centre = fit.x
-    if not (np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov) > 0)):
-        cov = np.diag(prior_var)
-    walkers = max(32, 2 * layout.dim + 2)
-
-    def accept(chain: np.ndarray) -> bool:
-        rhat, ess = _diagnostics(chain)
-        return rhat <= RHAT_MAX and ess >= ESS_MIN
-
-    with np.errstate(all="ignore"):  # a walker beyond the support gives NaN, read as -inf
-        run = run_ensemble(
-            log_prob,
-            fit.x,
-            cov,
-            draws=draws,
-            seed=seed,
-            n_walkers=walkers,
-            progress=progress,
-            description="wheel calibration",
-            accept=accept,
-            moves=MOVES,
-        )
-    rhat_max, ess_min = _diagnostics(run.chain)
+    layout, shear, quantities = _layout(design, plate_draws, law, priors, shear, plate_source)
+    problem = _Problem(design, wheels, law, layout, quantities, shear)
+    fit = _least_squares_start(problem)
+    disc = _discrepancies(problem, fit.x)
+    run = _sample(_log_density(problem, disc), layout, fit.x, draws, seed, progress)
+    rhat_max, ess_min = diagnostics(run.chain)
     flags = []
     if rhat_max > RHAT_MAX:
         flags.append(f"high-r-hat: R-hat {rhat_max:.3f} > {RHAT_MAX}")
@@ -638,7 +294,8 @@ def calibrate_wheel(
     )
 
 
-def _diagnostics(chain: np.ndarray) -> tuple[float, float]:
+def diagnostics(chain: np.ndarray) -> tuple[float, float]:
+    """Largest R-hat and smallest bulk ESS over the parameters (ArviZ; walkers as chains)."""
     from ...bayes._arviz import az
 
     with warnings.catch_warnings():

@@ -3,7 +3,7 @@
 :func:`predict_own_wheel` predicts sinkage, drawbar pull and torque for a wheel of given
 geometry at a given load over a grid of slips, from
 
-* a saved calibration (:class:`~.calibrate.WheelCalibration`): its posterior draws and its
+* a saved calibration (:class:`~.result.WheelCalibration`): its posterior draws and its
   discrepancy (the wheel part τ_w at full variance for a wheel type it never saw); or
 * the plate draws alone: every uncertain input of :mod:`.inputs` drawn from its stated prior
   (never fixed), the shear from stated priors, and — only when asked — a stated discrepancy
@@ -27,10 +27,10 @@ import pandas as pd
 from ...bayes.stated_priors import sample_priors
 from ...errors import InputError
 from ..geometry import Wheel
-from .calibrate import WheelCalibration, quantiles
 from .discrepancy import Discrepancy
 from .inputs import SHEAR_INPUTS, WHEEL_INPUTS, InputPrior, input_priors
 from .physics import RunDesign, simulate
+from .result import WheelCalibration, quantiles
 
 __all__ = ["CMU_DISCREPANCY", "OwnWheelPrediction", "predict_own_wheel"]
 
@@ -163,35 +163,10 @@ def predict_own_wheel(
     if not (np.isfinite(slip_angle_deg) and abs(slip_angle_deg) <= 90):
         raise InputError(f"the slip angle must lie in [-90, 90] degrees, got {slip_angle_deg!r}")
     design = _grid_design(wheel, float(load_N), grid, float(slip_angle_deg))
-    notes: list[str] = []
-    sources: dict[str, str] = {}
     if calibration is not None:
-        samples = calibration.samples(
-            design,
-            wheels={wheel.name: wheel},
-            n_draws=n_draws,
-            seed=seed,
-            wheel_amplitude=wheel_amplitude,
-            datum=False,
+        samples, band_kind, sources, notes = _calibrated(
+            calibration, design, wheel, n_draws, seed, wheel_amplitude
         )
-        seen = wheel.name in set(calibration.design.wheel)
-        band_kind = (
-            "calibrated on measured runs: parameter uncertainty, the model discrepancy "
-            + (
-                "of this wheel type"
-                if seen
-                else "(shared part; this wheel type was not in "
-                "the calibration, its own part at full variance τ_w)"
-            )
-            + " and the repeat scatter"
-        )
-        for p in calibration.layout.inputs:
-            sources[p.name] = f"calibration posterior (prior {p.describe()}: {p.source})"
-        sources["plate law"] = f"calibration posterior (prior: {calibration.layout.plate.source})"
-        for q in calibration.uncalibrated:
-            notes.append(
-                f"{q} was not measured in the calibration: its band is parameter uncertainty only"
-            )
     else:
         if plate_draws is None or law is None:
             raise InputError("give a calibration, or plate draws and their law")
@@ -218,6 +193,46 @@ def predict_own_wheel(
         band_kind,
         notes,
     )
+
+
+def _calibrated(
+    calibration: WheelCalibration,
+    design: RunDesign,
+    wheel: Wheel,
+    n_draws: int,
+    seed: int,
+    wheel_amplitude: Mapping[str, float] | None,
+) -> tuple[dict[str, np.ndarray], str, dict[str, str], list[str]]:
+    """Draws from a saved calibration: its posterior and discrepancy, the datum left out."""
+    samples = calibration.samples(
+        design,
+        wheels={wheel.name: wheel},
+        n_draws=n_draws,
+        seed=seed,
+        wheel_amplitude=wheel_amplitude,
+        datum=False,
+    )
+    seen = wheel.name in set(calibration.design.wheel)
+    band_kind = (
+        "calibrated on measured runs: parameter uncertainty, the model discrepancy "
+        + (
+            "of this wheel type"
+            if seen
+            else "(shared part; this wheel type was not in the "
+            "calibration, its own part at full variance τ_w)"
+        )
+        + " and the repeat scatter"
+    )
+    sources = {
+        p.name: f"calibration posterior (prior {p.describe()}: {p.source})"
+        for p in calibration.layout.inputs
+    }
+    sources["plate law"] = f"calibration posterior (prior: {calibration.layout.plate.source})"
+    notes = [
+        f"{q} was not measured in the calibration: its band is parameter uncertainty only"
+        for q in calibration.uncalibrated
+    ]
+    return samples, band_kind, sources, notes
 
 
 def _plates_only(

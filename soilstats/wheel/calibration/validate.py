@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..geometry import Wheel
-from .calibrate import WheelCalibration, calibrate_wheel
+from .calibrate import calibrate_wheel
 from .heldout import (
     FOLD_DRAWS,
     baseline_predictions,
@@ -30,6 +30,7 @@ from .heldout import (
     wheel_transfer_folds,
 )
 from .physics import RunDesign, simulate
+from .result import WheelCalibration
 
 __all__ = ["TARGETS", "CalibrationReport", "calibrate_and_validate", "offset_budget"]
 
@@ -237,15 +238,11 @@ def calibrate_and_validate(
         plate_source=plate_source,
     )
     quantities = list(cal.discrepancy)
-    notes = []
-    frames, held = [], {}
-    for scheme, folds in (
-        ("slip_condition", slip_condition_folds(design)),
-        ("slip_angle", slip_angle_folds(design)),
-    ):
-        if not folds:
-            continue
-        f = heldout_predictions(
+
+    def held_out(
+        scheme: str, folds: list, fold_seed: int, tau_w: Mapping[str, float] | None = None
+    ) -> pd.DataFrame:
+        return heldout_predictions(
             design,
             wheels,
             plate_draws,
@@ -254,73 +251,37 @@ def calibrate_and_validate(
             scheme=scheme,
             priors=priors,
             draws=fold_draws,
-            seed=int(seeds[1]),
-            prob=prob,
-            progress=progress,
-        )
-        frames.append(f)
-        held[scheme] = {NAMES[q]: _scopes(f, q) for q in quantities}
-    transfer = wheel_transfer_folds(design)
-    if transfer:
-        tau_w = {q: d.wheel_amplitude for q, d in cal.discrepancy.items()}
-        f = heldout_predictions(
-            design,
-            wheels,
-            plate_draws,
-            law,
-            transfer,
-            scheme="wheel_transfer",
-            priors=priors,
-            draws=fold_draws,
-            seed=int(seeds[2]),
+            seed=fold_seed,
             prob=prob,
             progress=progress,
             wheel_amplitude=tau_w,
         )
+
+    notes: list[str] = []
+    frames, held = [], {}
+    for scheme, folds in (
+        ("slip_condition", slip_condition_folds(design)),
+        ("slip_angle", slip_angle_folds(design)),
+    ):
+        if folds:
+            frames.append(held_out(scheme, folds, int(seeds[1])))
+            held[scheme] = {NAMES[q]: _scopes(frames[-1], q) for q in quantities}
+    transfer = wheel_transfer_folds(design)
+    if transfer:
+        tau_w = {q: d.wheel_amplitude for q, d in cal.discrepancy.items()}
+        f = held_out("wheel_transfer", transfer, int(seeds[2]), tau_w)
         frames.append(f)
         held["wheel_transfer"] = {
             label: {NAMES[q]: _scopes(f[f["fold"] == label], q) for q in quantities}
             for label, _ in transfer
         }
-        notes.append(
-            "wheel transfer: each fold calibrates on one wheel type, which cannot tell how "
-            "much wheels differ; the wheel part of the discrepancy (τ_w) is the one estimated "
-            "on both wheel types, so that one variance is informed by the held-out wheel — "
-            "as a user's new wheel would take it from this calibration"
-        )
-    plate_only = {"sinkage_m": plate_only_median(design, wheels, plate_draws, law)}
-    for q in quantities:
-        plate_only.setdefault(q, np.zeros(len(design)))
-    base = baseline_predictions(
-        design, plate_only, slip_condition_folds(design), scheme="slip_condition"
-    )
+        notes.append(TRANSFER_NOTE)
+    base = _baseline(design, wheels, plate_draws, law, quantities, frames)
     if not base.empty:
-        base["beta_level"] = design.beta_level[
-            np.concatenate([np.flatnonzero(m) for _, m in slip_condition_folds(design)])
-        ]
-        first = frames[0] if frames else pd.DataFrame()
-        if "interpolated" in first:
-            base["interpolated"] = (
-                first.set_index("run_id").loc[base["run_id"], "interpolated"].to_numpy()
-            )
         held["baseline"] = {NAMES[q]: _scopes(base, q, bands=False) for q in quantities}
-    notes.append(
-        "baseline: the plate-only model's residuals on the kept runs interpolated linearly "
-        "across slip (per wheel type and slip angle), no physics; for a quantity the plates "
-        "cannot predict (drawbar pull) the measured values themselves are interpolated"
-    )
-    if not cal.converged:
-        notes.append("the calibration did not converge: " + "; ".join(cal.flags))
+    notes.append(BASELINE_NOTE)
     heldout = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-    if not heldout.empty:
-        folds = heldout.groupby(["scheme", "fold"])["fold_converged"].first()
-        if not folds.all():
-            notes.append(
-                f"{int((~folds).sum())} of {len(folds)} held-out calibrations did not reach "
-                f"R-hat ≤ 1.01 and bulk ESS ≥ 400 with {fold_draws} draws "
-                f"({', '.join(f'{a} {b}' for a, b in folds[~folds].index)}): their bands "
-                "rest on shorter chains than the final calibration's"
-            )
+    notes += _convergence_notes(cal, heldout, fold_draws)
     return CalibrationReport(
         calibration=cal,
         heldout=heldout,
@@ -330,6 +291,60 @@ def calibrate_and_validate(
         targets=_targets(held),
         notes=notes,
     )
+
+
+TRANSFER_NOTE = (
+    "wheel transfer: each fold calibrates on one wheel type, which cannot tell how much wheels "
+    "differ; the wheel part of the discrepancy (τ_w) is the one estimated on both wheel types, "
+    "so that one variance is informed by the held-out wheel — as a user's new wheel would take "
+    "it from this calibration"
+)
+BASELINE_NOTE = (
+    "baseline: the plate-only model's residuals on the kept runs interpolated linearly across "
+    "slip (per wheel type and slip angle), no physics; for a quantity the plates cannot "
+    "predict (drawbar pull) the measured values themselves are interpolated"
+)
+
+
+def _baseline(
+    design: RunDesign,
+    wheels: Mapping[str, Wheel],
+    plate_draws: pd.DataFrame,
+    law: str,
+    quantities: Sequence[str],
+    frames: Sequence[pd.DataFrame],
+) -> pd.DataFrame:
+    """The no-physics baseline on the slip-condition folds, with each run's scope columns."""
+    plate_only = {"sinkage_m": plate_only_median(design, wheels, plate_draws, law)}
+    for q in quantities:
+        plate_only.setdefault(q, np.zeros(len(design)))
+    folds = slip_condition_folds(design)
+    base = baseline_predictions(design, plate_only, folds, scheme="slip_condition")
+    if base.empty:
+        return base
+    base["beta_level"] = design.beta_level[np.concatenate([np.flatnonzero(m) for _, m in folds])]
+    first = frames[0] if frames else pd.DataFrame()
+    if "interpolated" in first:
+        interpolated = first.set_index("run_id")["interpolated"]
+        base["interpolated"] = interpolated.loc[base["run_id"]].to_numpy()
+    return base
+
+
+def _convergence_notes(cal: WheelCalibration, heldout: pd.DataFrame, fold_draws: int) -> list[str]:
+    """What did not converge: the calibration itself, and any held-out fold's."""
+    out = []
+    if not cal.converged:
+        out.append("the calibration did not converge: " + "; ".join(cal.flags))
+    if not heldout.empty:
+        folds = heldout.groupby(["scheme", "fold"])["fold_converged"].first()
+        if not folds.all():
+            out.append(
+                f"{int((~folds).sum())} of {len(folds)} held-out calibrations did not reach "
+                f"R-hat ≤ 1.01 and bulk ESS ≥ 400 with {fold_draws} draws "
+                f"({', '.join(f'{a} {b}' for a, b in folds[~folds].index)}): their bands "
+                "rest on shorter chains than the final calibration's"
+            )
+    return out
 
 
 def _targets(held: dict) -> list[dict]:
