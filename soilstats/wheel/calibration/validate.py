@@ -42,7 +42,6 @@ TARGETS: tuple[tuple[str, str, str, str, float, float], ...] = (
     ("slip_condition", "sinkage_m", "beta_0", "mae_below_baseline", 0.0, 0.0),
     ("slip_condition", "drawbar_pull_N", "beta_0", "coverage_90", 0.80, 0.95),
     ("wheel_transfer", "sinkage_m", "each", "coverage_90", 0.70, 1.0),
-    ("slip_condition", "sinkage_m", "all_runs", "coverage_90", 0.70, 1.0),
     ("slip_angle", "sinkage_m", "all_runs", "coverage_90", 0.70, 1.0),
 )
 NAMES = {
