@@ -334,28 +334,9 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, ro
     levels = candidate_values(g.tests, lead).astype(str).to_numpy()[scope]
     responses = tuple(lead_rows["response"])
     caveats = _caveats(lead_rows, lead, confounded_with)
-    base_ext = None
-    base_fitted: Any = None  # Fitted
-    chosen: Any = None  # (Extension, Gain, Fitted, implausible reasons, search Gain)
-    tried: list = []
-    if scope.size >= 6:
-        numeric = bool(top["numeric"])
-        try:
-            base_ext, base_fitted, chosen, tried = yield from _try_extensions(
-                g,
-                scope,
-                lead,
-                confounded_with,
-                numeric,
-                set(responses),
-                folds.of(scope),
-                log_scale=trend_on_log(top["role"]),
-                lead_table=lead_table,
-            )
-        except (ConvergenceError, IdentifiabilityError) as exc:
-            caveats.append(f"cross-validation on the tests in scope failed: {exc}")
-    else:
-        caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
+    base_ext, base_fitted, chosen, tried = yield from _search_extensions(
+        g, top, lead, confounded_with, folds, scope, responses, lead_table, caveats
+    )
     kept = chosen is not None and bool(chosen[1].kept) and not chosen[3]
     if kept and chosen[0].physical:
         lead = _physical_name(lead, chosen[0].name, relations)
@@ -376,16 +357,8 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, ro
             caveats.append(f"{chosen[0].name}: physically implausible: " + "; ".join(chosen[3]))
         if kept:
             gain_cond = yield from _condition_gain(g, scope, base_ext, chosen[0], levels, caveats)
-        elif chosen[1].kept:
-            caveats.append(
-                "no plausible extension gains enough out of sample to be kept; the base model "
-                "is kept"
-            )
         else:
-            caveats.append(
-                f"no extension gains enough out of sample to be kept (best: "
-                f"{chosen[1].text()}); the base model is kept"
-            )
+            caveats.append(_not_kept_caveat(chosen[1]))
     return Finding(
         kind=g.kind,
         soil=g.soil,
@@ -411,6 +384,52 @@ def _examine_lead(g, relations, lead_rows, top, lead, confounded_with, folds, ro
         fitted=fitted,
         base_fitted=base_fitted,
         test_level=level,
+    )
+
+
+def _search_extensions(g, top, lead, confounded_with, folds, scope, responses, lead_table, caveats):
+    """Process step of :func:`_examine_lead`: the library's extensions tried on the tests in
+    scope (:func:`_try_extensions`) when there are enough of them to cross-validate; too few
+    tests, or a failed cross-validation, become a caveat (appended to ``caveats``).
+
+    Returns (base extension, base Fitted, chosen, tried): chosen is (Extension, Gain, Fitted,
+    implausible reasons, search Gain) or None, tried a list (empty when nothing was tried).
+    """
+    base_ext = None
+    base_fitted: Any = None  # Fitted
+    chosen: Any = None  # (Extension, Gain, Fitted, implausible reasons, search Gain)
+    tried: list = []
+    if scope.size >= 6:
+        numeric = bool(top["numeric"])
+        try:
+            base_ext, base_fitted, chosen, tried = yield from _try_extensions(
+                g,
+                scope,
+                lead,
+                confounded_with,
+                numeric,
+                set(responses),
+                folds.of(scope),
+                log_scale=trend_on_log(top["role"]),
+                lead_table=lead_table,
+            )
+        except (ConvergenceError, IdentifiabilityError) as exc:
+            caveats.append(f"cross-validation on the tests in scope failed: {exc}")
+    else:
+        caveats.append(f"only {scope.size} tests in scope: too few to cross-validate")
+    return base_ext, base_fitted, chosen, tried
+
+
+def _not_kept_caveat(gain) -> str:
+    """Why the base model is kept although an extension was chosen: its gain was enough but
+    it is physically implausible, or no extension gains enough (the best one's gain said)."""
+    if gain.kept:
+        return (
+            "no plausible extension gains enough out of sample to be kept; the base model is kept"
+        )
+    return (
+        f"no extension gains enough out of sample to be kept (best: "
+        f"{gain.text()}); the base model is kept"
     )
 
 

@@ -1,4 +1,5 @@
-"""The frozen result of an identification, with health flags and a readable summary."""
+"""The frozen result of an identification, with health flags; its text and HTML views in
+soilstats.fitting.summary."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from scipy.special import stdtrit
 
 from ..errors import InputError
 from ..outputs.files import json_safe
-from ..outputs.text import notes_block
+from .summary import fit_html, fit_summary, parameter_frame, parameter_lines
 
 __all__ = ["FitResult", "HealthFlag", "epsilon"]
 
@@ -428,111 +429,26 @@ class FitResult:
             }
         )
 
+    # -- the text and notebook views (soilstats.fitting.summary) ----------------------------
     def _summary_parameters(self) -> list[str]:
         """The parameter lines of :meth:`summary`: value, σ (Eq. 3), relative σ, the 95 %
         t-interval and the unit."""
-        lines = [
-            f"{'param':>8} {'value':>14} {'stderr (Eq.3)':>14} {'rel.':>8} {'95% CI (t)':>25}  unit"
-        ]
-        ci = self.conf_int(0.05)
-        for name, v, s in zip(self.param_names, self.values, self.stderr_values, strict=True):
-            rel = abs(s / v) if v != 0 else np.inf
-            lines.append(
-                f"{name:>8} {v:>14.6g} {s:>14.4g} {rel:>8.2%} "
-                f"[{ci.loc[name, 'lower']:>11.5g},{ci.loc[name, 'upper']:>11.5g}]  "
-                f"{self.units.get(name, '')}"
-            )
-        return lines
+        return parameter_lines(self)
 
     def summary(self) -> str:
         """A fit report in the manner of lmfit and statsmodels, ending with numbered notes."""
-        width = 78
-        lines = [
-            f" {self.model_name} fit ".center(width, "="),
-            f"{'Method:':<18}{self.method}",
-            f"{'Converged:':<18}{self.converged} ({self.message})",
-            f"{'Observations:':<18}{self.nobs:<12d}{'Parameters:':<14}{len(self.params):<6d}"
-            f"{'DoF:':<6}{self.dof}",
-            f"{'Function evals:':<18}{self.nfev:<12d}{'Iterations:':<14}{self.niter}",
-            f"{'epsilon (Eq. 2):':<18}{self.epsilon:<12.4f}{'Weighted RSS:':<14}{self.rss:.6g}",
-            f"{'Reduced chi^2:':<18}{self.redchi:<12.4g}{'AIC:':<14}{self.aic:<12.6g}"
-            f"{'BIC:':<6}{self.bic:.6g}",
-            f"{'Jacobian:':<18}{self.jacobian_method:<12}{'cond(J):':<14}"
-            f"{self.condition_number:.3g}",
-            "-" * width,
-            *self._summary_parameters(),
-        ]
-        if len(self.params) > 1:
-            lines.append("-" * width)
-            lines.append("Correlations:")
-            names = self.param_names
-            for i in range(len(names)):
-                for j in range(i + 1, len(names)):
-                    lines.append(f"  corr({names[i]}, {names[j]}) = {self.corr.iloc[i, j]:+.4f}")
-        lines.append("-" * width)
-        flags = self.flags
-        lines.append("Health: OK" if not flags else f"Health: {len(flags)} flag(s)")
-        lines.extend(f"  ! {flag}" for flag in flags)
-        notes = (
-            "Cov = s^2 (J^T J)^-1 with s^2 = sum (w e)^2 / (N - Np) (Eq. 4), J = d(w f)/dtheta "
-            "(Eq. 5); stderr = sqrt(diag Cov) (Eq. 3).",
-            "epsilon (Eq. 2) = 1 - sqrt(sum (w e)^2 / (N - 2)) / (sum |w y| / N), on the "
-            "weighted data as in the paper's normalised pressures.",
-            *self.notes,
-        )
-        lines.extend(notes_block(notes))
-        lines.append("=" * width)
-        return "\n".join(lines)
+        return fit_summary(self, self._summary_parameters())
 
     def __str__(self) -> str:
         return self.summary()
 
     def _parameter_table(self) -> pd.DataFrame:
         """Value, σ (Eq. 3), the 95 % interval and the unit of every parameter."""
-        ci = self.conf_int(0.05)
-        return pd.DataFrame(
-            {
-                "param": list(self.param_names),
-                "value": [f"{v:.6g}" for v in self.values],
-                "stderr (Eq. 3)": [f"{s:.4g}" for s in self.stderr_values],
-                "95% CI (t)": [
-                    f"[{ci.loc[n, 'lower']:.5g}, {ci.loc[n, 'upper']:.5g}]"
-                    for n in self.param_names
-                ],
-                "unit": [self.units.get(n, "") for n in self.param_names],
-            }
-        )
+        return parameter_frame(self)
 
     def _repr_html_(self) -> str:
         """The summary as tables, for notebooks."""
-        from .._html import facts_html, notes_html, result_html, table_html
-
-        facts = {
-            "method": self.method,
-            "converged": f"{self.converged} ({self.message})",
-            "observations": self.nobs,
-            "epsilon (Eq. 2)": f"{self.epsilon:.4f}",
-            "reduced chi-square": f"{self.redchi:.4g}",
-            "AIC / BIC": f"{self.aic:.4f} / {self.bic:.4f}",
-        }
-        health = [str(f) for f in self.flags] or ["OK"]
-        return result_html(
-            f"{self.model_name} fit",
-            facts_html(facts),
-            table_html(self._parameter_table()),
-            self._correlation_html(),
-            notes_html(health, "Health"),
-            notes_html(self.notes),
-        )
-
-    def _correlation_html(self) -> str:
-        """The correlations of the estimates as a table (empty for one parameter)."""
-        from .._html import table_html
-
-        if len(self.param_names) < 2:
-            return ""
-        frame = self.corr.map(lambda v: f"{v:+.3f}" if np.isfinite(v) else "–")
-        return table_html(frame, index=True, caption="Correlations")
+        return fit_html(self, self._parameter_table())
 
     # -- figures, as lmfit's ModelResult.plot_fit / plot_residuals ------------------------
     # ``Any``: matplotlib's Axes, not named here (no analysis module imports matplotlib at all).
@@ -544,7 +460,7 @@ class FitResult:
         of the leading inputs (plate width, normal pressure), against the last input."""
         import matplotlib.pyplot as plt
 
-        x, y = self._data("plot_fit")
+        x, y = self._measured("plot_fit")
         ax = ax if ax is not None else plt.subplots()[1]
         for k, (label, mask, lead) in enumerate(self._groups(x)):
             last = x[-1][mask] if x.ndim == 2 else x[mask]
@@ -570,7 +486,7 @@ class FitResult:
         None), one colour per value of the leading inputs; returns the axes."""
         import matplotlib.pyplot as plt
 
-        x, y = self._data("plot_residuals")
+        x, y = self._measured("plot_residuals")
         ax = ax if ax is not None else plt.subplots()[1]
         resid = y - self.eval(x)
         for label, mask, _ in self._groups(x):
@@ -583,7 +499,9 @@ class FitResult:
             ax.legend(fontsize="small")
         return ax
 
-    def _data(self, what: str) -> tuple[np.ndarray, np.ndarray]:
+    def _measured(self, what: str) -> tuple[np.ndarray, np.ndarray]:
+        """The inputs and measurements the fit was made on, for the figure ``what`` (not
+        ``_data``: CampaignFit keeps its deferred ``data`` record under that name)."""
         if self.x_data is None or self.y_data is None or self.model_func is None:
             raise InputError(
                 f"{what}: this {self.model_name} result carries no data (it was built without "

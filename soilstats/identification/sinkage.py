@@ -143,32 +143,7 @@ def fit_sinkage(
     x = spec.x_from(pooled.x)
 
     if method == "wong":
-        notes = _notes(pooled, points_per_test, weighting)
-        if spec.wong is None:
-            raise ModelError(
-                f"Wong's method is not defined for the {spec.name} model; it is for "
-                "the Bekker and Bernstein models"
-            )
-        theta, cov, n_nonpos = spec.wong(x, p)
-        notes.append(
-            "Wong's method: ln p on ln z weighted by p^2; sigma from the linearised "
-            f"regressions, not Eq. 4. {n_nonpos} samples with p <= 0 have no log and were excluded."
-        )
-        closed = FitResult.closed_form(
-            spec,
-            theta,
-            cov,
-            w * (p - spec.func(x, *theta)),
-            w * p,
-            name=f"{spec.name} (Wong)",
-            method="Wong: p^2-weighted log-log regression",
-            message="closed-form linear regressions",
-            x=x,
-            y=p,
-        )
-        closed = centred(closed, z)
-        flags = _adequacy(spec, pooled, closed, None)
-        return CampaignFit.of(closed, pooled, notes, flags, campaign=campaign)
+        return _fit_wong(spec, campaign, pooled, x, points_per_test, weighting)
 
     if p0 is None:
         if spec.start is None:
@@ -197,6 +172,39 @@ def fit_sinkage(
         return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)
 
     return CampaignFit.deferred(result, pooled, finish)
+
+
+def _fit_wong(spec, campaign, pooled: PooledData, x, points_per_test, weighting) -> CampaignFit:
+    """The fit by Wong's p²-weighted log–log regressions (``method="wong"``, Fig. 3): a
+    closed form with the linearised regressions' σ, not Eq. 4's, centred and checked for
+    adequacy as the LM fit is (no test bootstrap)."""
+    z, p, w = pooled.x["z_m"], pooled.y, pooled.weights
+    notes = _notes(pooled, points_per_test, weighting)
+    if spec.wong is None:
+        raise ModelError(
+            f"Wong's method is not defined for the {spec.name} model; it is for "
+            "the Bekker and Bernstein models"
+        )
+    theta, cov, n_nonpos = spec.wong(x, p)
+    notes.append(
+        "Wong's method: ln p on ln z weighted by p^2; sigma from the linearised "
+        f"regressions, not Eq. 4. {n_nonpos} samples with p <= 0 have no log and were excluded."
+    )
+    closed = FitResult.closed_form(
+        spec,
+        theta,
+        cov,
+        w * (p - spec.func(x, *theta)),
+        w * p,
+        name=f"{spec.name} (Wong)",
+        method="Wong: p^2-weighted log-log regression",
+        message="closed-form linear regressions",
+        x=x,
+        y=p,
+    )
+    closed = centred(closed, z)
+    flags = _adequacy(spec, pooled, closed, None)
+    return CampaignFit.of(closed, pooled, notes, flags, campaign=campaign)
 
 
 #: Re-zeroing at a seating contact that moves a parameter by more than this many of its

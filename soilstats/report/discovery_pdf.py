@@ -127,6 +127,25 @@ def _words_count(result) -> str:
 
 
 def _conclusion(result, all_groups) -> list:
+    """Page 1's conclusion, one paragraph (a list of runs) each: the causes found or the
+    silence, where kept extensions fail out of sample, the combined model, the parameters
+    that disagree, and everything else the reader should know."""
+    out: list = _causes_paragraphs(result)
+    combined = _combined_model_paragraph(result, all_groups)
+    if combined is not None:
+        out.append(combined)
+    disagree = _disagreement_paragraph(result)
+    if disagree is not None:
+        out.append(disagree)
+    also = _also_paragraph(result)
+    if also is not None:
+        out.append(also)
+    return out
+
+
+def _causes_paragraphs(result) -> list:
+    """No cause found (and what the silence does not prove), or the causes found with the
+    extensions kept, then where a kept extension fails out of sample."""
     out: list = []
     n_tests = result.tests_run
     if not result.findings:
@@ -164,32 +183,48 @@ def _conclusion(result, all_groups) -> list:
                     "conditions measured, not new ones.",
                 ]
             )
+    return out
+
+
+def _combined_model_paragraph(result, all_groups) -> list | None:
+    """The extensions of each group's combined model with their held-out gain, and all
+    extended groups together (None: no group's model is extended)."""
     extended = [m for m in result.models if m.extensions and m.gain is not None]
-    if extended:
-        parts: list = [strong("Combined model: ")]
-        parts.append(
-            "; ".join(
-                f"{m.kind} / {m.soil}: {' + '.join(m.extensions)} "
-                f"({m.gain.relative:+.1%} in held-out error, {m.gain.n_tests} tests; "
-                f"{m.gain.text()})"
-                for m in extended
-            )
-            + ". "
+    if not extended:
+        return None
+    parts: list = [strong("Combined model: ")]
+    parts.append(
+        "; ".join(
+            f"{m.kind} / {m.soil}: {' + '.join(m.extensions)} "
+            f"({m.gain.relative:+.1%} in held-out error, {m.gain.n_tests} tests; "
+            f"{m.gain.text()})"
+            for m in extended
         )
-        if all_groups is not None:
-            parts.append(_all_groups_words(all_groups))
-        out.append(parts)
+        + ". "
+    )
+    if all_groups is not None:
+        parts.append(_all_groups_words(all_groups))
+    return parts
+
+
+def _disagreement_paragraph(result) -> list | None:
+    """The parameters that disagree between a finding's fit and the combined model (None:
+    none do)."""
     disagree = [
         f"{d['kind']} / {d['soil']}: {line}"
         for d, line in zip(result.disagreements(), result.disagreement_lines(), strict=True)
     ]
-    if disagree:
-        out.append(
-            [
-                strong("Parameters that disagree between the finding and the combined model: "),
-                "; ".join(disagree) + ".",
-            ]
-        )
+    if not disagree:
+        return None
+    return [
+        strong("Parameters that disagree between the finding and the combined model: "),
+        "; ".join(disagree) + ".",
+    ]
+
+
+def _also_paragraph(result) -> list | None:
+    """ "Also": the caveats, physical red flags, artefacts, screening codes and untested
+    groups, counted (None: there are none)."""
     said = []
     caveats = sum(len(f.caveats) for f in result.findings)
     if caveats:
@@ -210,9 +245,9 @@ def _conclusion(result, all_groups) -> list:
         )
     if result.untested:
         said.append(f"{plural(len(result.untested), 'group')} could not be tested (notes)")
-    if said:
-        out.append([strong("Also: "), "; ".join(said) + "."])
-    return out
+    if not said:
+        return None
+    return [strong("Also: "), "; ".join(said) + "."]
 
 
 def _findings_table(doc: Document, result) -> None:

@@ -347,30 +347,10 @@ def pair_figure(
                     continue
                 x = values[names[j]]
                 if i == j:
-                    grid, pdf = _kde(x, logs[names[j]])
-                    ax.plot(grid, pdf, color="k", lw=1.0)
-                    ax.fill_between(grid, pdf, color="0.8", lw=0)
-                    ax.set_yticks([])
-                    ax.spines["left"].set_visible(False)
+                    _marginal_panel(ax, x, logs[names[j]])
                 else:
                     y = values[names[i]]
-                    ax.scatter(
-                        x[shown], y[shown], s=1.5, alpha=0.35, color="C0", lw=0, rasterized=True
-                    )
-                    ax.text(
-                        0.04,
-                        0.96,
-                        f"r = {_signed(corr[i, j])}",
-                        transform=ax.transAxes,
-                        va="top",
-                        ha="left",
-                        fontsize=8,
-                        bbox=_R_BOX,
-                    )
-                    if logs[names[i]]:
-                        ax.set_yscale("log")
-                    else:
-                        ax.yaxis.set_major_locator(MaxNLocator(3))
+                    _joint_panel(ax, x[shown], y[shown], corr[i, j], logs[names[i]])
                     if j == 0:
                         math_text(ax.set_ylabel(labels[i]))
                     else:
@@ -387,6 +367,53 @@ def pair_figure(
                     ax.sharey(axes[i, 0])
                 if i != j:
                     ax.sharex(axes[j, j])
+    return fig, _pair_caption(post, names, values, corr, shown.size, step, capped)
+
+
+def _marginal_panel(ax, x: np.ndarray, log: bool) -> None:
+    """A diagonal panel of :func:`pair_figure`: the marginal density of one parameter's
+    draws ``x`` (per decade on a log axis), without a y axis."""
+    grid, pdf = _kde(x, log)
+    ax.plot(grid, pdf, color="k", lw=1.0)
+    ax.fill_between(grid, pdf, color="0.8", lw=0)
+    ax.set_yticks([])
+    ax.spines["left"].set_visible(False)
+
+
+def _joint_panel(ax, x: np.ndarray, y: np.ndarray, r: float, log_y: bool) -> None:
+    """A panel below the diagonal of :func:`pair_figure`: the shown joint draws (``x``,
+    ``y``) as points, Pearson's ``r`` of all draws printed in its corner, and the y axis
+    (logarithmic when ``log_y``)."""
+    ax.scatter(x, y, s=1.5, alpha=0.35, color="C0", lw=0, rasterized=True)
+    ax.text(
+        0.04,
+        0.96,
+        f"r = {_signed(r)}",
+        transform=ax.transAxes,
+        va="top",
+        ha="left",
+        fontsize=8,
+        bbox=_R_BOX,
+    )
+    if log_y:
+        ax.set_yscale("log")
+    else:
+        ax.yaxis.set_major_locator(MaxNLocator(3))
+
+
+def _pair_caption(
+    post: _Posterior,
+    names: tuple[str, ...],
+    values: dict[str, np.ndarray],
+    corr: np.ndarray,
+    n_shown: int,
+    step: int,
+    capped: str,
+) -> str:
+    """The caption of :func:`pair_figure`: the parameters, how many draws each panel
+    shows, every pair's correlation, the units, the log axes and what was left out."""
+    k = len(names)
+    total = next(iter(values.values())).size
     listed = ", ".join(_caption_name(n) for n in names)
     every = "all of them" if step == 1 else f"one in every {step}, evenly spaced"
     pairs = "; ".join(
@@ -394,15 +421,14 @@ def pair_figure(
         for i in range(k)
         for j in range(i)
     )
-    caption = (
+    return (
         f"Joint posterior of {listed} ({post.title}). Below the diagonal each panel shows "
-        f"{shown.size} of the {total} posterior draws ({every}) of one pair of "
+        f"{n_shown} of the {total} posterior draws ({every}) of one pair of "
         f"parameters, with Pearson's correlation coefficient r of all draws printed in the "
         f"panel{f' ({pairs})' if pairs else ''}; the diagonal shows each parameter's marginal "
         f"posterior density. {_units_sentence(names, post.units)}{_log_note(values)}"
         f"{_new_preparation_note(post)}{capped}"
     )
-    return fig, caption
 
 
 #: Display of the measured quantities: (x coordinate, x label, y label, x and y factors).
