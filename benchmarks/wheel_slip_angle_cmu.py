@@ -91,10 +91,13 @@ def main() -> None:
         action="store_true",
         help="CMU's tuned β = 0 stress angles per wheel instead of the defaults",
     )
+    ap.add_argument("--smoke", action="store_true", help="two runs per wheel and β: seconds")
     args = ap.parse_args()
     runs = pd.read_csv(DATA)
     if not args.all_slips:
         runs = runs[np.abs(runs["slip"]) <= args.slip_max]
+    if args.smoke:
+        runs = runs.groupby(["wheel", "beta_cmd_deg"]).head(2)
     pred = predict(runs, args.cmu_angles)
     table = (
         pred.groupby(["wheel", "beta_cmd_deg"])

@@ -280,7 +280,8 @@ def test_cli_warns_when_contact_widths_leave_the_tested_plates(campaign, tmp_pat
     assert ranges in capsys.readouterr().err
     record = json.loads((out / "posterior.json").read_text())
     assert any(ranges in w and "kc/b + kphi" in w for w in record["warnings"])
-    warned = posterior.extrapolation_warnings
+    from soilstats.cli.posterior_output import extrapolation_warnings as warned
+
     assert warned(tested, tested, ["bekker"]) == []
     assert warned(wide, tested, ["bernstein", "janosi"]) == []
     assert warned((tested[0] / 2, tested[1]), tested, ["bekker", "janosi"])

@@ -15,7 +15,6 @@ import pytest
 
 from soilstats.cli.main import main
 from soilstats.data import bundled_path
-from soilstats.wheel.calibration import load_calibration
 
 CMU = "cmu-3d-terramechanics"
 SLOW = pytest.mark.skipif(not os.environ.get("SOILSTATS_SLOW"), reason="slow: SOILSTATS_SLOW=1")
@@ -114,9 +113,9 @@ def calibrated(tmp_path_factory):
         "--out",
         str(out),
         "--calibration-draws",
-        "2000",
+        "1000",
         "--fold-draws",
-        "800",
+        "400",
     )
     assert code == 0, err
     return json.loads(text), out
@@ -144,38 +143,31 @@ def test_cmu_calibration_held_out_by_slip_and_wheel(calibrated):
 
 @SLOW
 def test_saved_calibration_applied_to_runs_it_never_saw(tmp_path):
-    """Calibrate without the s ≈ 0.5 runs, save, apply the file to those runs: the coverage
-    of a slip the calibration never saw, from the saved file alone."""
+    """Calibrate without the s ≈ 0.5 runs, save, apply the file to those runs from the
+    command line: the coverage of a slip the calibration never saw, from the file alone."""
+    from soilstats import load_campaign
+    from soilstats.wheel.calibration import RunDesign, calibrate_wheel
+    from soilstats.wheel.runs import read_runs, read_wheels, wheel_geometry
+    from soilstats.wheel.soil import plate_draws
+
     runs = pd.read_csv(bundled_path(CMU) / "wheel.csv")
     beta0 = runs[runs["beta_cmd_deg"] == 0]
     held = np.isclose(beta0["slip"], 0.5, atol=0.05)
-    beta0[~held].to_csv(tmp_path / "kept.csv", index=False)
     beta0[held].to_csv(tmp_path / "held.csv", index=False)
-    wheels = str(bundled_path(CMU) / "wheels.toml")
-    code, _, err = _run(
-        CMU,
-        "--runs",
-        str(tmp_path / "kept.csv"),
-        "--wheels",
-        wheels,
-        "--calibrate",
-        "--out",
-        str(tmp_path / "cal"),
-        "--fold-draws",
-        "400",
-        "--calibration-draws",
-        "2000",
+    kept = read_runs(beta0[~held].reset_index(drop=True))
+    wheels = wheel_geometry(kept["wheel"].unique(), read_wheels(bundled_path(CMU) / "wheels.toml"))
+    plates = plate_draws(load_campaign(CMU), n_draws=2000, seed=0)
+    cal = calibrate_wheel(
+        RunDesign.from_runs(kept), wheels, plates.draws, plates.law, draws=1000, seed=0
     )
-    assert code == 0, err
-    saved = tmp_path / "cal" / "wheel_calibration.nc"
-    cal = load_calibration(saved)
-    assert not np.any(np.isclose(cal.design.slip, 0.5, atol=0.05))
+    saved = tmp_path / "wheel_calibration.nc"
+    cal.to_netcdf(saved)
     code, out, err = _run(
         CMU,
         "--runs",
         str(tmp_path / "held.csv"),
         "--wheels",
-        wheels,
+        str(bundled_path(CMU) / "wheels.toml"),
         "--calibration",
         str(saved),
         "--json",
@@ -183,4 +175,5 @@ def test_saved_calibration_applied_to_runs_it_never_saw(tmp_path):
     assert code == 0, err
     applied = json.loads(out)["calibration_applied"]
     assert applied["runs"] == int(held.sum()) == 6
+    assert not np.any(np.isclose(cal.design.slip, 0.5, atol=0.05))
     assert applied["sinkage_m"]["coverage_90"] >= 0.5
