@@ -38,7 +38,7 @@ from ..geometry import Wheel
 from .discrepancy import Discrepancy, fit_discrepancy, repeat_scatter
 from .inputs import SHEAR_INPUTS, WHEEL_INPUTS, input_priors
 from .physics import RunDesign, simulate
-from .result import Layout, PlatePrior, WheelCalibration, design_inputs
+from .result import Layout, PlatePrior, WheelCalibration, design_inputs, wheel_codes
 
 __all__ = ["ESS_MIN", "FIXED_INPUTS", "RHAT_MAX", "calibrate_wheel"]
 
@@ -152,7 +152,7 @@ def _discrepancies(problem: _Problem, start: np.ndarray) -> dict[str, Discrepanc
     σ floored at the runs' repeat scatter."""
     design = problem.design
     out = problem.model(start[None, :])
-    x = design_inputs(design, {w: i for i, w in enumerate(sorted(set(design.wheel)))})
+    x = design_inputs(design, wheel_codes(design))
     conditions = np.array(
         [
             f"{w}|{s}|{b}"
@@ -180,9 +180,7 @@ def _log_density(
 ) -> Callable[[np.ndarray], np.ndarray]:
     """log p(θ | runs) up to a constant, δ integrated out (Gaussian, covariance K + σ²I),
     vectorised over walkers; −∞ where a run cannot be produced."""
-    x = design_inputs(
-        problem.design, {w: i for i, w in enumerate(sorted(set(problem.design.wheel)))}
-    )
+    x = design_inputs(problem.design, wheel_codes(problem.design))
     prec = {q: np.linalg.inv(disc[q].covariance(x[problem.mask(q)])) for q in problem.quantities}
 
     def log_prob(theta: np.ndarray) -> np.ndarray:

@@ -29,6 +29,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from ..geometry import Wheel
+from ..stress import StressAngles
 from .calibrate import calibrate_wheel
 from .physics import RunDesign, simulate
 
@@ -43,6 +44,15 @@ __all__ = [
     "wheel_transfer_folds",
 ]
 
+#: The inputs the plate-only model holds fixed (what `soilstats wheel` without a calibration
+#: assumes): the default stress angles of :class:`~soilstats.wheel.StressAngles`, no datum
+#: error, no slip-sinkage.
+PLATE_ONLY_INPUTS: dict[str, float] = {
+    **{k: float(v) for k, v in StressAngles().to_dict().items()},
+    "datum_mm": 0.0,
+    "n1": 0.0,
+    "n2": 0.0,
+}
 #: Kept draws of each fold's calibration (fewer than a final calibration: only bands needed).
 FOLD_DRAWS = 2000
 
@@ -148,16 +158,7 @@ def plate_only_median(
         rng.choice(len(plate_draws), min(n_draws, len(plate_draws)), replace=False)
     ]
     params = {k: rows[k].to_numpy(float) for k in plate_draws.columns}
-    size = len(rows)
-    params.update(
-        a0=np.full(size, 0.4),
-        a1=np.full(size, 0.15),
-        b0=np.zeros(size),
-        b1=np.zeros(size),
-        datum_mm=np.zeros(size),
-        n1=np.zeros(size),
-        n2=np.zeros(size),
-    )
+    params.update({k: np.full(len(rows), v) for k, v in PLATE_ONLY_INPUTS.items()})
     with np.errstate(all="ignore"):
         out = simulate(params, design, wheels, law, n_nodes=16, with_shear=False)
     return np.nanmedian(out["sinkage_m"], axis=0)

@@ -35,6 +35,7 @@ __all__ = [
     "design_inputs",
     "load_calibration",
     "quantiles",
+    "wheel_codes",
 ]
 
 UNITS = {"sinkage_m": "m", "drawbar_pull_N": "N", "lateral_force_N": "N"}
@@ -235,7 +236,7 @@ class WheelCalibration:
             new_params = params if datum else {**params, "datum_mm": 0.0 * params["datum_mm"]}
             new = simulate(new_params, runs, wheels, self.law, n_nodes=16, with_shear=shear)
             old = simulate(params, self.design, self.wheels, self.law, n_nodes=16, with_shear=shear)
-        codes = {w: i for i, w in enumerate(sorted(set(self.design.wheel)))}
+        codes = wheel_codes(self.design)
         x_old, x_new = design_inputs(self.design, codes), design_inputs(runs, codes)
         out: dict[str, np.ndarray] = {}
         unseen = sorted(set(runs.wheel) - set(self.design.wheel))
@@ -377,6 +378,12 @@ def _natural(name: str, v: np.ndarray) -> tuple[tuple[str, np.ndarray], str]:
         return ("datum", v * 1e-3), "m"
     unit = {"phi": "deg"}.get(name, "-")
     return (name, v), unit
+
+
+def wheel_codes(design: RunDesign) -> dict[str, int]:
+    """The wheel types of a calibration's runs, numbered by sorted name (the discrepancy's
+    third input: runs of one type share its wheel part)."""
+    return {w: i for i, w in enumerate(sorted(set(design.wheel)))}
 
 
 def design_inputs(design: RunDesign, wheel_codes: Mapping[str, int] | None = None) -> np.ndarray:

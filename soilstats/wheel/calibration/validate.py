@@ -20,6 +20,7 @@ from ..geometry import Wheel
 from .calibrate import calibrate_wheel
 from .heldout import (
     FOLD_DRAWS,
+    PLATE_ONLY_INPUTS,
     baseline_predictions,
     heldout_predictions,
     plate_only_median,
@@ -50,7 +51,7 @@ NAMES = {
     "lateral_force_N": "lateral_force",
 }
 #: The plate-only model's fixed inputs (what `soilstats wheel` without calibration assumes).
-REFERENCE = {"a0": 0.4, "a1": 0.15, "b0": 0.0, "b1": 0.0, "datum_mm": 0.0, "n1": 0.0, "n2": 0.0}
+REFERENCE = PLATE_ONLY_INPUTS
 
 
 @dataclass(frozen=True, eq=False)
