@@ -135,9 +135,8 @@ def fit_sinkage(
     if method not in ("lm", "wong"):
         raise InputError(f"method must be 'lm' or 'wong', got {method!r}")
     campaign = screened(campaign, quality).windowed(window)
-    pooled = pool_sinkage(
-        campaign, points_per_test=points_per_test, weighting=weighting, **selection
-    )
+    pooling = {"points_per_test": points_per_test, "weighting": weighting, **selection}
+    pooled = pool_sinkage(campaign, **pooling)
     _check_identifiable(spec, pooled)
     z, p, w = pooled.x["z_m"], pooled.y, pooled.weights
     x = spec.x_from(pooled.x)
@@ -157,18 +156,7 @@ def fit_sinkage(
         notes = _notes(pooled, points_per_test, weighting)
         bootstrap = test_bootstrap(spec, x, pooled, result, test_resamples, seed, notes)
         flags = _adequacy(spec, pooled, result, bootstrap)
-        flags += _rezero_sensitivity(
-            spec,
-            campaign,
-            window,
-            pooled,
-            result,
-            bootstrap,
-            p0,
-            points_per_test,
-            weighting,
-            selection,
-        )
+        flags += _rezero_sensitivity(spec, campaign, window, pooling, pooled, result, bootstrap, p0)
         return CampaignFit.of(result, pooled, notes, flags, bootstrap, campaign)
 
     return CampaignFit.deferred(result, pooled, finish)
@@ -213,27 +201,19 @@ REZERO_SIGMAS = 1.0
 
 
 def _rezero_sensitivity(
-    spec,
-    campaign: ScreenedCampaign,
-    window,
-    pooled,
-    result,
-    bootstrap,
-    p0,
-    points_per_test,
-    weighting,
-    selection,
+    spec, campaign: ScreenedCampaign, window, pooling: dict, pooled, result, bootstrap, p0
 ) -> list:
     """``rezero-sensitive`` when the fit's tests include records re-zeroed at a seating
     contact and the same fit on the records as logged (toes kept, z unchanged) differs by
-    more than :data:`REZERO_SIGMAS` σ in some parameter."""
+    more than :data:`REZERO_SIGMAS` σ in some parameter. ``pooling``: :func:`pool_sinkage`'s
+    arguments of the fit (sample rule, weighting and the test selection)."""
     report = campaign.report
     ids = {str(t) for t in pooled.by_test["test_id"]}
     rezeroed = sorted(ids & report.rezeroed)
     if not rezeroed or report.unseated is None:
         return []
     logged = report.unseated().windowed(window)
-    other = pool_sinkage(logged, points_per_test=points_per_test, weighting=weighting, **selection)
+    other = pool_sinkage(logged, **pooling)
     x = spec.x_from(other.x)
     alt = identify(spec, x, other.y, p0, weights=other.weights, on_failure="warn")
     if not alt.converged:
