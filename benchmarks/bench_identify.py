@@ -90,6 +90,12 @@ def main(repeat: int = 200) -> pd.DataFrame:
     def ours_campaign():
         return soilstats.fit_sinkage(campaign, "bekker")
 
+    def ours_campaign_pooled_anew():
+        # The same campaign, its pooled data and Wong's start not kept: what each call of a
+        # loop over different selections (conditions, soils) of one campaign pays.
+        soilstats.identification.sinkage._PREPARED.clear()
+        return soilstats.fit_sinkage(campaign, "bekker")
+
     def ours_fresh_campaign():
         # A new Campaign object each call (same tables): what a first fit pays, as the
         # screened campaign and its sample index are kept per campaign object.
@@ -107,6 +113,7 @@ def main(repeat: int = 200) -> pd.DataFrame:
     contenders = {
         "soilstats.identify (arrays)": ours_arrays,
         "soilstats.fit_sinkage (campaign)": ours_campaign,
+        "soilstats.fit_sinkage (pooled anew)": ours_campaign_pooled_anew,
         "soilstats.fit_sinkage (fresh campaign)": ours_fresh_campaign,
         "scipy curve_fit": scipy_curve_fit,
         "scipy curve_fit + analytic jac": scipy_curve_fit_jac,
