@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import weakref
 from collections.abc import Sequence
@@ -186,8 +187,9 @@ def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
     except TypeError:
         key = None
     memo = _PREPARED.setdefault(campaign, {}) if key is not None else {}
-    if key in memo and memo[key][0] is spec:  # the record itself held: its id is not reused
-        return memo[key][1:]
+    hit = memo.get(key)
+    if hit is not None and hit[0] is spec:  # the record itself held: its id is not reused
+        return hit[1:]
     pooled = pool_sinkage(campaign, **pooling)
     _check_identifiable(spec, pooled)
     _read_only(pooled.y, pooled.weights, pooled.test_index, *pooled.x.values())
@@ -201,7 +203,8 @@ def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
         start = functools.cache(lambda: _read_only(np.asarray(spec.start(x, pooled.y)))[0])
     if key is not None:
         if len(memo) >= _PREPARED_PER_CAMPAIGN:
-            del memo[next(iter(memo))]
+            with contextlib.suppress(RuntimeError, StopIteration, KeyError):  # another thread
+                del memo[next(iter(memo))]
         memo[key] = (spec, pooled, x, start)
     return pooled, x, start
 
