@@ -80,10 +80,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         "; grew from 86 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
     "soilstats/discovery/result.py::_repr_html_": (93, "the HTML view, one block per section"),
-    "soilstats/fitting/separable.py::_refine_power_law": (
-        81,
-        "the variable-projection Newton/Halley loop, kept whole for speed (performance.md)",
-    ),
     "soilstats/identification/result.py::data_findings": (
         81,
         "screening notes and window resolution; to split by finding",
