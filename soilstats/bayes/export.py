@@ -613,13 +613,17 @@ def export_simulator(
     return SimulatorExport(simulator, table, sources, stated, check, notes, width)
 
 
-def constraint_failures(simulator: str, check: ConstraintCheck) -> list[str]:
+def constraint_failures(
+    simulator: str, check: ConstraintCheck, *, arguments: bool = True
+) -> list[str]:
     """The failed constraints, each with its fix (a larger elastic_K or a repair multiple):
-    the words of the CLI's refusal and of :class:`SimulatorConstraintError`."""
+    the words of :class:`SimulatorConstraintError` and (``arguments=False``: the options
+    only, not :func:`export_simulator`'s argument names) of the CLI's refusal."""
+    elastic, repair = (" (elastic_K=)", " (repair=)") if arguments else ("", "")
     fix = (
-        f". Fix: state --scm-elastic-K (elastic_K=) above {check.largest_kphi:.3g} Pa/m (the "
+        f". Fix: state --scm-elastic-K{elastic} above {check.largest_kphi:.3g} Pa/m (the "
         "largest Bekker_Kphi; best a measured unloading stiffness), or pass --scm-repair "
-        "MULTIPLE (repair=) to set elastic_K = MULTIPLE x Bekker_Kphi in each such set (marked "
+        f"MULTIPLE{repair} to set elastic_K = MULTIPLE x Bekker_Kphi in each such set (marked "
         "per row)"
     )
     return [

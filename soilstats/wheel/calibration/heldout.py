@@ -32,11 +32,13 @@ from ..geometry import Wheel
 from ..stress import StressAngles
 from .calibrate import calibrate_wheel
 from .physics import RunDesign, simulate
+from .result import WheelCalibration
 
 __all__ = [
     "baseline_predictions",
     "heldout_predictions",
     "plate_only_median",
+    "saved_calibration_scores",
     "score",
     "score_by_slip",
     "slip_angle_folds",
@@ -225,3 +227,23 @@ def score_by_slip(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> 
         {"slip_level": float(level), **score(rows, quantity, bands=bands)}
         for level, rows in frame.groupby("slip_level")
     ]
+
+
+def saved_calibration_scores(
+    calibration: WheelCalibration, runs: pd.DataFrame, *, seed: int
+) -> dict:
+    """A saved calibration applied to measured runs: how many runs (those at slip angle 0
+    when it was calibrated on those only), whether it had converged, and the :func:`score`
+    (with its :func:`score_by_slip`) of each quantity it has a discrepancy for."""
+    angles = set(np.unique(calibration.design.beta_level))
+    scope = (runs if angles != {0.0} else runs[runs["beta_level"] == 0]).reset_index(drop=True)
+    design = RunDesign.from_runs(scope)
+    pred = calibration.predict(design, seed=seed)
+    out: dict = {"runs": len(design), "converged": calibration.converged}
+    for q, values in design.measured.items():
+        if q not in calibration.discrepancy:
+            continue
+        pred[f"{q}_measured"] = values
+        pred["slip_level"] = design.slip_level
+        out[q] = score(pred, q) | {"by_slip": score_by_slip(pred, q)}
+    return out
