@@ -58,10 +58,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
 
 #: "module::function" -> (code lines when listed, why it is still one function)
 LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
-    "soilstats/bayes/sampler.py::run_ensemble": (
-        117,
-        "burn-in, thinning and stopping rules share the chain state; to split into phases",
-    ),
     "soilstats/campaign/units.py::_implausible_units": (
         140,
         "one check per column family in sequence; a table of rules would replace it"
@@ -125,10 +121,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         101,
         "the study pipeline in sequence"
         "; grew from 93 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
-    "soilstats/wheel/validation.py::validate_wheel": (
-        83,
-        "being split by the wheel work in progress",
     ),
 }
 
