@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from ..band_scores import BandColumns, score_bands
 from ..geometry import Wheel
 from ..stress import StressAngles
 from .calibrate import calibrate_wheel
@@ -203,22 +204,18 @@ def baseline_predictions(
 
 
 def score(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> dict:
-    """Coverage, median width, MAE and bias of ``quantity`` over the rows of ``frame``."""
+    """Coverage, median width, MAE and bias of ``quantity`` over the rows of ``frame``
+    (columns ``{quantity}_measured``, ``_median``, ``_lower``, ``_upper``;
+    :func:`soilstats.wheel.band_scores.score_bands`)."""
     unit = "m" if quantity.endswith("_m") else "N"
-    meas = frame[f"{quantity}_measured"].to_numpy(float)
-    med = frame[f"{quantity}_median"].to_numpy(float)
-    use = np.isfinite(meas) & np.isfinite(med)
-    err = med[use] - meas[use]
-    out: dict = {"runs": int(use.sum())}
-    if bands and f"{quantity}_lower" in frame:
-        lo = frame[f"{quantity}_lower"].to_numpy(float)[use]
-        hi = frame[f"{quantity}_upper"].to_numpy(float)[use]
-        out["covered"] = int(np.sum((meas[use] >= lo) & (meas[use] <= hi)))
-        out["coverage_90"] = out["covered"] / out["runs"] if out["runs"] else float("nan")
-        out[f"median_width_{unit}"] = float(np.median(hi - lo)) if use.any() else float("nan")
-    out[f"mae_{unit}"] = float(np.mean(np.abs(err))) if use.any() else float("nan")
-    out[f"bias_{unit}"] = float(np.mean(err)) if use.any() else float("nan")
-    return out
+    banded = bands and f"{quantity}_lower" in frame
+    ends = (f"{quantity}_lower", f"{quantity}_upper") if banded else (None, None)
+    s = score_bands(frame, BandColumns(f"{quantity}_measured", f"{quantity}_median", *ends))
+    out: dict = {"runs": s.runs}
+    if banded:
+        out |= {"covered": s.covered, "coverage_90": s.coverage}
+        out[f"median_width_{unit}"] = s.median_width
+    return out | {f"mae_{unit}": s.mae, f"bias_{unit}": s.bias}
 
 
 def score_by_slip(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> list[dict]:
