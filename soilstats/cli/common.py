@@ -186,7 +186,7 @@ def number_in(
     lo, hi = ("(" if low_open else "["), (")" if high_open else "]")
     what = "a whole number" if kind is int else "a finite number"
 
-    def parse(text: str):
+    def parse(text: str) -> Any:
         try:
             value = kind(text)
         except (TypeError, ValueError):

@@ -32,7 +32,7 @@ With two models, posterior.nc holds the first and posterior_<model>.nc the secon
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -195,7 +195,9 @@ def run(args: argparse.Namespace) -> int:
         stop_one_worker(at_once=not finished)
 
 
-def _checked_sampled_written(args, models, priors, stated) -> int:
+def _checked_sampled_written(
+    args: argparse.Namespace, models: list[str], priors: dict[str, Any], stated: dict
+) -> int:
     """:func:`run` from reading the campaign on."""
     from ..bayes.handout import preflight
     from ..bayes.run_checks import contact_widths, only_soil
@@ -240,7 +242,7 @@ def _checked_sampled_written(args, models, priors, stated) -> int:
     )
 
 
-def _check_outputs(out: Path, models, args) -> None:
+def _check_outputs(out: Path, models: Sequence[str], args: argparse.Namespace) -> None:
     """Refuse before sampling, not after minutes of work, an output that may not be written
     (an existing file without --overwrite, a link); no folder is made yet."""
     from ..outputs import output_path
