@@ -63,11 +63,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         117,
         "burn-in, thinning and stopping rules share the chain state; to split into phases",
     ),
-    "soilstats/campaign/units.py::_implausible_units": (
-        140,
-        "one check per column family in sequence; a table of rules would replace it"
-        "; grew from 136 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
     "soilstats/cli/identify.py::run": (
         87,
         "parse, fit and write in one; the writing to its own function"
