@@ -73,8 +73,16 @@ NAMES = re.compile(
 SINK_IDS = [f"shape-{i:04d}" for i in range(1, 13)]
 SHEAR_IDS = [f"shear-ring-{i:04d}" for i in range(1, 7)]
 NUMERIC = {
-    "tests": ["radius_m", "width_m", "length_m", "velocity_m_s", "r_inner_m", "r_outer_m",
-              "grouser_height_m", "omega_rpm"],
+    "tests": [
+        "radius_m",
+        "width_m",
+        "length_m",
+        "velocity_m_s",
+        "r_inner_m",
+        "r_outer_m",
+        "grouser_height_m",
+        "omega_rpm",
+    ],
     "sinkage": ["z_m", "force_N"],
     "shear": ["angle_rad", "torque_Nm", "normal_force_N"],
 }
@@ -180,9 +188,40 @@ def m_columns(rng: np.random.Generator, t: Tables) -> str:
 
 
 BAD_NUMBERS = [
-    "True", "false", "1+2j", "(1+0j)", "abc", "1,5", "1.0.0", "0x10", "1e", "--1", "٣", "1_000",
-    "½", "NaN", "nan", "inf", "-Infinity", "NA", "None", "null", "", " ", "1e400", "-1e400",
-    "1e308", "1e-320", " 0.05 ", "0.05\t", "+0.05", "5e-2", "0,05", "1 000", "१", "0.05m",
+    "True",
+    "false",
+    "1+2j",
+    "(1+0j)",
+    "abc",
+    "1,5",
+    "1.0.0",
+    "0x10",
+    "1e",
+    "--1",
+    "٣",
+    "1_000",
+    "½",
+    "NaN",
+    "nan",
+    "inf",
+    "-Infinity",
+    "NA",
+    "None",
+    "null",
+    "",
+    " ",
+    "1e400",
+    "-1e400",
+    "1e308",
+    "1e-320",
+    " 0.05 ",
+    "0.05\t",
+    "+0.05",
+    "5e-2",
+    "0,05",
+    "1 000",
+    "१",
+    "0.05m",
 ]
 
 
@@ -203,9 +242,25 @@ def m_types(rng: np.random.Generator, t: Tables) -> str:
 
 
 def m_values(rng: np.random.Generator, t: Tables) -> str:
-    what = pick(rng, ["negative-size", "zero-size", "mm-radius", "kN-force", "mm-sinkage",
-                           "deg-angle", "negative-force", "rings", "grousers", "repetition",
-                           "velocity", "huge-force", "constant-z", "one-sample"])
+    what = pick(
+        rng,
+        [
+            "negative-size",
+            "zero-size",
+            "mm-radius",
+            "kN-force",
+            "mm-sinkage",
+            "deg-angle",
+            "negative-force",
+            "rings",
+            "grousers",
+            "repetition",
+            "velocity",
+            "huge-force",
+            "constant-z",
+            "one-sample",
+        ],
+    )
     tests = t["tests"]
     if what in ("negative-size", "zero-size", "mm-radius"):
         row = _tests_row(t, pick(rng, SINK_IDS[:6]))
@@ -261,20 +316,53 @@ def m_values(rng: np.random.Generator, t: Tables) -> str:
     return what
 
 
-ODD_IDS = ["001", "1", " shape-0001", "shape-0001 ", "shape-0001\x00", "shape-0001\x00x",
-           "ｓhape-0001", "shape\u20130001", "SHAPE-0001", "shape-0001.0", "", "nan", "NA",
-           "=cmd|' /C calc'!A0", "shape-0001\r", "x" * 300, "😀", "e\u0301", "\u00e9", "1e3"]
+ODD_IDS = [
+    "001",
+    "1",
+    " shape-0001",
+    "shape-0001 ",
+    "shape-0001\x00",
+    "shape-0001\x00x",
+    "ｓhape-0001",
+    "shape\u20130001",
+    "SHAPE-0001",
+    "shape-0001.0",
+    "",
+    "nan",
+    "NA",
+    "=cmd|' /C calc'!A0",
+    "shape-0001\r",
+    "x" * 300,
+    "😀",
+    "e\u0301",
+    "\u00e9",
+    "1e3",
+]
 
 
 def m_ids(rng: np.random.Generator, t: Tables) -> str:
-    what = pick(rng, ["rename-test", "rename-sample", "duplicate-test", "orphan",
-                           "no-samples", "unknown-kind", "unknown-shape", "swap-kind",
-                           "duplicate-sample-rows"])
+    what = pick(
+        rng,
+        [
+            "rename-test",
+            "rename-sample",
+            "duplicate-test",
+            "orphan",
+            "no-samples",
+            "unknown-kind",
+            "unknown-shape",
+            "swap-kind",
+            "duplicate-sample-rows",
+        ],
+    )
     if what in ("rename-test", "rename-sample"):
         new = pick(rng, ODD_IDS)
         old = pick(rng, SINK_IDS + SHEAR_IDS)
-        stems = ("tests", "sinkage", "shear") if rng.random() < 0.5 else (
-            ("tests",) if what == "rename-test" else ("sinkage", "shear"))
+        stems = (
+            ("tests", "sinkage", "shear")
+            if rng.random() < 0.5
+            else (("tests",) if what == "rename-test" else ("sinkage", "shear"))
+        )
         for stem in stems:
             for r in t[stem][1:]:
                 if r[0] == old:
@@ -293,8 +381,13 @@ def m_ids(rng: np.random.Generator, t: Tables) -> str:
         for stem in ("sinkage", "shear"):
             t[stem] = [r for r in t[stem] if r[0] != tid]
     elif what == "unknown-kind":
-        _set_cell(t, "tests", "kind", _pick_row(rng, t, "tests"),
-                  pick(rng, ["Sinkage", "plate", "", " shear", "SHEAR"]))
+        _set_cell(
+            t,
+            "tests",
+            "kind",
+            _pick_row(rng, t, "tests"),
+            pick(rng, ["Sinkage", "plate", "", " shear", "SHEAR"]),
+        )
     elif what == "unknown-shape":
         row = _tests_row(t, pick(rng, SINK_IDS))
         _set_cell(t, "tests", "shape", row, pick(rng, ["square", "Circle", "", "circle "]))
@@ -312,10 +405,29 @@ def m_files(rng: np.random.Generator, t: Tables) -> tuple[str, dict[str, bytes |
     stem = _pick_stem(rng)
     name = f"{stem}.csv"
     raw = to_bytes(t[stem])
-    what = pick(rng, ["empty", "header-only", "truncated", "latin-1", "bom", "utf-16",
-                           "crlf", "no-newline", "binary", "missing", "gzip", "nul-byte",
-                           "cr-only", "semicolon", "quote", "parquet-too", "blank-lines",
-                           "trailing-commas"])
+    what = pick(
+        rng,
+        [
+            "empty",
+            "header-only",
+            "truncated",
+            "latin-1",
+            "bom",
+            "utf-16",
+            "crlf",
+            "no-newline",
+            "binary",
+            "missing",
+            "gzip",
+            "nul-byte",
+            "cr-only",
+            "semicolon",
+            "quote",
+            "parquet-too",
+            "blank-lines",
+            "trailing-commas",
+        ],
+    )
     files: dict[str, bytes | None] = {}
     if what == "empty":
         files[name] = b""
@@ -362,9 +474,21 @@ def m_files(rng: np.random.Generator, t: Tables) -> tuple[str, dict[str, bytes |
 
 
 def m_metadata(rng: np.random.Generator, t: Tables) -> str:
-    what = pick(rng, ["circle-with-width", "rect-no-length", "length<width",
-                           "shear-with-shape", "soil-formula", "soil-dollar", "huge-cell",
-                           "operator-blank", "sinkage-in-shear", "kind-case"])
+    what = pick(
+        rng,
+        [
+            "circle-with-width",
+            "rect-no-length",
+            "length<width",
+            "shear-with-shape",
+            "soil-formula",
+            "soil-dollar",
+            "huge-cell",
+            "operator-blank",
+            "sinkage-in-shear",
+            "kind-case",
+        ],
+    )
     if what == "circle-with-width":
         _set_cell(t, "tests", "width_m", _tests_row(t, "shape-0001"), "0.1")
     elif what == "rect-no-length":
@@ -374,7 +498,7 @@ def m_metadata(rng: np.random.Generator, t: Tables) -> str:
     elif what == "shear-with-shape":
         _set_cell(t, "tests", "shape", _tests_row(t, "shear-ring-0001"), "circle")
     elif what == "soil-formula":
-        _set_cell(t, "tests", "soil", 1, "=HYPERLINK(\"x\")")
+        _set_cell(t, "tests", "soil", 1, '=HYPERLINK("x")')
     elif what == "soil-dollar":
         _set_cell(t, "tests", "soil", 1, "$x^{")
     elif what == "huge-cell":
@@ -391,8 +515,12 @@ def m_metadata(rng: np.random.Generator, t: Tables) -> str:
 
 
 CAMPAIGN_MUTATIONS: dict[str, Callable] = {
-    "columns": m_columns, "types": m_types, "values": m_values, "ids": m_ids,
-    "files": m_files, "metadata": m_metadata,
+    "columns": m_columns,
+    "types": m_types,
+    "values": m_values,
+    "ids": m_ids,
+    "files": m_files,
+    "metadata": m_metadata,
 }
 
 
@@ -410,8 +538,9 @@ def runs_base() -> Table:
 def s_runs(rng: np.random.Generator) -> tuple[str, object]:
     table = runs_base()
     head = table[0]
-    column = pick(rng, ["run_id", "wheel", "slip", "W_N", "sinkage_m", "beta_deg",
-                             "drawbar_pull_N"])
+    column = pick(
+        rng, ["run_id", "wheel", "slip", "W_N", "sinkage_m", "beta_deg", "drawbar_pull_N"]
+    )
     j = head.index(column)
     row = int(rng.integers(1, len(table)))
     what = pick(rng, ["value", "duplicate-col", "missing-col", "blank-header", "dup-run"])
@@ -432,11 +561,34 @@ def s_runs(rng: np.random.Generator) -> tuple[str, object]:
     return what, to_bytes(table)
 
 
-PRIORS = ["c=truncnormal:0:1:50:60", "c=normal:0:-1", "c=normal:0:nan", "phi=uniform:90:0",
-          "c=lognormal:0:inf", "c=", "=normal:0:1", "c=normal", "c=normal:0:1:2",
-          "c=truncnormal:0:1:8:60", "c=uniform:0:1e308", "c=beta:1:1", "c=normal:1e400:1",
-          "phi=uniform:-100:100", "K=halfnormal:0", "n=uniform:0:0", "c=normal:0:1e-320",
-          "kc=normal:0:1", "zz=normal:0:1", "c=normal:٣:1", "c=normal:True:1", "c=normal:1_0:1"]
+PRIORS = [
+    "c=truncnormal:0:1:50:60",
+    "c=normal:0:-1",
+    "c=normal:0:nan",
+    "phi=uniform:90:0",
+    "c=lognormal:0:inf",
+    "c=",
+    "=normal:0:1",
+    "c=normal",
+    "c=normal:0:1:2",
+    "c=truncnormal:0:1:8:60",
+    "c=uniform:0:1e308",
+    "c=beta:1:1",
+    "c=normal:1e400:1",
+    "phi=uniform:-100:100",
+    "K=halfnormal:0",
+    "n=uniform:0:0",
+    "c=normal:0:1e-320",
+    "kc=normal:0:1",
+    "zz=normal:0:1",
+    "c=normal:nan:1",
+    "c=normal:0:1:60:50",
+    "c=normal:0:1:5:5",
+    "c=normal:-inf:1",
+    "c=normal:٣:1",
+    "c=normal:True:1",
+    "c=normal:1_0:1",
+]
 
 
 def s_prior(rng: np.random.Generator) -> tuple[str, object]:
@@ -445,9 +597,25 @@ def s_prior(rng: np.random.Generator) -> tuple[str, object]:
 
 
 def s_frames(rng: np.random.Generator) -> tuple[str, object]:
-    what = pick(rng, ["complex", "bool", "object-mixed", "dup-cols", "multiindex",
-                           "units-none", "units-str", "units-unknown", "int-ids", "nan-id",
-                           "category", "float32", "inf", "index-noncontiguous"])
+    what = pick(
+        rng,
+        [
+            "complex",
+            "bool",
+            "object-mixed",
+            "dup-cols",
+            "multiindex",
+            "units-none",
+            "units-str",
+            "units-unknown",
+            "int-ids",
+            "nan-id",
+            "category",
+            "float32",
+            "inf",
+            "index-noncontiguous",
+        ],
+    )
     return what, what
 
 
@@ -499,28 +667,39 @@ def build_frames(what: str, t: Tables) -> tuple[dict, dict]:
 
 IMPORTS = [
     ('[tests]\nfile="log.csv"\nseparator=5\n[tests.columns]\ntest_id="Test"\n', None),
-    ('[tests]\nfile="log.csv"\nskip_rows=9223372036854775807\n[tests.columns]\ntest_id="Test"\n',
-     None),
-    ('[tests]\nfile="log.csv"\ndecimal=","\nseparator=";"\n[tests.columns]\ntest_id="Test"\n'
-     'soil="Soil"\nradius_m={column="D",unit="mm",diameter=true}\n[tests.constant]\n'
-     'kind="sinkage"\nshape="circle"\n', "Test;Soil;D\n1,5;s;100,0\n"),
-    ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\nradius_m={column="D",'
-     'diameter="no"}\n', "Test,D\na,1\n"),
+    (
+        '[tests]\nfile="log.csv"\nskip_rows=9223372036854775807\n[tests.columns]\ntest_id="Test"\n',
+        None,
+    ),
+    (
+        '[tests]\nfile="log.csv"\ndecimal=","\nseparator=";"\n[tests.columns]\ntest_id="Test"\n'
+        'soil="Soil"\nradius_m={column="D",unit="mm",diameter=true}\n[tests.constant]\n'
+        'kind="sinkage"\nshape="circle"\n',
+        "Test;Soil;D\n1,5;s;100,0\n",
+    ),
+    (
+        '[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\nradius_m={column="D",'
+        'diameter="no"}\n',
+        "Test,D\na,1\n",
+    ),
     ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n', "Test,Test\na,b\n"),
     ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n', "Test,\na,b\n"),
-    ('[tests\nfile=', None),
+    ("[tests\nfile=", None),
     ('[tests]\nfile="nope.csv"\n[tests.columns]\ntest_id="Test"\n', None),
     ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n', "Test\n001\n002\n"),
     ('[tests]\nfile="log.csv"\nskip_rows=-1\n[tests.columns]\ntest_id="Test"\n', "Test\na\n"),
     ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id=5\n', "Test\na\n"),
-    ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n[sinkage]\nfile="raw.csv"\n'
-     '[sinkage.columns]\ntest_id="Test"\nforce_N={column="F",diameter=true}\nz_m="Z"\n',
-     "Test\na\n"),
-    ('[tests]\nfile="log.csv"\nencoding="klingon"\n[tests.columns]\ntest_id="Test"\n',
-     "Test\na\n"),
+    (
+        '[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n[sinkage]\nfile="raw.csv"\n'
+        '[sinkage.columns]\ntest_id="Test"\nforce_N={column="F",diameter=true}\nz_m="Z"\n',
+        "Test\na\n",
+    ),
+    ('[tests]\nfile="log.csv"\nencoding="klingon"\n[tests.columns]\ntest_id="Test"\n', "Test\na\n"),
     ('[tests]\nfile="../../../../etc/passwd"\n[tests.columns]\ntest_id="Test"\n', None),
-    ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n[tests.constant]\nkind=1\n',
-     "Test\na\n"),
+    (
+        '[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n[tests.constant]\nkind=1\n',
+        "Test\na\n",
+    ),
 ]
 
 
@@ -529,8 +708,19 @@ def s_import(rng: np.random.Generator) -> tuple[str, object]:
     return f"mapping {k}", IMPORTS[k]
 
 
-SIM_EDITS = [("n", "0"), ("n", "-1"), ("kphi", "0"), ("phi", "95"), ("c", "-1"), ("n", "nan"),
-             ("n", "1e400"), ("kphi", "true"), ("n", '"x"'), ("phi", "90"), ("n", "[1, 2]")]
+SIM_EDITS = [
+    ("n", "0"),
+    ("n", "-1"),
+    ("kphi", "0"),
+    ("phi", "95"),
+    ("c", "-1"),
+    ("n", "nan"),
+    ("n", "1e400"),
+    ("kphi", "true"),
+    ("n", '"x"'),
+    ("phi", "90"),
+    ("n", "[1, 2]"),
+]
 
 
 def s_simulate(rng: np.random.Generator) -> tuple[str, object]:
@@ -543,7 +733,10 @@ def s_simulate(rng: np.random.Generator) -> tuple[str, object]:
 
 
 SURFACES: dict[str, Callable] = {
-    "runs": s_runs, "prior": s_prior, "frames": s_frames, "import": s_import,
+    "runs": s_runs,
+    "prior": s_prior,
+    "frames": s_frames,
+    "import": s_import,
     "simulate": s_simulate,
 }
 
@@ -646,8 +839,12 @@ def run_library(case: Case, folder: Path) -> tuple[str, str]:
         except Exception as exc:
             return _classify_exception(exc)
     ours = [w for w in caught if issubclass(w.category, SoilstatsWarning)]
-    foreign = [w for w in caught if not issubclass(w.category, SoilstatsWarning)
-               and not issubclass(w.category, DeprecationWarning | RuntimeWarning)]
+    foreign = [
+        w
+        for w in caught
+        if not issubclass(w.category, SoilstatsWarning)
+        and not issubclass(w.category, DeprecationWarning | RuntimeWarning)
+    ]
     if case.surface == "campaign" and case.roundtrip:
         changes = silent_changes(case, result)
         if changes and not ours:
@@ -763,10 +960,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=44)
     parser.add_argument("--count", type=int, default=320)
     parser.add_argument("--smoke", action="store_true", help="40 cases, library only")
-    parser.add_argument("--cli", default="", help="comma-separated subcommands: "
-                        + ",".join(COMMANDS))
-    parser.add_argument("--cli-every", type=int, default=1,
-                        help="run the CLI on every k-th campaign case only")
+    parser.add_argument(
+        "--cli", default="", help="comma-separated subcommands: " + ",".join(COMMANDS)
+    )
+    parser.add_argument(
+        "--cli-every", type=int, default=1, help="run the CLI on every k-th campaign case only"
+    )
     parser.add_argument("--timeout", type=float, default=120)
     parser.add_argument("--keep", type=Path, help="write the cases here and keep them")
     parser.add_argument("--json", type=Path, help="write every outcome to this file")
@@ -784,13 +983,27 @@ def main(argv: list[str] | None = None) -> int:
         folder = root / re.sub(r"[^A-Za-z0-9_.-]+", "_", case.name)[:80]
         write_case(case, folder)
         outcome, detail = run_library(case, folder)
-        rows.append({"case": case.name, "category": case.category, "surface": "library",
-                     "outcome": outcome, "detail": detail})
+        rows.append(
+            {
+                "case": case.name,
+                "category": case.category,
+                "surface": "library",
+                "outcome": outcome,
+                "detail": detail,
+            }
+        )
         if case.surface == "campaign" and k % args.cli_every == 0:
             for c in commands:
                 out, det = run_cli(folder, COMMANDS[c], args.timeout)
-                rows.append({"case": case.name, "category": case.category, "surface": c,
-                             "outcome": out, "detail": det})
+                rows.append(
+                    {
+                        "case": case.name,
+                        "category": case.category,
+                        "surface": c,
+                        "outcome": out,
+                        "detail": det,
+                    }
+                )
     elapsed = time.perf_counter() - started
     if not args.keep:
         shutil.rmtree(root, ignore_errors=True)
@@ -806,7 +1019,8 @@ def report(rows: list[dict], count: int, args: argparse.Namespace, elapsed: floa
     print(f"{count} cases, seed {args.seed}, {len(rows)} runs, {elapsed:.0f} s")
     for surface, part in table.groupby("surface", sort=False):
         counts = pd.crosstab(part["category"], part["outcome"]).reindex(
-            columns=outcomes, fill_value=0)
+            columns=outcomes, fill_value=0
+        )
         counts.loc["total"] = counts.sum()
         print(f"\n{surface}:\n{counts.to_string()}")
     bad = table[table["outcome"].isin([*FAILING, "error-unnamed"])]

@@ -12,6 +12,7 @@ Below them, one regression test per finding of the benchmark.
 from __future__ import annotations
 
 import importlib.util
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -155,3 +156,16 @@ def test_the_valid_base_campaign_loads_without_a_word(tmp_path):
     campaign = load_campaign(tmp_path)
     assert len(campaign.tests) == 18 and np.isfinite(campaign.sinkage["pressure_Pa"]).all()
     assert isinstance(campaign.tests, pd.DataFrame)
+
+
+@pytest.mark.parametrize(
+    "text", ["normal:1e400:1", "normal:nan:1", "normal:0:1:5:5", "normal:0:1:60:50"]
+)
+def test_a_normal_prior_with_no_finite_centre_or_an_empty_window_is_refused(text):
+    """``--prior kc=normal:1e400:1`` was taken as normal(inf, 1): no draw could ever hold."""
+    from soilstats.bayes.priors import parse_prior
+    from soilstats.errors import InputError
+
+    with pytest.raises(InputError, match=re.escape(repr(text))):
+        parse_prior(text)
+    assert str(parse_prior("normal:1:0.3:0:inf")) == "normal(1, 0.3) on (0, inf)"
