@@ -792,30 +792,34 @@ def silent_changes(case: Case, campaign) -> list[str]:
     out: list[str] = []
     for stem in ("tests", "sinkage", "shear"):
         content = case.files.get(f"{stem}.csv")
-        table = getattr(campaign, stem)
-        if content is None:
+        if content is not None:
+            out += table_changes(stem, content, getattr(campaign, stem), skipped)
+    return out
+
+
+def table_changes(stem: str, content: bytes, table: pd.DataFrame, skipped: set) -> list[str]:
+    """Cells of one written CSV that ``table`` (what the reader returned) holds differently."""
+    try:
+        rows = list(csv.reader(io.StringIO(content.decode("utf-8-sig"))))
+    except (UnicodeDecodeError, csv.Error):
+        return []  # the reader accepted what the stdlib cannot: judged by its own tests
+    if not rows:
+        return []
+    head, body = rows[0], [r for r in rows[1:] if r and r[0] not in skipped]
+    if len(body) != len(table):
+        return [f"{stem}: {len(body)} rows written (skips aside), {len(table)} read"]
+    out = []
+    for j, column in enumerate(head):
+        if column not in table.columns:
+            out.append(f"{stem}: column {column!r} written, not in the table read")
             continue
-        try:
-            rows = list(csv.reader(io.StringIO(content.decode("utf-8-sig"))))
-        except (UnicodeDecodeError, csv.Error):
-            continue  # the reader accepted what the stdlib cannot: compared elsewhere
-        if not rows:
-            continue
-        head, body = rows[0], [r for r in rows[1:] if r and r[0] not in skipped]
-        if len(body) != len(table):
-            out.append(f"{stem}: {len(body)} rows written (skips aside), {len(table)} read")
-            continue
-        for j, column in enumerate(head):
-            if column not in table.columns:
-                out.append(f"{stem}: column {column!r} written, not in the table read")
-                continue
-            values = table[column].tolist()
-            kind = table[column].dtype
-            numeric = pd.api.types.is_numeric_dtype(kind) and not pd.api.types.is_bool_dtype(kind)
-            for k, (r, v) in enumerate(zip(body, values, strict=True)):
-                if j < len(r) and _cell_differs(r[j], v, numeric):
-                    out.append(f"{stem} row {k + 1} {column}: wrote {r[j]!r}, read {v!r}")
-                    break
+        values = table[column].tolist()
+        kind = table[column].dtype
+        numeric = pd.api.types.is_numeric_dtype(kind) and not pd.api.types.is_bool_dtype(kind)
+        for k, (r, v) in enumerate(zip(body, values, strict=True)):
+            if j < len(r) and _cell_differs(r[j], v, numeric):
+                out.append(f"{stem} row {k + 1} {column}: wrote {r[j]!r}, read {v!r}")
+                break
     return out
 
 
@@ -845,8 +849,12 @@ def run_library(case: Case, folder: Path) -> tuple[str, str]:
         if not issubclass(w.category, SoilstatsWarning)
         and not issubclass(w.category, DeprecationWarning | RuntimeWarning)
     ]
-    if case.surface == "campaign" and case.roundtrip:
-        changes = silent_changes(case, result)
+    if case.surface in ("campaign", "runs") and case.roundtrip:
+        changes = (
+            silent_changes(case, result)
+            if case.surface == "campaign"
+            else table_changes("runs", case.payload, result, set())  # type: ignore[arg-type]
+        )
         if changes and not ours:
             return "silent-change", "; ".join(changes[:3])
     if foreign and not ours:

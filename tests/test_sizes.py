@@ -26,10 +26,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         673,
         "the SCM export: mapping, constraint check, repair, record; to split in two",
     ),
-    "soilstats/campaign/validate.py": (
-        696,
-        "every rule of the campaign format in one place; split by table (tests, sinkage, shear)",
-    ),
     "soilstats/discovery/result.py": (
         723,
         "the result and its HTML and text views; the views to their own module"

@@ -17,6 +17,7 @@ from ..errors import RENAMED_GO_IN, CampaignError, InputError, SoilstatsWarning
 from . import io
 from ._cells import TEXT_DTYPE, without_controls
 from .derived import add_sample_columns, add_test_columns
+from .derived_checks import derived_issues
 from .digest import campaign_sha256
 from .frame_checks import check_frame
 from .index import campaign_index, grouped_by_code
@@ -25,7 +26,7 @@ from .near_names import warn_near_names
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
 from .units import check_plausible_units, convert_columns
-from .validate import Frames, Issue, derived_issues, validate
+from .validate import Frames, Issue, validate
 from .window import AppliedWindow, FitWindow
 
 __all__ = ["SKIPPED_COLUMNS", "Campaign", "load_campaign"]
