@@ -169,3 +169,26 @@ def test_a_normal_prior_with_no_finite_centre_or_an_empty_window_is_refused(text
     with pytest.raises(InputError, match=re.escape(repr(text))):
         parse_prior(text)
     assert str(parse_prior("normal:1:0.3:0:inf")) == "normal(1, 0.3) on (0, inf)"
+
+
+def test_a_force_whose_pressure_a_fit_cannot_square_is_refused_naming_the_test(tmp_path):
+    """Forces of 1e303 N loaded (finite), then ``identify`` ended in numpy's "Eigenvalues did
+    not converge": a pressure beyond 1e150 Pa overflows in every squared residual."""
+    from soilstats.errors import CampaignError
+
+    def scale(t):
+        c = t["sinkage"][0].index("force_N")
+        row = next(r for r in t["sinkage"][1:] if r[0] == "shape-0002" and float(r[c]) > 1)
+        row[c] = "1e303"
+
+    folder = _folder(tmp_path, scale)
+    with pytest.raises(CampaignError, match=r"beyond ±1e\+150") as err:
+        load_campaign(folder)
+    assert (err.value.file, err.value.column, err.value.test_id) == (
+        "sinkage.csv",
+        "pressure_Pa",
+        "shape-0002",
+    )
+    with pytest.warns(SoilstatsWarning, match="shape-0002"):
+        kept = load_campaign(folder, on_error="skip")
+    assert "shape-0002" not in set(kept.tests["test_id"]) and len(kept.tests) == 17

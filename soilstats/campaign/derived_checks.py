@@ -16,6 +16,22 @@ from .validate import Issue
 __all__ = ["derived_issues"]
 
 
+#: The largest magnitude a derived sample quantity may have. Fits square residuals and
+#: pressures; beyond ~1.3e154 the square is inf in float64 and the fit fails in a linear
+#: algebra routine's words (a force of 1e303 N: "Eigenvalues did not converge"). No
+#: Bevameter reading comes within a hundred orders of magnitude of this.
+MAX_MAGNITUDE = 1e150
+
+
+def _why(value: float) -> str:
+    if np.isfinite(value):
+        return (
+            f"beyond ±{MAX_MAGNITUDE:g}, where a fit's squares overflow float64; no soil gives "
+            "this (a unit or column mistake, or a corrupted cell?)"
+        )
+    return "not a finite number"
+
+
 #: Derived test columns that must be positive and finite: kind of test, what it is, the
 #: columns it is computed from, what an infinite or zero value would do.
 _TEST_QUANTITIES = (
@@ -53,7 +69,8 @@ def _geometry(tests: pd.DataFrame, i: int | np.integer, column: str) -> str:
 
 
 def derived_issues(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> list[Issue]:
-    """Finite inputs whose derived quantities are not finite, as per-test issues.
+    """Finite inputs whose derived quantities are not finite (or beyond ±MAX_MAGNITUDE), as
+    per-test issues.
 
     Every input may be a finite number and the quantity computed from them still not be:
     a radius of 1e-200 m gives an area of 0 in float64 and infinite pressures; a force of
@@ -103,7 +120,7 @@ def derived_issues(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> li
         table = tables[stem]
         for column, formula, source in quantities:
             values = table[column].to_numpy(dtype=np.float64)
-            bad = ~np.isfinite(values)
+            bad = ~(np.abs(values) <= MAX_MAGNITUDE)  # NaN and ±inf too
             if not bad.any():  # the common case: no id of a million samples is looked at
                 continue
             bad &= ~table["test_id"].isin(refused).to_numpy(dtype=bool)
@@ -117,7 +134,7 @@ def derived_issues(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> li
                         column,
                         int(table.index[pos]) + 1,
                         f"{formula} is {float(values[pos])!r} in float64 for {source} "
-                        f"{float(table[source].iloc[pos])!r} — not a finite number; check "
+                        f"{float(table[source].iloc[pos])!r} — {_why(values[pos])}; check "
                         f"{source} and the test's geometry in {names['tests']} (SI units){more}",
                     )
                 )
