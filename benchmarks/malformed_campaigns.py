@@ -666,10 +666,10 @@ def build_frames(what: str, t: Tables) -> tuple[dict, dict]:
 
 
 IMPORTS = [
-    ('[tests]\nfile="log.csv"\nseparator=5\n[tests.columns]\ntest_id="Test"\n', None),
+    ('[tests]\nfile="log.csv"\nseparator=5\n[tests.columns]\ntest_id="Test"\n', "Test\na\n"),
     (
         '[tests]\nfile="log.csv"\nskip_rows=9223372036854775807\n[tests.columns]\ntest_id="Test"\n',
-        None,
+        "Test\na\n",
     ),
     (
         '[tests]\nfile="log.csv"\ndecimal=","\nseparator=";"\n[tests.columns]\ntest_id="Test"\n'
@@ -690,9 +690,9 @@ IMPORTS = [
     ('[tests]\nfile="log.csv"\nskip_rows=-1\n[tests.columns]\ntest_id="Test"\n', "Test\na\n"),
     ('[tests]\nfile="log.csv"\n[tests.columns]\ntest_id=5\n', "Test\na\n"),
     (
-        '[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\n[sinkage]\nfile="raw.csv"\n'
-        '[sinkage.columns]\ntest_id="Test"\nforce_N={column="F",diameter=true}\nz_m="Z"\n',
-        "Test\na\n",
+        '[tests]\nfile="log.csv"\n[tests.columns]\ntest_id="Test"\nvelocity_m_s={column="V",'
+        "diameter=true}\n",
+        "Test,V\na,1\n",
     ),
     ('[tests]\nfile="log.csv"\nencoding="klingon"\n[tests.columns]\ntest_id="Test"\n', "Test\na\n"),
     ('[tests]\nfile="../../../../etc/passwd"\n[tests.columns]\ntest_id="Test"\n', None),
