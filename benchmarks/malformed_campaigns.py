@@ -958,7 +958,17 @@ COMMANDS = {
     "check": ["check", "."],
     "identify": ["identify", "."],
     "study": ["study", "tool-shape", ".", "--out", "out-study", "--no-pdf"],
-    "posterior": ["posterior", ".", "--model", "bekker", "--draws", "400", "--out", "out-post"],
+    "posterior": [
+        "posterior",
+        ".",
+        "--model",
+        "bekker",
+        "--draws",
+        "400",
+        "--force",
+        "--out",
+        "out-post",
+    ],
     "discover": ["discover", "."],
 }
 
