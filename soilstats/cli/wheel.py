@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
 from . import wheel_modes
@@ -214,6 +214,7 @@ def run(args: argparse.Namespace) -> int:
     import json
 
     from ..outputs import json_safe, output_path
+    from ..wheel.defaults import moved_verdicts
     from ..wheel.runs import read_caveats, read_runs, read_wheels, wheel_geometry
     from ..wheel.validation import check_priors, validate_wheel
 
@@ -241,10 +242,7 @@ def run(args: argparse.Namespace) -> int:
     pooled = _pooling(campaign, args)
     for text in pooled:
         print(f"WARNING: {text}", file=sys.stderr)
-    result = validate_wheel(
-        campaign,
-        runs,
-        wheels=wheels,
+    options: dict[str, Any] = dict(
         soil=args.soil,
         law=args.law,
         draws=args.draws,
@@ -257,8 +255,19 @@ def run(args: argparse.Namespace) -> int:
         extension=not args.no_extension,
         caveats=[*(read_caveats(toml) if tables else []), *pooled],
     )
+    result = validate_wheel(campaign, runs, wheels=wheels, **options)
     defaults = _defaults(args, tables, overrides, wheels)
-    document = {"defaults": defaults} | result.to_dict()
+    moved = moved_verdicts(  # a default moving a verdict is a warning (issue #47, item 3)
+        result,
+        wheels,
+        defaults,
+        lambda alt: validate_wheel(
+            campaign, runs, wheels=alt, **(options | {"progress": False, "sensitivity": False})
+        ),
+    )
+    for text in moved.values():
+        print(f"WARNING: {text}", file=sys.stderr)
+    document = {"defaults": defaults, "default_warnings": moved} | result.to_dict()
     document |= {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
     calibration = None
     if args.calibrate:
@@ -269,7 +278,7 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration:
         document["calibration_applied"] = wheel_modes.apply_calibration(args, runs)
     if args.out:
-        _write(args, document, result, calibration, defaults, provenance, outputs)
+        _write(args, document, result, calibration, (defaults, moved), provenance, outputs)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
@@ -285,7 +294,7 @@ def _write(
     document: dict,
     result: WheelValidation,
     calibration: CalibrationReport | None,
-    defaults: dict[str, str],
+    defaults: tuple[dict[str, str], dict[str, str]],
     provenance: Provenance,
     outputs: tuple[str, ...],
 ) -> None:
@@ -308,7 +317,8 @@ def _write(
         provenance=provenance,
         overwrite=args.overwrite,
         calibration=calibration,
-        defaults=defaults,
+        defaults=defaults[0],
+        default_warnings=defaults[1],
     )
     if calibration is not None:
         calibration.calibration.to_netcdf(

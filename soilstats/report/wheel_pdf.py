@@ -298,8 +298,13 @@ def write_report(
     overwrite: bool = False,
     calibration: CalibrationReport | None = None,
     defaults: dict[str, str] | None = None,
+    default_warnings: dict[str, str] | None = None,
 ) -> int:
     """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages.
+
+    ``defaults``: the settings and geometry the user did not give, on page 1; of them,
+    ``default_warnings`` those that move a verdict (:func:`soilstats.wheel.defaults.
+    moved_verdicts`), each a warning there.
 
     With ``calibration`` (``--calibrate``) page 1 also gives the held-out answers of the
     calibrated wheel and the body its sections (:mod:`.wheel_calibration_pdf`)."""
@@ -332,6 +337,7 @@ def write_report(
         conclusion=_conclusion(res)
         + (calibration_conclusion(calibration) if calibration is not None else []),
         defaults=defaults,
+        default_warnings=default_warnings,
     )
     fig, caption = predicted_figure(res)
     doc.figure(fig, caption, width="94%")
