@@ -110,3 +110,19 @@ def test_cmu_with_its_geometry_given_has_no_default_warning(tmp_path, capsys):
     assert doc["default_warnings"] == {}
     assert not any(k.endswith("shear_radius_m") for k in doc["defaults"])
     assert "moves a verdict" not in capsys.readouterr().err
+
+
+def test_a_study_spec_leaving_keys_out_lists_their_defaults(tmp_path):
+    """The keys a specification leaves out are the defaults the verdicts rest on: shipped
+    velocity.toml gives alpha and z_ref_m but not z_window_m; without alpha it is listed."""
+    from soilstats.study import load_spec
+    from soilstats.study.runner import spec_defaults
+
+    shipped = load_spec("velocity")
+    assert spec_defaults(shipped) == {"spec: z_window_m": "0.001"}
+    text = Path(shipped.path).read_text(encoding="utf-8")
+    (tmp_path / "v.toml").write_text(re.sub(r"(?m)^alpha.*\n", "", text), encoding="utf-8")
+    lax = load_spec(tmp_path / "v.toml")
+    assert lax.alpha == 0.05 and spec_defaults(lax)["spec: alpha"] == "0.05"
+    shear = load_spec("shear-ring")  # sinkage-only keys are no default of a shear study
+    assert not any("z_" in k or "fallback" in k for k in spec_defaults(shear))

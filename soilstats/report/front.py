@@ -50,7 +50,7 @@ def front_page(
     doc.paragraph(*data)
     if defaults:
         doc.paragraph(
-            "Settings left at their defaults (not given on the command line): "
+            "Settings left at their defaults (not given on the command line or in an input file): "
             + ", ".join(f"{k} {v}" for k, v in defaults.items())
             + "."
         )
