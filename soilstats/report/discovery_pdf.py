@@ -45,7 +45,7 @@ if TYPE_CHECKING:
 __all__ = ["write_report"]
 
 #: Findings per figure (two per row: deviations and curves side by side).
-_PER_FIGURE = 8
+_PER_FIGURE = 6
 #: Levels drawn in a finding's curve panel (spread over its sorted levels).
 _CURVES = 4
 #: Above this many distinct values a numeric cause is drawn on its own axis, with a trend.
@@ -434,7 +434,7 @@ def _findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
     per_row = 2 if len(numbered) > 1 else 1
     rows = math.ceil(len(numbered) / per_row)
     with mpl.rc_context(GRID_STYLE):
-        fig = Figure(figsize=(6.7, 2.1 * rows + (0.5 if rows == 1 else 0)), layout="constrained")
+        fig = Figure(figsize=(6.5, 2.3 * rows + (0.5 if rows == 1 else 0)), layout="constrained")
         grid: Any = fig.subfigures(rows, per_row, wspace=0.03, hspace=0.02)  # one or an array
         subs = np.atleast_1d(grid).ravel()
         for k, sub in enumerate(subs):
@@ -445,7 +445,7 @@ def _findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
             effect = _deviation_panel(ax1, f)
             gain = _curve_panel(ax2, f)
             head = f"[{i}] {f.kind} / {f.soil}, {_short(f.cause, 30)}: {effect}"
-            title = "\n".join(textwrap.wrap(head, 58) + textwrap.wrap(gain, 58))
+            title = "\n".join(textwrap.wrap(head, 50) + textwrap.wrap(gain, 50))
             sub.suptitle(title, x=0.02, ha="left")
         fig.canvas.draw()  # lay out under the style's fonts before the rc context ends
     return fig
