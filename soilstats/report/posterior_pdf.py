@@ -28,7 +28,8 @@ from .document import Document, figure_svg, strong
 from .front import data_origin, front_page
 from .labels import parameter_symbol
 from .methods import write_equations
-from .posterior_figures import pair_figure, predictive_figure, trace_figure
+from .posterior_figures import pair_figure, trace_figure
+from .posterior_predictive import predictive_figure
 
 __all__ = ["write_report"]
 
