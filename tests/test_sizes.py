@@ -45,11 +45,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         "the screening driver and its per-kind findings; owned by the quality work in progress"
         "; grew from 658 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/report/discovery_pdf.py": (
-        1086,
-        "the discovery report's sections in one file; one module per section"
-        "; grew from 919 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
 }
 
 #: "module::function" -> (code lines when listed, why it is still one function)
