@@ -10,8 +10,9 @@ size, raised or lowered from its baseline.
 
 Figure text is real text (soilstats.report.document.figure_svg), read at its printed size: a
 figure drawn wider than the page is scaled down, and its text with it. A rotated glyph (an axis
-label set upright along the axis) is measured across its baseline — pdfminer gives its
-advance as its size — and is left out of the box test, whose words read along a line.
+label set along the axis, a tick label turned 45°) is measured across its baseline — pdfminer
+gives the height of its turned box as its size — and is left out of the box test, whose words
+read along a horizontal line (turned labels are laid out by matplotlib, not checked here).
 """
 
 from __future__ import annotations
@@ -27,12 +28,18 @@ def _is_math(fontname: str) -> bool:
 
 def _rotated(char: dict) -> bool:
     a, b = char["matrix"][:2]
-    return abs(b) > abs(a)
+    return abs(b) > 1e-3 * abs(complex(a, b))
 
 
 def _size(char: dict) -> float:
-    """The printed size: a rotated glyph's extent across its baseline."""
-    return float(char["width"] if _rotated(char) else char["size"])
+    """The printed size. pdfminer gives a glyph's box height, which for a glyph turned by θ is
+    adv·|sin θ| + size·|cos θ| (and its width adv·|cos θ| + size·|sin θ|): solved for size."""
+    a, b = char["matrix"][:2]
+    scale = abs(complex(a, b)) or 1.0
+    cos, sin = abs(a) / scale, abs(b) / scale
+    if cos >= sin:
+        return float((char["height"] - char["adv"] * sin) / cos)
+    return float((char["width"] - char["adv"] * cos) / sin)
 
 
 def _along(c: dict) -> tuple[float, float, float, float]:

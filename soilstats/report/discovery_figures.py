@@ -141,14 +141,14 @@ def _curve_panel(ax: Any, f: Finding) -> str:
 
 
 def _findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
-    """A grid of findings, two per row: each its deviation and curve panels under a title
+    """A grid of findings, one per row: each its deviation and curve panels under a title
     that states the effect and the gain."""
     import matplotlib as mpl
 
-    per_row = 2 if len(numbered) > 1 else 1
+    per_row = 1  # two panels across the page: room for 8 pt levels and legends
     rows = math.ceil(len(numbered) / per_row)
     with mpl.rc_context(GRID_STYLE):
-        fig = Figure(figsize=(6.5, 2.3 * rows + (0.5 if rows == 1 else 0)), layout="constrained")
+        fig = Figure(figsize=(6.5, 2.2 * rows + (0.4 if rows == 1 else 0)), layout="constrained")
         grid: Any = fig.subfigures(rows, per_row, wspace=0.03, hspace=0.02)  # one or an array
         subs = np.atleast_1d(grid).ravel()
         for k, sub in enumerate(subs):
@@ -159,7 +159,7 @@ def _findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
             effect = _deviation_panel(ax1, f)
             gain = _curve_panel(ax2, f)
             head = f"[{i}] {f.kind} / {f.soil}, {_short(f.cause, 30)}: {effect}"
-            title = "\n".join(textwrap.wrap(head, 50) + textwrap.wrap(gain, 50))
+            title = "\n".join(textwrap.wrap(head, 100) + textwrap.wrap(gain, 100))
             sub.suptitle(title, x=0.02, ha="left")
         fig.canvas.draw()  # lay out under the style's fonts before the rc context ends
     return fig

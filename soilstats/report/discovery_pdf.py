@@ -42,8 +42,8 @@ if TYPE_CHECKING:
 
 __all__ = ["write_report"]
 
-#: Findings per figure (two per row: deviations and curves side by side).
-_PER_FIGURE = 6
+#: Findings per figure (one per row: deviations and curves side by side, 8 pt text).
+_PER_FIGURE = 4
 
 _SIGMA_NOTE = (
     f"{EQ4_NOTE} In discovery the test-level σ is the bootstrap's linearised form, "

@@ -445,8 +445,54 @@ def tight_layout(fig: Figure) -> None:
     import matplotlib as mpl
 
     plain_texts(fig)
+    plain_log_ticks(fig)
     with mpl.rc_context({"text.parse_math": False}):
         fig.tight_layout()
+
+
+_SUPERSCRIPT = str.maketrans("0123456789-−", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻⁻")
+
+
+def _plain_math(label: str) -> str:
+    """A log axis' mathtext tick label as plain text: ``$\\mathdefault{10^{-1}}$`` -> 10⁻¹,
+    ``2\\times10^{1}`` -> 2×10¹ (the figure's text is printed as written: :func:`plain_texts`)."""
+    if not label.startswith("$"):
+        return label
+    text = label.strip("$").replace("\\mathdefault", "").replace("\\times", "×")
+    text = re.sub(r"\^\{([^}]*)\}", lambda m: m.group(1).translate(_SUPERSCRIPT), text)
+    return text.replace("{", "").replace("}", "").replace("\\,", "").replace("-", "−")
+
+
+def plain_log_ticks(fig: Figure) -> None:
+    """Every log axis of ``fig`` labelled in plain text (10⁻¹, 10², 2×10¹): matplotlib writes
+    its log tick labels in mathtext, which the report's figures print as written."""
+    from matplotlib.ticker import Formatter, LogFormatter
+
+    class PlainLog(Formatter):
+        """The log formatter's own labels (and its choice of minor ticks to label), plain."""
+
+        def __init__(self, inner: LogFormatter) -> None:
+            self.inner = inner
+
+        def set_axis(self, axis: Any) -> None:
+            super().set_axis(axis)
+            self.inner.set_axis(axis)
+
+        def set_locs(self, locs: Any) -> None:
+            self.inner.set_locs(locs)
+
+        def __call__(self, x: float, pos: int | None = None) -> str:
+            return _plain_math(self.inner(x, pos))
+
+    for ax in fig.get_axes():
+        for axis in (ax.xaxis, ax.yaxis):
+            for get, put in (
+                (axis.get_major_formatter, axis.set_major_formatter),
+                (axis.get_minor_formatter, axis.set_minor_formatter),
+            ):
+                old = get()
+                if isinstance(old, LogFormatter):
+                    put(PlainLog(old))
 
 
 def figure_svg(fig: Figure) -> bytes:
@@ -459,6 +505,7 @@ def figure_svg(fig: Figure) -> bytes:
     import matplotlib as mpl
 
     plain_texts(fig)
+    plain_log_ticks(fig)
     buffer = io.BytesIO()
     # Tick labels made while drawing (categorical axes: the data's levels) are plain too.
     style: dict[RcKeyType, Any] = {
