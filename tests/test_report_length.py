@@ -63,7 +63,7 @@ DISCOVER_CAMPAIGNS = [
 
 
 @pytest.mark.parametrize("campaign", DISCOVER_CAMPAIGNS)
-def test_discover_report_fits_in_twelve_pages_with_its_findings_drawn(campaign, tmp_path):
+def test_discover_report_fits_in_thirteen_pages_with_its_findings_drawn(campaign, tmp_path):
     """The findings as a grid of figures (at most four findings a figure), every exhaustive
     list in one appendix table; the completeness is tests/test_reports.py's."""
     _run(["discover", "--data", campaign], tmp_path)

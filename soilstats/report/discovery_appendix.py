@@ -5,7 +5,7 @@ power, quality, columns, confounded conditions, notes): the exhaustive lists, ea
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -124,7 +124,7 @@ def _parameters_appendix(doc: Document, result: DiscoveryResult) -> None:
 def _tried_appendix(doc: Document, result: DiscoveryResult) -> None:
     said: set = set()
 
-    def described(t) -> str:
+    def described(t: Mapping[str, Any]) -> str:
         """An extension's description the first time it is tried, then a pointer to it."""
         text = t.get("description", "")
         key = (t.get("extension"), text)
@@ -250,7 +250,7 @@ def _caveats_appendix(doc: Document, result: DiscoveryResult) -> None:
 POWER_ROWS = 30
 
 
-def _power_rows_shown(power: list[dict]) -> tuple[list[dict], list[dict]]:
+def _power_rows_shown(power: Sequence[dict]) -> tuple[list[dict], list[dict]]:
     """(records listed in the PDF, records left to the JSON): all of them up to
     :data:`POWER_ROWS`, else the main effects (the interactions' records stay in the JSON)."""
     if len(power) <= POWER_ROWS:

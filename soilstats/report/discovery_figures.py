@@ -47,7 +47,7 @@ def _short(text: str, n: int = 14) -> str:
     return text if len(text) <= n else text[: n - 1] + "…"
 
 
-def _deviation_panel(ax: Any, f: Finding) -> str:
+def _deviation_panel(ax: Any, f: Any) -> str:  # a Finding with its group
     """Each test's deviation against the cause (means per level, or a trend on a numeric
     cause of many values); returns the effect in words, for the title."""
     g, rows = f.group, f.scope_rows
@@ -95,7 +95,7 @@ def _deviation_panel(ax: Any, f: Finding) -> str:
     return effect
 
 
-def _curve_panel(ax: Any, f: Finding) -> str:
+def _curve_panel(ax: Any, f: Any) -> str:  # a Finding with its group
     """One test per level (at most four, spread over the levels): measured samples, base
     model (dashed), extension (solid); returns the gain in words, for the title."""
     g, rows = f.group, f.scope_rows

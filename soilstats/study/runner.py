@@ -197,7 +197,9 @@ def spec_defaults(spec: StudySpec) -> dict[str, str]:
     }
 
 
-def _per_test(cache: PerTestCache, tests: pd.DataFrame, spec: StudySpec, notes: list):
+def _per_test(
+    cache: PerTestCache, tests: pd.DataFrame, spec: StudySpec, notes: list
+) -> pd.DataFrame:
     """The per-test responses of the selected ``tests`` (p_ref at z_ref for sinkage; a note
     for tests too shallow, an error when none reaches it)."""
     ids = tests["test_id"].astype(str).tolist()
@@ -215,7 +217,13 @@ def _per_test(cache: PerTestCache, tests: pd.DataFrame, spec: StudySpec, notes: 
     return per_test
 
 
-def _preparation(campaign, per_test, parameters, spec: StudySpec, notes: list):
+def _preparation(
+    campaign: Campaign,
+    per_test: pd.DataFrame,
+    parameters: pd.DataFrame,
+    spec: StudySpec,
+    notes: list,
+) -> tuple[pd.DataFrame, dict]:
     """The preparation study's Table 3 criteria and best method; a note per single test."""
     eps = parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
     criteria, best = evaluate_criteria(
