@@ -1,4 +1,5 @@
-"""Publication figures of a posterior: trace, pair and posterior-predictive.
+"""Publication figures of a posterior: trace, pair and (in :mod:`.posterior_predictive`, which
+builds on this module) posterior-predictive.
 
 Each function takes a :class:`~soilstats.bayes.PosteriorResult` — or its ``idata``, or a
 ``posterior.nc`` read back with ``az.from_netcdf`` — and returns ``(Figure, caption)``: a
@@ -423,13 +424,3 @@ def _pair_caption(
         f"posterior density. {_units_sentence(names, post.units)}{_log_note(values)}"
         f"{_new_preparation_note(post)}{capped}"
     )
-
-
-def __getattr__(name: str) -> Any:
-    """:func:`predictive_figure`, moved to :mod:`.posterior_predictive` (issue #45), still
-    importable from here (imported on first use: that module imports this one)."""
-    if name == "predictive_figure":
-        from .posterior_predictive import predictive_figure
-
-        return predictive_figure
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

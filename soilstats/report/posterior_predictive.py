@@ -1,6 +1,6 @@
 """The posterior-predictive figure of a posterior (:func:`predictive_figure`): measured curves
 against the predictive band, one line per test, one panel per plate size or normal pressure.
-Moved out of :mod:`.posterior_figures` (issue #45), which still re-exports it.
+Moved out of :mod:`.posterior_figures` (issue #45); import it from here.
 """
 
 from __future__ import annotations
