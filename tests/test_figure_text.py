@@ -33,7 +33,7 @@ def _matplotlib_svg(fig: Figure) -> bytes:
     import io
 
     buffer = io.BytesIO()
-    style = {"svg.hashsalt": "soilstats", "svg.fonttype": "path", "text.parse_math": True}
+    style = {"svg.hashsalt": "soilstats", "svg.fonttype": "none", "text.parse_math": True}
     with matplotlib.rc_context(style):
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     return buffer.getvalue()
@@ -71,3 +71,41 @@ def test_a_soil_named_like_mathtext_gives_a_report(command, tmp_path, capsys):
     assert main([command, "--data", str(folder), "--out", str(tmp_path / "o")]) == 0
     assert "ParseSyntaxException" not in capsys.readouterr().err
     assert (tmp_path / "o" / "identify.pdf").stat().st_size > 0
+
+
+def _report_with(tmp_path, size: float, name: str):
+    from soilstats.report.document import Document
+
+    fig = Figure(figsize=(6.4, 2.4), layout="constrained")  # narrower than the text
+    ax = fig.subplots()
+    ax.plot([1, 2], [3, 4])
+    ax.set_xlabel("slip s", fontsize=size)
+    ax.tick_params(labelsize=size)
+    math_text(ax.set_ylabel(r"$k_\varphi$ (kN/m$^{n+2}$)", fontsize=9))  # rotated, scripts
+    doc = Document("Figure text")
+    doc.figure(fig, "A figure.")
+    path = tmp_path / name
+    doc.render(path)
+    return path
+
+
+def test_figure_text_is_real_text_the_pdf_check_reads(tmp_path):
+    """Issue #47 item 5: figure text reaches the PDF as text (it was outlines, which no text
+    test can see): 6 pt ticks are found, 9 pt ones are not, and neither the rotated axis
+    label nor its mathtext scripts are flagged; the same figure gives the same bytes."""
+    import sys
+    from pathlib import Path
+
+    import pdfplumber
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from pdf_text import small_and_overlapping
+
+    small = _report_with(tmp_path, 6, "small.pdf")
+    with pdfplumber.open(small) as doc:
+        text = "".join(c["text"] for c in doc.pages[0].chars)
+    assert "slip s" in text and "1.0" in text  # the axis label and ticks, as text
+    assert any(p[1] == "small" and "slips" in p[2] for p in small_and_overlapping(small))
+    fine = _report_with(tmp_path, 9, "fine.pdf")
+    assert small_and_overlapping(fine) == []
+    assert fine.read_bytes() == _report_with(tmp_path, 9, "again.pdf").read_bytes()

@@ -180,6 +180,16 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
     record = json.loads((out / "posterior.json").read_text())
     assert "n: flat on (0.5, 2)" in record["priors"]["bekker"]
     assert record["support"]["passed"] and not record["forced"]
+    # Issue #47 item 3: the options left out are the defaults the run rests on (page 1 too).
+    defaults = record["defaults"]
+    assert "--seed" not in defaults and "--model" not in defaults and "--out" not in defaults
+    assert defaults.get("--quality") == "clean", defaults  # the screening the draws rest on
+    from pypdf import PdfReader
+
+    page = " ".join(PdfReader(out / "report.pdf").pages[0].extract_text().split())
+    assert ("Settings left at their defaults" in page) == bool(defaults)
+    for option in defaults:
+        assert option in page
     scm = json.loads((out / "chrono-scm.json").read_text())
     assert scm["stated_inputs"]["elastic_K"] == {
         "value": 5e7,

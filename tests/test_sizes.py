@@ -41,16 +41,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         "the screening driver and its per-kind findings; owned by the quality work in progress"
         "; grew from 658 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/report/discovery_pdf.py": (
-        1086,
-        "the discovery report's sections in one file; one module per section"
-        "; grew from 919 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
-    "soilstats/report/posterior_figures.py": (
-        707,
-        "trace, pair and predictive figures; one module per figure family"
-        "; grew from 628 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
 }
 
 #: "module::function" -> (code lines when listed, why it is still one function)
@@ -72,23 +62,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         "owned by the quality work in progress"
         "; grew from 164 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/report/check_pdf.py::write_report": (
-        111,
-        "the check report's sections in sequence; one function per section",
-    ),
-    "soilstats/report/posterior_figures.py::predictive_figure": (
-        97,
-        "one figure's panels and legend",
-    ),
-    "soilstats/report/posterior_pdf.py::write_report": (
-        84,
-        "the posterior report's sections in sequence",
-    ),
-    "soilstats/report/wheel_pdf.py::write_report": (
-        193,
-        "the wheel report's sections; being split by the wheel work in progress"
-        "; grew from 187 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
     "soilstats/simulation/simulate.py::simulate": (
         92,
         "the simulator's per-test loop and its bookkeeping",
@@ -104,11 +77,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
     "soilstats/study/preparation.py::evaluate_criteria": (
         82,
         "the preparation criteria, one block each",
-    ),
-    "soilstats/study/runner.py::run_study": (
-        101,
-        "the study pipeline in sequence"
-        "; grew from 93 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
 }
 

@@ -4,7 +4,7 @@ draws out or not (:mod:`soilstats.bayes.handout`) and what that decision rests o
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,17 +29,21 @@ def posterior_record(
     pooling_warnings: list[str],
     selection: list[str],
     provenance: Any,
+    defaults: Mapping[str, str] | None = None,
 ) -> dict:
     """posterior.json's content: ``results`` (one posterior per model), ``handout`` (the
     decision: a :class:`soilstats.bayes.handout.Handout`), the ``failures`` that refused
     the draws (non-empty only for a forced run), the run's ``warnings`` and the conditions it
     pools (:func:`soilstats.bayes.pooling.pooling_warnings`), the ``selection`` as given and
-    the ``provenance`` (:class:`soilstats.outputs.Provenance`); NaN written as null."""
+    the ``provenance`` (:class:`soilstats.outputs.Provenance`) and the ``defaults`` the run rests
+    on unsaid (``{"--walkers": "32"}``: the options left at their defaults, printed on page 1
+    of the report); NaN written as null."""
     decision = handout.to_dict()
     checks = {r.model_name: band_calibration(r) for r in results if r.kind == "population"}
     return json_safe(
         {
             "soil": soil,
+            "defaults": dict(defaults or {}),
             "models": models,
             "kind": [r.kind for r in results],
             "converged": all(r.converged for r in results),

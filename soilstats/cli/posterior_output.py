@@ -203,6 +203,7 @@ def decide_and_write(
         return refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
     from ..bayes.run_record import posterior_record  # bayes: too heavy for --help
     from ..outputs import json_safe
+    from .common import defaults_not_given
 
     record = posterior_record(
         args.soil,
@@ -214,6 +215,7 @@ def decide_and_write(
         pooled_warnings,
         list(args.select or []),
         provenance,
+        defaults=defaults_not_given(args),
     )
     if export is not None:
         record = json_safe(record | {"simulator": export.record()})

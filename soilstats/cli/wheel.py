@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
 from . import wheel_modes
@@ -48,12 +48,6 @@ if TYPE_CHECKING:
     from ..wheel.validation_result import WheelValidation
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
-_GEOMETRY = {
-    "wheel_radius": "radius_m",
-    "wheel_width": "width_m",
-    "shear_radius": "shear_radius_m",
-    "grouser_area_ratio": "grouser_area_ratio",
-}
 
 
 class _PlateLaws:
@@ -89,7 +83,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="wheel geometry per type, [TYPE] radius_m, width_m, shear_radius_m, "
         "grouser_area_ratio (default: wheels.toml beside the runs file)",
     )
-    for option, key in _GEOMETRY.items():
+    from ..wheel.run_options import GEOMETRY_OPTIONS  # numpy: only when the parser is built
+
+    for option, key in GEOMETRY_OPTIONS.items():
         parser.add_argument(
             f"--{option.replace('_', '-')}",
             action="append",
@@ -145,30 +141,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
     wheel_modes.configure(parser)
 
 
-def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
-    """The --wheel-radius … options as {type or "*": {key: value}}."""
-    out: dict[str, dict[str, float]] = {}
-    for option, key in _GEOMETRY.items():
-        for item in getattr(args, option):
-            wheel, sep, text = item.rpartition("=")
-            try:
-                value = float(text)
-            except ValueError:
-                raise InputError(
-                    f"--{option.replace('_', '-')} takes [TYPE=]VALUE in SI units, got {item!r}"
-                ) from None
-            out.setdefault(wheel.strip() if sep else "*", {})[key] = value
-    return out
-
-
 def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
     import json
 
     from ..outputs import json_safe, output_path
+    from ..wheel.defaults import moved_verdicts
     from ..wheel.run_options import (
+        GEOMETRY_OPTIONS,
         file_sha256,
         parse_angles,
+        parse_geometry,
         parse_prior_item,
         plate_pooling_warnings,
         runs_file,
@@ -182,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
     priors = dict(parse_prior_item(p) for p in args.prior)
     check_priors(priors)
     angles = parse_angles(args.angles)
-    overrides = parse_geometry(args)
+    overrides = parse_geometry({o: getattr(args, o) for o in GEOMETRY_OPTIONS})
     if args.predict:
         return wheel_modes.predict_mode(args, priors, overrides)
     path = runs_file(args.runs, args.data)
@@ -200,10 +183,7 @@ def run(args: argparse.Namespace) -> int:
     pooled = plate_pooling_warnings(campaign, args.soil, args.law)
     for text in pooled:
         print(f"WARNING: {text}", file=sys.stderr)
-    result = validate_wheel(
-        campaign,
-        runs,
-        wheels=wheels,
+    options: dict[str, Any] = dict(
         soil=args.soil,
         law=args.law,
         draws=args.draws,
@@ -216,8 +196,19 @@ def run(args: argparse.Namespace) -> int:
         extension=not args.no_extension,
         caveats=[*(read_caveats(toml) if tables else []), *pooled],
     )
+    result = validate_wheel(campaign, runs, wheels=wheels, **options)
     defaults = _defaults(args, tables, overrides, wheels)
-    document = {"defaults": defaults} | result.to_dict()
+    moved = moved_verdicts(  # a default moving a verdict is a warning (issue #47, item 3)
+        result,
+        wheels,
+        defaults,
+        lambda alt: validate_wheel(
+            campaign, runs, wheels=alt, **(options | {"progress": False, "sensitivity": False})
+        ),
+    )
+    for text in moved.values():
+        print(f"WARNING: {text}", file=sys.stderr)
+    document = {"defaults": defaults, "default_warnings": moved} | result.to_dict()
     document |= {"runs_file": {"path": str(path), "sha256": file_sha256(path)}}
     calibration = None
     if args.calibrate:
@@ -228,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration:
         document["calibration_applied"] = wheel_modes.apply_calibration(args, runs)
     if args.out:
-        _write(args, document, result, calibration, defaults, provenance, outputs)
+        _write(args, document, result, calibration, (defaults, moved), provenance, outputs)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
@@ -244,7 +235,7 @@ def _write(
     document: dict,
     result: WheelValidation,
     calibration: CalibrationReport | None,
-    defaults: dict[str, str],
+    defaults: tuple[dict[str, str], dict[str, str]],
     provenance: Provenance,
     outputs: tuple[str, ...],
 ) -> None:
@@ -267,7 +258,8 @@ def _write(
         provenance=provenance,
         overwrite=args.overwrite,
         calibration=calibration,
-        defaults=defaults,
+        defaults=defaults[0],
+        default_warnings=defaults[1],
     )
     if calibration is not None:
         calibration.calibration.to_netcdf(

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -27,14 +27,43 @@ if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
 
 __all__ = [
+    "GEOMETRY_OPTIONS",
     "file_sha256",
     "geometry_defaults",
     "parse_angles",
+    "parse_geometry",
     "parse_prior_item",
     "parse_slips",
     "plate_pooling_warnings",
     "runs_file",
 ]
+
+
+#: The wheel command's geometry options (argparse dest) -> the wheels table's keys.
+GEOMETRY_OPTIONS = {
+    "wheel_radius": "radius_m",
+    "wheel_width": "width_m",
+    "shear_radius": "shear_radius_m",
+    "grouser_area_ratio": "grouser_area_ratio",
+}
+
+
+def parse_geometry(given: Mapping[str, Sequence[str]]) -> dict[str, dict[str, float]]:
+    """The --wheel-radius … items ({option dest: ["[TYPE=]VALUE", …]}, SI units) as
+    {type or "*": {key: value}}; a value that is not a number names its option."""
+    out: dict[str, dict[str, float]] = {}
+    for option, items in given.items():
+        key = GEOMETRY_OPTIONS[option]
+        for item in items:
+            wheel, sep, text = item.rpartition("=")
+            try:
+                value = float(text)
+            except ValueError:
+                raise InputError(
+                    f"--{option.replace('_', '-')} takes [TYPE=]VALUE in SI units, got {item!r}"
+                ) from None
+            out.setdefault(wheel.strip() if sep else "*", {})[key] = value
+    return out
 
 
 def parse_prior_item(item: str) -> tuple[str, tuple]:
