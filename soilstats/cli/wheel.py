@@ -43,11 +43,20 @@ from .common import (
 )
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ..outputs.provenance import Provenance
     from ..wheel.calibration.validate import CalibrationReport
     from ..wheel.validation_result import WheelValidation
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
+#: The geometry options (argparse dest) -> the wheels table's keys.
+GEOMETRY_OPTIONS = {
+    "wheel_radius": "radius_m",
+    "wheel_width": "width_m",
+    "shear_radius": "shear_radius_m",
+    "grouser_area_ratio": "grouser_area_ratio",
+}
 
 
 class _PlateLaws:
@@ -83,8 +92,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="wheel geometry per type, [TYPE] radius_m, width_m, shear_radius_m, "
         "grouser_area_ratio (default: wheels.toml beside the runs file)",
     )
-    from ..wheel.run_options import GEOMETRY_OPTIONS  # numpy: only when the parser is built
-
     for option, key in GEOMETRY_OPTIONS.items():
         parser.add_argument(
             f"--{option.replace('_', '-')}",
@@ -146,17 +153,16 @@ def run(args: argparse.Namespace) -> int:
     import json
 
     from ..outputs import json_safe, output_path
-    from ..wheel.defaults import moved_verdicts
     from ..wheel.run_options import (
-        GEOMETRY_OPTIONS,
         file_sha256,
         parse_angles,
         parse_geometry,
         parse_prior_item,
         plate_pooling_warnings,
         runs_file,
+        wheel_tables,
     )
-    from ..wheel.runs import read_caveats, read_runs, read_wheels, wheel_geometry
+    from ..wheel.runs import read_caveats, read_runs
     from ..wheel.validation import check_priors, validate_wheel
 
     if args.n_draws < 100:
@@ -165,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
     priors = dict(parse_prior_item(p) for p in args.prior)
     check_priors(priors)
     angles = parse_angles(args.angles)
-    overrides = parse_geometry({o: getattr(args, o) for o in GEOMETRY_OPTIONS})
+    overrides = parse_geometry({o: getattr(args, o) for o in GEOMETRY_OPTIONS}, GEOMETRY_OPTIONS)
     if args.predict:
         return wheel_modes.predict_mode(args, priors, overrides)
     path = runs_file(args.runs, args.data)
@@ -174,11 +180,7 @@ def run(args: argparse.Namespace) -> int:
         for name in outputs:
             output_path(Path(args.out), name, overwrite=args.overwrite)
     runs = read_runs(path)
-    toml = Path(args.wheels) if args.wheels else path.with_name("wheels.toml")
-    tables = read_wheels(toml) if (args.wheels or toml.is_file()) else {}
-    wheels = wheel_geometry(
-        runs["wheel"].unique(), tables, overrides, source=str(toml) if tables else "--wheel-*"
-    )
+    toml, tables, wheels = wheel_tables(args.wheels, path, runs, overrides)
     campaign, provenance = prepared(args)
     pooled = plate_pooling_warnings(campaign, args.soil, args.law)
     for text in pooled:
@@ -197,8 +199,8 @@ def run(args: argparse.Namespace) -> int:
         caveats=[*(read_caveats(toml) if tables else []), *pooled],
     )
     result = validate_wheel(campaign, runs, wheels=wheels, **options)
-    defaults = _defaults(args, tables, overrides, wheels)
-    moved = moved_verdicts(  # a default moving a verdict is a warning (issue #47, item 3)
+    defaults = wheel_modes.command_defaults(args, tables, overrides, wheels)
+    moved = _moved_verdicts(
         result,
         wheels,
         defaults,
@@ -206,8 +208,6 @@ def run(args: argparse.Namespace) -> int:
             campaign, runs, wheels=alt, **(options | {"progress": False, "sensitivity": False})
         ),
     )
-    for text in moved.values():
-        print(f"WARNING: {text}", file=sys.stderr)
     document = {"defaults": defaults, "default_warnings": moved} | result.to_dict()
     document |= {"runs_file": {"path": str(path), "sha256": file_sha256(path)}}
     calibration = None
@@ -268,21 +268,20 @@ def _write(
     print(f"wrote {', '.join(str(folder / n) for n in outputs)}", file=sys.stderr)
 
 
-def _defaults(
-    args: argparse.Namespace, tables: dict, overrides: dict, wheels: dict
+def _moved_verdicts(
+    result: WheelValidation,
+    wheels: dict,
+    defaults: dict,
+    rerun: Callable[[dict], WheelValidation],
 ) -> dict[str, str]:
-    """The analysis options left at their defaults, and every wheel geometry the user did not
-    give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
-    depends on it), for the JSON's ``"defaults"`` and page 1."""
-    from ..wheel.run_options import geometry_defaults
-    from .common import defaults_not_given
+    """A default that moves a held-out verdict is a warning (issue #47, item 3): printed
+    here, and returned for the JSON and page 1."""
+    from ..wheel.defaults import moved_verdicts
 
-    out = defaults_not_given(args)
-    unused = set(wheel_modes.PREDICT_OPTIONS) if not args.predict else set()
-    if not args.calibrate:
-        unused |= set(wheel_modes.CALIBRATE_OPTIONS)
-    out = {k: v for k, v in out.items() if k not in unused}
-    return out | geometry_defaults(wheels, tables, overrides)
+    moved = moved_verdicts(result, wheels, defaults, rerun)
+    for text in moved.values():
+        print(f"WARNING: {text}", file=sys.stderr)
+    return moved
 
 
 def main(argv: list[str] | None = None) -> int:

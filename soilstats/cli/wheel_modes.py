@@ -276,3 +276,20 @@ def _draws_netcdf(draws: pd.DataFrame, path: Path, overwrite: bool) -> None:
     buffer = io.BytesIO()
     ds.to_netcdf(buffer, engine="h5netcdf")  # in memory: no HDF5 handle on a file
     write_atomic(target, buffer.getvalue())
+
+
+def command_defaults(
+    args: argparse.Namespace, tables: dict, overrides: dict, wheels: dict
+) -> dict[str, str]:
+    """The analysis options left at their defaults, and every wheel geometry the user did not
+    give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
+    depends on it), for the JSON's ``"defaults"`` and page 1."""
+    from ..wheel.run_options import geometry_defaults
+    from .common import defaults_not_given
+
+    out = defaults_not_given(args)
+    unused = set(PREDICT_OPTIONS) if not args.predict else set()
+    if not args.calibrate:
+        unused |= set(CALIBRATE_OPTIONS)
+    out = {k: v for k, v in out.items() if k not in unused}
+    return out | geometry_defaults(wheels, tables, overrides)

@@ -20,14 +20,16 @@ from ..bayes.pooling import pooling_warnings
 from ..campaign.io import resolve
 from ..errors import InputError
 from .geometry import Wheel
+from .runs import read_wheels, wheel_geometry
 from .soil import choose_law, soil_tests
 from .stress import StressAngles
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from ..campaign.campaign import Campaign
 
 __all__ = [
-    "GEOMETRY_OPTIONS",
     "file_sha256",
     "geometry_defaults",
     "parse_angles",
@@ -36,24 +38,19 @@ __all__ = [
     "parse_slips",
     "plate_pooling_warnings",
     "runs_file",
+    "wheel_tables",
 ]
 
 
-#: The wheel command's geometry options (argparse dest) -> the wheels table's keys.
-GEOMETRY_OPTIONS = {
-    "wheel_radius": "radius_m",
-    "wheel_width": "width_m",
-    "shear_radius": "shear_radius_m",
-    "grouser_area_ratio": "grouser_area_ratio",
-}
-
-
-def parse_geometry(given: Mapping[str, Sequence[str]]) -> dict[str, dict[str, float]]:
+def parse_geometry(
+    given: Mapping[str, Sequence[str]], keys: Mapping[str, str]
+) -> dict[str, dict[str, float]]:
     """The --wheel-radius … items ({option dest: ["[TYPE=]VALUE", …]}, SI units) as
-    {type or "*": {key: value}}; a value that is not a number names its option."""
+    {type or "*": {key: value}}, ``keys`` mapping each option to the wheels table's key; a
+    value that is not a number names its option."""
     out: dict[str, dict[str, float]] = {}
     for option, items in given.items():
-        key = GEOMETRY_OPTIONS[option]
+        key = keys[option]
         for item in items:
             wheel, sep, text = item.rpartition("=")
             try:
@@ -160,3 +157,14 @@ def plate_pooling_warnings(campaign: Campaign, soil: str | None, law: str | None
 def file_sha256(path: Path) -> str:
     """The SHA-256 of a file's bytes (hex), as the record names the runs file."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def wheel_tables(
+    wheels_file: str | None, runs_path: Path, runs: pd.DataFrame, overrides: dict
+) -> tuple[Path, dict, dict[str, Wheel]]:
+    """The wheels file (``wheels_file``, or wheels.toml beside the runs file), its tables, and
+    each run wheel type's geometry with the --wheel-* ``overrides`` applied."""
+    toml = Path(wheels_file) if wheels_file else runs_path.with_name("wheels.toml")
+    tables = read_wheels(toml) if (wheels_file or toml.is_file()) else {}
+    source = str(toml) if tables else "--wheel-*"
+    return toml, tables, wheel_geometry(runs["wheel"].unique(), tables, overrides, source=source)
