@@ -40,11 +40,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         "per-record screens (contact, offsets, toes); owned by the quality work in progress"
         "; grew from 646 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/quality/screen.py": (
-        776,
-        "the screening driver and its per-kind findings; owned by the quality work in progress"
-        "; grew from 658 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
     "soilstats/report/discovery_pdf.py": (
         1086,
         "the discovery report's sections in one file; one module per section"
@@ -89,11 +84,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         "screening notes and window resolution; to split by finding",
     ),
     "soilstats/quality/records.py::find_contact": (86, "owned by the quality work in progress"),
-    "soilstats/quality/screen.py::_sinkage_findings": (
-        196,
-        "owned by the quality work in progress"
-        "; grew from 164 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
     "soilstats/report/check_pdf.py::write_report": (
         111,
         "the check report's sections in sequence; one function per section",
