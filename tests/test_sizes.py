@@ -35,11 +35,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         "the result and its HTML and text views; the views to their own module"
         "; grew from 628 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/quality/records.py": (
-        707,
-        "per-record screens (contact, offsets, toes); owned by the quality work in progress"
-        "; grew from 646 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
     "soilstats/report/discovery_pdf.py": (
         1086,
         "the discovery report's sections in one file; one module per section"
@@ -83,7 +78,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         81,
         "screening notes and window resolution; to split by finding",
     ),
-    "soilstats/quality/records.py::find_contact": (86, "owned by the quality work in progress"),
     "soilstats/report/check_pdf.py::write_report": (
         111,
         "the check report's sections in sequence; one function per section",

@@ -20,6 +20,7 @@ from . import blocks as blocks_mod
 from . import glitches, prescreen, records, staging
 from .blocks import Blocks
 from .drift import start_forces
+from .noise import robust_width
 from .phases import find_phases
 from .report import QualityFlag
 from .samples import Records, hits_by_block, merge, rows, spike_findings
@@ -404,7 +405,7 @@ def _record_shape_flags(
     if travel <= 0 or peak <= 0:
         return out
     start = float(np.median(force[:3]))
-    noise = records._robust_width(np.diff(force, 2)) / np.sqrt(6.0)
+    noise = robust_width(np.diff(force, 2)) / np.sqrt(6.0)
     z0 = float(z[0])
     if (
         start > STARTS_LOADED_SHARE * peak
