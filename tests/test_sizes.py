@@ -30,11 +30,6 @@ LONG_MODULES: dict[str, tuple[int, str]] = {
         696,
         "every rule of the campaign format in one place; split by table (tests, sinkage, shear)",
     ),
-    "soilstats/discovery/result.py": (
-        723,
-        "the result and its HTML and text views; the views to their own module"
-        "; grew from 628 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
     "soilstats/report/discovery_pdf.py": (
         1086,
         "the discovery report's sections in one file; one module per section"
@@ -69,7 +64,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         "the extension trial loop and its bookkeeping"
         "; grew from 86 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/discovery/result.py::_repr_html_": (93, "the HTML view, one block per section"),
     "soilstats/fitting/separable.py::_refine_power_law": (
         81,
         "the variable-projection Newton/Halley loop, kept whole for speed (performance.md)",
