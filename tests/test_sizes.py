@@ -58,12 +58,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         "parse, fit and write in one; the writing to its own function"
         "; grew from 83 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/discovery/library.py::library": (94, "the extension records, one literal each"),
-    "soilstats/discovery/leads.py::_try_extensions": (
-        90,
-        "the extension trial loop and its bookkeeping"
-        "; grew from 86 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
     "soilstats/fitting/separable.py::_refine_power_law": (
         81,
         "the variable-projection Newton/Halley loop, kept whole for speed (performance.md)",

@@ -106,7 +106,6 @@ def library(
     """
     names = {cause, *related}
     tests = group.tests.iloc[np.asarray(rows, int)]
-    out: list[Extension] = []
     base = base_model(group, rows)
     trend = cause.split(WITHIN)[0] if WITHIN in cause else None
     if trend is not None and trend in tests and cause in tests:
@@ -117,54 +116,85 @@ def library(
         return _own_library(base, group, tests, cause, names, numeric, responses, log_scale)
     if group.kind == "sinkage":
         assert isinstance(base, SinkageExtension)  # base_model's for sinkage tests
-        bekker = base.bekker
-        v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
-        if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
-            out.append(
-                SinkageExtension(
-                    "velocity",
-                    True,
-                    "k·(v/v_ref)^a and n + m·ln(v/v_ref) (Section 3.1.2)",
-                    bekker=bekker,
-                    terms=(Term(Features("velocity_m_s", "velocity"), ("k", "n")),),
-                )
-            )
-        aspect = tests["aspect_ratio"].to_numpy(float)
-        if names & (_ASPECT | _SIZE) and np.any(aspect >= 1.5) and np.any(aspect < 1.5):
-            out.append(
-                SinkageExtension(
-                    "softening",
-                    True,
-                    "narrow plates soften beyond a critical sinkage z_c (Section 3.1.3, Fig. 9)",
-                    bekker=bekker,
-                    soften=True,
-                )
-            )
-        if names & _SIZE and bekker:
-            out.append(ReeceExtension("reece", True, "Reece p = (k1 + k2·b)(z/b)^n"))
-        if names & _SIZE:
-            # The plate size's own curve: Bernstein k and n per size (each plate its own
-            # power law) — what a size effect on the exponent asks for, and always positive.
-            out.append(
-                SinkageExtension(
-                    f"k and n per {cause}",
-                    False,
-                    f"Bernstein k and n per level of {cause} (Eq. 8 per plate size)",
-                    bekker=False,
-                    terms=(Term(Features(cause, "levels"), ("k", "n")),),
-                )
-            )
-        stiffness = "level" in responses or not responses
-        exponent = "shape" in responses or not responses
-        how = "linear" if numeric else "levels"
-        if names & _SIZE and not numeric and stiffness and exponent and _fixes_width(tests, cause):
-            # k and n per level of a column that fixes the plate width is what the generic
-            # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
-            return out
+        return _sinkage_library(base, tests, cause, names, numeric, responses, log_scale)
+    return _shear_library(group, rows, cause, names, numeric, responses, log_scale)
+
+
+def _sinkage_library(
+    base: SinkageExtension,
+    tests: pd.DataFrame,
+    cause: str,
+    names: set[str],
+    numeric: bool,
+    responses: Collection[str],
+    log_scale: bool,
+) -> list[Extension]:
+    """The paper's sinkage extensions for ``cause`` (Bekker/Bernstein's base ``base``): the
+    velocity law, softening of narrow plates, Reece and the per-size Bernstein law where
+    their columns are among the ``names``, then the generic one."""
+    out: list[Extension] = []
+    bekker = base.bekker
+    v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
+    if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
         out.append(
-            _generic(SinkageExtension, cause, how, stiffness, exponent, log_scale, bekker=bekker)
+            SinkageExtension(
+                "velocity",
+                True,
+                "k·(v/v_ref)^a and n + m·ln(v/v_ref) (Section 3.1.2)",
+                bekker=bekker,
+                terms=(Term(Features("velocity_m_s", "velocity"), ("k", "n")),),
+            )
         )
+    aspect = tests["aspect_ratio"].to_numpy(float)
+    if names & (_ASPECT | _SIZE) and np.any(aspect >= 1.5) and np.any(aspect < 1.5):
+        out.append(
+            SinkageExtension(
+                "softening",
+                True,
+                "narrow plates soften beyond a critical sinkage z_c (Section 3.1.3, Fig. 9)",
+                bekker=bekker,
+                soften=True,
+            )
+        )
+    if names & _SIZE and bekker:
+        out.append(ReeceExtension("reece", True, "Reece p = (k1 + k2·b)(z/b)^n"))
+    if names & _SIZE:
+        # The plate size's own curve: Bernstein k and n per size (each plate its own
+        # power law) — what a size effect on the exponent asks for, and always positive.
+        out.append(
+            SinkageExtension(
+                f"k and n per {cause}",
+                False,
+                f"Bernstein k and n per level of {cause} (Eq. 8 per plate size)",
+                bekker=False,
+                terms=(Term(Features(cause, "levels"), ("k", "n")),),
+            )
+        )
+    stiffness = "level" in responses or not responses
+    exponent = "shape" in responses or not responses
+    how = "linear" if numeric else "levels"
+    if names & _SIZE and not numeric and stiffness and exponent and _fixes_width(tests, cause):
+        # k and n per level of a column that fixes the plate width is what the generic
+        # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
         return out
+    out.append(
+        _generic(SinkageExtension, cause, how, stiffness, exponent, log_scale, bekker=bekker)
+    )
+    return out
+
+
+def _shear_library(
+    group: Group,
+    rows: np.ndarray,
+    cause: str,
+    names: set[str],
+    numeric: bool,
+    responses: Collection[str],
+    log_scale: bool,
+) -> list[Extension]:
+    """The shear extensions for ``cause``: the ring's side walls where the ring or tool is
+    among the ``names`` and the rings differ, then the generic one."""
+    out: list[Extension] = []
     a = shear_inputs_a(group, rows)
     if names & (_RING | {"tool"}) and np.unique(np.round(a, 9)).size >= 2:
         out.append(
