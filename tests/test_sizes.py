@@ -62,10 +62,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         81,
         "the variable-projection Newton/Halley loop, kept whole for speed (performance.md)",
     ),
-    "soilstats/identification/result.py::data_findings": (
-        81,
-        "screening notes and window resolution; to split by finding",
-    ),
     "soilstats/report/check_pdf.py::write_report": (
         111,
         "the check report's sections in sequence; one function per section",
