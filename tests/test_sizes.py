@@ -83,10 +83,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         92,
         "the simulator's per-test loop and its bookkeeping",
     ),
-    "soilstats/statistics/mixed.py::anova_random_block": (
-        81,
-        "the ANOVA table, its checks and its record",
-    ),
     "soilstats/study/effects.py::factor_effects": (
         97,
         "one study factor's effects: tests, verdicts and notes",
