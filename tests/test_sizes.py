@@ -87,10 +87,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         97,
         "one study factor's effects: tests, verdicts and notes",
     ),
-    "soilstats/study/preparation.py::evaluate_criteria": (
-        82,
-        "the preparation criteria, one block each",
-    ),
     "soilstats/study/runner.py::run_study": (
         101,
         "the study pipeline in sequence"
