@@ -83,10 +83,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         92,
         "the simulator's per-test loop and its bookkeeping",
     ),
-    "soilstats/study/effects.py::factor_effects": (
-        97,
-        "one study factor's effects: tests, verdicts and notes",
-    ),
     "soilstats/study/runner.py::run_study": (
         101,
         "the study pipeline in sequence"
