@@ -79,10 +79,6 @@ LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
         "the wheel report's sections; being split by the wheel work in progress"
         "; grew from 187 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
     ),
-    "soilstats/simulation/simulate.py::simulate": (
-        92,
-        "the simulator's per-test loop and its bookkeeping",
-    ),
     "soilstats/study/runner.py::run_study": (
         101,
         "the study pipeline in sequence"
