@@ -11,6 +11,7 @@ the generic ones — ``levels`` for a categorical covariate, ``linear`` for a nu
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
@@ -114,28 +115,35 @@ def library(
         return [_within_extension(group, base, cause, trend, responses)]
     if isinstance(base, ModelExtension):
         return _own_library(base, group, tests, cause, names, numeric, responses, log_scale)
+    asked = _Asked(cause, names, numeric, responses, log_scale)
     if group.kind == "sinkage":
         assert isinstance(base, SinkageExtension)  # base_model's for sinkage tests
-        return _sinkage_library(base, tests, cause, names, numeric, responses, log_scale)
-    return _shear_library(group, rows, cause, names, numeric, responses, log_scale)
+        return _sinkage_library(base, tests, asked)
+    return _shear_library(shear_inputs_a(group, rows), asked)
 
 
-def _sinkage_library(
-    base: SinkageExtension,
-    tests: pd.DataFrame,
-    cause: str,
-    names: set[str],
-    numeric: bool,
-    responses: Collection[str],
-    log_scale: bool,
-) -> list[Extension]:
+@dataclass(frozen=True)
+class _Asked:
+    """What :func:`library` is asked for: the ``cause``, the ``names`` whose physics is tried
+    (it and the candidates confounded with it), whether it is ``numeric``, the
+    ``responses`` it showed in and whether a linear trend may enter on ln x
+    (``log_scale``)."""
+
+    cause: str
+    names: set[str]
+    numeric: bool
+    responses: Collection[str]
+    log_scale: bool
+
+
+def _sinkage_library(base: SinkageExtension, tests: pd.DataFrame, asked: _Asked) -> list[Extension]:
     """The paper's sinkage extensions for ``cause`` (Bekker/Bernstein's base ``base``): the
     velocity law, softening of narrow plates, Reece and the per-size Bernstein law where
     their columns are among the ``names``, then the generic one."""
     out: list[Extension] = []
     bekker = base.bekker
     v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
-    if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
+    if "velocity_m_s" in asked.names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
         out.append(
             SinkageExtension(
                 "velocity",
@@ -146,7 +154,7 @@ def _sinkage_library(
             )
         )
     aspect = tests["aspect_ratio"].to_numpy(float)
-    if names & (_ASPECT | _SIZE) and np.any(aspect >= 1.5) and np.any(aspect < 1.5):
+    if asked.names & (_ASPECT | _SIZE) and np.any(aspect >= 1.5) and np.any(aspect < 1.5):
         out.append(
             SinkageExtension(
                 "softening",
@@ -156,47 +164,46 @@ def _sinkage_library(
                 soften=True,
             )
         )
-    if names & _SIZE and bekker:
+    if asked.names & _SIZE and bekker:
         out.append(ReeceExtension("reece", True, "Reece p = (k1 + k2·b)(z/b)^n"))
-    if names & _SIZE:
+    if asked.names & _SIZE:
         # The plate size's own curve: Bernstein k and n per size (each plate its own
         # power law) — what a size effect on the exponent asks for, and always positive.
         out.append(
             SinkageExtension(
-                f"k and n per {cause}",
+                f"k and n per {asked.cause}",
                 False,
-                f"Bernstein k and n per level of {cause} (Eq. 8 per plate size)",
+                f"Bernstein k and n per level of {asked.cause} (Eq. 8 per plate size)",
                 bekker=False,
-                terms=(Term(Features(cause, "levels"), ("k", "n")),),
+                terms=(Term(Features(asked.cause, "levels"), ("k", "n")),),
             )
         )
-    stiffness = "level" in responses or not responses
-    exponent = "shape" in responses or not responses
-    how = "linear" if numeric else "levels"
-    if names & _SIZE and not numeric and stiffness and exponent and _fixes_width(tests, cause):
+    stiffness = "level" in asked.responses or not asked.responses
+    exponent = "shape" in asked.responses or not asked.responses
+    how = "linear" if asked.numeric else "levels"
+    if (
+        asked.names & _SIZE
+        and not asked.numeric
+        and stiffness
+        and exponent
+        and _fixes_width(tests, asked.cause)
+    ):
         # k and n per level of a column that fixes the plate width is what the generic
         # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
         return out
     out.append(
-        _generic(SinkageExtension, cause, how, stiffness, exponent, log_scale, bekker=bekker)
+        _generic(
+            SinkageExtension, asked.cause, how, stiffness, exponent, asked.log_scale, bekker=bekker
+        )
     )
     return out
 
 
-def _shear_library(
-    group: Group,
-    rows: np.ndarray,
-    cause: str,
-    names: set[str],
-    numeric: bool,
-    responses: Collection[str],
-    log_scale: bool,
-) -> list[Extension]:
+def _shear_library(a: np.ndarray, asked: _Asked) -> list[Extension]:
     """The shear extensions for ``cause``: the ring's side walls where the ring or tool is
     among the ``names`` and the rings differ, then the generic one."""
     out: list[Extension] = []
-    a = shear_inputs_a(group, rows)
-    if names & (_RING | {"tool"}) and np.unique(np.round(a, 9)).size >= 2:
+    if asked.names & (_RING | {"tool"}) and np.unique(np.round(a, 9)).size >= 2:
         out.append(
             ShearExtension(
                 "side-walls",
@@ -205,16 +212,16 @@ def _shear_library(
                 side_walls=True,
             )
         )
-    targets = (("c", "tan_phi") if "level" in responses or not responses else ()) + (
-        ("K",) if "K" in responses else ()
+    targets = (("c", "tan_phi") if "level" in asked.responses or not asked.responses else ()) + (
+        ("K",) if "K" in asked.responses else ()
     )
-    how = "linear" if numeric else "levels"
+    how = "linear" if asked.numeric else "levels"
     out.append(
         ShearExtension(
-            f"{cause} ({how})",
+            f"{asked.cause} ({how})",
             False,
-            f"{', '.join(targets)} depend on {cause} ({how})",
-            terms=(Term(Features(cause, how, log_scale=log_scale), targets),),
+            f"{', '.join(targets)} depend on {asked.cause} ({how})",
+            terms=(Term(Features(asked.cause, how, log_scale=asked.log_scale), targets),),
         )
     )
     return out

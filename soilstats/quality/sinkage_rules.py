@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -169,15 +170,12 @@ def _seating(
     for k, contact in sorted(contact_of.items()):
         zk, fk, lk = loading.record(k)
         dropped = lk[contact.before]
+        flag = partial(QualityFlag, ids[k], "sinkage", "pre-contact", rows(dropped))
         if dropped.size > 0.5 * lk.size:
             # Leaving out most of a record is a question for the user, never a silent window.
             del contact_of[k]
             out[k].append(
-                QualityFlag(
-                    ids[k],
-                    "sinkage",
-                    "pre-contact",
-                    rows(dropped),
+                flag(
                     f"a contact at z = {contact.z_contact:.4g} m would leave out {dropped.size} "
                     f"of {lk.size} samples (more than half): not applied; is the plate really "
                     "off the soil that long? Re-zero the test by hand if it is",
@@ -189,11 +187,7 @@ def _seating(
             offsets[ids[k]] = float(contact.z_contact)
         effect = _exponent_effect(zk, fk, contact.z_contact)
         out[k].append(
-            QualityFlag(
-                ids[k],
-                "sinkage",
-                "pre-contact",
-                rows(dropped),
+            flag(
                 f"force at its noise floor over the first {contact.z_contact * 1e3:.3g} mm; "
                 f"contact found at z = {contact.z_contact:.4g} m ({contact.describe()})"
                 + ("; z re-zeroed there" if clean else "")
