@@ -146,7 +146,7 @@ def _search_plan(ext, choices, library_args):
 
 def _extension_plans(
     extensions: list, rows, folds, starts, e_base, base_fitted, choices, library_args: dict
-) -> tuple[list, list]:
+) -> tuple[list[tuple[FoldFits, FoldFits]], list[FitTask]]:
     """Per extension its cause-fixed and whole-search fold plans (:class:`.work.FoldFits`),
     and the tasks of the second wave: chain i holds extension i's folds, then its fit on all
     tests (started from the base fit), then its search folds."""
@@ -238,7 +238,8 @@ def _try_extensions(
         starts, e_base = base_plan.collect(first[1:])
     except FIT_ERRORS as exc:
         base_failure = exc  # every extension's cross-validation fails with it
-    plans, tasks = [], []
+    plans: list[tuple[FoldFits, FoldFits]] = []
+    tasks: list[FitTask] = []
     if base_failure is None:
         # The base model's fold fits: one per fold, none skipped.
         choices = fold_choices(group, lead_table, rows, folds, cast("dict[int, Start]", starts))
