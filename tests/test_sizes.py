@@ -25,60 +25,10 @@ FUNCTION_LINES = 80
 CLI_MODULE_LINES = 300
 
 #: module (relative to the repository) -> (lines when listed, why it is still one file)
-LONG_MODULES: dict[str, tuple[int, str]] = {
-    "soilstats/discovery/result.py": (
-        723,
-        "the result and its HTML and text views; the views to their own module"
-        "; grew from 628 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
-    "soilstats/quality/records.py": (
-        707,
-        "per-record screens (contact, offsets, toes); owned by the quality work in progress"
-        "; grew from 646 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
-    "soilstats/quality/screen.py": (
-        776,
-        "the screening driver and its per-kind findings; owned by the quality work in progress"
-        "; grew from 658 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
-}
+LONG_MODULES: dict[str, tuple[int, str]] = {}
 
 #: "module::function" -> (code lines when listed, why it is still one function)
-LONG_FUNCTIONS: dict[str, tuple[int, str]] = {
-    "soilstats/discovery/library.py::library": (94, "the extension records, one literal each"),
-    "soilstats/discovery/leads.py::_try_extensions": (
-        90,
-        "the extension trial loop and its bookkeeping"
-        "; grew from 86 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
-    "soilstats/discovery/result.py::_repr_html_": (93, "the HTML view, one block per section"),
-    "soilstats/identification/result.py::data_findings": (
-        81,
-        "screening notes and window resolution; to split by finding",
-    ),
-    "soilstats/quality/records.py::find_contact": (86, "owned by the quality work in progress"),
-    "soilstats/quality/screen.py::_sinkage_findings": (
-        196,
-        "owned by the quality work in progress"
-        "; grew from 164 in the merges of 2026-11-29 (issues #43, #46, #47), to split",
-    ),
-    "soilstats/simulation/simulate.py::simulate": (
-        92,
-        "the simulator's per-test loop and its bookkeeping",
-    ),
-    "soilstats/statistics/mixed.py::anova_random_block": (
-        81,
-        "the ANOVA table, its checks and its record",
-    ),
-    "soilstats/study/effects.py::factor_effects": (
-        97,
-        "one study factor's effects: tests, verdicts and notes",
-    ),
-    "soilstats/study/preparation.py::evaluate_criteria": (
-        82,
-        "the preparation criteria, one block each",
-    ),
-}
+LONG_FUNCTIONS: dict[str, tuple[int, str]] = {}
 
 
 def _modules() -> dict[str, Path]:
