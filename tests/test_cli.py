@@ -15,7 +15,8 @@ import pandas as pd
 import pytest
 
 import soilstats
-from soilstats.cli.common import Criterion, apply_selection, guarded, parse_selection
+from soilstats.campaign.selection import SelectCriterion, apply_selection, parse_selection
+from soilstats.cli.common import guarded
 from soilstats.cli.main import SUBCOMMANDS, build_parser, main
 from soilstats.errors import CampaignError
 
@@ -212,8 +213,8 @@ def test_posterior_simulator_choices_follow_the_bayes_package():
 
 def test_selection_grammar():
     assert parse_selection(["soil=soil01", "shear:tool=tool04"]) == [
-        Criterion("soil", "soil01"),
-        Criterion("tool", "tool04", "shear"),
+        SelectCriterion("soil", "soil01"),
+        SelectCriterion("tool", "tool04", "shear"),
     ]
     with pytest.raises(ValueError, match="COLUMN=VALUE"):
         parse_selection(["soil"])

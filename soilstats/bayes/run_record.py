@@ -5,12 +5,18 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from ..outputs import json_safe
+from ..outputs import json_safe, output_path, write_atomic, write_csv
 from .band_check import band_calibration
 
-__all__ = ["posterior_record"]
+if TYPE_CHECKING:
+    from ..outputs.provenance import Provenance
+    from .export import SimulatorExport
+    from .support import SupportCheck
+
+__all__ = ["posterior_record", "write_export"]
 
 
 def posterior_record(
@@ -53,4 +59,45 @@ def posterior_record(
             "selection": selection,
             "provenance": provenance.to_dict(),
         }
+    )
+
+
+class _Annotated:
+    """A provenance whose CSV comment header carries more ``key: value`` lines."""
+
+    def __init__(self, provenance: Provenance, extra: list[str]) -> None:
+        self._provenance, self._extra = provenance, extra
+
+    def lines(self) -> list[str]:
+        return [*self._provenance.lines(), *self._extra]
+
+
+def write_export(
+    out: Path,
+    export: SimulatorExport,
+    record: dict[str, Any],
+    support: SupportCheck | None,
+    provenance: Provenance,
+    seed: int,
+) -> None:
+    """``<simulator>.csv`` (each column's source and the simulator's check in its comment
+    lines, FORCED and why where ``record`` says so) and ``<simulator>.json`` (the export's
+    record with the run's context) into ``out``, replacing what is there (the command
+    checked its outputs before sampling)."""
+    name = export.simulator
+    extra = export.comment_lines()
+    if record["forced"]:
+        extra.append("FORCED: written although: " + "; ".join(record["failures"]))
+    write_csv(
+        out / f"{name}.csv",
+        export.table,
+        _Annotated(provenance, extra),
+        overwrite=True,
+        float_format="%.10g",
+    )
+    context = {k: record[k] for k in ("soil", "models", "kind", "forced", "failures", "selection")}
+    context |= {"seed": seed, "version": provenance.to_dict().get("soilstats_version")}
+    write_atomic(
+        output_path(out, f"{name}.json", overwrite=True),
+        json.dumps(json_safe(export.record(support, context)), indent=2) + "\n",
     )

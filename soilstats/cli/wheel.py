@@ -43,9 +43,7 @@ from .common import (
 )
 
 if TYPE_CHECKING:
-    from ..campaign.campaign import Campaign
     from ..outputs.provenance import Provenance
-    from ..wheel import StressAngles
     from ..wheel.calibration.validate import CalibrationReport
     from ..wheel.validation_result import WheelValidation
 
@@ -147,22 +145,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     wheel_modes.configure(parser)
 
 
-def parse_prior(item: str) -> tuple[str, tuple]:
-    """``phi=normal:29:4`` → ``("phi", ("normal", 29.0, 4.0))``; ValueError naming the item."""
-    name, sep, spec = item.partition("=")
-    kind, *numbers = spec.split(":")
-    try:
-        values = tuple(float(x) for x in numbers)
-    except ValueError:
-        values = ()
-    if not sep or not name.strip() or not kind or not values:
-        raise InputError(
-            f"--prior takes NAME=KIND:ARGS (e.g. phi=normal:29:4, c=uniform:0:1500, "
-            f"K=lognormal:0.01:0.8), got {item!r}"
-        )
-    return name.strip(), (kind.strip(), *values)
-
-
 def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
     """The --wheel-radius … options as {type or "*": {key: value}}."""
     out: dict[str, dict[str, float]] = {}
@@ -179,54 +161,31 @@ def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
     return out
 
 
-def parse_angles(text: str | None) -> StressAngles | None:
-    from ..wheel import StressAngles
-
-    if text is None:
-        return None
-    try:
-        values = [float(x) for x in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 4:
-        raise InputError(f"--angles takes four numbers A0,A1,B0,B1, got {text!r}")
-    return StressAngles(*values)
-
-
-def runs_path(args: argparse.Namespace) -> Path:
-    """--runs as given, else inside the campaign's folder; an error names both places."""
-    from ..campaign.io import resolve
-
-    given = Path(args.runs)
-    if given.is_file():
-        return given
-    folder, _ = resolve(args.data)
-    inside = folder / args.runs
-    if inside.is_file():
-        return inside
-    raise FileNotFoundError(
-        2, f"no runs file here nor in the campaign folder ({inside})", str(given)
-    )
-
-
 def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
     import json
 
     from ..outputs import json_safe, output_path
+    from ..wheel.run_options import (
+        file_sha256,
+        parse_angles,
+        parse_prior_item,
+        plate_pooling_warnings,
+        runs_file,
+    )
     from ..wheel.runs import read_caveats, read_runs, read_wheels, wheel_geometry
     from ..wheel.validation import check_priors, validate_wheel
 
     if args.n_draws < 100:
         raise InputError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
     wheel_modes.check_modes(args)
-    priors = dict(parse_prior(p) for p in args.prior)
+    priors = dict(parse_prior_item(p) for p in args.prior)
     check_priors(priors)
     angles = parse_angles(args.angles)
     overrides = parse_geometry(args)
     if args.predict:
-        return _predict(args, priors, overrides)
-    path = runs_path(args)
+        return wheel_modes.predict_mode(args, priors, overrides)
+    path = runs_file(args.runs, args.data)
     outputs = OUTPUTS + ((wheel_modes.CALIBRATION_FILE,) if args.calibrate else ())
     if args.out:  # refuse before the work, not after
         for name in outputs:
@@ -238,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
         runs["wheel"].unique(), tables, overrides, source=str(toml) if tables else "--wheel-*"
     )
     campaign, provenance = prepared(args)
-    pooled = _pooling(campaign, args)
+    pooled = plate_pooling_warnings(campaign, args.soil, args.law)
     for text in pooled:
         print(f"WARNING: {text}", file=sys.stderr)
     result = validate_wheel(
@@ -259,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
     )
     defaults = _defaults(args, tables, overrides, wheels)
     document = {"defaults": defaults} | result.to_dict()
-    document |= {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
+    document |= {"runs_file": {"path": str(path), "sha256": file_sha256(path)}}
     calibration = None
     if args.calibrate:
         part, calibration = wheel_modes.calibrate(
@@ -323,6 +282,7 @@ def _defaults(
     """The analysis options left at their defaults, and every wheel geometry the user did not
     give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
     depends on it), for the JSON's ``"defaults"`` and page 1."""
+    from ..wheel.run_options import geometry_defaults
     from .common import defaults_not_given
 
     out = defaults_not_given(args)
@@ -330,55 +290,7 @@ def _defaults(
     if not args.calibrate:
         unused |= set(wheel_modes.CALIBRATE_OPTIONS)
     out = {k: v for k, v in out.items() if k not in unused}
-    for name, wheel in sorted(wheels.items()):
-        given = {**tables.get(name, {}), **overrides.get("*", {}), **overrides.get(name, {})}
-        if "shear_radius_m" not in given:
-            out[f"{name}: shear_radius_m"] = (
-                f"{wheel.radius_m:g} (= radius_m: no grousers assumed; give --shear-radius "
-                f"{name}=RS for a grousered wheel)"
-            )
-        if "grouser_area_ratio" not in given:
-            out[f"{name}: grouser_area_ratio"] = "1"
-    return out
-
-
-def _predict(args: argparse.Namespace, priors: dict, overrides: dict) -> int:
-    """--predict: the plate draws (unless a calibration carries them) and the prediction."""
-    from ..outputs import output_path
-    from ..wheel.soil import plate_draws
-
-    if args.out:
-        for name in wheel_modes.PREDICT_OUTPUTS:
-            output_path(Path(args.out), name, overwrite=args.overwrite)
-    campaign, provenance = prepared(args)
-    plate = None
-    if not args.calibration:
-        plate = plate_draws(
-            campaign,
-            soil=args.soil,
-            law=args.law,
-            kind=args.draws,
-            n_draws=args.n_draws,
-            seed=args.seed,
-            progress=progress_enabled(args.progress),
-        )
-    return wheel_modes.predict(args, provenance, plate, priors, overrides)
-
-
-def _pooling(campaign: Campaign, args: argparse.Namespace) -> list[str]:
-    """The posterior command's warning when the plates pool conditions (preparations,
-    velocities, shapes …): the draws then describe their mixture, not one sand state."""
-    from ..wheel.soil import choose_law, soil_tests
-    from .posterior import pooling_warnings
-
-    soil, tests = soil_tests(campaign, args.soil)
-    return pooling_warnings(campaign, soil, [choose_law(tests, args.law)])
-
-
-def _sha256(path: Path) -> str:
-    import hashlib
-
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    return out | geometry_defaults(wheels, tables, overrides)
 
 
 def main(argv: list[str] | None = None) -> int:
