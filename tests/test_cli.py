@@ -95,6 +95,16 @@ def test_every_command_takes_the_campaign_as_its_positional_or_data(name, capsys
     assert "campaign given twice" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("name", ["identify", "discover", "check"])
+def test_the_wrote_line_names_the_output_folder_not_its_staging_copy(name, tmp_path, capsys):
+    # discover printed ".out.soilstats-stage-XXXX/discover.json": a folder that no longer exists
+    out = tmp_path / "out"
+    assert main([name, "grc1-oravec2009", "--out", str(out), "--progress", "off"]) == 0
+    wrote = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrote ")]
+    assert wrote and str(out) in wrote[0] and "stage" not in wrote[0], wrote
+    assert (out / f"{name}.json").is_file()
+
+
 def test_study_takes_its_name_then_the_campaign():
     args = build_parser().parse_args(["study", "velocity", "grc1-oravec2009"])
     assert (args.name, args.folder) == ("velocity", "grc1-oravec2009")
