@@ -10,6 +10,7 @@ from __future__ import annotations
 import matplotlib
 import pytest
 from matplotlib.figure import Figure
+from matplotlib.text import Text
 
 from soilstats.report.document import figure_svg, math_text, tight_layout
 
@@ -109,3 +110,42 @@ def test_figure_text_is_real_text_the_pdf_check_reads(tmp_path):
     fine = _report_with(tmp_path, 9, "fine.pdf")
     assert small_and_overlapping(fine) == []
     assert fine.read_bytes() == _report_with(tmp_path, 9, "again.pdf").read_bytes()
+
+
+def _clipped_texts(fig) -> list[str]:
+    """Texts drawn past the figure's edge (tick labels outside their axis' view are not
+    drawn and do not count): the PDF text check cannot see a label cut at the edge."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    width, height = fig.bbox.width, fig.bbox.height
+    out = []
+    for text in fig.findobj(Text):
+        if not (text.get_visible() and text.get_text().strip()):
+            continue
+        for ax in fig.axes:
+            if text in ax.get_xticklabels() or text in ax.get_yticklabels():
+                lo, hi = sorted(ax.get_xlim() if text in ax.get_xticklabels() else ax.get_ylim())
+                pos = text.get_position()[0 if text in ax.get_xticklabels() else 1]
+                if not lo - 1e-9 * (hi - lo) <= pos <= hi + 1e-9 * (hi - lo):
+                    break
+        else:
+            box = text.get_window_extent(renderer)
+            if box.x0 < -0.5 or box.y0 < -0.5 or box.x1 > width + 0.5 or box.y1 > height + 0.5:
+                out.append(text.get_text())
+    return out
+
+
+def test_no_study_figure_text_runs_past_the_figure_edge():
+    """The velocity study repeated "penetration velocity (m/s)" under each of three panels and
+    the last ran past the page edge (issue #47, item 5); now one label under all panels."""
+    from soilstats.campaign import load_campaign
+    from soilstats.data import bundled_path
+    from soilstats.report.study_figures import make_figures
+    from soilstats.study import run_study
+
+    campaign = load_campaign(bundled_path("simulated-paper"))
+    result = run_study("velocity", campaign)
+    figures = make_figures(result, campaign)
+    assert figures
+    for title, fig, _ in figures:
+        assert not _clipped_texts(fig), (title, _clipped_texts(fig))

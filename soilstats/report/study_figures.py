@@ -155,9 +155,10 @@ def relative(result: StudyResult, campaign: Campaign | None = None) -> plt.Figur
         else:
             ax.axhline(0.0, color="grey", lw=0.8)
             ax.set(title=f"{name} changes sign", ylabel=f"{name} ({unit})")
-        ax.set(xlabel=column_label(spec.factor))
         ax.tick_params(axis="x", rotation=45 if len(levels) > 4 else 0, labelsize=8)
         ax.legend(fontsize=8)
+    # once under all panels: repeated under each, a long factor name ran past the page edge
+    fig.supxlabel(column_label(spec.factor), fontsize=plt.rcParams["axes.labelsize"])
     tight_layout(fig)
     return fig
 
