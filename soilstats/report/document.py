@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import io
-import os
 import re
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
@@ -31,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
 from ..outputs.files import write_atomic
+from .fonts import figure_fonts, shipped_fonts_only
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -507,7 +507,7 @@ def figure_svg(fig: Figure) -> bytes:
 
     plain_texts(fig)
     plain_log_ticks(fig)
-    _shipped_fonts_only(fig)
+    shipped_fonts_only(fig)
     buffer = io.BytesIO()
     # Tick labels made while drawing (categorical axes: the data's levels) are plain too.
     style: dict[RcKeyType, Any] = {
@@ -519,32 +519,6 @@ def figure_svg(fig: Figure) -> bytes:
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     _close(fig)
     return buffer.getvalue()
-
-
-def figure_fonts() -> list[str]:
-    """The folder of the fonts matplotlib ships (DejaVu, STIX, Computer Modern): the fonts a
-    figure's SVG text names, given to Typst (never the system's fonts: the same bytes on any
-    machine)."""
-    import matplotlib as mpl
-
-    return [os.path.join(mpl.get_data_path(), "fonts", "ttf")]
-
-
-def _shipped_fonts_only(fig: Figure) -> None:
-    """Text whose font is not one matplotlib ships (a user's matplotlibrc or theme naming a
-    system font) is set in DejaVu Sans: Typst sees only :func:`figure_fonts`, and a font it
-    cannot find would be drawn in a substitute with other metrics than the layout's."""
-    from matplotlib import font_manager
-    from matplotlib.text import Text
-
-    shipped = os.path.realpath(figure_fonts()[0])
-    for text in fig.findobj(Text):
-        try:
-            found = font_manager.findfont(text.get_fontproperties(), fallback_to_default=False)
-        except ValueError:  # no font of that family at all: matplotlib laid it out in DejaVu
-            found = ""
-        if not os.path.realpath(found).startswith(shipped):
-            text.set_fontfamily("DejaVu Sans")
 
 
 def _close(fig: Figure) -> None:
