@@ -31,9 +31,7 @@ def shipped_fonts_only(fig: Figure) -> None:
     shipped = os.path.realpath(figure_fonts()[0])
     for text in fig.findobj(Text):
         try:
-            found = str(
-                font_manager.findfont(text.get_fontproperties(), fallback_to_default=False)
-            )
+            found = str(font_manager.findfont(text.get_fontproperties(), fallback_to_default=False))
         except ValueError:  # no font of that family at all: matplotlib laid it out in DejaVu
             found = ""
         if not os.path.realpath(found).startswith(shipped):
