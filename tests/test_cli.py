@@ -435,3 +435,19 @@ def test_defaults_the_user_did_not_give_are_in_the_json_and_on_page_one(tmp_path
     assert defaults["--seed"] == "0" and "--out" not in defaults and "--progress" not in defaults
     page = re.sub(r"\s+", "", PdfReader(tmp_path / "identify.pdf").pages[0].extract_text())
     assert "Settingsleftattheirdefaults" in page and "--points-per-test100" in page
+
+
+def test_an_option_given_abbreviated_or_short_is_not_listed_as_a_default():
+    """argparse takes ``--see 3`` for ``--seed 3``: the review found such an option listed in
+    "defaults" with the value the user gave."""
+    from soilstats.cli.common import defaults_not_given
+
+    parser = build_parser()
+    base = ["identify", "--data", "cullinan-sand"]
+    for given in (["--seed", "3"], ["--see", "3"], ["--seed=3"], ["--see=3"]):
+        args = parser.parse_args([*base, *given])
+        args.argv = [*base, *given]
+        assert args.seed == 3 and "--seed" not in defaults_not_given(args), given
+    args = parser.parse_args(base)
+    args.argv = [*base, "--"]
+    assert defaults_not_given(args)["--seed"] == "0"  # "--" names no option

@@ -32,7 +32,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from .running import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, guarded, prepared
@@ -249,12 +249,12 @@ def defaults_not_given(args: argparse.Namespace) -> dict[str, str]:
     parser = getattr(args, "_parser", None)
     if parser is None:
         return {}
-    given = {token.split("=", 1)[0] for token in getattr(args, "argv", []) or []}
+    tokens = [str(t) for t in getattr(args, "argv", []) or [] if str(t).startswith("-")]
     out: dict[str, str] = {}
     for action in parser._actions:  # argparse keeps no public list of a parser's options
         if not action.option_strings or action.dest in _NOT_ANALYSIS:
             continue
-        if given & set(action.option_strings):
+        if any(_names(token, action.option_strings) for token in tokens):
             continue
         value = getattr(args, action.dest, None)
         if value is None or value is False or value == []:
@@ -263,6 +263,18 @@ def defaults_not_given(args: argparse.Namespace) -> dict[str, str]:
             " ".join(map(str, value)) if isinstance(value, list | tuple) else str(value)
         )
     return out
+
+
+def _names(token: str, options: Sequence[str]) -> bool:
+    """Whether a command-line ``token`` gives one of ``options``: whole (``--seed``,
+    ``--seed=3``), abbreviated as argparse allows (``--see 3``) or short with its value
+    attached (``-s3``)."""
+    if token.startswith("--"):
+        name = token.split("=", 1)[0]
+        if name == "--":  # the end of the options, not one of them
+            return False
+        return any(o.startswith("--") and o.startswith(name) for o in options)
+    return any(len(o) == 2 and token[:2] == o for o in options)
 
 
 def progress_enabled(choice: str) -> bool:
