@@ -102,7 +102,8 @@ def test_the_wrote_line_names_the_output_folder_not_its_staging_copy(name, tmp_p
     assert main([name, "grc1-oravec2009", "--out", str(out), "--progress", "off"]) == 0
     wrote = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrote ")]
     assert wrote and str(out) in wrote[0] and "stage" not in wrote[0], wrote
-    assert (out / f"{name}.json").is_file()
+    # every command's JSON says what it rests on unsaid (docs/conventions.md, "Defaults")
+    assert json.loads((out / f"{name}.json").read_text())["defaults"]["--quality"] == "clean"
 
 
 def test_study_takes_its_name_then_the_campaign():

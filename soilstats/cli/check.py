@@ -17,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-from .common import add_common_options
+from .common import add_common_options, defaults_not_given
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -42,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
     campaign = load_campaign(args.data, check_units=False)
     report = screen(campaign, args.quality)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
-    document = report.to_dict()
+    defaults = defaults_not_given(args)
+    document = {"defaults": defaults} | report.to_dict()
     if args.out:
         from ..report.check_pdf import write_report
 
@@ -54,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
             campaign=campaign,
             provenance=provenance,
             overwrite=args.overwrite,
+            defaults=defaults,
         )
         print(f"wrote {folder / 'check.json'} and check.pdf", file=sys.stderr)
     if args.json:

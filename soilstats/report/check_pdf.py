@@ -8,6 +8,7 @@ flag of every test with its message. Everything in check.json is in the PDF.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -64,9 +65,10 @@ def write_report(
     campaign: Campaign,
     provenance: Provenance | None = None,
     overwrite: bool = False,
+    defaults: Mapping[str, str] | None = None,
 ) -> int:
     """Write the typeset screening report of ``report`` (a QualityReport) of ``campaign``
-    to ``path``.
+    to ``path``; ``defaults``: the options left at their defaults, on page 1.
 
     Returns the number of pages; an existing file is an error unless ``overwrite`` (the
     signature of every report writer: docs/conventions.md).
@@ -88,6 +90,7 @@ def write_report(
         ],
         data=[data_origin(campaign.source), f": {n_tests} tests in the log."],
         conclusion=_conclusion(record, n_tests),
+        defaults=defaults,
     )
     doc.page_break()
     _codes(doc, record)
