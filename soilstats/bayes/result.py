@@ -42,7 +42,7 @@ CONVERGENCE_CODES = ("high-r-hat", "low-bulk-ess", "low-tail-ess", "short-chain"
 
 def chain_diagnostics(idata: Any, var_names: Iterable[str]) -> pd.DataFrame:
     """MCSE, bulk/tail ESS and R-hat of each of ``var_names`` (ArviZ's summary, unrounded)."""
-    return az.summary(idata, var_names=list(var_names), kind="diagnostics", round_to="none")
+    return az.summary(idata, var_names=list(var_names), kind="diagnostics", round_to="none")  # type: ignore[return-value]  # ArviZ: a DataFrame unless fmt='xarray'
 
 
 def diagnose(table: pd.DataFrame) -> tuple[HealthFlag, ...]:

@@ -87,11 +87,11 @@ class AncovaResult:
             notes.append(f"{self.n_dropped} row(s) with missing values dropped")
         return TestResult(
             test=f"ANCOVA F-test of H0: {what}",
-            statistic=float(r["F"]),
-            p_value=float(r["PR(>F)"]),
-            df_num=float(r["df_diff"]),
-            df_den=float(self.comparison.loc["separate", "df_resid"]),
-            effect_size=float(r["ss_diff"] / (r["ss_diff"] + ssr_full)),
+            statistic=float(r["F"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row] may be a frame (the rows are unique)
+            p_value=float(r["PR(>F)"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row] may be a frame (the rows are unique)
+            df_num=float(r["df_diff"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row] may be a frame (the rows are unique)
+            df_den=float(self.comparison.loc["separate", "df_resid"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
+            effect_size=float(r["ss_diff"] / (r["ss_diff"] + ssr_full)),  # type: ignore[operator, arg-type, type-var]  # pandas-stubs: .loc[row] may be a frame, .loc[row, col] any scalar
             effect_size_name="partial_eta_sq",
             notes=tuple(notes),
         )

@@ -89,15 +89,15 @@ def effect_row(soil: str, response: str, factor: str, result: TestResult | pd.Da
             raise StatisticsInputError(
                 f"the ANOVA table has no row {factor!r} (rows {list(result.index)})", column=factor
             )
-        stat, p = float(result.loc[row, "F"]), float(result.loc[row, "PR(>F)"])
+        stat, p = float(result.loc[row, "F"]), float(result.loc[row, "PR(>F)"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         error = str(result.loc[row, "error_term"]) if "error_term" in result.columns else ""
         if error and error in result.index:
             # A factor tested against another term (a random block's interaction): its
             # partial η² is taken against that same term, as its F is.
-            ss = float(result.loc[row, "sum_sq"])
-            es = ss / (ss + float(result.loc[error, "sum_sq"]))
+            ss = float(result.loc[row, "sum_sq"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
+            es = ss / (ss + float(result.loc[error, "sum_sq"]))  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         else:
-            es = float(effect_sizes(result).loc[row, "partial_eta_sq"])
+            es = float(effect_sizes(result).loc[row, "partial_eta_sq"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         test = result.attrs.get("test", "ANOVA")
     else:
         raise StatisticsInputError(
