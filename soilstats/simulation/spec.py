@@ -18,6 +18,8 @@ from typing import Any, TypeVar
 
 from ..errors import refuse_unknown_keys
 from . import records
+from .artefacts import ARTEFACT_KINDS, check_artefact
+from .effects import check_effect
 from .records import (
     EFFECT_KINDS,
     KINDS,
@@ -35,6 +37,7 @@ from .records import (
     Spec,
     SpecError,
 )
+from .support import outside_support
 
 # The SPEC's whole API from one import: its records and constants (their home is records.py)
 # and the two readers.
@@ -127,7 +130,6 @@ def _params(table: dict, where: str, allowed: tuple[str, ...] = PARAMS) -> dict[
         out[k] = _number(v, f"{where}.{k}")
     if "K" in out and out["K"] <= 0:
         raise _fail(f"{where}.K", f"the shear deformation modulus K must be > 0 m, got {out['K']}")
-    from .support import outside_support
 
     bad = outside_support(out)
     if bad:
@@ -354,9 +356,6 @@ def _limited(
     """(kind, options, soils, series) of an ``[[effects]]`` or ``[[artefacts]]`` entry: a
     kind of its table, limited to some soils and series, its options checked by the module
     that owns the kind's physics."""
-    from .artefacts import ARTEFACT_KINDS, check_artefact
-    from .effects import check_effect
-
     kinds, check = {
         "effects": (EFFECT_KINDS, check_effect),
         "artefacts": (tuple(ARTEFACT_KINDS), check_artefact),

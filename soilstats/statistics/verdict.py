@@ -18,6 +18,7 @@ import pandas as pd
 from statsmodels.stats.multitest import multipletests
 
 from ._data import StatisticsInputError
+from .effect_size import effect_sizes
 from .result import TestResult
 
 __all__ = ["VERDICT_COLUMNS", "adjust_p_values", "effect_row", "verdicts"]
@@ -82,8 +83,6 @@ def effect_row(soil: str, response: str, factor: str, result: TestResult | pd.Da
     if isinstance(result, TestResult):
         stat, p, es, test = result.statistic, result.p_value, result.effect_size, result.test
     elif isinstance(result, pd.DataFrame):
-        from .effect_size import effect_sizes
-
         row = "between" if "between" in result.index else factor
         if row not in result.index:
             raise StatisticsInputError(

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..outputs import json_safe
 from ..outputs.text import notes_block
 from .geometry import Wheel
 from .stress import PARAM_UNITS, StressAngles
@@ -91,8 +92,6 @@ class WheelPrediction:
 
     def to_dict(self) -> dict:
         """The JSON-ready content (no NaN: ``null``); the per-draw samples are left out."""
-        from ..outputs import json_safe
-
         return json_safe(
             {
                 "model": self._model_name(),
