@@ -27,7 +27,6 @@ from .base import (
     Within,
 )
 from .priors import NON_NEGATIVE, POSITIVE, Uniform
-from .starting_values import janosi_start, shear_curve_start
 
 __all__ = ["JANOSI", "MOHR_COULOMB", "SHEAR_CURVE", "JanosiPopulation", "side_wall_ratio"]
 
@@ -78,11 +77,15 @@ def janosi_jac(x: InputRows, c: Value, phi: Value, K: Value) -> np.ndarray:
 
 
 def _start_janosi(x, tau):
+    from .starting_values import janosi_start  # deferred: pandas (Wong's fit)
+
     sigma, j = x
     return janosi_start(sigma, j, tau)
 
 
 def _start_shear_curve(j, tau):
+    from .starting_values import shear_curve_start  # deferred: pandas (Wong's fit)
+
     return shear_curve_start(j, tau)
 
 
