@@ -28,6 +28,49 @@ def plate_spec(name: str, soils: dict, *, points: int = 120, repetitions: int = 
     }
 
 
+def artefact_spec(
+    name: str,
+    soils: dict,
+    artefacts: list[dict],
+    *,
+    points: int,
+    noise_N: float,
+    radii: tuple[float, ...],
+    repetitions: int,
+    sinkage_m: float,
+) -> dict:
+    """A simulator spec with ``artefacts`` planted (``[[artefacts]]``; none: a clean
+    campaign): every soil on circular plates of ``radii`` [m], ``noise_N`` of force noise and
+    of force offset [N], stiffness cv 0.08 and n sd 0.02 between tests."""
+    return {
+        **({"artefacts": artefacts} if artefacts else {}),
+        "name": name,
+        "scatter": {"stiffness_cv": 0.08, "n_sd": 0.02},
+        "noise": {"force_N": noise_N, "force_offset_N": noise_N},
+        "soils": soils,
+        "series": [
+            {
+                "name": "plates",
+                "kind": "sinkage",
+                "soils": list(soils),
+                "plates": [{"shape": "circle", "radius_m": b} for b in radii],
+                "repetitions": repetitions,
+                "points": points,
+                "sinkage_m": sinkage_m,
+            }
+        ],
+    }
+
+
+def flagged_rows(report, code: str) -> dict[str, set]:
+    """The 1-based file rows of each test's ``code`` findings in a screening ``report``."""
+    out: dict[str, set] = {}
+    for f in report.flags:
+        if f.code == code:
+            out.setdefault(f.test_id, set()).update(f.rows)
+    return out
+
+
 def raw_tables(campaign: Campaign) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The test log and sinkage table as a user writes them (no derived columns)."""
     tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")

@@ -210,10 +210,15 @@ def test_numbers_read_in_bulk_are_those_of_float_bit_for_bit(write_campaign):
     cells += ["1", "-0", "+1.5", "1.", ".5", "-.5", "1E5", "4.9e-324"]
     cells += ["0.1000000000000000055511151231257827021181583404541015625"]
     cells += ["123456789012345678901234567890e-5"]
-    sinkage = "test_id,z_m,force_N\n" + "".join(f"a,{i * 1e-4},{c}\n" for i, c in enumerate(cells))
+    # A campaign holds forces whose pressure a fit can square (|p| <= 1e150 Pa, the loader's
+    # rule); the bulk parser below sees the whole range.
+    loadable = [c for c in cells if abs(float(c)) < 1e145]
+    assert len(loadable) > 300
+    rows = "".join(f"a,{i * 1e-4},{c}\n" for i, c in enumerate(loadable))
+    sinkage = "test_id,z_m,force_N\n" + rows
     tests = "test_id,kind,soil,shape,radius_m\na,sinkage,s,circle,0.05\n"
     got = load_campaign(write_campaign(tests=tests, sinkage=sinkage), check_units=False)
-    want = np.array([float(c) for c in cells]).view(np.int64)
+    want = np.array([float(c) for c in loadable]).view(np.int64)
     np.testing.assert_array_equal(got.sinkage["force_N"].to_numpy().view(np.int64), want)
     # Numbers float64 cannot hold as written are refused by the rules (the loader), not
     # by the parser: the parser still reads them as float() does.

@@ -15,7 +15,8 @@ import pandas as pd
 import pytest
 
 import soilstats
-from soilstats.cli.common import Criterion, apply_selection, guarded, parse_selection
+from soilstats.campaign.selection import SelectCriterion, apply_selection, parse_selection
+from soilstats.cli.common import guarded
 from soilstats.cli.main import SUBCOMMANDS, build_parser, main
 from soilstats.errors import CampaignError
 
@@ -92,6 +93,16 @@ def test_every_command_takes_the_campaign_as_its_positional_or_data(name, capsys
     assert args.data == "simulated-paper"  # the documented default
     assert main([name, "grc1-oravec2009", "--data", "cullinan-sand", *more]) == 2
     assert "campaign given twice" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["identify", "discover", "check"])
+def test_the_wrote_line_names_the_output_folder_not_its_staging_copy(name, tmp_path, capsys):
+    # discover printed ".out.soilstats-stage-XXXX/discover.json": a folder that no longer exists
+    out = tmp_path / "out"
+    assert main([name, "grc1-oravec2009", "--out", str(out), "--progress", "off"]) == 0
+    wrote = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrote ")]
+    assert wrote and str(out) in wrote[0] and "stage" not in wrote[0], wrote
+    assert (out / f"{name}.json").is_file()
 
 
 def test_study_takes_its_name_then_the_campaign():
@@ -212,8 +223,8 @@ def test_posterior_simulator_choices_follow_the_bayes_package():
 
 def test_selection_grammar():
     assert parse_selection(["soil=soil01", "shear:tool=tool04"]) == [
-        Criterion("soil", "soil01"),
-        Criterion("tool", "tool04", "shear"),
+        SelectCriterion("soil", "soil01"),
+        SelectCriterion("tool", "tool04", "shear"),
     ]
     with pytest.raises(ValueError, match="COLUMN=VALUE"):
         parse_selection(["soil"])

@@ -88,3 +88,32 @@ def test_threads_reading_one_fit_see_one_finished_result(campaign):
     with ThreadPoolExecutor(4) as pool:
         texts = set(pool.map(read, range(4)))
     assert len(texts) == 1 and "test-level σ" in texts.pop()
+
+
+def test_a_loop_over_one_campaign_pools_once_and_fits_as_a_fresh_campaign(campaign, monkeypatch):
+    """The pooled data and Wong's start are kept per campaign object (issue #45, item 7):
+    the second call pools nothing, and every fit equals the fit of a new campaign object
+    with the same tables (nothing kept) to the bit."""
+    import dataclasses
+
+    calls: list = []
+    real = sinkage.pool_sinkage
+    monkeypatch.setattr(sinkage, "pool_sinkage", lambda *a, **k: calls.append(1) or real(*a, **k))
+    kept = screened(campaign, "clean")
+    for model in ("bekker", "bernstein", "bekker"):
+        fit = fit_sinkage(kept, model, soil="sand")
+        fresh = fit_sinkage(dataclasses.replace(kept), model, soil="sand")
+        assert np.array_equal(fit.values, fresh.values)
+        assert np.array_equal(fit.stderr.to_numpy(), fresh.stderr.to_numpy())
+        assert fit.flags == fresh.flags
+    # kept: bekker, bernstein (bekker again reused); fresh: one per call
+    assert len(calls) == 2 + 3
+    pooled, _, _ = sinkage._prepared(
+        get_model("bekker", "sinkage"),
+        kept,
+        {"points_per_test": 100, "weighting": "max-pressure", "soil": "sand"},
+    )
+    with pytest.raises(ValueError, match="read-only"):
+        pooled.y[0] = 0.0  # shared by every later fit: nobody may change it
+    other = fit_sinkage(kept, "bekker", soil="sand", points_per_test=50)
+    assert other.tests["used"].max() <= 50 < fit.tests["used"].max()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import matplotlib
 import pytest
 from matplotlib.figure import Figure
+from matplotlib.text import Text
 
 from soilstats.report.document import figure_svg, math_text, tight_layout
 
@@ -33,7 +34,7 @@ def _matplotlib_svg(fig: Figure) -> bytes:
     import io
 
     buffer = io.BytesIO()
-    style = {"svg.hashsalt": "soilstats", "svg.fonttype": "path", "text.parse_math": True}
+    style = {"svg.hashsalt": "soilstats", "svg.fonttype": "none", "text.parse_math": True}
     with matplotlib.rc_context(style):
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     return buffer.getvalue()
@@ -71,3 +72,80 @@ def test_a_soil_named_like_mathtext_gives_a_report(command, tmp_path, capsys):
     assert main([command, "--data", str(folder), "--out", str(tmp_path / "o")]) == 0
     assert "ParseSyntaxException" not in capsys.readouterr().err
     assert (tmp_path / "o" / "identify.pdf").stat().st_size > 0
+
+
+def _report_with(tmp_path, size: float, name: str):
+    from soilstats.report.document import Document
+
+    fig = Figure(figsize=(6.4, 2.4), layout="constrained")  # narrower than the text
+    ax = fig.subplots()
+    ax.plot([1, 2], [3, 4])
+    ax.set_xlabel("slip s", fontsize=size)
+    ax.tick_params(labelsize=size)
+    math_text(ax.set_ylabel(r"$k_\varphi$ (kN/m$^{n+2}$)", fontsize=9))  # rotated, scripts
+    doc = Document("Figure text")
+    doc.figure(fig, "A figure.")
+    path = tmp_path / name
+    doc.render(path)
+    return path
+
+
+def test_figure_text_is_real_text_the_pdf_check_reads(tmp_path):
+    """Issue #47 item 5: figure text reaches the PDF as text (it was outlines, which no text
+    test can see): 6 pt ticks are found, 9 pt ones are not, and neither the rotated axis
+    label nor its mathtext scripts are flagged; the same figure gives the same bytes."""
+    import sys
+    from pathlib import Path
+
+    import pdfplumber
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from pdf_text import small_and_overlapping
+
+    small = _report_with(tmp_path, 6, "small.pdf")
+    with pdfplumber.open(small) as doc:
+        text = "".join(c["text"] for c in doc.pages[0].chars)
+    assert "slip s" in text and "1.0" in text  # the axis label and ticks, as text
+    assert any(p[1] == "small" and "slips" in p[2] for p in small_and_overlapping(small))
+    fine = _report_with(tmp_path, 9, "fine.pdf")
+    assert small_and_overlapping(fine) == []
+    assert fine.read_bytes() == _report_with(tmp_path, 9, "again.pdf").read_bytes()
+
+
+def _clipped_texts(fig) -> list[str]:
+    """Texts drawn past the figure's edge (tick labels outside their axis' view are not
+    drawn and do not count): the PDF text check cannot see a label cut at the edge."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    width, height = fig.bbox.width, fig.bbox.height
+    out = []
+    for text in fig.findobj(Text):
+        if not (text.get_visible() and text.get_text().strip()):
+            continue
+        for ax in fig.axes:
+            if text in ax.get_xticklabels() or text in ax.get_yticklabels():
+                lo, hi = sorted(ax.get_xlim() if text in ax.get_xticklabels() else ax.get_ylim())
+                pos = text.get_position()[0 if text in ax.get_xticklabels() else 1]
+                if not lo - 1e-9 * (hi - lo) <= pos <= hi + 1e-9 * (hi - lo):
+                    break
+        else:
+            box = text.get_window_extent(renderer)
+            if box.x0 < -0.5 or box.y0 < -0.5 or box.x1 > width + 0.5 or box.y1 > height + 0.5:
+                out.append(text.get_text())
+    return out
+
+
+def test_no_study_figure_text_runs_past_the_figure_edge():
+    """The velocity study repeated "penetration velocity (m/s)" under each of three panels and
+    the last ran past the page edge (issue #47, item 5); now one label under all panels."""
+    from soilstats.campaign import load_campaign
+    from soilstats.data import bundled_path
+    from soilstats.report.study_figures import make_figures
+    from soilstats.study import run_study
+
+    campaign = load_campaign(bundled_path("simulated-paper"))
+    result = run_study("velocity", campaign)
+    figures = make_figures(result, campaign)
+    assert figures
+    for title, fig, _ in figures:
+        assert not _clipped_texts(fig), (title, _clipped_texts(fig))

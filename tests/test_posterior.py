@@ -180,6 +180,16 @@ def test_cli_writes_all_outputs(campaign, tmp_path):
     record = json.loads((out / "posterior.json").read_text())
     assert "n: flat on (0.5, 2)" in record["priors"]["bekker"]
     assert record["support"]["passed"] and not record["forced"]
+    # Issue #47 item 3: the options left out are the defaults the run rests on (page 1 too).
+    defaults = record["defaults"]
+    assert "--seed" not in defaults and "--model" not in defaults and "--out" not in defaults
+    assert defaults.get("--quality") == "clean", defaults  # the screening the draws rest on
+    from pypdf import PdfReader
+
+    page = " ".join(PdfReader(out / "report.pdf").pages[0].extract_text().split())
+    assert ("Settings left at their defaults" in page) == bool(defaults)
+    for option in defaults:
+        assert option in page
     scm = json.loads((out / "chrono-scm.json").read_text())
     assert scm["stated_inputs"]["elastic_K"] == {
         "value": 5e7,
@@ -245,15 +255,17 @@ def test_cli_refuses_draws_below_the_ess_floor_before_sampling(
 ):
     """Fewer draws than the ESS the convergence check needs can only fail it, after all the
     sampling: refused up front (exit 2, nothing sampled), naming the floor."""
-    from soilstats.bayes import result
+    from soilstats.bayes import result, run_sampling
     from soilstats.cli import posterior
 
     folder = campaign.save(tmp_path / "camp")
     few = result.ESS_MIN - 1
     argv = ["--data", str(folder), "--soil", "sim-sand", "--model", "bekker"]
     sampled = []
-    real_run = posterior._run
-    monkeypatch.setattr(posterior, "_run", lambda *a, **k: sampled.append(1) or real_run(*a, **k))
+    real_run = run_sampling._run
+    monkeypatch.setattr(
+        run_sampling, "_run", lambda *a, **k: sampled.append(1) or real_run(*a, **k)
+    )
     assert posterior.main([*argv, "--draws", str(few), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert f"--draws {few} is below {result.ESS_MIN}" in err and "--force" in err
@@ -280,7 +292,7 @@ def test_cli_warns_when_contact_widths_leave_the_tested_plates(campaign, tmp_pat
     assert ranges in capsys.readouterr().err
     record = json.loads((out / "posterior.json").read_text())
     assert any(ranges in w and "kc/b + kphi" in w for w in record["warnings"])
-    from soilstats.cli.posterior_output import extrapolation_warnings as warned
+    from soilstats.bayes.run_checks import extrapolation_warnings as warned
 
     assert warned(tested, tested, ["bekker"]) == []
     assert warned(wide, tested, ["bernstein", "janosi"]) == []
@@ -355,7 +367,7 @@ def test_the_models_of_one_run_draw_from_different_streams():
     """Two models sampled with one seed drew the same random numbers: rows of their draws
     with the same index were coupled (Spearman 0.9 between kphi and phi). The CLI gives the
     first model the seed and each later one its own from SeedSequence([seed, index])."""
-    from soilstats.cli.posterior import model_seed
+    from soilstats.bayes.run_checks import model_seed
 
     assert model_seed(7, 0) == 7
     assert model_seed(7, 1) == model_seed(7, 1) != 7

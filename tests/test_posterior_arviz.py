@@ -17,7 +17,8 @@ from soilstats.bayes._arviz import az
 from soilstats.bayes.data import pooled_problem
 from soilstats.bayes.predictive import PREDICTIVE_DRAWS, spread_draws
 from soilstats.models import BEKKER
-from soilstats.report.posterior_figures import pair_figure, predictive_figure, trace_figure
+from soilstats.report.posterior_figures import pair_figure, trace_figure
+from soilstats.report.posterior_predictive import predictive_figure
 
 matplotlib.use("Agg")
 

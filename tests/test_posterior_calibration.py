@@ -98,7 +98,7 @@ def test_cli_shear_population_writes_new_preparation_draws(tmp_path):
 
 def test_population_models_are_those_whose_record_has_a_layout():
     from soilstats.bayes.population import POPULATION_MODELS
-    from soilstats.cli.posterior_output import has_population
+    from soilstats.bayes.run_checks import has_population
     from soilstats.models import MODELS
 
     assert POPULATION_MODELS == ("bekker", "bernstein", "janosi")

@@ -349,3 +349,34 @@ def test_page_one_says_pass_every_check_only_when_nothing_is_flagged():
 
     said = "".join(str(p) for p in _verdict([Flagged()], record))
     assert "pass every check" not in said and "least-squares start of bernstein" in said
+
+
+def test_constraint_failures_name_the_fix_with_or_without_the_api_arguments():
+    """One wording for the API's error and the CLI's refusal: the API's argument names
+    (elastic_K=, repair=) only where they can be given (issue #45: the CLI had a copy)."""
+    from soilstats.bayes.export import constraint_failures
+
+    table = pd.DataFrame(
+        {
+            "Bekker_Kphi": [5e7, 1e6],
+            "Bekker_Kc": [0.0, 0.0],
+            "Bekker_n": [1.0, 0.0],
+            "Mohr_cohesion": [0.0, 0.0],
+            "Mohr_friction": [30.0, 30.0],
+            "Janosi_shear": [0.01, 0.01],
+            "elastic_K": [4e7, 4e7],
+            "damping_R": [3e4, 3e4],
+        }
+    )
+    _, check = check_scm(table)
+    api, cli = (
+        constraint_failures("chrono-scm", check),
+        constraint_failures("chrono-scm", check, arguments=False),
+    )
+    assert len(api) == len(cli) == 2
+    fixed = [text for text in cli if "Fix:" in text]
+    assert len(fixed) == 1 and "above 5e+07 Pa/m" in fixed[0]  # the largest Bekker_Kphi
+    assert "--scm-elastic-K above" in fixed[0] and "--scm-repair MULTIPLE to set" in fixed[0]
+    assert "(elastic_K=)" in "".join(api) and "(repair=)" in "".join(api)
+    assert "(elastic_K=)" not in "".join(cli)
+    assert [a.replace(" (elastic_K=)", "").replace(" (repair=)", "") for a in api] == cli

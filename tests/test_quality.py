@@ -387,7 +387,8 @@ def test_a_clipped_top_is_not_the_sensors_resolution():
     # A clipped channel repeats its maximum: counted as quantisation, it made a clipped
     # sparse GRC-1 record's "noise" its smallest rise (8.7 N instead of 0), and a noise floor
     # that high hid or invented seating offsets.
-    from soilstats.quality.records import _quantum, find_contact
+    from soilstats.quality.noise import quantum as _quantum
+    from soilstats.quality.records import find_contact
 
     z, force = _record("grc1-oravec2009", "medium-3")
     clipped = np.minimum(force, 0.6 * force.max())

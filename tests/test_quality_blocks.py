@@ -24,7 +24,7 @@ from soilstats.quality.prescreen import (
     late_zero_candidates,
     runaway_candidates,
 )
-from soilstats.quality.screen import seating_per_soil
+from soilstats.quality.sinkage_rules import seating_per_soil
 
 PER_RECORD = (
     "spike",

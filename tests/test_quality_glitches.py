@@ -6,8 +6,11 @@ record that runs away at its end is no glitch."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import pytest
+from quality_sim import artefact_spec, flagged_rows
 
 from soilstats import fit_sinkage
 from soilstats.quality import screen
@@ -21,33 +24,21 @@ SOILS = {
 }
 
 
-def _spec(artefacts: list[dict], points: int = 200) -> dict:
-    return {
-        **({"artefacts": artefacts} if artefacts else {}),
-        "name": "glitches",
-        "scatter": {"stiffness_cv": 0.08, "n_sd": 0.02},
-        "noise": {"force_N": 1.0, "force_offset_N": 1.0},
-        "soils": SOILS,
-        "series": [
-            {
-                "name": "plates",
-                "kind": "sinkage",
-                "soils": list(SOILS),
-                "plates": [{"shape": "circle", "radius_m": b} for b in (0.025, 0.05)],
-                "repetitions": 5,
-                "points": points,
-                "sinkage_m": 0.03,
-            }
-        ],
-    }
+#: This file's campaign with the artefacts given planted (``points`` per record).
+_spec = partial(
+    artefact_spec,
+    "glitches",
+    SOILS,
+    points=200,
+    noise_N=1.0,
+    radii=(0.025, 0.05),
+    repetitions=5,
+    sinkage_m=0.03,
+)
 
 
 def _flagged(report) -> dict[str, set]:
-    out: dict[str, set] = {}
-    for f in report.flags:
-        if f.code == "glitch-cluster":
-            out.setdefault(f.test_id, set()).update(f.rows)
-    return out
+    return flagged_rows(report, "glitch-cluster")
 
 
 @pytest.mark.parametrize(("channel", "seed"), [("z_m", 3), ("force_N", 4)])

@@ -8,9 +8,11 @@ from __future__ import annotations
 import itertools
 import json
 import warnings
+from functools import partial
 
 import numpy as np
 import pytest
+from quality_sim import artefact_spec, flagged_rows
 
 from soilstats import fit_sinkage, load_campaign
 from soilstats.campaign.window import FitWindow
@@ -26,33 +28,17 @@ SOILS = {
 }
 
 
-def _spec(artefacts: list[dict], points: int = 150) -> dict:
-    return {
-        **({"artefacts": artefacts} if artefacts else {}),
-        "name": "phases",
-        "scatter": {"stiffness_cv": 0.08, "n_sd": 0.02},
-        "noise": {"force_N": 0.3, "force_offset_N": 0.3},
-        "soils": SOILS,
-        "series": [
-            {
-                "name": "plates",
-                "kind": "sinkage",
-                "soils": list(SOILS),
-                "plates": [{"shape": "circle", "radius_m": b} for b in (0.03, 0.06)],
-                "repetitions": 4,
-                "points": points,
-                "sinkage_m": 0.04,
-            }
-        ],
-    }
-
-
-def _flagged_rows(report, code: str) -> dict[str, set]:
-    out: dict[str, set] = {}
-    for f in report.flags:
-        if f.code == code:
-            out.setdefault(f.test_id, set()).update(f.rows)
-    return out
+#: This file's campaign with the artefacts given planted (``points`` per record).
+_spec = partial(
+    artefact_spec,
+    "phases",
+    SOILS,
+    points=150,
+    noise_N=0.3,
+    radii=(0.03, 0.06),
+    repetitions=4,
+    sinkage_m=0.04,
+)
 
 
 def test_cmu_plates_name_the_release_in_every_record_and_no_failure_or_clipping():
@@ -109,7 +95,7 @@ def test_a_planted_phase_is_found_in_its_tests_at_its_rows_and_nowhere_else(
     report = screen(sim.campaign)
     found: dict[str, set] = {}
     for code in codes:
-        for test_id, rows in _flagged_rows(report, code).items():
+        for test_id, rows in flagged_rows(report, code).items():
             found.setdefault(test_id, set()).update(rows)
     assert set(found) == set(truth["test_id"])
     force = sim.campaign.sinkage["force_N"]
@@ -197,7 +183,7 @@ def test_clean_simulated_campaigns_raise_no_phase_burst_or_contact_flag():
     for points in (25, 60, 150, 400):
         for noise in (0.05, 0.5):
             for depth in (0.02, 0.06):
-                spec = _spec([], points) | {"soils": soils}
+                spec = _spec([], points=points) | {"soils": soils}
                 spec["noise"] = {"force_N": noise, "force_offset_N": noise}
                 spec["series"][0] |= {
                     "soils": list(soils),

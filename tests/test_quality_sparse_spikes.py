@@ -7,28 +7,17 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from quality_sim import plate_spec
+from quality_sim import flagged_rows, plate_spec, raw_tables
 
 from soilstats import load_campaign
 from soilstats.campaign import Campaign
-from soilstats.campaign.schema import DERIVED_COLUMNS
 from soilstats.quality import screen
 from soilstats.quality.records import find_spikes
 from soilstats.simulation import simulate
 
 
-def _raw(campaign):
-    tests = campaign.tests.drop(columns=list(DERIVED_COLUMNS["tests"]), errors="ignore")
-    sinkage = campaign.sinkage.drop(columns=list(DERIVED_COLUMNS["sinkage"]), errors="ignore")
-    return tests, sinkage.reset_index(drop=True)
-
-
 def _spiked_rows(report) -> dict[str, set]:
-    out: dict[str, set] = {}
-    for f in report.flags:
-        if f.code == "spike":
-            out.setdefault(f.test_id, set()).update(f.rows)
-    return out
+    return flagged_rows(report, "spike")
 
 
 def _plant(sinkage: pd.DataFrame, column: str, where: float, factor: float, ids=None):
@@ -51,7 +40,7 @@ def test_a_force_spike_on_grc1_medium_and_large_plates_is_found_alone(where, fac
     """GRC-1's medium and large plates (28 samples, no artefact: docs/quality.md) with one
     force sample x3-x4.  Before, at 0.5 none of the 10 was flagged alone (3 missed, as the
     reviewer's x4 on medium-3; 7 taken with a good neighbour), at 0.65 4 of 10."""
-    tests, sinkage = _raw(load_campaign("grc1-oravec2009"))
+    tests, sinkage = raw_tables(load_campaign("grc1-oravec2009"))
     ids = {f"{p}-{i}" for p in ("medium", "large") for i in range(1, 6)}
     spiked, planted = _plant(sinkage, "force_N", where, factor, ids)
     report = screen(Campaign.from_frames(tests, spiked))
@@ -65,7 +54,7 @@ def test_a_force_spike_on_grc1_medium_and_large_plates_is_found_alone(where, fac
 def test_a_sinkage_spike_takes_no_good_neighbour_with_it():
     """The reviewer's grc-zspike: medium-3's z at its 15th sample x3.  Before, the spike
     and the good sample after it were both left out."""
-    tests, sinkage = _raw(load_campaign("grc1-oravec2009"))
+    tests, sinkage = raw_tables(load_campaign("grc1-oravec2009"))
     spiked, planted = _plant(sinkage, "z_m", 0.5, 3.0, {"medium-3"})
     report = screen(Campaign.from_frames(tests, spiked))
     assert _spiked_rows(report) == {"medium-3": {planted["medium-3"]}}
@@ -89,7 +78,7 @@ def test_single_spikes_on_sparse_simulated_records_are_found_and_clean_ones_are_
     spikes found (each a run of three with its neighbours), 9 of 18 force spikes alone."""
     campaign = _sparse(20, seed=11)
     assert screen(campaign).flags == ()  # clean sparse records: nothing to find
-    tests, sinkage = _raw(campaign)
+    tests, sinkage = raw_tables(campaign)
     spiked, planted = _plant(sinkage, column, 0.5, 3.0)
     found = _spiked_rows(screen(Campaign.from_frames(tests, spiked)))
     assert found == {t: {r} for t, r in planted.items()}

@@ -66,7 +66,7 @@ def test_prep_level_holds_where_the_pooled_f_does_not():
         d = campaign(rng)
         welch += (
             welch_random_block(
-                d, "y", "method", ["b_m", "operator"], "operator", n_boot=999
+                d, "y", "method", ["b_m", "operator"], "operator", n_boot=199
             ).p_value
             < 0.05
         )

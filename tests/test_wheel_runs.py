@@ -107,11 +107,15 @@ def test_empty_file_is_refused(tmp_path):
 def test_geometry_from_the_bundled_toml_and_options():
     tables = read_wheels(CMU / "wheels.toml")
     wheels = wheel_geometry(["smooth", "grouser"], tables)
-    assert wheels["smooth"] == Wheel(0.058, 0.05, name="smooth")
+    # the smooth wheel's shearing radius is stated as its radius (a smooth rim shears)
+    assert wheels["smooth"].contact_radius_m == wheels["smooth"].radius_m == 0.058
+    assert (wheels["smooth"].width_m, wheels["smooth"].name) == (0.05, "smooth")
     assert wheels["grouser"].contact_radius_m == 0.063
     assert wheels["grouser"].grouser_area_ratio == 0.1
     wider = wheel_geometry(
-        ["smooth"], tables, {"*": {"width_m": 0.06}, "smooth": {"radius_m": 0.1}}
+        ["smooth"],
+        tables,
+        {"*": {"width_m": 0.06}, "smooth": {"radius_m": 0.1, "shear_radius_m": 0.1}},
     )
     assert wider["smooth"].width_m == 0.06 and wider["smooth"].radius_m == 0.1
     with pytest.raises(WheelDataError, match="--wheel-radius tracked=R"):

@@ -4,13 +4,19 @@ draws out or not (:mod:`soilstats.bayes.handout`) and what that decision rests o
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from ..outputs import json_safe
+from ..outputs import json_safe, output_path, write_atomic, write_csv
 from .band_check import band_calibration
 
-__all__ = ["posterior_record"]
+if TYPE_CHECKING:
+    from ..outputs.provenance import Provenance
+    from .export import SimulatorExport
+    from .support import SupportCheck
+
+__all__ = ["posterior_record", "write_export"]
 
 
 def posterior_record(
@@ -23,17 +29,21 @@ def posterior_record(
     pooling_warnings: list[str],
     selection: list[str],
     provenance: Any,
+    defaults: Mapping[str, str] | None = None,
 ) -> dict:
     """posterior.json's content: ``results`` (one posterior per model), ``handout`` (the
     decision: a :class:`soilstats.bayes.handout.Handout`), the ``failures`` that refused
     the draws (non-empty only for a forced run), the run's ``warnings`` and the conditions it
     pools (:func:`soilstats.bayes.pooling.pooling_warnings`), the ``selection`` as given and
-    the ``provenance`` (:class:`soilstats.outputs.Provenance`); NaN written as null."""
+    the ``provenance`` (:class:`soilstats.outputs.Provenance`) and the ``defaults`` the run rests
+    on unsaid (``{"--walkers": "32"}``: the options left at their defaults, printed on page 1
+    of the report); NaN written as null."""
     decision = handout.to_dict()
     checks = {r.model_name: band_calibration(r) for r in results if r.kind == "population"}
     return json_safe(
         {
             "soil": soil,
+            "defaults": dict(defaults or {}),
             "models": models,
             "kind": [r.kind for r in results],
             "converged": all(r.converged for r in results),
@@ -53,4 +63,45 @@ def posterior_record(
             "selection": selection,
             "provenance": provenance.to_dict(),
         }
+    )
+
+
+class _Annotated:
+    """A provenance whose CSV comment header carries more ``key: value`` lines."""
+
+    def __init__(self, provenance: Provenance, extra: list[str]) -> None:
+        self._provenance, self._extra = provenance, extra
+
+    def lines(self) -> list[str]:
+        return [*self._provenance.lines(), *self._extra]
+
+
+def write_export(
+    out: Path,
+    export: SimulatorExport,
+    record: dict[str, Any],
+    support: SupportCheck | None,
+    provenance: Provenance,
+    seed: int,
+) -> None:
+    """``<simulator>.csv`` (each column's source and the simulator's check in its comment
+    lines, FORCED and why where ``record`` says so) and ``<simulator>.json`` (the export's
+    record with the run's context) into ``out``, replacing what is there (the command
+    checked its outputs before sampling)."""
+    name = export.simulator
+    extra = export.comment_lines()
+    if record["forced"]:
+        extra.append("FORCED: written although: " + "; ".join(record["failures"]))
+    write_csv(
+        out / f"{name}.csv",
+        export.table,
+        _Annotated(provenance, extra),
+        overwrite=True,
+        float_format="%.10g",
+    )
+    context = {k: record[k] for k in ("soil", "models", "kind", "forced", "failures", "selection")}
+    context |= {"seed": seed, "version": provenance.to_dict().get("soilstats_version")}
+    write_atomic(
+        output_path(out, f"{name}.json", overwrite=True),
+        json.dumps(json_safe(export.record(support, context)), indent=2) + "\n",
     )

@@ -136,20 +136,7 @@ def run_ensemble(
     if draws < 1:
         raise InputError(f"draws must be a positive integer, got {draws}")
     rng = np.random.default_rng(seed)
-    independent = None
-    if moves == "laplace":
-        independent = StudentIndependenceMove(centre, cov, dof=proposal_dof)
-        mix = [
-            (independent, 0.7),
-            (emcee.moves.DEMove(), 0.2),
-            (emcee.moves.DESnookerMove(), 0.1),
-        ]
-    elif moves == "de":
-        mix = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
-    elif moves == "stretch":
-        mix = None
-    else:
-        raise InputError(f"moves must be 'laplace', 'de' or 'stretch', got {moves!r}")
+    mix, independent = _moves(moves, centre, cov, proposal_dof)
     sampler = emcee.EnsembleSampler(n_walkers, dim, log_prob, moves=mix, vectorize=True)
     start = _start(log_prob, centre, cov, n_walkers, rng)
     state = emcee.State(
@@ -182,17 +169,8 @@ def run_ensemble(
             independent.refit(recent.mean(axis=0), np.cov(recent, rowvar=False))
             state = advance(state, tune)
             adapted = sampler.iteration
-        tau = np.max(emcee.autocorr.integrated_time(sampler.get_chain()[adapted // 2 :], tol=0))
-        if math.isfinite(tau):
-            burn = adapted + max(10, math.ceil(3 * tau))
-            thin = max(1, int(tau / 2))
-            needed = max(burn + thin * per_walker, burn + math.ceil(50 * tau))
-        else:
-            # Walkers left the finite part of the density (their values overflowed): there
-            # is no autocorrelation time to set a burn-in or a thinning by.  Keep a short
-            # stretch, unthinned and not extended; its τ is not finite, so the run is
-            # reported as not converged (tau_reliable False) instead of raising here.
-            burn, thin, needed = adapted, 1, adapted + per_walker
+        burn, thin, needed, finite = _burn_and_thin(sampler, adapted, per_walker)
+        if not finite:  # no τ: a short unthinned stretch, never extended (_burn_and_thin)
             accept = None
         extended = 0
         while True:
@@ -210,7 +188,59 @@ def run_ensemble(
             per_walker *= 2
             extended += 1
             needed = burn + thin * per_walker
-    runtime_s = time.perf_counter() - t0
+    return _kept(sampler, burn, thin, per_walker, time.perf_counter() - t0, extended)
+
+
+def _moves(
+    moves: str, centre: np.ndarray, cov: np.ndarray, proposal_dof: float
+) -> tuple[list | None, StudentIndependenceMove | None]:
+    """emcee's move mix of ``moves`` (see :func:`run_ensemble`) and its Student-t
+    independence move, refitted after tuning (None where the mix has none)."""
+    independent = None
+    if moves == "laplace":
+        independent = StudentIndependenceMove(centre, cov, dof=proposal_dof)
+        mix: list | None = [
+            (independent, 0.7),
+            (emcee.moves.DEMove(), 0.2),
+            (emcee.moves.DESnookerMove(), 0.1),
+        ]
+    elif moves == "de":
+        mix = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    elif moves == "stretch":
+        mix = None
+    else:
+        raise InputError(f"moves must be 'laplace', 'de' or 'stretch', got {moves!r}")
+    return mix, independent
+
+
+def _burn_and_thin(
+    sampler: emcee.EnsembleSampler, adapted: int, per_walker: int
+) -> tuple[int, int, int, bool]:
+    """Burn-in, thinning and the steps needed, from the autocorrelation time τ of the
+    chain after adaptation: burn 3τ (at least 10), thin τ/2, at least 50τ kept; and
+    whether τ was finite."""
+    tau = np.max(emcee.autocorr.integrated_time(sampler.get_chain()[adapted // 2 :], tol=0))
+    if math.isfinite(tau):
+        burn = adapted + max(10, math.ceil(3 * tau))
+        thin = max(1, int(tau / 2))
+        return burn, thin, max(burn + thin * per_walker, burn + math.ceil(50 * tau)), True
+    # Walkers left the finite part of the density (their values overflowed): there is no
+    # autocorrelation time to set a burn-in or a thinning by.  Keep a short stretch,
+    # unthinned and not extended; its τ is not finite, so the run is reported as not
+    # converged (tau_reliable False) instead of raising here.
+    return adapted, 1, adapted + per_walker, False
+
+
+def _kept(
+    sampler: emcee.EnsembleSampler,
+    burn: int,
+    thin: int,
+    per_walker: int,
+    runtime_s: float,
+    extended: int,
+) -> EnsembleRun:
+    """The kept draws of a finished run: after ``burn``, every ``thin``-th step, the last
+    ``per_walker`` of each walker, with their τ and the run's counts."""
     steps = sampler.iteration
     full = sampler.get_chain()[burn:]  # (steps, walkers, p)
     tau_kept = emcee.autocorr.integrated_time(full, tol=0)
@@ -225,7 +255,7 @@ def run_ensemble(
         steps=steps,
         acceptance=sampler.acceptance_fraction.copy(),
         runtime_s=runtime_s,
-        evaluations=steps * n_walkers,
+        evaluations=steps * sampler.nwalkers,
         tau_reliable=bool(full.shape[0] >= 50 * np.max(tau_kept)),
         extended=extended,
     )

@@ -17,14 +17,16 @@ from ..errors import RENAMED_GO_IN, CampaignError, InputError, SoilstatsWarning
 from . import io
 from ._cells import TEXT_DTYPE, without_controls
 from .derived import add_sample_columns, add_test_columns
+from .derived_checks import derived_issues
 from .digest import campaign_sha256
 from .frame_checks import check_frame
 from .index import campaign_index, grouped_by_code
 from .matching import match_values, values_present
+from .near_names import warn_near_names
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
 from .summary import describe
 from .units import check_plausible_units, convert_columns
-from .validate import Frames, Issue, derived_issues, validate
+from .validate import Frames, Issue, validate
 from .window import AppliedWindow, FitWindow
 
 __all__ = ["SKIPPED_COLUMNS", "Campaign", "load_campaign"]
@@ -167,37 +169,10 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
             SoilstatsWarning,
             stacklevel=3,  # the caller of load_campaign or from_frames
         )
-    _warn_near_names(out["tests"], frames["tests"][1])
+    warn_near_names(out, file_names)
     if check_units:
         check_plausible_units(out["tests"], out["sinkage"], out["shear"], file_names)
     return Campaign(out["tests"], out["sinkage"], out["shear"], source, skipped, files=file_names)
-
-
-#: Log columns whose values name groups the analyses keep apart.
-_GROUP_NAMES = ("soil", "preparation", "operator")
-
-
-def _warn_near_names(tests: pd.DataFrame, file: str) -> None:
-    """Warn of names that differ only in case or surrounding blanks ('soil01 ', 'Soil01'):
-    the format keeps text exactly, so they are different soils (methods, operators) — a
-    typing slip that would split one soil's tests, with nothing else to show it."""
-    for column in _GROUP_NAMES:
-        if column not in tests:
-            continue
-        names = tests[column].dropna().astype(str)
-        key = names.str.strip().str.casefold()
-        variants = names.groupby(key.to_numpy()).unique()
-        for group in variants[variants.map(len) > 1]:
-            ids = tests.loc[names.index[names.isin(group)], "test_id"].astype(str).tolist()
-            warnings.warn(
-                f"file {file!r}, column {column!r}: "
-                + ", ".join(repr(v) for v in sorted(group))
-                + f" differ only in case or blanks (tests {', '.join(ids[:6])}"
-                + (", …" if len(ids) > 6 else "")
-                + f") and are analysed apart; if they are one {column}, write one name",
-                SoilstatsWarning,
-                stacklevel=4,  # the caller of load_campaign or from_frames
-            )
 
 
 def load_campaign(

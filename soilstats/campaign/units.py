@@ -163,6 +163,9 @@ MAX_SINKAGE_RANGE_M = 1.0
 MAX_TOOL_SIZE_M = 1.0
 #: A pressure–sinkage test loads the soil to kPa or more; a peak below this is kN read as N.
 MIN_PEAK_PRESSURE_PA = 200.0
+#: ... and to MPa at most (a plate on dense soil; rock crushes near 100 MPa): a peak above
+#: this is not a soil's answer but a force in mN read as N, or the wrong column.
+MAX_PEAK_PRESSURE_PA = 1e8
 #: Soil shear strength is kPa to hundreds of kPa; a peak above this is N·mm read as N·m.
 MAX_PEAK_SHEAR_PA = 5e6
 #: ... and a peak below this is kN·m read as N·m.
@@ -219,12 +222,11 @@ def implausible_units(
     return found
 
 
-def _implausible_units(
-    tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame
-) -> list[UnitsFinding]:
-    found: list[UnitsFinding] = []
+class _Findings(list):
+    """The findings of one judgement; :meth:`add` records the tests where ``mask`` holds."""
 
     def add(
+        self,
         mask: pd.Series,
         values: pd.Series,
         file: str,
@@ -235,7 +237,7 @@ def _implausible_units(
     ) -> None:
         hits = list(mask[mask].index)
         if hits:
-            found.append(
+            self.append(
                 UnitsFinding(
                     file,
                     column,
@@ -247,13 +249,27 @@ def _implausible_units(
                 )
             )
 
+
+def _implausible_units(
+    tests: pd.DataFrame, sinkage: pd.DataFrame, shear: pd.DataFrame
+) -> list[UnitsFinding]:
+    found = _Findings()
+    _tool_sizes(found, tests)
+    if len(sinkage):
+        _sinkage_units(found, tests, sinkage)
+    if len(shear):
+        _shear_units(found, shear)
+    return list(found)
+
+
+def _tool_sizes(found: _Findings, tests: pd.DataFrame) -> None:
     for column in _GEOMETRY:
         if column not in tests.columns:
             continue
         values = pd.Series(
             tests[column].to_numpy(dtype=float, na_value=np.nan), index=tests["test_id"]
         )
-        add(
+        found.add(
             values > MAX_TOOL_SIZE_M,
             values,
             "tests.csv",
@@ -263,102 +279,113 @@ def _implausible_units(
             "unit = 'mm' (docs/importing.md)",
             fatal=True,
         )
-    if len(sinkage):
-        by_test = sinkage.groupby("test_id", sort=False)
-        z_range = by_test["z_m"].max() - by_test["z_m"].min()
-        add(
-            z_range > MAX_SINKAGE_RANGE_M,
-            z_range,
-            "sinkage.csv",
-            "z_m",
-            f"a sinkage span above {MAX_SINKAGE_RANGE_M:g} m; a plate sinks centimetres, so "
-            "z_m looks like millimetres or centimetres — divide by 1000 (or 100), or import "
-            "with unit = 'mm' (or 'cm') (docs/importing.md)",
-            fatal=True,
-        )
-        travel = by_test["z_m"].last() - by_test["z_m"].first()
-        add(
-            travel < -0.5 * z_range,
-            travel,
-            "sinkage.csv",
-            "z_m",
-            "a sinkage that falls through the record (the plate rises?): the displacement "
-            "sign looks reversed (multiply z_m by -1)",
-            kind="sign",
-        )
-        soil = tests.set_index("test_id")["soil"] if "soil" in tests.columns else None
-        above = _times_soil_median(z_range, soil)
-        add(
-            (z_range <= MAX_SINKAGE_RANGE_M) & (above > SPAN_JUMP),
-            z_range,
-            "sinkage.csv",
-            "z_m",
-            f"a sinkage span more than {SPAN_JUMP:g} times the median of its soil's tests: "
-            "z_m looks like centimetres or millimetres among metres — divide by 100 (or "
-            "1000), or import with unit = 'cm' (or 'mm')",
-        )
-        # Judge the load only where the plate is in contact, on records long enough to fit.
-        loaded = sinkage[sinkage["z_m"] > 0].groupby("test_id", sort=False)["pressure_Pa"]
-        peak = loaded.max()[loaded.size() >= MIN_SAMPLES]
-        add(
-            peak <= 0,
-            peak,
-            "sinkage.csv",
-            "force_N",
-            "no positive force where the plate is in contact: the load cell's sign looks "
-            "reversed (multiply force_N by -1)",
-            kind="sign",
-        )
-        add(
-            (peak > 0) & (peak < MIN_PEAK_PRESSURE_PA),
-            peak,
-            "sinkage.csv",
-            "force_N",
-            f"peak pressure below {MIN_PEAK_PRESSURE_PA:g} Pa: force_N looks like kilonewtons "
-            "(multiply by 1000, or import with unit = 'kN')",
-        )
-        below = 1.0 / _times_soil_median(peak, soil)
-        # Only a record that rises as a loaded curve does (not a flat or dead channel,
-        # which screening names on its own) reads as a unit slip.
-        rises = (peak - loaded.min()[peak.index]) > 0.5 * peak
-        add(
-            (peak >= MIN_PEAK_PRESSURE_PA) & (below > PRESSURE_JUMP) & rises,
-            peak,
-            "sinkage.csv",
-            "force_N",
-            f"a peak pressure less than 1/{PRESSURE_JUMP:g} of the median of its soil's tests: "
-            "force_N looks like kilonewtons among newtons (multiply by 1000, or import with "
-            "unit = 'kN')",
-        )
-    if len(shear):
-        by_test = shear.groupby("test_id", sort=False)
-        tau_peak = by_test["tau_Pa"].max()
-        add(
-            tau_peak > MAX_PEAK_SHEAR_PA,
-            tau_peak,
-            "shear.csv",
-            "torque_Nm",
-            f"peak shear stress above {MAX_PEAK_SHEAR_PA:g} Pa: torque_Nm looks like N·mm "
-            "(divide by 1000, or import with unit = 'N*mm')",
-        )
-        add(
-            tau_peak < MIN_PEAK_SHEAR_PA,
-            tau_peak,
-            "shear.csv",
-            "torque_Nm",
-            f"peak shear stress below {MIN_PEAK_SHEAR_PA:g} Pa: torque_Nm looks like kN·m "
-            "(multiply by 1000, or import with unit = 'kN*m')",
-        )
-        turned = by_test["angle_rad"].max() - by_test["angle_rad"].min()
-        add(
-            turned > MAX_ROTATION_RAD,
-            turned,
-            "shear.csv",
-            "angle_rad",
-            "the ring turns more than two revolutions: angle_rad looks like degrees "
-            "(multiply by pi/180, or import with unit = 'deg')",
-        )
-    return found
+
+
+def _sinkage_units(found: _Findings, tests: pd.DataFrame, sinkage: pd.DataFrame) -> None:
+    by_test = sinkage.groupby("test_id", sort=False)
+    z_range = by_test["z_m"].max() - by_test["z_m"].min()
+    found.add(
+        z_range > MAX_SINKAGE_RANGE_M,
+        z_range,
+        "sinkage.csv",
+        "z_m",
+        f"a sinkage span above {MAX_SINKAGE_RANGE_M:g} m; a plate sinks centimetres, so "
+        "z_m looks like millimetres or centimetres — divide by 1000 (or 100), or import "
+        "with unit = 'mm' (or 'cm') (docs/importing.md)",
+        fatal=True,
+    )
+    travel = by_test["z_m"].last() - by_test["z_m"].first()
+    found.add(
+        travel < -0.5 * z_range,
+        travel,
+        "sinkage.csv",
+        "z_m",
+        "a sinkage that falls through the record (the plate rises?): the displacement "
+        "sign looks reversed (multiply z_m by -1)",
+        kind="sign",
+    )
+    soil = tests.set_index("test_id")["soil"] if "soil" in tests.columns else None
+    above = _times_soil_median(z_range, soil)
+    found.add(
+        (z_range <= MAX_SINKAGE_RANGE_M) & (above > SPAN_JUMP),
+        z_range,
+        "sinkage.csv",
+        "z_m",
+        f"a sinkage span more than {SPAN_JUMP:g} times the median of its soil's tests: "
+        "z_m looks like centimetres or millimetres among metres — divide by 100 (or "
+        "1000), or import with unit = 'cm' (or 'mm')",
+    )
+    # Judge the load only where the plate is in contact, on records long enough to fit.
+    loaded = sinkage[sinkage["z_m"] > 0].groupby("test_id", sort=False)["pressure_Pa"]
+    peak = loaded.max()[loaded.size() >= MIN_SAMPLES]
+    found.add(
+        peak <= 0,
+        peak,
+        "sinkage.csv",
+        "force_N",
+        "no positive force where the plate is in contact: the load cell's sign looks "
+        "reversed (multiply force_N by -1)",
+        kind="sign",
+    )
+    found.add(
+        (peak > 0) & (peak < MIN_PEAK_PRESSURE_PA),
+        peak,
+        "sinkage.csv",
+        "force_N",
+        f"peak pressure below {MIN_PEAK_PRESSURE_PA:g} Pa: force_N looks like kilonewtons "
+        "(multiply by 1000, or import with unit = 'kN')",
+    )
+    found.add(
+        peak > MAX_PEAK_PRESSURE_PA,
+        peak,
+        "sinkage.csv",
+        "force_N",
+        f"peak pressure above {MAX_PEAK_PRESSURE_PA:g} Pa, beyond any soil: force_N looks like "
+        "millinewtons or another quantity (check the column; divide mN by 1000)",
+    )
+    below = 1.0 / _times_soil_median(peak, soil)
+    # Only a record that rises as a loaded curve does (not a flat or dead channel,
+    # which screening names on its own) reads as a unit slip.
+    rises = (peak - loaded.min()[peak.index]) > 0.5 * peak
+    found.add(
+        (peak >= MIN_PEAK_PRESSURE_PA) & (below > PRESSURE_JUMP) & rises,
+        peak,
+        "sinkage.csv",
+        "force_N",
+        f"a peak pressure less than 1/{PRESSURE_JUMP:g} of the median of its soil's tests: "
+        "force_N looks like kilonewtons among newtons (multiply by 1000, or import with "
+        "unit = 'kN')",
+    )
+
+
+def _shear_units(found: _Findings, shear: pd.DataFrame) -> None:
+    by_test = shear.groupby("test_id", sort=False)
+    tau_peak = by_test["tau_Pa"].max()
+    found.add(
+        tau_peak > MAX_PEAK_SHEAR_PA,
+        tau_peak,
+        "shear.csv",
+        "torque_Nm",
+        f"peak shear stress above {MAX_PEAK_SHEAR_PA:g} Pa: torque_Nm looks like N·mm "
+        "(divide by 1000, or import with unit = 'N*mm')",
+    )
+    found.add(
+        tau_peak < MIN_PEAK_SHEAR_PA,
+        tau_peak,
+        "shear.csv",
+        "torque_Nm",
+        f"peak shear stress below {MIN_PEAK_SHEAR_PA:g} Pa: torque_Nm looks like kN·m "
+        "(multiply by 1000, or import with unit = 'kN*m')",
+    )
+    turned = by_test["angle_rad"].max() - by_test["angle_rad"].min()
+    found.add(
+        turned > MAX_ROTATION_RAD,
+        turned,
+        "shear.csv",
+        "angle_rad",
+        "the ring turns more than two revolutions: angle_rad looks like degrees "
+        "(multiply by pi/180, or import with unit = 'deg')",
+    )
 
 
 def _times_soil_median(values: pd.Series, soil: pd.Series | None) -> pd.Series:

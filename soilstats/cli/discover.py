@@ -62,10 +62,9 @@ def run(args: argparse.Namespace) -> int:
         document = {"defaults": defaults} | {
             k: v for k, v in result.to_dict().items() if k != "provenance"
         }
-        json_path = write_json(
-            folder / "discover.json", document, provenance, overwrite=args.overwrite
-        )
-        pdf_path = folder / "discover.pdf"
+        json_path, pdf_path = folder / "discover.json", folder / "discover.pdf"
+        # the path written is the staging folder's: the user is told where the set lands
+        write_json(json_path, document, provenance, overwrite=args.overwrite)
         write_report(result, pdf_path, overwrite=args.overwrite, defaults=defaults)
         print(f"wrote {json_path} and {pdf_path}", file=sys.stderr)
     print(result.to_json() if args.json else result.summary())

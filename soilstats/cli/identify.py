@@ -37,6 +37,7 @@ from .common import (
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
     from ..identification.conditions import ConditionPlan
+    from ..outputs.provenance import Provenance
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -127,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     """Fit every soil and condition; print Table-5-style tables or one JSON object."""
     from ..errors import CampaignError
     from ..identification.conditions import fit_planned, plan_conditions
-    from ..outputs import json_safe, write_csv, write_json
+    from ..outputs import json_safe
     from ..parallel import warm_workers
 
     warm_workers(args.jobs, ("soilstats.identification.conditions",))  # while loading
@@ -190,27 +191,39 @@ def run(args: argparse.Namespace) -> int:
     defaults = defaults_not_given(args)
     document: dict[str, Any] = {"defaults": defaults, "fits": records}
     if args.out:
-        import pandas as pd
-
-        folder = Path(args.out)
-        write_json(folder / "identify.json", document, provenance, overwrite=args.overwrite)
-        table = pd.concat([r.table() for r in results], ignore_index=True)
-        write_csv(folder / "identify.csv", table, provenance, overwrite=args.overwrite)
-        from ..report.identify_pdf import write_report
-
-        write_report(
-            results,
-            folder / "identify.pdf",
-            campaign=campaign,
-            provenance=provenance,
-            overwrite=args.overwrite,
-            defaults=defaults,
-        )
-        print(f"wrote {folder / 'identify.json'}, identify.csv and identify.pdf", file=sys.stderr)
+        _write(args, document, results, campaign, provenance)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
     return 0
+
+
+def _write(
+    args: argparse.Namespace,
+    document: dict[str, Any],
+    results: list[Any],
+    campaign: Campaign,
+    provenance: Provenance,
+) -> None:
+    """identify.json, identify.csv (every fit) and identify.pdf into --out."""
+    import pandas as pd
+
+    from ..outputs import write_csv, write_json
+    from ..report.identify_pdf import write_report
+
+    folder = Path(args.out)
+    write_json(folder / "identify.json", document, provenance, overwrite=args.overwrite)
+    table = pd.concat([r.table() for r in results], ignore_index=True)
+    write_csv(folder / "identify.csv", table, provenance, overwrite=args.overwrite)
+    write_report(
+        results,
+        folder / "identify.pdf",
+        campaign=campaign,
+        provenance=provenance,
+        overwrite=args.overwrite,
+        defaults=document["defaults"],
+    )
+    print(f"wrote {folder / 'identify.json'}, identify.csv and identify.pdf", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -5,76 +5,16 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from ..bayes.run_checks import extrapolation_warnings, has_population, prior_seed, tested_widths
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
 
-__all__ = [
-    "decide_and_write",
-    "extrapolation_warnings",
-    "has_population",
-    "model_seed",
-    "prior_seed",
-    "refuse",
-    "series_refusal",
-    "series_refused",
-    "tested_widths",
-]
-
-
-def model_seed(seed: int, index: int) -> int:
-    """The seed of the ``index``-th model of one run: ``seed`` itself for the first, one
-    drawn from ``SeedSequence([seed, index])`` for the others.  With one seed for both, the
-    sinkage and shear samplers drew the same random streams, and rows of their draws with
-    the same index were coupled (Spearman 0.9 between kφ and φ)."""
-    import numpy as np
-
-    if index == 0:
-        return int(seed)
-    return int(np.random.SeedSequence([int(seed), index]).generate_state(1, np.uint32)[0])
-
-
-def has_population(model: str) -> bool:
-    """Whether the model's record has a population layout (``Model.population``)."""
-    from ..models import get_model
-
-    return get_model(model).population is not None
-
-
-def prior_seed(seed: int, models: Sequence[str]) -> int:
-    """The seed of the user priors' draws: one stream of its own after the models'
-    (``SeedSequence([seed, len(models)])``), so they are independent of the posterior."""
-    return model_seed(seed, len(models))
-
-
-def tested_widths(args: argparse.Namespace, campaign: Campaign) -> tuple[float, float] | None:
-    """Smallest and largest plate dimension b [m] of the soil's sinkage tests, if any."""
-    tests = campaign.tests
-    b = tests.loc[(tests["kind"] == "sinkage") & (tests["soil"].astype(str) == args.soil), "b_m"]
-    b = b.dropna()
-    return (float(b.min()), float(b.max())) if len(b) else None
-
-
-def extrapolation_warnings(
-    widths: tuple[float, float], tested: tuple[float, float] | None, models: Iterable[str]
-) -> list[str]:
-    """Say when --contact-width leaves the tested plate sizes for a model whose modulus
-    depends on b (Bekker kc/b + kφ, Reece k1 + k2·b): there it is extrapolated, and the
-    support check only says it stays positive, not that it is right."""
-    from ..models import get_model
-
-    # The model's own inputs say whether it depends on the plate width b.
-    sized = [f"{m} ({spec.equation})" for m in models if "b [m]" in (spec := get_model(m)).inputs]
-    if not sized or tested is None or (tested[0] <= widths[0] and widths[1] <= tested[1]):
-        return []
-    return [
-        f"--contact-width {widths[0]:g}–{widths[1]:g} m leaves the plate sizes tested "
-        f"(b = {tested[0]:g}–{tested[1]:g} m): {', '.join(sized)} is extrapolated there, "
-        "unconstrained by the data; the support check only says it stays positive"
-    ]
+__all__ = ["decide_and_write", "refuse", "series_refusal", "series_refused"]
 
 
 def series_refusal(
@@ -133,60 +73,18 @@ def _export(args, models, results, kept, stated, campaign):
         seed=prior_seed(args.seed, models),
         repair=args.scm_repair,
         draws_source=taken,
-        plate_widths=tested_widths(args, campaign),
-        on_failure="return",  # refused below with the CLI's own words (_export_failures)
+        plate_widths=tested_widths(campaign, args.soil),
+        on_failure="return",  # refused below with the CLI's own words (constraint_failures)
     )
-
-
-def _export_failures(simulator: str, check) -> list[str]:
-    """The failed constraints, each with its fix (a larger elastic_K or --scm-repair)."""
-    from ..bayes.export import REPAIRABLE
-
-    fix = (
-        f". Fix: state --scm-elastic-K above {check.largest_kphi:.3g} Pa/m (the largest "
-        "Bekker_Kphi; best a measured unloading stiffness), or pass --scm-repair MULTIPLE to set "
-        "elastic_K = MULTIPLE x Bekker_Kphi in each such set (marked per row)"
-    )
-    return [
-        f"{simulator}: {failure}{fix if REPAIRABLE in failure else ''}"
-        for failure in check.failures
-    ]
-
-
-class _Annotated:
-    """A provenance whose CSV comment header carries more ``key: value`` lines."""
-
-    def __init__(self, provenance, extra: list[str]) -> None:
-        self._provenance, self._extra = provenance, extra
-
-    def lines(self) -> list[str]:
-        return [*self._provenance.lines(), *self._extra]
 
 
 def _write_export(out: Path, export, record: dict, support, provenance, args) -> None:
-    """``<simulator>.csv`` (each column's source and SCM's check in its comment lines) and
-    ``<simulator>.json``; the check, repairs and notes also to stderr."""
-    import json
-
-    from ..outputs import json_safe, output_path, write_atomic, write_csv
+    """``<simulator>.csv`` and ``<simulator>.json`` (:func:`soilstats.bayes.run_record
+    .write_export`); the check, repairs and notes also to stderr."""
+    from ..bayes.run_record import write_export
 
     name = export.simulator
-    extra = export.comment_lines()
-    if record["forced"]:
-        extra.append("FORCED: written although: " + "; ".join(record["failures"]))
-    write_csv(
-        out / f"{name}.csv",
-        export.table,
-        _Annotated(provenance, extra),
-        overwrite=True,
-        float_format="%.10g",
-    )
-    context = {k: record[k] for k in ("soil", "models", "kind", "forced", "failures", "selection")}
-    context |= {"seed": args.seed, "version": provenance.to_dict().get("soilstats_version")}
-    write_atomic(
-        output_path(out, f"{name}.json", overwrite=True),
-        json.dumps(json_safe(export.record(support, context)), indent=2) + "\n",
-    )
+    write_export(out, export, record, support, provenance, args.seed)
     repaired = export.check.repair_sentence()
     if repaired:
         print(f"WARNING: {name}: {repaired}", file=sys.stderr)
@@ -246,16 +144,10 @@ def refuse(
 def _warnings(caught, widths, args, campaign, models, handout, pooled_warnings) -> list[str]:
     """The warnings of a run, printed one line each: the library's own, numerical ones
     summed up, extrapolation, pooling and the flagged least-squares starts."""
-    from ..errors import SoilstatsWarning
+    from ..bayes.run_sampling import sampling_warnings
 
-    ours = [str(w.message) for w in caught if issubclass(w.category, SoilstatsWarning)]
-    numeric = len(caught) - len(ours)
-    if numeric:  # numpy overflow/invalid while sampling: one line, not hundreds
-        ours.append(
-            f"{numeric} numerical warnings (overflow, invalid values) while sampling: the "
-            "sampler reached extreme parameter values (an improper or very wide posterior)"
-        )
-    ours += extrapolation_warnings(widths, tested_widths(args, campaign), models)
+    ours = sampling_warnings(caught)
+    ours += extrapolation_warnings(widths, tested_widths(campaign, args.soil), models)
     for text in [*ours, *pooled_warnings]:
         print(f"WARNING: {text}", file=sys.stderr)
     for model, flags in handout.least_squares_health.items():
@@ -285,6 +177,7 @@ def decide_and_write(
     """The library's decision on the draws, printed; the files written where it allows."""
     import pandas as pd
 
+    from ..bayes.export import constraint_failures
     from ..bayes.handout import hand_out
 
     out = Path(args.out)
@@ -299,7 +192,7 @@ def decide_and_write(
     failures = list(handout.failures)
     export = _export(args, models, results, kept, stated, campaign) if args.simulator else None
     if export is not None and not export.check.passed:
-        failures += _export_failures(args.simulator, export.check)
+        failures += constraint_failures(args.simulator, export.check, arguments=False)
     series = series_refusal(args, models, campaign) if export is not None else None
     if series is not None:  # only with --force: refused before sampling otherwise
         failures.append(f"{args.simulator}: {series}")
@@ -310,6 +203,7 @@ def decide_and_write(
         return refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
     from ..bayes.run_record import posterior_record  # bayes: too heavy for --help
     from ..outputs import json_safe
+    from .common import defaults_not_given
 
     record = posterior_record(
         args.soil,
@@ -321,6 +215,7 @@ def decide_and_write(
         pooled_warnings,
         list(args.select or []),
         provenance,
+        defaults=defaults_not_given(args),
     )
     if export is not None:
         record = json_safe(record | {"simulator": export.record()})

@@ -121,8 +121,11 @@ def _run_one(task):
     tests of its kind, no factor column, one level per soil) gives its reason in place of
     the result; any other error (a bug, a failed fit) propagates and stops the command.
     """
+    from dataclasses import replace
+
     from ..report.study_pdf import write_report
     from ..study import StudyDataError, run_study, write_outputs
+    from .common import defaults_not_given
 
     spec, campaign, cache, args, provenance = task
     start = time.perf_counter()
@@ -139,6 +142,8 @@ def _run_one(task):
         if args.name != "all":
             raise
         return str(err), [], None, time.perf_counter() - start
+    # What the result rests on unsaid: the command's options as well as the spec's keys.
+    result = replace(result, defaults=defaults_not_given(args) | result.defaults)
     out_dir = Path(args.out)
     written = write_outputs(result, out_dir, overwrite=args.overwrite)
     pages = None

@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
 from . import wheel_modes
@@ -43,14 +43,15 @@ from .common import (
 )
 
 if TYPE_CHECKING:
-    from ..campaign.campaign import Campaign
+    from collections.abc import Callable
+
     from ..outputs.provenance import Provenance
-    from ..wheel import StressAngles
     from ..wheel.calibration.validate import CalibrationReport
     from ..wheel.validation_result import WheelValidation
 
 OUTPUTS = ("wheel.json", "wheel_runs.csv", "wheel.pdf")
-_GEOMETRY = {
+#: The geometry options (argparse dest) -> the wheels table's keys.
+GEOMETRY_OPTIONS = {
     "wheel_radius": "radius_m",
     "wheel_width": "width_m",
     "shear_radius": "shear_radius_m",
@@ -91,7 +92,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="wheel geometry per type, [TYPE] radius_m, width_m, shear_radius_m, "
         "grouser_area_ratio (default: wheels.toml beside the runs file)",
     )
-    for option, key in _GEOMETRY.items():
+    for option, key in GEOMETRY_OPTIONS.items():
         parser.add_argument(
             f"--{option.replace('_', '-')}",
             action="append",
@@ -147,104 +148,44 @@ def configure(parser: argparse.ArgumentParser) -> None:
     wheel_modes.configure(parser)
 
 
-def parse_prior(item: str) -> tuple[str, tuple]:
-    """``phi=normal:29:4`` → ``("phi", ("normal", 29.0, 4.0))``; ValueError naming the item."""
-    name, sep, spec = item.partition("=")
-    kind, *numbers = spec.split(":")
-    try:
-        values = tuple(float(x) for x in numbers)
-    except ValueError:
-        values = ()
-    if not sep or not name.strip() or not kind or not values:
-        raise InputError(
-            f"--prior takes NAME=KIND:ARGS (e.g. phi=normal:29:4, c=uniform:0:1500, "
-            f"K=lognormal:0.01:0.8), got {item!r}"
-        )
-    return name.strip(), (kind.strip(), *values)
-
-
-def parse_geometry(args: argparse.Namespace) -> dict[str, dict[str, float]]:
-    """The --wheel-radius … options as {type or "*": {key: value}}."""
-    out: dict[str, dict[str, float]] = {}
-    for option, key in _GEOMETRY.items():
-        for item in getattr(args, option):
-            wheel, sep, text = item.rpartition("=")
-            try:
-                value = float(text)
-            except ValueError:
-                raise InputError(
-                    f"--{option.replace('_', '-')} takes [TYPE=]VALUE in SI units, got {item!r}"
-                ) from None
-            out.setdefault(wheel.strip() if sep else "*", {})[key] = value
-    return out
-
-
-def parse_angles(text: str | None) -> StressAngles | None:
-    from ..wheel import StressAngles
-
-    if text is None:
-        return None
-    try:
-        values = [float(x) for x in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != 4:
-        raise InputError(f"--angles takes four numbers A0,A1,B0,B1, got {text!r}")
-    return StressAngles(*values)
-
-
-def runs_path(args: argparse.Namespace) -> Path:
-    """--runs as given, else inside the campaign's folder; an error names both places."""
-    from ..campaign.io import resolve
-
-    given = Path(args.runs)
-    if given.is_file():
-        return given
-    folder, _ = resolve(args.data)
-    inside = folder / args.runs
-    if inside.is_file():
-        return inside
-    raise FileNotFoundError(
-        2, f"no runs file here nor in the campaign folder ({inside})", str(given)
-    )
-
-
 def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
     import json
 
     from ..outputs import json_safe, output_path
-    from ..wheel.runs import read_caveats, read_runs, read_wheels, wheel_geometry
+    from ..wheel.run_options import (
+        file_sha256,
+        parse_angles,
+        parse_geometry,
+        parse_prior_item,
+        plate_pooling_warnings,
+        runs_file,
+        wheel_tables,
+    )
+    from ..wheel.runs import read_caveats, read_runs
     from ..wheel.validation import check_priors, validate_wheel
 
     if args.n_draws < 100:
         raise InputError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
     wheel_modes.check_modes(args)
-    priors = dict(parse_prior(p) for p in args.prior)
+    priors = dict(parse_prior_item(p) for p in args.prior)
     check_priors(priors)
     angles = parse_angles(args.angles)
-    overrides = parse_geometry(args)
+    overrides = parse_geometry({o: getattr(args, o) for o in GEOMETRY_OPTIONS}, GEOMETRY_OPTIONS)
     if args.predict:
-        return _predict(args, priors, overrides)
-    path = runs_path(args)
+        return wheel_modes.predict_mode(args, priors, overrides)
+    path = runs_file(args.runs, args.data)
     outputs = OUTPUTS + ((wheel_modes.CALIBRATION_FILE,) if args.calibrate else ())
     if args.out:  # refuse before the work, not after
         for name in outputs:
             output_path(Path(args.out), name, overwrite=args.overwrite)
     runs = read_runs(path)
-    toml = Path(args.wheels) if args.wheels else path.with_name("wheels.toml")
-    tables = read_wheels(toml) if (args.wheels or toml.is_file()) else {}
-    wheels = wheel_geometry(
-        runs["wheel"].unique(), tables, overrides, source=str(toml) if tables else "--wheel-*"
-    )
+    toml, tables, wheels = wheel_tables(args.wheels, path, runs, overrides)
     campaign, provenance = prepared(args)
-    pooled = _pooling(campaign, args)
+    pooled = plate_pooling_warnings(campaign, args.soil, args.law)
     for text in pooled:
         print(f"WARNING: {text}", file=sys.stderr)
-    result = validate_wheel(
-        campaign,
-        runs,
-        wheels=wheels,
+    options: dict[str, Any] = dict(
         soil=args.soil,
         law=args.law,
         draws=args.draws,
@@ -257,9 +198,18 @@ def run(args: argparse.Namespace) -> int:
         extension=not args.no_extension,
         caveats=[*(read_caveats(toml) if tables else []), *pooled],
     )
-    defaults = _defaults(args, tables, overrides, wheels)
-    document = {"defaults": defaults} | result.to_dict()
-    document |= {"runs_file": {"path": str(path), "sha256": _sha256(path)}}
+    result = validate_wheel(campaign, runs, wheels=wheels, **options)
+    defaults = wheel_modes.command_defaults(args, tables, overrides, wheels)
+    moved = _moved_verdicts(
+        result,
+        wheels,
+        defaults,
+        lambda alt: validate_wheel(
+            campaign, runs, wheels=alt, **(options | {"progress": False, "sensitivity": False})
+        ),
+    )
+    document = {"defaults": defaults, "default_warnings": moved} | result.to_dict()
+    document |= {"runs_file": {"path": str(path), "sha256": file_sha256(path)}}
     calibration = None
     if args.calibrate:
         part, calibration = wheel_modes.calibrate(
@@ -269,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration:
         document["calibration_applied"] = wheel_modes.apply_calibration(args, runs)
     if args.out:
-        _write(args, document, result, calibration, defaults, provenance, outputs)
+        _write(args, document, result, calibration, (defaults, moved), provenance, outputs)
     if args.json:
         document |= {"provenance": provenance.to_dict()}
         print(json.dumps(json_safe(document), indent=2, ensure_ascii=False))
@@ -285,7 +235,7 @@ def _write(
     document: dict,
     result: WheelValidation,
     calibration: CalibrationReport | None,
-    defaults: dict[str, str],
+    defaults: tuple[dict[str, str], dict[str, str]],
     provenance: Provenance,
     outputs: tuple[str, ...],
 ) -> None:
@@ -308,7 +258,8 @@ def _write(
         provenance=provenance,
         overwrite=args.overwrite,
         calibration=calibration,
-        defaults=defaults,
+        defaults=defaults[0],
+        default_warnings=defaults[1],
     )
     if calibration is not None:
         calibration.calibration.to_netcdf(
@@ -317,68 +268,20 @@ def _write(
     print(f"wrote {', '.join(str(folder / n) for n in outputs)}", file=sys.stderr)
 
 
-def _defaults(
-    args: argparse.Namespace, tables: dict, overrides: dict, wheels: dict
+def _moved_verdicts(
+    result: WheelValidation,
+    wheels: dict,
+    defaults: dict,
+    rerun: Callable[[dict], WheelValidation],
 ) -> dict[str, str]:
-    """The analysis options left at their defaults, and every wheel geometry the user did not
-    give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
-    depends on it), for the JSON's ``"defaults"`` and page 1."""
-    from .common import defaults_not_given
+    """A default that moves a held-out verdict is a warning (issue #47, item 3): printed
+    here, and returned for the JSON and page 1."""
+    from ..wheel.defaults import moved_verdicts
 
-    out = defaults_not_given(args)
-    unused = set(wheel_modes.PREDICT_OPTIONS) if not args.predict else set()
-    if not args.calibrate:
-        unused |= set(wheel_modes.CALIBRATE_OPTIONS)
-    out = {k: v for k, v in out.items() if k not in unused}
-    for name, wheel in sorted(wheels.items()):
-        given = {**tables.get(name, {}), **overrides.get("*", {}), **overrides.get(name, {})}
-        if "shear_radius_m" not in given:
-            out[f"{name}: shear_radius_m"] = (
-                f"{wheel.radius_m:g} (= radius_m: no grousers assumed; give --shear-radius "
-                f"{name}=RS for a grousered wheel)"
-            )
-        if "grouser_area_ratio" not in given:
-            out[f"{name}: grouser_area_ratio"] = "1"
-    return out
-
-
-def _predict(args: argparse.Namespace, priors: dict, overrides: dict) -> int:
-    """--predict: the plate draws (unless a calibration carries them) and the prediction."""
-    from ..outputs import output_path
-    from ..wheel.soil import plate_draws
-
-    if args.out:
-        for name in wheel_modes.PREDICT_OUTPUTS:
-            output_path(Path(args.out), name, overwrite=args.overwrite)
-    campaign, provenance = prepared(args)
-    plate = None
-    if not args.calibration:
-        plate = plate_draws(
-            campaign,
-            soil=args.soil,
-            law=args.law,
-            kind=args.draws,
-            n_draws=args.n_draws,
-            seed=args.seed,
-            progress=progress_enabled(args.progress),
-        )
-    return wheel_modes.predict(args, provenance, plate, priors, overrides)
-
-
-def _pooling(campaign: Campaign, args: argparse.Namespace) -> list[str]:
-    """The posterior command's warning when the plates pool conditions (preparations,
-    velocities, shapes …): the draws then describe their mixture, not one sand state."""
-    from ..wheel.soil import choose_law, soil_tests
-    from .posterior import pooling_warnings
-
-    soil, tests = soil_tests(campaign, args.soil)
-    return pooling_warnings(campaign, soil, [choose_law(tests, args.law)])
-
-
-def _sha256(path: Path) -> str:
-    import hashlib
-
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    moved = moved_verdicts(result, wheels, defaults, rerun)
+    for text in moved.values():
+        print(f"WARNING: {text}", file=sys.stderr)
+    return moved
 
 
 def main(argv: list[str] | None = None) -> int:

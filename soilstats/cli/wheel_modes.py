@@ -9,12 +9,9 @@ saved calibration to the runs; ``--predict`` predicts a rover team's own wheel
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
-
-import numpy as np
 
 from ..errors import InputError
 
@@ -108,25 +105,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def parse_slips(text: str) -> np.ndarray:
-    """``A:B:STEP`` → the slips A, A + STEP, … ≤ B (each in [−1, 1])."""
-    try:
-        a, b, step = (float(x) for x in text.split(":"))
-    except ValueError:
-        raise InputError(f"--slips takes A:B:STEP, e.g. -0.5:0.9:0.1, got {text!r}") from None
-    if (
-        not all(map(math.isfinite, (a, b, step)))
-        or step <= 0
-        or b < a
-        or not (-1 <= a <= 1 and -1 <= b <= 1)
-    ):
-        raise InputError(f"--slips needs -1 <= A <= B <= 1 and STEP > 0, got {text!r}")
-    count = math.floor((b - a) / step + 1e-9) + 1
-    if count > 200:
-        raise InputError(f"--slips gives {count} slips; at most 200")
-    return np.round(a + step * np.arange(count), 10)
-
-
 def check_modes(args: argparse.Namespace) -> None:
     """Refuse combinations that cannot mean anything, before any work."""
     if args.calibrate and args.calibration:
@@ -180,23 +158,38 @@ def calibrate(
 
 
 def apply_calibration(args: argparse.Namespace, runs: pd.DataFrame) -> dict:
-    """``--calibration FILE`` on runs: coverage, width, MAE and bias of each quantity."""
-    from ..wheel.calibration import RunDesign, load_calibration
-    from ..wheel.calibration.heldout import score, score_by_slip
+    """``--calibration FILE`` on runs: coverage, width, MAE and bias of each quantity
+    (:func:`soilstats.wheel.calibration.heldout.saved_calibration_scores`)."""
+    from ..wheel.calibration import load_calibration
+    from ..wheel.calibration.heldout import saved_calibration_scores
 
     cal = load_calibration(args.calibration)
-    angles = set(np.unique(cal.design.beta_level))
-    scope = (runs if angles != {0.0} else runs[runs["beta_level"] == 0]).reset_index(drop=True)
-    design = RunDesign.from_runs(scope)
-    pred = cal.predict(design, seed=args.seed)
-    out: dict = {"file": str(args.calibration), "runs": len(design), "converged": cal.converged}
-    for q, values in design.measured.items():
-        if q not in cal.discrepancy:
-            continue
-        pred[f"{q}_measured"] = values
-        pred["slip_level"] = design.slip_level
-        out[q] = score(pred, q) | {"by_slip": score_by_slip(pred, q)}
-    return out
+    scores = saved_calibration_scores(cal, runs, seed=args.seed)
+    return {"file": str(args.calibration)} | scores
+
+
+def predict_mode(args: argparse.Namespace, priors: dict, overrides: dict) -> int:
+    """--predict: the plate draws (unless a calibration carries them) and the prediction."""
+    from ..outputs import output_path
+    from ..wheel.soil import plate_draws
+    from .common import prepared, progress_enabled
+
+    if args.out:
+        for name in PREDICT_OUTPUTS:
+            output_path(Path(args.out), name, overwrite=args.overwrite)
+    campaign, provenance = prepared(args)
+    plate = None
+    if not args.calibration:
+        plate = plate_draws(
+            campaign,
+            soil=args.soil,
+            law=args.law,
+            kind=args.draws,
+            n_draws=args.n_draws,
+            seed=args.seed,
+            progress=progress_enabled(args.progress),
+        )
+    return predict(args, provenance, plate, priors, overrides)
 
 
 def predict(
@@ -213,6 +206,7 @@ def predict(
     from ..wheel import Wheel
     from ..wheel.calibration import load_calibration
     from ..wheel.calibration.predict import CMU_DISCREPANCY, predict_own_wheel
+    from ..wheel.run_options import parse_slips
 
     geometry = overrides.get("*", {})
     if "radius_m" not in geometry or "width_m" not in geometry:
@@ -282,3 +276,20 @@ def _draws_netcdf(draws: pd.DataFrame, path: Path, overwrite: bool) -> None:
     buffer = io.BytesIO()
     ds.to_netcdf(buffer, engine="h5netcdf")  # in memory: no HDF5 handle on a file
     write_atomic(target, buffer.getvalue())
+
+
+def command_defaults(
+    args: argparse.Namespace, tables: dict, overrides: dict, wheels: dict
+) -> dict[str, str]:
+    """The analysis options left at their defaults, and every wheel geometry the user did not
+    give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
+    depends on it), for the JSON's ``"defaults"`` and page 1."""
+    from ..wheel.run_options import geometry_defaults
+    from .common import defaults_not_given
+
+    out = defaults_not_given(args)
+    unused = set(PREDICT_OPTIONS) if not args.predict else set()
+    if not args.calibrate:
+        unused |= set(CALIBRATE_OPTIONS)
+    out = {k: v for k, v in out.items() if k not in unused}
+    return out | geometry_defaults(wheels, tables, overrides)

@@ -56,6 +56,7 @@ from .power import minimum_detectable
 from .within import (
     INTERACTION,
     RESPONSES,
+    Family,
     family_row,
     interactions,
     response_range,
@@ -247,11 +248,10 @@ def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
                     rows=used,
                 )
             )
-    table, inter_rows, inter_rels = interactions(
-        group, table, cands, related, eligible, codes, values_of
-    )
+    family = Family(group, cands, related, eligible, codes, values_of)
+    table, inter_rows, inter_rels = interactions(family, table)
     rows_out += inter_rows
-    table, within_rows = within_blocks(group, table, cands, related, eligible, codes, values_of)
+    table, within_rows = within_blocks(family, table)
     rows_out += within_rows
     roles = tuple(
         r for r in all_roles if r.column not in FIT_COLUMNS and sub[r.column].nunique() > 1

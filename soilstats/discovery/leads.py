@@ -144,6 +144,49 @@ def _search_plan(ext, choices, library_args):
     return out
 
 
+def _extension_plans(
+    extensions: list, rows, folds, starts, e_base, base_fitted, choices, library_args: dict
+) -> tuple[list[tuple[FoldFits, FoldFits]], list[FitTask]]:
+    """Per extension its cause-fixed and whole-search fold plans (:class:`.work.FoldFits`),
+    and the tasks of the second wave: chain i holds extension i's folds, then its fit on all
+    tests (started from the base fit), then its search folds."""
+    plans, tasks = [], []
+    for i, ext in enumerate(extensions):  # chain i: the folds, then all tests
+        fixed = FoldFits(rows, ext, folds, scheme="tests", starts=starts, chain=i)
+        search = FoldFits(
+            rows,
+            _search_plan(ext, choices, library_args),
+            folds,
+            scheme="tests",
+            starts=starts,
+            chain=(i, "search"),
+            base_errors=e_base,
+        )
+        plans.append((fixed, search))
+        tasks += [*fixed.tasks, FitTask(ext, rows, base_fitted, chain=i), *search.tasks]
+    return plans, tasks
+
+
+def _tried_entry(entry: dict, gain, search_gain, reasons) -> dict:
+    """``entry`` (a tried extension's record) with its gains, cause fixed and whole search,
+    and the reasons its parameters are implausible."""
+    entry.update(
+        relative=gain.relative,
+        real=gain.real,
+        verdict=gain.verdict,
+        kept=gain.kept,
+        difference=gain.difference,
+        stderr=gain.stderr,
+        z=gain.z,
+        base=gain.base,
+        extended=gain.extended,
+        relative_search=None if search_gain is None else search_gain.relative,
+        selected_folds=None if search_gain is None else search_gain.selected_folds,
+        implausible=reasons,
+    )
+    return entry
+
+
 def _try_extensions(
     group, rows, lead, confounded, numeric, responses, folds, log_scale, lead_table
 ):
@@ -195,23 +238,14 @@ def _try_extensions(
         starts, e_base = base_plan.collect(first[1:])
     except FIT_ERRORS as exc:
         base_failure = exc  # every extension's cross-validation fails with it
-    plans, tasks = [], []
+    plans: list[tuple[FoldFits, FoldFits]] = []
+    tasks: list[FitTask] = []
     if base_failure is None:
         # The base model's fold fits: one per fold, none skipped.
         choices = fold_choices(group, lead_table, rows, folds, cast("dict[int, Start]", starts))
-        for i, ext in enumerate(extensions):  # chain i: the folds, then all tests
-            fixed = FoldFits(rows, ext, folds, scheme="tests", starts=starts, chain=i)
-            search = FoldFits(
-                rows,
-                _search_plan(ext, choices, library_args),
-                folds,
-                scheme="tests",
-                starts=starts,
-                chain=(i, "search"),
-                base_errors=e_base,
-            )
-            plans.append((fixed, search))
-            tasks += [*fixed.tasks, FitTask(ext, rows, base_fitted, chain=i), *search.tasks]
+        plans, tasks = _extension_plans(
+            extensions, rows, folds, starts, e_base, base_fitted, choices, library_args
+        )
     outcomes = iter((yield Wave(group, tasks, probe=True)))
     tried, options = [], []
     for i, ext in enumerate(extensions):
@@ -240,21 +274,7 @@ def _try_extensions(
             tried.append(entry)
             continue
         reasons = implausible(fitted, base_fitted, group, rows)
-        entry.update(
-            relative=gain.relative,
-            real=gain.real,
-            verdict=gain.verdict,
-            kept=gain.kept,
-            difference=gain.difference,
-            stderr=gain.stderr,
-            z=gain.z,
-            base=gain.base,
-            extended=gain.extended,
-            relative_search=None if search_gain is None else search_gain.relative,
-            selected_folds=None if search_gain is None else search_gain.selected_folds,
-            implausible=reasons,
-        )
-        tried.append(entry)
+        tried.append(_tried_entry(entry, gain, search_gain, reasons))
         # An implausible extension is never kept, however much it gains.
         plausible = bool(gain.kept) and not reasons
         rank = (plausible, plausible and ext.physical, gain.relative)

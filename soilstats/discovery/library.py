@@ -11,6 +11,7 @@ the generic ones — ``levels`` for a categorical covariate, ``linear`` for a nu
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
@@ -106,7 +107,6 @@ def library(
     """
     names = {cause, *related}
     tests = group.tests.iloc[np.asarray(rows, int)]
-    out: list[Extension] = []
     base = base_model(group, rows)
     trend = cause.split(WITHIN)[0] if WITHIN in cause else None
     if trend is not None and trend in tests and cause in tests:
@@ -115,58 +115,95 @@ def library(
         return [_within_extension(group, base, cause, trend, responses)]
     if isinstance(base, ModelExtension):
         return _own_library(base, group, tests, cause, names, numeric, responses, log_scale)
+    asked = _Asked(cause, names, numeric, responses, log_scale)
     if group.kind == "sinkage":
         assert isinstance(base, SinkageExtension)  # base_model's for sinkage tests
-        bekker = base.bekker
-        v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
-        if "velocity_m_s" in names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
-            out.append(
-                SinkageExtension(
-                    "velocity",
-                    True,
-                    "k·(v/v_ref)^a and n + m·ln(v/v_ref) (Section 3.1.2)",
-                    bekker=bekker,
-                    terms=(Term(Features("velocity_m_s", "velocity"), ("k", "n")),),
-                )
-            )
-        aspect = tests["aspect_ratio"].to_numpy(float)
-        if names & (_ASPECT | _SIZE) and np.any(aspect >= 1.5) and np.any(aspect < 1.5):
-            out.append(
-                SinkageExtension(
-                    "softening",
-                    True,
-                    "narrow plates soften beyond a critical sinkage z_c (Section 3.1.3, Fig. 9)",
-                    bekker=bekker,
-                    soften=True,
-                )
-            )
-        if names & _SIZE and bekker:
-            out.append(ReeceExtension("reece", True, "Reece p = (k1 + k2·b)(z/b)^n"))
-        if names & _SIZE:
-            # The plate size's own curve: Bernstein k and n per size (each plate its own
-            # power law) — what a size effect on the exponent asks for, and always positive.
-            out.append(
-                SinkageExtension(
-                    f"k and n per {cause}",
-                    False,
-                    f"Bernstein k and n per level of {cause} (Eq. 8 per plate size)",
-                    bekker=False,
-                    terms=(Term(Features(cause, "levels"), ("k", "n")),),
-                )
-            )
-        stiffness = "level" in responses or not responses
-        exponent = "shape" in responses or not responses
-        how = "linear" if numeric else "levels"
-        if names & _SIZE and not numeric and stiffness and exponent and _fixes_width(tests, cause):
-            # k and n per level of a column that fixes the plate width is what the generic
-            # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
-            return out
+        return _sinkage_library(base, tests, asked)
+    return _shear_library(shear_inputs_a(group, rows), asked)
+
+
+@dataclass(frozen=True)
+class _Asked:
+    """What :func:`library` is asked for: the ``cause``, the ``names`` whose physics is tried
+    (it and the candidates confounded with it), whether it is ``numeric``, the
+    ``responses`` it showed in and whether a linear trend may enter on ln x
+    (``log_scale``)."""
+
+    cause: str
+    names: set[str]
+    numeric: bool
+    responses: Collection[str]
+    log_scale: bool
+
+
+def _sinkage_library(base: SinkageExtension, tests: pd.DataFrame, asked: _Asked) -> list[Extension]:
+    """The paper's sinkage extensions for ``cause`` (Bekker/Bernstein's base ``base``): the
+    velocity law, softening of narrow plates, Reece and the per-size Bernstein law where
+    their columns are among the ``names``, then the generic one."""
+    out: list[Extension] = []
+    bekker = base.bekker
+    v = tests["velocity_m_s"].to_numpy(float) if "velocity_m_s" in tests else np.array([])
+    if "velocity_m_s" in asked.names and v.size and np.all(v > 0) and np.unique(v).size >= 2:
         out.append(
-            _generic(SinkageExtension, cause, how, stiffness, exponent, log_scale, bekker=bekker)
+            SinkageExtension(
+                "velocity",
+                True,
+                "k·(v/v_ref)^a and n + m·ln(v/v_ref) (Section 3.1.2)",
+                bekker=bekker,
+                terms=(Term(Features("velocity_m_s", "velocity"), ("k", "n")),),
+            )
         )
+    aspect = tests["aspect_ratio"].to_numpy(float)
+    if asked.names & (_ASPECT | _SIZE) and np.any(aspect >= 1.5) and np.any(aspect < 1.5):
+        out.append(
+            SinkageExtension(
+                "softening",
+                True,
+                "narrow plates soften beyond a critical sinkage z_c (Section 3.1.3, Fig. 9)",
+                bekker=bekker,
+                soften=True,
+            )
+        )
+    if asked.names & _SIZE and bekker:
+        out.append(ReeceExtension("reece", True, "Reece p = (k1 + k2·b)(z/b)^n"))
+    if asked.names & _SIZE:
+        # The plate size's own curve: Bernstein k and n per size (each plate its own
+        # power law) — what a size effect on the exponent asks for, and always positive.
+        out.append(
+            SinkageExtension(
+                f"k and n per {asked.cause}",
+                False,
+                f"Bernstein k and n per level of {asked.cause} (Eq. 8 per plate size)",
+                bekker=False,
+                terms=(Term(Features(asked.cause, "levels"), ("k", "n")),),
+            )
+        )
+    stiffness = "level" in asked.responses or not asked.responses
+    exponent = "shape" in asked.responses or not asked.responses
+    how = "linear" if asked.numeric else "levels"
+    if (
+        asked.names & _SIZE
+        and not asked.numeric
+        and stiffness
+        and exponent
+        and _fixes_width(tests, asked.cause)
+    ):
+        # k and n per level of a column that fixes the plate width is what the generic
+        # extension becomes (separable.sinkage_keeps_bekker): the same model, fitted once.
         return out
-    a = shear_inputs_a(group, rows)
-    if names & (_RING | {"tool"}) and np.unique(np.round(a, 9)).size >= 2:
+    out.append(
+        _generic(
+            SinkageExtension, asked.cause, how, stiffness, exponent, asked.log_scale, bekker=bekker
+        )
+    )
+    return out
+
+
+def _shear_library(a: np.ndarray, asked: _Asked) -> list[Extension]:
+    """The shear extensions for ``cause``: the ring's side walls where the ring or tool is
+    among the ``names`` and the rings differ, then the generic one."""
+    out: list[Extension] = []
+    if asked.names & (_RING | {"tool"}) and np.unique(np.round(a, 9)).size >= 2:
         out.append(
             ShearExtension(
                 "side-walls",
@@ -175,16 +212,16 @@ def library(
                 side_walls=True,
             )
         )
-    targets = (("c", "tan_phi") if "level" in responses or not responses else ()) + (
-        ("K",) if "K" in responses else ()
+    targets = (("c", "tan_phi") if "level" in asked.responses or not asked.responses else ()) + (
+        ("K",) if "K" in asked.responses else ()
     )
-    how = "linear" if numeric else "levels"
+    how = "linear" if asked.numeric else "levels"
     out.append(
         ShearExtension(
-            f"{cause} ({how})",
+            f"{asked.cause} ({how})",
             False,
-            f"{', '.join(targets)} depend on {cause} ({how})",
-            terms=(Term(Features(cause, how, log_scale=log_scale), targets),),
+            f"{', '.join(targets)} depend on {asked.cause} ({how})",
+            terms=(Term(Features(asked.cause, how, log_scale=asked.log_scale), targets),),
         )
     )
     return out

@@ -7,6 +7,8 @@ Holm adjustment covers them too).
 from __future__ import annotations
 
 from collections.abc import Collection, Hashable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -88,30 +90,43 @@ def family_row(group: Group, name: str, response: str, res: Mapping[str, Any], *
     )
 
 
-def within_blocks(
-    group: Group,
-    table: pd.DataFrame,
-    cands: Sequence[Candidate],
-    related: Mapping[str, set[str]],
-    eligible: Collection[str],
-    codes: Mapping[str, np.ndarray],
-    values_of: Mapping[str, pd.Series],
-) -> tuple[pd.DataFrame, list[dict]]:
+@dataclass(frozen=True)
+class Family:
+    """What the extra candidate families of one (kind, soil) are built from: its ``group``,
+    the candidates, which are ``related`` (aliased or nested) to which, the ``eligible``
+    block columns, each candidate's level ``codes`` and its values (``values_of``:
+    :func:`candidate_values`)."""
+
+    group: Group
+    cands: Sequence[Candidate]
+    related: Mapping[str, set[str]]
+    eligible: Collection[str]
+    codes: Mapping[str, np.ndarray]
+    values_of: Mapping[str, pd.Series]
+
+    @cached_property
+    def partition_of(self) -> dict[str, tuple]:
+        """Each candidate's partition of the tests (its codes in order of first level)."""
+        return {n: tuple(pd.factorize(c)[0]) for n, c in self.codes.items()}
+
+
+def within_blocks(family: Family, table: pd.DataFrame) -> tuple[pd.DataFrame, list[dict]]:
     """A drift inside one block of the design (:func:`.ftests.within_blocks_test`) per
     time/order candidate: its strata are those of its own trend test (one per aliased
     partition), and the candidate ``T within B`` is a column of block labels (for the folds
     and the per-block extension).  Two order columns that differ within every block by one
     scale (``repetition`` and a ``test_number`` counting on across blocks) make one test:
     only the first enters.  Returns the table with the label columns and the rows."""
+    group, related, codes, values_of = family.group, family.related, family.codes, family.values_of
     rows_out: list = []
     columns: dict = {}
     seen: list = []
-    partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
-    for cand in cands:
+    partition_of = family.partition_of
+    for cand in family.cands:
         if cand.categorical or cand.role != "time/order":
             continue
         blocks, partitions = [], set()
-        for b in sorted(eligible):
+        for b in sorted(family.eligible):
             if b == cand.name or b in related[cand.name] or partition_of[b] in partitions:
                 continue
             partitions.add(partition_of[b])
@@ -191,13 +206,7 @@ def level_labels(values: pd.Series) -> pd.Series:
 
 
 def interactions(
-    group: Group,
-    table: pd.DataFrame,
-    cands: Sequence[Candidate],
-    related: Mapping[str, set[str]],
-    eligible: Collection[str],
-    codes: Mapping[str, np.ndarray],
-    values_of: Mapping[str, pd.Series],
+    family: Family, table: pd.DataFrame
 ) -> tuple[pd.DataFrame, list[dict], list[Relation]]:
     """Two-way interactions of crossed design-like factors (:func:`interaction_test`): the
     per-test rows of the family, the table with one cell-label column per pair (``A × B``,
@@ -206,8 +215,9 @@ def interactions(
     ``values_of`` holds :func:`candidate_values` of every candidate; labels, their codes and
     the strata of a block set are computed once per candidate or set, not once per pair.
     """
-    partition_of = {n: tuple(pd.factorize(c)[0]) for n, c in codes.items()}
-    pairs = interaction_pairs(cands, related, eligible, partition_of)
+    group, related, codes, values_of = family.group, family.related, family.codes, family.values_of
+    eligible, partition_of = family.eligible, family.partition_of
+    pairs = interaction_pairs(family.cands, related, eligible, partition_of)
     rows_out, rels, columns, cells = [], [], {}, {}
     labels: dict[str, pd.Series] = {}
     label_codes: dict[str, np.ndarray] = {}

@@ -305,14 +305,10 @@ def refine_power_law(
         return _refine_power_law(terms, wy, theta0, ftol=ftol, max_iter=max_iter)
 
 
-def _refine_power_law(terms, wy, theta0, *, ftol, max_iter=50, yy=None):
-    """:func:`refine_power_law` without its ``np.errstate`` (the caller has one); ``yy`` is
-    ‖wy‖² when the caller has it."""
-    best = np.asarray(theta0, dtype=float)
-    rows, log_z = terms.rows, terms.log_z
+def _moment_evaluator(rows, log_z, wy, yy):
+    """The reduced problem of :func:`_refine_power_law` at an exponent n, as
+    ``evaluate(n, third_order)`` → :func:`_reduced`'s tuple (buffers allocated once)."""
     q, size = rows.shape
-    if q > 2 or best.size != q + 1:
-        return refine_exponent(terms.basis, log_z, wy, best, ftol=ftol, max_iter=max_iter)
     # Rows U, V, W (refilled per n), then the fixed wy, wy·ln z and wy·ln²z: every moment
     # of the reduced problem is an entry of [U; V]·bufᵀ, one BLAS gemm.
     buf = np.empty((3 * q + 3, size))
@@ -327,9 +323,6 @@ def _refine_power_law(terms, wy, theta0, *, ftol, max_iter=50, yy=None):
     u_flat, v_flat, w_flat = (rows_.reshape(-1) for rows_ in (u_rows, v_rows, w_rows))
     pairs = tuple(zip(rows, u_rows, strict=True))  # (w·gᵢ, Uᵢ) row views, made once
     zn = np.empty(size)
-    if yy is None:
-        yy = float(wy @ wy)
-    tolerance = 1e-3 * ftol
 
     def evaluate(n: float, third_order: bool):
         np.exp(np.multiply(log_z, n, out=zn), out=zn)  # z^n
@@ -343,6 +336,21 @@ def _refine_power_law(terms, wy, theta0, *, ftol, max_iter=50, yy=None):
         # it uses for x @ x.T, which OpenBLAS is slow at for a long inner dimension.
         return _reduced((uv @ buf.T).ravel().tolist(), q, yy)
 
+    return evaluate
+
+
+def _refine_power_law(terms, wy, theta0, *, ftol, max_iter=50, yy=None):
+    """:func:`refine_power_law` without its ``np.errstate`` (the caller has one); ``yy`` is
+    ‖wy‖² when the caller has it."""
+    best = np.asarray(theta0, dtype=float)
+    rows, log_z = terms.rows, terms.log_z
+    q = rows.shape[0]
+    if q > 2 or best.size != q + 1:
+        return refine_exponent(terms.basis, log_z, wy, best, ftol=ftol, max_iter=max_iter)
+    if yy is None:
+        yy = float(wy @ wy)
+    tolerance = 1e-3 * ftol
+    evaluate = _moment_evaluator(rows, log_z, wy, yy)
     n = float(best[-1])
     # Third-order moments only where Halley's step may finish: not at the start, whose
     # Newton step is seldom the last (Wong's start is typically a σ away).

@@ -22,6 +22,7 @@ from .bootstrap import MIN_TESTS, TestBootstrap
 from .pooling import PooledData
 
 if TYPE_CHECKING:
+    from ..campaign.window import AppliedWindow
     from ..quality import ScreenedCampaign
     from ..quality.report import QualityReport
 
@@ -327,22 +328,7 @@ def data_findings(
     flags: list[HealthFlag] = []
     record: dict = {"quality": None, "window": None, "excluded": [], "window_text": "none"}
     applied = campaign.window
-    z_limit = {}
-    if applied is not None:
-        per = applied.per_test[applied.per_test["test_id"].isin(ids)]
-        z_limit = dict(zip(per["test_id"], per["z_max"], strict=True))
-        outside = int(per["outside"].sum())
-        record["window"] = {
-            "rules": applied.window.to_dict(),
-            "outside": {
-                t: int(n) for t, n in zip(per["test_id"], per["outside"], strict=True) if n
-            },
-        }
-        record["window_text"] = applied.window.describe()
-        notes.append(
-            f"Fitting window {applied.window.describe()}: {outside} samples of "
-            f"{int((per['outside'] > 0).sum())} tests outside it, not used."
-        )
+    z_limit = {} if applied is None else _window_record(applied, ids, record, notes)
     report = campaign.report
     mine = report.flags_of(ids)
     record["quality"] = report.mode
@@ -400,6 +386,24 @@ def data_findings(
                 )
             )
     return notes, flags, record
+
+
+def _window_record(applied: AppliedWindow, ids: list[str], record: dict, notes: list[str]) -> dict:
+    """The fitting window behind a fit into ``record`` (its rules, the samples outside it by
+    test) and ``notes``; returns each test's z_max [m]."""
+    per = applied.per_test[applied.per_test["test_id"].isin(ids)]
+    z_limit = dict(zip(per["test_id"], per["z_max"], strict=True))
+    outside = int(per["outside"].sum())
+    record["window"] = {
+        "rules": applied.window.to_dict(),
+        "outside": {t: int(n) for t, n in zip(per["test_id"], per["outside"], strict=True) if n},
+    }
+    record["window_text"] = applied.window.describe()
+    notes.append(
+        f"Fitting window {applied.window.describe()}: {outside} samples of "
+        f"{int((per['outside'] > 0).sum())} tests outside it, not used."
+    )
+    return z_limit
 
 
 def _proposed_items(report: QualityReport, tests_hit: list[str]) -> str:

@@ -57,6 +57,11 @@ class Normal(Prior):
     def __post_init__(self) -> None:
         if not (np.isfinite(self.sd) and self.sd > 0):
             raise InputError(f"Normal prior needs a finite sd > 0, got sd={self.sd!r}")
+        if not np.isfinite(self.mu) or not self.lower < self.upper:  # NaN fails both
+            raise InputError(
+                f"Normal prior needs a finite mu and lower < upper, got mu={self.mu!r} on "
+                f"({self.lower!r}, {self.upper!r})"
+            )
 
     def logpdf(self, x: np.ndarray) -> np.ndarray:
         return np.where(self._support(x), -0.5 * ((x - self.mu) / self.sd) ** 2, -np.inf)

@@ -38,6 +38,7 @@ import os
 import re
 import shutil
 import socket
+import sys
 import tempfile
 import time
 import warnings
@@ -287,8 +288,39 @@ def _working_folder_inside(real: Path) -> bool:
 
 
 @contextlib.contextmanager
-def output_set(out: str | os.PathLike[str], *, command: str, overwrite: bool) -> Iterator[Path]:
+def output_set(
+    out: str | os.PathLike[str], *, overwrite: bool = False, command: str | None = None
+) -> Iterator[Path]:
     """Run the block with the output folder ``out`` locked and staged (module docstring).
+
+    The command line wraps every run in it; from Python it makes any number of writes one
+    set, exactly as a command's::
+
+        with output_set("runs/soil01", overwrite=True):
+            campaign.save("runs/soil01/data", overwrite=True)
+            write_json("runs/soil01/fit.json", fit.to_dict(), provenance, overwrite=True)
+
+    Every writer of :mod:`soilstats.outputs.files` (and every ``save``/``to_netcdf`` of the
+    package, which write through them) is staged, wherever it is called from.
+    Every file written under ``out`` inside the block goes to the stage and appears in ``out``
+    only when the block ends without an exception, all at once; an exception leaves ``out``
+    as it was. Without this block each library writer is atomic per file only (a crash
+    between two files leaves the first new beside the second old).
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder (created at commit if absent).
+    overwrite : bool
+        Replace files ``out`` already holds (default: refuse, naming the file).
+    command : str, optional
+        What the lock records for a second run to name (default: this Python process's
+        command line).
+
+    Yields
+    ------
+    Path
+        ``out`` as given: write to it as usual.
 
     Raises
     ------
@@ -297,6 +329,8 @@ def output_set(out: str | os.PathLike[str], *, command: str, overwrite: bool) ->
         Or, without ``overwrite``, a file the run wrote appeared in ``out`` meanwhile.
     """
     out = Path(out)
+    if command is None:
+        command = " ".join(["python", *map(str, sys.argv)]).strip()
     if os.path.islink(out) and not out.exists():
         yield out  # a dangling link: the writers refuse it with their own message
         return

@@ -25,14 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import records
-from .records import (
-    FALLBACK_FRACTION,
-    FALLBACK_MIN_RUN,
-    SATURATION_MIN_SAMPLES,
-    SPIKE_MAX_RUN,
-    SPIKE_NOISE_WIDTHS,
-    SPIKE_SPAN_FRACTION,
-)
+from .records import FALLBACK_FRACTION, FALLBACK_MIN_RUN, SATURATION_MIN_SAMPLES
+from .spikes import SPIKE_MAX_RUN, SPIKE_NOISE_WIDTHS, SPIKE_SPAN_FRACTION
 
 __all__ = ["Blocks", "non_monotone", "saturation", "spikes"]
 
@@ -245,7 +239,7 @@ def _runs_mask(blocks: Blocks, mask: BoolArray, keep: Callable[[IntArray], BoolA
 
 
 def _quantum(blocks: Blocks, values: np.ndarray) -> FloatArray:
-    """``records._quantum`` of every block: the sensor's step, or 0 (repeats on a plateau
+    """``noise.quantum`` of every block: the sensor's step, or 0 (repeats on a plateau
     at the block's maximum not counted)."""
     sb, kept = blocks.drop_last(1)
     steps = np.abs(values[kept + 1] - values[kept]) if kept.size else np.empty(0)
@@ -297,7 +291,7 @@ def _spikes(blocks: Blocks, values: np.ndarray) -> BoolArray:
         off[i] = departure[i] > SPIKE_NOISE_WIDTHS * noise
     out = _runs_mask(blocks, off, lambda length: length <= SPIKE_MAX_RUN)
     # Off samples within 2 of each other may be one spike dragging its neighbours' medians
-    # along (records._drop_dragged): the few records holding such a group are judged by
+    # along (spikes.drop_dragged): the few records holding such a group are judged by
     # the per-record code.
     at = np.flatnonzero(off)
     near = (np.diff(at) <= 2) & (block[at[1:]] == block[at[:-1]])

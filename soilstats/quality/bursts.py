@@ -1,15 +1,15 @@
 """Bursts: runs of 1–5 samples that leave a record's local trend and come back, alone or in
 clusters (the ``burst`` code).
 
-The ``spike`` rule (:func:`~soilstats.quality.records.find_spikes`) judges a sample against
+The ``spike`` rule (:func:`~soilstats.quality.spikes.find_spikes`) judges a sample against
 the running median of five, which a run of three or more off samples drags along: a 3–4
 sample burst in z, or two spikes two samples apart, stay in the fits (a held-back soil's
 pooled Bernstein n fell from 0.75–1.4 to 0.51). This rule runs after it, on the samples the
 spike rule kept:
 
 1. candidates depart from the running median of :data:`BURST_WINDOW` samples (a run of up
-   to five is a minority there) by more than :data:`~.records.SPIKE_NOISE_WIDTHS` robust
-   noise widths and :data:`~.records.SPIKE_SPAN_FRACTION` of the span (the spike rule's
+   to five is a minority there) by more than :data:`~.spikes.SPIKE_NOISE_WIDTHS` robust
+   noise widths and :data:`~.spikes.SPIKE_SPAN_FRACTION` of the span (the spike rule's
    thresholds);
 2. candidates within :data:`CLUSTER_GAP` samples of each other form one cluster;
 3. a cluster is a burst when the good samples on both sides of it
@@ -26,13 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .records import (
-    SPIKE_NOISE_WIDTHS,
-    SPIKE_SPAN_FRACTION,
-    _resolution,
-    _robust_width,
-    _running_median,
-)
+from .noise import resolution, robust_width, running_median
+from .spikes import SPIKE_NOISE_WIDTHS, SPIKE_SPAN_FRACTION
 
 __all__ = [
     "ANCHOR_SAMPLES",
@@ -67,14 +62,14 @@ def find_bursts(values: np.ndarray) -> np.ndarray:
     n = x.size
     if n < BURST_MIN_SAMPLES or not np.isfinite(x).all():
         return np.array([], int)
-    trend = _running_median(x, BURST_WINDOW)
+    trend = running_median(x, BURST_WINDOW)
     span = float(trend.max() - trend.min())
     if span <= 0:
         return np.array([], int)
     departure = np.abs(x - trend)
     if not (departure > SPIKE_SPAN_FRACTION * span).any():
         return np.array([], int)  # the threshold is at least this: nothing can be off
-    width = max(_robust_width(np.diff(x, 2)) / np.sqrt(6.0), _resolution(x), 1e-9 * span)
+    width = max(robust_width(np.diff(x, 2)) / np.sqrt(6.0), resolution(x), 1e-9 * span)
     threshold = max(SPIKE_NOISE_WIDTHS * width, SPIKE_SPAN_FRACTION * span)
     off = np.flatnonzero(departure > threshold)
     if not off.size:

@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .blocks import Blocks
-from .records import _robust_width
+from .noise import robust_width
 
 __all__ = [
     "GLITCH_DEPTHS",
@@ -104,7 +104,7 @@ def find_glitch_clusters(values: np.ndarray) -> np.ndarray:
         return np.array([], int)
     good = np.ones(n, bool)
     good[off] = False
-    noise = _robust_width(np.diff(x[good], 2)) / np.sqrt(6.0) if good.sum() > 3 else 0.0
+    noise = robust_width(np.diff(x[good], 2)) / np.sqrt(6.0) if good.sum() > 3 else 0.0
     need = max(margin, GLITCH_NOISE_WIDTHS * noise)
     found: list[np.ndarray] = []
     for cluster in np.split(off, np.flatnonzero(np.diff(off) > CLUSTER_GAP) + 1):

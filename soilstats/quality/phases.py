@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .records import _resolution, _robust_width, _running_median
+from .noise import resolution, robust_width, running_median
 
 __all__ = [
     "EXCLUDED_PHASES",
@@ -157,7 +157,7 @@ def _noise(values: np.ndarray) -> float:
     sensor's step, which a hold's repeated readings do not set)."""
     if values.size < 3:
         return 0.0
-    return max(_robust_width(np.diff(values, 2)) / np.sqrt(6.0), _resolution(values))
+    return max(robust_width(np.diff(values, 2)) / np.sqrt(6.0), resolution(values))
 
 
 def _held_rise(force: np.ndarray, noise: float) -> int:
@@ -221,7 +221,7 @@ def find_phases(
     changes: dict[int, float] = {}  # phase start -> relative force change
     if rise < n - 1 and np.isfinite(z).all() and np.isfinite(force).all():
         if smooth is None:
-            smooth = _running_median(force, 5)
+            smooth = running_median(force, 5)
         _label_excursions(z, smooth, sigma_f, rise, labels, changes)
     if failure_onset is not None:
         tail = np.arange(n) > failure_onset
@@ -252,7 +252,7 @@ def _label_excursions(
     if not triggers.size:
         return
     z_after = z[start:]
-    band = max(STANDING_NOISE_WIDTHS * _noise(z_after), 3.0 * _resolution(z_after), 1e-12)
+    band = max(STANDING_NOISE_WIDTHS * _noise(z_after), 3.0 * resolution(z_after), 1e-12)
     steps = np.diff(z_after)
     rate = float(np.median(steps[steps > 0])) if (steps > 0).any() else 0.0
     travel = float(np.ptp(z_after))

@@ -1,6 +1,8 @@
 """Detectors on one test's record (numpy arrays in record order; no campaign, no pandas).
 
 Each returns what it found as positions in the record; :mod:`.screen` turns them into flags.
+The spike detector is in :mod:`.spikes` (``find_spikes`` is importable from here too), the
+noise width and sensor step every detector reads in :mod:`.noise`.
 Every threshold is a named constant here, chosen so that clean simulated records (white
 force noise, quantised sensors, exponents 0.3-2) are never flagged — ``tests/test_quality.py``
 checks that over many seeds — while the artefacts of real records are.
@@ -14,6 +16,9 @@ import numpy as np
 from scipy.ndimage import median_filter
 from scipy.optimize import minimize_scalar
 
+from .noise import quantum, robust_width, runs
+from .spikes import find_spikes
+
 __all__ = [
     "ContactPoint",
     "LateZero",
@@ -26,16 +31,6 @@ __all__ = [
     "find_spikes",
 ]
 
-#: Spikes: departure from the running median (width 5) in robust noise widths ...
-SPIKE_NOISE_WIDTHS = 10.0
-#: ... and as a fraction of the test's span (smaller glitches do not move a fit).
-SPIKE_SPAN_FRACTION = 0.05
-#: A run longer than this is a feature of the record, not a spike.
-SPIKE_MAX_RUN = 2
-#: Off samples within 2 of each other are one spike and the neighbours whose running median
-#: it drags along when that sample departs this many times more than any other of them and,
-#: set to its running median, leaves none of them off (sparse, steep records).
-SPIKE_LONE_DOMINANCE = 3.0
 #: Pre-contact: the force threshold above the starting baseline, in noise widths ...
 CONTACT_NOISE_WIDTHS = 5.0
 #: ... the free travel that matters, as a fraction of the test's travel ...
@@ -103,153 +98,8 @@ RUNAWAY_FLAT_GAIN = 0.02
 FALLBACK_FRACTION = 0.02
 #: ... lasting this many samples at least (shorter is a spike's business).
 FALLBACK_MIN_RUN = 3
-#: Repeated readings in a run longer than this are a plateau (a hold: the drive stood still),
-#: not the sensor's quantisation (:func:`_resolution`).
-PLATEAU_RUN = 3
 #: Saturation: samples exactly at the maximum.
 SATURATION_MIN_SAMPLES = 4
-
-
-def _robust_width(values: np.ndarray) -> float:
-    """1.4826 × median absolute deviation: the standard deviation of Gaussian noise."""
-    if values.size == 0:
-        return 0.0
-    return float(1.4826 * np.median(np.abs(values - np.median(values))))
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """(start, stop) of each run of True in ``mask``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
-
-
-def _quantum(values: np.ndarray) -> float:
-    """The sensor's step where the record is visibly quantised (≥ 10 % repeated readings),
-    else 0: on a sparse record the smallest change is the signal's, not the sensor's.
-
-    Repeats on a plateau at the record's maximum are a clipped channel (saturation), not
-    the sensor's resolution, and are not counted (a clipped sparse record would otherwise
-    take its smallest rise for the noise: 8.7 N instead of 0.35 N on a GRC-1 test).
-    """
-    steps = np.abs(np.diff(values))
-    if steps.size == 0:
-        return 0.0
-    top = values == values.max()
-    steps = steps[~(top[:-1] & top[1:])]
-    if steps.size == 0 or np.mean(steps == 0) < 0.1:
-        return 0.0
-    steps = steps[steps > 0]
-    return float(steps.min()) if steps.size else 0.0
-
-
-def _running_median(x: np.ndarray, size: int) -> np.ndarray:
-    """``scipy.ndimage.median_filter(x, size, mode="nearest")`` for an odd ``size``: the
-    middle of each window of the edge-padded record (one value of it, so exactly the
-    filter's), without the filter's overhead on short records."""
-    half = size // 2
-    windows = np.lib.stride_tricks.sliding_window_view(np.pad(x, half, mode="edge"), size)
-    return np.partition(windows, half, axis=1)[:, half]
-
-
-def _resolution(x: np.ndarray) -> float:
-    """The sensor's step where the record is visibly quantised (10 % or more of its steps
-    repeat a reading), else 0 — counting only repeats in runs of at most
-    :data:`PLATEAU_RUN`: a hold repeats z for many samples without any quantisation, and
-    its ramp's step is then no noise width."""
-    steps = np.abs(np.diff(x))
-    zero = steps == 0
-    if not zero.any():
-        return 0.0  # nothing repeats: no quantisation shows
-    edges = np.flatnonzero(np.diff(np.r_[0, zero.astype(np.int8), 0]))
-    starts, stops = edges[::2], edges[1::2]
-    # Each step's run length (0 for a step that moves): a long run is a plateau, neither a
-    # repeat nor a step.
-    length = np.zeros(steps.size, dtype=np.int64)
-    length[zero] = np.repeat(stops - starts, stops - starts)
-    plateau = length > PLATEAU_RUN
-    repeats = int((zero & ~plateau).sum())
-    counted = steps.size - int(plateau.sum())
-    if not counted or repeats < 0.1 * counted:
-        return 0.0
-    moving = steps[~zero]
-    return float(moving.min()) if moving.size else 0.0
-
-
-def find_spikes(values: np.ndarray) -> np.ndarray:
-    """Positions of isolated spikes (runs of at most :data:`SPIKE_MAX_RUN` samples).
-
-    A sample is off when it departs from the running median of five by more than
-    :data:`SPIKE_NOISE_WIDTHS` robust noise widths — the larger of the record's and the local
-    one over 21 samples (noise grows with the load), floored at the sensor's step — and by
-    more than :data:`SPIKE_SPAN_FRACTION` of the median-filtered span. The median of five follows
-    steps and monotone ramps exactly, so runaway sinkage and steep loading are never spikes.
-    """
-    x = np.asarray(values, float)
-    if x.size < 5:
-        return np.array([], int)
-    smooth = median_filter(x, size=5, mode="nearest")
-    departure = x - smooth
-    span = float(smooth.max() - smooth.min())
-    if span <= 0:
-        return np.array([], int)
-    # Noise from second differences (blind to ramps and curvature; white noise: sqrt(6) σ).
-    second = np.abs(np.diff(x, 2)) / np.sqrt(6.0)
-    width = max(1.4826 * float(np.median(second)), _quantum(x), 1e-9 * span)
-    off = (np.abs(departure) > SPIKE_NOISE_WIDTHS * width) & (
-        np.abs(departure) > SPIKE_SPAN_FRACTION * span
-    )
-    if not off.any():
-        return np.array([], int)
-    # Judge the few candidates against their local noise too (21 samples around each).
-    padded = np.pad(second, 1, mode="edge")
-    for i in np.flatnonzero(off):
-        local = 1.4826 * float(np.median(padded[max(0, i - 10) : i + 11]))
-        off[i] = abs(departure[i]) > SPIKE_NOISE_WIDTHS * local
-    off = _drop_dragged(x, off, width, span)
-    keep = [np.arange(a, b) for a, b in _runs(off) if b - a <= SPIKE_MAX_RUN]
-    return np.concatenate(keep) if keep else np.array([], int)
-
-
-def _clusters(off: np.ndarray) -> list[np.ndarray]:
-    """Off samples grouped where each lies within the running median's reach (2) of the
-    next: the samples one spike can drag off with it."""
-    at = np.flatnonzero(off)
-    if at.size < 2:
-        return []
-    return [c for c in np.split(at, np.flatnonzero(np.diff(at) > 2) + 1) if c.size > 1]
-
-
-def _drop_dragged(x: np.ndarray, off: np.ndarray, width: float, span: float) -> np.ndarray:
-    """``off`` without the samples that are off only because one spike near them drags
-    their running median along.
-
-    On a sparse, steep record one spike shifts the running median of five of its
-    neighbours by a rank, a whole step of the ramp, so they depart too (GRC-1: a force spike
-    x4 departs by 682 noise widths, its two followers by 68 and 65: a run of three, which
-    no spike may be, and the spike went unflagged; a sinkage spike x3 excluded a good
-    sample near it).  In each group of off samples within 2 of each other, the one that
-    departs most is the lone spike when it departs :data:`SPIKE_LONE_DOMINANCE` times more
-    than any other of the group and, set to its running median, leaves none of them off;
-    the others are then not off.  A pair of spikes drags a good neighbour almost as far as
-    itself, so no one sample of it stands out.
-    """
-    groups = _clusters(off)
-    if not groups:
-        return off
-    off = off.copy()
-    smooth = median_filter(x, size=5, mode="nearest")
-    departure = np.abs(x - smooth)
-    for group in groups:
-        i = int(group[np.argmax(departure[group])])
-        others = group[group != i]
-        if departure[others].max() * SPIKE_LONE_DOMINANCE > departure[i]:
-            continue  # no one sample stands out: a pair, or a feature of the record
-        alone = x.copy()
-        alone[i] = smooth[i]
-        rest = np.abs(alone - median_filter(alone, size=5, mode="nearest"))[others]
-        if not ((rest > SPIKE_NOISE_WIDTHS * width) & (rest > SPIKE_SPAN_FRACTION * span)).any():
-            off[others] = False
-    return off
 
 
 def _noise_floor(force: np.ndarray) -> tuple[float, float, float, np.ndarray] | None:
@@ -268,7 +118,7 @@ def _noise_floor(force: np.ndarray) -> tuple[float, float, float, np.ndarray] | 
     if force.size < 8:
         return None  # too short to tell a floor from a rise
     base = float(np.median(force[:3]))
-    noise = max(_robust_width(np.diff(force, 2)) / np.sqrt(6.0), _quantum(force))
+    noise = max(robust_width(np.diff(force, 2)) / np.sqrt(6.0), quantum(force))
     if abs(base) > max(CONTACT_MAX_START * abs(float(force.max())), CONTACT_NOISE_WIDTHS * noise):
         return None  # the record starts under load: its flat start is not a noise floor
     rise = max(CONTACT_NOISE_WIDTHS * noise, 0.01 * float(force.max() - base))
@@ -385,6 +235,62 @@ def _clean_rise(zl: np.ndarray, fl: np.ndarray, early: int) -> bool:
     )
 
 
+def _free_travel(
+    z: np.ndarray, force: np.ndarray, min_travel: float
+) -> tuple[float, float, float, int, np.ndarray, float] | None:
+    """The candidate pre-contact segment of :func:`find_contact`: (base, noise, rise of the
+    noise floor, the first loaded position, the free positions with z > 0, the travel [m]),
+    or None where the record has no floor, never rises, or its free travel is shorter than
+    ``min_travel`` of the travel."""
+    floor = _noise_floor(force)
+    if floor is None:
+        return None
+    base, noise, rise, above = floor
+    head = force[:4]
+    if (np.diff(head) > 0).all() and head[-1] - head[0] > CONTACT_NOISE_WIDTHS * noise:
+        return None  # the record starts climbing (logged from inside contact): no floor
+    rising = above[:-2] & above[1:-1] & above[2:]
+    if not rising.any():
+        return None
+    first = int(np.argmax(rising))
+    travel = float(z.max() - max(z.min(), 0.0))
+    free = np.flatnonzero((np.arange(z.size) < first) & (z > 0))
+    if free.size < 3 or travel <= 0:
+        return None
+    z_free = float(z[free].max())
+    if z_free < min_travel * travel:
+        return None
+    return base, noise, rise, first, free, travel
+
+
+@dataclass(frozen=True)
+class _ShiftSearch:
+    """The search for the best shifted power law of :func:`find_contact` on the loaded record
+    ``zl`` [m], ``fl`` [N] (force above the floor's base) of a record of ``travel`` [m]."""
+
+    zl: np.ndarray
+    fl: np.ndarray
+    travel: float
+
+    def coarse(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """Contact points evenly over [lo, hi) and the residuals of the laws from them."""
+        grid = lo + (hi - lo) * np.linspace(0.0, 1.0, 12, endpoint=False)
+        if lo <= 0:
+            grid = grid[1:]  # z = 0 is the law every shift is compared with
+        return grid, np.array([_power_law_residual(self.zl, self.fl, ref) for ref in grid])
+
+    def best_in(self, lo: float, hi: float, grid: np.ndarray, residual: np.ndarray) -> tuple:
+        """(residual, contact) of the best shifted law with its contact in [lo, hi]."""
+        found = minimize_scalar(
+            lambda ref: _power_law_residual(self.zl, self.fl, ref),
+            bounds=(lo, hi * (1 - 1e-9)),
+            method="bounded",
+            options={"xatol": 1e-6 * self.travel},
+        )
+        k = int(residual.argmin())
+        return min((float(found.fun), float(found.x)), (float(residual[k]), float(grid[k])))
+
+
 def find_contact(
     z: np.ndarray,
     force: np.ndarray,
@@ -419,24 +325,10 @@ def find_contact(
     floor at once, so its contact is sought after the last sample at the floor proper.
     """
     z, force = np.asarray(z, float), np.asarray(force, float)
-    floor = _noise_floor(force)
-    if floor is None:
+    candidate = _free_travel(z, force, min_travel)
+    if candidate is None:
         return None
-    base, noise, rise, above = floor
-    head = force[:4]
-    if (np.diff(head) > 0).all() and head[-1] - head[0] > CONTACT_NOISE_WIDTHS * noise:
-        return None  # the record starts climbing (logged from inside contact): no floor
-    rising = above[:-2] & above[1:-1] & above[2:]
-    if not rising.any():
-        return None
-    first = int(np.argmax(rising))
-    travel = float(z.max() - max(z.min(), 0.0))
-    free = np.flatnonzero((np.arange(z.size) < first) & (z > 0))
-    if free.size < 3 or travel <= 0:
-        return None
-    z_free = float(z[free].max())
-    if z_free < min_travel * travel:
-        return None
+    base, noise, rise, first, free, travel = candidate
     loaded = np.arange(z.size) >= first
     zl, fl = z[loaded], force[loaded] - base
     from_zero = _power_law_residual(zl, fl, 0.0)
@@ -455,25 +347,8 @@ def find_contact(
     lifted = held[:-2] & held[1:-1] & held[2:]
     lift = int(np.argmax(lifted)) if lifted.any() else z.size
     upper = min(float(z[lift]), first_loaded) if lift < z.size else first_loaded
-
-    def coarse(lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-        """Contact points evenly over [lo, hi) and the residuals of the laws from them."""
-        grid = lo + (hi - lo) * np.linspace(0.0, 1.0, 12, endpoint=False)
-        if lo <= 0:
-            grid = grid[1:]  # z = 0 is the law every shift is compared with
-        return grid, np.array([_power_law_residual(zl, fl, ref) for ref in grid])
-
-    def best_in(lo: float, hi: float, grid: np.ndarray, residual: np.ndarray) -> tuple:
-        """(residual, contact) of the best shifted law with its contact in [lo, hi]."""
-        found = minimize_scalar(
-            lambda ref: _power_law_residual(zl, fl, ref),
-            bounds=(lo, hi * (1 - 1e-9)),
-            method="bounded",
-            options={"xatol": 1e-6 * travel},
-        )
-        k = int(residual.argmin())
-        return min((float(found.fun), float(found.x)), (float(residual[k]), float(grid[k])))
-
+    search = _ShiftSearch(zl, fl, travel)
+    coarse, best_in = search.coarse, search.best_in
     # A coarse grid first: most candidates are steep power laws that no offset improves.
     grid, residual = coarse(0.0, first_loaded)
     contact = None
@@ -688,7 +563,7 @@ def find_non_monotone(z: np.ndarray) -> np.ndarray:
     if travel <= 0:
         return np.array([], int)
     fallen = (np.maximum.accumulate(z) - z) > FALLBACK_FRACTION * travel
-    keep = [np.arange(a, b) for a, b in _runs(fallen) if b - a >= FALLBACK_MIN_RUN]
+    keep = [np.arange(a, b) for a, b in runs(fallen) if b - a >= FALLBACK_MIN_RUN]
     return np.concatenate(keep) if keep else np.array([], int)
 
 

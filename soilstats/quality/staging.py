@@ -19,9 +19,10 @@ import numpy as np
 
 from .blocks import Blocks, _unfinite
 from .bursts import BURST_MIN_SAMPLES, BURST_WINDOW, find_bursts
+from .noise import PLATEAU_RUN
 from .phases import EXCLUDED_PHASES, Phase, RecordPhases, find_phases
-from .records import PLATEAU_RUN, SPIKE_SPAN_FRACTION
 from .report import QualityFlag
+from .spikes import SPIKE_SPAN_FRACTION
 
 __all__ = ["PhaseSpan", "Staged", "TestPhases", "stage"]
 
@@ -129,7 +130,7 @@ def burst_flags(
 def noise_widths(blocks: Blocks, values: np.ndarray) -> np.ndarray:
     """:func:`~.phases._noise` of every block, across all blocks at once (the same
     operations in the same order, so the same numbers): the robust width of the second
-    differences over sqrt(6), floored at the sensor's step (:func:`~.records._resolution`,
+    differences over sqrt(6), floored at the sensor's step (:func:`~.noise.resolution`,
     whose plateaus of repeated readings do not count)."""
     out = np.zeros(blocks.count)
     second, sb = blocks.diff(values, 2)

@@ -90,6 +90,23 @@ def write_report(
         conclusion=_conclusion(record, n_tests),
     )
     doc.page_break()
+    _codes(doc, record)
+    _flags(doc, record)
+    if report.phases:
+        _phases(doc, report)
+    if record.get("proposed_windows"):
+        _windows(doc, record)
+    doc.paragraph(
+        "Every screening rule, its thresholds and its measured detection and false-flag "
+        "rates: soilstats' docs/quality.md (`soilstats check --json` lists the codes found "
+        "here with what to do)."
+    )
+    doc.provenance_section()
+    return doc.render(path)
+
+
+def _codes(doc: Document, record: dict) -> None:
+    """Every code found: what it is, why it matters and what to do."""
     doc.heading("Codes found")
     if not record["counts"]:
         doc.paragraph("No code was found.")
@@ -100,6 +117,10 @@ def write_report(
             doc.paragraph("No documentation for this code.")
             continue
         doc.key_values([("what", q.what), ("why it matters", q.why), ("what to do", q.action)])
+
+
+def _flags(doc: Document, record: dict) -> None:
+    """Every flag of every test, one table row each (tests in natural order)."""
     doc.heading("Every flag of every test")
     rows = [
         {
@@ -121,56 +142,55 @@ def write_report(
         )
     else:
         doc.paragraph("No test carries a flag.")
-    if report.phases:
-        doc.heading("Phases of each record")
-        table = report.phase_table()
-        plain = len(report.phases) - len(table)
-        doc.paragraph(
-            "Each sinkage record cut into its phases from z and force alone (docs/quality.md, "
-            "Phases of a record): only contact and loading are fitted; holds, unload-reload "
-            "branches, steps and the release are left out in clean mode; failure is cut by "
-            "the proposed window. "
-            + (
-                f"The other {plural(plain, 'test')} hold approach, contact and loading only."
-                if len(table)
-                else f"All {plural(plain, 'test')} hold approach, contact and loading only."
-            )
+
+
+def _phases(doc: Document, report: QualityReport) -> None:
+    """The phases of each sinkage record (only contact and loading are fitted)."""
+    doc.heading("Phases of each record")
+    table = report.phase_table()
+    plain = len(report.phases) - len(table)
+    doc.paragraph(
+        "Each sinkage record cut into its phases from z and force alone (docs/quality.md, "
+        "Phases of a record): only contact and loading are fitted; holds, unload-reload "
+        "branches, steps and the release are left out in clean mode; failure is cut by "
+        "the proposed window. "
+        + (
+            f"The other {plural(plain, 'test')} hold approach, contact and loading only."
+            if len(table)
+            else f"All {plural(plain, 'test')} hold approach, contact and loading only."
         )
-        if len(table):
-            doc.table(
-                table.rename(columns={"test_id": "test"}),
-                caption="Phases per test, each with the data rows of its first and last "
-                "sample in the sample file.",
-                align_numbers=False,
-            )
-    if record.get("proposed_windows"):
-        doc.heading("Proposed fitting windows")
-        doc.paragraph(
-            "Where most tests of a plate (soil and plate size b) failed, one sinkage window "
-            "for all of them: the smallest onset. Otherwise a window for each failed test "
-            "only, at its onset: the plate's other tests keep their depth. Set them with "
-            "soilstats identify --z-max ITEM (repeatable):"
-        )
-        windows = pd.DataFrame(record["proposed_windows"])
-        windows["test_id"] = windows["test_id"].fillna("all")
+    )
+    if len(table):
         doc.table(
-            windows[["soil", "b_m", "test_id", "tests", "plate_tests", "z_max_m", "z_max_item"]],
-            caption="Proposed windows: z_max (m) is the failure onset, the last sinkage the "
-            "early law describes; the --z-max item states it rounded up to 4 digits.",
-            labels={
-                "b_m": "plate width b (m)",
-                "test_id": "for test",
-                "tests": "failed",
-                "plate_tests": "tests of plate",
-                "z_max_m": "z_max (m)",
-                "z_max_item": "--z-max",
-            },
+            table.rename(columns={"test_id": "test"}),
+            caption="Phases per test, each with the data rows of its first and last "
+            "sample in the sample file.",
             align_numbers=False,
         )
+
+
+def _windows(doc: Document, record: dict) -> None:
+    """The proposed fitting windows, as ``--z-max`` items."""
+    doc.heading("Proposed fitting windows")
     doc.paragraph(
-        "Every screening rule, its thresholds and its measured detection and false-flag "
-        "rates: soilstats' docs/quality.md (`soilstats check --json` lists the codes found "
-        "here with what to do)."
+        "Where most tests of a plate (soil and plate size b) failed, one sinkage window "
+        "for all of them: the smallest onset. Otherwise a window for each failed test "
+        "only, at its onset: the plate's other tests keep their depth. Set them with "
+        "soilstats identify --z-max ITEM (repeatable):"
     )
-    doc.provenance_section()
-    return doc.render(path)
+    windows = pd.DataFrame(record["proposed_windows"])
+    windows["test_id"] = windows["test_id"].fillna("all")
+    doc.table(
+        windows[["soil", "b_m", "test_id", "tests", "plate_tests", "z_max_m", "z_max_item"]],
+        caption="Proposed windows: z_max (m) is the failure onset, the last sinkage the "
+        "early law describes; the --z-max item states it rounded up to 4 digits.",
+        labels={
+            "b_m": "plate width b (m)",
+            "test_id": "for test",
+            "tests": "failed",
+            "plate_tests": "tests of plate",
+            "z_max_m": "z_max (m)",
+            "z_max_item": "--z-max",
+        },
+        align_numbers=False,
+    )

@@ -58,17 +58,17 @@ FIGURE_STYLE: dict[RcKeyType, Any] = {
     "axes.spines.top": False,
     "axes.spines.right": False,
 }
-#: FIGURE_STYLE for a grid of small panels, several to a row (discover's findings): 7 pt
-#: text and titles, 6 pt ticks and 5.5 pt legends.
+#: FIGURE_STYLE for a grid of small panels, several to a row (discover's findings): 8 pt
+#: throughout, the smallest a report prints (issue #47, item 5).
 GRID_STYLE: dict[RcKeyType, Any] = {
     **FIGURE_STYLE,
-    "font.size": 7,
-    "axes.titlesize": 7,
-    "axes.labelsize": 7,
-    "xtick.labelsize": 6,
-    "ytick.labelsize": 6,
-    "legend.fontsize": 5.5,
-    "figure.titlesize": 7,
+    "font.size": 8,
+    "axes.titlesize": 8,
+    "axes.labelsize": 8,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
+    "legend.fontsize": 8,
+    "figure.titlesize": 8,
 }
 # Long unbroken tokens (test ids, file paths, column names) get break opportunities after
 # these characters, so that a narrow table cell wraps them instead of overflowing the page.
@@ -364,7 +364,9 @@ class Document:
             main = root / "report.typ"
             main.write_text(self.source(), encoding="utf-8")
             try:
-                pdf = typst.compile(str(main), root=str(root), ignore_system_fonts=True)
+                pdf = typst.compile(
+                    str(main), root=str(root), font_paths=figure_fonts(), ignore_system_fonts=True
+                )
             except Exception as exc:  # typst raises its own TypstError type
                 raise RuntimeError(f"the report {path.name} could not be typeset: {exc}") from exc
         write_atomic(path, pdf)  # never half a PDF, never through a link
@@ -443,28 +445,89 @@ def tight_layout(fig: Figure) -> None:
     import matplotlib as mpl
 
     plain_texts(fig)
+    plain_log_ticks(fig)
     with mpl.rc_context({"text.parse_math": False}):
         fig.tight_layout()
 
 
+_SUPERSCRIPT = str.maketrans("0123456789-−", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻⁻")
+
+
+def _plain_math(label: str) -> str:
+    """A log axis' mathtext tick label as plain text: ``$\\mathdefault{10^{-1}}$`` -> 10⁻¹,
+    ``2\\times10^{1}`` -> 2×10¹ (the figure's text is printed as written: :func:`plain_texts`)."""
+    if not label.startswith("$"):
+        return label
+    text = label.strip("$").replace("\\mathdefault", "").replace("\\times", "×")
+    text = re.sub(r"\^\{([^}]*)\}", lambda m: m.group(1).translate(_SUPERSCRIPT), text)
+    return text.replace("{", "").replace("}", "").replace("\\,", "").replace("-", "−")
+
+
+def plain_log_ticks(fig: Figure) -> None:
+    """Every log axis of ``fig`` labelled in plain text (10⁻¹, 10², 2×10¹): matplotlib writes
+    its log tick labels in mathtext, which the report's figures print as written."""
+    from matplotlib.ticker import Formatter, LogFormatter
+
+    class PlainLog(Formatter):
+        """The log formatter's own labels (and its choice of minor ticks to label), plain."""
+
+        def __init__(self, inner: LogFormatter) -> None:
+            self.inner = inner
+
+        def set_axis(self, axis: Any) -> None:
+            super().set_axis(axis)
+            self.inner.set_axis(axis)
+
+        def set_locs(self, locs: Any) -> None:
+            self.inner.set_locs(locs)
+
+        def __call__(self, x: float, pos: int | None = None) -> str:
+            return _plain_math(self.inner(x, pos))
+
+    for ax in fig.get_axes():
+        for axis in (ax.xaxis, ax.yaxis):
+            for get, put in (
+                (axis.get_major_formatter, axis.set_major_formatter),
+                (axis.get_minor_formatter, axis.set_minor_formatter),
+            ):
+                old = get()
+                if isinstance(old, LogFormatter):
+                    put(PlainLog(old))
+
+
 def figure_svg(fig: Figure) -> bytes:
-    """A matplotlib figure as the SVG a report embeds (text as paths, a fixed hash salt and
-    no date: the same figure gives the same bytes, in any process); the figure is closed.
-    Data labels are printed as written (:func:`plain_texts`)."""
+    """A matplotlib figure as the SVG a report embeds (a fixed hash salt and no date: the same
+    figure gives the same bytes, in any process); the figure is closed. Data labels are
+    printed as written (:func:`plain_texts`). Its text stays text (``svg.fonttype`` none),
+    set by Typst in matplotlib's own DejaVu fonts (:func:`figure_fonts`): the PDF carries it
+    as real text, so a reader can search it and a test can read its sizes and boxes
+    (issue #47, item 5), where paths hid both."""
     import matplotlib as mpl
 
     plain_texts(fig)
+    plain_log_ticks(fig)
     buffer = io.BytesIO()
     # Tick labels made while drawing (categorical axes: the data's levels) are plain too.
     style: dict[RcKeyType, Any] = {
         "svg.hashsalt": "soilstats",
-        "svg.fonttype": "path",
+        "svg.fonttype": "none",
         "text.parse_math": False,
     }
     with mpl.rc_context(style):
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     _close(fig)
     return buffer.getvalue()
+
+
+def figure_fonts() -> list[str]:
+    """The folder of the fonts matplotlib ships (DejaVu, STIX, Computer Modern): the fonts a
+    figure's SVG text names, given to Typst (never the system's fonts: the same bytes on any
+    machine)."""
+    import os
+
+    import matplotlib as mpl
+
+    return [os.path.join(mpl.get_data_path(), "fonts", "ttf")]
 
 
 def _close(fig: Figure) -> None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from .document import Document, Markup
+from .document import Document, Markup, strong
 
 __all__ = ["data_origin", "front_page"]
 
@@ -38,20 +38,24 @@ def front_page(
     data: Sequence[Markup | str],
     conclusion: Sequence[Sequence[Markup | str] | Markup | str],
     defaults: Mapping[str, str] | None = None,
+    default_warnings: Mapping[str, str] | None = None,
 ) -> None:
     """Question, data and conclusion sections; each conclusion item is one paragraph.
     ``defaults``: the options the user left at their defaults (``{"--alpha": "0.05"}``),
-    said under Data, since the result rests on them."""
+    said under Data, since the result rests on them; ``default_warnings``: those of them
+    that move a verdict (``{"--alpha": "one line naming the verdict"}``), each a warning."""
     doc.heading("Question")
     doc.paragraph(*question)
     doc.heading("Data")
     doc.paragraph(*data)
     if defaults:
         doc.paragraph(
-            "Settings left at their defaults (not given on the command line): "
+            "Settings left at their defaults (not given on the command line or in an input file): "
             + ", ".join(f"{k} {v}" for k, v in defaults.items())
             + "."
         )
+    for text in (default_warnings or {}).values():
+        doc.paragraph(strong("Warning: "), text, ".")
     doc.heading("Conclusion")
     for item in conclusion:
         parts = item if isinstance(item, list | tuple) else (item,)

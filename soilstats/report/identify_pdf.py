@@ -121,10 +121,10 @@ def _soil_figure(soil: str, pairs: list):
                 middle.append(float(y[grid.size // 2]))
         for i, name in enumerate(series):
             ax.plot([], [], color=cmap(i % 10), label=name or "all tests")
-        ax.legend(fontsize=5.5, frameon=False)
-        ax.set_xlabel(label, fontsize=7)
-        ax.set_ylabel("p [kPa]" if kind == "sinkage" else "τ [kPa]", fontsize=7)
-        ax.tick_params(labelsize=6)
+        ax.legend(fontsize=8, frameon=False)
+        ax.set_xlabel(label, fontsize=8)
+        ax.set_ylabel("p [kPa]" if kind == "sinkage" else "τ [kPa]", fontsize=8)
+        ax.tick_params(labelsize=8)
         finding = f"{kind}: {plural(len(middle), 'curve')}"
         if len(mine) == 1 and len(middle) > 1 and min(middle) > 0:
             trend = "rises" if middle[-1] > middle[0] else "falls"  # plates narrow to wide
@@ -134,8 +134,8 @@ def _soil_figure(soil: str, pairs: list):
             )
         elif len(middle) > 1 and min(middle) > 0:
             finding += f" within a factor {max(middle) / min(middle):.2g} mid-range"
-        ax.set_title(finding, fontsize=7)
-    fig.suptitle(soil, fontsize=8)
+        ax.set_title(finding, fontsize=8)
+    fig.suptitle(soil, fontsize=9)
     tight_layout(fig)
     return fig
 

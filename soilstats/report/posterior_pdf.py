@@ -28,7 +28,8 @@ from .document import Document, figure_svg, strong
 from .front import data_origin, front_page
 from .labels import parameter_symbol
 from .methods import write_equations
-from .posterior_figures import pair_figure, predictive_figure, trace_figure
+from .posterior_figures import pair_figure, trace_figure
+from .posterior_predictive import predictive_figure
 
 __all__ = ["write_report"]
 
@@ -328,6 +329,7 @@ def write_report(
             ".",
         ],
         conclusion=_conclusion(results, record, prob, handed_out),
+        defaults=record.get("defaults"),
     )
     doc.page_break()
     doc.heading("Methods")
@@ -342,28 +344,7 @@ def write_report(
         doc.paragraph(strong("Priors:"))
         doc.bullets(f"{model}: {prior}" for model, prior in record["priors"].items())
     for res in results:
-        doc.heading(f"{res.model_name} ({res.kind})")
-        s = res.sampler
-        doc.paragraph(
-            f"Sampler: emcee, {s.get('walkers')} walkers, {s.get('steps')} steps, burn-in "
-            f"{s.get('burn')}, thin {s.get('thin')}, {s.get('kept')} draws kept; "
-            f"autocorrelation time {s.get('tau_max', float('nan')):.3g} steps; acceptance "
-            f"{s.get('acceptance', float('nan')):.2f}."
-        )
-        _diagnostics_table(doc, res, prob, handed_out)
-        health = res.least_squares_health()
-        if health:
-            doc.paragraph(strong("Health of the start fit (the least-squares fit sampled from):"))
-            doc.bullets([strong(f"{h['code']}: "), h["message"]] for h in health)
-        if res.flags:
-            doc.paragraph(strong("Failed convergence checks:"))
-            doc.bullets([strong(f"{f.code}: "), f.message] for f in res.flags)
-        if res.notes:
-            doc.paragraph(strong("Notes:"))
-            doc.numbered(res.notes)
-        drawn = (figures or {}).get(res.model_name)
-        for svg, caption in drawn if drawn is not None else model_figures(res):
-            doc.svg_figure(svg, caption)
+        _model_section(doc, res, prob, handed_out, (figures or {}).get(res.model_name))
     if record.get("simulator"):
         _simulator_section(doc, record["simulator"])
     if record.get("support"):
@@ -374,6 +355,38 @@ def write_report(
         doc.numbered(record["failures"])
     doc.provenance_section()
     return doc.render(path)
+
+
+def _model_section(
+    doc: Document,
+    res: PosteriorResult,
+    prob: float,
+    handed_out: pd.DataFrame | None,
+    drawn: Sequence[tuple[bytes, str]] | None,
+) -> None:
+    """One model's section: sampler, diagnostics, health, flags, notes and its figures
+    (``drawn`` as :func:`model_figures` drew them elsewhere, else drawn here)."""
+    doc.heading(f"{res.model_name} ({res.kind})")
+    s = res.sampler
+    doc.paragraph(
+        f"Sampler: emcee, {s.get('walkers')} walkers, {s.get('steps')} steps, burn-in "
+        f"{s.get('burn')}, thin {s.get('thin')}, {s.get('kept')} draws kept; "
+        f"autocorrelation time {s.get('tau_max', float('nan')):.3g} steps; acceptance "
+        f"{s.get('acceptance', float('nan')):.2f}."
+    )
+    _diagnostics_table(doc, res, prob, handed_out)
+    health = res.least_squares_health()
+    if health:
+        doc.paragraph(strong("Health of the start fit (the least-squares fit sampled from):"))
+        doc.bullets([strong(f"{h['code']}: "), h["message"]] for h in health)
+    if res.flags:
+        doc.paragraph(strong("Failed convergence checks:"))
+        doc.bullets([strong(f"{f.code}: "), f.message] for f in res.flags)
+    if res.notes:
+        doc.paragraph(strong("Notes:"))
+        doc.numbered(res.notes)
+    for svg, caption in drawn if drawn is not None else model_figures(res):
+        doc.svg_figure(svg, caption)
 
 
 def _support_rows(support: dict) -> list[tuple[str, str]]:

@@ -64,7 +64,7 @@ def curves(result: StudyResult, campaign: Campaign) -> plt.Figure:
             ax.plot(z, m, color=colour, label=condition_label(level))
             ax.fill_between(z, m - s, m + s, color=colour, alpha=0.2)
         ax.set(title=soil, xlabel="sinkage z (mm)", ylabel="pressure p (kPa)")
-        ax.legend(title=column_label(spec.factor), fontsize=7, title_fontsize=7)
+        ax.legend(title=column_label(spec.factor), fontsize=8, title_fontsize=8)
     tight_layout(fig)
     return fig
 
@@ -104,7 +104,7 @@ def responses(result: StudyResult, campaign: Campaign | None = None) -> plt.Figu
                 jitter=0.2,
             )
         ax.set(xlabel=column_label(spec.factor), ylabel=labels.get(name, column_label(name)))
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=8)
     tight_layout(fig)
     return fig
 
@@ -155,9 +155,10 @@ def relative(result: StudyResult, campaign: Campaign | None = None) -> plt.Figur
         else:
             ax.axhline(0.0, color="grey", lw=0.8)
             ax.set(title=f"{name} changes sign", ylabel=f"{name} ({unit})")
-        ax.set(xlabel=column_label(spec.factor))
-        ax.tick_params(axis="x", rotation=45 if len(levels) > 4 else 0, labelsize=7)
-        ax.legend(fontsize=7)
+        ax.tick_params(axis="x", rotation=45 if len(levels) > 4 else 0, labelsize=8)
+        ax.legend(fontsize=8)
+    # once under all panels: repeated under each, a long factor name ran past the page edge
+    fig.supxlabel(column_label(spec.factor), fontsize=plt.rcParams["axes.labelsize"])
     tight_layout(fig)
     return fig
 
@@ -214,7 +215,7 @@ def mohr_coulomb(result: StudyResult, campaign: Campaign | None = None) -> plt.F
                 label=f"{line['level']}: c={line['intercept']:.0f} Pa, φ={line['phi_deg']:.1f}°",
             )
         ax.set(title=soil, xlabel="normal pressure σ (kPa)", ylabel="shear stress τ_ss (kPa)")
-        ax.legend(title=column_label(spec.factor), fontsize=6, title_fontsize=7)
+        ax.legend(title=column_label(spec.factor), fontsize=8, title_fontsize=8)
     tight_layout(fig)
     return fig
 

@@ -420,6 +420,7 @@ def write_report(
             ".",
         ],
         conclusion=_conclusion(result),
+        defaults=getattr(result, "defaults", None),
     )
     if result.notes:
         doc.heading("Notes", level=2)

@@ -99,7 +99,7 @@ def _heldout_figure(report: CalibrationReport) -> tuple[Figure, str]:
     frame = report.heldout
     f = frame[frame["scheme"] == "slip_condition"]
     wheels = sorted(set(f["wheel"]))
-    fig, axes = plt.subplots(1, len(wheels), figsize=(7.0, 2.8), sharey=True, squeeze=False)
+    fig, axes = plt.subplots(1, len(wheels), figsize=(6.5, 2.8), sharey=True, squeeze=False)
     for ax, wheel in zip(axes[0], wheels, strict=True):
         rows = f[f["wheel"] == wheel].sort_values("slip")
         ax.errorbar(

@@ -110,7 +110,9 @@ def predicted_figure(result: WheelValidation) -> tuple[Figure, str]:
     wheels = _wheels(result)
     held = "sinkage_heldout_median_m" in runs
     with rc_context(_STYLE):
-        fig, axes = _panels(len(wheels))
+        # Printed at 94 % of the text width on page 1 (6.14 in): drawn no wider, so its
+        # 8 pt ticks print at 8 pt.
+        fig, axes = _panels(len(wheels), figsize=(6.1, 3.2))
         for ax, wheel in zip(axes, wheels, strict=True):
             sub = runs[runs["wheel"] == wheel].sort_values("slip")
             x = _jitter(sub)

@@ -298,8 +298,13 @@ def write_report(
     overwrite: bool = False,
     calibration: CalibrationReport | None = None,
     defaults: dict[str, str] | None = None,
+    default_warnings: dict[str, str] | None = None,
 ) -> int:
     """Write the typeset wheel-validation report of ``result`` to ``path``; return its pages.
+
+    ``defaults``: the settings and geometry the user did not give, on page 1; of them,
+    ``default_warnings`` those that move a verdict (:func:`soilstats.wheel.defaults.
+    moved_verdicts`), each a warning there.
 
     With ``calibration`` (``--calibrate``) page 1 also gives the held-out answers of the
     calibrated wheel and the body its sections (:mod:`.wheel_calibration_pdf`)."""
@@ -332,11 +337,26 @@ def write_report(
         conclusion=_conclusion(res)
         + (calibration_conclusion(calibration) if calibration is not None else []),
         defaults=defaults,
+        default_warnings=default_warnings,
     )
     fig, caption = predicted_figure(res)
     doc.figure(fig, caption, width="94%")
     doc.page_break()
 
+    _method(doc, res)
+    _validation(doc, res)
+    _what_is_wrong(doc, res)
+    if res.discovery is not None and res.discovery.gains:
+        _extension(doc, res, res.discovery)
+    if res.sensitivity:
+        _sensitivity(doc, res)
+    _forces_and_caveats(doc, res, calibration)
+    doc.provenance_section()
+    return doc.render(path)
+
+
+def _method(doc: Document, res: WheelValidation) -> None:
+    """Soil, model, plate moduli at the wheel's width, and what coverage and bias mean."""
     doc.heading("Method")
     doc.bullets(
         [
@@ -360,6 +380,9 @@ def write_report(
         ]
     )
 
+
+def _validation(doc: Document, res: WheelValidation) -> None:
+    """Sinkage per wheel and slip, per wheel and slip angle; the bias trends."""
     doc.heading("Validation")
     _group_table(
         doc, res, "wheel × slip",
@@ -381,6 +404,10 @@ def write_report(
             formats={"slope": ".3g", "stderr": ".2g"},
         )
 
+
+def _what_is_wrong(doc: Document, res: WheelValidation) -> None:
+    """The residual tests, their findings, and the slip-angle and day figures."""
+    runs = res.runs
     disc = res.discovery
     doc.heading("What the wheel model gets wrong")
     _tests_table(doc, res.discovery if disc is not None else _Tests(res.tests))
@@ -397,77 +424,86 @@ def write_report(
         fig, caption = day_figure(res)
         doc.figure(fig, caption)
 
-    if disc is not None and disc.gains:
-        doc.heading("The extension: a slip-dependent exponent")
-        doc.paragraph(
-            "The normal stress of the wheel takes the exponent N = n + n1·s for s ≥ 0 and "
-            "N = n + n2·|s| in skid, n the plates' exponent (so N = n at s = 0). The driving "
-            "form is that of Ding, Gao, Deng and Tao (2010, J. Cent. South Univ. Technol. "
-            "17(1)), used by Ding et al. (2011) and by the data's own authors; the skid branch "
-            "is theirs. It stays inside the Wong–Reece stresses and has one coefficient per "
-            "slip direction, fitted per wheel by least squares on the β = 0 runs; its gain is "
-            "measured only on runs the fit did not see."
-        )
-        gains = pd.DataFrame([{"held out": k} | g.to_dict() for k, g in disc.gains.items()])
-        gains["base (mm)"], gains["extended (mm)"] = gains["base"] * 1e3, gains["extended"] * 1e3
-        gains["difference (mm)"] = gains["difference"] * 1e3
-        gains["SE (mm)"] = gains["stderr"] * 1e3
-        doc.table(
-            gains[["held out", "folds", "n_tests", "base (mm)", "extended (mm)", "relative",
-                   "difference (mm)", "SE (mm)", "real"]],
-            caption="Held-out gain: mean absolute sinkage error of β = 0 runs predicted by fits "
-            "that never saw their slip condition (slip) or their day (day), per wheel and "
-            "pooled; SE clustered by fold; real: difference > 2 SE.",
-            labels={"n_tests": "runs"},
-            formats={"relative": "+.0%", "base (mm)": ".2f", "extended (mm)": ".2f",
-                     "difference (mm)": ".2f", "SE (mm)": ".2f"},
-        )  # fmt: skip
-        fig, caption = extension_figure(res)
-        doc.figure(fig, caption)
-        fails = pd.DataFrame(disc.still_fails)
-        if len(fails):
-            table = pd.DataFrame(
-                {
-                    "wheel": fails["wheel"],
-                    "held out": fails["level"],
-                    "runs": fails["runs"],
-                    "measured (mm)": fails["measured_mean_m"] * 1e3,
-                    "error, plates (mm)": fails["base_mae_m"] * 1e3,
-                    "error, extended (mm)": fails["extended_mae_m"] * 1e3,
-                    "in band": fails["extended_coverage_90"],
-                }
-            )
-            doc.table(
-                table,
-                caption="Where the extended model still fails: per slip condition held out "
-                "(β = 0) and per slip angle (β ≠ 0 runs, never fitted), mean measured sinkage, "
-                "mean absolute error before and after, share of runs in the extended band.",
-                formats={c: ".1f" for c in table.columns if "(mm)" in c} | {"in band": ".0%"},
-            )
-        for note in disc.notes:
-            doc.note(note)
 
-    if res.sensitivity:
-        doc.heading("Sensitivity: Bekker's b and the exit angle")
-        sens = pd.DataFrame(res.sensitivity)
-        doc.table(
-            pd.DataFrame(
-                {
-                    "choice": sens["case"],
-                    "wheel": sens["wheel"],
-                    "law b (mm)": sens["law_b_m"] * 1e3,
-                    "measured (mm)": sens["measured_mean_m"] * 1e3,
-                    "predicted (mm)": sens["predicted_mean_m"] * 1e3,
-                    "modulus ≤ 0": sens["modulus_nonpositive"],
-                }
-            ),
-            caption="The β = 0 runs near zero slip predicted under other choices (medians over "
-            f"{int(sens['draws'].max())} draws). A rear contact behind the bottom is what the "
-            "data's authors tuned on these runs; it is not measured here.",
-            formats={"law b (mm)": ".0f", "measured (mm)": ".1f", "predicted (mm)": ".1f"},
-            align_numbers=True,
+def _extension(doc: Document, res: WheelValidation, disc) -> None:
+    """The slip-dependent exponent: its held-out gains, figure and where it still fails."""
+    doc.heading("The extension: a slip-dependent exponent")
+    doc.paragraph(
+        "The normal stress of the wheel takes the exponent N = n + n1·s for s ≥ 0 and "
+        "N = n + n2·|s| in skid, n the plates' exponent (so N = n at s = 0). The driving "
+        "form is that of Ding, Gao, Deng and Tao (2010, J. Cent. South Univ. Technol. "
+        "17(1)), used by Ding et al. (2011) and by the data's own authors; the skid branch "
+        "is theirs. It stays inside the Wong–Reece stresses and has one coefficient per "
+        "slip direction, fitted per wheel by least squares on the β = 0 runs; its gain is "
+        "measured only on runs the fit did not see."
+    )
+    gains = pd.DataFrame([{"held out": k} | g.to_dict() for k, g in disc.gains.items()])
+    gains["base (mm)"], gains["extended (mm)"] = gains["base"] * 1e3, gains["extended"] * 1e3
+    gains["difference (mm)"] = gains["difference"] * 1e3
+    gains["SE (mm)"] = gains["stderr"] * 1e3
+    doc.table(
+        gains[["held out", "folds", "n_tests", "base (mm)", "extended (mm)", "relative",
+               "difference (mm)", "SE (mm)", "real"]],
+        caption="Held-out gain: mean absolute sinkage error of β = 0 runs predicted by fits "
+        "that never saw their slip condition (slip) or their day (day), per wheel and "
+        "pooled; SE clustered by fold; real: difference > 2 SE.",
+        labels={"n_tests": "runs"},
+        formats={"relative": "+.0%", "base (mm)": ".2f", "extended (mm)": ".2f",
+                 "difference (mm)": ".2f", "SE (mm)": ".2f"},
+    )  # fmt: skip
+    fig, caption = extension_figure(res)
+    doc.figure(fig, caption)
+    fails = pd.DataFrame(disc.still_fails)
+    if len(fails):
+        table = pd.DataFrame(
+            {
+                "wheel": fails["wheel"],
+                "held out": fails["level"],
+                "runs": fails["runs"],
+                "measured (mm)": fails["measured_mean_m"] * 1e3,
+                "error, plates (mm)": fails["base_mae_m"] * 1e3,
+                "error, extended (mm)": fails["extended_mae_m"] * 1e3,
+                "in band": fails["extended_coverage_90"],
+            }
         )
+        doc.table(
+            table,
+            caption="Where the extended model still fails: per slip condition held out "
+            "(β = 0) and per slip angle (β ≠ 0 runs, never fitted), mean measured sinkage, "
+            "mean absolute error before and after, share of runs in the extended band.",
+            formats={c: ".1f" for c in table.columns if "(mm)" in c} | {"in band": ".0%"},
+        )
+    for note in disc.notes:
+        doc.note(note)
 
+
+def _sensitivity(doc: Document, res: WheelValidation) -> None:
+    """Bekker's b and the exit angle: the runs near zero slip under other choices."""
+    doc.heading("Sensitivity: Bekker's b and the exit angle")
+    sens = pd.DataFrame(res.sensitivity)
+    doc.table(
+        pd.DataFrame(
+            {
+                "choice": sens["case"],
+                "wheel": sens["wheel"],
+                "law b (mm)": sens["law_b_m"] * 1e3,
+                "measured (mm)": sens["measured_mean_m"] * 1e3,
+                "predicted (mm)": sens["predicted_mean_m"] * 1e3,
+                "modulus ≤ 0": sens["modulus_nonpositive"],
+            }
+        ),
+        caption="The β = 0 runs near zero slip predicted under other choices (medians over "
+        f"{int(sens['draws'].max())} draws). A rear contact behind the bottom is what the "
+        "data's authors tuned on these runs; it is not measured here.",
+        formats={"law b (mm)": ".0f", "measured (mm)": ".1f", "predicted (mm)": ".1f"},
+        align_numbers=True,
+    )
+
+
+def _forces_and_caveats(
+    doc: Document, res: WheelValidation, calibration: CalibrationReport | None
+) -> None:
+    """Drawbar pull (or why not predicted), the calibration, the caveats and notes."""
     if not res.unpredictable and "drawbar_pull_beta_0" in res.coverage:
         doc.heading("Drawbar pull with stated shear priors")
         fig, caption = drawbar_figure(res)
@@ -485,8 +521,6 @@ def write_report(
             strong(f"Left out of the headline ({len(e['runs'])} runs): "),
             e["reason"] + " (the runs are listed in wheel.json, excluded).",
         )
-    doc.provenance_section()
-    return doc.render(path)
 
 
 def _dated(runs: pd.DataFrame) -> bool:

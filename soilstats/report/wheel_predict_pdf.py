@@ -36,7 +36,7 @@ _SCALE = {
 
 def _figure(pred: OwnWheelPrediction) -> tuple[Figure, str]:
     quantities = list(dict.fromkeys(pred.bands["quantity"]))
-    fig, axes = plt.subplots(1, len(quantities), figsize=(7.0, 2.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(quantities), figsize=(6.5, 2.6), squeeze=False)
     for ax, q in zip(axes[0], quantities, strict=True):
         scale, label = _SCALE[q]
         rows = pred.bands[pred.bands["quantity"] == q]

@@ -22,7 +22,7 @@ from ..models.shear import side_wall_ratio
 from .artefacts import plant
 from .design import draw_parameters, expand, operator_biases
 from .effects import apparent_shear, side_wall_K0, softening_of
-from .records import SHEAR_PARAMS, SINKAGE_PARAMS, Spec, SpecError
+from .records import SHEAR_PARAMS, SINKAGE_PARAMS, Series, Spec, SpecError
 from .shear import shear_samples
 from .sinkage import quantise, sinkage_samples
 from .spec import load_spec, parse_spec
@@ -307,29 +307,8 @@ def simulate(
             record["force_offset_N"] = offset
             record["softening_zc_m"], record["softening_factor"] = soft or (np.nan, np.nan)
         else:
-            K0 = side_wall_K0(spec.effects, row)
-            angle, torque, normal, offset = shear_samples(
-                row,
-                params,
-                K0,
-                spec.noise,
-                spec.resolution,
-                series.shear_deformation_m,
-                series.points,
-                noise_rng,
-            )
+            angle, torque, normal = _shear_test(spec, row, params, series, noise_rng, record)
             shear_parts.append((row["test_id"], angle, torque, normal))
-            record["torque_offset_Nm"] = offset
-            a = side_wall_ratio(row["r_inner_m"], row["r_outer_m"], row["grouser_height_m"])
-            k0, a = (0.0, 0.0) if K0 is None else (K0, a)
-            record["normal_pressure_Pa"] = row["normal_pressure_Pa"]
-            record["side_wall_K0"] = np.nan if K0 is None else K0
-            record["c_apparent_Pa"], record["phi_apparent_deg"] = apparent_shear(
-                params["c"], params["phi"], a, k0
-            )
-            record["c_apparent_soil"], record["phi_apparent_soil"] = apparent_shear(
-                params["c_soil"], params["phi_soil"], a, k0
-            )
         truth_rows.append(record)
     tests = pd.DataFrame([{k: v for k, v in r.items() if k not in _PRIVATE} for r in rows])
     order = [c for c in _LOG_ORDER if c in tests.columns]
@@ -343,6 +322,41 @@ def simulate(
     artefacts = _artefact_table(planted, sink_parts)
     truth = _truth(spec, seed, biases)
     return SimulatedCampaign(campaign, truth, test_truth, spec, seed, artefacts)
+
+
+def _shear_test(
+    spec: Spec,
+    row: dict[str, Any],
+    params: dict[str, float],
+    series: Series,
+    rng: np.random.Generator,
+    record: dict[str, Any],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One shear test's samples (angle [rad], torque [N m], normal force [N]), its truth
+    (offset, side-wall K0 and the apparent c and φ the ring measures) added to ``record``."""
+    K0 = side_wall_K0(spec.effects, row)
+    angle, torque, normal, offset = shear_samples(
+        row,
+        params,
+        K0,
+        spec.noise,
+        spec.resolution,
+        series.shear_deformation_m,
+        series.points,
+        rng,
+    )
+    record["torque_offset_Nm"] = offset
+    a = side_wall_ratio(row["r_inner_m"], row["r_outer_m"], row["grouser_height_m"])
+    k0, a = (0.0, 0.0) if K0 is None else (K0, a)
+    record["normal_pressure_Pa"] = row["normal_pressure_Pa"]
+    record["side_wall_K0"] = np.nan if K0 is None else K0
+    record["c_apparent_Pa"], record["phi_apparent_deg"] = apparent_shear(
+        params["c"], params["phi"], a, k0
+    )
+    record["c_apparent_soil"], record["phi_apparent_soil"] = apparent_shear(
+        params["c_soil"], params["phi_soil"], a, k0
+    )
+    return angle, torque, normal
 
 
 def _check_effect_columns(spec: Spec, rows: list[dict[str, Any]]) -> None:

@@ -87,6 +87,22 @@ def random_block_input(
     return blocks, frame, n_dropped
 
 
+def _f_tests(table: pd.DataFrame, error: dict[str, str]) -> pd.DataFrame:
+    """``table`` (rows of ``sum_sq``, ``df``, ``mean_sq``) with each term's F against the
+    mean square of its ``error`` row, its p-value and its ``error_term``, in the columns
+    :data:`COLUMNS`."""
+    table["F"] = np.nan
+    table["PR(>F)"] = np.nan
+    for term, err in error.items():
+        if not table.loc[err, "mean_sq"] > 0:
+            continue  # exact data: no scatter to test against (F and p stay NaN)
+        f = table.loc[term, "mean_sq"] / table.loc[err, "mean_sq"]
+        table.loc[term, "F"] = f
+        table.loc[term, "PR(>F)"] = stats.f.sf(f, table.loc[term, "df"], table.loc[err, "df"])
+    table["error_term"] = pd.Series(error, dtype=object).reindex(table.index).fillna("")
+    return table[COLUMNS]
+
+
 def anova_random_block(
     data: pd.DataFrame,
     response: str,
@@ -178,16 +194,7 @@ def anova_random_block(
     table["sum_sq"] = table["sum_sq"].clip(lower=0.0)
     table["mean_sq"] = table["sum_sq"] / table["df"]
     error = {t: (inter if t in (factor, random) else "Residual") for t in [*main, inter]}
-    table["F"] = np.nan
-    table["PR(>F)"] = np.nan
-    for term, err in error.items():
-        if not table.loc[err, "mean_sq"] > 0:
-            continue  # exact data: no scatter to test against (F and p stay NaN)
-        f = table.loc[term, "mean_sq"] / table.loc[err, "mean_sq"]
-        table.loc[term, "F"] = f
-        table.loc[term, "PR(>F)"] = stats.f.sf(f, table.loc[term, "df"], table.loc[err, "df"])
-    table["error_term"] = pd.Series(error, dtype=object).reindex(table.index).fillna("")
-    table = table[COLUMNS]
+    table = _f_tests(table, error)
     counts = frame.groupby([factor, random], sort=False).size().to_numpy()
     n_cells = frame[factor].nunique() * frame[random].nunique()
     centred = y - y.mean()

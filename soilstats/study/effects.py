@@ -191,39 +191,15 @@ def factor_effects(
             untested.append(unreplicated)
             notes.append(unreplicated)
             continue
-        blocks = _active_blocks(data, spec)
-        try:
-            if blocks:
-                table = anova_twoway(data, resp.name, "level", blocks)
-            else:
-                table = anova_oneway(data, resp.name, "level")
-        except ConfoundingError:
-            joined = ", ".join(blocks)
-            notes.append(
-                f"{soil}: {factor} is confounded with {joined} — its levels cannot be told "
-                f"apart from the {joined} they were tested in (e.g. a level tested in one "
-                f"{joined} only), so the {factor} effect reported includes any {joined} effect "
-                "(one-way ANOVA, no blocks)"
-            )
-            blocks = []
-            table = anova_oneway(data, resp.name, "level")
-        except StatisticsInputError as err:
-            notes.append(f"{soil}, {resp.name}: not tested — {_in_terms(err, factor)}")
+        fitted = _anova(data, resp.name, factor, _active_blocks(data, spec), soil, notes)
+        if fitted is None:
             continue
+        table, blocks = fitted
         error, error_term = None, "Residual"
         if blocks:
             mixed = _random_test(data, resp.name, factor, blocks, spec, soil, notes)
             if mixed is not None:
-                table = mixed
-                inter = mixed.attrs["error_term"]
-                error = (float(mixed.loc[inter, "mean_sq"]), float(mixed.loc[inter, "df"]))
-                error_term = inter.replace("level", factor, 1)
-                table["error_term"] = table["error_term"].str.replace("level", factor, n=1)
-                table = table.rename(index={inter: error_term})
-                table.attrs["test"] = (
-                    f"type II ANOVA, {factor} against {factor} × {mixed.attrs['random']} "
-                    f"({mixed.attrs['random']} random)"
-                )
+                table, error, error_term = _against_random(mixed, factor)
         table = table.rename(index={"level": factor, "between": factor})
         welch = None
         if error is not None and data["level"].nunique() >= 3:
@@ -268,6 +244,51 @@ def factor_effects(
         "notes": notes,
         "untested": untested,
     }
+
+
+def _anova(
+    data: pd.DataFrame, response: str, factor: str, blocks: list[str], soil: str, notes: list[str]
+) -> tuple[pd.DataFrame, list[str]] | None:
+    """The ANOVA of ``response`` on the factor's levels (``level``) within ``blocks`` and the
+    blocks it kept: one-way, with a note, where the factor is confounded with the blocks;
+    None, with a note, where it cannot be tested."""
+    try:
+        if blocks:
+            table = anova_twoway(data, response, "level", blocks)
+        else:
+            table = anova_oneway(data, response, "level")
+    except ConfoundingError:
+        joined = ", ".join(blocks)
+        notes.append(
+            f"{soil}: {factor} is confounded with {joined} — its levels cannot be told "
+            f"apart from the {joined} they were tested in (e.g. a level tested in one "
+            f"{joined} only), so the {factor} effect reported includes any {joined} effect "
+            "(one-way ANOVA, no blocks)"
+        )
+        blocks = []
+        table = anova_oneway(data, response, "level")
+    except StatisticsInputError as err:
+        notes.append(f"{soil}, {response}: not tested — {_in_terms(err, factor)}")
+        return None
+    return table, blocks
+
+
+def _against_random(
+    mixed: pd.DataFrame, factor: str
+) -> tuple[pd.DataFrame, tuple[float, float], str]:
+    """The random-block ANOVA ``mixed`` in the study's terms: (its table, its rows named by
+    ``factor``; the error (mean square, df) the factor is tested against; that row's name)."""
+    table = mixed
+    inter = mixed.attrs["error_term"]
+    error = (float(mixed.loc[inter, "mean_sq"]), float(mixed.loc[inter, "df"]))
+    error_term = inter.replace("level", factor, 1)
+    table["error_term"] = table["error_term"].str.replace("level", factor, n=1)
+    table = table.rename(index={inter: error_term})
+    table.attrs["test"] = (
+        f"type II ANOVA, {factor} against {factor} × {mixed.attrs['random']} "
+        f"({mixed.attrs['random']} random)"
+    )
+    return table, error, error_term
 
 
 def _unreplicated(data: pd.DataFrame, spec, soil: str, response: str) -> str | None:

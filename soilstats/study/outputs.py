@@ -114,6 +114,7 @@ def to_json_dict(result: StudyRecord) -> dict:
         "reference_pairs": _records(result.reference_pairs()),
         "lines": _records(result.lines),
         "notes": list(result.notes),
+        "defaults": dict(getattr(result, "defaults", {})),
     }
     if result.date is not None:  # only when SOURCE_DATE_EPOCH asks for one
         doc["date"] = result.date

@@ -187,31 +187,7 @@ def evaluate_criteria(
         for m in methods:
             g = soil_tests[soil_tests["preparation"].astype(str) == m]
             c1, why1 = _criterion1(m, per_test, crit)
-            cv, df = _scatter_cv(g)
-            parts, why2 = [], []
-            if m in tested:
-                ok = tested[m] >= alpha
-                parts.append(ok)
-                why2.append(
-                    f"operator p = {tested[m]:.3g} (α = {alpha:g} per method; Holm across "
-                    f"the soil's methods {adjusted[m]:.3g})"
-                )
-            else:
-                why2.append(
-                    f"operator effect not assessable (no {crit.operator_column!r} "
-                    "with two or more persons)"
-                )
-            if df > 0:
-                parts.append(cv <= crit.max_scatter_cv)
-                why2.append(f"scatter cv = {cv:.3f} (bound {crit.max_scatter_cv:g}, {df} df)")
-            else:
-                why2.append(f"scatter not assessable ({len(g)} test(s), no repetition)")
-            if parts and not all(parts):
-                c2 = MINUS
-            elif len(parts) == 2:
-                c2 = PLUS
-            else:
-                c2 = NA
+            c2, why2, cv = _criterion2(g, tested.get(m), adjusted.get(m), alpha, crit)
             e, count, out = per_eps[m]
             pooled = eps.get(m, math.nan)
             c3, why3 = _criterion3(e, count, out, pooled, best_eps, crit)
@@ -231,12 +207,45 @@ def evaluate_criteria(
                     operator_p_holm=adjusted.get(m, math.nan),
                     operator_p=tested.get(m, math.nan),
                     crit1_reason=why1,
-                    crit2_reason="; ".join(why2),
+                    crit2_reason=why2,
                     crit3_reason=why3,
                 )
             )
     table = pd.DataFrame(rows)
     return table, _best(table)
+
+
+def _criterion2(
+    g: pd.DataFrame, p: float | None, p_holm: float | None, alpha: float, crit: Criteria
+) -> tuple[str, str, float]:
+    """Criterion 2 of one method's tests ``g``: no operator effect (its p-value ``p`` and
+    Holm-adjusted ``p_holm`` across the soil's methods, None where not assessable) and a
+    scatter cv within the bound. Returns (verdict, reason, scatter cv)."""
+    cv, df = _scatter_cv(g)
+    parts, why2 = [], []
+    if p is not None:
+        ok = p >= alpha
+        parts.append(ok)
+        why2.append(
+            f"operator p = {p:.3g} (α = {alpha:g} per method; Holm across "
+            f"the soil's methods {p_holm:.3g})"
+        )
+    else:
+        why2.append(
+            f"operator effect not assessable (no {crit.operator_column!r} with two or more persons)"
+        )
+    if df > 0:
+        parts.append(cv <= crit.max_scatter_cv)
+        why2.append(f"scatter cv = {cv:.3f} (bound {crit.max_scatter_cv:g}, {df} df)")
+    else:
+        why2.append(f"scatter not assessable ({len(g)} test(s), no repetition)")
+    if parts and not all(parts):
+        c2 = MINUS
+    elif len(parts) == 2:
+        c2 = PLUS
+    else:
+        c2 = NA
+    return c2, "; ".join(why2), cv
 
 
 def _natural(label: str):

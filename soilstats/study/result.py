@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import pandas as pd
@@ -71,6 +71,10 @@ class StudyResult:
         Was ``seconds``, which still works (with a ``FutureWarning``) until 0.3.0.
     provenance : Provenance or None
         Version, input hash, command and seed, recorded in every output.
+    defaults : dict of str to str
+        What the result rests on that the user did not give: the spec's keys left at their
+        defaults (``{"spec: z_window_m": "0.001"}``) and, from the CLI, its options
+        (``{"--seed": "0"}``); the JSON's ``"defaults"`` and page 1 of the report.
     """
 
     spec: StudySpec
@@ -89,6 +93,7 @@ class StudyResult:
     runtime_s: float = math.nan
     seed: int | None = None
     provenance: Provenance | None = None
+    defaults: dict[str, str] = field(default_factory=dict)
 
     @property
     def name(self) -> str:

@@ -126,21 +126,7 @@ def run_study(
     soils, notes = soils_with_levels(tests, spec)
     tests = tests[tests["soil"].astype(str).isin(soils)]
     notes = window_notes + notes + check_reference(tests, spec)
-    ids = tests["test_id"].astype(str).tolist()
-    if spec.kind == "sinkage":
-        per_test = cache.sinkage(ids, spec.z_ref_m, spec.z_window_m)
-        short = per_test["p_ref_Pa"].isna().sum()
-        if short == len(per_test):
-            raise StudyDataError(
-                f"{spec.name} study needs sinkage tests reaching z_ref_m = {spec.z_ref_m:g} m; "
-                f"none of the {len(per_test)} selected tests does"
-            )
-        if short:
-            notes.append(
-                f"{short} test(s) do not reach z_ref = {spec.z_ref_m * 1e3:g} mm: no p_ref"
-            )
-    else:
-        per_test = cache.shear(ids)
+    per_test = _per_test(cache, tests, spec, notes)
     failed = not_converged_message(per_test, spec.kind)
     if failed:
         notes.append(failed)
@@ -164,21 +150,7 @@ def run_study(
     parameters = pd.concat(params, ignore_index=True) if params else pd.DataFrame()
     criteria = best = None
     if spec.type == "preparation":
-        eps = parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
-        criteria, best = evaluate_criteria(
-            per_test,
-            eps.rename(columns={"condition": "level"}),
-            spec,
-            spec.alpha,
-            failed=_failed_in_bearing(campaign, per_test),
-        )
-        single = per_test.groupby(["soil", spec.factor]).size()
-        single = single[single == 1]
-        if len(single):
-            notes.append(
-                "single test (no repetition, scatter unknown): "
-                + ", ".join(f"{s} {spec.factor} {m}" for s, m in single.index)
-            )
+        criteria, best = _preparation(campaign, per_test, parameters, spec, notes)
     return StudyResult(
         spec=spec,
         source=str(campaign.source),
@@ -196,4 +168,76 @@ def run_study(
         runtime_s=time.perf_counter() - start,
         seed=seed,
         provenance=provenance,
+        defaults=spec_defaults(spec),
     )
+
+
+#: Spec keys with a default that the result rests on -> (default as written, kinds it applies
+#: to): what a spec leaving them out is told on page 1 and in the JSON's "defaults".
+_SPEC_DEFAULTS = {
+    "alpha": ("0.05", ("sinkage", "shear")),
+    "z_ref_m": ("0.025", ("sinkage",)),
+    "z_window_m": ("0.001", ("sinkage",)),
+    "fallback_model": ("none (a failed fit is a failure)", ("sinkage",)),
+}
+
+
+def spec_defaults(spec: StudySpec) -> dict[str, str]:
+    """``{"spec: KEY": default}`` for every key of :data:`_SPEC_DEFAULTS` the specification
+    file of ``spec`` leaves out (a spec built in memory, without a file: none known)."""
+    import tomllib
+
+    if spec.path is None or not Path(spec.path).is_file():
+        return {}
+    raw = tomllib.loads(Path(spec.path).read_text(encoding="utf-8"))
+    return {
+        f"spec: {key}": value
+        for key, (value, kinds) in _SPEC_DEFAULTS.items()
+        if key not in raw and spec.kind in kinds
+    }
+
+
+def _per_test(
+    cache: PerTestCache, tests: pd.DataFrame, spec: StudySpec, notes: list
+) -> pd.DataFrame:
+    """The per-test responses of the selected ``tests`` (p_ref at z_ref for sinkage; a note
+    for tests too shallow, an error when none reaches it)."""
+    ids = tests["test_id"].astype(str).tolist()
+    if spec.kind != "sinkage":
+        return cache.shear(ids)
+    per_test = cache.sinkage(ids, spec.z_ref_m, spec.z_window_m)
+    short = per_test["p_ref_Pa"].isna().sum()
+    if short == len(per_test):
+        raise StudyDataError(
+            f"{spec.name} study needs sinkage tests reaching z_ref_m = {spec.z_ref_m:g} m; "
+            f"none of the {len(per_test)} selected tests does"
+        )
+    if short:
+        notes.append(f"{short} test(s) do not reach z_ref = {spec.z_ref_m * 1e3:g} mm: no p_ref")
+    return per_test
+
+
+def _preparation(
+    campaign: Campaign,
+    per_test: pd.DataFrame,
+    parameters: pd.DataFrame,
+    spec: StudySpec,
+    notes: list,
+) -> tuple[pd.DataFrame, dict]:
+    """The preparation study's Table 3 criteria and best method; a note per single test."""
+    eps = parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
+    criteria, best = evaluate_criteria(
+        per_test,
+        eps.rename(columns={"condition": "level"}),
+        spec,
+        spec.alpha,
+        failed=_failed_in_bearing(campaign, per_test),
+    )
+    single = per_test.groupby(["soil", spec.factor]).size()
+    single = single[single == 1]
+    if len(single):
+        notes.append(
+            "single test (no repetition, scatter unknown): "
+            + ", ".join(f"{s} {spec.factor} {m}" for s, m in single.index)
+        )
+    return criteria, best

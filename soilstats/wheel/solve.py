@@ -155,8 +155,10 @@ def model_cases(
     if isinstance(angles, StressAngles):
         a, b = angles.ratios(s.reshape(-1))
     else:
-        a, b = (np.broadcast_to(np.asarray(r, float), pshape + s.shape).reshape(-1, s.size)
-                for r in angles)
+        a, b = (
+            np.broadcast_to(np.asarray(r, float), pshape + s.shape).reshape(-1, s.size)
+            for r in angles
+        )
     nu = speed_ratio(s.reshape(-1))
     exponent = model.exponent
     if exponent_shift is not None:

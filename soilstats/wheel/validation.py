@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any  # noqa: F401 (importable here before the split)
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -58,7 +58,7 @@ from .validation_discovery import (  # noqa: F401
 )
 from .validation_predict import _predict_all, _runs_frame, _subset, predict_runs  # noqa: F401
 from .validation_report import SENSITIVITY_DRAWS, _caveats, _notes, _sensitivity  # noqa: F401
-from .validation_result import (  # noqa: F401
+from .validation_result import (
     OLD_BAND_COLUMNS,
     WheelDiscovery,
     WheelValidation,
@@ -140,8 +140,6 @@ def validate_wheel(
     -------
     WheelValidation
     """
-    from tqdm.auto import tqdm
-
     if not 0 < prob < 1:
         raise InputError(f"prob must be in (0, 1), got {prob!r}")
     campaign = _campaign(campaign)
@@ -149,13 +147,7 @@ def validate_wheel(
     angles = StressAngles() if angles is None else angles
     priors = dict(priors or {})
     check_priors(priors)
-    bar = tqdm(
-        total=_steps(table, wheels, extension, sensitivity),
-        desc="wheel validation",
-        unit="step",
-        disable=not progress,
-        leave=False,
-    )
+    bar = _progress_bar(_steps(table, wheels, extension, sensitivity), progress)
     notes: list[str] = []
     plate = _plate(campaign, draws, soil, law, n_draws, seed, progress)
     bar.update()
@@ -175,8 +167,7 @@ def validate_wheel(
     disc = None
     if extension:
         disc = _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, bar)
-        new = disc.runs.drop(columns=list(OLD_BAND_COLUMNS.values()), errors="ignore")
-        frame = frame.merge(new, on="run_id", how="left")
+        frame = _with_extension_bands(frame, disc)
     sens = _sensitivity(frame, params, wheels, law, angles, seed) if sensitivity else []
     bar.update(bool(sensitivity))
     bar.close()
@@ -202,6 +193,22 @@ def validate_wheel(
         notes=tuple(notes),
         caveats=(*caveats, *_caveats(frame)),
     )
+
+
+def _progress_bar(total: int, progress: bool) -> Any:
+    """The validation's tqdm bar over its ``total`` steps (hidden unless ``progress``)."""
+    from tqdm.auto import tqdm
+
+    return tqdm(
+        total=total, desc="wheel validation", unit="step", disable=not progress, leave=False
+    )
+
+
+def _with_extension_bands(frame: pd.DataFrame, disc: WheelDiscovery) -> pd.DataFrame:
+    """The runs with the slip-sinkage extension's columns of ``disc`` joined by run_id
+    (its copies of the old band columns left out: the frame has them)."""
+    new = disc.runs.drop(columns=list(OLD_BAND_COLUMNS.values()), errors="ignore")
+    return frame.merge(new, on="run_id", how="left")
 
 
 def _runs_and_wheels(

@@ -9,29 +9,32 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from .band_scores import BandColumns, score_bands
+
 __all__ = ["GROUPINGS", "NEAR_ZERO"]
 
 #: Slip conditions within this of 0 are "near zero slip".
 NEAR_ZERO = 0.05
 
 
+#: The columns of one quantity's band in the runs table: {prefix}_{column}_{unit}.
+_BAND = ("measured", "median", "lower", "upper")
+
+
 def _summ(rows: pd.DataFrame, prefix: str = "sinkage", unit: str = "m") -> dict:
-    measured = rows[f"{prefix}_measured_{unit}"]
-    keep = measured.notna()
-    rows, measured = rows[keep], measured[keep]
-    error = rows[f"{prefix}_median_{unit}"] - measured
-    covered = rows[f"{prefix}_covered"].astype(bool)
+    """Coverage and bias of the plate-only bands of ``prefix`` (columns
+    ``{prefix}_measured_{unit}``, ``_median_``, ``_lower_``, ``_upper_``;
+    :func:`soilstats.wheel.band_scores.score_bands`)."""
+    s = score_bands(rows, BandColumns(*(f"{prefix}_{c}_{unit}" for c in _BAND)))
     return {
-        "runs": len(rows),
-        "covered": int(covered.sum()),
-        "coverage_90": float(covered.mean()) if len(rows) else np.nan,
-        f"bias_{unit}": float(error.mean()) if len(rows) else np.nan,
-        f"median_bias_{unit}": float(error.median()) if len(rows) else np.nan,
-        f"mae_{unit}": float(error.abs().mean()) if len(rows) else np.nan,
-        f"measured_mean_{unit}": float(measured.mean()) if len(rows) else np.nan,
-        f"predicted_mean_{unit}": float(rows[f"{prefix}_median_{unit}"].mean())
-        if len(rows)
-        else np.nan,
+        "runs": s.runs,
+        "covered": s.covered,
+        "coverage_90": s.coverage,
+        f"bias_{unit}": s.bias,
+        f"median_bias_{unit}": s.median_bias,
+        f"mae_{unit}": s.mae,
+        f"measured_mean_{unit}": s.measured_mean,
+        f"predicted_mean_{unit}": s.predicted_mean,
     }
 
 

@@ -28,15 +28,18 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
+from ..band_scores import BandColumns, score_bands
 from ..geometry import Wheel
 from ..stress import StressAngles
 from .calibrate import calibrate_wheel
 from .physics import RunDesign, simulate
+from .result import WheelCalibration
 
 __all__ = [
     "baseline_predictions",
     "heldout_predictions",
     "plate_only_median",
+    "saved_calibration_scores",
     "score",
     "score_by_slip",
     "slip_angle_folds",
@@ -201,22 +204,18 @@ def baseline_predictions(
 
 
 def score(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> dict:
-    """Coverage, median width, MAE and bias of ``quantity`` over the rows of ``frame``."""
+    """Coverage, median width, MAE and bias of ``quantity`` over the rows of ``frame``
+    (columns ``{quantity}_measured``, ``_median``, ``_lower``, ``_upper``;
+    :func:`soilstats.wheel.band_scores.score_bands`)."""
     unit = "m" if quantity.endswith("_m") else "N"
-    meas = frame[f"{quantity}_measured"].to_numpy(float)
-    med = frame[f"{quantity}_median"].to_numpy(float)
-    use = np.isfinite(meas) & np.isfinite(med)
-    err = med[use] - meas[use]
-    out: dict = {"runs": int(use.sum())}
-    if bands and f"{quantity}_lower" in frame:
-        lo = frame[f"{quantity}_lower"].to_numpy(float)[use]
-        hi = frame[f"{quantity}_upper"].to_numpy(float)[use]
-        out["covered"] = int(np.sum((meas[use] >= lo) & (meas[use] <= hi)))
-        out["coverage_90"] = out["covered"] / out["runs"] if out["runs"] else float("nan")
-        out[f"median_width_{unit}"] = float(np.median(hi - lo)) if use.any() else float("nan")
-    out[f"mae_{unit}"] = float(np.mean(np.abs(err))) if use.any() else float("nan")
-    out[f"bias_{unit}"] = float(np.mean(err)) if use.any() else float("nan")
-    return out
+    banded = bands and f"{quantity}_lower" in frame
+    ends = (f"{quantity}_lower", f"{quantity}_upper") if banded else (None, None)
+    s = score_bands(frame, BandColumns(f"{quantity}_measured", f"{quantity}_median", *ends))
+    out: dict = {"runs": s.runs}
+    if banded:
+        out |= {"covered": s.covered, "coverage_90": s.coverage}
+        out[f"median_width_{unit}"] = s.median_width
+    return out | {f"mae_{unit}": s.mae, f"bias_{unit}": s.bias}
 
 
 def score_by_slip(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> list[dict]:
@@ -225,3 +224,23 @@ def score_by_slip(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> 
         {"slip_level": float(level), **score(rows, quantity, bands=bands)}
         for level, rows in frame.groupby("slip_level")
     ]
+
+
+def saved_calibration_scores(
+    calibration: WheelCalibration, runs: pd.DataFrame, *, seed: int
+) -> dict:
+    """A saved calibration applied to measured runs: how many runs (those at slip angle 0
+    when it was calibrated on those only), whether it had converged, and the :func:`score`
+    (with its :func:`score_by_slip`) of each quantity it has a discrepancy for."""
+    angles = set(np.unique(calibration.design.beta_level))
+    scope = (runs if angles != {0.0} else runs[runs["beta_level"] == 0]).reset_index(drop=True)
+    design = RunDesign.from_runs(scope)
+    pred = calibration.predict(design, seed=seed)
+    out: dict = {"runs": len(design), "converged": calibration.converged}
+    for q, values in design.measured.items():
+        if q not in calibration.discrepancy:
+            continue
+        pred[f"{q}_measured"] = values
+        pred["slip_level"] = design.slip_level
+        out[q] = score(pred, q) | {"by_slip": score_by_slip(pred, q)}
+    return out
