@@ -28,6 +28,8 @@ DEFERRABLE = {
     "distributed": "optional: a Dask cluster",
     "joblib": "0.4 s; only when workers start",
     "matplotlib": "1 s; only when a figure is drawn",
+    "numpy": "soilstats.outputs and report.document, which every layer writes with, load none",
+    "pandas": "0.5 s; the command-line parser, soilstats.outputs and report.document load none",
     "platformdirs": "optional (ArviZ's dependency)",
     "pyarrow": "optional: the parquet extra",
     "scipy.stats": "0.35 s beyond numpy",
@@ -39,65 +41,7 @@ DEFERRABLE = {
 
 #: module (path under soilstats/) -> (undeclared function-level imports, private names
 #: imported from other modules). Only shrinks.
-PENDING: dict[str, tuple[int, int]] = {
-    # Modules being split by other work at the time of issue #45 (converted after it lands).
-    "bayes/export.py": (4, 0),
-    "campaign/_cells.py": (4, 0),
-    "campaign/importing.py": (0, 1),
-    "campaign/io.py": (4, 0),
-    "campaign/read_budget.py": (1, 0),
-    "campaign/validate.py": (2, 0),
-    "cli/check.py": (5, 0),
-    "cli/common.py": (16, 0),
-    "cli/discover.py": (5, 0),
-    "cli/identify.py": (10, 0),
-    "cli/import_campaign.py": (2, 0),
-    "cli/main.py": (1, 0),
-    "cli/posterior.py": (22, 0),
-    "cli/posterior_output.py": (20, 0),
-    "cli/simulate.py": (2, 0),
-    "cli/study.py": (9, 0),
-    "cli/wheel.py": (16, 0),
-    "cli/wheel_modes.py": (13, 0),
-    "discovery/crossval.py": (1, 0),
-    "discovery/library.py": (1, 0),
-    "discovery/pipeline.py": (1, 0),
-    "discovery/result.py": (8, 0),
-    "discovery/work.py": (1, 0),
-    "fitting/identify.py": (0, 1),
-    "fitting/linear.py": (1, 0),
-    "fitting/result.py": (3, 0),
-    "fitting/summary.py": (2, 0),
-    "identification/adequacy.py": (1, 0),
-    "identification/per_test.py": (1, 0),
-    "identification/pooling.py": (1, 0),
-    "identification/result.py": (1, 0),
-    "outputs/files.py": (7, 0),
-    "quality/bursts.py": (0, 3),
-    "quality/drift.py": (1, 0),
-    "quality/glitches.py": (2, 1),
-    "quality/phases.py": (0, 3),
-    "quality/prescreen.py": (0, 3),
-    "quality/report.py": (1, 0),
-    "quality/screen.py": (1, 0),
-    "quality/staging.py": (0, 1),
-    "report/discovery_pdf.py": (1, 0),
-    "report/document.py": (10, 0),
-    "report/front.py": (1, 0),
-    "report/identify_pdf.py": (1, 0),
-    "report/labels.py": (1, 0),
-    "report/parameters.py": (1, 0),
-    "report/posterior_figures.py": (1, 0),
-    "report/posterior_pdf.py": (1, 0),
-    "report/wheel_figures.py": (1, 0),
-    "simulation/simulate.py": (3, 0),
-    "study/result.py": (3, 0),
-    "study/runner.py": (2, 0),
-    "study/spec.py": (2, 0),
-    "wheel/validation.py": (3, 21),
-    "wheel/validation_discovery.py": (1, 1),
-    "wheel/validation_result.py": (2, 0),
-}
+PENDING: dict[str, tuple[int, int]] = {}
 
 DEFERRED = re.compile(r"#\s*deferred:\s*([A-Za-z_][\w.]*)")
 
@@ -120,21 +64,31 @@ def _function_imports(tree: ast.Module) -> list[ast.Import | ast.ImportFrom]:
 
 
 def _top_level_libraries(tree: ast.Module) -> set[str]:
-    """Top-level packages a module imports at module level (outside functions)."""
+    """Dotted names a module imports at module level (outside functions, ``if
+    TYPE_CHECKING`` left out): ``import a.b`` gives ``a.b``, ``from a import b`` gives ``a``
+    and ``a.b``."""
     names: set[str] = set()
 
     def visit(node: ast.AST) -> None:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
                 continue
+            if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+                continue
             if isinstance(child, ast.Import):
-                names.update(a.name.split(".")[0] for a in child.names)
+                names.update(a.name for a in child.names)
             elif isinstance(child, ast.ImportFrom) and child.level == 0 and child.module:
-                names.add(child.module.split(".")[0])
+                names.add(child.module)
+                names.update(f"{child.module}.{a.name}" for a in child.names)
             visit(child)
 
     visit(tree)
     return names
+
+
+def _loaded_at_top(library: str, top: set[str]) -> bool:
+    """Whether ``library`` (or a submodule of it) is imported at the module's top anyway."""
+    return any(n == library or n.startswith(library + ".") for n in top)
 
 
 def undeclared_imports(path: Path) -> list[str]:
@@ -149,7 +103,7 @@ def undeclared_imports(path: Path) -> list[str]:
         text = lines[node.lineno - 1]
         said = DEFERRED.search(text)
         library = said.group(1) if said else None
-        ok = library in DEFERRABLE and library.split(".")[0] not in top
+        ok = library in DEFERRABLE and not _loaded_at_top(library, top)
         if not ok:
             out.append(f"{node.lineno}: {text.strip()}")
     return out

@@ -17,7 +17,9 @@ import json
 import sys
 from pathlib import Path
 
+from ..outputs import Provenance, json_safe, write_json
 from .common import add_common_options
+from .main import run_subcommand
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -35,16 +37,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Screen the campaign and print the findings (or one JSON object)."""
-    from ..campaign import load_campaign
-    from ..outputs import Provenance, json_safe, write_json
-    from ..quality import screen
+    from ..campaign import load_campaign  # deferred: pandas
+    from ..quality import screen  # deferred: pandas
 
     campaign = load_campaign(args.data, check_units=False)
     report = screen(campaign, args.quality)
     provenance = Provenance.of(campaign, argv=args.argv, seed=args.seed)
     document = report.to_dict()
     if args.out:
-        from ..report.check_pdf import write_report
+        from ..report.check_pdf import write_report  # deferred: pandas
 
         folder = Path(args.out)
         write_json(folder / "check.json", document, provenance, overwrite=args.overwrite)
@@ -67,6 +68,4 @@ def run(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.check ...``: the same as ``soilstats check ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("check", argv)

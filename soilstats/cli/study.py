@@ -24,6 +24,7 @@ import sys
 import time
 from pathlib import Path
 
+from ..parallel import effective_jobs, one_blas_thread, parallel_map, warm_workers
 from .common import (
     add_common_options,
     add_data_options,
@@ -31,6 +32,7 @@ from .common import (
     prepared,
     progress_enabled,
 )
+from .main import run_subcommand
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -44,10 +46,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the studies; readable summaries (or one JSON object) on stdout."""
-    from ..parallel import effective_jobs, parallel_map, warm_workers
-    from ..study import StudyDataError, available_studies, load_spec
-    from ..study.outputs import to_json_dict
-    from ..study.responses import PerTestCache
+    from ..study import StudyDataError, available_studies, load_spec  # deferred: statsmodels
+    from ..study.outputs import to_json_dict  # deferred: statsmodels
+    from ..study.responses import PerTestCache  # deferred: statsmodels
 
     names = available_studies() if args.name == "all" else [args.name]
     specs = [load_spec(n) for n in names]  # every spec checked before any work
@@ -70,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     else:  # one study after the other, each printed as soon as it is done
         outcomes = _one_after_another(tasks)
         if progress:
-            from tqdm.auto import tqdm
+            from tqdm.auto import tqdm  # deferred: tqdm
 
             outcomes = tqdm(outcomes, total=len(tasks), desc="studies", unit="study")
     documents, timings, not_applicable = [], [], []
@@ -107,8 +108,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _one_after_another(tasks):
     """The studies in this process, BLAS on one thread as in workers (same bits for any N)."""
-    from ..parallel import one_blas_thread
-
     for task in tasks:
         with one_blas_thread():
             yield _run_one(task)
@@ -156,6 +155,4 @@ def _run_one(task):
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.study ...``: the same as ``soilstats study ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("study", argv)

@@ -27,11 +27,13 @@ writes wheel.json, wheel_runs.csv and the report wheel.pdf.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
+from ..outputs import json_safe, output_path, write_csv, write_json
 from . import wheel_modes
 from .common import (
     ALPHA,
@@ -41,6 +43,7 @@ from .common import (
     prepared,
     progress_enabled,
 )
+from .main import run_subcommand
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -64,7 +67,7 @@ class _PlateLaws:
     first needed (building the parser must stay cheap)."""
 
     def _names(self) -> tuple[str, ...]:
-        from ..wheel.stress import SINKAGE_LAWS
+        from ..wheel.stress import SINKAGE_LAWS  # deferred: scipy.stats
 
         return tuple(SINKAGE_LAWS)
 
@@ -150,9 +153,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
-    import json
 
-    from ..outputs import json_safe, output_path
+    from ..outputs import output_path
     from ..wheel.run_options import (
         file_sha256,
         parse_angles,
@@ -240,8 +242,7 @@ def _write(
     outputs: tuple[str, ...],
 ) -> None:
     """wheel.json, wheel_runs.csv, wheel.pdf (and wheel_calibration.nc) into --out."""
-    from ..outputs import output_path, write_csv, write_json
-    from ..report.wheel_pdf import write_report
+    from ..report.wheel_pdf import write_report  # deferred: matplotlib
 
     folder = Path(args.out)
     write_json(folder / "wheel.json", document, provenance, overwrite=args.overwrite)
@@ -286,6 +287,4 @@ def _moved_verdicts(
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.wheel ...``: the same as ``soilstats wheel ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("wheel", argv)

@@ -9,11 +9,14 @@ saved calibration to the runs; ``--predict`` predicts a rover team's own wheel
 from __future__ import annotations
 
 import argparse
+import io
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError
+from ..outputs import json_safe, output_path, write_atomic, write_csv, write_json
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -130,8 +133,8 @@ def calibrate(
     progress: bool,
 ) -> tuple[dict, CalibrationReport]:
     """``--calibrate``: (the JSON part, the report object)."""
-    from ..wheel.calibration import RunDesign
-    from ..wheel.calibration.validate import calibrate_and_validate
+    from ..wheel.calibration import RunDesign  # deferred: arviz
+    from ..wheel.calibration.validate import calibrate_and_validate  # deferred: arviz
 
     scope = runs if args.scope == "all" else runs[runs["beta_level"] == 0]
     design = RunDesign.from_runs(scope.reset_index(drop=True))
@@ -170,8 +173,7 @@ def apply_calibration(args: argparse.Namespace, runs: pd.DataFrame) -> dict:
 
 def predict_mode(args: argparse.Namespace, priors: dict, overrides: dict) -> int:
     """--predict: the plate draws (unless a calibration carries them) and the prediction."""
-    from ..outputs import output_path
-    from ..wheel.soil import plate_draws
+    from ..wheel.soil import plate_draws  # deferred: scipy.stats
     from .common import prepared, progress_enabled
 
     if args.out:
@@ -200,12 +202,9 @@ def predict(
     overrides: dict,
 ) -> int:
     """``--predict``: a rover team's own wheel."""
-    import json
-
-    from ..outputs import json_safe, write_csv, write_json
-    from ..wheel import Wheel
-    from ..wheel.calibration import load_calibration
-    from ..wheel.calibration.predict import CMU_DISCREPANCY, predict_own_wheel
+    from ..wheel import Wheel  # deferred: scipy.stats
+    from ..wheel.calibration import load_calibration  # deferred: arviz
+    from ..wheel.calibration.predict import CMU_DISCREPANCY, predict_own_wheel  # deferred: arviz
     from ..wheel.run_options import parse_slips
 
     geometry = overrides.get("*", {})
@@ -236,7 +235,7 @@ def predict(
     )
     document = result.to_dict()
     if args.out:
-        from ..report.wheel_predict_pdf import write_report
+        from ..report.wheel_predict_pdf import write_report  # deferred: matplotlib
 
         folder = Path(args.out)
         write_json(folder / "wheel.json", document, provenance, overwrite=args.overwrite)
@@ -265,11 +264,8 @@ def predict(
 
 def _draws_netcdf(draws: pd.DataFrame, path: Path, overwrite: bool) -> None:
     """The joint draws as netCDF: one variable per quantity over (draw, slip)."""
-    import io
+    import xarray as xr  # deferred: pandas
 
-    import xarray as xr
-
-    from ..outputs import output_path, write_atomic
 
     target = output_path(path.parent, path.name, overwrite=overwrite)
     ds = xr.Dataset.from_dataframe(draws.set_index(["draw", "slip"]))

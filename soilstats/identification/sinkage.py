@@ -18,7 +18,7 @@ from ..fitting.result import FitResult, HealthFlag
 from ..models import Model, get_model
 from ..quality import screened
 from .adequacy import adequacy_findings, test_forms
-from .bootstrap import test_bootstrap
+from .bootstrap import TestBootstrap, test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
@@ -34,7 +34,7 @@ __all__ = ["fit_sinkage", "pool_sinkage"]
 _COUNTS = {2: "two", 3: "three", 4: "four"}
 
 
-def _check_identifiable(spec, pooled: PooledData) -> None:
+def _check_identifiable(spec: Model, pooled: PooledData) -> None:
     """The plate sizes the model's record asks for (``Model.min_plate_sizes``)."""
     tests = pooled.by_test  # the plate sizes of the tests with samples: one per test, not sample
     sizes = np.unique(tests["b_m"][tests["used"] > 0])
@@ -49,7 +49,7 @@ def _check_identifiable(spec, pooled: PooledData) -> None:
         )
 
 
-def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
+def _notes(pooled: PooledData, points_per_test: int | None, weighting: str) -> list[str]:
     g = pooled.by_test  # arrays: the frame's lookups cost more than these sums
     n_tests = len(g["test_id"])
     notes = [
@@ -215,7 +215,14 @@ def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
     return arrays
 
 
-def _fit_wong(spec, campaign, pooled: PooledData, x, points_per_test, weighting) -> CampaignFit:
+def _fit_wong(
+    spec: Model,
+    campaign: ScreenedCampaign,
+    pooled: PooledData,
+    x: np.ndarray,
+    points_per_test: int | None,
+    weighting: str,
+) -> CampaignFit:
     """The fit by Wong's p²-weighted log–log regressions (``method="wong"``, Fig. 3): a
     closed form with the linearised regressions' σ, not Eq. 4's, centred and checked for
     adequacy as the LM fit is (no test bootstrap)."""
@@ -274,7 +281,7 @@ def _rezero_sensitivity(
     sigma = bootstrap.stderr if bootstrap is not None else result.stderr
     moved = (result.params - alt.params) / sigma
     worst = moved.abs().idxmax()
-    if not abs(moved[worst]) > REZERO_SIGMAS:
+    if not abs(moved[worst]) > REZERO_SIGMAS:  # type: ignore[call-overload]  # pandas-stubs: idxmax is a Hashable label (here a parameter name)
         return []
     which = "test-level" if bootstrap is not None else "Eq. 4"
     level = ""
@@ -292,14 +299,16 @@ def _rezero_sensitivity(
             "rezero-sensitive",
             f"{plural(len(rezeroed), 'test')} re-zeroed at a seating contact "
             f"({', '.join(rezeroed[:4])}{', …' if len(rezeroed) > 4 else ''}) move "
-            f"{worst} by {moved[worst]:+.1f} {which} σ ({alt.params[worst]:.4g} with z as "
-            f"logged, {result.params[worst]:.4g} re-zeroed){level}; the fit uses the "
+            f"{worst} by {moved[worst]:+.1f} {which} σ ({alt.params[worst]:.4g} with z as "  # type: ignore[call-overload]  # pandas-stubs: idxmax is a Hashable label (here a parameter name)
+            f"logged, {result.params[worst]:.4g} re-zeroed){level}; the fit uses the "  # type: ignore[call-overload]  # pandas-stubs: idxmax is a Hashable label (here a parameter name)
             "re-zeroed records: check the contacts with soilstats check",
         )
     ]
 
 
-def _adequacy(spec, pooled, fit, bootstrap) -> list:
+def _adequacy(
+    spec: Model, pooled: PooledData, fit: FitResult, bootstrap: TestBootstrap | None
+) -> list:
     """``lack-of-fit``, ``plate-exponents`` and (with the test bootstrap) ``aggregation-bias`` flags
     (identification/adequacy.py)."""
     b = pooled.x["b_m"] if "b_m" in spec.columns else None

@@ -51,6 +51,7 @@ def _deviation_panel(ax: Any, f: Any) -> str:  # a Finding with its group
     """Each test's deviation against the cause (means per level, or a trend on a numeric
     cause of many values); returns the effect in words, for the title."""
     g, rows = f.group, f.scope_rows
+    assert g is not None  # a finding of this run carries its group (the figures read it)
     response = f.responses[0] if f.responses else "level"
     dev = g.tests[f"_dev_{response}"].to_numpy(float)[rows]
     values = candidate_values(g.tests, f.cause).to_numpy()[rows]
@@ -116,6 +117,8 @@ def _curve_panel(ax: Any, f: Any) -> str:  # a Finding with its group
         )
         ax.set_axis_off()
         return f"{name}: {gain}"
+    # a finding of this run carries its group and rows (the figures read them)
+    assert g is not None and rows is not None
     values = candidate_values(g.tests, f.cause).to_numpy()[rows]
     labels = natural_sorted({str(v) for v in values})
     if len(labels) > _CURVES:

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from ..campaign import load_campaign
 from ..identification.conditions import fit_conditions
 from ..identification.per_test import not_converged_message
 from ..identification.result import ONSET_TOLERANCE
@@ -24,6 +25,7 @@ from .preparation import evaluate_criteria
 from .responses import PerTestCache
 from .result import StudyResult
 from .shear import shear_effects
+from .spec import load_spec
 from .verdict import classify
 
 if TYPE_CHECKING:
@@ -107,12 +109,8 @@ def run_study(
     """
     start = time.perf_counter()
     if isinstance(spec, str | Path):
-        from .spec import load_spec
-
         spec = load_spec(spec)
     if isinstance(campaign, str | Path):
-        from ..campaign import load_campaign
-
         campaign = load_campaign(campaign)
     # The provenance names the campaign as given, before this study's window.
     provenance = provenance or Provenance.of(campaign, seed=seed)
