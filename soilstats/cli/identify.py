@@ -129,8 +129,7 @@ def _check_series(campaign: Campaign, series: str | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit every soil and condition; print Table-5-style tables or one JSON object."""
-    from ..errors import CampaignError
-    from ..identification.conditions import fit_planned, plan_conditions
+    from ..identification.conditions import fit_planned, plan_conditions  # deferred: pandas
 
     warm_workers(args.jobs, ("soilstats.identification.conditions",))  # while loading
     campaign, provenance = prepared(args)
@@ -206,9 +205,9 @@ def _write(
     provenance: Provenance,
 ) -> None:
     """identify.json, identify.csv (every fit) and identify.pdf into --out."""
-    import pandas as pd
+    import pandas as pd  # deferred: pandas
 
-    from ..report.identify_pdf import write_report
+    from ..report.identify_pdf import write_report  # deferred: matplotlib
 
     folder = Path(args.out)
     write_json(folder / "identify.json", document, provenance, overwrite=args.overwrite)

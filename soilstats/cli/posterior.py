@@ -36,8 +36,16 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..bayes.run_checks import (
+    check_draws,
+    check_models,
+    check_simulator_request,
+    contact_widths,
+    only_soil,
+)
+from ..bayes.run_sampling import SamplingOptions, in_workers, sample_models
 from ..outputs import output_path
-from ..parallel import stop_one_worker, warm_one_worker
+from ..parallel import one_blas_thread, stop_one_worker, warm_one_worker
 from .common import (
     add_common_options,
     add_data_options,
@@ -167,9 +175,10 @@ def run(args: argparse.Namespace) -> int:
     """Check what can be checked, sample, let the library decide (:mod:`soilstats.bayes
     .handout`), and only then write; exit 2 (nothing written, no folder made) when a check
     fails."""
-    from ..bayes.prior_options import priors_by_model, split_prior_items  # heavy for --help
-    from ..bayes.run_checks import check_draws, check_models, check_simulator_request
-    from ..bayes.run_sampling import in_workers
+    from ..bayes.prior_options import (  # deferred: scipy.stats; heavy for --help
+        priors_by_model,
+        split_prior_items,
+    )
 
     models = args.model.split("+")
     check_models(models)
@@ -206,11 +215,8 @@ def _checked_sampled_written(
     args: argparse.Namespace, models: list[str], priors: dict[str, Any], stated: dict
 ) -> int:
     """:func:`run` from reading the campaign on."""
-    from ..bayes.handout import preflight
-    from ..bayes.run_checks import contact_widths, only_soil
-    from ..bayes.run_sampling import SamplingOptions, sample_models
-    from ..identification.reuse import reused_fits
-    from ..parallel import one_blas_thread
+    from ..bayes.handout import preflight  # deferred: pandas
+    from ..identification.reuse import reused_fits  # deferred: pandas
 
     campaign, provenance = prepared(args)
     args.soil = only_soil(campaign, args.soil)
@@ -262,7 +268,7 @@ def _check_outputs(out: Path, models: Sequence[str], args: argparse.Namespace) -
 def _figures(result: Any) -> Any:
     """One model's report figures, drawn in the worker that sampled it
     (:func:`soilstats.report.posterior_pdf.model_figures`; imported there, on use)."""
-    from ..report.posterior_pdf import model_figures
+    from ..report.posterior_pdf import model_figures  # deferred: arviz
 
     return model_figures(result)
 

@@ -11,8 +11,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..bayes.run_checks import extrapolation_warnings, has_population, prior_seed, tested_widths
+from ..bayes.run_sampling import sampling_warnings
 from ..outputs import json_safe, output_path, write_atomic, write_csv
 from ..outputs.files import netcdf_bytes
+from .common import defaults_not_given
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -81,10 +83,12 @@ def _export(args, models, results, kept, stated, campaign):
     )
 
 
-def _write_export(out: Path, export, record: dict, support, provenance, args) -> None:
+def _write_export(
+    out: Path, export: Any, record: dict, support: Any, provenance: Any, args: argparse.Namespace
+) -> None:
     """``<simulator>.csv`` and ``<simulator>.json`` (:func:`soilstats.bayes.run_record
     .write_export`); the check, repairs and notes also to stderr."""
-    from ..bayes.run_record import write_export
+    from ..bayes.run_record import write_export  # deferred: arviz
 
     name = export.simulator
     write_export(out, export, record, support, provenance, args.seed)
@@ -150,8 +154,6 @@ def _warnings(
 ) -> list[str]:  # fmt: skip
     """The warnings of a run, printed one line each: the library's own, numerical ones
     summed up, extrapolation, pooling and the flagged least-squares starts."""
-    from ..bayes.run_sampling import sampling_warnings
-
     ours = sampling_warnings(caught)
     ours += extrapolation_warnings(widths, tested_widths(campaign, args.soil), models)
     for text in [*ours, *pooled_warnings]:
@@ -183,7 +185,7 @@ def decide_and_write(
     """The library's decision on the draws, printed; the files written where it allows."""
     import pandas as pd  # deferred: pandas
 
-    from ..bayes.export import constraint_failures
+    from ..bayes.export import constraint_failures  # deferred: scipy.stats
     from ..bayes.handout import hand_out  # deferred: pandas
 
     out = Path(args.out)
@@ -208,7 +210,6 @@ def decide_and_write(
         simulator_only = export is not None and len(failures) == len(export.check.failures)
         return refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
     from ..bayes.run_record import posterior_record  # deferred: arviz; bayes: too heavy for --help
-    from .common import defaults_not_given
 
     record = posterior_record(
         args.soil,

@@ -20,6 +20,7 @@ import numpy as np
 
 from .._text import plural
 from ..errors import SoilstatsError, SoilstatsWarning
+from ..outputs import Provenance
 from ..outputs.outset import output_set
 
 if TYPE_CHECKING:
@@ -43,11 +44,10 @@ def prepared(args: argparse.Namespace, *, out: TextIO | None = None) -> tuple[Ca
     processing, recorded by its command line.  So every command on the same data and
     selection names the same ``campaign_sha256``, that of ``soilstats check``.
     """
-    from ..campaign import load_campaign
-    from ..campaign.selection import apply_selection
-    from ..campaign.window import FitWindow
-    from ..outputs import Provenance
-    from ..quality import screen
+    from ..campaign import load_campaign  # deferred: pandas
+    from ..campaign.selection import apply_selection  # deferred: pandas
+    from ..campaign.window import FitWindow  # deferred: pandas
+    from ..quality import screen  # deferred: pandas
 
     loaded = load_campaign(args.data)
     provenance = Provenance.of(

@@ -22,6 +22,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from ..parallel import effective_jobs, one_blas_thread, parallel_map, warm_workers
@@ -29,6 +30,7 @@ from .common import (
     add_common_options,
     add_data_options,
     add_jobs_option,
+    defaults_not_given,
     prepared,
     progress_enabled,
 )
@@ -120,11 +122,8 @@ def _run_one(task):
     tests of its kind, no factor column, one level per soil) gives its reason in place of
     the result; any other error (a bug, a failed fit) propagates and stops the command.
     """
-    from dataclasses import replace
-
-    from ..report.study_pdf import write_report
-    from ..study import StudyDataError, run_study, write_outputs
-    from .common import defaults_not_given
+    from ..report.study_pdf import write_report  # deferred: matplotlib
+    from ..study import StudyDataError, run_study, write_outputs  # deferred: statsmodels
 
     spec, campaign, cache, args, provenance = task
     start = time.perf_counter()

@@ -154,8 +154,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
 
-    from ..outputs import output_path
-    from ..wheel.run_options import (
+    from ..wheel.run_options import (  # deferred: scipy.stats
         file_sha256,
         parse_angles,
         parse_geometry,
@@ -164,8 +163,8 @@ def run(args: argparse.Namespace) -> int:
         runs_file,
         wheel_tables,
     )
-    from ..wheel.runs import read_caveats, read_runs
-    from ..wheel.validation import check_priors, validate_wheel
+    from ..wheel.runs import read_caveats, read_runs  # deferred: scipy.stats
+    from ..wheel.validation import check_priors, validate_wheel  # deferred: scipy.stats
 
     if args.n_draws < 100:
         raise InputError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
@@ -277,7 +276,7 @@ def _moved_verdicts(
 ) -> dict[str, str]:
     """A default that moves a held-out verdict is a warning (issue #47, item 3): printed
     here, and returned for the JSON and page 1."""
-    from ..wheel.defaults import moved_verdicts
+    from ..wheel.defaults import moved_verdicts  # deferred: scipy.stats
 
     moved = moved_verdicts(result, wheels, defaults, rerun)
     for text in moved.values():

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 from ..errors import InputError
 from ..outputs import json_safe, output_path, write_atomic, write_csv, write_json
+from .common import defaults_not_given, prepared, progress_enabled
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -163,8 +164,8 @@ def calibrate(
 def apply_calibration(args: argparse.Namespace, runs: pd.DataFrame) -> dict:
     """``--calibration FILE`` on runs: coverage, width, MAE and bias of each quantity
     (:func:`soilstats.wheel.calibration.heldout.saved_calibration_scores`)."""
-    from ..wheel.calibration import load_calibration
-    from ..wheel.calibration.heldout import saved_calibration_scores
+    from ..wheel.calibration import load_calibration  # deferred: arviz
+    from ..wheel.calibration.heldout import saved_calibration_scores  # deferred: arviz
 
     cal = load_calibration(args.calibration)
     scores = saved_calibration_scores(cal, runs, seed=args.seed)
@@ -174,7 +175,6 @@ def apply_calibration(args: argparse.Namespace, runs: pd.DataFrame) -> dict:
 def predict_mode(args: argparse.Namespace, priors: dict, overrides: dict) -> int:
     """--predict: the plate draws (unless a calibration carries them) and the prediction."""
     from ..wheel.soil import plate_draws  # deferred: scipy.stats
-    from .common import prepared, progress_enabled
 
     if args.out:
         for name in PREDICT_OUTPUTS:
@@ -205,7 +205,7 @@ def predict(
     from ..wheel import Wheel  # deferred: scipy.stats
     from ..wheel.calibration import load_calibration  # deferred: arviz
     from ..wheel.calibration.predict import CMU_DISCREPANCY, predict_own_wheel  # deferred: arviz
-    from ..wheel.run_options import parse_slips
+    from ..wheel.run_options import parse_slips  # deferred: scipy.stats
 
     geometry = overrides.get("*", {})
     if "radius_m" not in geometry or "width_m" not in geometry:
@@ -280,8 +280,7 @@ def command_defaults(
     """The analysis options left at their defaults, and every wheel geometry the user did not
     give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
     depends on it), for the JSON's ``"defaults"`` and page 1."""
-    from ..wheel.run_options import geometry_defaults
-    from .common import defaults_not_given
+    from ..wheel.run_options import geometry_defaults  # deferred: scipy.stats
 
     out = defaults_not_given(args)
     unused = set(PREDICT_OPTIONS) if not args.predict else set()

@@ -146,7 +146,14 @@ def _search_plan(ext, choices, library_args):
 
 
 def _extension_plans(
-    extensions: list, rows, folds, starts, e_base, base_fitted, choices, library_args: dict
+    extensions: list,
+    rows: np.ndarray,
+    folds: np.ndarray,
+    starts: dict,
+    e_base: np.ndarray | None,
+    base_fitted: Fitted | None,
+    choices: Any,
+    library_args: dict,
 ) -> tuple[list[tuple[FoldFits, FoldFits]], list[FitTask]]:
     """Per extension its cause-fixed and whole-search fold plans (:class:`.work.FoldFits`),
     and the tasks of the second wave: chain i holds extension i's folds, then its fit on all
@@ -168,7 +175,9 @@ def _extension_plans(
     return plans, tasks
 
 
-def _tried_entry(entry: dict, gain, search_gain, reasons) -> dict:
+def _tried_entry(
+    entry: dict, gain: Gain, search_gain: Gain | None, reasons: list[str]
+) -> dict:
     """``entry`` (a tried extension's record) with its gains, cause fixed and whole search,
     and the reasons its parameters are implausible."""
     entry.update(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import weakref
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -22,7 +22,7 @@ from .bootstrap import TestBootstrap, test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
-from .reuse import _frozen, reusable
+from .reuse import frozen_argument, reusable
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -169,7 +169,9 @@ _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _PREPARED_PER_CAMPAIGN = 16
 
 
-def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
+def _prepared(
+    spec: Model, campaign: ScreenedCampaign, pooling: dict
+) -> tuple[PooledData, np.ndarray, Callable[[], np.ndarray]]:
     """The pooled data (:func:`pool_sinkage` with ``pooling``), the model's x and a callable
     giving its starting values, kept per campaign object and arguments.
 
@@ -183,7 +185,7 @@ def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
     pooled afresh.
     """
     try:
-        key = (_frozen(pooling), ("model", spec.name, id(spec)))
+        key = (frozen_argument(pooling), ("model", spec.name, id(spec)))
     except TypeError:
         key = None
     memo = _PREPARED.setdefault(campaign, {}) if key is not None else {}
@@ -200,7 +202,7 @@ def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
             raise ModelError(f"model {spec.name!r} states no starting values: pass p0")
 
     else:
-        start = functools.cache(lambda: _read_only(np.asarray(spec.start(x, pooled.y)))[0])
+        start = functools.cache(lambda: _read_only(np.asarray(spec.start(x, pooled.y)))[0])  # type: ignore[misc]  # spec.start is set in this branch (a lambda loses the narrowing)
     if key is not None:
         if len(memo) >= _PREPARED_PER_CAMPAIGN:
             with contextlib.suppress(RuntimeError, StopIteration, KeyError):  # another thread
@@ -261,7 +263,14 @@ REZERO_SIGMAS = 1.0
 
 
 def _rezero_sensitivity(
-    spec, campaign: ScreenedCampaign, window, pooling: dict, pooled, result, bootstrap, p0
+    spec: Model,
+    campaign: ScreenedCampaign,
+    window: FitWindow | None,
+    pooling: dict,
+    pooled: PooledData,
+    result: FitResult,
+    bootstrap: TestBootstrap | None,
+    p0: Sequence[float] | np.ndarray,
 ) -> list:
     """``rezero-sensitive`` when the fit's tests include records re-zeroed at a seating
     contact and the same fit on the records as logged (toes kept, z unchanged) differs by

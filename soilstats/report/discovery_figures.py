@@ -8,6 +8,7 @@ import math
 import textwrap
 from typing import Any
 
+import matplotlib as mpl
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -143,11 +144,9 @@ def _curve_panel(ax: Any, f: Any) -> str:  # a Finding with its group
     return f"{name}: {gain}"
 
 
-def _findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
+def findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
     """A grid of findings, one per row: each its deviation and curve panels under a title
     that states the effect and the gain."""
-    import matplotlib as mpl
-
     per_row = 1  # two panels across the page: room for 8 pt levels and legends
     rows = math.ceil(len(numbered) / per_row)
     with mpl.rc_context(GRID_STYLE):

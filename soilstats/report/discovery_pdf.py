@@ -30,8 +30,8 @@ from ..discovery.result import METHOD_NOTES, DiscoveryResult
 from ..evidence import REAL_SE, RULE
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
-from .discovery_appendix import _group, write_appendix
-from .discovery_figures import _findings_figure
+from .discovery_appendix import group_name, write_appendix
+from .discovery_figures import findings_figure
 from .document import Document, strong
 from .front import data_origin, front_page
 from .labels import natural_sorted
@@ -247,7 +247,7 @@ def _findings_table(doc: Document, result: DiscoveryResult) -> None:
     rows = [
         {
             "#": f"[{i}]",
-            "group": _group({"kind": f.kind, "soil": f.soil}),
+            "group": group_name({"kind": f.kind, "soil": f.soil}),
             "cause": f.cause
             + (f" (confounded with {', '.join(f.confounded_with)})" if f.confounded_with else ""),
             "shows in": _shows_in(f),
@@ -293,7 +293,7 @@ def _failures_out_of_sample(result: DiscoveryResult) -> list[str]:
         name, g = worst
         assert f.gain is not None  # the other schemes are measured after this one
         out.append(
-            f"{_group({'kind': f.kind, 'soil': f.soil})} {f.extension}: {f.gain.relative:+.1%} "
+            f"{group_name({'kind': f.kind, 'soil': f.soil})} {f.extension}: {f.gain.relative:+.1%} "
             f"with tests held out but {g.relative:+.1%} with {name} ({g.verdict})"
         )
     return out
@@ -317,10 +317,10 @@ def _findings_section(doc: Document, result: DiscoveryResult) -> None:
                 else f"Findings {chunk[0][0]}–{chunk[-1][0]}"
             )
             if k:
-                doc.figure(_findings_figure(chunk), f"{which}, drawn as in the figure before.")
+                doc.figure(findings_figure(chunk), f"{which}, drawn as in the figure before.")
                 continue
             doc.figure(
-                _findings_figure(chunk),
+                findings_figure(chunk),
                 f"{which}: each title states the effect (from the level means: a factor on "
                 "pressure, strength or K, a difference in n) and the held-out error of the base "
                 "model and of the extension (tests left out, the cause fixed). Left: each test's "
@@ -388,7 +388,7 @@ def _problems_section(doc: Document, result: DiscoveryResult) -> None:
         doc.table(
             pd.DataFrame(
                 [
-                    {"group": _group(f), **{k: f[k] for k in ("scope", "code", "message")}}
+                    {"group": group_name(f), **{k: f[k] for k in ("scope", "code", "message")}}
                     for f in result.flags
                 ]
             ),
@@ -404,7 +404,7 @@ def _problems_section(doc: Document, result: DiscoveryResult) -> None:
             pd.DataFrame(
                 [
                     {
-                        "group": _group(a),
+                        "group": group_name(a),
                         "candidate": a["candidate"],
                         "p (Holm)": a["p_adjusted"],
                         "reason": a["reason"],

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import io
+import os
 import re
 import subprocess
 import tempfile
@@ -464,7 +465,7 @@ def _plain_math(label: str) -> str:
 def plain_log_ticks(fig: Figure) -> None:
     """Every log axis of ``fig`` labelled in plain text (10⁻¹, 10², 2×10¹): matplotlib writes
     its log tick labels in mathtext, which the report's figures print as written."""
-    from matplotlib.ticker import Formatter, LogFormatter
+    from matplotlib.ticker import Formatter, LogFormatter  # deferred: matplotlib
 
     class PlainLog(Formatter):
         """The log formatter's own labels (and its choice of minor ticks to label), plain."""
@@ -500,7 +501,7 @@ def figure_svg(fig: Figure) -> bytes:
     set by Typst in matplotlib's own DejaVu fonts (:func:`figure_fonts`): the PDF carries it
     as real text, so a reader can search it and a test can read its sizes and boxes
     (issue #47, item 5), where paths hid both."""
-    import matplotlib as mpl
+    import matplotlib as mpl  # deferred: matplotlib
 
     plain_texts(fig)
     plain_log_ticks(fig)
@@ -521,9 +522,7 @@ def figure_fonts() -> list[str]:
     """The folder of the fonts matplotlib ships (DejaVu, STIX, Computer Modern): the fonts a
     figure's SVG text names, given to Typst (never the system's fonts: the same bytes on any
     machine)."""
-    import os
-
-    import matplotlib as mpl
+    import matplotlib as mpl  # deferred: matplotlib
 
     return [os.path.join(mpl.get_data_path(), "fonts", "ttf")]
 

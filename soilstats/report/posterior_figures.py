@@ -117,7 +117,7 @@ def _scale(name: str) -> float:
 
 
 @dataclass(frozen=True)
-class _Posterior:
+class FigurePosterior:
     """What the figures need from a result or an InferenceData."""
 
     # arviz.InferenceData: Any, as its groups (posterior, observed_data, …) are attributes
@@ -137,20 +137,21 @@ class _Posterior:
         return self.model.output.startswith("tau")
 
 
-def _posterior(obj: Any) -> _Posterior:  # a PosteriorResult or its InferenceData
+def figure_posterior(obj: Any) -> FigurePosterior:
+    """What the figures read of a PosteriorResult (or of its InferenceData)."""
     idata = getattr(obj, "idata", obj)
     attrs = idata.posterior.attrs
     model = get_model(getattr(obj, "model_name", None) or attrs["model"])
     kind = getattr(obj, "kind", None) or attrs.get("kind", "pooled")
     names = tuple(getattr(obj, "param_names", None) or model.param_names)
     units = dict(getattr(obj, "units", None) or model.unit_of)
-    return _Posterior(idata, model, kind, names, units)
+    return FigurePosterior(idata, model, kind, names, units)
 
 
-def _shown(posterior: Any, most: int) -> tuple[_Posterior, tuple[str, ...], str]:
+def _shown(posterior: Any, most: int) -> tuple[FigurePosterior, tuple[str, ...], str]:
     """(the posterior, the parameters a figure shows, the caption's note when some are left
     out): the first ``most`` of the model's parameters (:func:`_capped`)."""
-    post = _posterior(posterior)
+    post = figure_posterior(posterior)
     return post, *_capped(post.names, most)
 
 
@@ -163,7 +164,7 @@ def _capped(names: Iterable[str], most: int) -> tuple[tuple[str, ...], str]:
     return names[:most], f" Only the first {most} of the {len(names)} parameters are shown."
 
 
-def _new_preparation_note(post: _Posterior) -> str:
+def _new_preparation_note(post: FigurePosterior) -> str:
     if post.kind != "population":
         return ""
     return (
@@ -397,7 +398,7 @@ def _joint_panel(ax: Axes, x: np.ndarray, y: np.ndarray, r: float, log_y: bool) 
 
 
 def _pair_caption(
-    post: _Posterior,
+    post: FigurePosterior,
     names: tuple[str, ...],
     values: dict[str, np.ndarray],
     corr: np.ndarray,

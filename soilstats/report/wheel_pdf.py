@@ -428,7 +428,7 @@ def _what_is_wrong(doc: Document, res: WheelValidation) -> None:
         doc.figure(fig, caption)
 
 
-def _extension(doc: Document, res: WheelValidation, disc) -> None:
+def _extension(doc: Document, res: WheelValidation, disc: WheelDiscovery) -> None:
     """The slip-dependent exponent: its held-out gains, figure and where it still fails."""
     doc.heading("The extension: a slip-dependent exponent")
     doc.paragraph(

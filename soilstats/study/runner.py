@@ -8,6 +8,7 @@ outputs and the PDF only read the result.
 from __future__ import annotations
 
 import time
+import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -183,8 +184,6 @@ _SPEC_DEFAULTS = {
 def spec_defaults(spec: StudySpec) -> dict[str, str]:
     """``{"spec: KEY": default}`` for every key of :data:`_SPEC_DEFAULTS` the specification
     file of ``spec`` leaves out (a spec built in memory, without a file: none known)."""
-    import tomllib
-
     if spec.path is None or not Path(spec.path).is_file():
         return {}
     raw = tomllib.loads(Path(spec.path).read_text(encoding="utf-8"))
@@ -226,7 +225,7 @@ def _preparation(
     eps = parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
     criteria, best = evaluate_criteria(
         per_test,
-        eps.rename(columns={"condition": "level"}),
+        eps.rename(columns={"condition": "level"}),  # type: ignore[call-overload]  # pandas-stubs: groupby(as_index=False)[col].first() is a DataFrame
         spec,
         spec.alpha,
         failed=_failed_in_bearing(campaign, per_test),

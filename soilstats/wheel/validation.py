@@ -189,7 +189,7 @@ def validate_wheel(
 
 def _progress_bar(total: int, progress: bool) -> Any:
     """The validation's tqdm bar over its ``total`` steps (hidden unless ``progress``)."""
-    from tqdm.auto import tqdm
+    from tqdm.auto import tqdm  # deferred: tqdm (a progress bar)
 
     return tqdm(
         total=total, desc="wheel validation", unit="step", disable=not progress, leave=False
