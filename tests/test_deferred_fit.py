@@ -117,3 +117,16 @@ def test_a_loop_over_one_campaign_pools_once_and_fits_as_a_fresh_campaign(campai
         pooled.y[0] = 0.0  # shared by every later fit: nobody may change it
     other = fit_sinkage(kept, "bekker", soil="sand", points_per_test=50)
     assert other.tests["used"].max() <= 50 < fit.tests["used"].max()
+
+
+def test_a_fits_test_columns_are_its_own_and_their_arrays_cannot_be_written(campaign):
+    """Fits of one campaign share the kept per-test arrays (read-only) but not the dict that
+    holds them: a key a user adds to one fit's ``test_columns`` never reaches the next fit."""
+    kept = screened(campaign, "clean")
+    first = fit_sinkage(kept, "bekker", soil="sand")
+    second = fit_sinkage(kept, "bekker", soil="sand")
+    assert first.test_columns is not second.test_columns
+    first.test_columns["note"] = np.zeros(len(first.tests))
+    assert "note" not in fit_sinkage(kept, "bekker", soil="sand").test_columns
+    with pytest.raises(ValueError, match="read-only"):
+        first.test_columns["b_m"][0] = 99.0

@@ -149,3 +149,13 @@ def test_no_study_figure_text_runs_past_the_figure_edge():
     assert figures
     for title, fig, _ in figures:
         assert not _clipped_texts(fig), (title, _clipped_texts(fig))
+
+
+def test_a_system_font_in_the_users_style_is_set_in_a_shipped_font(tmp_path):
+    """Typst sees only matplotlib's own fonts: text in a family it cannot find would be drawn
+    in a substitute with other metrics than the layout's (review of issue #47, item 5)."""
+    fig = Figure(figsize=(4, 2))
+    label = fig.subplots().set_xlabel("slip s")
+    label.set_fontfamily("a family no machine has")
+    svg = figure_svg(fig).decode()
+    assert "a family no machine has" not in svg and "DejaVu Sans" in svg

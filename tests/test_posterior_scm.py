@@ -247,6 +247,11 @@ def test_the_sinkage_only_export_carries_its_marks(grc1_export):
     assert _squeeze("Bernstein mapping: Bekker_Kphi = k, Bekker_Kc = 0") in page
     posterior = json.loads((out / "posterior.json").read_text())
     assert posterior["simulator"]["sources"] == record["sources"]
+    # the SCM inputs nobody stated are defaults the sets rest on (issue #47, item 3)
+    stated = record["stated_inputs"]
+    for name, option in (("elastic_K", "--scm-elastic-K"), ("damping_R", "--scm-damping-R")):
+        assert stated[name]["source"] != "stated by user"
+        assert posterior["defaults"][option].startswith(f"{stated[name]['value']:g} ")
 
 
 def test_the_example_loops_over_a_fresh_export(grc1_export):

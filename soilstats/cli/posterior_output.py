@@ -211,6 +211,13 @@ def decide_and_write(
         return refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
     from ..bayes.run_record import posterior_record  # deferred: arviz; bayes: too heavy for --help
 
+    defaults = defaults_not_given(args)
+    if export is not None:  # SCM inputs nobody stated rest on sourced defaults: say which
+        defaults |= {
+            f"--scm-{name.replace('_', '-')}": f"{value:g} {unit} ({source})"
+            for name, (value, unit, source) in export.stated.items()
+            if source != "stated by user"
+        }
     record = posterior_record(
         args.soil,
         models,
@@ -221,7 +228,7 @@ def decide_and_write(
         pooled_warnings,
         list(args.select or []),
         provenance,
-        defaults=defaults_not_given(args),
+        defaults=defaults,
     )
     if export is not None:
         record = json_safe(record | {"simulator": export.record()})

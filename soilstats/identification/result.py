@@ -71,7 +71,8 @@ class CampaignFit(FitResult):
         flags += _few_tests(pooled)
         base = fit.annotated(notes, flags)
         fields_ = {f.name: getattr(base, f.name) for f in fields(FitResult)}
-        return cls(**fields_, test_columns=pooled.by_test, bootstrap=bootstrap, data=data)
+        # each fit its own dict: the arrays are shared (read-only) by the fits of one campaign
+        return cls(**fields_, test_columns=dict(pooled.by_test), bootstrap=bootstrap, data=data)
 
     @classmethod
     def deferred(
@@ -82,7 +83,7 @@ class CampaignFit(FitResult):
         skips.  ``finish`` returns the full :meth:`of` result the fields are taken from; its
         work is seeded, so the values are those an eager fit gives (issue #45, item 7)."""
         fields_ = {f.name: getattr(fit, f.name) for f in fields(FitResult)}
-        out = cls(**fields_, test_columns=pooled.by_test)
+        out = cls(**fields_, test_columns=dict(pooled.by_test))
         out.__dict__["_pending"] = finish
         out.__dict__["_finishing"] = threading.Lock()  # this result's: others finish alongside
         return out

@@ -195,6 +195,7 @@ def _prepared(
     pooled = pool_sinkage(campaign, **pooling)
     _check_identifiable(spec, pooled)
     _read_only(pooled.y, pooled.weights, pooled.test_index, *pooled.x.values())
+    _read_only(*(v for v in pooled.by_test.values() if isinstance(v, np.ndarray)))
     x = _read_only(spec.x_from(pooled.x))[0]
     if spec.start is None:
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import io
-import os
 import re
 import subprocess
 import tempfile
@@ -33,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
 from ..outputs.files import write_atomic
+from .fonts import figure_fonts, shipped_fonts_only
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -505,6 +505,7 @@ def figure_svg(fig: Figure) -> bytes:
 
     plain_texts(fig)
     plain_log_ticks(fig)
+    shipped_fonts_only(fig)
     buffer = io.BytesIO()
     # Tick labels made while drawing (categorical axes: the data's levels) are plain too.
     style: dict[RcKeyType, Any] = {
@@ -516,15 +517,6 @@ def figure_svg(fig: Figure) -> bytes:
         fig.savefig(buffer, format="svg", metadata={"Date": None})
     _close(fig)
     return buffer.getvalue()
-
-
-def figure_fonts() -> list[str]:
-    """The folder of the fonts matplotlib ships (DejaVu, STIX, Computer Modern): the fonts a
-    figure's SVG text names, given to Typst (never the system's fonts: the same bytes on any
-    machine)."""
-    import matplotlib as mpl  # deferred: matplotlib
-
-    return [os.path.join(mpl.get_data_path(), "fonts", "ttf")]
 
 
 def _close(fig: Figure) -> None:
