@@ -8,7 +8,11 @@ category and text — every other warning of ArviZ still reaches the user.
 
 from __future__ import annotations
 
+import datetime
+import os
+import tempfile
 import warnings
+from pathlib import Path
 
 
 def _stamp_daily_notice() -> None:
@@ -20,13 +24,8 @@ def _stamp_daily_notice() -> None:
     today's date already there ArviZ writes nothing; a unique temporary name per process
     makes our own write race-free.
     """
-    import datetime
-    import os
-    import tempfile
-    from pathlib import Path
-
     try:
-        from platformdirs import user_cache_dir
+        from platformdirs import user_cache_dir  # deferred: platformdirs (optional)
 
         folder = Path(user_cache_dir("arviz", "arviz"))
         stamp = folder / "daily_warning"

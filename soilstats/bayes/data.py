@@ -10,6 +10,7 @@ import numpy as np
 from ..errors import ModelError
 from ..fitting.result import FitResult
 from ..identification import fit_shear, fit_sinkage, pool_sinkage
+from ..identification.adequacy import outside_own_range, test_forms
 from ..identification.pooling import pool_shear
 from ..models import get_model, model_names
 from .likelihood import PooledProblem
@@ -95,8 +96,6 @@ def _with_aggregation_bias(fit: FitResult, problem: PooledProblem) -> FitResult:
     of every test's own n (:func:`~soilstats.identification.adequacy.outside_own_range`):
     the posterior starts from it and reports its flags (``least_squares_health``), which
     its fit without the test bootstrap would not raise."""
-    from ..identification.adequacy import outside_own_range, test_forms
-
     if "n" not in fit.params.index or any(f.code == "aggregation-bias" for f in fit.flags):
         return fit
     forms = test_forms(problem.inputs["z_m"], problem.y, problem.test_index)

@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..models import MODELS
 from .scm_constraints import (
     CHRONO_SOURCE,
     REPAIR_MAX,
@@ -55,7 +56,7 @@ from .scm_constraints import (
     check_scm,
     constraint_failures,
 )
-from .stated_priors import stated_priors_of
+from .stated_priors import describe_prior, sample_priors, stated_priors_of
 from .support import SupportCheck, negative_modulus_width
 
 # The check and repair live in .scm_constraints; their names stay importable from here.
@@ -84,8 +85,6 @@ def _scm_format() -> dict[str, tuple[str, str]]:
     (``Model.scm``: Bekker's Kphi, Kc, n; Janosi's and Mohr–Coulomb's cohesion, friction,
     Janosi shear), in the order of registration; the first record to map a parameter names
     its column."""
-    from ..models import MODELS
-
     out: dict[str, tuple[str, str]] = {}
     for model in MODELS.values():
         for name, column in cast(tuple, model.scm):  # pairs once built
@@ -226,8 +225,6 @@ def stated_inputs(elastic_K: float | None = None, damping_R: float | None = None
 
 
 def _source_of(key: str, plan: str, draws_source: Mapping, priors: Mapping) -> str:
-    from .stated_priors import describe_prior
-
     if plan == "draws":
         return draws_source.get(key, "posterior draws")
     if plan == "bernstein" and key == "kc":
@@ -267,8 +264,6 @@ def _notes(
     seed: int | None,
     plate_widths: tuple[float, float] | None,
 ) -> tuple[str, ...]:
-    from .stated_priors import describe_prior
-
     notes = []
     if width is not None:
         share = float((draws["kc"] < 0).mean())
@@ -359,8 +354,6 @@ def export_simulator(
         A parameter SCM needs is neither in the draws nor given a prior; a prior for a
         parameter the draws hold; bad stated inputs or prior draws outside the support.
     """
-    from .stated_priors import sample_priors
-
     if on_failure not in ("raise", "return"):
         raise InputError(f"on_failure must be 'raise' or 'return', got {on_failure!r}")
     try:

@@ -26,7 +26,10 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import pandas as pd
 
-from .joint import PosteriorDraws
+from ..identification import fit_shear, fit_sinkage
+from ..identification.conditions import model_for
+from ..models import get_model
+from .joint import PosteriorDraws, joint_draws
 from .support import SupportCheck, check_support, negative_modulus_width
 
 if TYPE_CHECKING:
@@ -140,10 +143,6 @@ def preflight(
     Runs each model's least-squares fit alone (milliseconds) on the selection the posterior
     will use; a fit that cannot be made at all raises its own error here, as sampling would.
     """
-    from ..identification import fit_shear, fit_sinkage
-    from ..identification.conditions import model_for
-    from ..models import get_model
-
     health, unidentifiable = {}, []
     for name in models:
         spec = get_model(name)
@@ -178,8 +177,6 @@ def hand_out(
     plate modulus must be positive over them). ``population``: whether these are population
     posteriors (default: from the results' kind).
     """
-    from .joint import joint_draws
-
     results = list(results)
     if population is None:
         population = any(r.kind == "population" for r in results)

@@ -43,7 +43,7 @@ from .reduction import (
     to_eta,
 )
 from .result import PosteriorResult, draws_converge
-from .sampler import run_ensemble
+from .sampler import EnsembleRun, run_ensemble
 from .transforms import Coordinates, sampling_coordinates
 
 if TYPE_CHECKING:
@@ -102,7 +102,7 @@ def laplace_mode(
             )
             opt = optimize.minimize(nlp, opt.x, method="BFGS")
     mode, d = opt.x * scale, x0.size
-    step = 1e-2 * np.sqrt(np.clip(np.diag(opt.hess_inv), 1e-12, None)) * scale
+    step = 1e-2 * np.sqrt(np.clip(np.diag(opt.hess_inv), 1e-12, None)) * scale  # type: ignore[arg-type]  # scipy-stubs: BFGS's hess_inv is a matrix (a LinearOperator is L-BFGS-B's)
     e = np.diag(step)
     pts = [mode]
     for i in range(d):
@@ -364,7 +364,13 @@ def _population_notes(pops: PopulationModel, fits: PerTestFits, ln_zref: float) 
     return notes
 
 
-def _population_idata(pops: PopulationModel, run, rng, fits: PerTestFits, curves=None):
+def _population_idata(
+    pops: PopulationModel,
+    run: EnsembleRun,
+    rng: np.random.Generator,
+    fits: PerTestFits,
+    curves: xr.Dataset | None = None,
+) -> Any:  # an az.InferenceData (Any: ArviZ sets its groups as attributes at run time)
     chains, draws, dim = run.chain.shape
     flat = run.chain.reshape(-1, dim)
     mu = pops.theta(flat)

@@ -13,6 +13,7 @@ import xarray as xr
 from ..errors import ConvergenceWarning, InputError
 from ..fitting.result import HealthFlag
 from ..models import get_model
+from ..outputs.provenance import source_date
 from ._arviz import az
 from .data import pooled_problem
 from .likelihood import PooledProblem
@@ -309,8 +310,6 @@ def _check_start_in_prior(spec: Model, theta0: np.ndarray, problem: PooledProble
 def posterior_attrs(problem: PooledProblem) -> dict:
     """The posterior group's attributes. No clock is read: ``created_at`` only where
     ``SOURCE_DATE_EPOCH`` sets it, so that the same run writes a byte-identical file."""
-    from ..outputs.provenance import source_date
-
     date = source_date()
     return ({"created_at": date} if date else {}) | {
         "inference_library": "emcee",

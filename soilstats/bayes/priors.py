@@ -33,13 +33,16 @@ Jeffreys prior 1/σ_w (see :mod:`soilstats.bayes.likelihood`).
 
 from __future__ import annotations
 
+import difflib
 import os
+import tomllib
 from collections.abc import Iterable, Mapping
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError, ModelError
-from ..models import MODELS, Model, get_model
+from ..models import MODELS, Model, get_model, model_names
 from ..models.priors import FLAT, Normal, Prior, Uniform
 
 __all__ = [
@@ -159,9 +162,6 @@ def priors_from_items(items: Iterable[str] | None) -> dict[str, Prior]:
 
 
 def _read_priors_toml(path: os.PathLike[str] | str) -> dict:
-    import tomllib
-    from pathlib import Path
-
     try:
         return tomllib.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as err:
@@ -172,9 +172,6 @@ def check_priors_file(path: str | os.PathLike[str]) -> None:
     """Refuse a priors file with a table naming no registered model (``[bekkr]``): its priors
     would otherwise be ignored silently. Tables for other registered models are allowed (one
     file may serve several runs)."""
-    import difflib
-
-    from ..models import model_names
 
     known = list(model_names())
     stray = sorted(set(_read_priors_toml(path)) - set(known))
@@ -193,8 +190,6 @@ def priors_from_toml(path: str | os.PathLike[str], model_name: str) -> dict[str,
     A file may hold tables for several models (``[bekker]``, ``[janosi]``); a model without a
     table keeps its defaults. Unknown parameter names are refused by :func:`resolve_priors`.
     """
-    from pathlib import Path
-
     path = Path(path)
     section = _read_priors_toml(path).get(model_name, {})
     if not isinstance(section, dict):

@@ -11,10 +11,13 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ..errors import InputError, warn_renamed
+from .._html import facts_html, notes_html, result_html, table_html
+from ..errors import ConvergenceError, InputError, warn_renamed
 from ..fitting.result import HealthFlag
+from ..outputs import json_safe
 from ..outputs.text import notes_block
 from ._arviz import az
+from .handout import hand_out
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
@@ -42,7 +45,7 @@ CONVERGENCE_CODES = ("high-r-hat", "low-bulk-ess", "low-tail-ess", "short-chain"
 
 def chain_diagnostics(idata: Any, var_names: Iterable[str]) -> pd.DataFrame:
     """MCSE, bulk/tail ESS and R-hat of each of ``var_names`` (ArviZ's summary, unrounded)."""
-    return az.summary(idata, var_names=list(var_names), kind="diagnostics", round_to="none")
+    return az.summary(idata, var_names=list(var_names), kind="diagnostics", round_to="none")  # type: ignore[return-value]  # ArviZ: a DataFrame unless fmt='xarray'
 
 
 def diagnose(table: pd.DataFrame) -> tuple[HealthFlag, ...]:
@@ -231,8 +234,6 @@ class PosteriorResult:
             :attr:`flags` lists which), unless ``allow_unconverged``.
         """
         if self.flags and not allow_unconverged:
-            from ..errors import ConvergenceError
-
             failed = "; ".join(f.message for f in self.flags)
             raise ConvergenceError(
                 f"the {self.model_name} {self.kind} posterior did not converge "
@@ -253,8 +254,6 @@ class PosteriorResult:
         """The JSON-ready content: per quantity mean, stderr (posterior sd), interval and
         diagnostics; convergence and its flags (``code``, ``message``; and, until 0.3.0, their
         messages under the old key ``problems``); units, sampler settings and notes."""
-        from ..outputs import json_safe
-
         table = self.summary_table(prob)
         return json_safe(
             {
@@ -277,8 +276,6 @@ class PosteriorResult:
         """Whether this posterior's draws are fit for a rover Monte Carlo, and the draws a
         Monte Carlo may be given: :func:`soilstats.bayes.handout.hand_out` of this result
         alone (``contact_widths`` (b_min, b_max) [m]: where the draws will be used)."""
-        from .handout import hand_out
-
         return hand_out([self], contact_widths, seed=seed)
 
     def least_squares_health(self) -> list[dict]:
@@ -346,8 +343,6 @@ class PosteriorResult:
     def _repr_html_(self) -> str:
         """The summary as tables, for notebooks: sampler, estimates with diagnostics,
         convergence (and every failed check), the least-squares start's health and the notes."""
-        from .._html import facts_html, notes_html, result_html, table_html
-
         s = self.sampler
         facts = {
             "sampler": f"emcee, {s['walkers']} walkers, {s['steps']} steps, burn-in "

@@ -50,7 +50,7 @@ _BYTES_PER_DRAW_VALUE = 8 * 8
 
 def _checked_model(name: str) -> Model:
     """The record of one model of ``--model`` (bayes.prior_options.posterior_model)."""
-    from .prior_options import posterior_model  # imports the export's SCM plan: on use
+    from .prior_options import posterior_model  # deferred: scipy.stats (the export's SCM plan)
 
     return posterior_model(name)
 
@@ -105,9 +105,14 @@ def check_simulator_request(
         if contact:
             raise InputError("--scm-contact checks a simulator export: give --simulator too")
         return
-    from .export import REPAIR_MAX, missing_message, scm_plan, stated_inputs
-    from .scm_wheel import contact_patch
-    from .stated_priors import sample_priors
+    from .export import (  # deferred: scipy.stats
+        REPAIR_MAX,
+        missing_message,
+        scm_plan,
+        stated_inputs,
+    )
+    from .scm_wheel import contact_patch  # deferred: pandas
+    from .stated_priors import sample_priors  # deferred: scipy.stats
 
     contact_patch(contact)  # LENGTH:WIDTH, positive and finite
 
@@ -152,9 +157,9 @@ def check_draws(draws: int | None, models: Sequence[str] = (), *, force: bool = 
         )
     if draws is None or force:
         return  # (the sampler modules cost seconds to import: not for a refusal before sampling)
-    from .population import POPULATION_DRAWS
-    from .posterior import DEFAULT_DRAWS
-    from .result import ESS_MIN
+    from .population import POPULATION_DRAWS  # deferred: arviz
+    from .posterior import DEFAULT_DRAWS  # deferred: arviz
+    from .result import ESS_MIN  # deferred: arviz
 
     if draws < ESS_MIN:
         raise InputError(

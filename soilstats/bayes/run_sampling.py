@@ -106,7 +106,7 @@ def _run(
     *,
     progress: bool = True,
 ) -> Any:
-    from . import sample_population, sample_posterior
+    from . import sample_population, sample_posterior  # deferred: arviz
 
     kw: dict[str, Any] = {
         "seed": model_seed(options.seed, index),

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..models import MODELS, get_model
 
 if TYPE_CHECKING:
     from ..models.base import Model
@@ -103,8 +104,6 @@ def check_support(
     applies where its parameters are columns of ``draws``; one that several models share
     (c ≥ 0) is judged once.
     """
-    from ..models import MODELS, get_model
-
     lo, hi = (float(b) for b in contact_widths)
     if not 0 < lo <= hi:
         raise InputError(f"contact widths must satisfy 0 < b_min <= b_max, got {contact_widths}")

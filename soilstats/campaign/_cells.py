@@ -137,8 +137,8 @@ def _parse_decimals(series: pd.Series) -> np.ndarray | None:
     dtype = series.dtype
     if not (isinstance(dtype, pd.StringDtype) and dtype.storage == "pyarrow") or not len(series):
         return None
-    import pyarrow as pa
-    import pyarrow.compute as pc
+    import pyarrow as pa  # deferred: pyarrow (the parquet extra)
+    import pyarrow.compute as pc  # deferred: pyarrow (the parquet extra)
 
     cells = pa.array(series.array)  # via __arrow_array__: the cells pandas holds
     if cells.null_count or not pc.all(pc.match_substring_regex(cells, _DECIMAL)).as_py():
@@ -259,8 +259,8 @@ class Numbers:
             return rows
         sub = self._series.iloc[rows]
         try:
-            import pyarrow as pa
-            import pyarrow.compute as pc
+            import pyarrow as pa  # deferred: pyarrow (the parquet extra)
+            import pyarrow.compute as pc  # deferred: pyarrow (the parquet extra)
         except ImportError:  # pyarrow is the optional `parquet` extra: Python's re then
             regex = re.compile(pattern)
             return rows[[regex.search(cell) is not None for cell in texts(sub)]]

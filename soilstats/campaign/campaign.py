@@ -56,7 +56,7 @@ def _skipped_table(issues: list[Issue]) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
-def _skipped_item(r) -> str:
+def _skipped_item(r: Any) -> str:  # a row of skipped.itertuples()
     """One skipped entry for the warning: 'id' (file, column, row: reason), or for rows that
     name no test, the rows themselves."""
     reason = r.reason.split(";")[0].split(" — ")[0]
@@ -94,7 +94,7 @@ def _check_derived(
     )
 
 
-def _cell(value) -> str:
+def _cell(value: str | float) -> str:
     """A cell as its file shows it: text quoted, a number (Parquet) as a plain float."""
     return repr(value) if isinstance(value, str) else repr(float(value))
 
@@ -220,7 +220,7 @@ def load_campaign(
                 f"'shear'; got {sorted(path_or_name)}",
                 file="tests.csv",
             )
-        return Campaign.from_frames(**path_or_name, on_error=on_error, check_units=check_units)
+        return Campaign.from_frames(**path_or_name, on_error=on_error, check_units=check_units)  # type: ignore[arg-type]  # mypy matches **frames against every keyword; the tables are DataFrames
     if not isinstance(path_or_name, str | os.PathLike):
         raise CampaignError(
             f"load_campaign takes a folder, a bundled name or a dict of DataFrames, not "

@@ -288,7 +288,7 @@ def add_test_columns(tests: pd.DataFrame, n_samples: ArrayLike) -> pd.DataFrame:
     # Shape is only meaningful for sinkage tests (a shear test may carry a stray value).
     shape: Any = np.full(len(out), None, dtype=object)  # object array (numpy's stubs: where)
     if "shape" in out.columns:
-        shape = np.where(kind == "sinkage", out["shape"].to_numpy(dtype=object), None)
+        shape = np.where(kind == "sinkage", out["shape"].to_numpy(dtype=object), None)  # type: ignore[call-overload]  # numpy's stubs: where(cond, x, None) is valid
     radius, width, length = _col(out, "radius_m"), _col(out, "width_m"), _col(out, "length_m")
     out["b_m"] = bekker_b(shape, radius, width)
     out["area_m2"] = plate_area(shape, radius, width, length)

@@ -110,7 +110,7 @@ def derived_issues(tables: dict[str, pd.DataFrame], names: dict[str, str]) -> li
                     ids[i],
                     names["tests"],
                     column,
-                    int(tests.index[i]) + 1,
+                    int(tests.index[i]) + 1,  # type: ignore[call-overload]  # pandas-stubs: Index[numpy int] is valid
                     f"{what} is {float(values[i])!r} in float64 for {_geometry(tests, i, column)}"
                     f" — not a positive finite number, so {consequence}; check the values "
                     "(metres)",

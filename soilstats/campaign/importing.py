@@ -45,7 +45,7 @@ from .._version import __version__
 from ..errors import CampaignError, refuse_unknown_keys
 from .campaign import Campaign
 from .schema import FILES, spec
-from .units import _LENGTH, UNITS, check_plausible_units, implausible_units, to_si
+from .units import LENGTH, UNITS, check_plausible_units, implausible_units, to_si
 
 __all__ = ["ImportRecord", "import_campaign", "import_campaign_record"]
 
@@ -234,7 +234,7 @@ def _convert(
     if "unit" in spec_:
         values = to_si(values, target, str(spec_["unit"]), file=file)
     if "diameter" in spec_ and _strict_bool(spec_["diameter"], mapping, f"{key}.diameter"):
-        if UNITS.get(target) is not _LENGTH or target == "z_m":
+        if UNITS.get(target) is not LENGTH or target == "z_m":
             raise _fail(
                 mapping,
                 f"{key}.diameter",
@@ -288,7 +288,7 @@ def _map_table(raw: pd.DataFrame, mapping: Path, stem: str, table: dict, file: s
                 file=file,
                 column=lab,
             )
-        values = raw[lab]
+        values: pd.Series = raw[lab]  # type: ignore[assignment]  # pandas-stubs: raw[label] of a label typed Any may be a frame; the lab's columns are unique
         if decimal != "." and _numeric_target(stem, target):  # never inside ids or names
             values = _decimal(values, decimal)
         out[target] = _convert(values, target, spec_, mapping, key, file)
@@ -495,7 +495,7 @@ def import_campaign_record(
         if not ids:
             raise _fail(path, "tests.file", "is required unless [sinkage] or [shear] has tests")
         frames["tests"] = _tests_from_files(path, doc["tests"], ids, headers)
-    campaign = Campaign.from_frames(**frames, source=str(path), check_units=False)
+    campaign = Campaign.from_frames(**frames, source=str(path), check_units=False)  # type: ignore[arg-type]  # mypy matches **frames against every keyword; the tables are DataFrames
     _refuse_slips(campaign, path, doc)
     check_plausible_units(campaign.tests, campaign.sinkage, campaign.shear)
     return campaign, record

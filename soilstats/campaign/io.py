@@ -26,6 +26,7 @@ import pandas as pd
 from .._text import shown
 from ..data import bundled_names, bundled_path
 from ..errors import CampaignError
+from ..outputs.files import escape_formula, output_path, replacing, staged, unescape_formula
 from .read_budget import check_csv_size, check_parquet_size
 from .schema import FILES, MAX_CELL_CHARS
 
@@ -357,7 +358,7 @@ def require_parquet(name: str) -> None:
     """A one-line :class:`CampaignError` naming the ``parquet`` extra when pyarrow, which
     reads and writes Parquet, is not installed (it is 170 MB, and CSV needs none of it)."""
     try:
-        import pyarrow  # noqa: F401
+        import pyarrow  # noqa: F401  # deferred: pyarrow (the parquet extra)
     except ImportError:
         raise CampaignError(
             f"{name} is a Parquet table, and Parquet needs pyarrow, which is not installed: "
@@ -445,8 +446,6 @@ def _read_csv(fh: BinaryIO, name: str) -> pd.DataFrame:
 def _formula_unescaped(frame: pd.DataFrame) -> pd.DataFrame:
     """Cells as given to :func:`write_table`: the apostrophe guarding a formula cell
     (``'=x``, a spreadsheet's own escape too) dropped; a frame without one is returned as is."""
-    from ..outputs.files import unescape_formula
-
     for col in frame.columns:
         values = frame[col]
         guarded = values.str.startswith("'", na=False)
@@ -534,8 +533,6 @@ def write_table(frame: pd.DataFrame, path: Path, fmt: Format) -> None:
 
 def _formula_escaped(frame: pd.DataFrame) -> pd.DataFrame:
     """The text cells of ``frame`` escaped against spreadsheet formulas (numbers untouched)."""
-    from ..outputs.files import escape_formula
-
     out = frame.copy()
     for col in out.columns:
         if out[col].dtype == np.float64 or pd.api.types.is_integer_dtype(out[col].dtype):
@@ -562,8 +559,6 @@ def save_tables(
     OSError
         If a campaign file name in the folder is a symbolic link or a folder.
     """
-    from ..outputs.files import output_path, replacing, staged
-
     existing = [folder / n for n in CAMPAIGN_FILE_NAMES if os.path.lexists(folder / n)]
     if existing and not overwrite:
         raise CampaignError(

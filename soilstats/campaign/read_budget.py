@@ -29,7 +29,7 @@ def _check_size(name: str, nbytes: float, detail: str) -> None:
 def check_parquet_size(fh: BinaryIO, name: str) -> None:
     """The rows and uncompressed size a Parquet footer declares, checked against the memory
     budget before a page is decompressed (a 100 M-row table, a compression bomb)."""
-    import pyarrow.parquet as pq  # pyarrow: the optional parquet extra
+    import pyarrow.parquet as pq  # deferred: pyarrow (the parquet extra)
 
     meta = pq.ParquetFile(fh).metadata
     size = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))

@@ -81,7 +81,7 @@ def describe(c: CampaignTables) -> str:
         plates = sink.groupby(["shape", "b_m", "aspect_ratio"], sort=True).size()
         lines.append(
             "plates: "
-            + ", ".join(f"{s} b={b:.4g} m l/w={a:.3g} (×{n})" for (s, b, a), n in plates.items())
+            + ", ".join(f"{s} b={b:.4g} m l/w={a:.3g} (×{n})" for (s, b, a), n in plates.items())  # type: ignore[has-type, misc]  # pandas-stubs: a multi-column value_counts key is a tuple
         )
     shear = t[t["kind"] == "shear"]
     if len(shear):
@@ -89,7 +89,7 @@ def describe(c: CampaignTables) -> str:
         lines.append(
             "rings: "
             + ", ".join(
-                f"r {ri:.4g}–{ro:.4g} m, {g:g} grousers (×{n})" for (ri, ro, g), n in rings.items()
+                f"r {ri:.4g}–{ro:.4g} m, {g:g} grousers (×{n})" for (ri, ro, g), n in rings.items()  # type: ignore[has-type, misc]  # pandas-stubs: a multi-column value_counts key is a tuple
             )
         )
     lines.append("log columns: " + ", ".join(map(str, t.columns)))

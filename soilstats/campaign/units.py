@@ -42,7 +42,11 @@ class UnitsWarning(SoilstatsWarning):
     """A value's size suggests a unit other than the format's SI unit (see the message)."""
 
 
-_LENGTH = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254}
+#: Length units a campaign may declare, with their factor to metres (the importer reads it
+#: to tell a length column from the others).
+#: Length units a campaign may declare, with their factor to metres (the importer reads it
+#: to tell a length column from the others).
+LENGTH = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254}
 _FORCE = {"N": 1.0, "kN": 1e3, "lbf": 4.4482216152605}
 _TORQUE = {"N*m": 1.0, "N*mm": 1e-3, "kN*m": 1e3}
 _ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
@@ -73,7 +77,7 @@ _EXACT: dict[str, Fraction] = {
 #: Format column → {unit: factor to the column's SI unit}.
 UNITS: dict[str, dict[str, float]] = {
     **{
-        col: _LENGTH
+        col: LENGTH
         for col in (
             "z_m",
             "radius_m",

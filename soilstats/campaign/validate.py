@@ -450,8 +450,8 @@ def _first_too_long(series: pd.Series) -> tuple[int, int] | None:
     if isinstance(dtype, pd.CategoricalDtype):
         return _first_too_long(series.astype(object))
     if isinstance(dtype, pd.StringDtype) and dtype.storage == "pyarrow":
-        import pyarrow as pa
-        import pyarrow.compute as pc
+        import pyarrow as pa  # deferred: pyarrow (the parquet extra)
+        import pyarrow.compute as pc  # deferred: pyarrow (the parquet extra)
 
         lengths = pc.utf8_length(pa.array(series.array))
         longest = pc.max(lengths).as_py()
@@ -504,8 +504,8 @@ def _distinct_ids(series: pd.Series) -> tuple[np.ndarray, np.ndarray]:
         # holds them, not through a million Python strings.
         codes, uniq = pd.factorize(series)
         return codes, np.asarray(uniq, dtype=object)
-    codes, uniq = pd.factorize(texts(series))
-    return codes, np.asarray(uniq, dtype=object)
+    codes, distinct = pd.factorize(texts(series))
+    return codes, np.asarray(distinct, dtype=object)
 
 
 def validate(frames: Frames) -> Tables:

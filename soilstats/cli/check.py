@@ -17,7 +17,9 @@ import json
 import sys
 from pathlib import Path
 
+from ..outputs import Provenance, json_safe, write_json
 from .common import add_common_options, defaults_not_given
+from .main import run_subcommand
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -35,9 +37,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Screen the campaign and print the findings (or one JSON object)."""
-    from ..campaign import load_campaign
-    from ..outputs import Provenance, json_safe, write_json
-    from ..quality import screen
+    from ..campaign import load_campaign  # deferred: pandas
+    from ..quality import screen  # deferred: pandas
 
     campaign = load_campaign(args.data, check_units=False)
     report = screen(campaign, args.quality)
@@ -45,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     defaults = defaults_not_given(args)
     document = {"defaults": defaults} | report.to_dict()
     if args.out:
-        from ..report.check_pdf import write_report
+        from ..report.check_pdf import write_report  # deferred: pandas
 
         folder = Path(args.out)
         write_json(folder / "check.json", document, provenance, overwrite=args.overwrite)
@@ -69,6 +70,4 @@ def run(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.check ...``: the same as ``soilstats check ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("check", argv)

@@ -35,6 +35,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from ..data import bundled_names
 from .running import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, guarded, prepared
 
 __all__ = [
@@ -56,8 +57,6 @@ DEFAULT_CAMPAIGN = "simulated-paper"
 
 
 def _bundled() -> str:
-    from ..data import bundled_names
-
     return ", ".join(bundled_names())
 
 

@@ -15,14 +15,17 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..outputs import write_json
 from .common import (
     ALPHA,
     add_common_options,
     add_data_options,
     add_jobs_option,
+    defaults_not_given,
     prepared,
     progress_enabled,
 )
+from .main import run_subcommand
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -40,8 +43,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run discovery; print the summary (or JSON) and write the files asked for."""
-    from ..discovery import discover
-    from ..outputs import write_json
+    from ..discovery import discover  # deferred: statsmodels
 
     campaign, provenance = prepared(args)
     result = discover(
@@ -53,10 +55,9 @@ def run(args: argparse.Namespace) -> int:
         jobs=args.jobs,
     )
     if args.out:
-        from ..report.discovery_pdf import write_report
+        from ..report.discovery_pdf import write_report  # deferred: matplotlib
 
         folder = Path(args.out)
-        from .common import defaults_not_given
 
         defaults = defaults_not_given(args)
         document = {"defaults": defaults} | {
@@ -73,6 +74,4 @@ def run(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.discover ...``: the same as ``soilstats discover ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("discover", argv)

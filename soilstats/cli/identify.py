@@ -25,14 +25,19 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..errors import CampaignError
+from ..outputs import json_safe, write_csv, write_json
+from ..parallel import warm_workers
 from .common import (
     add_common_options,
     add_data_options,
     add_jobs_option,
+    defaults_not_given,
     number_in,
     prepared,
     progress_enabled,
 )
+from .main import run_subcommand
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -98,7 +103,7 @@ class _SinkageModels:
     registry when first needed (it imports numpy; building the parser must stay cheap)."""
 
     def _names(self) -> tuple[str, ...]:
-        from ..models import model_names
+        from ..models import model_names  # deferred: pandas
 
         return ("auto", *model_names("sinkage"))
 
@@ -110,8 +115,6 @@ class _SinkageModels:
 
 
 def _check_series(campaign: Campaign, series: str | None) -> None:
-    from ..errors import CampaignError
-
     if series is None:
         return
     tests = campaign.tests
@@ -126,10 +129,7 @@ def _check_series(campaign: Campaign, series: str | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit every soil and condition; print Table-5-style tables or one JSON object."""
-    from ..errors import CampaignError
-    from ..identification.conditions import fit_planned, plan_conditions
-    from ..outputs import json_safe
-    from ..parallel import warm_workers
+    from ..identification.conditions import fit_planned, plan_conditions  # deferred: pandas
 
     warm_workers(args.jobs, ("soilstats.identification.conditions",))  # while loading
     campaign, provenance = prepared(args)
@@ -186,7 +186,6 @@ def run(args: argparse.Namespace) -> int:
             "no condition could be identified in the selected tests (see the messages above)",
             file=campaign.file_name("tests"),
         )
-    from .common import defaults_not_given
 
     defaults = defaults_not_given(args)
     document: dict[str, Any] = {"defaults": defaults, "fits": records}
@@ -206,10 +205,9 @@ def _write(
     provenance: Provenance,
 ) -> None:
     """identify.json, identify.csv (every fit) and identify.pdf into --out."""
-    import pandas as pd
+    import pandas as pd  # deferred: pandas
 
-    from ..outputs import write_csv, write_json
-    from ..report.identify_pdf import write_report
+    from ..report.identify_pdf import write_report  # deferred: matplotlib
 
     folder = Path(args.out)
     write_json(folder / "identify.json", document, provenance, overwrite=args.overwrite)
@@ -228,6 +226,4 @@ def _write(
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.identify ...``: the same as ``soilstats identify ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("identify", argv)

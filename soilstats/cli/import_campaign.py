@@ -15,6 +15,7 @@ import argparse
 import json
 
 from ..kinds import TEST_KINDS
+from ..outputs.files import output_path, write_atomic
 from .common import add_common_options
 
 
@@ -40,8 +41,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Import, validate, save; report what was written."""
-    from ..campaign.importing import import_campaign_record
-    from ..outputs.files import output_path, write_atomic
+    from ..campaign.importing import import_campaign_record  # deferred: pandas
 
     campaign, record = import_campaign_record(args.mapping, skip_rows=args.skip_rows)
     folder = campaign.save(args.out, overwrite=args.overwrite)

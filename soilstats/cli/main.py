@@ -12,6 +12,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+from .._version import __version__
 from .common import guarded, resolve_campaign
 
 # name -> (module of soilstats.cli, one-line help)
@@ -38,8 +39,6 @@ exit codes: 0 success, 2 bad input or usage, 1 internal error."""
 
 
 def _version() -> str:
-    from .._version import __version__
-
     return f"soilstats {__version__}"
 
 

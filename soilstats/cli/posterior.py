@@ -36,7 +36,24 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .common import add_common_options, add_data_options, prepared, progress_enabled
+from ..bayes.run_checks import (
+    check_draws,
+    check_models,
+    check_simulator_request,
+    contact_widths,
+    only_soil,
+)
+from ..bayes.run_sampling import SamplingOptions, in_workers, sample_models
+from ..outputs import output_path
+from ..parallel import one_blas_thread, stop_one_worker, warm_one_worker
+from .common import (
+    add_common_options,
+    add_data_options,
+    add_jobs_option,
+    prepared,
+    progress_enabled,
+)
+from .main import run_subcommand
 from .posterior_output import decide_and_write, refuse, series_refused
 
 if TYPE_CHECKING:
@@ -56,7 +73,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "into DIR (only when the checks pass, or with --force)",
     )
     add_data_options(parser)
-    from .common import add_jobs_option  # (one import line above, not a sixth)
 
     add_jobs_option(parser, "the models of a MODEL+MODEL run, each sampled and drawn in its own")
     parser.add_argument(
@@ -150,7 +166,7 @@ def _simulator_options(parser: argparse.ArgumentParser) -> None:
 
 def pooling_warnings(campaign: Campaign, soil: str, models: Iterable[str]) -> list[str]:
     """:func:`soilstats.bayes.pooling.pooling_warnings` (``soilstats wheel`` reads it here)."""
-    from ..bayes.pooling import pooling_warnings as pooled  # bayes: too heavy for --help
+    from ..bayes.pooling import pooling_warnings as pooled  # deferred: pandas (bayes)
 
     return pooled(campaign, soil, models)
 
@@ -159,9 +175,10 @@ def run(args: argparse.Namespace) -> int:
     """Check what can be checked, sample, let the library decide (:mod:`soilstats.bayes
     .handout`), and only then write; exit 2 (nothing written, no folder made) when a check
     fails."""
-    from ..bayes.prior_options import priors_by_model, split_prior_items  # heavy for --help
-    from ..bayes.run_checks import check_draws, check_models, check_simulator_request
-    from ..bayes.run_sampling import in_workers
+    from ..bayes.prior_options import (  # deferred: scipy.stats; heavy for --help
+        priors_by_model,
+        split_prior_items,
+    )
 
     models = args.model.split("+")
     check_models(models)
@@ -180,7 +197,6 @@ def run(args: argparse.Namespace) -> int:
     check_draws(args.draws, models, force=args.force)
     if not in_workers(models, getattr(args, "jobs", 1)):
         return _checked_sampled_written(args, models, priors, stated)
-    from ..parallel import stop_one_worker, warm_one_worker
 
     # The worker imports the sampler and the report while this process reads and screens
     # the campaign; a run that ends early (a refusal, an error) stops it at once instead of
@@ -199,11 +215,8 @@ def _checked_sampled_written(
     args: argparse.Namespace, models: list[str], priors: dict[str, Any], stated: dict
 ) -> int:
     """:func:`run` from reading the campaign on."""
-    from ..bayes.handout import preflight
-    from ..bayes.run_checks import contact_widths, only_soil
-    from ..bayes.run_sampling import SamplingOptions, sample_models
-    from ..identification.reuse import reused_fits
-    from ..parallel import one_blas_thread
+    from ..bayes.handout import preflight  # deferred: pandas
+    from ..identification.reuse import reused_fits  # deferred: pandas
 
     campaign, provenance = prepared(args)
     args.soil = only_soil(campaign, args.soil)
@@ -245,8 +258,6 @@ def _checked_sampled_written(
 def _check_outputs(out: Path, models: Sequence[str], args: argparse.Namespace) -> None:
     """Refuse before sampling, not after minutes of work, an output that may not be written
     (an existing file without --overwrite, a link); no folder is made yet."""
-    from ..outputs import output_path
-
     names = ["posterior.nc", "draws.csv", "summary.csv", "posterior.json", "report.pdf"]
     names += [f"posterior_{m}.nc" for m in models[1:]]
     names += [f"{args.simulator}.csv", f"{args.simulator}.json"] if args.simulator else []
@@ -257,13 +268,11 @@ def _check_outputs(out: Path, models: Sequence[str], args: argparse.Namespace) -
 def _figures(result: Any) -> Any:
     """One model's report figures, drawn in the worker that sampled it
     (:func:`soilstats.report.posterior_pdf.model_figures`; imported there, on use)."""
-    from ..report.posterior_pdf import model_figures
+    from ..report.posterior_pdf import model_figures  # deferred: arviz
 
     return model_figures(result)
 
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.posterior ...``: the same as ``soilstats posterior ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("posterior", argv)

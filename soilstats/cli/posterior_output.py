@@ -4,12 +4,17 @@ the record and what is printed (the command's options and sampling: cli/posterio
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..bayes.run_checks import extrapolation_warnings, has_population, prior_seed, tested_widths
+from ..bayes.run_sampling import sampling_warnings
+from ..outputs import json_safe, output_path, write_atomic, write_csv
+from ..outputs.files import netcdf_bytes
+from .common import defaults_not_given
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -22,7 +27,7 @@ def series_refusal(
 ) -> str | None:
     """With --simulator, why a shear posterior may not be exported: it pools test series of
     different set-ups (:func:`soilstats.bayes.scm_wheel.series_refusal`); None otherwise."""
-    from ..bayes.scm_wheel import series_refusal as refusal  # bayes: too heavy for --help
+    from ..bayes.scm_wheel import series_refusal as refusal  # deferred: pandas (bayes)
 
     return refusal(campaign, args.soil, models) if args.simulator else None
 
@@ -41,9 +46,9 @@ def series_refused(
     return series is not None
 
 
-def _scm_warnings(args, export) -> list[str]:
+def _scm_warnings(args: argparse.Namespace, export: Any) -> list[str]:
     """SCM's modulus at its own contact width against the wheel's (--scm-contact), printed."""
-    from ..bayes.scm_wheel import contact_patch, contact_width_warning
+    from ..bayes.scm_wheel import contact_patch, contact_width_warning  # deferred: pandas
 
     patch = contact_patch(getattr(args, "scm_contact", None))
     if export is None or patch is None:
@@ -57,7 +62,7 @@ def _scm_warnings(args, export) -> list[str]:
 
 def _export(args, models, results, kept, stated, campaign):
     """The draws handed out as the simulator's parameter sets (checked, not yet written)."""
-    from ..bayes.export import export_simulator
+    from ..bayes.export import export_simulator  # deferred: scipy.stats
 
     taken = {
         name: f"posterior draws ({r.model_name}, {r.kind})"
@@ -78,10 +83,12 @@ def _export(args, models, results, kept, stated, campaign):
     )
 
 
-def _write_export(out: Path, export, record: dict, support, provenance, args) -> None:
+def _write_export(
+    out: Path, export: Any, record: dict, support: Any, provenance: Any, args: argparse.Namespace
+) -> None:
     """``<simulator>.csv`` and ``<simulator>.json`` (:func:`soilstats.bayes.run_record
     .write_export`); the check, repairs and notes also to stderr."""
-    from ..bayes.run_record import write_export
+    from ..bayes.run_record import write_export  # deferred: arviz
 
     name = export.simulator
     write_export(out, export, record, support, provenance, args.seed)
@@ -141,11 +148,12 @@ def refuse(
     return 2
 
 
-def _warnings(caught, widths, args, campaign, models, handout, pooled_warnings) -> list[str]:
+def _warnings(
+    caught: Any, widths: tuple[float, float], args: argparse.Namespace, campaign: Campaign,
+    models: list[str], handout: Any, pooled_warnings: list[str],
+) -> list[str]:  # fmt: skip
     """The warnings of a run, printed one line each: the library's own, numerical ones
     summed up, extrapolation, pooling and the flagged least-squares starts."""
-    from ..bayes.run_sampling import sampling_warnings
-
     ours = sampling_warnings(caught)
     ours += extrapolation_warnings(widths, tested_widths(campaign, args.soil), models)
     for text in [*ours, *pooled_warnings]:
@@ -175,10 +183,10 @@ def decide_and_write(
     figures: Any,
 ) -> int:
     """The library's decision on the draws, printed; the files written where it allows."""
-    import pandas as pd
+    import pandas as pd  # deferred: pandas
 
-    from ..bayes.export import constraint_failures
-    from ..bayes.handout import hand_out
+    from ..bayes.export import constraint_failures  # deferred: scipy.stats
+    from ..bayes.handout import hand_out  # deferred: pandas
 
     out = Path(args.out)
     handout = hand_out(results, widths, seed=args.seed, population=args.population)
@@ -201,9 +209,7 @@ def decide_and_write(
     if failures and not args.force:
         simulator_only = export is not None and len(failures) == len(export.check.failures)
         return refuse(failures, out, args, sampled=True, simulator_only=simulator_only)
-    from ..bayes.run_record import posterior_record  # bayes: too heavy for --help
-    from ..outputs import json_safe
-    from .common import defaults_not_given
+    from ..bayes.run_record import posterior_record  # deferred: arviz; bayes: too heavy for --help
 
     defaults = defaults_not_given(args)
     if export is not None:  # SCM inputs nobody stated rest on sourced defaults: say which
@@ -236,13 +242,12 @@ def decide_and_write(
     return 0
 
 
-def _write(out: Path, args, results, record: dict, table, kept, provenance, figures) -> None:
+def _write(
+    out: Path, args: argparse.Namespace, results: list[Any], record: dict, table: Any,
+    kept: Any, provenance: Any, figures: Any,
+) -> None:  # fmt: skip
     """posterior*.nc, draws.csv, summary.csv, posterior.json and report.pdf."""
-    import json
-
-    from ..outputs import json_safe, output_path, write_atomic, write_csv
-    from ..outputs.files import netcdf_bytes
-    from ..report.posterior_pdf import write_report
+    from ..report.posterior_pdf import write_report  # deferred: arviz
 
     prov = provenance.to_dict() | {"forced": record["forced"]}
     for i, res in enumerate(results):
@@ -269,12 +274,10 @@ def _write(out: Path, args, results, record: dict, table, kept, provenance, figu
     )
 
 
-def _print(args, out: Path, results, record: dict, table, handout) -> None:
+def _print(
+    args: argparse.Namespace, out: Path, results: list[Any], record: dict, table: Any, handout: Any
+) -> None:
     """The summary on stdout (or one JSON object with --json), and the notes on stderr."""
-    import json
-
-    from ..outputs import json_safe
-
     if args.json:
         print(
             json.dumps(

@@ -16,7 +16,12 @@ import warnings
 from collections.abc import Callable
 from typing import TYPE_CHECKING, TextIO, cast
 
+import numpy as np
+
 from .._text import plural
+from ..errors import SoilstatsError, SoilstatsWarning
+from ..outputs import Provenance
+from ..outputs.outset import output_set
 
 if TYPE_CHECKING:
     from ..campaign import Campaign
@@ -39,11 +44,10 @@ def prepared(args: argparse.Namespace, *, out: TextIO | None = None) -> tuple[Ca
     processing, recorded by its command line.  So every command on the same data and
     selection names the same ``campaign_sha256``, that of ``soilstats check``.
     """
-    from ..campaign import load_campaign
-    from ..campaign.selection import apply_selection
-    from ..campaign.window import FitWindow
-    from ..outputs import Provenance
-    from ..quality import screen
+    from ..campaign import load_campaign  # deferred: pandas
+    from ..campaign.selection import apply_selection  # deferred: pandas
+    from ..campaign.window import FitWindow  # deferred: pandas
+    from ..quality import screen  # deferred: pandas
 
     loaded = load_campaign(args.data)
     provenance = Provenance.of(
@@ -83,9 +87,6 @@ def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) 
     path, a directory where a file belongs, a refused overwrite) is exit 2 with the message;
     anything else is a bug: exit 1, with the traceback for the report.
     """
-    import numpy as np
-
-    from ..errors import SoilstatsError
 
     try:
         check_out(getattr(args, "out", None))
@@ -98,7 +99,6 @@ def guarded(run: Callable[[argparse.Namespace], int], args: argparse.Namespace) 
             out = getattr(args, "out", None)
             if out is None:
                 return run(args)
-            from ..outputs.outset import output_set
 
             # The whole run is one output set: locked, staged, swapped in at the end.
             command = " ".join(["soilstats", *map(str, getattr(args, "argv", []))])
@@ -132,8 +132,6 @@ def _show_warning(
     """soilstats' own warnings as one line for the user, ``warning: <message>``: their text
     names the file, column and test; the library line that raised them is no help. Other
     warnings (numpy, scipy) keep Python's format, which says where they came from."""
-    from ..errors import SoilstatsWarning
-
     stream = sys.stderr if file is None else file
     if issubclass(category, SoilstatsWarning):
         stream.write(f"warning: {message}\n")

@@ -18,6 +18,7 @@ import json
 import sys
 
 from .common import add_common_options, progress_enabled
+from .main import run_subcommand
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -34,7 +35,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, save, and report what was written."""
-    from ..simulation import simulate
+    from ..simulation import simulate  # deferred: pandas
 
     sim = simulate(args.spec, seed=args.seed, progress=progress_enabled(args.progress))
     folder = sim.save(args.out, overwrite=args.overwrite)
@@ -53,6 +54,4 @@ def run(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.simulate ...``: the same as ``soilstats simulate ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("simulate", argv)

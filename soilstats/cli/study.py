@@ -22,15 +22,19 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
+from ..parallel import effective_jobs, one_blas_thread, parallel_map, warm_workers
 from .common import (
     add_common_options,
     add_data_options,
     add_jobs_option,
+    defaults_not_given,
     prepared,
     progress_enabled,
 )
+from .main import run_subcommand
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -44,10 +48,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the studies; readable summaries (or one JSON object) on stdout."""
-    from ..parallel import effective_jobs, parallel_map, warm_workers
-    from ..study import StudyDataError, available_studies, load_spec
-    from ..study.outputs import to_json_dict
-    from ..study.responses import PerTestCache
+    from ..study import StudyDataError, available_studies, load_spec  # deferred: statsmodels
+    from ..study.outputs import to_json_dict  # deferred: statsmodels
+    from ..study.responses import PerTestCache  # deferred: statsmodels
 
     names = available_studies() if args.name == "all" else [args.name]
     specs = [load_spec(n) for n in names]  # every spec checked before any work
@@ -70,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     else:  # one study after the other, each printed as soon as it is done
         outcomes = _one_after_another(tasks)
         if progress:
-            from tqdm.auto import tqdm
+            from tqdm.auto import tqdm  # deferred: tqdm
 
             outcomes = tqdm(outcomes, total=len(tasks), desc="studies", unit="study")
     documents, timings, not_applicable = [], [], []
@@ -107,8 +110,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _one_after_another(tasks):
     """The studies in this process, BLAS on one thread as in workers (same bits for any N)."""
-    from ..parallel import one_blas_thread
-
     for task in tasks:
         with one_blas_thread():
             yield _run_one(task)
@@ -121,11 +122,8 @@ def _run_one(task):
     tests of its kind, no factor column, one level per soil) gives its reason in place of
     the result; any other error (a bug, a failed fit) propagates and stops the command.
     """
-    from dataclasses import replace
-
-    from ..report.study_pdf import write_report
-    from ..study import StudyDataError, run_study, write_outputs
-    from .common import defaults_not_given
+    from ..report.study_pdf import write_report  # deferred: matplotlib
+    from ..study import StudyDataError, run_study, write_outputs  # deferred: statsmodels
 
     spec, campaign, cache, args, provenance = task
     start = time.perf_counter()
@@ -156,6 +154,4 @@ def _run_one(task):
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.study ...``: the same as ``soilstats study ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("study", argv)

@@ -27,11 +27,13 @@ writes wheel.json, wheel_runs.csv and the report wheel.pdf.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import InputError
+from ..outputs import json_safe, output_path, write_csv, write_json
 from . import wheel_modes
 from .common import (
     ALPHA,
@@ -41,6 +43,7 @@ from .common import (
     prepared,
     progress_enabled,
 )
+from .main import run_subcommand
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -64,7 +67,7 @@ class _PlateLaws:
     first needed (building the parser must stay cheap)."""
 
     def _names(self) -> tuple[str, ...]:
-        from ..wheel.stress import SINKAGE_LAWS
+        from ..wheel.stress import SINKAGE_LAWS  # deferred: scipy.stats
 
         return tuple(SINKAGE_LAWS)
 
@@ -150,10 +153,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Validate, print the summary (or JSON), write the files asked for."""
-    import json
 
-    from ..outputs import json_safe, output_path
-    from ..wheel.run_options import (
+    from ..wheel.run_options import (  # deferred: scipy.stats
         file_sha256,
         parse_angles,
         parse_geometry,
@@ -162,8 +163,8 @@ def run(args: argparse.Namespace) -> int:
         runs_file,
         wheel_tables,
     )
-    from ..wheel.runs import read_caveats, read_runs
-    from ..wheel.validation import check_priors, validate_wheel
+    from ..wheel.runs import read_caveats, read_runs  # deferred: scipy.stats
+    from ..wheel.validation import check_priors, validate_wheel  # deferred: scipy.stats
 
     if args.n_draws < 100:
         raise InputError(f"--n-draws must be at least 100 (a 90 % band), got {args.n_draws}")
@@ -240,8 +241,7 @@ def _write(
     outputs: tuple[str, ...],
 ) -> None:
     """wheel.json, wheel_runs.csv, wheel.pdf (and wheel_calibration.nc) into --out."""
-    from ..outputs import output_path, write_csv, write_json
-    from ..report.wheel_pdf import write_report
+    from ..report.wheel_pdf import write_report  # deferred: matplotlib
 
     folder = Path(args.out)
     write_json(folder / "wheel.json", document, provenance, overwrite=args.overwrite)
@@ -276,7 +276,7 @@ def _moved_verdicts(
 ) -> dict[str, str]:
     """A default that moves a held-out verdict is a warning (issue #47, item 3): printed
     here, and returned for the JSON and page 1."""
-    from ..wheel.defaults import moved_verdicts
+    from ..wheel.defaults import moved_verdicts  # deferred: scipy.stats
 
     moved = moved_verdicts(result, wheels, defaults, rerun)
     for text in moved.values():
@@ -286,6 +286,4 @@ def _moved_verdicts(
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m soilstats.cli.wheel ...``: the same as ``soilstats wheel ...``."""
-    from .main import run_subcommand
-
     return run_subcommand("wheel", argv)

@@ -9,11 +9,15 @@ saved calibration to the runs; ``--predict`` predicts a rover team's own wheel
 from __future__ import annotations
 
 import argparse
+import io
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import InputError
+from ..outputs import json_safe, output_path, write_atomic, write_csv, write_json
+from .common import defaults_not_given, prepared, progress_enabled
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -130,8 +134,8 @@ def calibrate(
     progress: bool,
 ) -> tuple[dict, CalibrationReport]:
     """``--calibrate``: (the JSON part, the report object)."""
-    from ..wheel.calibration import RunDesign
-    from ..wheel.calibration.validate import calibrate_and_validate
+    from ..wheel.calibration import RunDesign  # deferred: arviz
+    from ..wheel.calibration.validate import calibrate_and_validate  # deferred: arviz
 
     scope = runs if args.scope == "all" else runs[runs["beta_level"] == 0]
     design = RunDesign.from_runs(scope.reset_index(drop=True))
@@ -160,8 +164,8 @@ def calibrate(
 def apply_calibration(args: argparse.Namespace, runs: pd.DataFrame) -> dict:
     """``--calibration FILE`` on runs: coverage, width, MAE and bias of each quantity
     (:func:`soilstats.wheel.calibration.heldout.saved_calibration_scores`)."""
-    from ..wheel.calibration import load_calibration
-    from ..wheel.calibration.heldout import saved_calibration_scores
+    from ..wheel.calibration import load_calibration  # deferred: arviz
+    from ..wheel.calibration.heldout import saved_calibration_scores  # deferred: arviz
 
     cal = load_calibration(args.calibration)
     scores = saved_calibration_scores(cal, runs, seed=args.seed)
@@ -170,9 +174,7 @@ def apply_calibration(args: argparse.Namespace, runs: pd.DataFrame) -> dict:
 
 def predict_mode(args: argparse.Namespace, priors: dict, overrides: dict) -> int:
     """--predict: the plate draws (unless a calibration carries them) and the prediction."""
-    from ..outputs import output_path
-    from ..wheel.soil import plate_draws
-    from .common import prepared, progress_enabled
+    from ..wheel.soil import plate_draws  # deferred: scipy.stats
 
     if args.out:
         for name in PREDICT_OUTPUTS:
@@ -200,13 +202,10 @@ def predict(
     overrides: dict,
 ) -> int:
     """``--predict``: a rover team's own wheel."""
-    import json
-
-    from ..outputs import json_safe, write_csv, write_json
-    from ..wheel import Wheel
-    from ..wheel.calibration import load_calibration
-    from ..wheel.calibration.predict import CMU_DISCREPANCY, predict_own_wheel
-    from ..wheel.run_options import parse_slips
+    from ..wheel import Wheel  # deferred: scipy.stats
+    from ..wheel.calibration import load_calibration  # deferred: arviz
+    from ..wheel.calibration.predict import CMU_DISCREPANCY, predict_own_wheel  # deferred: arviz
+    from ..wheel.run_options import parse_slips  # deferred: scipy.stats
 
     geometry = overrides.get("*", {})
     if "radius_m" not in geometry or "width_m" not in geometry:
@@ -236,7 +235,7 @@ def predict(
     )
     document = result.to_dict()
     if args.out:
-        from ..report.wheel_predict_pdf import write_report
+        from ..report.wheel_predict_pdf import write_report  # deferred: matplotlib
 
         folder = Path(args.out)
         write_json(folder / "wheel.json", document, provenance, overwrite=args.overwrite)
@@ -265,11 +264,8 @@ def predict(
 
 def _draws_netcdf(draws: pd.DataFrame, path: Path, overwrite: bool) -> None:
     """The joint draws as netCDF: one variable per quantity over (draw, slip)."""
-    import io
+    import xarray as xr  # deferred: pandas
 
-    import xarray as xr
-
-    from ..outputs import output_path, write_atomic
 
     target = output_path(path.parent, path.name, overwrite=overwrite)
     ds = xr.Dataset.from_dataframe(draws.set_index(["draw", "slip"]))
@@ -284,8 +280,7 @@ def command_defaults(
     """The analysis options left at their defaults, and every wheel geometry the user did not
     give (a missing shearing radius makes a wheel smooth: a grousered wheel's slip finding
     depends on it), for the JSON's ``"defaults"`` and page 1."""
-    from ..wheel.run_options import geometry_defaults
-    from .common import defaults_not_given
+    from ..wheel.run_options import geometry_defaults  # deferred: scipy.stats
 
     out = defaults_not_given(args)
     unused = set(PREDICT_OPTIONS) if not args.predict else set()

@@ -9,8 +9,9 @@ carry flags (:func:`with_quality_caveat`).
 
 from __future__ import annotations
 
+from collections.abc import Container, Mapping
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -55,7 +56,9 @@ def quality_record(campaign: ScreenedCampaign) -> dict:
     }
 
 
-def _codes_by_test(quality, kind: str, keep) -> dict[str, list[str]]:
+def _codes_by_test(
+    quality: Mapping[str, Any], kind: str, keep: Container[str]
+) -> dict[str, list[str]]:
     """The screening codes in ``keep`` of every flagged test of one kind (tests with none
     left out)."""
     out = {
@@ -66,7 +69,7 @@ def _codes_by_test(quality, kind: str, keep) -> dict[str, list[str]]:
     return {t: c for t, c in out.items() if c}
 
 
-def _artefact_labels(group, quality) -> pd.Series | None:
+def _artefact_labels(group: Group, quality: Mapping[str, Any] | None) -> pd.Series | None:
     """Per test of the group, its artefact codes ("clean" when none), or None if no test of
     the group has any."""
     if not quality:
@@ -102,7 +105,7 @@ def _drifting(labels: pd.Series) -> str | None:
     return "; ".join(out) or None
 
 
-def _trend_rows(table, finding) -> pd.DataFrame | None:
+def _trend_rows(table: pd.DataFrame | None, finding: Finding) -> pd.DataFrame | None:
     """The significant diagnosis rows of a finding whose cause is a trend (a continuous or
     time/order candidate), or None (a categorical cause, or no rows to read)."""
     if table is None or not len(table):
@@ -118,7 +121,9 @@ def _trend_rows(table, finding) -> pd.DataFrame | None:
 TREND_KEPT = 0.5
 
 
-def _flagged_trend(group, rows, labels) -> tuple[str | None, str | None]:
+def _flagged_trend(
+    group: Group, rows: pd.DataFrame, labels: pd.Series
+) -> tuple[str | None, str | None]:
     """``(residue reason, caveat)`` of a trend cause against the tests' artefact flags.
 
     A trend has no levels to line up with flags (each start time is a "level" of its own,

@@ -32,6 +32,7 @@ import numpy as np
 
 from .. import evidence
 from ..errors import ConvergenceError, IdentifiabilityError
+from .candidates import candidate_values
 from .work import FitTask, Wave, per_test_error
 
 if TYPE_CHECKING:
@@ -197,8 +198,6 @@ def make_folds(
 def fold_labels(group: Group, rows: np.ndarray, causes: Iterable[str]) -> np.ndarray:
     """Labels to stratify folds by: the joint level of the categorical ``causes`` on the
     tests ``rows`` (a trend, with a value per test, stratifies nothing)."""
-    from .candidates import candidate_values
-
     labels = np.full(rows.size, "", dtype=object)
     for cause in causes:
         values = candidate_values(group.tests, cause).iloc[rows]

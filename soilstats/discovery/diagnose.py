@@ -24,10 +24,11 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from types import SimpleNamespace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from ..errors import ConvergenceError
 from ..statistics import verdicts
@@ -90,7 +91,9 @@ class Diagnosis:
     roles: tuple[ColumnRole, ...] = ()
 
 
-def _sinkage_deviations(table: pd.DataFrame, idx, log_k_model, n_model) -> None:
+def _sinkage_deviations(
+    table: pd.DataFrame, idx: pd.Index, log_k_model: np.ndarray | float, n_model: np.ndarray | float
+) -> None:
     """``level`` (ln p_test − ln p_model at z_ref, half the median depth) and ``shape``
     (n_test − n_model) of the rows ``idx``, written into ``table``."""
     z_ref = 0.5 * float(np.nanmedian(table["z_max_m"]))
@@ -100,7 +103,9 @@ def _sinkage_deviations(table: pd.DataFrame, idx, log_k_model, n_model) -> None:
     table.loc[idx, "_dev_shape"] = n_i - n_model
 
 
-def _shear_deviations(table: pd.DataFrame, idx, plateau, k_model) -> None:
+def _shear_deviations(
+    table: pd.DataFrame, idx: pd.Index, plateau: np.ndarray | float, k_model: float
+) -> None:
     """``level`` (ln τ_max − ln plateau_model) and ``K`` (ln K − ln K_model) of the rows
     ``idx``, written into ``table``."""
     level = np.log(table.loc[idx, "tau_max"].to_numpy(float)) - np.log(plateau)
@@ -143,13 +148,21 @@ def add_responses(group: Group) -> tuple[Group, Fitted | None, list[str]]:
     return replace(group, tests=table), base, notes
 
 
-def _base_deviations(table: pd.DataFrame, kind: str, model, theta, rows, group=None) -> None:
+def _base_deviations(
+    table: pd.DataFrame,
+    kind: str,
+    model: Any,  # the base model's Extension (a SinkageExtension says .bekker)
+    theta: np.ndarray,
+    rows: ArrayLike,
+    group: Group | None = None,
+) -> None:
     """The responses of the tests ``rows`` (positions) against the base model ``model``
     with parameters ``theta``, written into ``table``; every other test's are left NaN.
     A registered model's (:class:`~.extensions.ModelExtension`) curve is read as
     :func:`conditional_responses` reads an extended model's."""
     with np.errstate(divide="ignore", invalid="ignore"):
         if isinstance(model, ModelExtension):
+            assert group is not None  # a registered model's curve is read on the group
             _model_deviations(table, group, model, theta, np.asarray(rows, int))
         elif kind == "sinkage":
             if model.bekker:
@@ -191,7 +204,9 @@ def _block_eligible(table: pd.DataFrame, cand: Candidate) -> bool:
     return float(counts.median()) >= 3
 
 
-def _diagnose_group(group, base, notes) -> tuple[Diagnosis, list[dict]]:
+def _diagnose_group(
+    group: Group, base: Fitted | None, notes: list[str]
+) -> tuple[Diagnosis, list[dict]]:
     table = group.tests
     have = table[[f"_dev_{r}" for r in RESPONSES[group.kind]]].notna().any(axis=1).to_numpy()
     sub = table.loc[have]
@@ -309,13 +324,13 @@ def diagnose_groups(
     table["holm_level"] = [by_hypothesis.get(h, np.nan) for h in hypothesis]
     table["alpha_level"] = level
     table["mde"] = [
-        minimum_detectable(r.sigma, r.mde_norm2, r.df1, r.df2, level / r.patterns) if ok else np.nan
+        minimum_detectable(r.sigma, r.mde_norm2, r.df1, r.df2, level / r.patterns) if ok else np.nan  # type: ignore[arg-type, operator]  # pandas-stubs: an itertuples field is any scalar
         for r, ok in zip(table.itertuples(), testable, strict=True)
     ]
     return diags, table
 
 
-def _hypotheses(table: pd.DataFrame, diags) -> np.ndarray:
+def _hypotheses(table: pd.DataFrame, diags: list[Diagnosis]) -> np.ndarray:
     """One id per row of the diagnosis table: rows of aliased candidates (the same partition
     of the tests, :class:`~.candidates.Relation` ``aliased``) of one (kind, soil) and
     response whose tests came out identical (the same F and degrees of freedom) share it:
@@ -331,9 +346,9 @@ def _hypotheses(table: pd.DataFrame, diags) -> np.ndarray:
 
     for d in diags:
         g = d.group
-        for r in d.relations:
-            if r.kind == "aliased":
-                a, b = find((g.kind, g.soil, r.finer)), find((g.kind, g.soil, r.coarser))
+        for rel in d.relations:
+            if rel.kind == "aliased":
+                a, b = find((g.kind, g.soil, rel.finer)), find((g.kind, g.soil, rel.coarser))
                 if a != b:
                     root[max(a, b)] = min(a, b)
     ids: dict[tuple, int] = {}
@@ -341,7 +356,7 @@ def _hypotheses(table: pd.DataFrame, diags) -> np.ndarray:
     columns = ["kind", "soil", "candidate", "response", "statistic", "df1", "df2"]
     columns += ["categorical", "role", "blocks"]
     for i, r in enumerate(table[columns].itertuples(index=False)):
-        stat = float(r.statistic)
+        stat = float(r.statistic)  # type: ignore[arg-type]  # pandas-stubs: an itertuples field is any scalar
         trend = not r.categorical and r.role not in ("interaction", "drift within blocks")
         key = (
             ("trend", r.kind, r.soil, r.blocks) if trend else find((r.kind, r.soil, r.candidate)),
@@ -353,7 +368,7 @@ def _hypotheses(table: pd.DataFrame, diags) -> np.ndarray:
             r.df2,
         )
         if not np.isfinite(stat):
-            key = (r.kind, r.soil, r.candidate, r.response, "untested")
+            key = (r.kind, r.soil, r.candidate, r.response, "untested")  # type: ignore[assignment]  # pandas-stubs: an itertuples field is any scalar
         out[i] = ids.setdefault(key, len(ids))
     return out
 
@@ -391,13 +406,15 @@ def _synthetic(group, rows):
     return replace(group, x=x, y=ones, w=ones, owner=owner), x
 
 
-def _model_deviations(table: pd.DataFrame, group, model, theta, rows) -> None:
+def _model_deviations(
+    table: pd.DataFrame, group: Group, model: ModelExtension, theta: np.ndarray, rows: np.ndarray
+) -> None:
     """``level`` and ``shape`` of the tests ``rows`` against a registered sinkage model with
     parameters ``theta``: its curve of each test, read on noiseless points as a Bernstein
     (k̂, n̂) by a p-weighted log–log line (:func:`conditional_responses`)."""
     synth, x = _synthetic(replace(group, tests=table), rows)
     fitted = SimpleNamespace(result=SimpleNamespace(values=np.asarray(theta, float)), state={})
-    y_hat = np.asarray(model.predict(fitted, synth, rows), float)
+    y_hat = np.asarray(model.predict(fitted, synth, rows), float)  # type: ignore[arg-type, type-var]  # a stand-in with the .result.values and .state that predict reads
     m = _SYNTHETIC_POINTS
     lz, lp = np.log(x["z"]).reshape(-1, m), np.log(y_hat).reshape(-1, m)
     n_hat, lk_hat = _weighted_lines(lz, lp, np.nan_to_num(y_hat).reshape(-1, m))
@@ -413,10 +430,10 @@ def conditional_responses(group: Group, fitted: Fitted) -> pd.DataFrame:
     points j₁, 2j₁ of Eq. 13 (exact for the family).  Rows the model cannot describe are NaN.
     """
     table = group.tests.copy()
-    rows = np.flatnonzero(table[[c for c in table if c.startswith("_dev_")]].notna().any(axis=1))
+    rows = np.flatnonzero(table[[c for c in table if c.startswith("_dev_")]].notna().any(axis=1))  # type: ignore[attr-defined]  # pandas-stubs: a label is Hashable (ours are str)
     synth, x = _synthetic(group, rows)
     y_hat = fitted.extension.predict(fitted, synth, rows)
-    for c in [c for c in table if c.startswith("_dev_")]:
+    for c in [c for c in table if c.startswith("_dev_")]:  # type: ignore[attr-defined]  # pandas-stubs: a label is Hashable (ours are str)
         table[c] = np.nan
     idx = table.index[rows]
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -25,6 +25,7 @@ of other tests, so that cross-validation can measure it out of sample.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol, cast
 
@@ -35,7 +36,9 @@ from ..fitting.identify import identify
 from ..fitting.result import FitResult
 from ..models import BEKKER, BERNSTEIN, JANOSI, REECE, Model, side_wall_ratio
 from ..models.extended import (
+    ShearFamily,
     ShearLayout,
+    SinkageFamily,
     SinkageLayout,
     model_family,
     shear_family,
@@ -86,10 +89,10 @@ class Features:
         if self.how == "block-linear":
             by = cast(str, self.by)  # a block-linear trend names its blocks' column
             blocks = group.values(by).iloc[rows].astype(object).fillna(MISSING)
-            x = values.astype(float)
+            numbers = values.astype(float)
             state: dict[str, list] = {"blocks": [], "mean": [], "sd": []}
             for lv in dict.fromkeys(blocks):
-                xb = x[(blocks == lv).to_numpy()].dropna().to_numpy()
+                xb = numbers[(blocks == lv).to_numpy()].dropna().to_numpy()
                 if xb.size >= 2 and np.ptp(xb) > 0:
                     state["blocks"].append(lv)
                     state["mean"].append(float(xb.mean()))
@@ -170,11 +173,13 @@ class Term:
         return self.features.column
 
 
-def _prepare_terms(terms, group, rows) -> list[dict]:
+def _prepare_terms(terms: Sequence[Term], group: Group, rows: np.ndarray) -> list[dict]:
     return [t.features.prepare(group, rows) for t in terms]
 
 
-def _stack(terms, states, group, owner, target) -> np.ndarray | None:
+def _stack(
+    terms: Sequence[Term], states: Sequence[dict], group: Group, owner: np.ndarray, target: str
+) -> np.ndarray | None:
     """Per-sample features of every term that moves ``target``, side by side (or None).
 
     Built as contiguous (m, N) rows, the layout of the family's Jacobian rows, and handed
@@ -187,7 +192,9 @@ def _stack(terms, states, group, owner, target) -> np.ndarray | None:
     return np.vstack(blocks).T if blocks else None
 
 
-def _term_names(terms, states, target, label) -> list[str]:
+def _term_names(
+    terms: Sequence[Term], states: Sequence[dict], target: str, label: str
+) -> list[str]:
     return [
         label.format(n)
         for t, st in zip(terms, states, strict=True)
@@ -207,7 +214,7 @@ def _sinkage_features(terms, group, rows, state):
     return mask, owner, fs, gd
 
 
-def _add_term_names(names: list, units: list, terms, state) -> None:
+def _add_term_names(names: list, units: list, terms: Sequence[Term], state: dict) -> None:
     """Append the names (and unit "-") of the stiffness factors and exponent offsets."""
     states = state.get("terms", [])
     for target, label in (("k", "ln k-factor[{}]"), ("n", "n-offset[{}]")):
@@ -271,7 +278,16 @@ class Extension:
         raise NotImplementedError
 
 
-def _identify(family, y, w, p0, names, units, bounds, label) -> FitResult:
+def _identify(
+    family: SinkageFamily | ShearFamily,
+    y: np.ndarray,
+    w: np.ndarray,
+    p0: Sequence[float],
+    names: list[str],
+    units: list[str],
+    bounds: dict[str, tuple[float, float]],
+    label: str,
+) -> FitResult:
     """Weighted LM (Eq. 1) of an extended family, through its :class:`Model` so that
     :func:`identify` takes the fast path (weights folded in, f and J sharing their parts)."""
     return identify(
@@ -343,7 +359,9 @@ class SinkageExtension(Extension):
             return Fitted(self, result, state)
         return self._fit_softening(group, rows, state, start)
 
-    def _fit_softening(self, group, rows, state, start) -> Fitted:
+    def _fit_softening(
+        self, group: Group, rows: np.ndarray, state: dict, start: list[float]
+    ) -> Fitted:
         aspect = group.tests["aspect_ratio"].to_numpy(float)[rows]
         thresholds = sorted({a for a in np.round(aspect, 6) if a >= 1.5})
         if not thresholds:

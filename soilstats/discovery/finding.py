@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import evidence
 from ..outputs import json_safe
+from .testlevel import eq4_reason, quoted_sigma
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
@@ -34,7 +35,6 @@ def parameter_table(fit: FitResult | None, level: TestLevel | None = None) -> di
     more tests)."""
     if fit is None:
         return None
-    from .testlevel import quoted_sigma
 
     stderr, eq4, levels = quoted_sigma(fit, level)
     out = {
@@ -73,7 +73,6 @@ def parameter_lines(
     (:data:`SIGMA_NOTE`)."""
     if fit is None:
         return []
-    from .testlevel import eq4_reason, quoted_sigma
 
     stderr, eq4, levels = quoted_sigma(fit, level)
     flagged = np.zeros(len(levels), bool) if level is None else level.flagged()

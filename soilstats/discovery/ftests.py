@@ -72,7 +72,9 @@ class _Within:
     by their counts m (rows scaled by √m, centred with m-weighted stratum means), with the
     within-cell sum of squares W that every model leaves alike."""
 
-    def __init__(self, y, strata, cells=None) -> None:
+    def __init__(
+        self, y: np.ndarray, strata: np.ndarray | pd.Series, cells: np.ndarray | None = None
+    ) -> None:
         n = y.size
         self.n = n
         s = pd.factorize(strata)[0]
@@ -107,7 +109,7 @@ class _Within:
         np.add.at(sums, self.s, wa)
         return self._scaled(a - (sums / self.counts.reshape(-1, *shape))[self.s])
 
-    def length(self, a) -> float:
+    def length(self, a: np.ndarray) -> float:
         """The longest column of ``a`` (at :meth:`rows`) as the test sees it."""
         rows = self._scaled(a)
         return float(np.sqrt(np.max(np.sum(rows**2, axis=0), initial=0.0)))
@@ -135,7 +137,13 @@ def _basis(a, scale):
     return u[:, sv > _RANK_TOLERANCE * scale]
 
 
-def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
+def _nested_f(
+    y: np.ndarray,
+    design: np.ndarray,
+    strata: np.ndarray | pd.Series,
+    nuisance: np.ndarray | None = None,
+    cells: np.ndarray | None = None,
+) -> dict:
     """F-test of ``design`` after stratum effects (and ``nuisance`` columns), by
     within-stratum centring (Frisch–Waugh–Lovell).
 
@@ -197,7 +205,13 @@ def _nested_f(y, design, strata, nuisance=None, cells=None) -> dict:
     return out
 
 
-def _contrast_f(y, contrasts, strata, nuisance=None, cells=None) -> dict:
+def _contrast_f(
+    y: np.ndarray,
+    contrasts: np.ndarray,
+    strata: np.ndarray | pd.Series,
+    nuisance: np.ndarray | None = None,
+    cells: np.ndarray | None = None,
+) -> dict:
     """The largest of the one-degree-of-freedom F-tests of each column of ``contrasts``
     (one pattern an effect could take: one cell shifted, one block drifting) after the
     strata and ``nuisance``, its p-value Bonferroni-adjusted over the distinct patterns

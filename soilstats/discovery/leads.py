@@ -37,9 +37,10 @@ from .work import FIT_ERRORS, FitTask, Wave
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
     from .candidates import Relation
-    from .crossval import GroupFolds
+    from .crossval import Gain, GroupFolds
+    from .data import Group
     from .diagnose import Diagnosis
-    from .extensions import Fitted
+    from .extensions import Extension, Fitted
     from .work import Process, Start
 
 __all__ = ["discover_group", "leads_of"]
@@ -125,7 +126,7 @@ _PHYSICS_NAME = {
 }
 
 
-def _physical_name(lead: str, extension: str, relations) -> str:
+def _physical_name(lead: str, extension: str, relations: Sequence[Relation]) -> str:
     want = _PHYSICS_NAME.get(extension)
     for r in relations:
         if want is not None and r.kind == "aliased" and {r.finer, r.coarser} == {lead, want}:
@@ -145,7 +146,14 @@ def _search_plan(ext, choices, library_args):
 
 
 def _extension_plans(
-    extensions: list, rows, folds, starts, e_base, base_fitted, choices, library_args: dict
+    extensions: list,
+    rows: np.ndarray,
+    folds: np.ndarray,
+    starts: dict,
+    e_base: np.ndarray | None,
+    base_fitted: Fitted | None,
+    choices: Any,
+    library_args: dict,
 ) -> tuple[list[tuple[FoldFits, FoldFits]], list[FitTask]]:
     """Per extension its cause-fixed and whole-search fold plans (:class:`.work.FoldFits`),
     and the tasks of the second wave: chain i holds extension i's folds, then its fit on all
@@ -167,7 +175,9 @@ def _extension_plans(
     return plans, tasks
 
 
-def _tried_entry(entry: dict, gain, search_gain, reasons) -> dict:
+def _tried_entry(
+    entry: dict, gain: Gain, search_gain: Gain | None, reasons: list[str]
+) -> dict:
     """``entry`` (a tried extension's record) with its gains, cause fixed and whole search,
     and the reasons its parameters are implausible."""
     entry.update(
@@ -325,7 +335,16 @@ def discover_group(
     return findings, explained
 
 
-def _explained_by(g, accepted, lead, top, responses, *, n_leads, alpha) -> dict | None:
+def _explained_by(
+    g: Group,
+    accepted: tuple[str, Fitted],
+    lead: str,
+    top: pd.Series,
+    responses: set[str],
+    *,
+    n_leads: int,
+    alpha: float,
+) -> dict | None:
     """The record of ``lead`` explained by the accepted extension (every response in which it
     was significant, ``responses``, re-tested, and none significant any more, Bonferroni over
     the leads), or None when it still shows — or when a response it showed in cannot be
@@ -440,7 +459,7 @@ def _search_extensions(g, top, lead, confounded_with, folds, scope, responses, l
     return base_ext, base_fitted, chosen, tried
 
 
-def _not_kept_caveat(gain) -> str:
+def _not_kept_caveat(gain: Gain) -> str:
     """Why the base model is kept although an extension was chosen: its gain was enough but
     it is physically implausible, or no extension gains enough (the best one's gain said)."""
     if gain.kept:
@@ -453,8 +472,9 @@ def _not_kept_caveat(gain) -> str:
     )
 
 
-def _information(base_fit, fit) -> dict:
+def _information(base_fit: FitResult | None, fit: FitResult | None) -> dict:
     """AIC and BIC of the base and the extended fit, side by side."""
+    assert base_fit is not None and fit is not None  # an extension was chosen: both fitted
     ib, ie = information_criteria(base_fit), information_criteria(fit)
     return {
         "aic_base": ib["aic"],
@@ -464,7 +484,14 @@ def _information(base_fit, fit) -> dict:
     }
 
 
-def _condition_gain(g, scope, base_ext, ext, levels, caveats: list):
+def _condition_gain(
+    g: Group,
+    scope: np.ndarray,
+    base_ext: Extension,
+    ext: Extension,
+    levels: np.ndarray,
+    caveats: list,
+) -> Process[Gain | None]:
     """Leave-one-condition-out gain: does the extension predict a condition it never saw?
 
     Only for trends a formula can carry to a new level (physical or linear extensions, three

@@ -22,6 +22,7 @@ from .candidates import MISSING, WITHIN, candidate_values
 if TYPE_CHECKING:
     from .data import Group
 
+from ..identification.conditions import model_for
 from .extensions import (
     Extension,
     Features,
@@ -63,8 +64,6 @@ def bekker_refused(group: Group, rows: np.ndarray) -> str | None:
     kc and kφ apart undetermined), and discovery follows — until issue #35 it fitted Bekker
     to any two sizes, and plates of 20 and 22.5 mm gave kc–kφ collinearity red flags where
     ``identify`` refused the design."""
-    from ..identification.conditions import model_for
-
     tests = group.tests.iloc[np.asarray(rows, int)]
     model, why = model_for("sinkage", "auto", None, tests)
     return None if model == "bekker" else why

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -55,11 +56,13 @@ from .work import Pool, run_process, warm_workers
 
 if TYPE_CHECKING:
     from ..models.base import Model
+    from .data import Group
+    from .diagnose import Diagnosis
 
 __all__ = ["discover"]
 
 
-def _as_campaign(campaign) -> tuple[Campaign, str]:
+def _as_campaign(campaign: Campaign | str | Path) -> tuple[Campaign, str]:
     if isinstance(campaign, Campaign):
         return campaign, str(getattr(campaign, "source", "<campaign>"))
     return load_campaign(campaign), str(campaign)
@@ -148,7 +151,16 @@ def discover(
 
 
 def _discover(
-    campaign, *, alpha, seed, max_leads, points_per_test, progress, provenance, jobs, model=None
+    campaign: Campaign | str | Path,
+    *,
+    alpha: float,
+    seed: int,
+    max_leads: int,
+    points_per_test: int,
+    progress: bool,
+    provenance: Provenance | None,
+    jobs: int,
+    model: Model | None = None,
 ) -> DiscoveryResult:
     """:func:`discover` after its argument checks."""
     start = time.perf_counter()
@@ -176,14 +188,14 @@ def _discover(
     explained: list[dict] = []
     models: list[CombinedModel] = []
     artefacts: list[dict] = []
-    for (d, _, leads), (found, residues, why_not, model, note) in zip(work, done, strict=True):
+    for (d, _, leads), (found, residues, why_not, combined, note) in zip(work, done, strict=True):
         findings += found
         artefacts += residues
         explained += why_not
         if note is not None:
             notes.append(note)
-        if model is not None:
-            models.append(model)
+        if combined is not None:
+            models.append(combined)
         if len(leads) > max_leads:
             notes.append(
                 f"{d.group.label}: {len(leads) - max_leads} further significant cause(s) not "
@@ -220,7 +232,16 @@ def _discover(
     )
 
 
-def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> list[tuple]:
+def _extend_groups(
+    work: list[tuple[Diagnosis, pd.DataFrame, list]],
+    quality: dict,
+    *,
+    alpha: float,
+    seed: int,
+    max_leads: int,
+    jobs: int,
+    progress: bool,
+) -> list[tuple]:
     """Extensions, cross-validated gains and the combined model of every (kind, soil):
     ``(findings, artefacts, explained, model, note)`` per entry of ``work``, in its order.
 
@@ -238,7 +259,7 @@ def _extend_groups(work, quality, *, alpha, seed, max_leads, jobs, progress) -> 
     done: list = [None] * len(work)
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from tqdm.auto import tqdm  # deferred: tqdm (a progress bar)
 
         bar = tqdm(total=len(work), desc="extensions", unit="group")
     failures: dict[int, BaseException] = {}
@@ -322,7 +343,7 @@ def _group_model(group, prepared):
         return None, _no_model_note(group, exc)
 
 
-def _no_model_note(group, exc) -> str:
+def _no_model_note(group: Group, exc: Exception) -> str:
     return f"{group.label}: no combined model — the base model fails on all tests: {exc}"
 
 
@@ -337,7 +358,7 @@ def _offered(finding: Finding) -> bool:
     return not any(t.get("implausible") for t in finding.tried if t["extension"] == name)
 
 
-def _column_records(diags) -> list[dict]:
+def _column_records(diags: Sequence[Diagnosis]) -> list[dict]:
     """The role of every varying column per (kind, soil), and whether it was tested."""
     out = []
     for d in diags:
@@ -356,7 +377,7 @@ def _column_records(diags) -> list[dict]:
     return out
 
 
-def _confounding_records(diag) -> list[dict]:
+def _confounding_records(diag: Diagnosis) -> list[dict]:
     """What the design cannot tell apart in one (kind, soil), as JSON-ready records."""
     g = diag.group
     out = []
@@ -374,7 +395,7 @@ def _confounding_records(diag) -> list[dict]:
     return out
 
 
-def _untested_groups(diags, table: pd.DataFrame) -> list[dict]:
+def _untested_groups(diags: Sequence[Diagnosis], table: pd.DataFrame) -> list[dict]:
     """The (kind, soil) groups in which not one candidate cause got a p-value, and why:
     discovery compares tests that differ in a set-up column, so one test, or tests that
     differ in nothing, leave it nothing to test."""

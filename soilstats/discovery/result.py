@@ -9,10 +9,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from ..models import models_of_kind
 from ..outputs import Provenance, json_safe
 from ..outputs.text import notes_block
 from . import views
+from .crossval import campaign_gain
 from .finding import SIGMA_NOTE, Finding, parameter_lines, parameter_table
+from .testlevel import quoted_sigma
 
 if TYPE_CHECKING:
     from .crossval import Gain
@@ -111,8 +114,6 @@ class DiscoveryResult:
         — every selected extension and its cause as ``"kind / soil: name"``, the gain over the
         base models on all held-out tests of the extended groups together, and per (kind,
         soil) the model with its parameters ± σ and its selection steps."""
-        from .crossval import campaign_gain
-
         extended = [m for m in self.models if m.extensions]
         gain = campaign_gain(extended)
         return {
@@ -130,9 +131,6 @@ class DiscoveryResult:
         combined model carries that finding's extension; the base law's (kc, kφ, n; c, φ, K)
         change meaning with every extension added. Each record says why it differs.
         """
-        from ..models import models_of_kind
-        from .testlevel import quoted_sigma
-
         base_names = {
             n for kind in ("sinkage", "shear") for m in models_of_kind(kind) for n in m.param_names
         }
@@ -199,8 +197,6 @@ class DiscoveryResult:
     def all_groups_gain(self) -> Gain | None:
         """The combined models' gain on the held-out tests of all extended groups together,
         or None unless two or more groups are extended (one group's gain is its own)."""
-        from .crossval import campaign_gain
-
         extended = [m for m in self.models if m.extensions]
         return campaign_gain(extended) if len(extended) > 1 else None
 

@@ -51,7 +51,13 @@ class TermLike(Protocol):
     def targets(self) -> tuple[str, ...]: ...
 
 
-def _columns(terms, states, group, rows, targets) -> list[np.ndarray]:
+def _columns(
+    terms: Sequence[TermLike],
+    states: Sequence[dict],
+    group: Group,
+    rows: np.ndarray,
+    targets: tuple[str, ...],
+) -> list[np.ndarray]:
     """Per-test feature columns (on the tests ``rows``) of every term moving one of
     ``targets``."""
     return [
@@ -62,7 +68,7 @@ def _columns(terms, states, group, rows, targets) -> list[np.ndarray]:
     ]
 
 
-def _independent(columns) -> bool:
+def _independent(columns: Sequence[np.ndarray]) -> bool:
     """Whether test-level design columns are linearly independent.
 
     Each column is scaled to unit length first (features, 1 and 1/b [1/m] differ in scale
@@ -74,7 +80,7 @@ def _independent(columns) -> bool:
     return bool(np.all(norm > 0) and np.linalg.matrix_rank(a) == a.shape[1])
 
 
-def _not_separable(name, rows, parts) -> IdentifiabilityError:
+def _not_separable(name: str, rows: np.ndarray, parts: str) -> IdentifiabilityError:
     return IdentifiabilityError(
         f"{name}: {parts} are not determined on these {len(rows)} tests (the design is "
         "rank-deficient before any fit: one column's levels determine another's, or a trend's "
@@ -82,7 +88,7 @@ def _not_separable(name, rows, parts) -> IdentifiabilityError:
     )
 
 
-def _test_column(group, column: str, rows) -> np.ndarray:
+def _test_column(group: Group, column: str, rows: np.ndarray) -> np.ndarray:
     return group.tests[column].to_numpy(float)[rows]
 
 

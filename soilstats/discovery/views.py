@@ -11,6 +11,7 @@ import pandas as pd
 from .._html import facts_html, notes_html, result_html, table_html
 from .._text import plural
 from .finding import Finding
+from .testlevel import quoted_sigma
 
 if TYPE_CHECKING:
     from .crossval import Gain
@@ -128,8 +129,6 @@ def _findings_frame(findings: tuple[Finding, ...]) -> pd.DataFrame:
 
 def _parameter_rows(models: tuple) -> list[dict]:
     """The combined models' parameters ± the σ the summary quotes, a row each."""
-    from .testlevel import quoted_sigma
-
     rows = []
     for m in models:
         if m.fit is None:

@@ -144,7 +144,7 @@ def per_test_error(group: Group, rows: np.ndarray, y_hat: np.ndarray) -> np.ndar
     return sums[rows] / np.maximum(counts[rows], 1)
 
 
-def _run(item) -> tuple:
+def _run(item: tuple[Group, FitTask]) -> tuple:
     """One task: (fitted, errors, None) or, for a failed fit, (None, None, (exception class,
     message)) — the class and message are all callers use, and they cross a process
     boundary where the exception object might not."""
@@ -155,7 +155,8 @@ def _run(item) -> tuple:
         if task.held_out is not None:
             y_hat = task.extension.predict(fitted, group, task.held_out)
             errors = per_test_error(group, task.held_out, y_hat)
-            fitted = Start.of(fitted)  # read only as the start of later fold fits
+            # read only as the start of later fold fits
+            return Start.of(fitted), errors, None
     except FIT_ERRORS as exc:
         return None, None, (type(exc), str(exc))
     return fitted, errors, None
@@ -184,7 +185,7 @@ def _group_of(shipped):
     return group
 
 
-def _run_in_worker(item) -> tuple:
+def _run_in_worker(item: tuple[Group | tuple[str, str], FitTask]) -> tuple:
     """:func:`_run` in a worker: the group read from its file or kept from an earlier task
     (:func:`_group_of`).  (BLAS is on one thread there already: parallel_map runs every
     item so, as this process runs its own fits; module docstring.)"""
@@ -192,7 +193,7 @@ def _run_in_worker(item) -> tuple:
     return _run((_group_of(shipped), task))
 
 
-def _outcome(raw) -> Outcome:
+def _outcome(raw: tuple) -> Outcome:
     fitted, errors, failure = raw
     return Outcome(fitted, errors, None if failure is None else failure[0](failure[1]))
 
@@ -273,7 +274,7 @@ class Pool:
             out[i] = outcome
         return [_SKIPPED if o is None else o for o in out]
 
-    def _parallel(self, items) -> list[Outcome]:
+    def _parallel(self, items: list[tuple]) -> list[Outcome]:
         if not items:
             return []
         sent = [
@@ -335,7 +336,7 @@ def warm_workers(jobs: int | None) -> threading.Thread | None:
 def _local_workers() -> bool:
     """Whether joblib's active backend runs its workers on this machine (loky, processes,
     threads), so that they can read a file written here."""
-    from joblib.parallel import get_active_backend
+    from joblib.parallel import get_active_backend  # deferred: joblib (workers only)
 
     backend = type(get_active_backend()[0]).__name__
     return backend in ("LokyBackend", "MultiprocessingBackend", "ThreadingBackend")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from typing import Literal, NamedTuple, Protocol, cast
+from typing import Literal, NamedTuple, Protocol, TypeGuard, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -20,7 +20,7 @@ from ..errors import (
 from .jacobian import make_jacobian
 from .levenberg_marquardt import LMOutcome, gram_matrix, levenberg_marquardt, scaled_svd, small_eigh
 from .result import FitResult, HealthFlag, epsilon, function_arguments, input_names_of
-from .separable import PowerTerms, _refine_power_law, refine_exponent
+from .separable import PowerTerms, refine_exponent, refine_power_law_bare
 
 __all__ = ["RANK_CONDITION_LIMIT", "ModelRecord", "epsilon", "identify"]
 
@@ -40,12 +40,18 @@ class ModelRecord(Protocol):
     jac: Callable[..., np.ndarray]
     separable: Callable | None
 
+    @property
+    def unit_of(self) -> dict[str, str]: ...
+
+    @property
+    def bounds_of(self) -> dict[str, tuple[float, float]]: ...
+
     def power_terms(self, x: ArrayLike, weights: ArrayLike) -> PowerTerms | None: ...
 
     def evaluators(self, x: ArrayLike, weights: ArrayLike) -> tuple[Callable, Callable]: ...
 
 
-def _is_record(model) -> bool:
+def _is_record(model: object) -> TypeGuard[ModelRecord]:
     """Whether ``model`` is a model record rather than a plain f(x, *params): it has the
     record's closures (two attribute lookups, not a protocol check: identify runs once per
     bootstrap resample)."""
@@ -220,7 +226,14 @@ def identify(
     return result
 
 
-def _model_parts(model, jac, param_names, units, bounds, name) -> tuple:
+def _model_parts(
+    model: Callable[..., np.ndarray] | ModelRecord,
+    jac: Callable[..., np.ndarray] | None,
+    param_names: Sequence[str] | None,
+    units: dict[str, str] | None,
+    bounds: dict[str, tuple[float, float]] | None,
+    name: str | None,
+) -> tuple:
     """(fast, f, jac, param_names, units, bounds, name) of what the caller passed.
 
     A :class:`~soilstats.Model` fills what the caller left out (its Jacobian, names, SI
@@ -246,7 +259,7 @@ def _model_parts(model, jac, param_names, units, bounds, name) -> tuple:
     return False, model, jac, param_names, dict(units or {}), dict(bounds or {}), name
 
 
-def _as_array(x) -> np.ndarray | None:
+def _as_array(x: ArrayLike) -> np.ndarray | None:
     """The inputs as one float array (None when they do not stack: a model's own object)."""
     try:
         return np.asarray(x, dtype=float)
@@ -254,7 +267,7 @@ def _as_array(x) -> np.ndarray | None:
         return None
 
 
-def _checked_names(param_names, n_obs: int, n_par: int) -> tuple[str, ...]:
+def _checked_names(param_names: Sequence[str] | None, n_obs: int, n_par: int) -> tuple[str, ...]:
     """The parameter names (``p0``, ``p1`` … where the function does not name them, as
     ``f(x, *p)`` does not), refusing a problem that cannot be
     solved: a name per starting value, and more observations than parameters."""
@@ -280,7 +293,7 @@ class _Weighted(NamedTuple):
     kept: np.ndarray | None
 
 
-def _weighted_data(y: np.ndarray, weights, n_par: int) -> _Weighted:
+def _weighted_data(y: np.ndarray, weights: ArrayLike | None, n_par: int) -> _Weighted:
     """Check y and the weighting vector w_r of Eq. 1 (unit weights by default) and weight y.
 
     A sample of weight zero is left out: it counts in neither the degrees of freedom of
@@ -329,12 +342,12 @@ def _finite_norm(y: np.ndarray, w: np.ndarray, wy: np.ndarray) -> float:
 
 def _objective(
     model: ModelRecord | None,
-    terms,
+    terms: PowerTerms | None,
     f: Callable,
     jac: Callable,
-    x,
+    x: ArrayLike,
     data: _Weighted,
-    p0,
+    p0: np.ndarray,
     ftol: float,
 ) -> tuple[Callable, Callable, np.ndarray]:
     """(θ ↦ r(θ) = w·(y − f(x, θ)), θ ↦ (∂(w·f)/∂θ)ᵀ as (p, N) rows, start): Eq. 1's
@@ -376,7 +389,15 @@ def _residual_of(wy: np.ndarray, f_weighted: Callable) -> Callable:
 
 
 def _minimise(
-    residual, jacobian, p0, terms, data: _Weighted, xtol, ftol, gtol, max_iter
+    residual: Callable[[np.ndarray], np.ndarray],
+    jacobian: Callable[[np.ndarray], np.ndarray],
+    p0: np.ndarray,
+    terms: PowerTerms | None,
+    data: _Weighted,
+    xtol: float,
+    ftol: float,
+    gtol: float,
+    max_iter: int,
 ) -> LMOutcome:
     """The LM of Eq. 1 from ``p0`` (for a power law, from its variable-projection optimum).
 
@@ -385,7 +406,7 @@ def _minimise(
     """
     with np.errstate(all="ignore"):
         if terms is not None:
-            p0, _ = _refine_power_law(terms, data.wy, p0, ftol=ftol, yy=data.yy)
+            p0, _ = refine_power_law_bare(terms, data.wy, p0, ftol=ftol, yy=data.yy)
         return levenberg_marquardt(
             residual,
             jacobian,
@@ -446,7 +467,9 @@ def _judge_end_point(
     return _EndPoint(converged, message, tuple(flags), cond, cov, stderr)
 
 
-def _undetermined(stderr: np.ndarray, values: np.ndarray, param_names) -> list[str]:
+def _undetermined(
+    stderr: np.ndarray, values: np.ndarray, param_names: Sequence[str]
+) -> list[str]:
     """Names of the parameters whose σ exceeds 1e8 × |θ|.
 
     Column scaling makes cond(J) blind to a parameter whose column has vanished (BoxBOD
@@ -459,4 +482,4 @@ def _undetermined(stderr: np.ndarray, values: np.ndarray, param_names) -> list[s
     with np.errstate(divide="ignore", invalid="ignore"):
         relative_sd = stderr / np.abs(values)
     big = np.isfinite(relative_sd) & (relative_sd > 1e8)
-    return [param_names[k] for k in np.flatnonzero(big)]
+    return [param_names[k] for k in np.flatnonzero(big).tolist()]

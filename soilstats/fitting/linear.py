@@ -20,6 +20,7 @@ from scipy import linalg
 from scipy.special import fdtrc, stdtrit
 
 from ..errors import IdentifiabilityError, StatisticsInputError
+from ..outputs import json_safe
 
 __all__ = ["LinearFit", "linear_least_squares"]
 
@@ -56,7 +57,7 @@ class LinearFit:
         """Estimates ± stderr, R², F and the residual standard deviation, in a few lines."""
         lines = [f"Linear least squares: {self.nobs} observations, {self.dof} DoF"]
         lines += [
-            f"  {name:>10} = {value:.6g} ± {self.stderr[name]:.3g}"
+            f"  {name:>10} = {value:.6g} ± {self.stderr[name]:.3g}"  # type: ignore[call-overload]  # pandas-stubs: a label is Hashable (ours are str)
             for name, value in self.params.items()
         ]
         lines.append(
@@ -67,8 +68,6 @@ class LinearFit:
 
     def to_dict(self) -> dict:
         """The JSON-ready content (NaN → None)."""
-        from ..outputs import json_safe
-
         return json_safe(
             {
                 "params": dict(self.params),
@@ -86,7 +85,7 @@ class LinearFit:
     def conf_int(self, alpha: float = 0.05) -> pd.DataFrame:
         t = stdtrit(self.dof, 1 - alpha / 2)
         return pd.DataFrame(
-            {"lower": self.params - t * self.stderr, "upper": self.params + t * self.stderr}
+            {"lower": self.params - t * self.stderr, "upper": self.params + t * self.stderr}  # type: ignore[operator]  # pandas-stubs: numpy float × Series is a Series
         )
 
 

@@ -3,6 +3,7 @@ soilstats.fitting.summary."""
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -69,8 +70,6 @@ def input_names_of(model: object) -> tuple[str, ...]:
 def function_arguments(func: object) -> tuple[str, ...]:
     """The positional argument names of ``func`` (empty when it has none to read, or takes
     ``*args``): ``lambda x, a, b: …`` -> ``("x", "a", "b")``."""
-    import inspect
-
     try:
         sig = inspect.signature(func)  # type: ignore[arg-type]
     except (TypeError, ValueError):
@@ -279,7 +278,7 @@ class FitResult:
         t = stdtrit(self.dof, 1 - alpha / 2)
         # Eq. 4's σ with the samples' degrees of freedom (a subclass's stderr may be another)
         sigma = pd.Series(self.stderr_values, index=self._index)
-        return pd.DataFrame({"lower": self.params - t * sigma, "upper": self.params + t * sigma})
+        return pd.DataFrame({"lower": self.params - t * sigma, "upper": self.params + t * sigma})  # type: ignore[operator]  # pandas-stubs: numpy float × Series is a Series
 
     # -- the fitted curve, as lmfit's ModelResult gives it --------------------------------
     def eval(self, x: ArrayLike | None = None, **inputs: ArrayLike) -> np.ndarray:
@@ -375,7 +374,7 @@ class FitResult:
                 HealthFlag("not-converged", f"the optimiser did not converge: {self.message}")
             )
         for name, value in self.params.items():
-            lo, hi = self.bounds.get(name, (-np.inf, np.inf))
+            lo, hi = self.bounds.get(name, (-np.inf, np.inf))  # type: ignore[call-overload]  # pandas-stubs: a label is Hashable (ours are str)
             if not lo <= value <= hi:
                 out.append(
                     HealthFlag(
@@ -458,7 +457,7 @@ class FitResult:
 
         For a model of several inputs (Bekker's (b, z), Janosi's (σ, j)) one curve per value
         of the leading inputs (plate width, normal pressure), against the last input."""
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred: matplotlib (a figure)
 
         x, y = self._measured("plot_fit")
         ax = ax if ax is not None else plt.subplots()[1]
@@ -484,7 +483,7 @@ class FitResult:
     def plot_residuals(self, ax: Any = None) -> Any:
         """Measured minus fitted values against the last input, on ``ax`` (a new figure if
         None), one colour per value of the leading inputs; returns the axes."""
-        import matplotlib.pyplot as plt
+        import matplotlib.pyplot as plt  # deferred: matplotlib (a figure)
 
         x, y = self._measured("plot_residuals")
         ax = ax if ax is not None else plt.subplots()[1]

@@ -64,7 +64,7 @@ def _solve_small(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.linalg.solve(gram, rhs)
 
 
-def _project(rows: np.ndarray, wy: np.ndarray):
+def _project(rows: np.ndarray, wy: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
     """Linear coefficients a(n), residual r = wy − aᵀU, ½‖r‖², and the q×q Gram matrix."""
     gram = gram_matrix(rows)
     a = _solve_small(gram, rows @ wy)
@@ -147,7 +147,7 @@ def refine_exponent(
 _ROUNDING = 256 * np.finfo(float).eps
 
 
-def _reduced(mom: list, q: int, yy: float):
+def _reduced(mom: list, q: int, yy: float) -> tuple | None:
     """The reduced problem at one exponent n, from its moments (q ≤ 2 linear coefficients).
 
     ``mom`` is the row-major product [U; V]·[U, V, wy, wy·ln z, W, wy·ln²z]ᵀ with the rows
@@ -324,7 +324,7 @@ def _moment_evaluator(rows, log_z, wy, yy):
     pairs = tuple(zip(rows, u_rows, strict=True))  # (w·gᵢ, Uᵢ) row views, made once
     zn = np.empty(size)
 
-    def evaluate(n: float, third_order: bool):
+    def evaluate(n: float, third_order: bool) -> tuple | None:
         np.exp(np.multiply(log_z, n, out=zn), out=zn)  # z^n
         for row, u in pairs:
             np.multiply(row, zn, out=u)
@@ -339,9 +339,23 @@ def _moment_evaluator(rows, log_z, wy, yy):
     return evaluate
 
 
+def refine_power_law_bare(
+    terms: PowerTerms,
+    wy: np.ndarray,
+    theta0: ArrayLike,
+    *,
+    ftol: float,
+    max_iter: int = 50,
+    yy: float | None = None,
+) -> tuple[np.ndarray, int]:
+    """:func:`refine_power_law` without its ``np.errstate``, for a caller that has one
+    (:func:`soilstats.identify` around its whole fit); ``yy`` is ‖wy‖² when the caller has
+    it (else computed)."""
+    return _refine_power_law(terms, wy, theta0, ftol=ftol, max_iter=max_iter, yy=yy)
+
+
 def _refine_power_law(terms, wy, theta0, *, ftol, max_iter=50, yy=None):
-    """:func:`refine_power_law` without its ``np.errstate`` (the caller has one); ``yy`` is
-    ‖wy‖² when the caller has it."""
+    """The body of :func:`refine_power_law_bare` (its loop kept whole: tests/test_sizes.py)."""
     best = np.asarray(theta0, dtype=float)
     rows, log_z = terms.rows, terms.log_z
     q = rows.shape[0]

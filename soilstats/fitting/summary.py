@@ -10,6 +10,7 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 
+from .._html import facts_html, notes_html, result_html, table_html
 from ..outputs.text import notes_block
 
 __all__ = [
@@ -107,7 +108,7 @@ def parameter_lines(fit: ShownFit) -> list[str]:
         rel = abs(s / v) if v != 0 else np.inf
         lines.append(
             f"{name:>8} {v:>14.6g} {s:>14.4g} {rel:>8.2%} "
-            f"[{ci.loc[name, 'lower']:>11.5g},{ci.loc[name, 'upper']:>11.5g}]  "
+            f"[{ci.loc[name, 'lower']:>11.5g},{ci.loc[name, 'upper']:>11.5g}]  "  # type: ignore[str-bytes-safe]  # pandas-stubs: .loc[row, col] is any scalar
             f"{fit.units.get(name, '')}"
         )
     return lines
@@ -137,7 +138,7 @@ def fit_summary(fit: ShownFit, parameters: list[str]) -> str:
         names = fit.param_names
         for i in range(len(names)):
             for j in range(i + 1, len(names)):
-                lines.append(f"  corr({names[i]}, {names[j]}) = {fit.corr.iloc[i, j]:+.4f}")
+                lines.append(f"  corr({names[i]}, {names[j]}) = {fit.corr.iloc[i, j]:+.4f}")  # type: ignore[str-bytes-safe]  # pandas-stubs: .iloc[i, j] is any scalar
     lines.append("-" * width)
     flags = fit.flags
     lines.append("Health: OK" if not flags else f"Health: {len(flags)} flag(s)")
@@ -163,7 +164,7 @@ def parameter_frame(fit: ShownFit) -> pd.DataFrame:
             "value": [f"{v:.6g}" for v in fit.values],
             "stderr (Eq. 3)": [f"{s:.4g}" for s in fit.stderr_values],
             "95% CI (t)": [
-                f"[{ci.loc[n, 'lower']:.5g}, {ci.loc[n, 'upper']:.5g}]" for n in fit.param_names
+                f"[{ci.loc[n, 'lower']:.5g}, {ci.loc[n, 'upper']:.5g}]" for n in fit.param_names  # type: ignore[str-bytes-safe]  # pandas-stubs: .loc[row, col] is any scalar
             ],
             "unit": [fit.units.get(n, "") for n in fit.param_names],
         }
@@ -173,8 +174,6 @@ def parameter_frame(fit: ShownFit) -> pd.DataFrame:
 def fit_html(fit: ShownFit, parameters: pd.DataFrame) -> str:
     """The summary as tables, for notebooks; ``parameters``: the parameter table
     (:func:`parameter_frame`, or a subclass's own)."""
-    from .._html import facts_html, notes_html, result_html, table_html
-
     facts = {
         "method": fit.method,
         "converged": f"{fit.converged} ({fit.message})",
@@ -196,8 +195,6 @@ def fit_html(fit: ShownFit, parameters: pd.DataFrame) -> str:
 
 def _correlation_html(fit: ShownFit) -> str:
     """The correlations of the estimates as a table (empty for one parameter)."""
-    from .._html import table_html
-
     if len(fit.param_names) < 2:
         return ""
     frame = fit.corr.map(lambda v: f"{v:+.3f}" if np.isfinite(v) else "–")

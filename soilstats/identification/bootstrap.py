@@ -152,7 +152,7 @@ def bootstrap_tests(
     # fitted (the rest stay not done, i.e. failed).
     usable = _spans_design(design, test_index, n_tests, counts)
 
-    def resample_weights(rows) -> np.ndarray:  # w·√(times drawn) of each sample, (rows, N)
+    def resample_weights(rows: list | np.ndarray) -> np.ndarray:  # w·√(times drawn), (rows, N)
         return w * np.sqrt(counts[rows][:, test_index])
 
     if model.linear_form is not None:
@@ -202,7 +202,9 @@ def bootstrap_tests(
     )
 
 
-def _spans_design(design, test_index, n_tests: int, counts: np.ndarray) -> np.ndarray:
+def _spans_design(
+    design: ArrayLike | None, test_index: np.ndarray, n_tests: int, counts: np.ndarray
+) -> np.ndarray:
     """(B,) whether each resample's tests span at least :data:`MIN_DESIGN_SPREAD` of the
     campaign's range of the per-test mean of ``design`` (all True without a design)."""
     usable = np.ones(counts.shape[0], bool)
@@ -260,7 +262,9 @@ def test_bootstrap(
     )
 
 
-def _refit(model, x, y, w, start) -> np.ndarray | None:
+def _refit(
+    model: Model, x: ArrayLike, y: np.ndarray, w: np.ndarray, start: np.ndarray
+) -> np.ndarray | None:
     """The weighted LM optimum of one resample (the identification's own path: variable
     projection to the exponent, then LM), or None when it does not converge or its end point
     does not determine the parameters.

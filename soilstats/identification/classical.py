@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -172,7 +172,7 @@ def _weights(p: np.ndarray, weighting: str) -> np.ndarray:
     return p**2 if weighting == "pressure-squared" else np.ones_like(p)
 
 
-def _plate_exponent(z, p, w) -> float:
+def _plate_exponent(z: np.ndarray, p: np.ndarray, w: np.ndarray) -> float:
     """Weighted regression slope of ln p on ln z (step 2)."""
     lz, lp = np.log(z), np.log(p)
     cz = lz - np.sum(w * lz) / w.sum()
@@ -185,12 +185,12 @@ def _plate_exponent(z, p, w) -> float:
     return float(np.sum(w * cz * cp) / spread)
 
 
-def _plate_modulus(z, p, w, n: float) -> float:
+def _plate_modulus(z: np.ndarray, p: np.ndarray, w: np.ndarray, n: float) -> float:
     """exp of the weighted mean of ln p − n ln z (step 3)."""
     return float(np.exp(np.sum(w * (np.log(p) - n * np.log(z))) / w.sum()))
 
 
-def _common_exponent(points, weighting) -> float:
+def _common_exponent(points: Sequence[tuple[np.ndarray, np.ndarray]], weighting: str) -> float:
     """Common slope of one weighted regression with an intercept per plate (step 3, common)."""
     design = np.vstack(
         [
@@ -206,7 +206,7 @@ def _common_exponent(points, weighting) -> float:
     return float(coef[0])
 
 
-def _plate_window(b: float, limits) -> PlateWindow:
+def _plate_window(b: float, limits: Any) -> PlateWindow:  # p_max, or (p_min, p_max)
     """From ``p_max`` or ``(p_min, p_max)`` [Pa]."""
     if np.ndim(limits) == 0:
         return PlateWindow(b, p_max=float(limits))
@@ -214,7 +214,10 @@ def _plate_window(b: float, limits) -> PlateWindow:
     return PlateWindow(b, p_max=float(p_max), p_min=float(p_min))
 
 
-def _windows(windows, sizes: np.ndarray) -> list[PlateWindow]:
+def _windows(
+    windows: Sequence[PlateWindow] | Mapping[float, float | tuple[float, float]],
+    sizes: np.ndarray,
+) -> list[PlateWindow]:
     if isinstance(windows, Mapping):
         windows = [_plate_window(float(b), limits) for b, limits in windows.items()]
     by_size = {round(w.b_m, 12): w for w in windows}

@@ -376,7 +376,7 @@ def fit_planned(
     return results
 
 
-def _for_worker(piece: ScreenedCampaign, ids) -> ScreenedCampaign:
+def _for_worker(piece: ScreenedCampaign, ids: Sequence[str]) -> ScreenedCampaign:
     """A condition's campaign with its screening report and window cut to its tests: the
     fit reads only theirs, and the whole campaign's, sent with every condition, would grow
     as conditions × tests."""
@@ -393,12 +393,12 @@ def _for_worker(piece: ScreenedCampaign, ids) -> ScreenedCampaign:
 _COST_PER_SAMPLE = {"sinkage": 1.0, "shear": 4.0}
 
 
-def _size(piece, kind: str) -> float:
+def _size(piece: ScreenedCampaign, kind: str) -> float:
     """A condition's expected fitting time, in sinkage samples (the dispatch order)."""
     return _COST_PER_SAMPLE[kind] * len(piece.sinkage if kind == "sinkage" else piece.shear)
 
 
-def _fit_condition(task) -> CampaignFit | str:
+def _fit_condition(task: tuple[Any, str, Any, Sequence[str], dict[str, Any]]) -> CampaignFit | str:
     """One condition's pooled fit, or the reason it failed (a task of :func:`parallel_map`)."""
     campaign, kind, model, ids, options = task
     fitter = fit_sinkage if kind == "sinkage" else fit_shear

@@ -95,10 +95,10 @@ def fit_per_test(
         columns = {"z": samples["z_m"], "y": samples["pressure_Pa"]}
     else:
         columns = {"z": samples["j_m"], "y": samples["tau_Pa"], "sigma": samples["sigma_Pa"]}
-    columns = {key: col.to_numpy(float) for key, col in columns.items()}
+    arrays = {key: col.to_numpy(float) for key, col in columns.items()}
     ids = tests["test_id"].astype(str).to_numpy()
     empty = np.array([], int)
-    items = [(tid, {k: v[by_test.get(tid, empty)] for k, v in columns.items()}) for tid in ids]
+    items = [(tid, {k: v[by_test.get(tid, empty)] for k, v in arrays.items()}) for tid in ids]
     if effective_jobs(jobs) > 1 and len(items) > 1:
         # Workers take contiguous chunks of tests (eight per worker, so that uneven fits even
         # out), each with its own samples only; the rows come back in the tests' order.
@@ -111,7 +111,7 @@ def fit_per_test(
         rows = [row for chunk in done for row in chunk]
     else:
         if progress:
-            from tqdm.auto import tqdm
+            from tqdm.auto import tqdm  # deferred: tqdm (a progress bar)
 
             items = tqdm(items, desc=f"per-test {kind} fits", unit="test")
         rows = [fit_one(tid, data, points_per_test) for tid, data in items]
@@ -135,7 +135,7 @@ def not_converged_message(table: pd.DataFrame, kind: str) -> str | None:
     )
 
 
-def _fit_chunk(item) -> list[dict]:
+def _fit_chunk(item: tuple[str, list[tuple[str, dict]], int | None]) -> list[dict]:
     """The rows of a chunk of tests, ``(kind, [(test_id, samples)], points_per_test)``, in
     a worker."""
     kind, tests, points_per_test = item
@@ -143,7 +143,7 @@ def _fit_chunk(item) -> list[dict]:
     return [fit_one(tid, data, points_per_test) for tid, data in tests]
 
 
-def _fit_sinkage_test(tid: str, data: dict, points_per_test) -> dict:
+def _fit_sinkage_test(tid: str, data: dict, points_per_test: int | None) -> dict:
     kept = kept_samples(data["z"], data["y"], "sinkage", points_per_test=points_per_test)
     z, p = data["z"][kept.index], data["y"][kept.index]
     row = {"test_id": tid, "nobs": int(z.size), "z_max_m": np.nan, "p_max_Pa": np.nan}
@@ -186,7 +186,7 @@ def fit_shear_test(
     return identify(SHEAR_CURVE, j, tau, p0, weights=weights, name=name)
 
 
-def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
+def _fit_shear_test(tid: str, data: dict, points_per_test: int | None) -> dict:
     j, tau, sigma = data["z"], data["y"], data["sigma"]
     row = {
         "test_id": tid,
@@ -209,7 +209,7 @@ def _fit_shear_test(tid: str, data: dict, points_per_test) -> dict:
     return _fitted(row, fit)
 
 
-def _fitted(row: dict, fit) -> dict:
+def _fitted(row: dict, fit: FitResult) -> dict:
     for name, value, sd in zip(fit.param_names, fit.values, fit.stderr_values, strict=True):
         row[name], row[f"{name}_stderr"] = float(value), float(sd)
     flags = [f.code for f in fit.flags]
@@ -217,7 +217,7 @@ def _fitted(row: dict, fit) -> dict:
     return row
 
 
-def _failed(row: dict, names, reason: str) -> dict:
+def _failed(row: dict, names: tuple[str, ...], reason: str) -> dict:
     for name in names:
         row[name] = row[f"{name}_stderr"] = np.nan
     row.update(epsilon=np.nan, converged=False, message=reason)

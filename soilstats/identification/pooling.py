@@ -21,10 +21,13 @@ from ..campaign.index import campaign_index, grouped_by_code
 from ..campaign.schema import MIN_SAMPLES  # re-exported: the rule below applies it
 from ..errors import CampaignError, InputError
 from ..quality import screened
+from .steady_state import steady_state
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..campaign.index import CampaignIndex
     from ..campaign.tables import Criterion
+    from ..quality import ScreenedCampaign
 
 __all__ = [
     "MIN_SAMPLES",
@@ -266,7 +269,7 @@ def kept_samples(
     )
 
 
-def _unusable(kind: str, tid, problem: str, file: str) -> CampaignError:
+def _unusable(kind: str, tid: object, problem: str, file: str) -> CampaignError:
     column = ("z_m" if "samples" in problem else "force_N") if kind == "sinkage" else "torque_Nm"
     return CampaignError(problem, file=file, column=column, test_id=str(tid))
 
@@ -416,12 +419,17 @@ def pool_shear(
     )
 
 
-def _steady_parts(test, j_all, tau_all, test_ids, weighting, file: str):
+def _steady_parts(
+    test: np.ndarray,
+    j_all: np.ndarray,
+    tau_all: np.ndarray,
+    test_ids: np.ndarray,
+    weighting: str,
+    file: str,
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """The steady-state samples of every shear test (rule in :mod:`.steady_state`), their
     weights and the bookkeeping columns; one test at a time, as the rule reads a record.
     ``file``: the shear file's name, for messages."""
-    from .steady_state import steady_state
-
     n_tests = len(test_ids)
     used = np.zeros(test.size, bool)
     weight = np.full(n_tests, np.nan)
@@ -471,7 +479,9 @@ def select_one_soil(
     return chosen, tests
 
 
-def _selected_samples(campaign, kind: str, selection: dict, columns: tuple[str, ...]):
+def _selected_samples(
+    campaign: Campaign, kind: str, selection: dict, columns: tuple[str, ...]
+) -> tuple[CampaignIndex, np.ndarray, np.ndarray, list[np.ndarray]]:
     """The screened ``campaign``'s index, the log rows of the selected tests of ``kind``
     (:func:`_one_soil_tests`), each of their samples' test (0 … T−1, file order) and the
     samples' ``columns`` as float arrays."""
@@ -480,7 +490,9 @@ def _selected_samples(campaign, kind: str, selection: dict, columns: tuple[str, 
     return index, chosen, test, [index.column(kind, c)[rows] for c in columns]
 
 
-def _one_soil_tests(campaign, kind: str, selection: dict):
+def _one_soil_tests(
+    campaign: ScreenedCampaign, kind: str, selection: dict
+) -> tuple[CampaignIndex, np.ndarray]:
     """:func:`select_one_soil` without building the selected campaign: the campaign's
     index (:mod:`soilstats.campaign.index`) and the log rows of the chosen tests, in log
     order. Same criteria, same errors."""
@@ -493,7 +505,13 @@ def _one_soil_tests(campaign, kind: str, selection: dict):
     return index, rows
 
 
-def _demand_one_soil(kind: str, selection: dict, kinds, soils, file: str) -> None:
+def _demand_one_soil(
+    kind: str,
+    selection: dict,
+    kinds: pd.Series | np.ndarray,
+    soils: pd.Series | np.ndarray,
+    file: str,
+) -> None:
     """Raise unless the selection (``kinds`` of all its tests) holds tests of ``kind``, all
     of one soil (``soils``: theirs, as text); ``file``: the test log's name, for messages."""
     if not len(soils):
@@ -503,11 +521,11 @@ def _demand_one_soil(kind: str, selection: dict, kinds, soils, file: str) -> Non
             file=file,
             column="kind",
         )
-    soils = sorted(set(soils))
-    if len(soils) > 1:
+    distinct = sorted(set(soils))
+    if len(distinct) > 1:
         raise CampaignError(
-            f"the selection holds {len(soils)} soils {soils}; parameters of different soils "
-            f"must not be pooled — add soil=... to the call (e.g. soil={soils[0]!r})",
+            f"the selection holds {len(distinct)} soils {distinct}; parameters of different soils "
+            f"must not be pooled — add soil=... to the call (e.g. soil={distinct[0]!r})",
             file=file,
             column="soil",
         )

@@ -16,6 +16,7 @@ from scipy.special import stdtrit
 from .._text import plural
 from ..errors import InputError
 from ..fitting.result import FitResult, HealthFlag
+from ..models import MODELS
 from ..outputs.files import json_safe
 from ..quality.codes import CODES
 from .bootstrap import MIN_TESTS, TestBootstrap
@@ -166,7 +167,7 @@ class CampaignFit(FitResult):
         if not 0 < alpha < 1:
             raise InputError(f"alpha must be in (0, 1), got {alpha!r}")
         t = stdtrit(max(self.bootstrap.n_tests - 1, 1), 1 - alpha / 2)
-        half = t * self.stderr_tests
+        half = t * self.stderr_tests  # type: ignore[operator]  # pandas-stubs: numpy float × Series is a Series
         return pd.DataFrame({"lower": self.params - half, "upper": self.params + half})
 
     def _parameter_table(self) -> pd.DataFrame:
@@ -253,7 +254,7 @@ class CampaignFit(FitResult):
             rel = abs(s / v) if v != 0 else np.inf
             lines.append(
                 f"{name:>8} {v:>14.6g} {s:>11.4g} {e:>11.4g} {rel:>8.2%} "
-                f"[{ci.loc[name, 'lower']:>12.5g},{ci.loc[name, 'upper']:>12.5g}]  "
+                f"[{ci.loc[name, 'lower']:>12.5g},{ci.loc[name, 'upper']:>12.5g}]  "  # type: ignore[str-bytes-safe]  # pandas-stubs: .loc[row, col] is any scalar
                 f"{self.units.get(name, '')}"
             )
         return lines
@@ -435,8 +436,6 @@ DISAGREEMENT = 2.0
 def _signed() -> set[str]:
     """Parameters whose sign is a physical statement (a modulus that may be either sign):
     those the model records name (``Model.signed``: kc, kphi, k1, k2, c)."""
-    from ..models import MODELS
-
     return {name for model in MODELS.values() for name in model.signed}
 
 
@@ -483,9 +482,9 @@ def _sign_decided_by_eq4_only(fit: FitResult, sd: pd.Series, n_tests: int) -> li
         lo, hi = eq4.loc[name, "lower"], eq4.loc[name, "upper"]
         v = fit.params[name]
         t_lo, t_hi = v - t * sd[name], v + t * sd[name]
-        if (lo > 0 or hi < 0) and t_lo <= 0 <= t_hi:
+        if (lo > 0 or hi < 0) and t_lo <= 0 <= t_hi:  # type: ignore[arg-type, operator]  # pandas-stubs: .loc[row, col] is any scalar
             out.append(
-                f"{name} ({lo:.3g} to {hi:.3g}), the tests do not ({t_lo:.3g} to {t_hi:.3g})"
+                f"{name} ({lo:.3g} to {hi:.3g}), the tests do not ({t_lo:.3g} to {t_hi:.3g})"  # type: ignore[str-bytes-safe]  # pandas-stubs: .loc[row, col] is any scalar
             )
     return out
 
@@ -546,7 +545,7 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
             "or one normal pressure)"
         )
     heavy = [
-        f"{name} sd {sd[name]:.3g} is {r:.1f}× the central 68 % half-width {half[name]:.3g}"
+        f"{name} sd {sd[name]:.3g} is {r:.1f}× the central 68 % half-width {half[name]:.3g}"  # type: ignore[call-overload]  # pandas-stubs: a label is Hashable (ours are str)
         for name, r in (sd / half).items()
         if np.isfinite(r) and r > MAX_TAIL_RATIO
     ]

@@ -43,13 +43,13 @@ def reused_fits() -> Iterator[None]:
         _FITS.reset(token)
 
 
-def _frozen(value: object) -> object:
+def frozen_argument(value: object) -> object:
     """A hashable stand-in for an argument: mappings and sequences by content, a model
     record by name and identity; TypeError for what cannot be compared."""
     if isinstance(value, dict):
-        return tuple(sorted((k, _frozen(v)) for k, v in value.items()))
+        return tuple(sorted((k, frozen_argument(v)) for k, v in value.items()))
     if isinstance(value, list | tuple):
-        return tuple(_frozen(v) for v in value)
+        return tuple(frozen_argument(v) for v in value)
     if hasattr(value, "param_names") and hasattr(value, "name"):  # a model record
         return ("model", value.name, id(value))
     hash(value)
@@ -69,7 +69,7 @@ def reusable(fit: F) -> F:
         bound.apply_defaults()
         arguments = {k: v for k, v in bound.arguments.items() if k != "campaign"}
         try:
-            key = (fit.__qualname__, id(campaign), _frozen(arguments))
+            key = (fit.__qualname__, id(campaign), frozen_argument(arguments))
         except TypeError:
             return fit(campaign, *args, **kwargs)
         if key not in fits:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import weakref
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -18,11 +18,11 @@ from ..fitting.result import FitResult, HealthFlag
 from ..models import Model, get_model
 from ..quality import screened
 from .adequacy import adequacy_findings, test_forms
-from .bootstrap import test_bootstrap
+from .bootstrap import TestBootstrap, test_bootstrap
 from .centring import centred
 from .pooling import PooledData, pool_sinkage
 from .result import CampaignFit
-from .reuse import _frozen, reusable
+from .reuse import frozen_argument, reusable
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
@@ -34,7 +34,7 @@ __all__ = ["fit_sinkage", "pool_sinkage"]
 _COUNTS = {2: "two", 3: "three", 4: "four"}
 
 
-def _check_identifiable(spec, pooled: PooledData) -> None:
+def _check_identifiable(spec: Model, pooled: PooledData) -> None:
     """The plate sizes the model's record asks for (``Model.min_plate_sizes``)."""
     tests = pooled.by_test  # the plate sizes of the tests with samples: one per test, not sample
     sizes = np.unique(tests["b_m"][tests["used"] > 0])
@@ -49,7 +49,7 @@ def _check_identifiable(spec, pooled: PooledData) -> None:
         )
 
 
-def _notes(pooled: PooledData, points_per_test, weighting) -> list[str]:
+def _notes(pooled: PooledData, points_per_test: int | None, weighting: str) -> list[str]:
     g = pooled.by_test  # arrays: the frame's lookups cost more than these sums
     n_tests = len(g["test_id"])
     notes = [
@@ -169,7 +169,9 @@ _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _PREPARED_PER_CAMPAIGN = 16
 
 
-def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
+def _prepared(
+    spec: Model, campaign: ScreenedCampaign, pooling: dict
+) -> tuple[PooledData, np.ndarray, Callable[[], np.ndarray]]:
     """The pooled data (:func:`pool_sinkage` with ``pooling``), the model's x and a callable
     giving its starting values, kept per campaign object and arguments.
 
@@ -183,7 +185,7 @@ def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
     pooled afresh.
     """
     try:
-        key = (_frozen(pooling), ("model", spec.name, id(spec)))
+        key = (frozen_argument(pooling), ("model", spec.name, id(spec)))
     except TypeError:
         key = None
     memo = _PREPARED.setdefault(campaign, {}) if key is not None else {}
@@ -201,7 +203,7 @@ def _prepared(spec, campaign: ScreenedCampaign, pooling: dict):
             raise ModelError(f"model {spec.name!r} states no starting values: pass p0")
 
     else:
-        start = functools.cache(lambda: _read_only(np.asarray(spec.start(x, pooled.y)))[0])
+        start = functools.cache(lambda: _read_only(np.asarray(spec.start(x, pooled.y)))[0])  # type: ignore[misc]  # spec.start is set in this branch (a lambda loses the narrowing)
     if key is not None:
         if len(memo) >= _PREPARED_PER_CAMPAIGN:
             with contextlib.suppress(RuntimeError, StopIteration, KeyError):  # another thread
@@ -216,7 +218,14 @@ def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
     return arrays
 
 
-def _fit_wong(spec, campaign, pooled: PooledData, x, points_per_test, weighting) -> CampaignFit:
+def _fit_wong(
+    spec: Model,
+    campaign: ScreenedCampaign,
+    pooled: PooledData,
+    x: np.ndarray,
+    points_per_test: int | None,
+    weighting: str,
+) -> CampaignFit:
     """The fit by Wong's p²-weighted log–log regressions (``method="wong"``, Fig. 3): a
     closed form with the linearised regressions' σ, not Eq. 4's, centred and checked for
     adequacy as the LM fit is (no test bootstrap)."""
@@ -255,7 +264,14 @@ REZERO_SIGMAS = 1.0
 
 
 def _rezero_sensitivity(
-    spec, campaign: ScreenedCampaign, window, pooling: dict, pooled, result, bootstrap, p0
+    spec: Model,
+    campaign: ScreenedCampaign,
+    window: FitWindow | None,
+    pooling: dict,
+    pooled: PooledData,
+    result: FitResult,
+    bootstrap: TestBootstrap | None,
+    p0: Sequence[float] | np.ndarray,
 ) -> list:
     """``rezero-sensitive`` when the fit's tests include records re-zeroed at a seating
     contact and the same fit on the records as logged (toes kept, z unchanged) differs by
@@ -275,7 +291,7 @@ def _rezero_sensitivity(
     sigma = bootstrap.stderr if bootstrap is not None else result.stderr
     moved = (result.params - alt.params) / sigma
     worst = moved.abs().idxmax()
-    if not abs(moved[worst]) > REZERO_SIGMAS:
+    if not abs(moved[worst]) > REZERO_SIGMAS:  # type: ignore[call-overload]  # pandas-stubs: idxmax is a Hashable label (here a parameter name)
         return []
     which = "test-level" if bootstrap is not None else "Eq. 4"
     level = ""
@@ -293,14 +309,16 @@ def _rezero_sensitivity(
             "rezero-sensitive",
             f"{plural(len(rezeroed), 'test')} re-zeroed at a seating contact "
             f"({', '.join(rezeroed[:4])}{', …' if len(rezeroed) > 4 else ''}) move "
-            f"{worst} by {moved[worst]:+.1f} {which} σ ({alt.params[worst]:.4g} with z as "
-            f"logged, {result.params[worst]:.4g} re-zeroed){level}; the fit uses the "
+            f"{worst} by {moved[worst]:+.1f} {which} σ ({alt.params[worst]:.4g} with z as "  # type: ignore[call-overload]  # pandas-stubs: idxmax is a Hashable label (here a parameter name)
+            f"logged, {result.params[worst]:.4g} re-zeroed){level}; the fit uses the "  # type: ignore[call-overload]  # pandas-stubs: idxmax is a Hashable label (here a parameter name)
             "re-zeroed records: check the contacts with soilstats check",
         )
     ]
 
 
-def _adequacy(spec, pooled, fit, bootstrap) -> list:
+def _adequacy(
+    spec: Model, pooled: PooledData, fit: FitResult, bootstrap: TestBootstrap | None
+) -> list:
     """``lack-of-fit``, ``plate-exponents`` and (with the test bootstrap) ``aggregation-bias`` flags
     (identification/adequacy.py)."""
     b = pooled.x["b_m"] if "b_m" in spec.columns else None

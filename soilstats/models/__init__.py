@@ -12,10 +12,10 @@ from __future__ import annotations
 from .base import Model
 from .registry import (
     MODELS,
-    _register_built_in,
     get_model,
     model_names,
     models_of_kind,
+    register_built_in,
     register_model,
     unregister_model,
 )
@@ -39,4 +39,4 @@ __all__ = [
     "unregister_model",
 ]
 
-_register_built_in(BEKKER, BERNSTEIN, REECE, JANOSI, MOHR_COULOMB, SHEAR_CURVE)
+register_built_in(BEKKER, BERNSTEIN, REECE, JANOSI, MOHR_COULOMB, SHEAR_CURVE)

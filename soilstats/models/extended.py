@@ -66,7 +66,7 @@ __all__ = [
 ]
 
 
-def _rows_of(features) -> Any:
+def _rows_of(features: ArrayLike | None) -> Any:
     """(m, N) contiguous rows of an (N, m) feature matrix (the Jacobian's layout).
 
     None without features; a family reads it only where their count is not 0 (typed Any:
@@ -83,7 +83,7 @@ class _Product:
     term.  Other features take the matrix product.
     """
 
-    def __init__(self, features) -> None:
+    def __init__(self, features: ArrayLike) -> None:
         self.matrix = np.asarray(features, float)
         self.codes = None
         indicator = np.all((self.matrix == 0.0) | (self.matrix == 1.0))
@@ -97,7 +97,7 @@ class _Product:
         return np.append(coef, 0.0)[self.codes]
 
 
-def _product_of(features) -> Any:
+def _product_of(features: ArrayLike | None) -> Any:
     return None if features is None else _Product(features)
 
 
@@ -291,7 +291,9 @@ class SinkageFamily(_Family):
         w = np.asarray(w, float)
         return self._rows(theta, w, w * self.inv_b, p * w)
 
-    def _rows(self, theta, w, w_inv_b, wp) -> np.ndarray:
+    def _rows(
+        self, theta: np.ndarray, w: np.ndarray | None, w_inv_b: np.ndarray, wp: np.ndarray
+    ) -> np.ndarray:
         """The Jacobian rows, weighted: ``w`` (None for 1), ``w_inv_b`` = w/b and ``wp`` = w·p
         before softening.
 
@@ -328,7 +330,17 @@ class SinkageFamily(_Family):
             self._soften_rows(out, i, w, scale, expo, k_eff, p, soft)
         return out
 
-    def _soften_rows(self, out, i, w, scale, expo, k_eff, p, soft) -> None:
+    def _soften_rows(
+        self,
+        out: np.ndarray,
+        i: int,
+        w: np.ndarray | None,
+        scale: np.ndarray | None,
+        expo: np.ndarray,
+        k_eff: np.ndarray,
+        p: np.ndarray,
+        soft: tuple,
+    ) -> None:
         """Rows of the softened samples (Fig. 9's two-stage law), weighted by ``w``.
 
         Beyond z_c, p = p(z_c) + f·(p − p(z_c)), so each base and covariate row becomes

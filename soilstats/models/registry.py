@@ -109,8 +109,11 @@ def model_names(kind: str | None = None) -> list[str]:
 _BUILT_IN: frozenset[str] = frozenset()
 
 
-def _register_built_in(*models: Model) -> None:
-    """The paper's models, registered once by :mod:`soilstats.models` and never replaced."""
+def register_built_in(*models: Model) -> None:
+    """Register the paper's built-in ``models``: never replaced, never unregistered.
+
+    Called once, by :mod:`soilstats.models` at import (public so that the package can; a
+    user's own model goes through :func:`register_model`)."""
     global _BUILT_IN
     for model in models:
         register_model(model)

@@ -77,14 +77,14 @@ def janosi_jac(x: InputRows, c: Value, phi: Value, K: Value) -> np.ndarray:
 
 
 def _start_janosi(x, tau):
-    from .starting_values import janosi_start
+    from .starting_values import janosi_start  # deferred: pandas (Wong's fit)
 
     sigma, j = x
     return janosi_start(sigma, j, tau)
 
 
 def _start_shear_curve(j, tau):
-    from .starting_values import shear_curve_start
+    from .starting_values import shear_curve_start  # deferred: pandas (Wong's fit)
 
     return shear_curve_start(j, tau)
 

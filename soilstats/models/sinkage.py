@@ -123,34 +123,34 @@ def reece_pressure_modulus(b: Value, k1: np.ndarray, k2: np.ndarray, n: np.ndarr
 # Starting values and Wong's method have one home each (soilstats.models.starting_values
 # and .wong, below the identification that asks the record); imported when first used.
 def _start_bekker(x, p):
-    from .starting_values import bekker_start
+    from .starting_values import bekker_start  # deferred: pandas (Wong's fit)
 
     b, z = x
     return bekker_start(b, z, p)
 
 
 def _start_bernstein(z, p):
-    from .starting_values import bernstein_start
+    from .starting_values import bernstein_start  # deferred: pandas (Wong's fit)
 
     return bernstein_start(z, p)
 
 
 def _start_reece(x, p):
-    from .starting_values import reece_start
+    from .starting_values import reece_start  # deferred: pandas (Wong's fit)
 
     b, z = x
     return reece_start(b, z, p)
 
 
 def _wong_bekker(x, p):
-    from .wong import wong_bekker
+    from .wong import wong_bekker  # deferred: pandas (Wong's fit)
 
     b, z = x
     return wong_bekker(b, z, p)
 
 
 def _wong_bernstein(z, p):
-    from .wong import wong_bernstein
+    from .wong import wong_bernstein  # deferred: pandas (Wong's fit)
 
     return wong_bernstein(z, p)
 

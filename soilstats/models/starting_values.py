@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ModelError
+from .registry import get_model
 from .wong import wong_start
 
 __all__ = [
@@ -33,8 +34,6 @@ def sinkage_start(model: str, b: np.ndarray | None, z: np.ndarray, p: np.ndarray
     b, z [m] (b may be None for a model without a plate size), p [Pa].  An unknown name, or
     a model of another kind, is a :class:`~soilstats.errors.ModelError`.
     """
-    from .registry import get_model
-
     spec = get_model(model, "sinkage")
     if spec.start is None:
         raise ModelError(f"model {spec.name!r} states no starting values (Model.start)")

@@ -27,6 +27,7 @@ through :func:`write_atomic` or :func:`replacing`), so every output follows the 
 from __future__ import annotations
 
 import errno
+import io
 import json
 import math
 import os
@@ -271,9 +272,7 @@ def netcdf_bytes(idata: Any) -> bytes:
     OSError of :func:`write_atomic`, not an HDF5 file left half-closed (which ended in a
     segmentation fault when h5py freed it at exit).
     """
-    import io
-
-    import xarray as xr
+    import xarray as xr  # deferred: xarray (netCDF only)
 
     buffer = io.BytesIO()
     mode = "w"
@@ -299,7 +298,7 @@ def netcdf_bytes(idata: Any) -> bytes:
 
 def json_safe(value: Any) -> Any:
     """A JSON-ready copy: NaN/±inf → None, numpy and pandas scalars → Python, tuples → lists."""
-    import numpy as np
+    import numpy as np  # deferred: numpy (soilstats.outputs loads nothing heavy)
 
     if isinstance(value, dict):
         return {str(k): json_safe(v) for k, v in value.items()}
@@ -316,7 +315,7 @@ def json_safe(value: Any) -> Any:
     if value is None or isinstance(value, str):
         return value
     try:  # pandas NA/NaT and other missing markers
-        import pandas as pd
+        import pandas as pd  # deferred: pandas (soilstats.outputs loads nothing heavy)
 
         if pd.isna(value):
             return None
@@ -376,11 +375,11 @@ def _text_cell(text: str) -> str:
 
 def _object_cell(value: object) -> str:
     """A cell of a text (object) column: a number stays a number, as pandas writes it."""
-    import pandas as pd
+    import pandas as pd  # deferred: pandas (soilstats.outputs loads nothing heavy)
 
     if isinstance(value, str):
         return _text_cell(value)
-    if value is None or (not isinstance(value, list | tuple | dict) and pd.isna(value)):
+    if value is None or (not isinstance(value, list | tuple | dict) and pd.isna(value)):  # type: ignore[call-overload]  # pandas-stubs: isna of any object is valid
         return ""
     if isinstance(value, bool | int | float) or pd.api.types.is_number(value):
         return str(value)
@@ -399,11 +398,11 @@ def csv_text(frame: pd.DataFrame, float_format: str | None = None) -> str:
     text cells are escaped against spreadsheet formulas and quoted where needed (module
     rules). Every line ends with ``\\n``.
     """
-    import pandas as pd
-    from pandas.api.types import is_object_dtype
+    import pandas as pd  # deferred: pandas (soilstats.outputs loads nothing heavy)
+    from pandas.api.types import is_object_dtype  # deferred: pandas
 
     def is_text(dtype: object) -> bool:
-        return isinstance(dtype, pd.StringDtype | pd.CategoricalDtype) or is_object_dtype(dtype)
+        return isinstance(dtype, pd.StringDtype | pd.CategoricalDtype) or is_object_dtype(dtype)  # type: ignore[arg-type]  # pandas-stubs: any dtype-like object is valid
 
     def numbers(part: pd.DataFrame) -> list[str]:
         text = part.to_csv(

@@ -238,7 +238,7 @@ def _runs_mask(blocks: Blocks, mask: BoolArray, keep: Callable[[IntArray], BoolA
     return out
 
 
-def _quantum(blocks: Blocks, values: np.ndarray) -> FloatArray:
+def block_quantum(blocks: Blocks, values: np.ndarray) -> FloatArray:
     """``noise.quantum`` of every block: the sensor's step, or 0 (repeats on a plateau
     at the block's maximum not counted)."""
     sb, kept = blocks.drop_last(1)
@@ -254,7 +254,7 @@ def _quantum(blocks: Blocks, values: np.ndarray) -> FloatArray:
     return np.where(quantised, smallest, 0.0)
 
 
-def _py_max(*values: np.ndarray) -> np.ndarray:
+def py_max(*values: np.ndarray) -> np.ndarray:
     """Elementwise ``max(a, b, ...)`` with Python's tie rule (the first of equal values)."""
     out = values[0]
     for v in values[1:]:
@@ -273,7 +273,7 @@ def _spikes(blocks: Blocks, values: np.ndarray) -> BoolArray:
     judged = (blocks.sizes >= 5) & (span > 0)
     second, sb = blocks.diff(values, 2)
     second = np.abs(second) / np.sqrt(6.0)
-    width = _py_max(1.4826 * sb.median(second), _quantum(blocks, values), 1e-9 * span)
+    width = py_max(1.4826 * sb.median(second), block_quantum(blocks, values), 1e-9 * span)
     off = (
         blocks.spread(judged)
         & (departure > SPIKE_NOISE_WIDTHS * blocks.spread(width))
@@ -338,7 +338,7 @@ def _saturation(blocks: Blocks, values: np.ndarray, other: np.ndarray) -> BoolAr
     return at_max & blocks.spread(clipped)
 
 
-def _unfinite(blocks: Blocks, *arrays: np.ndarray) -> IntArray:
+def unfinite(blocks: Blocks, *arrays: np.ndarray) -> IntArray:
     """The blocks holding a value that is not finite (NaN, ±inf)."""
     bad = np.zeros(blocks.total, dtype=bool)
     for values in arrays:
@@ -361,7 +361,7 @@ def _by_record(
     """
     with np.errstate(all="ignore"):  # NaN blocks may warn here; they are redone below
         mask = batch(blocks, *arrays)
-    for k in _unfinite(blocks, *arrays):
+    for k in unfinite(blocks, *arrays):
         at = slice(blocks.starts[k], blocks.starts[k] + blocks.sizes[k])
         mask[at] = False
         mask[blocks.starts[k] + detector(*(a[at].copy() for a in arrays))] = True

@@ -57,7 +57,7 @@ def find_copies(
     for t in np.flatnonzero(clash):  # in file order
         rows = order[starts[t] : starts[t + 1]]
         key = hashlib.blake2b(values[rows].tobytes(), digest_size=16).digest()
-        first = first_of.setdefault(key, ids[t])
-        if first != ids[t]:
-            out.append((ids[t], first, rows))
+        first = first_of.setdefault(key, ids[t])  # type: ignore[call-overload]  # pandas-stubs: Index[numpy int] is valid
+        if first != ids[t]:  # type: ignore[call-overload]  # pandas-stubs: Index[numpy int] is valid
+            out.append((ids[t], first, rows))  # type: ignore[call-overload]  # pandas-stubs: Index[numpy int] is valid
     return out

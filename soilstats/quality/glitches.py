@@ -31,6 +31,8 @@ import numpy as np
 
 from .blocks import Blocks
 from .noise import robust_width
+from .report import QualityFlag
+from .staging import leave_out
 
 __all__ = [
     "GLITCH_DEPTHS",
@@ -126,9 +128,6 @@ def glitch_flags(
 ) -> tuple[list[list], list[np.ndarray], np.ndarray]:
     """``glitch-cluster`` flags of every record (either channel), the labels they drop in
     mode ``clean``, and the mask of glitched positions."""
-    from .report import QualityFlag
-    from .staging import leave_out
-
     mask = np.zeros(blocks.total, dtype=bool)
     out: list[list] = [[] for _ in ids]
     drop: list[np.ndarray] = []

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .blocks import Blocks, BoolArray, FloatArray, IntArray, _py_max, _quantum, _unfinite
+from .blocks import Blocks, BoolArray, FloatArray, IntArray, block_quantum, py_max, unfinite
 from .records import (
     CONTACT_EARLY_FRACTION,
     CONTACT_LAW_EXCESS,
@@ -102,12 +102,12 @@ def contact_statistics(
     centre = sb.median(second)
     with np.errstate(invalid="ignore"):
         mad = sb.median(np.abs(second - sb.spread(centre)))
-    noise = _py_max(1.4826 * mad / np.sqrt(6.0), _quantum(blocks, force))
-    threshold = base + _py_max(CONTACT_NOISE_WIDTHS * noise, 0.01 * (blocks.max(force) - base))
+    noise = py_max(1.4826 * mad / np.sqrt(6.0), block_quantum(blocks, force))
+    threshold = base + py_max(CONTACT_NOISE_WIDTHS * noise, 0.01 * (blocks.max(force) - base))
     above = force > blocks.spread(threshold)
     first = blocks.first(_held(blocks, above))
     alive &= first >= 0
-    travel = blocks.max(z) - _py_max(blocks.min(z), np.zeros(blocks.count))
+    travel = blocks.max(z) - py_max(blocks.min(z), np.zeros(blocks.count))
     free = (local < blocks.spread(first)) & (z > 0)
     alive &= (blocks.total_of(free) >= 3) & (travel > 0)
     z_free = blocks.max(z, where=free)
@@ -162,7 +162,7 @@ def contact_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntA
             & (coarse > CONTACT_WEAK_RATIO * from_zero * (1.0 + MARGIN))
             & (law_excess < CONTACT_LAW_EXCESS * (1.0 - MARGIN))
         )
-    return np.union1d(np.flatnonzero(alive & ~clear), _unfinite(blocks, z, force))
+    return np.union1d(np.flatnonzero(alive & ~clear), unfinite(blocks, z, force))
 
 
 def late_zero_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntArray:
@@ -187,7 +187,7 @@ def late_zero_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> In
         bound = base + 0.01 * (blocks.max(force) - base)
         loaded = (z <= 0) & (force > blocks.spread(bound)) & blocks.spread(blocks.sizes >= 8)
     held = _held(blocks, loaded)
-    return np.union1d(np.flatnonzero(blocks.total_of(held)), _unfinite(blocks, z, force))
+    return np.union1d(np.flatnonzero(blocks.total_of(held)), unfinite(blocks, z, force))
 
 
 def _held(blocks: Blocks, mask: np.ndarray) -> np.ndarray:
@@ -237,7 +237,7 @@ def runaway_candidates(blocks: Blocks, z: np.ndarray, force: np.ndarray) -> IntA
         alive, excess, safe, undecided = runaway_statistics(blocks, z, force)
         gain = _end_gain(blocks, z, force)
         clear = safe & (excess < RUNAWAY_EXCESS * (1.0 - MARGIN)) & ~(gain < RUNAWAY_FLAT_GAIN)
-    return np.union1d(np.flatnonzero(undecided | (alive & ~clear)), _unfinite(blocks, z, force))
+    return np.union1d(np.flatnonzero(undecided | (alive & ~clear)), unfinite(blocks, z, force))
 
 
 def _runaway_force(blocks: Blocks, force: np.ndarray) -> FloatArray:

@@ -18,6 +18,7 @@ import pandas as pd
 
 from .._text import plural
 from ..campaign.campaign import Campaign
+from ..campaign.window import FitWindow
 from ..errors import RENAMED_GO_IN
 from ..outputs.files import json_safe
 from ..outputs.text import notes_block
@@ -179,8 +180,8 @@ class QualityReport:
             if len(ids) > PLATE_WINDOW_SHARE * len(plate):
                 z = min(onsets[t] for t in ids)
                 others = sink[sink["soil"] != soil]["b_m"].to_numpy(float)
-                if np.isfinite(b) and not np.isclose(others, b, rtol=1e-9, atol=0).any():
-                    items = [f"b_m={float(b)!r}:{_ceil4(z)}"]
+                if np.isfinite(b) and not np.isclose(others, b, rtol=1e-9, atol=0).any():  # type: ignore[call-overload]  # pandas-stubs: a groupby key is any scalar (here a plate size)
+                    items = [f"b_m={float(b)!r}:{_ceil4(z)}"]  # type: ignore[arg-type]  # pandas-stubs: a groupby key is any scalar (here a plate size)
                 else:  # b unknown or shared with another soil: the plate's tests by name
                     items = [f"test_id={t}:{_ceil4(z)}" for t in plate["test_id"]]
                 rows.append((soil, b, z, len(ids), "plate", None, len(plate), " ".join(items)))
@@ -193,8 +194,6 @@ class QualityReport:
     def proposed_window(self) -> FitWindow:
         """:meth:`proposed_windows` as one :class:`~soilstats.campaign.window.FitWindow`
         (``fit_sinkage(..., window=...)``; empty when nothing failed)."""
-        from ..campaign.window import FitWindow
-
         items = " ".join(self.proposed_windows()["z_max_item"]).split()
         return FitWindow.parse(z_max=items)
 
@@ -240,13 +239,13 @@ class QualityReport:
         for w in windows.itertuples():
             if w.scope == "plate":
                 notes.append(
-                    f"bearing-failure proposes z_max = {_ceil4(w.z_max_m)} m for all "
+                    f"bearing-failure proposes z_max = {_ceil4(w.z_max_m)} m for all "  # type: ignore[arg-type]  # pandas-stubs: an itertuples field is any scalar
                     f"{w.plate_tests} tests of {w.soil}, b = {w.b_m:g} m ({w.tests} of "
                     f"{w.plate_tests} failed): --z-max {w.z_max_item}"
                 )
             else:
                 notes.append(
-                    f"bearing-failure proposes z_max = {_ceil4(w.z_max_m)} m for {w.test_id} only "
+                    f"bearing-failure proposes z_max = {_ceil4(w.z_max_m)} m for {w.test_id} only "  # type: ignore[arg-type]  # pandas-stubs: an itertuples field is any scalar
                     f"({w.soil}, b = {w.b_m:g} m: {_failed(windows, w)} of {w.plate_tests} "
                     f"failed; the others keep their depth): --z-max {w.z_max_item}"
                 )

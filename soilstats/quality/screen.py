@@ -113,7 +113,7 @@ def _zero_drift(log: pd.DataFrame, ends: pd.DataFrame) -> list[QualityFlag]:
     ]
 
 
-def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
+def _findings(campaign: Campaign, tests: pd.DataFrame, mode: str, progress: bool) -> tuple:
     """(flags, sample labels to drop by table, z offsets by test) of every rule on
     ``campaign``."""
     log = campaign.tests
@@ -165,7 +165,9 @@ def _findings(campaign, tests: pd.DataFrame, mode: str, progress: bool):
     return flags, drop, offsets, phases
 
 
-def _duplicates(campaign, *, clean: bool) -> tuple[list[QualityFlag], dict[str, list[np.ndarray]]]:
+def _duplicates(
+    campaign: Campaign, *, clean: bool
+) -> tuple[list[QualityFlag], dict[str, list[np.ndarray]]]:
     """``duplicate`` flags of the copied records (:mod:`.copies`) and, when ``clean``, the
     sample labels of the copies to leave out, by table."""
     flags: list[QualityFlag] = []
@@ -193,7 +195,7 @@ def _duplicates(campaign, *, clean: bool) -> tuple[list[QualityFlag], dict[str, 
 _FINDINGS: dict[tuple, tuple] = {}
 
 
-def _fingerprint(campaign) -> str:
+def _fingerprint(campaign: Campaign) -> str:
     """A digest of everything the rules read: the log's identity columns and the samples."""
     digest = hashlib.blake2b(digest_size=16)
     for frame, columns in (
@@ -275,7 +277,7 @@ def _cleaned(
     campaign: Campaign,
     drop: dict[str, list[np.ndarray]],
     offsets: dict[str, float],
-    copies=frozenset(),
+    copies: frozenset[str] | set[str] = frozenset(),
 ) -> Campaign:
     """The campaign without the excluded samples (``drop``: labels per table) and without
     the tests that are copies of another (``copies``: their whole record is excluded, so
@@ -284,7 +286,7 @@ def _cleaned(
     def without(table: pd.DataFrame, labels: list[np.ndarray]) -> pd.DataFrame:
         if not labels:
             return table
-        return table.drop(index=table.index.intersection(np.concatenate(labels)))
+        return table.drop(index=table.index.intersection(np.concatenate(labels)))  # type: ignore[arg-type]  # pandas-stubs: an array of labels is valid
 
     sink = without(campaign.sinkage, drop["sinkage"])
     shear = without(campaign.shear, drop["shear"])

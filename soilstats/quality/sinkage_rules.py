@@ -85,7 +85,7 @@ def sinkage_findings(
     runaway = prescreen.runaway_candidates(loaded, zg, fg)
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from tqdm.auto import tqdm  # deferred: tqdm (a progress bar)
 
         bar = tqdm(
             total=len(candidates) + len(late) + len(runaway), desc="screening records", unit="test"

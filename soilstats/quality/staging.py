@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .blocks import Blocks, _unfinite
+from .blocks import Blocks, unfinite
 from .bursts import BURST_MIN_SAMPLES, BURST_WINDOW, find_bursts
 from .noise import PLATEAU_RUN
 from .phases import EXCLUDED_PHASES, Phase, RecordPhases, find_phases
@@ -168,7 +168,7 @@ def _burst_candidates(blocks: Blocks, columns: dict[str, np.ndarray]) -> np.ndar
             off = np.abs(values - trend) > SPIKE_SPAN_FRACTION * blocks.spread(span)
         keep |= blocks.total_of(off) > 0
     keep &= blocks.sizes >= BURST_MIN_SAMPLES
-    return np.union1d(np.flatnonzero(keep), _unfinite(blocks, *columns.values()))
+    return np.union1d(np.flatnonzero(keep), unfinite(blocks, *columns.values()))
 
 
 def leave_out(flags: list, drop: list, flag: QualityFlag, clean: bool) -> None:

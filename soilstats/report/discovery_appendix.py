@@ -283,7 +283,7 @@ def _power_appendix(doc: Document, result: DiscoveryResult) -> None:
     rows = []
     for p in shown:
         row: dict[str, Any] = {
-            "group": _group(p),
+            "group": group_name(p),
             "candidate": f"{p['candidate']} ({p['role']}, {p['n_tests']} tests)",
         }
         items = list(p["responses"].values())
@@ -337,7 +337,7 @@ def _columns_appendix(doc: Document, result: DiscoveryResult) -> None:
     rows: dict[tuple, dict[str, list[str]]] = {}
     for c in result.columns:
         key = (c["role"], "yes" if c.get("tested") else "no", c["reason"])
-        rows.setdefault(key, {}).setdefault(_group(c), []).append(c["column"])
+        rows.setdefault(key, {}).setdefault(group_name(c), []).append(c["column"])
     ranked = sorted(rows, key=lambda k: (order.index(k[0]) if k[0] in order else len(order), k))
     frame = pd.DataFrame(
         [
@@ -412,7 +412,7 @@ def _confounded_appendix(doc: Document, result: DiscoveryResult) -> None:
         return
     by_group: dict[str, list[dict]] = {}
     for c in result.confounded:
-        by_group.setdefault(_group(c), []).append(c)
+        by_group.setdefault(group_name(c), []).append(c)
     rows = [
         {"group": g, "cannot be told apart": text}
         for g, records in by_group.items()
@@ -450,7 +450,7 @@ def _notes_appendix(doc: Document, result: DiscoveryResult) -> None:
     doc.numbered([*untested, *result.notes] or ["No further notes."], small=True)
 
 
-def _group(record: Mapping[str, Any]) -> str:
+def group_name(record: Mapping[str, Any]) -> str:
     """A group's name: ``"kind / soil"``."""
     return f"{record['kind']} / {record['soil']}"
 

@@ -8,6 +8,7 @@ import math
 import textwrap
 from typing import Any
 
+import matplotlib as mpl
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -51,6 +52,7 @@ def _deviation_panel(ax: Any, f: Any) -> str:  # a Finding with its group
     """Each test's deviation against the cause (means per level, or a trend on a numeric
     cause of many values); returns the effect in words, for the title."""
     g, rows = f.group, f.scope_rows
+    assert g is not None  # a finding of this run carries its group (the figures read it)
     response = f.responses[0] if f.responses else "level"
     dev = g.tests[f"_dev_{response}"].to_numpy(float)[rows]
     values = candidate_values(g.tests, f.cause).to_numpy()[rows]
@@ -116,6 +118,8 @@ def _curve_panel(ax: Any, f: Any) -> str:  # a Finding with its group
         )
         ax.set_axis_off()
         return f"{name}: {gain}"
+    # a finding of this run carries its group and rows (the figures read them)
+    assert g is not None and rows is not None
     values = candidate_values(g.tests, f.cause).to_numpy()[rows]
     labels = natural_sorted({str(v) for v in values})
     if len(labels) > _CURVES:
@@ -140,11 +144,9 @@ def _curve_panel(ax: Any, f: Any) -> str:  # a Finding with its group
     return f"{name}: {gain}"
 
 
-def _findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
+def findings_figure(numbered: list[tuple[int, Finding]]) -> Figure:
     """A grid of findings, one per row: each its deviation and curve panels under a title
     that states the effect and the gain."""
-    import matplotlib as mpl
-
     per_row = 1  # two panels across the page: room for 8 pt levels and legends
     rows = math.ceil(len(numbered) / per_row)
     with mpl.rc_context(GRID_STYLE):

@@ -25,12 +25,13 @@ import numpy as np
 import pandas as pd
 
 from .._text import plural
+from ..discovery.finding import Finding
 from ..discovery.result import METHOD_NOTES, DiscoveryResult
 from ..evidence import REAL_SE, RULE
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
-from .discovery_appendix import _group, write_appendix
-from .discovery_figures import _findings_figure
+from .discovery_appendix import group_name, write_appendix
+from .discovery_figures import findings_figure
 from .document import Document, strong
 from .front import data_origin, front_page
 from .labels import natural_sorted
@@ -38,7 +39,9 @@ from .methods import write_equations
 from .parameters import EQ4_NOTE, fit_table
 
 if TYPE_CHECKING:
+
     from ..discovery.crossval import Gain
+    from ..discovery.selection import CombinedModel
 
 __all__ = ["write_report"]
 
@@ -54,7 +57,7 @@ _SIGMA_NOTE = (
 )
 
 
-def _shows_in(f) -> str:
+def _shows_in(f: Finding) -> str:
     """The responses in physical words: level → stiffness (or shear strength), shape → n."""
     words = {
         "level": "stiffness" if f.kind == "sinkage" else "shear strength",
@@ -64,14 +67,14 @@ def _shows_in(f) -> str:
     return ", ".join(words.get(r, r) for r in f.responses)
 
 
-def _gain_words(g) -> str:
+def _gain_words(g: Gain) -> str:
     return (
         f"{g.relative:+.1%} in held-out error ({g.base:.4f} → {g.extended:.4f}, "
         f"{g.scheme} cross-validation, {g.folds} folds, {g.n_tests} tests; {g.text()})"
     )
 
 
-def _schemes(f) -> list[tuple[str, Gain]]:
+def _schemes(f: Finding) -> list[tuple[str, Gain]]:
     """The held-out gains measured for a finding's extension: (scheme in words, Gain)."""
     out = [("tests held out", f.gain)]
     if f.gain_search is not None:
@@ -81,7 +84,7 @@ def _schemes(f) -> list[tuple[str, Gain]]:
     return [(name, g) for name, g in out if g is not None and np.isfinite(g.relative)]
 
 
-def _worst_scheme(f) -> tuple[str, Gain] | None:
+def _worst_scheme(f: Finding) -> tuple[str, Gain] | None:
     """The held-out scheme in which a kept extension does worst, where it is another than the
     one that kept it (tests held out, the cause fixed)."""
     schemes = _schemes(f)
@@ -91,11 +94,11 @@ def _worst_scheme(f) -> tuple[str, Gain] | None:
     return worst if worst[1].relative < schemes[0][1].relative else None
 
 
-def _gain_cell_page1(g) -> str:
+def _gain_cell_page1(g: Gain) -> str:
     return f"{g.relative:+.1%}; {g.text()}"
 
 
-def _all_groups_words(g) -> str:
+def _all_groups_words(g: Gain) -> str:
     return (
         f"All extended groups together: {g.base:.4f} → {g.extended:.4f} "
         f"({g.relative:+.1%}, {g.n_tests} held-out tests)."
@@ -105,7 +108,7 @@ def _all_groups_words(g) -> str:
 # -- page 1 ---------------------------------------------------------------------------------
 
 
-def _words_count(result) -> str:
+def _words_count(result: DiscoveryResult) -> str:
     """How many kept extensions' gains are real, and how many weak (soilstats.evidence)."""
     words = [
         f.gain.verdict for f in result.findings if f.extension is not None and f.gain is not None
@@ -116,7 +119,7 @@ def _words_count(result) -> str:
     )
 
 
-def _conclusion(result, all_groups) -> list:
+def _conclusion(result: DiscoveryResult, all_groups: Gain | None) -> list:
     """Page 1's conclusion, one paragraph (a list of runs) each: the causes found or the
     silence, where kept extensions fail out of sample, the combined model, the parameters
     that disagree, and everything else the reader should know."""
@@ -133,7 +136,7 @@ def _conclusion(result, all_groups) -> list:
     return out
 
 
-def _causes_paragraphs(result) -> list:
+def _causes_paragraphs(result: DiscoveryResult) -> list:
     """No cause found (and what the silence does not prove), or the causes found with the
     extensions kept, then where a kept extension fails out of sample."""
     out: list = []
@@ -176,7 +179,7 @@ def _causes_paragraphs(result) -> list:
     return out
 
 
-def _combined_model_paragraph(result, all_groups) -> list | None:
+def _combined_model_paragraph(result: DiscoveryResult, all_groups: Gain | None) -> list | None:
     """The extensions of each group's combined model with their held-out gain, and all
     extended groups together (None: no group's model is extended)."""
     extended = [m for m in result.models if m.extensions and m.gain is not None]
@@ -197,7 +200,7 @@ def _combined_model_paragraph(result, all_groups) -> list | None:
     return parts
 
 
-def _disagreement_paragraph(result) -> list | None:
+def _disagreement_paragraph(result: DiscoveryResult) -> list | None:
     """The parameters that disagree between a finding's fit and the combined model (None:
     none do)."""
     disagree = [
@@ -212,7 +215,7 @@ def _disagreement_paragraph(result) -> list | None:
     ]
 
 
-def _also_paragraph(result) -> list | None:
+def _also_paragraph(result: DiscoveryResult) -> list | None:
     """ "Also": the caveats, physical red flags, artefacts, screening codes and untested
     groups, counted (None: there are none)."""
     said = []
@@ -240,11 +243,11 @@ def _also_paragraph(result) -> list | None:
     return [strong("Also: "), "; ".join(said) + "."]
 
 
-def _findings_table(doc: Document, result) -> None:
+def _findings_table(doc: Document, result: DiscoveryResult) -> None:
     rows = [
         {
             "#": f"[{i}]",
-            "group": _group({"kind": f.kind, "soil": f.soil}),
+            "group": group_name({"kind": f.kind, "soil": f.soil}),
             "cause": f.cause
             + (f" (confounded with {', '.join(f.confounded_with)})" if f.confounded_with else ""),
             "shows in": _shows_in(f),
@@ -271,7 +274,7 @@ def _findings_table(doc: Document, result) -> None:
     )
 
 
-def _worst_cell(f) -> str:
+def _worst_cell(f: Finding) -> str:
     worst = _worst_scheme(f)
     if worst is None:
         return "–" if f.extension is None else "no other scheme measured"
@@ -279,7 +282,7 @@ def _worst_cell(f) -> str:
     return f"{name}: {_gain_cell_page1(g)}"
 
 
-def _failures_out_of_sample(result) -> list[str]:
+def _failures_out_of_sample(result: DiscoveryResult) -> list[str]:
     """Sentences for page 1: kept extensions that predict worse, or gain nothing real, in
     another held-out scheme than the one that kept them."""
     out = []
@@ -288,8 +291,9 @@ def _failures_out_of_sample(result) -> list[str]:
         if worst is None or worst[1].verdict == "real":
             continue
         name, g = worst
+        assert f.gain is not None  # the other schemes are measured after this one
         out.append(
-            f"{_group({'kind': f.kind, 'soil': f.soil})} {f.extension}: {f.gain.relative:+.1%} "
+            f"{group_name({'kind': f.kind, 'soil': f.soil})} {f.extension}: {f.gain.relative:+.1%} "
             f"with tests held out but {g.relative:+.1%} with {name} ({g.verdict})"
         )
     return out
@@ -298,7 +302,7 @@ def _failures_out_of_sample(result) -> list[str]:
 # -- the findings' figures ------------------------------------------------------------------
 
 
-def _findings_section(doc: Document, result) -> None:
+def _findings_section(doc: Document, result: DiscoveryResult) -> None:
     doc.heading("Findings")
     if not result.findings:
         doc.paragraph(result.no_finding_text())
@@ -313,10 +317,10 @@ def _findings_section(doc: Document, result) -> None:
                 else f"Findings {chunk[0][0]}–{chunk[-1][0]}"
             )
             if k:
-                doc.figure(_findings_figure(chunk), f"{which}, drawn as in the figure before.")
+                doc.figure(findings_figure(chunk), f"{which}, drawn as in the figure before.")
                 continue
             doc.figure(
-                _findings_figure(chunk),
+                findings_figure(chunk),
                 f"{which}: each title states the effect (from the level means: a factor on "
                 "pressure, strength or K, a difference in n) and the held-out error of the base "
                 "model and of the extension (tests left out, the cause fixed). Left: each test's "
@@ -340,7 +344,7 @@ def _findings_section(doc: Document, result) -> None:
 # -- combined model, red flags --------------------------------------------------------------
 
 
-def _model_section(doc: Document, result, all_groups) -> None:
+def _model_section(doc: Document, result: DiscoveryResult, all_groups: Gain | None) -> None:
     doc.heading("Combined model")
     if not result.models:
         doc.paragraph("No kept extension, so no combined model: the base models stand.")
@@ -360,7 +364,7 @@ def _model_section(doc: Document, result, all_groups) -> None:
         doc.paragraph(_all_groups_words(all_groups))
 
 
-def _model_table(doc: Document, m) -> None:
+def _model_table(doc: Document, m: CombinedModel) -> None:
     """One combined model: its parameters, the caption naming its extensions and gain."""
     if not m.extensions:
         doc.paragraph(
@@ -378,13 +382,13 @@ def _model_table(doc: Document, m) -> None:
     fit_table(doc, m.fit, caption, m.test_level, units="name", widths=["1fr", "auto"])
 
 
-def _problems_section(doc: Document, result) -> None:
+def _problems_section(doc: Document, result: DiscoveryResult) -> None:
     doc.heading("Red flags and data quality")
     if result.flags:
         doc.table(
             pd.DataFrame(
                 [
-                    {"group": _group(f), **{k: f[k] for k in ("scope", "code", "message")}}
+                    {"group": group_name(f), **{k: f[k] for k in ("scope", "code", "message")}}
                     for f in result.flags
                 ]
             ),
@@ -400,7 +404,7 @@ def _problems_section(doc: Document, result) -> None:
             pd.DataFrame(
                 [
                     {
-                        "group": _group(a),
+                        "group": group_name(a),
                         "candidate": a["candidate"],
                         "p (Holm)": a["p_adjusted"],
                         "reason": a["reason"],

@@ -21,10 +21,12 @@ from __future__ import annotations
 import datetime as _dt
 import io
 import re
+import subprocess
 import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from math import isfinite, isnan
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -259,7 +261,7 @@ class Document:
         wherever its value changes (``sinkage / soil01``, then that group's rows); ``widths``
         then omits it.
         """
-        import pandas as pd
+        import pandas as pd  # deferred: pandas (a table)
 
         labels = labels or {}
         formats = formats or {}
@@ -355,7 +357,7 @@ class Document:
             If Typst rejects the document (a bug in the report, never the user's data:
             data enters only as string literals); the message carries Typst's diagnostic.
         """
-        import typst
+        import typst  # deferred: typst (a PDF)
 
         path = Path(path)
         with tempfile.TemporaryDirectory(prefix="soilstats-report-") as tmp:
@@ -376,24 +378,22 @@ class Document:
 
 def format_cell(value: object, spec: str | None = None) -> str:
     """One table cell as text: ``spec`` if given, floats to 4 significant digits, NaN as –."""
-    import math as _m
-
-    import numpy as np
+    import numpy as np  # deferred: numpy (a table cell)
 
     if value is None:
         return "–"
     if isinstance(value, float | np.floating):
-        if not _m.isfinite(value):
-            return "–" if _m.isnan(value) else str(value)
+        if not isfinite(value):
+            return "–" if isnan(value) else str(value)
         return format(value, spec or ".4g")
     if isinstance(value, bool | np.bool_):
         return "yes" if value else "no"
     if spec and isinstance(value, int | np.integer):
         return format(value, spec)
     try:
-        import pandas as pd
+        import pandas as pd  # deferred: pandas (a table cell)
 
-        if pd.isna(value):
+        if pd.isna(value):  # type: ignore[call-overload]  # pandas-stubs: isna of any object is valid
             return "–"
     except (TypeError, ValueError):
         pass
@@ -406,8 +406,6 @@ def render_page(pdf: str | Path, stem: str | Path, *, page: int = 1, dpi: int = 
     Raises FileNotFoundError when pdftoppm (Debian: poppler-utils) is not installed and
     subprocess.CalledProcessError when it cannot render the page.
     """
-    import subprocess
-
     command = ["pdftoppm", "-r", str(dpi), "-png", "-f", str(page), "-l", str(page)]
     subprocess.run([*command, "-singlefile", str(pdf), str(stem)], check=True, capture_output=True)
     return Path(f"{stem}.png")
@@ -433,7 +431,7 @@ def plain_texts(fig: Figure) -> None:
     """Print every text of ``fig`` not marked by :func:`math_text` as written: data labels
     (soil names, levels, test ids) never go through mathtext, so a ``$`` is a ``$`` and a
     ``$x^{`` in a soil name cannot stop a report with a parser error."""
-    from matplotlib.text import Text
+    from matplotlib.text import Text  # deferred: matplotlib
 
     for text in fig.findobj(Text):
         if not getattr(text, _MATH, False):
@@ -443,7 +441,7 @@ def plain_texts(fig: Figure) -> None:
 def tight_layout(fig: Figure) -> None:
     """``fig.tight_layout()`` with every data label plain (:func:`plain_texts`): laying out
     measures the texts, and measuring parses them."""
-    import matplotlib as mpl
+    import matplotlib as mpl  # deferred: matplotlib
 
     plain_texts(fig)
     plain_log_ticks(fig)
@@ -467,7 +465,7 @@ def _plain_math(label: str) -> str:
 def plain_log_ticks(fig: Figure) -> None:
     """Every log axis of ``fig`` labelled in plain text (10⁻¹, 10², 2×10¹): matplotlib writes
     its log tick labels in mathtext, which the report's figures print as written."""
-    from matplotlib.ticker import Formatter, LogFormatter
+    from matplotlib.ticker import Formatter, LogFormatter  # deferred: matplotlib
 
     class PlainLog(Formatter):
         """The log formatter's own labels (and its choice of minor ticks to label), plain."""
@@ -503,7 +501,7 @@ def figure_svg(fig: Figure) -> bytes:
     set by Typst in matplotlib's own DejaVu fonts (:func:`figure_fonts`): the PDF carries it
     as real text, so a reader can search it and a test can read its sizes and boxes
     (issue #47, item 5), where paths hid both."""
-    import matplotlib as mpl
+    import matplotlib as mpl  # deferred: matplotlib
 
     plain_texts(fig)
     plain_log_ticks(fig)
@@ -522,7 +520,7 @@ def figure_svg(fig: Figure) -> bytes:
 
 
 def _close(fig: Figure) -> None:
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred: matplotlib
 
     plt.close(fig)
 

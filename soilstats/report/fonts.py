@@ -16,7 +16,7 @@ def figure_fonts() -> list[str]:
     """The folder of the fonts matplotlib ships (DejaVu, STIX, Computer Modern): the fonts a
     figure's SVG text names, given to Typst (never the system's fonts: the same bytes on any
     machine)."""
-    import matplotlib as mpl
+    import matplotlib as mpl  # deferred: matplotlib
 
     return [os.path.join(mpl.get_data_path(), "fonts", "ttf")]
 
@@ -25,8 +25,8 @@ def shipped_fonts_only(fig: Figure) -> None:
     """Text whose font is not one matplotlib ships (a user's matplotlibrc or theme naming a
     system font) is set in DejaVu Sans: Typst sees only :func:`figure_fonts`, and a font it
     cannot find would be drawn in a substitute with other metrics than the layout's."""
-    from matplotlib import font_manager
-    from matplotlib.text import Text
+    from matplotlib import font_manager  # deferred: matplotlib
+    from matplotlib.text import Text  # deferred: matplotlib
 
     shipped = os.path.realpath(figure_fonts()[0])
     for text in fig.findobj(Text):

@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from ..campaign.io import resolve
 from .document import Document, Markup, strong
 
 __all__ = ["data_origin", "front_page"]
@@ -21,8 +22,6 @@ def data_origin(source: str) -> str:
     if not source or source == "<memory>":
         return "data passed in memory (origin not recorded)"
     try:
-        from ..campaign.io import resolve
-
         folder, _ = resolve(source.removeprefix("bundled:"))
     except Exception:  # a source that no longer exists: say so rather than guess
         return f"{source} (origin not checked: the folder is no longer there)"

@@ -14,9 +14,10 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pandas as pd
 from matplotlib import colormaps
 from matplotlib.figure import Figure
 
@@ -30,8 +31,11 @@ from .methods import write_equations
 from .parameters import EQ4_NOTE, condition_table
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
     from ..campaign.campaign import Campaign
     from ..identification.conditions import ConditionFits
+    from ..identification.result import CampaignFit
     from ..outputs.provenance import Provenance
 
 __all__ = ["write_report"]
@@ -91,7 +95,7 @@ def _conclusion(records: list[dict], failures: int) -> list:
     return out
 
 
-def _soil_figure(soil: str, pairs: list):
+def _soil_figure(soil: str, pairs: list) -> Figure:
     """One figure per soil: a panel per kind (sinkage, shear) with the measured samples as
     dots under every condition's fitted curve and its band (eval_uncertainty: the test-level
     band where the fit rests on five tests or more), over the depth or stress its data span;
@@ -145,7 +149,9 @@ def _soil_figure(soil: str, pairs: list):
 _MAX_POINTS = 400
 
 
-def _measured_points(ax, fit, x, scale: float, colour) -> None:
+def _measured_points(
+    ax: Axes, fit: CampaignFit, x: np.ndarray, scale: float, colour: Any
+) -> None:
     """The samples the fit was made on, as small dots under its curve: for a plate-size
     model only those of the plate the curve is drawn at."""
     if fit.x_data is None or fit.y_data is None:
@@ -169,7 +175,7 @@ def _measured_points(ax, fit, x, scale: float, colour) -> None:
     )
 
 
-def _curve_inputs(kind: str, fit, *, every_plate: bool = False) -> list[tuple]:
+def _curve_inputs(kind: str, fit: CampaignFit, *, every_plate: bool = False) -> list[tuple]:
     """[(x for ``fit.eval``, the grid plotted, its scale to display units, axis label)]: one
     curve, or for a plate-size model with ``every_plate`` one per plate width (at most four)."""
     tests = fit.tests
@@ -283,8 +289,6 @@ def _flags_and_notes(doc: Document, records: list[dict], failures: list, notes: 
     """One appendix table of every health flag and one of every set's notes: a note two
     sets or more share is printed once, numbered, and referred to by its number; the method,
     screening and window are said once where every set shares them."""
-    import pandas as pd
-
     flags = [
         {"set": f"{d['kind']} / {_where(d)}", "code": h["code"], "message": h["message"]}
         for d in records
@@ -366,7 +370,7 @@ def _window_text(window: dict | None) -> str:
     return "; ".join(rules or ["none"]) + beyond
 
 
-def _excluded_text(entry) -> str:
+def _excluded_text(entry: object) -> str:
     """``method1-test3 unload-reload: 60 samples (rows 6291–6350)`` from an identify.json
     ``excluded`` entry (test, screening code, data-file rows)."""
     if not isinstance(entry, dict):

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from .._text import natural_key
+from ..models import MODELS
 from .document import Markup, esc, math
 
 __all__ = [
@@ -28,8 +29,6 @@ _SYMBOLS = {"epsilon": "epsilon"}
 
 def _symbol(name: str) -> str | None:
     """Typst math of a parameter: the first registered model to label it says how."""
-    from ..models import MODELS
-
     for model in MODELS.values():
         label = model.label_of.get(name)
         if label is not None:

@@ -106,7 +106,7 @@ def fit_rows(
     after it where the test-level σ exceeds Eq. 4's by more than 2× (``test-scatter``)."""
     if fit is None:
         return []
-    from ..discovery.testlevel import quoted_sigma
+    from ..discovery.testlevel import quoted_sigma  # deferred: statsmodels (discovery's)
 
     stderr, eq4, levels = quoted_sigma(fit, level)
     hits = np.zeros(len(levels), bool) if level is None else level.flagged()

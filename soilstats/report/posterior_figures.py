@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
-from matplotlib import rc_context
+from matplotlib import colormaps, rc_context
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
@@ -41,6 +41,8 @@ from ..models import MODELS, Model, get_model
 from .document import FIGURE_STYLE, math_text
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
     from ..bayes.result import PosteriorResult
 
 __all__ = [
@@ -99,7 +101,7 @@ def _caption_name(name: str) -> str:
     return PARAMETERS[name][1] if name in PARAMETERS else name
 
 
-def _units_sentence(names, units: dict) -> str:
+def _units_sentence(names: Iterable[str], units: dict) -> str:
     parts = []
     for n in names:
         unit = PARAMETERS[n][3] if n in PARAMETERS else units.get(n, "")
@@ -115,7 +117,7 @@ def _scale(name: str) -> float:
 
 
 @dataclass(frozen=True)
-class _Posterior:
+class FigurePosterior:
     """What the figures need from a result or an InferenceData."""
 
     # arviz.InferenceData: Any, as its groups (posterior, observed_data, …) are attributes
@@ -135,24 +137,25 @@ class _Posterior:
         return self.model.output.startswith("tau")
 
 
-def _posterior(obj) -> _Posterior:
+def figure_posterior(obj: Any) -> FigurePosterior:
+    """What the figures read of a PosteriorResult (or of its InferenceData)."""
     idata = getattr(obj, "idata", obj)
     attrs = idata.posterior.attrs
     model = get_model(getattr(obj, "model_name", None) or attrs["model"])
     kind = getattr(obj, "kind", None) or attrs.get("kind", "pooled")
     names = tuple(getattr(obj, "param_names", None) or model.param_names)
     units = dict(getattr(obj, "units", None) or model.unit_of)
-    return _Posterior(idata, model, kind, names, units)
+    return FigurePosterior(idata, model, kind, names, units)
 
 
-def _shown(posterior, most: int) -> tuple[_Posterior, tuple[str, ...], str]:
+def _shown(posterior: Any, most: int) -> tuple[FigurePosterior, tuple[str, ...], str]:
     """(the posterior, the parameters a figure shows, the caption's note when some are left
     out): the first ``most`` of the model's parameters (:func:`_capped`)."""
-    post = _posterior(posterior)
+    post = figure_posterior(posterior)
     return post, *_capped(post.names, most)
 
 
-def _capped(names, most: int) -> tuple[tuple[str, ...], str]:
+def _capped(names: Iterable[str], most: int) -> tuple[tuple[str, ...], str]:
     names = tuple(names)
     if most < 1:
         raise InputError(f"the most parameters to show must be at least 1, got {most}")
@@ -161,7 +164,7 @@ def _capped(names, most: int) -> tuple[tuple[str, ...], str]:
     return names[:most], f" Only the first {most} of the {len(names)} parameters are shown."
 
 
-def _new_preparation_note(post: _Posterior) -> str:
+def _new_preparation_note(post: FigurePosterior) -> str:
     if post.kind != "population":
         return ""
     return (
@@ -253,7 +256,7 @@ def spans_decades(values: np.ndarray) -> bool:
     return bool(hi / lo >= DECADES_RATIO)
 
 
-def _kde(values: np.ndarray, log: bool, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+def _kde(values: np.ndarray, log: bool, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """Kernel density of ``values`` (for a log axis: of their log10, per decade, returned
     at the values themselves)."""
     if not log:
@@ -285,13 +288,11 @@ def _signed(value: float) -> str:
     return f"{value:+.2f}".replace("-", "\u2212")
 
 
-def _chain_colour(i: int, n: int):
-    from matplotlib import colormaps
-
+def _chain_colour(i: int, n: int) -> tuple[float, float, float, float]:
     return colormaps["viridis"](0.1 + 0.8 * i / max(n - 1, 1))
 
 
-def _diagnostics(data, names) -> str:
+def _diagnostics(data: Any, names: Iterable[str]) -> str:  # data: an xarray Dataset
     ds = data[list(names)]
     rhat = az.rhat(ds)
     ess = az.ess(ds, method="bulk")
@@ -365,7 +366,7 @@ def pair_figure(
     return fig, _pair_caption(post, names, values, corr, shown.size, step, capped)
 
 
-def _marginal_panel(ax, x: np.ndarray, log: bool) -> None:
+def _marginal_panel(ax: Axes, x: np.ndarray, log: bool) -> None:
     """A diagonal panel of :func:`pair_figure`: the marginal density of one parameter's
     draws ``x`` (per decade on a log axis), without a y axis."""
     grid, pdf = _kde(x, log)
@@ -375,7 +376,7 @@ def _marginal_panel(ax, x: np.ndarray, log: bool) -> None:
     ax.spines["left"].set_visible(False)
 
 
-def _joint_panel(ax, x: np.ndarray, y: np.ndarray, r: float, log_y: bool) -> None:
+def _joint_panel(ax: Axes, x: np.ndarray, y: np.ndarray, r: float, log_y: bool) -> None:
     """A panel below the diagonal of :func:`pair_figure`: the shown joint draws (``x``,
     ``y``) as points, Pearson's ``r`` of all draws printed in its corner, and the y axis
     (logarithmic when ``log_y``)."""
@@ -397,7 +398,7 @@ def _joint_panel(ax, x: np.ndarray, y: np.ndarray, r: float, log_y: bool) -> Non
 
 
 def _pair_caption(
-    post: _Posterior,
+    post: FigurePosterior,
     names: tuple[str, ...],
     values: dict[str, np.ndarray],
     corr: np.ndarray,

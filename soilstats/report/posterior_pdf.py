@@ -34,7 +34,9 @@ from .posterior_predictive import predictive_figure
 __all__ = ["write_report"]
 
 
-def _estimates(res: PosteriorResult, prob: float, handed_out=None) -> list:
+def _estimates(
+    res: PosteriorResult, prob: float, handed_out: pd.DataFrame | None = None
+) -> list:
     table = res.summary_table(prob, handed_out)
     lo, hi = table.columns[2], table.columns[3]
     parts: list = []
@@ -55,7 +57,7 @@ def _estimates(res: PosteriorResult, prob: float, handed_out=None) -> list:
             continue
         parts += [
             parameter_symbol(name),
-            f" = {format_value(row['mean'], row['sd'])}{unit} "
+            f" = {format_value(row['mean'], row['sd'])}{unit} "  # type: ignore[arg-type]  # pandas-stubs: .loc[name] may be a frame (one row per parameter)
             f"({prob:.0%} interval {row[lo]:.4g} to {row[hi]:.4g}); ",
         ]
     return parts
@@ -65,7 +67,7 @@ def _estimates(res: PosteriorResult, prob: float, handed_out=None) -> list:
 DECADES = 100.0
 
 
-def _caveats(results, record: dict) -> list[str]:
+def _caveats(results: Sequence[PosteriorResult], record: dict) -> list[str]:
     """What keeps "the draws pass every check" from being true, though nothing was refused:
     flagged start fits, warnings, repaired simulator constraints."""
     out = []
@@ -87,7 +89,7 @@ def _caveats(results, record: dict) -> list[str]:
     return out
 
 
-def _verdict(results, record: dict) -> list:
+def _verdict(results: Sequence[PosteriorResult], record: dict) -> list:
     """The one sentence on whether the draws can be used; "pass every check" only when
     every check passed (support, convergence, the start fits' health, warnings, and the
     simulator's constraints unrepaired)."""
@@ -145,7 +147,12 @@ def _simulator_lines(record: dict) -> list:
     return out
 
 
-def _conclusion(results, record: dict, prob: float, handed_out=None) -> list:
+def _conclusion(
+    results: Sequence[PosteriorResult],
+    record: dict,
+    prob: float,
+    handed_out: pd.DataFrame | None = None,
+) -> list:
     out: list = []
     for res in results:
         status = (
@@ -204,8 +211,6 @@ def _conclusion(results, record: dict, prob: float, handed_out=None) -> list:
 def _simulator_section(doc: Document, sim: dict) -> None:
     """Every column's unit and source, SCM's constraints as read in Chrono's source with the
     sets that broke each, the stated inputs and the notes (all of the export's record)."""
-    import pandas as pd
-
     doc.heading(f"Simulator export: {sim.get('simulator')}")
     doc.paragraph(
         f"{sim.get('draws')} parameter sets, one per draw handed out, for {sim.get('call')}. "
@@ -247,7 +252,9 @@ def _simulator_section(doc: Document, sim: dict) -> None:
         doc.numbered(sim["notes"])
 
 
-def _diagnostics_table(doc: Document, res: PosteriorResult, prob: float, handed_out) -> None:
+def _diagnostics_table(
+    doc: Document, res: PosteriorResult, prob: float, handed_out: pd.DataFrame | None
+) -> None:
     table = res.summary_table(prob, handed_out).reset_index(names="quantity")
     over = (
         f"; mean, sd and interval of {', '.join(res.param_names)} over the draws handed out "
@@ -404,7 +411,7 @@ def _support_rows(support: dict) -> list[tuple[str, str]]:
     return rows
 
 
-def _support_value(value) -> str:
+def _support_value(value: object) -> str:
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, float):

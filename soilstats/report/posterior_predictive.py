@@ -21,7 +21,7 @@ from ..bayes.predictive import input_name
 from ..campaign.index import grouped_by_code
 from ..errors import InputError
 from .document import FIGURE_STYLE, math_text
-from .posterior_figures import FIGSIZE, _Posterior, _posterior
+from .posterior_figures import FIGSIZE, FigurePosterior, figure_posterior
 
 if TYPE_CHECKING:
     from ..bayes.result import PosteriorResult
@@ -86,7 +86,7 @@ def predictive_figure(
         raise InputError(f"prob must be in (0, 1), got {prob!r}")
     if max_panels < 1 or max_tests < 1:
         raise InputError("max_panels and max_tests must be at least 1")
-    post = _posterior(posterior)
+    post = figure_posterior(posterior)
     measured = _measured(post)
     xname, xlabel, ylabel, xs, ys = _CURVES[post.shear]
     gname, gwords, gtitle, gs = _PANELS[post.shear]
@@ -239,7 +239,7 @@ def _same(a: float, b: float) -> bool:
     return (np.isnan(a) and np.isnan(b)) or a == b
 
 
-def _measured(post: _Posterior) -> Any:
+def _measured(post: FigurePosterior) -> Any:
     """The measured curves the predictive check draws: ``constant_data`` of a population
     posterior, ``observed_data`` of a pooled one."""
     idata = post.idata
@@ -259,7 +259,7 @@ def _measured(post: _Posterior) -> Any:
 
 
 def _band(
-    post: _Posterior, measured: Any, prob: float, draws: int, keep: np.ndarray
+    post: FigurePosterior, measured: Any, prob: float, draws: int, keep: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, str]:
     """Lower and upper band at the samples ``keep`` (NaN elsewhere), and how the band was
     made."""
@@ -295,7 +295,7 @@ def _band(
 
 
 def _predictive_caption(
-    post: _Posterior,
+    post: FigurePosterior,
     prob: float,
     band_words: str,
     counts: tuple[int, int, int, int],

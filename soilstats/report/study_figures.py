@@ -22,6 +22,11 @@ from .document import tight_layout
 from .labels import column_label, natural_key, natural_sorted
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    import pandas as pd
+    from matplotlib.figure import Figure
+
     from ..campaign.campaign import Campaign
     from ..study.result import StudyResult
 
@@ -30,7 +35,7 @@ __all__ = ["FIGURES", "make_figures"]
 _SIZE = (6.5, 4.2)  # the text width of an A4 page, so fonts print at their size
 
 
-def _panels(n: int):
+def _panels(n: int) -> tuple[Figure, np.ndarray]:
     fig, axes = plt.subplots(1, n, figsize=_SIZE, squeeze=False)
     return fig, axes[0]
 
@@ -70,7 +75,7 @@ def curves(result: StudyResult, campaign: Campaign) -> plt.Figure:
 
 
 @contextlib.contextmanager
-def _fixed_global_seed(seed: int):
+def _fixed_global_seed(seed: int) -> Iterator[None]:
     """Seed numpy's global RNG for a display-only draw, then restore the caller's state."""
     state = np.random.get_state()  # noqa: NPY002 (seaborn reads the legacy global RNG)
     np.random.seed(seed)  # noqa: NPY002
@@ -163,7 +168,7 @@ def relative(result: StudyResult, campaign: Campaign | None = None) -> plt.Figur
     return fig
 
 
-def _spread(g) -> float:
+def _spread(g: pd.DataFrame) -> float:
     """The largest ratio of one soil's pooled values across conditions (≥ 1; inf where a
     value is zero or the sign changes)."""
     out = 1.0
@@ -273,7 +278,7 @@ def caption(name: str, result: StudyResult) -> str:
     }[name]
 
 
-def _why_no_effect(result) -> str:
+def _why_no_effect(result: StudyResult) -> str:
     moved = moves_without_effect(result)
     if not moved:
         return ""

@@ -27,6 +27,7 @@ from .study_figures import make_figures
 
 if TYPE_CHECKING:
     from ..campaign.campaign import Campaign
+    from ..study.spec import StudySpec
 
 __all__ = ["write_report"]
 
@@ -38,7 +39,7 @@ _VERDICT_WORDS = {
 }
 
 
-def _response_label(spec, name: str) -> str:
+def _response_label(spec: StudySpec, name: str) -> str:
     for r in spec.responses:
         if r.name == name:
             return r.label
@@ -47,11 +48,11 @@ def _response_label(spec, name: str) -> str:
     )
 
 
-def _responses_text(spec) -> str:
+def _responses_text(spec: StudySpec) -> str:
     return ", ".join(r.label for r in spec.responses) or "the Mohr–Coulomb line: c and φ"
 
 
-def _margin_text(spec, name: str) -> str:
+def _margin_text(spec: StudySpec, name: str) -> str:
     for r in spec.responses:
         if r.name == name and r.margin is not None:
             if r.margin_kind == "relative":
@@ -60,7 +61,7 @@ def _margin_text(spec, name: str) -> str:
     return ""
 
 
-def _size_text(row, spec) -> str:
+def _size_text(row: pd.Series, spec: StudySpec) -> str:
     """The largest difference between two levels in physical words."""
     d = row.get("largest_difference")
     if d is None or not isinstance(d, int | float) or not math.isfinite(d):
@@ -80,7 +81,7 @@ def _size_text(row, spec) -> str:
     return size
 
 
-def _conclusion(result) -> list[list]:
+def _conclusion(result: StudyResult) -> list[list]:
     spec = result.spec
     out: list[list] = []
     eff = result.effects
@@ -116,7 +117,7 @@ def _conclusion(result) -> list[list]:
     return out
 
 
-def _campaign_design(result) -> str:
+def _campaign_design(result: StudyResult) -> str:
     """The design of the tests this study analysed, read from them (never the paper's): the
     soils, the factor's levels with their test counts in natural order, and the blocks."""
     spec, tests = result.spec, result.per_test
@@ -147,7 +148,7 @@ def _campaign_design(result) -> str:
     )
 
 
-def _methods(doc: Document, result) -> None:
+def _methods(doc: Document, result: StudyResult) -> None:
     spec = result.spec
     doc.heading("Methods")
     doc.paragraph(_campaign_design(result))
@@ -185,7 +186,7 @@ def _methods(doc: Document, result) -> None:
     )
 
 
-def _effects_table(doc: Document, result) -> None:
+def _effects_table(doc: Document, result: StudyResult) -> None:
     spec = result.spec
     eff = result.effects
     doc.heading("Verdicts")
@@ -239,7 +240,7 @@ def _effects_table(doc: Document, result) -> None:
     doc.note("Tests: ", "; ".join(tests), ".")
 
 
-def _parameter_tables(doc: Document, result) -> None:
+def _parameter_tables(doc: Document, result: StudyResult) -> None:
     params = result.parameters
     doc.heading("Identified parameters per condition")
     if params.empty:
@@ -276,7 +277,7 @@ def _parameter_tables(doc: Document, result) -> None:
         )
 
 
-def _anova_tables(doc: Document, result) -> None:
+def _anova_tables(doc: Document, result: StudyResult) -> None:
     spec = result.spec
     doc.heading("ANCOVA model comparisons" if spec.kind == "shear" else "ANOVA tables")
     if result.anova.empty:
@@ -320,7 +321,7 @@ def _anova_tables(doc: Document, result) -> None:
         )
 
 
-def _pairs_and_criteria(doc: Document, result) -> None:
+def _pairs_and_criteria(doc: Document, result: StudyResult) -> None:
     spec = result.spec
     pairs = result.reference_pairs()
     if not pairs.empty:

@@ -194,8 +194,8 @@ def calibration_sections(doc: Document, report: CalibrationReport) -> None:
     priors = {p.name: p for p in cal.layout.inputs}
     rows = []
     for r in table.itertuples():
-        key = {"c": "c_kPa", "K": "log_K", "datum": "datum_mm"}.get(r.name, r.name)
-        prior = priors.get(key)
+        key = {"c": "c_kPa", "K": "log_K", "datum": "datum_mm"}.get(r.name, r.name)  # type: ignore[arg-type, misc]  # pandas-stubs: an itertuples field is any scalar
+        prior = priors.get(key)  # type: ignore[arg-type]  # pandas-stubs: as above (a parameter name)
         rows.append(
             [
                 r.name,

@@ -15,8 +15,9 @@ numbers.  Object API only (no pyplot state), fonts of 8 pt and more, sinkage in 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, Literal, cast
 
+import matplotlib as mpl
 import numpy as np
 from matplotlib import rc_context
 from matplotlib.figure import Figure
@@ -24,7 +25,10 @@ from matplotlib.figure import Figure
 from .document import FIGURE_STYLE
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     import pandas as pd
+    from matplotlib.axes import Axes
     from matplotlib.typing import RcKeyType
 
     from ..discovery.crossval import Gain
@@ -44,11 +48,13 @@ _STYLE: dict[RcKeyType, Any] = {**FIGURE_STYLE, "figure.titlesize": 9.5}
 BAND, MEASURED, EXTENDED = "#4c72b0", "#111111", "#dd8452"
 
 
-def _wheels(result) -> list[str]:
+def _wheels(result: WheelValidation) -> list[str]:
     return sorted(result.runs["wheel"].unique())
 
 
-def _panels(n: int, figsize=FIGSIZE, sharey=True):
+def _panels(
+    n: int, figsize: tuple[float, float] = FIGSIZE, sharey: bool = True
+) -> tuple[Figure, np.ndarray]:
     fig = Figure(figsize=figsize, layout="constrained")
     axes = fig.subplots(1, n, squeeze=False, sharey=sharey)[0]
     return fig, axes
@@ -60,7 +66,15 @@ def _jitter(frame, width=0.025):
     return frame["slip"].to_numpy() + width * (rank - rank.max() / 2 if rank.size else 0)
 
 
-def _band(ax, x, sub, quantity: str, unit: str, scale: float, what: str = "") -> None:
+def _band(
+    ax: Axes,
+    x: np.ndarray,
+    sub: pd.DataFrame,
+    quantity: str,
+    unit: str,
+    scale: float,
+    what: str = "",
+) -> None:
     """A run-by-run predicted band (bar), its median (tick) and the measured value (dot)."""
     lo, hi = sub[f"{quantity}_lower_{unit}"] * scale, sub[f"{quantity}_upper_{unit}"] * scale
     ax.vlines(x, lo, hi, color=BAND, lw=2.2, alpha=0.55, label=f"{what}90 % band")
@@ -71,7 +85,16 @@ def _band(ax, x, sub, quantity: str, unit: str, scale: float, what: str = "") ->
         ax.plot(x, sub[measured] * scale, "o", color=MEASURED, ms=3, label="measured", zorder=3)
 
 
-def _finish(fig, axes, ylabel: str, title: str, *, zero=True, legend="axes", grid="both"):
+def _finish(
+    fig: Figure,
+    axes: Sequence[Axes] | np.ndarray,
+    ylabel: str,
+    title: str,
+    *,
+    zero: bool = True,
+    legend: str | None = "axes",
+    grid: Literal["both", "x", "y"] = "both",
+) -> None:
     """The common end of every figure: zero line, grid, y label, legend, the finding title."""
     for ax in axes:
         if zero:
@@ -152,8 +175,6 @@ def beta_figure(result: WheelValidation) -> tuple[Figure, str]:
     )
     levels = sorted(runs["slip_level"].unique())
     with rc_context(_STYLE):
-        import matplotlib as mpl
-
         cmap = mpl.colormaps["coolwarm"]
         norm = mpl.colors.Normalize(min(levels), max(levels))
         fig, axes = _panels(len(wheels))

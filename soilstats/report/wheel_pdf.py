@@ -31,9 +31,10 @@ from .wheel_figures import (
 )
 
 if TYPE_CHECKING:
+    from ..discovery.crossval import Gain
     from ..outputs.provenance import Provenance
     from ..wheel.calibration.validate import CalibrationReport
-    from ..wheel.validation_result import WheelValidation
+    from ..wheel.validation_result import WheelDiscovery, WheelValidation
 
 __all__ = ["write_report"]
 
@@ -46,7 +47,7 @@ def _signed_mm(x: float) -> str:
     return f"{1e3 * x:+.1f} mm"
 
 
-def _answer(res) -> list:
+def _answer(res: WheelValidation) -> list:
     """The title's answer first: "no" while the band holds fewer than half the runs; what
     the band holds; and the bias by slip (never a lone mean over a U-shaped error), with the
     MAE beside it for drawbar pull, whose errors of either sign a mean would cancel."""
@@ -94,7 +95,7 @@ def _by_slip(groups: pd.DataFrame, quantity: str) -> pd.DataFrame | None:
     return rows.groupby("level")[["bias", "mae"]].mean()
 
 
-def _conclusion(res) -> list:
+def _conclusion(res: WheelValidation) -> list:
     c, b = res.coverage, res.bias
     out: list = _answer(res)
     per_wheel = []
@@ -121,7 +122,7 @@ def _conclusion(res) -> list:
     g = res.groups
     slip = g[(g["by"] == "wheel × slip") & (g["quantity"] == "sinkage")]
     if len(slip):
-        lo, hi = slip.loc[slip["level"].idxmin()], slip.loc[slip["level"].idxmax()]
+        lo, hi = slip.loc[slip["level"].idxmin()], slip.loc[slip["level"].idxmax()]  # type: ignore[call-overload]  # pandas-stubs: idxmin is a Hashable label
         out.append(
             [
                 strong("What the model gets wrong: "),
@@ -156,7 +157,7 @@ def _conclusion(res) -> list:
     return out
 
 
-def _slip_sinkage(disc) -> list:
+def _slip_sinkage(disc: WheelDiscovery | None) -> list:
     """Page 1's sentence on the named cause, its extension and the held-out gains."""
     if disc is None or not disc.gains:
         return []
@@ -187,7 +188,7 @@ def _slip_sinkage(disc) -> list:
 _LAW = {"bekker": "Bekker", "bernstein": "Bernstein", "reece": "Reece"}
 
 
-def _sensitivity_sentence(res) -> str:
+def _sensitivity_sentence(res: WheelValidation) -> str:
     sens = pd.DataFrame(res.sensitivity)
     if sens.empty:
         return ""
@@ -206,17 +207,17 @@ def _sensitivity_sentence(res) -> str:
     return "At s ≈ 0, " + "; ".join(parts) + "."
 
 
-def _p(disc, cause) -> str:
+def _p(disc: WheelDiscovery, cause: str) -> str:
     row = disc.tests[disc.tests["candidate"] == cause]
     return "–" if row.empty else f"{float(row['p_adjusted'].iloc[0]):.1g}"
 
 
-def _real(gain) -> str:
+def _real(gain: Gain) -> str:
     """The gain in the one vocabulary of evidence (soilstats.evidence): word, d ± SE, z."""
     return evidence.describe(gain.difference, gain.stderr, gain.relative, unit="mm", scale=1e3)
 
 
-def _beta_sentence(res) -> str:
+def _beta_sentence(res: WheelValidation) -> str:
     g = res.groups
     beta = g[(g["by"] == "wheel × β") & (g["quantity"] == "sinkage")]
     if beta["level"].nunique() < 2:
@@ -231,7 +232,7 @@ def _beta_sentence(res) -> str:
     )
 
 
-def _fails_sentence(disc) -> str:
+def _fails_sentence(disc: WheelDiscovery) -> str:
     fails = pd.DataFrame(disc.still_fails)
     if fails.empty:
         return ""
@@ -246,7 +247,7 @@ def _fails_sentence(disc) -> str:
     )
 
 
-def _tests_table(doc, disc) -> None:
+def _tests_table(doc: Document, disc: WheelDiscovery | _Tests) -> None:
     t = disc.tests.copy()
     t["result"] = [
         r["reason"]
@@ -265,7 +266,9 @@ def _tests_table(doc, disc) -> None:
     )
 
 
-def _group_table(doc, res, by, caption, level_label) -> None:
+def _group_table(
+    doc: Document, res: WheelValidation, by: str, caption: str, level_label: str
+) -> None:
     g = res.groups
     rows = g[(g["by"] == by) & (g["quantity"] == "sinkage")].copy()
     if rows.empty:
@@ -410,7 +413,7 @@ def _what_is_wrong(doc: Document, res: WheelValidation) -> None:
     runs = res.runs
     disc = res.discovery
     doc.heading("What the wheel model gets wrong")
-    _tests_table(doc, res.discovery if disc is not None else _Tests(res.tests))
+    _tests_table(doc, disc if disc is not None else _Tests(res.tests))
     findings = disc.findings if disc is not None else ()
     if findings:
         doc.numbered(
@@ -425,7 +428,7 @@ def _what_is_wrong(doc: Document, res: WheelValidation) -> None:
         doc.figure(fig, caption)
 
 
-def _extension(doc: Document, res: WheelValidation, disc) -> None:
+def _extension(doc: Document, res: WheelValidation, disc: WheelDiscovery) -> None:
     """The slip-dependent exponent: its held-out gains, figure and where it still fails."""
     doc.heading("The extension: a slip-dependent exponent")
     doc.paragraph(

@@ -73,7 +73,7 @@ def _conclusion(pred: OwnWheelPrediction) -> list:
             else (
                 f"P(drawbar pull < 0) falls below 0.5 at s = {likely['slip'].min():.2f}; "
                 f"its smallest value is {drive['p'].min():.2f} at s = "
-                f"{drive.loc[drive['p'].idxmin(), 'slip']:.2f}"
+                f"{drive.loc[drive['p'].idxmin(), 'slip']:.2f}"  # type: ignore[index]  # pandas-stubs: idxmin is a Hashable label
             )
         )
         out.append([strong("Stall: "), text + "."])

@@ -17,8 +17,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from .._version import __version__
 from ..campaign import Campaign
 from ..models.shear import side_wall_ratio
+from ..outputs.files import csv_text, output_path, write_atomic
 from .artefacts import plant
 from .design import draw_parameters, expand, operator_biases
 from .effects import apparent_shear, side_wall_K0, softening_of
@@ -106,8 +108,6 @@ class SimulatedCampaign:
         Path
             The folder.
         """
-        from ..outputs.files import csv_text, output_path, write_atomic
-
         folder = Path(path)
         own = ("truth.json", "truth_tests.csv", "README.md")
         if not overwrite and any(os.path.lexists(folder / n) for n in own):
@@ -175,8 +175,6 @@ def _as_spec(spec: Spec | dict | str | os.PathLike[str]) -> Spec:
 
 
 def _truth(spec: Spec, seed: int, biases: dict[tuple[str, str], float]) -> dict[str, Any]:
-    from .._version import __version__
-
     def plain(v):
         if isinstance(v, dict):
             return {str(k): plain(x) for k, x in v.items()}
@@ -267,7 +265,7 @@ def simulate(
     planted: list[tuple[str, int, str, np.ndarray]] = []
     iterator = rows
     if progress:
-        from tqdm import tqdm
+        from tqdm import tqdm  # deferred: tqdm (a progress bar)
 
         iterator = tqdm(rows, desc=f"simulating {spec.name}", unit="test")
     for row in iterator:

@@ -14,10 +14,12 @@ import math
 import os
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from ..errors import refuse_unknown_keys
 from . import records
+from .artefacts import ARTEFACT_KINDS, check_artefact
+from .effects import check_effect
 from .records import (
     EFFECT_KINDS,
     KINDS,
@@ -35,10 +37,13 @@ from .records import (
     Spec,
     SpecError,
 )
+from .support import outside_support
 
 # The SPEC's whole API from one import: its records and constants (their home is records.py)
 # and the two readers.
 __all__ = [*records.__all__, "load_spec", "parse_spec"]
+
+_D = TypeVar("_D", Noise, Resolution, Scatter)  # the tables read by _dataclass_table
 
 
 # --------------------------------------------------------------------------- checked access
@@ -46,7 +51,7 @@ def _fail(where: str, message: str) -> SpecError:
     return SpecError(f"SPEC {where}: {message}")
 
 
-def _check_keys(table: dict, allowed: tuple[str, ...], where: str, extra_ok: bool = False):
+def _check_keys(table: dict, allowed: tuple[str, ...], where: str, extra_ok: bool = False) -> None:
     if not isinstance(table, dict):
         raise _fail(where, f"must be a table, got {type(table).__name__} {table!r}")
     if extra_ok:
@@ -62,7 +67,7 @@ def _check_keys(table: dict, allowed: tuple[str, ...], where: str, extra_ok: boo
     refuse_unknown_keys(table, allowed, unknown_key)
 
 
-def _number(value: Any, where: str, *, positive=False, nonneg=False) -> float:
+def _number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise _fail(where, f"must be a finite number, got {value!r}")
     if positive and value <= 0:
@@ -94,7 +99,7 @@ def _list(value: Any, where: str) -> list:
     return out
 
 
-def _numbers(value: Any, where: str, **kw) -> tuple[float, ...]:
+def _numbers(value: Any, where: str, **kw: bool) -> tuple[float, ...]:
     return tuple(_number(v, f"{where}[{i}]", **kw) for i, v in enumerate(_list(value, where)))
 
 
@@ -106,7 +111,7 @@ def _scalar_cell(value: Any, where: str) -> str | float:
 
 
 # --------------------------------------------------------------------------- parsing
-def _dataclass_table(cls, table: Any, where: str, base=None):
+def _dataclass_table(cls: type[_D], table: Any, where: str, base: _D | None = None) -> _D:
     defaults = base if base is not None else cls()
     names = tuple(defaults.__dataclass_fields__)
     if table is None:
@@ -118,14 +123,13 @@ def _dataclass_table(cls, table: Any, where: str, base=None):
     return cls(**values)
 
 
-def _params(table: dict, where: str, allowed=PARAMS) -> dict[str, float]:
+def _params(table: dict, where: str, allowed: tuple[str, ...] = PARAMS) -> dict[str, float]:
     out = {}
     for k, v in table.items():
         _text(k, where, allowed)
         out[k] = _number(v, f"{where}.{k}")
     if "K" in out and out["K"] <= 0:
         raise _fail(f"{where}.K", f"the shear deformation modulus K must be > 0 m, got {out['K']}")
-    from .support import outside_support
 
     bad = outside_support(out)
     if bad:
@@ -346,13 +350,12 @@ def _series(i: int, t: Any, soils: dict, preps: dict) -> Series:
     )
 
 
-def _limited(i: int, t: Any, soils: dict, series_names: tuple[str, ...], table: str):
+def _limited(
+    i: int, t: Any, soils: dict, series_names: tuple[str, ...], table: str
+) -> tuple[str, dict[str, Any], tuple[str, ...], tuple[str, ...]]:
     """(kind, options, soils, series) of an ``[[effects]]`` or ``[[artefacts]]`` entry: a
     kind of its table, limited to some soils and series, its options checked by the module
     that owns the kind's physics."""
-    from .artefacts import ARTEFACT_KINDS, check_artefact
-    from .effects import check_effect
-
     kinds, check = {
         "effects": (EFFECT_KINDS, check_effect),
         "artefacts": (tuple(ARTEFACT_KINDS), check_artefact),

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..models import get_model
 from .records import SHEAR_PARAMS, SINKAGE_PARAMS
 
 __all__ = ["outside_support"]
@@ -27,8 +28,6 @@ _MODELS = {"sinkage": "bekker", "shear": "janosi"}
 
 def _rules() -> dict[str, tuple[str, Callable[[float], bool]]]:
     """Parameter -> (what breaking it reads as, test), from the model records."""
-    from ..models import get_model
-
     out: dict[str, tuple[str, Callable[[float], bool]]] = {}
     for model in _MODELS.values():
         record = get_model(model)

@@ -37,9 +37,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import statsmodels.api as sm
+from scipy.optimize import nnls
 from statsmodels.stats.anova import anova_lm
 
 from ..errors import InputError
+from ..outputs import json_safe
 from ._data import StatisticsInputError, prepare
 from .result import TestResult
 
@@ -87,11 +89,11 @@ class AncovaResult:
             notes.append(f"{self.n_dropped} row(s) with missing values dropped")
         return TestResult(
             test=f"ANCOVA F-test of H0: {what}",
-            statistic=float(r["F"]),
-            p_value=float(r["PR(>F)"]),
-            df_num=float(r["df_diff"]),
-            df_den=float(self.comparison.loc["separate", "df_resid"]),
-            effect_size=float(r["ss_diff"] / (r["ss_diff"] + ssr_full)),
+            statistic=float(r["F"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row] may be a frame (the rows are unique)
+            p_value=float(r["PR(>F)"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row] may be a frame (the rows are unique)
+            df_num=float(r["df_diff"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row] may be a frame (the rows are unique)
+            df_den=float(self.comparison.loc["separate", "df_resid"]),  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
+            effect_size=float(r["ss_diff"] / (r["ss_diff"] + ssr_full)),  # type: ignore[operator, arg-type, type-var]  # pandas-stubs: .loc[row] may be a frame, .loc[row, col] any scalar
             effect_size_name="partial_eta_sq",
             notes=tuple(notes),
         )
@@ -146,8 +148,6 @@ class AncovaResult:
 
     def to_dict(self) -> dict:
         """The JSON-ready content: the model comparison, the lines per group, both tests."""
-        from ..outputs import json_safe
-
         return json_safe(
             {
                 "response": self.response,
@@ -267,8 +267,6 @@ def fitted_variance_weights(y: np.ndarray, x: np.ndarray, design: np.ndarray) ->
     """Weights 1/v(x) with v(x) = a + b·x² (a, b ≥ 0) fitted to the squared residuals of the
     OLS fit of ``y`` on ``design``, each divided by 1 − its leverage (so E r² = v); None when
     the fit leaves no positive variance (then ordinary least squares is all one can do)."""
-    from scipy.optimize import nnls
-
     fit = sm.OLS(y, design).fit()
     leverage = fit.get_influence().hat_matrix_diag
     r2 = fit.resid**2 / np.clip(1.0 - leverage, 1e-6, None)

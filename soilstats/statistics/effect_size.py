@@ -58,8 +58,8 @@ def effect_sizes(table: pd.DataFrame) -> pd.DataFrame:
             f"the ANOVA table has no residual row (looked for {list(_RESIDUAL_ROWS)}, "
             f"found {list(table.index)})"
         )
-    ss_e = float(table.loc[resid[0], "sum_sq"])
-    df_e = float(table.loc[resid[0], "df"])
+    ss_e = float(table.loc[resid[0], "sum_sq"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
+    df_e = float(table.loc[resid[0], "df"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
     ms_e = ss_e / df_e
     effects = table.drop(index=resid[0])
     ss_t = float(table.attrs.get("ss_total", table["sum_sq"].sum()))

@@ -107,7 +107,7 @@ def _cell_fit(
             f"counts:\n{counts.fillna(0).astype(int).to_string()}",
             column=random,
         )
-    cell = levels.get_indexer(frame[factor]) * len(randoms) + randoms.get_indexer(frame[random])
+    cell = levels.get_indexer(frame[factor]) * len(randoms) + randoms.get_indexer(frame[random])  # type: ignore[arg-type]  # pandas-stubs: get_indexer takes an Index; a Series works the same
     parts = [np.eye(len(levels) * len(randoms))[cell]]
     for col in fixed:  # treatment-coded fixed blocks (plate size) beside the cell means
         codes, _ = pd.factorize(frame[col])
@@ -126,7 +126,7 @@ def _cell_fit(
     free = 1.0 - (q**2).sum(1)  # 1 − leverage: each test's share of the residual df
     r_inv = np.linalg.inv(r)
     c = (r_inv**2).sum(1)[: len(levels) * len(randoms)].reshape(len(levels), len(randoms))
-    idx = levels.get_indexer(frame[factor])
+    idx = levels.get_indexer(frame[factor])  # type: ignore[arg-type]  # pandas-stubs: get_indexer takes an Index; a Series works the same
     df = np.bincount(idx, weights=free, minlength=len(levels))
     ss = np.bincount(idx, weights=resid**2, minlength=len(levels))
     if (df < 1e-9).any():

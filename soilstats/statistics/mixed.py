@@ -94,11 +94,11 @@ def _f_tests(table: pd.DataFrame, error: dict[str, str]) -> pd.DataFrame:
     table["F"] = np.nan
     table["PR(>F)"] = np.nan
     for term, err in error.items():
-        if not table.loc[err, "mean_sq"] > 0:
+        if not table.loc[err, "mean_sq"] > 0:  # type: ignore[arg-type, operator]  # pandas-stubs: .loc[row, col] is any scalar
             continue  # exact data: no scatter to test against (F and p stay NaN)
-        f = table.loc[term, "mean_sq"] / table.loc[err, "mean_sq"]
-        table.loc[term, "F"] = f
-        table.loc[term, "PR(>F)"] = stats.f.sf(f, table.loc[term, "df"], table.loc[err, "df"])
+        f = table.loc[term, "mean_sq"] / table.loc[err, "mean_sq"]  # type: ignore[operator]  # pandas-stubs: as above
+        table.loc[term, "F"] = f  # type: ignore[assignment, index]  # pandas-stubs: as above
+        table.loc[term, "PR(>F)"] = stats.f.sf(f, table.loc[term, "df"], table.loc[err, "df"])  # type: ignore[arg-type, index]  # pandas-stubs: as above
     table["error_term"] = pd.Series(error, dtype=object).reindex(table.index).fillna("")
     return table[COLUMNS]
 

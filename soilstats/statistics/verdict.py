@@ -18,6 +18,7 @@ import pandas as pd
 from statsmodels.stats.multitest import multipletests
 
 from ._data import StatisticsInputError
+from .effect_size import effect_sizes
 from .result import TestResult
 
 __all__ = ["VERDICT_COLUMNS", "adjust_p_values", "effect_row", "verdicts"]
@@ -82,22 +83,20 @@ def effect_row(soil: str, response: str, factor: str, result: TestResult | pd.Da
     if isinstance(result, TestResult):
         stat, p, es, test = result.statistic, result.p_value, result.effect_size, result.test
     elif isinstance(result, pd.DataFrame):
-        from .effect_size import effect_sizes
-
         row = "between" if "between" in result.index else factor
         if row not in result.index:
             raise StatisticsInputError(
                 f"the ANOVA table has no row {factor!r} (rows {list(result.index)})", column=factor
             )
-        stat, p = float(result.loc[row, "F"]), float(result.loc[row, "PR(>F)"])
+        stat, p = float(result.loc[row, "F"]), float(result.loc[row, "PR(>F)"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         error = str(result.loc[row, "error_term"]) if "error_term" in result.columns else ""
         if error and error in result.index:
             # A factor tested against another term (a random block's interaction): its
             # partial η² is taken against that same term, as its F is.
-            ss = float(result.loc[row, "sum_sq"])
-            es = ss / (ss + float(result.loc[error, "sum_sq"]))
+            ss = float(result.loc[row, "sum_sq"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
+            es = ss / (ss + float(result.loc[error, "sum_sq"]))  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         else:
-            es = float(effect_sizes(result).loc[row, "partial_eta_sq"])
+            es = float(effect_sizes(result).loc[row, "partial_eta_sq"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         test = result.attrs.get("test", "ANOVA")
     else:
         raise StatisticsInputError(

@@ -45,16 +45,25 @@ from ..statistics import (
 )
 
 if TYPE_CHECKING:
-    from .spec import StudySpec
+    from ..statistics import TestResult
+    from .spec import Response, StudySpec
 
 __all__ = ["factor_effects"]
 
 
-def _active_blocks(frame: pd.DataFrame, spec) -> list[str]:
+def _active_blocks(frame: pd.DataFrame, spec: StudySpec) -> list[str]:
     return [b for b in spec.blocks if b in frame.columns and frame[b].dropna().nunique() > 1]
 
 
-def _random_test(data, resp: str, factor: str, blocks: list[str], spec, soil: str, notes):
+def _random_test(
+    data: pd.DataFrame,
+    resp: str,
+    factor: str,
+    blocks: list[str],
+    spec: StudySpec,
+    soil: str,
+    notes: list[str],
+) -> pd.DataFrame | None:
     """The factor's ANOVA against the factor × random-block mean square, or None (noted)."""
     for block in spec.random_blocks:
         if block not in blocks:
@@ -92,8 +101,15 @@ def _stream(seed: int, soil: str, response: str) -> int:
 
 
 def _welch_test(
-    data, resp: str, factor: str, blocks: list[str], table, soil: str, notes, seed: int
-):
+    data: pd.DataFrame,
+    resp: str,
+    factor: str,
+    blocks: list[str],
+    table: pd.DataFrame,
+    soil: str,
+    notes: list[str],
+    seed: int,
+) -> TestResult | None:
     """The Welch-type test with one variance per level (operators random), or None (noted).
 
     The pooled F against the factor × operator mean square assumes that every level's operator
@@ -115,7 +131,7 @@ def _welch_test(
         return None
 
 
-def _welch_row(result, factor: str, soil: str, response: str) -> pd.DataFrame:
+def _welch_row(result: TestResult, factor: str, soil: str, response: str) -> pd.DataFrame:
     return pd.DataFrame(
         [
             dict(
@@ -226,7 +242,7 @@ def factor_effects(
         row["n_tests"] = len(data)
         row["error_term"] = error_term
         residual = "within" if "within" in table.index else "Residual"
-        row["df_error"] = error[1] if error is not None else float(table.loc[residual, "df"])
+        row["df_error"] = error[1] if error is not None else float(table.loc[residual, "df"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         try:
             tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha, error=error)
         except StatisticsInputError as err:
@@ -291,7 +307,7 @@ def _against_random(
     return table, error, error_term
 
 
-def _unreplicated(data: pd.DataFrame, spec, soil: str, response: str) -> str | None:
+def _unreplicated(data: pd.DataFrame, spec: StudySpec, soil: str, response: str) -> str | None:
     """Why ``response`` cannot be tested when every factor level has one test, else None.
 
     The ANOVA needs at least one level with a repetition for its test-to-test scatter; said
@@ -312,11 +328,11 @@ def _unreplicated(data: pd.DataFrame, spec, soil: str, response: str) -> str | N
     )
 
 
-def _relevance(tk: pd.DataFrame | None, resp) -> dict:
+def _relevance(tk: pd.DataFrame | None, resp: Response) -> dict:
     """Largest pairwise difference, its simultaneous bound, and the margin they face."""
     if tk is None or tk.empty:
         return {"largest_difference": np.nan, "difference_bound": np.nan, "margin": np.nan}
-    biggest = tk.loc[tk["meandiff"].abs().idxmax()]
+    biggest = tk.loc[tk["meandiff"].abs().idxmax()]  # type: ignore[call-overload]  # pandas-stubs: idxmax is a Hashable label
     bound = float(np.maximum(tk["lower"].abs(), tk["upper"].abs()).max())
     margin = resp.margin_on_scale
     return {

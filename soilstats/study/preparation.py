@@ -55,7 +55,7 @@ __all__ = ["evaluate_criteria"]
 PLUS, MINUS, NA = "+", "-", "n/a"
 
 
-def _criterion1(method: str, tests: pd.DataFrame, crit) -> tuple[str, str]:
+def _criterion1(method: str, tests: pd.DataFrame, crit: Criteria) -> tuple[str, str]:
     desc = crit.methods.get(method)
     if desc is None:
         return NA, f"no description of method {method} in the specification"
@@ -99,7 +99,7 @@ def _scatter_cv(g: pd.DataFrame) -> tuple[float, int]:
     return (float(np.sqrt((resid**2).sum() / df)) if df > 0 else math.nan), int(df)
 
 
-def _mean_epsilon(g: pd.DataFrame, failed) -> tuple[float, int, list[str]]:
+def _mean_epsilon(g: pd.DataFrame, failed: Iterable[str]) -> tuple[float, int, list[str]]:
     """Mean ε of the method's own per-test fits, over the tests that converged and are not
     in ``failed`` (bearing failure); the number of tests averaged and those left out."""
     if "epsilon" not in g:
@@ -110,7 +110,9 @@ def _mean_epsilon(g: pd.DataFrame, failed) -> tuple[float, int, list[str]]:
     return (float(eps.mean()) if len(eps) else math.nan), len(eps), out
 
 
-def _criterion3(e, count, failed, pooled, best_eps, crit) -> tuple[str, str]:
+def _criterion3(
+    e: float, count: int, failed: list[str], pooled: float, best_eps: float, crit: Criteria
+) -> tuple[str, str]:
     left = f"; left out, bearing-failure: {', '.join(failed)}" if failed else ""
     if math.isnan(e):
         why = "no per-test fit to judge" if not failed else "every test failed in bearing"
@@ -129,8 +131,8 @@ def _operator_p(g: pd.DataFrame, column: str) -> float:
     try:
         if "b_m" in data and data["b_m"].nunique() > 1:
             table = anova_twoway(data, "log10_p_ref", column, "b_m")
-            return float(table.loc[column, "PR(>F)"])
-        return float(anova_oneway(data, "log10_p_ref", column).loc["between", "PR(>F)"])
+            return float(table.loc[column, "PR(>F)"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
+        return float(anova_oneway(data, "log10_p_ref", column).loc["between", "PR(>F)"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
     except (StatisticsInputError, ConfoundingError):
         return math.nan
 
@@ -248,7 +250,7 @@ def _criterion2(
     return c2, "; ".join(why2), cv
 
 
-def _natural(label: str):
+def _natural(label: str) -> tuple[int, int, str]:
     return (0, int(label), "") if label.isdigit() else (1, 0, label)
 
 

@@ -8,9 +8,12 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from .._html import facts_html, notes_html, result_html, table_html
 from ..errors import warn_renamed
+from ..identification.conditions import condition_label
 from ..outputs import Provenance
 from ..outputs.text import notes_block
+from .outputs import to_json_dict
 
 if TYPE_CHECKING:
     from .spec import StudySpec
@@ -110,7 +113,6 @@ class StudyResult:
         ref = self.spec.reference
         if ref is None or self.pairs.empty:
             return pd.DataFrame()
-        from ..identification.conditions import condition_label
 
         ref = condition_label(ref)
         rows = []
@@ -150,8 +152,6 @@ class StudyResult:
 
     def to_dict(self) -> dict:
         """The study's JSON document (see :func:`soilstats.study.outputs.to_json_dict`)."""
-        from .outputs import to_json_dict
-
         return to_json_dict(self)
 
     def summary(self) -> str:
@@ -184,8 +184,6 @@ class StudyResult:
 
     def _repr_html_(self) -> str:
         """The verdicts, the criteria (preparation) and the notes as tables, for notebooks."""
-        from .._html import facts_html, notes_html, result_html, table_html
-
         verdicts = pd.DataFrame()
         if not self.effects.empty:
             keep = ["soil", "response", "statistic", "p_value", "p_adjusted", "verdict"]

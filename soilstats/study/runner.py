@@ -8,11 +8,13 @@ outputs and the PDF only read the result.
 from __future__ import annotations
 
 import time
+import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from ..campaign import load_campaign
 from ..identification.conditions import fit_conditions
 from ..identification.per_test import not_converged_message
 from ..identification.result import ONSET_TOLERANCE
@@ -24,6 +26,7 @@ from .preparation import evaluate_criteria
 from .responses import PerTestCache
 from .result import StudyResult
 from .shear import shear_effects
+from .spec import load_spec
 from .verdict import classify
 
 if TYPE_CHECKING:
@@ -107,12 +110,8 @@ def run_study(
     """
     start = time.perf_counter()
     if isinstance(spec, str | Path):
-        from .spec import load_spec
-
         spec = load_spec(spec)
     if isinstance(campaign, str | Path):
-        from ..campaign import load_campaign
-
         campaign = load_campaign(campaign)
     # The provenance names the campaign as given, before this study's window.
     provenance = provenance or Provenance.of(campaign, seed=seed)
@@ -185,8 +184,6 @@ _SPEC_DEFAULTS = {
 def spec_defaults(spec: StudySpec) -> dict[str, str]:
     """``{"spec: KEY": default}`` for every key of :data:`_SPEC_DEFAULTS` the specification
     file of ``spec`` leaves out (a spec built in memory, without a file: none known)."""
-    import tomllib
-
     if spec.path is None or not Path(spec.path).is_file():
         return {}
     raw = tomllib.loads(Path(spec.path).read_text(encoding="utf-8"))
@@ -228,7 +225,7 @@ def _preparation(
     eps = parameters.groupby(["soil", "condition"], as_index=False)["epsilon"].first()
     criteria, best = evaluate_criteria(
         per_test,
-        eps.rename(columns={"condition": "level"}),
+        eps.rename(columns={"condition": "level"}),  # type: ignore[call-overload]  # pandas-stubs: groupby(as_index=False)[col].first() is a DataFrame
         spec,
         spec.alpha,
         failed=_failed_in_bearing(campaign, per_test),

@@ -41,6 +41,7 @@ def _line_test(result: AncovaResult) -> TestResult:
     cmp = result.comparison
     ssr0, df0 = cmp.loc["common", "ssr"], cmp.loc["common", "df_resid"]
     ssr2, df2 = cmp.loc["separate", "ssr"], cmp.loc["separate", "df_resid"]
+    ssr0, df0, ssr2, df2 = (float(v) for v in (ssr0, df0, ssr2, df2))  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
     dfn = df0 - df2
     f = ((ssr0 - ssr2) / dfn) / (ssr2 / df2)
     return TestResult(

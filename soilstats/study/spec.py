@@ -13,16 +13,17 @@ value seen and the valid options.
 from __future__ import annotations
 
 import math
+import os
 import tomllib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
 
+from ..campaign.window import FitWindow
 from ..errors import SpecError, refuse_unknown_keys
+from ..models import models_of_kind
 from ..outputs.files import safe_stem
-
-if TYPE_CHECKING:
-    from ..campaign.window import FitWindow
 
 __all__ = [
     "STUDY_TYPES",
@@ -50,8 +51,6 @@ def study_models(study_type: str) -> list[str]:
     sinkage model for sinkage and preparation studies; for shear studies the shear models
     identified from the steady-state parts (Mohr–Coulomb: the c and φ of τ_ss against σ
     the studies compare)."""
-    from ..models import models_of_kind
-
     if study_type == "shear":
         return [m.name for m in models_of_kind("shear") if m.steady_state]
     return [m.name for m in models_of_kind("sinkage")]
@@ -213,11 +212,18 @@ def find_spec(name: str) -> Path:
     return candidate
 
 
-def _fail(path, key: str, message: str) -> SpecError:
+def _fail(path: str | os.PathLike[str], key: str, message: str) -> SpecError:
     return SpecError(f"study specification {str(path)!r}, key {key!r}: {message}")
 
 
-def _get(raw: dict, key: str, kinds, path, default=..., options=None):
+def _get(
+    raw: dict,
+    key: str,
+    kinds: type | tuple[type, ...],
+    path: str | os.PathLike[str],
+    default: Any = ...,
+    options: Iterable[object] | None = None,
+) -> Any:
     if key not in raw:
         if default is ...:
             raise _fail(path, key, "is required")
@@ -234,11 +240,11 @@ def _tuple(kinds):
     return kinds if isinstance(kinds, tuple) else (kinds,)
 
 
-def _names(kinds) -> str:
+def _names(kinds: type | tuple[type, ...]) -> str:
     return " or ".join(k.__name__ for k in _tuple(kinds))
 
 
-def _check_keys(raw: dict, allowed: set, path, where: str) -> None:
+def _check_keys(raw: dict, allowed: set, path: str | os.PathLike[str], where: str) -> None:
     refuse_unknown_keys(
         raw,
         allowed,
@@ -251,7 +257,7 @@ def _check_keys(raw: dict, allowed: set, path, where: str) -> None:
     )
 
 
-def _responses(raw, study_type: str, path) -> tuple[Response, ...]:
+def _responses(raw: dict, study_type: str, path: str | os.PathLike[str]) -> tuple[Response, ...]:
     items = _get(raw, "responses", list, path)
     if not items:
         raise _fail(path, "responses", "needs at least one response")
@@ -273,7 +279,7 @@ def _responses(raw, study_type: str, path) -> tuple[Response, ...]:
     return tuple(out)
 
 
-def _criteria(raw, path) -> Criteria:
+def _criteria(raw: dict, path: str | os.PathLike[str]) -> Criteria:
     crit = _get(raw, "criteria", dict, path)
     _check_keys(
         crit, {"applicability", "repeatability", "fit_quality", "methods"}, path, "criteria."
@@ -341,8 +347,6 @@ def _criteria(raw, path) -> Criteria:
 def _window(raw, path):
     """``[window]``: ``z_max`` [m] / ``p_max`` [Pa], a number or a list of
     ``"COLUMN=VALUE:LIMIT"`` items (as the CLI's --z-max/--p-max)."""
-    from ..campaign.window import FitWindow
-
     table = _get(raw, "window", dict, path, default={})
     _check_keys(table, {"z_max", "p_max"}, path, "window.")
     items = {}
@@ -355,7 +359,12 @@ def _window(raw, path):
         raise _fail(path, "window", str(err)) from None
 
 
-def _random_blocks(raw, blocks: tuple[str, ...], criteria: Criteria | None, path):
+def _random_blocks(
+    raw: dict,
+    blocks: tuple[str, ...],
+    criteria: Criteria | None,
+    path: str | os.PathLike[str],
+) -> tuple[str, ...]:
     """``random_blocks``: at most one of ``blocks``.  Default: the preparation criteria's
     ``operator_column`` when it is a block (the people of Table 1's criterion 2 are a sample
     of those who will prepare the bin), none otherwise."""

@@ -83,8 +83,12 @@ def residual_tests(
     could not be tested; those rows have no p-value and are not in the family).
     """
     # loaded when a test is made: the discovery package and statsmodels are heavy imports
-    from ..discovery.ftests import interaction_test, strata_codes, strata_test
-    from ..statistics import verdicts
+    from ..discovery.ftests import (  # deferred: scipy.stats
+        interaction_test,
+        strata_codes,
+        strata_test,
+    )
+    from ..statistics import verdicts  # deferred: statsmodels
 
     y = runs[residual].to_numpy(float)
     rows = []

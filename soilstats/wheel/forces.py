@@ -32,9 +32,9 @@ for K/r ≥ 0.3 (``tests/test_wheel_model.py``).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields, replace
-from typing import Literal, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -242,16 +242,24 @@ def contact_forces(
     return ContactForces(*(_concat(x) for x in zip(*(_astuple(p) for p in parts), strict=True)))
 
 
-def _astuple(f: ContactForces):
+def _astuple(f: ContactForces) -> tuple[np.ndarray | None, ...]:
     return (f.load_N, f.thrust_N, f.resistance_N, f.torque_Nm, f.lateral_shear_N, f.side_force_N)
 
 
-def _concat(arrays):
+def _concat(arrays: Sequence[Any]) -> Any:  # None for a lateral field of the longitudinal model
+
     return None if arrays[0] is None else np.concatenate(arrays)
 
 
-def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
+def _contact_forces(
+    theta1: np.ndarray,
+    cases: Cases,
+    wheel: Wheel,
+    rule: tuple[np.ndarray, np.ndarray],
+    load_only: bool,
+) -> Any:  # ContactForces, or the load W [N] with load_only (contact_forces' overloads)
     v, w = rule
+
     t1 = theta1[:, None]
     a, b = cases.a[:, None], cases.b[:, None]
     v2, w = v * v, 2.0 * v * w  # θ = θ1 − (θ1 − θm)v² in front, θ2 + (θm − θ2)v² behind
@@ -270,7 +278,7 @@ def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
         sig_f = cases.plate(np.maximum(cos_f - np.cos(t1), 0.0), cases.plate_params)
     sig_r = sig_f  # the rear node v has Wong–Reece's equivalent angle θe = the front node v
 
-    def integral(front, rear):
+    def integral(front: np.ndarray, rear: np.ndarray) -> np.ndarray:
         return len_front * (front @ w) + len_rear * (rear @ w)
 
     vertical = integral(sig_f * cos_f, sig_r * cos_r)
@@ -312,7 +320,14 @@ def _contact_forces(theta1, cases: Cases, wheel: Wheel, rule, load_only: bool):
     )
 
 
-def _tau(sigma, t1, u, ahead, cases: Cases, wheel: Wheel):
+def _tau(
+    sigma: np.ndarray,
+    t1: np.ndarray,
+    u: np.ndarray,
+    ahead: np.ndarray,
+    cases: Cases,
+    wheel: Wheel,
+) -> np.ndarray:
     """Janosi–Hanamoto τ at the nodes (:func:`~soilstats.wheel.stress.janosi`)."""
     nu = cases.nu[:, None]
     # a locked wheel (ν = ∞) as a huge finite ν: j → −huge, τ = −τ_max exactly, no masking
@@ -323,7 +338,14 @@ def _tau(sigma, t1, u, ahead, cases: Cases, wheel: Wheel):
     return janosi(sigma, j, c[:, None], tan_phi[:, None], k[:, None])
 
 
-def _tau_xy(sigma, t1, u, ahead, cases: Cases, wheel: Wheel):
+def _tau_xy(
+    sigma: np.ndarray,
+    t1: np.ndarray,
+    u: np.ndarray,
+    ahead: np.ndarray,
+    cases: Cases,
+    wheel: Wheel,
+) -> tuple[np.ndarray, np.ndarray]:
     """(τ_x, τ_y) at the nodes at slip angle β (:func:`~soilstats.wheel.lateral.combined_shear`).
 
     j_x with the heading component ν cos β of the travel speed, j_y = ν sin β r (θ1 − θ).
@@ -348,7 +370,7 @@ def _tau_xy(sigma, t1, u, ahead, cases: Cases, wheel: Wheel):
     )
 
 
-def _side_face(cos_theta, cos1, cases: Cases, wheel: Wheel):
+def _side_face(cos_theta: np.ndarray, cos1: np.ndarray, cases: Cases, wheel: Wheel) -> np.ndarray:
     """Ishigami's side-face integrand R_b(h) (R − h cos θ), h = R(cos θ − cos θ1) [N/m]."""
     rc = wheel.contact_radius_m
     h = rc * np.maximum(cos_theta - cos1, 0.0)

@@ -12,7 +12,7 @@ predictable, with the reason.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import cast
 
 import numpy as np
@@ -25,7 +25,7 @@ from .forces import N_NODES
 from .geometry import Wheel
 from .lateral import LateralSoil
 from .result import QUANTITIES, WheelPrediction
-from .solve import STATUS, wheel_forces
+from .solve import STATUS, WheelState, wheel_forces
 from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles
 
 __all__ = ["predict_wheel"]
@@ -194,7 +194,7 @@ def _model_note(beta: np.ndarray, lateral: LateralSoil) -> str:
     )
 
 
-def _law(law, columns, priors) -> str:
+def _law(law: str | None, columns: list[str], priors: Mapping[str, tuple]) -> str:
     have = set(columns) | set(priors)
     if law is not None:
         if law not in SINKAGE_LAWS:
@@ -215,7 +215,9 @@ def _law(law, columns, priors) -> str:
     return fits[0]
 
 
-def _check_priors(priors, columns, used, law) -> None:
+def _check_priors(
+    priors: Mapping[str, tuple], columns: list[str], used: Iterable[str], law: str
+) -> None:
     clash = sorted(set(priors) & set(columns))
     if clash:
         raise InputError(f"{clash} are in the draws and also given a prior: give each one once")
@@ -234,7 +236,7 @@ def _check_priors(priors, columns, used, law) -> None:
         )
 
 
-def _size(draws, n_samples) -> int:
+def _size(draws: pd.DataFrame | None, n_samples: int | None) -> int:
     if draws is not None:
         if n_samples is not None and n_samples != len(draws):
             raise InputError("n_samples is for prior-only predictions; the draws set the size")
@@ -246,7 +248,7 @@ def _size(draws, n_samples) -> int:
     return int(n_samples)
 
 
-def _no_shear_reasons(columns, priors) -> dict[str, str]:
+def _no_shear_reasons(columns: list[str], priors: Mapping[str, tuple]) -> dict[str, str]:
     reason = (
         "needs the Janosi–Hanamoto shear parameters c [Pa], phi [deg] and K [m], which are in "
         f"neither the draws (columns {columns}) nor the priors ({sorted(priors)}): no shear "
@@ -257,7 +259,14 @@ def _no_shear_reasons(columns, priors) -> dict[str, str]:
     return {"drawbar_pull_N": reason, "torque_Nm": reason, "lateral_force_N": reason}
 
 
-def _bands(outputs, status, slips, load, prob, unpredictable) -> pd.DataFrame:
+def _bands(
+    outputs: Mapping[str, np.ndarray],
+    status: np.ndarray,
+    slips: np.ndarray,
+    load: np.ndarray,
+    prob: float,
+    unpredictable: Mapping[str, str],
+) -> pd.DataFrame:
     q = [(1 - prob) / 2, 0.5, (1 + prob) / 2]
     ok = status == 0
     n_used = ok.sum(0)
@@ -287,15 +296,19 @@ def _bands(outputs, status, slips, load, prob, unpredictable) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _samples(outputs, status, slips) -> pd.DataFrame:
+def _samples(
+    outputs: Mapping[str, np.ndarray], status: np.ndarray, slips: np.ndarray
+) -> pd.DataFrame:
     n, m = status.shape
     frame = {"draw": np.repeat(np.arange(n), m), "slip": np.tile(slips, n)}
     frame.update({k: v.reshape(-1) for k, v in outputs.items()})
-    frame["status"] = pd.Categorical.from_codes(status.reshape(-1), list(STATUS.values()))
+    frame["status"] = pd.Categorical.from_codes(  # type: ignore[call-overload]  # pandas-stubs: categories typed as an Index only
+        status.reshape(-1), list(STATUS.values())
+    )
     return pd.DataFrame(frame)
 
 
-def _warn(status, unpredictable) -> None:
+def _warn(status: np.ndarray, unpredictable: Mapping[str, str]) -> None:
     """One SoilstatsWarning for what the result cannot give: loud, details in its notes."""
     parts = []
     if unpredictable:
@@ -311,7 +324,14 @@ def _warn(status, unpredictable) -> None:
         warnings.warn("; ".join(parts) + " (see the result's notes)", SoilstatsWarning, 3)
 
 
-def _notes(state, slips, load, wheel: Wheel, law, unpredictable) -> list[str]:
+def _notes(
+    state: WheelState,
+    slips: np.ndarray,
+    load: np.ndarray,
+    wheel: Wheel,
+    law: str,
+    unpredictable: Mapping[str, str],
+) -> list[str]:
     notes = [LONGITUDINAL_ONLY]
     status = state.status
     for code, what in ((1, "cannot carry"), (2, "did not converge at")):

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..outputs import json_safe
 from ..outputs.text import notes_block
 from .geometry import Wheel
 from .stress import PARAM_UNITS, StressAngles
@@ -91,8 +92,6 @@ class WheelPrediction:
 
     def to_dict(self) -> dict:
         """The JSON-ready content (no NaN: ``null``); the per-draw samples are left out."""
-        from ..outputs import json_safe
-
         return json_safe(
             {
                 "model": self._model_name(),
@@ -142,11 +141,11 @@ class WheelPrediction:
         for s, rows in self.bands.groupby("slip", sort=True):
             rows = rows.set_index("quantity")
             first = rows.iloc[0]
-            text = f"{s + 0.0:>7.3f} {first['load_N']:>7.3g}"
+            text = f"{s + 0.0:>7.3f} {first['load_N']:>7.3g}"  # type: ignore[operator]  # pandas-stubs: a groupby key is any scalar (here the slip, a float)
             for q in cols:
                 r = rows.loc[q]
                 text += (
-                    f" | {_fmt(r['median']):>10} [{_fmt(r['lower'])}, {_fmt(r['upper'])}]".ljust(33)
+                    f" | {_fmt(r['median']):>10} [{_fmt(r['lower'])}, {_fmt(r['upper'])}]".ljust(33)  # type: ignore[arg-type]  # pandas-stubs: .loc[q] may be a frame (one row per quantity)
                 )
             lines.append(text + f" | {int(first['n_used']):>5}")
         lines.append("-" * width)

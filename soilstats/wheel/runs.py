@@ -48,7 +48,7 @@ import csv
 import os
 import tomllib
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -161,7 +161,7 @@ def read_runs(
             "run_id repeats an earlier run; every run needs its own name",
             file=name,
             column="run_id",
-            run_id=frame.at[i, "run_id"],
+            run_id=str(frame.at[i, "run_id"]),
             row=i + 1,
         )
     _number(frame, "slip", name, lambda x: (x >= -1) & (x <= 1), "a slip in [-1, 1]")
@@ -171,11 +171,11 @@ def read_runs(
     if big.any():
         i = int(np.flatnonzero(big)[0])
         raise WheelDataError(
-            f"sinkage {frame.at[i, 'sinkage_m']:g} m is more than a metre: is it in mm? "
+            f"sinkage {frame['sinkage_m'].iloc[i]:g} m is more than a metre: is it in mm? "
             "Give sinkage_m in metres",
             file=name,
             column="sinkage_m",
-            run_id=frame.at[i, "run_id"],
+            run_id=str(frame.at[i, "run_id"]),
             row=i + 1,
         )
     for column in ("beta_deg", "beta_cmd_deg"):
@@ -202,7 +202,7 @@ def read_runs(
     return frame
 
 
-def _bad(frame, column, name, mask, what) -> None:
+def _bad(frame: pd.DataFrame, column: str, name: str, mask: np.ndarray, what: str) -> None:
     if mask.any():
         i = int(np.flatnonzero(mask)[0])
         raise WheelDataError(
@@ -210,7 +210,7 @@ def _bad(frame, column, name, mask, what) -> None:
             + (f" ({int(mask.sum())} rows)" if mask.sum() > 1 else ""),
             file=name,
             column=column,
-            run_id=frame.at[i, "run_id"] if column != "run_id" else None,
+            run_id=str(frame.at[i, "run_id"]) if column != "run_id" else None,
             row=i + 1,
         )
 
@@ -275,7 +275,7 @@ def _refuse_duplicate_columns(columns: list[str], name: str) -> None:
         seen.add(column)
 
 
-def _cell(value) -> str:
+def _cell(value: object) -> str:
     if value is None:
         return "an empty cell"
     if isinstance(value, bool | np.bool_):
@@ -297,7 +297,7 @@ def _is_missing(values: pd.Series) -> np.ndarray:
     return values.isna().to_numpy() | text.isin(MISSING_MARKERS).to_numpy()
 
 
-def _text(frame, column, name) -> None:
+def _text(frame: pd.DataFrame, column: str, name: str) -> None:
     values = frame[column]
     blank = values.isna().to_numpy() | (values.astype(str).str.strip() == "").to_numpy()
     _bad(frame, column, name, blank, "a name (empty cell)")
@@ -316,7 +316,15 @@ def _not_real(raw: pd.Series) -> np.ndarray:
     )
 
 
-def _number(frame, column, name, valid, what, *, empty=False) -> None:
+def _number(
+    frame: pd.DataFrame,
+    column: str,
+    name: str,
+    valid: Callable[[np.ndarray], np.ndarray],
+    what: str,
+    *,
+    empty: bool = False,
+) -> None:
     raw = frame[column]
     odd = _not_real(raw)
     _bad(frame, column, name, odd, what)
@@ -329,7 +337,7 @@ def _number(frame, column, name, valid, what, *, empty=False) -> None:
     frame[column] = np.where(blank, np.nan, values)
 
 
-def _dates(frame, name) -> None:
+def _dates(frame: pd.DataFrame, name: str) -> None:
     """ISO dates; an empty cell (or a missing-value marker) is an undated run (NaN)."""
     undated = _is_missing(frame["date"])
     text = frame["date"].astype(str).str.strip()

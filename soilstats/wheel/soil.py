@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, SoilstatsError
+from ..models import get_model
 
 if TYPE_CHECKING:
     from ..bayes.result import PosteriorResult
@@ -91,8 +92,6 @@ def soil_tests(campaign: Campaign, soil: str | None) -> tuple[str, pd.DataFrame]
 
 def choose_law(tests: pd.DataFrame, law: str | None = None) -> str:
     """``law`` if given, else Bekker with two or more plate sizes, Bernstein with one."""
-    from ..models import get_model
-
     if law is not None:
         get_model(law, kind="sinkage")
         return law
@@ -129,8 +128,7 @@ def plate_draws(
     ``kind`` is ``"auto"`` (population where the plates support it, else pooled),
     ``"population"`` (an error where they do not) or ``"pooled"``.
     """
-    from ..bayes import sample_population, sample_posterior
-    from ..models import get_model
+    from ..bayes import sample_population, sample_posterior  # deferred: arviz (sampling loads it)
 
     if kind not in KINDS:
         raise InputError(f"draws kind must be one of {KINDS}, got {kind!r}")

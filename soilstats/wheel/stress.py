@@ -54,6 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import InputError
+from ..models import MODELS, get_model, models_of_kind
 
 if TYPE_CHECKING:
     from ..models.base import Model, Value
@@ -77,8 +78,6 @@ RAD_PER_DEG = np.pi / 180.0
 
 
 def _janosi_params() -> tuple[str, ...]:
-    from ..models import get_model
-
     return get_model("janosi").param_names
 
 
@@ -87,8 +86,6 @@ class _SinkageLaws(Mapping[str, tuple[str, ...]]):
     registered sinkage model with a plate hook (``Model.plate_law``), built-in or one's own."""
 
     def _laws(self) -> dict[str, tuple[str, ...]]:
-        from ..models import models_of_kind
-
         return {m.name: m.param_names for m in models_of_kind("sinkage") if m.plate_law()}
 
     def __getitem__(self, name: str) -> tuple[str, ...]:
@@ -109,8 +106,6 @@ class _ParamUnits(Mapping[str, str]):
     where two share a name) and the Janosi–Hanamoto shear's."""
 
     def _units(self) -> dict[str, str]:
-        from ..models import get_model, models_of_kind
-
         units: dict[str, str] = {}
         for model in (*models_of_kind("sinkage"), get_model("janosi")):
             for name, unit in model.unit_of.items():
@@ -139,8 +134,6 @@ PARAM_UNITS: Mapping[str, str] = _ParamUnits()
 
 def sinkage_law(law: str) -> Model:
     """The registry's record of a plate law the wheel can use; InputError naming the laws."""
-    from ..models import MODELS
-
     model = MODELS.get(law)
     if model is None or model.kind != "sinkage" or model.plate_law() is None:
         raise InputError(

@@ -29,7 +29,9 @@ import pandas as pd
 from numpy.typing import ArrayLike  # noqa: F401
 
 from ..bayes.stated_priors import describe_prior, sample_priors
+from ..campaign import load_campaign
 from ..errors import InputError, SoilstatsError
+from ..quality import screen
 from .discovery import READINGS, residual_tests  # noqa: F401
 from .geometry import Wheel
 from .runs import read_caveats, read_runs, read_wheels, warn_load_units, wheel_geometry
@@ -38,26 +40,17 @@ from .soil import PlateDraws, plate_draws
 from .solve import wheel_forces  # noqa: F401
 from .stress import SHEAR_PARAMS, SINKAGE_LAWS, StressAngles, unit_modulus
 
-# Split along its concerns (prediction of runs, scoring, discovery, report data); every name
-# importable from this module before the split is importable here still.
+# Split along its concerns (prediction of runs, scoring, discovery, report data); every public
+# name importable from this module before the split is importable here still.
 from .validation_discovery import (  # noqa: F401
     CMU_TUNED,
     EXTENSION,
     METRIC,
     SCHEMES,
-    _band_frame,
-    _discover,
-    _discovery_notes,
-    _findings,
-    _fit,
-    _gain,
-    _gains,
-    _level_means,
-    _point,
-    _still_fails,
+    discover_slip_exponent,
 )
-from .validation_predict import _predict_all, _runs_frame, _subset, predict_runs  # noqa: F401
-from .validation_report import SENSITIVITY_DRAWS, _caveats, _notes, _sensitivity  # noqa: F401
+from .validation_predict import draws_subset, predict_all_runs, predict_runs, runs_frame  # noqa: F401
+from .validation_report import SENSITIVITY_DRAWS, run_caveats, sensitivity_checks, validation_notes  # noqa: F401
 from .validation_result import (
     OLD_BAND_COLUMNS,
     WheelDiscovery,
@@ -67,11 +60,8 @@ from .validation_result import (
 from .validation_scoring import (  # noqa: F401
     GROUPINGS,
     NEAR_ZERO,
-    _groups,
-    _headline,
-    _pick,
-    _summ,
-    _trend,
+    group_scores,
+    headline_scores,
 )
 
 if TYPE_CHECKING:
@@ -142,36 +132,38 @@ def validate_wheel(
     """
     if not 0 < prob < 1:
         raise InputError(f"prob must be in (0, 1), got {prob!r}")
-    campaign = _campaign(campaign)
+    plates = _campaign(campaign)
     table, wheels, caveats = _runs_and_wheels(runs, wheels, caveats)
     angles = StressAngles() if angles is None else angles
     priors = dict(priors or {})
     check_priors(priors)
     bar = _progress_bar(_steps(table, wheels, extension, sensitivity), progress)
     notes: list[str] = []
-    plate = _plate(campaign, draws, soil, law, n_draws, seed, progress)
+    plate = _plate(plates, draws, soil, law, n_draws, seed, progress)
     bar.update()
     params = _parameters(plate, priors, seed)
     law = plate.law
     checks = _moduli(params, law, wheels, notes)
-    predicted = _predict_all(table, params, wheels, law, angles, prob, checks, bar)
-    frame, excluded = _runs_frame(table, predicted, notes)
+    predicted = predict_all_runs(table, params, wheels, law, angles, prob, checks, bar)
+    frame, excluded = runs_frame(table, predicted, notes)
     if not frame["predicted"].any():
         raise SoilstatsError(_none_carried(table, wheels, law))
     notes += _undated_note(table)
     unpredictable = {} if _has_shear(params) else _no_shear_reasons()
-    groups = _groups(frame, with_dp="drawbar_pull_median_N" in frame)
-    coverage, bias = _headline(frame, groups)
+    groups = group_scores(frame, with_dp="drawbar_pull_median_N" in frame)
+    coverage, bias = headline_scores(frame, groups)
     tests = residual_tests(frame[frame["predicted"]], alpha=alpha)
     bar.update()
     disc = None
     if extension:
-        disc = _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, bar)
+        disc = discover_slip_exponent(
+            frame, tests, params, wheels, law, angles, prob, checks, alpha, bar
+        )
         frame = _with_extension_bands(frame, disc)
-    sens = _sensitivity(frame, params, wheels, law, angles, seed) if sensitivity else []
+    sens = sensitivity_checks(frame, params, wheels, law, angles, seed) if sensitivity else []
     bar.update(bool(sensitivity))
     bar.close()
-    notes += _notes(plate, params, wheels, law, angles, frame, priors)
+    notes += validation_notes(plate, params, wheels, law, angles, frame, priors)
     return WheelValidation(
         runs=with_old_band_columns(frame),
         groups=groups,
@@ -191,13 +183,13 @@ def validate_wheel(
         sensitivity=sens,
         excluded=excluded,
         notes=tuple(notes),
-        caveats=(*caveats, *_caveats(frame)),
+        caveats=(*caveats, *run_caveats(frame)),
     )
 
 
 def _progress_bar(total: int, progress: bool) -> Any:
     """The validation's tqdm bar over its ``total`` steps (hidden unless ``progress``)."""
-    from tqdm.auto import tqdm
+    from tqdm.auto import tqdm  # deferred: tqdm (a progress bar)
 
     return tqdm(
         total=total, desc="wheel validation", unit="step", disable=not progress, leave=False
@@ -254,7 +246,9 @@ def _none_carried(table: pd.DataFrame, wheels: Mapping[str, Wheel], law: str) ->
     )
 
 
-def _steps(table, wheels, extension, sensitivity) -> int:
+def _steps(
+    table: pd.DataFrame, wheels: Mapping[str, Wheel], extension: bool, sensitivity: bool
+) -> int:
     """Progress steps: the plates, each wheel's prediction, the tests, each wheel's extension
     and each held-out fold, the sensitivity checks."""
     steps = 2 + len(wheels) + bool(sensitivity)
@@ -268,16 +262,17 @@ def _steps(table, wheels, extension, sensitivity) -> int:
 
 
 # -- inputs ------------------------------------------------------------------------------------
-def _campaign(campaign):
+def _campaign(campaign: Campaign | str | Path) -> Campaign:
     if isinstance(campaign, str | Path):
-        from ..campaign import load_campaign
-        from ..quality import screen
-
-        return screen(load_campaign(campaign), "clean").campaign
+        cleaned = screen(load_campaign(campaign), "clean").campaign
+        assert cleaned is not None  # screening returns the campaign it cleaned
+        return cleaned
     return campaign
 
 
-def _wheels(wheels, table, source) -> dict[str, Wheel]:
+def _wheels(
+    wheels: Mapping[str, Wheel] | None, table: pd.DataFrame, source: str | Path | None
+) -> dict[str, Wheel]:
     types = sorted(table["wheel"].unique())
     if wheels is not None:
         missing = [t for t in types if t not in wheels]
@@ -289,7 +284,15 @@ def _wheels(wheels, table, source) -> dict[str, Wheel]:
     return wheel_geometry(types, tables, source=str(toml) if toml else "the wheel geometry")
 
 
-def _plate(campaign, draws, soil, law, n_draws, seed, progress) -> PlateDraws:
+def _plate(
+    campaign: Campaign,
+    draws: str | pd.DataFrame | PlateDraws,
+    soil: str | None,
+    law: str | None,
+    n_draws: int,
+    seed: int,
+    progress: bool,
+) -> PlateDraws:
     if isinstance(draws, PlateDraws):
         return draws
     if isinstance(draws, pd.DataFrame):
@@ -313,7 +316,7 @@ def _plate(campaign, draws, soil, law, n_draws, seed, progress) -> PlateDraws:
     )
 
 
-def _parameters(plate: PlateDraws, priors, seed) -> dict:
+def _parameters(plate: PlateDraws, priors: Mapping[str, tuple], seed: int) -> dict:
     """The parameter arrays the model runs on (draws + shear priors) and their sources."""
     law = plate.law
     values = {k: plate.draws[k].to_numpy(float) for k in SINKAGE_LAWS[law]}
@@ -344,7 +347,7 @@ def check_priors(priors: Mapping[str, tuple]) -> None:
     sample_priors(priors, 1, 0)  # kinds and numbers checked before any sampling
 
 
-def _has_shear(params) -> bool:
+def _has_shear(params: Mapping[str, Any]) -> bool:
     return all(k in params["values"] for k in SHEAR_PARAMS)
 
 
@@ -357,7 +360,9 @@ def _no_shear_reasons() -> dict[str, str]:
     return {"drawbar_pull_N": reason, "torque_Nm": reason}
 
 
-def _moduli(params, law, wheels, notes) -> dict[str, dict]:
+def _moduli(
+    params: Mapping[str, Any], law: str, wheels: Mapping[str, Wheel], notes: list[str]
+) -> dict[str, dict]:
     """The plate modulus of every draw at each wheel's width b; draws where it is ≤ 0 are
     not used for that wheel (named in the notes)."""
     out = {}

@@ -6,15 +6,22 @@ where it still fails."""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from .. import evidence
 from .discovery import READINGS
+from .geometry import Wheel
 from .slipsinkage import SlipExponent, fit_slip_exponent
-from .validation_predict import _subset, predict_runs
+from .stress import StressAngles
+from .validation_predict import draws_subset, predict_runs
 from .validation_result import WheelDiscovery, with_old_band_columns
+
+if TYPE_CHECKING:
+    from ..discovery.crossval import Gain
 
 __all__ = ["CMU_TUNED", "EXTENSION", "METRIC", "SCHEMES"]
 
@@ -31,7 +38,13 @@ def _point(values: Mapping[str, np.ndarray]) -> dict[str, float]:
     return {k: float(np.median(v)) for k, v in values.items()}
 
 
-def _fit(rows, values, wheel, law, angles) -> SlipExponent:
+def _fit(
+    rows: pd.DataFrame,
+    values: Mapping[str, np.ndarray],
+    wheel: Wheel,
+    law: str,
+    angles: StressAngles,
+) -> SlipExponent:
     return fit_slip_exponent(
         _point(values),
         wheel,
@@ -43,13 +56,27 @@ def _fit(rows, values, wheel, law, angles) -> SlipExponent:
     )
 
 
-def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, bar):
+def discover_slip_exponent(
+    frame: pd.DataFrame,
+    tests: pd.DataFrame,
+    params: Mapping[str, Any],
+    wheels: Mapping[str, Wheel],
+    law: str,
+    angles: StressAngles,
+    prob: float,
+    checks: Mapping[str, dict],
+    alpha: float,
+    bar: Any,
+) -> WheelDiscovery:
+    """The slip-dependent exponent (:data:`EXTENSION`) fitted per wheel on its β = 0 runs,
+    its bands for every run and its held-out gains (:func:`~soilstats.wheel.validate_wheel`'s
+    ``discovery``)."""
     scope = frame[frame["in_scope"]]
     fits: dict[str, SlipExponent] = {}
     extended = []
     held = []
     for name, wheel in wheels.items():
-        values = _subset(params, checks[name]["use"])
+        values = draws_subset(params, checks[name]["use"])
         mine = scope[scope["wheel"] == name]
         fit = _fit(mine, values, wheel, law, angles) if len(mine) else SlipExponent()
         fits[name] = fit
@@ -73,8 +100,7 @@ def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, ba
                 held.append(part.assign(scheme=scheme, fold=f"{name}|{level}", n1=f.n1, n2=f.n2))
                 bar.update()
     runs = pd.concat(extended, ignore_index=True)
-    held = pd.concat(held, ignore_index=True) if held else pd.DataFrame()
-    gains, cv = _gains(scope, held)
+    gains, cv = _gains(scope, pd.concat(held, ignore_index=True) if held else pd.DataFrame())
     slip_heldout = cv[cv["scheme"] == "slip"] if len(cv) else cv
     if len(slip_heldout):
         runs = runs.merge(
@@ -104,7 +130,7 @@ def _discover(frame, tests, params, wheels, law, angles, prob, checks, alpha, ba
     )
 
 
-def _band_frame(run_ids, band, prefix) -> pd.DataFrame:
+def _band_frame(run_ids: ArrayLike, band: Mapping[str, np.ndarray], prefix: str) -> pd.DataFrame:
     return pd.DataFrame(
         {
             "run_id": np.asarray(run_ids),
@@ -146,10 +172,10 @@ def _gains(scope: pd.DataFrame, held: pd.DataFrame) -> tuple[dict, pd.DataFrame]
     return gains, cv
 
 
-def _gain(rows: pd.DataFrame, scheme: str):
+def _gain(rows: pd.DataFrame, scheme: str) -> Gain:
     """The held-out comparison of one scheme as discover's :class:`~soilstats.discovery.
     crossval.Gain` (metric, folds, runs, base, extended, relative, difference ± SE, real)."""
-    from ..discovery.crossval import Gain
+    from ..discovery.crossval import Gain  # deferred: statsmodels (discovery's)
 
     d = rows["base_error"] - rows["ext_error"]
     by_fold = d.groupby(rows["fold"])
@@ -186,7 +212,7 @@ def _level_means(frame: pd.DataFrame, column: str) -> list[dict]:
     ]
 
 
-def _findings(tests, frame, gains) -> list[dict]:
+def _findings(tests: pd.DataFrame, frame: pd.DataFrame, gains: Mapping[str, Gain]) -> list[dict]:
     columns = {"slip": "slip_level", "beta": "beta_level", "wheel": "wheel", "day": "date"}
     found = tests[tests["significant"]].sort_values("effect_size", ascending=False)
     out = []
@@ -218,7 +244,7 @@ def _findings(tests, frame, gains) -> list[dict]:
     return out
 
 
-def _still_fails(frame, cv) -> list[dict]:
+def _still_fails(frame: pd.DataFrame, cv: pd.DataFrame) -> list[dict]:
     """Where the extended model still misses: per wheel and slip (held out), per β."""
     rows = []
     if len(cv):
@@ -257,7 +283,7 @@ def _still_fails(frame, cv) -> list[dict]:
     return rows
 
 
-def _discovery_notes(fits) -> list[str]:
+def _discovery_notes(fits: Mapping[str, SlipExponent]) -> list[str]:
     notes = [
         "n1 and n2 are fitted per wheel type on its β = 0 runs (least squares on sinkage at the "
         "median soil); the gains are measured on runs left out of the fit, whole slip "

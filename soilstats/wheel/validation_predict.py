@@ -5,6 +5,7 @@ frame (measured beside predicted, which runs have no prediction and why)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -17,7 +18,8 @@ from .stress import StressAngles
 __all__ = ["predict_runs"]
 
 
-def _subset(params, use) -> dict[str, np.ndarray]:
+def draws_subset(params: Mapping[str, Any], use: np.ndarray) -> dict[str, np.ndarray]:
+    """The parameter draws ``use`` (a mask: those a wheel's modulus check kept)."""
     return {k: v[use] for k, v in params["values"].items()}
 
 
@@ -62,17 +64,30 @@ def predict_runs(
     return out
 
 
-def _predict_all(table, params, wheels, law, angles, prob, checks, bar) -> pd.DataFrame:
+def predict_all_runs(
+    table: pd.DataFrame,
+    params: Mapping[str, Any],
+    wheels: Mapping[str, Wheel],
+    law: str,
+    angles: StressAngles,
+    prob: float,
+    checks: Mapping[str, dict],
+    bar: Any,  # a tqdm bar (or any object with update())
+) -> pd.DataFrame:
+    """The bands of every run (``table``), each wheel's runs from its kept draws."""
     parts = []
     for name, rows in table.groupby("wheel", sort=True):
-        values = _subset(params, checks[name]["use"])
-        band = predict_runs(values, wheels[name], rows["slip"], rows["W_N"], law, angles, prob)
+        values = draws_subset(params, checks[name]["use"])  # type: ignore[index]  # pandas-stubs: a groupby key is any scalar (here a wheel name)
+        band = predict_runs(values, wheels[name], rows["slip"], rows["W_N"], law, angles, prob)  # type: ignore[index]  # pandas-stubs: as above
         parts.append(pd.DataFrame(band, index=rows.index))
         bar.update()
     return pd.concat(parts).loc[table.index]
 
 
-def _runs_frame(table, predicted, notes) -> tuple[pd.DataFrame, list[dict]]:
+def runs_frame(
+    table: pd.DataFrame, predicted: pd.DataFrame, notes: list[str]
+) -> tuple[pd.DataFrame, list[dict]]:
+    """The runs' table with their predicted bands, and the runs left out (with why)."""
     f = pd.DataFrame(
         {
             "run_id": table["run_id"],

@@ -4,11 +4,20 @@ read from the runs (unsteady sinkage)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from .stress import StressAngles
 from .validation_predict import predict_runs
 from .validation_scoring import NEAR_ZERO
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from .geometry import Wheel
+    from .soil import PlateDraws
 
 __all__ = ["SENSITIVITY_DRAWS"]
 
@@ -17,7 +26,14 @@ SENSITIVITY_DRAWS = 500
 
 
 # -- sensitivity -------------------------------------------------------------------------------
-def _sensitivity(frame, params, wheels, law, angles, seed) -> list[dict]:
+def sensitivity_checks(
+    frame: pd.DataFrame,
+    params: Mapping[str, Any],
+    wheels: Mapping[str, Wheel],
+    law: str,
+    angles: StressAngles,
+    seed: int,
+) -> list[dict]:
     """Near-zero-slip β = 0 runs under other choices: Bekker's b, rear contact."""
     near = frame[frame["in_scope"] & (frame["slip_level"].abs() <= NEAR_ZERO)]
     if near.empty:
@@ -65,7 +81,16 @@ def _sensitivity(frame, params, wheels, law, angles, seed) -> list[dict]:
 
 
 # -- notes -------------------------------------------------------------------------------------
-def _notes(plate, params, wheels, law, angles, frame, priors) -> list[str]:
+def validation_notes(
+    plate: PlateDraws,
+    params: Mapping[str, Any],
+    wheels: Mapping[str, Wheel],
+    law: str,
+    angles: StressAngles,
+    frame: pd.DataFrame,
+    priors: Mapping[str, tuple] | None,
+) -> list[str]:
+    """The validation's notes: where the soil came from, how runs are predicted."""
     notes = [
         f"Soil from the plate tests only ({plate.n_tests} tests of {plate.soil!r}, {law} law): "
         f"{plate.reason}. {len(plate.draws)} draws through the model; no wheel run enters them.",
@@ -91,7 +116,8 @@ def _notes(plate, params, wheels, law, angles, frame, priors) -> list[str]:
     return notes
 
 
-def _caveats(frame) -> list[str]:
+def run_caveats(frame: pd.DataFrame) -> list[str]:
+    """Caveats the runs themselves raise (not steady in their averaging window)."""
     unsteady = frame.loc[~frame["steady"], "run_id"].tolist()
     out = []
     if unsteady:

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from .. import evidence
+from ..outputs import json_safe
 from ..outputs.text import notes_block
 from .geometry import Wheel
 from .soil import PlateDraws
@@ -138,8 +139,6 @@ class WheelDiscovery:
         return next((f for f in self.findings if f["cause"] == cause), None)
 
     def to_dict(self) -> dict:
-        from ..outputs import json_safe
-
         tests = self.tests.drop(columns=[], errors="ignore")
         return json_safe(
             {
@@ -263,8 +262,6 @@ class WheelValidation:
     def to_dict(self) -> dict:
         """The JSON-ready content (issue #34's schema: ``runs``, ``coverage_90``, ``bias``,
         ``params``, ``notes``, and the rest); no NaN."""
-        from ..outputs import json_safe
-
         runs = self.runs[[c for c in RUN_COLUMNS if c in self.runs]]
         draws = self.plate.draws
         quantiles = {

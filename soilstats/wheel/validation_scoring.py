@@ -48,7 +48,8 @@ GROUPINGS = (
 )
 
 
-def _groups(frame: pd.DataFrame, with_dp: bool) -> pd.DataFrame:
+def group_scores(frame: pd.DataFrame, with_dp: bool) -> pd.DataFrame:
+    """Coverage and bias per grouping (:data:`GROUPINGS`) of the predicted runs."""
     rows = []
     quantities = [("sinkage", "m")]
     if with_dp and "drawbar_pull_measured_N" in frame:
@@ -95,7 +96,8 @@ def _trend(rows: pd.DataFrame, x: str) -> dict:
     return {"slope": float(coef[1]), "stderr": float(np.sqrt(cov[1, 1])), "runs": len(y)}
 
 
-def _headline(frame: pd.DataFrame, groups: pd.DataFrame) -> tuple[dict, dict]:
+def headline_scores(frame: pd.DataFrame, groups: pd.DataFrame) -> tuple[dict, dict]:
+    """(coverage, bias): the headline figures of the validation."""
     scope, every = frame[frame["in_scope"]], frame[frame["predicted"]]
     near = scope[scope["slip_level"].abs() <= NEAR_ZERO]
     coverage: dict[str, Any] = {

@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import OptimizeResult, least_squares
 
+from ...bayes._arviz import az
 from ...bayes.population import laplace_mode
 from ...bayes.sampler import EnsembleRun, run_ensemble
 from ...errors import InputError, SoilstatsError
@@ -294,8 +295,6 @@ def calibrate_wheel(
 
 def diagnostics(chain: np.ndarray) -> tuple[float, float]:
     """Largest R-hat and smallest bulk ESS over the parameters (ArviZ; walkers as chains)."""
-    from ...bayes._arviz import az
-
     with warnings.catch_warnings():
         # a short run (fewer draws per walker than walkers) is judged all the same: its
         # R-hat and ESS say it is short

@@ -221,7 +221,7 @@ def score(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> dict:
 def score_by_slip(frame: pd.DataFrame, quantity: str, *, bands: bool = True) -> list[dict]:
     """:func:`score` per slip level (the bias as a function of slip, never a lone mean)."""
     return [
-        {"slip_level": float(level), **score(rows, quantity, bands=bands)}
+        {"slip_level": float(level), **score(rows, quantity, bands=bands)}  # type: ignore[arg-type]  # pandas-stubs: a groupby key is any scalar (here a slip)
         for level, rows in frame.groupby("slip_level")
     ]
 

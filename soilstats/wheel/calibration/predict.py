@@ -90,8 +90,8 @@ class OwnWheelPrediction:
             scale = 1e3 if r.unit == "m" else 1.0
             unit = "mm" if r.unit == "m" else r.unit
             lines.append(
-                f"{r.slip:>6.2f} {r.quantity:<16} {scale * r.median:>10.3g} "
-                f"{scale * r.lower:>10.3g} {scale * r.upper:>10.3g} {unit}"
+                f"{r.slip:>6.2f} {r.quantity:<16} {scale * r.median:>10.3g} "  # type: ignore[operator]  # pandas-stubs: an itertuples field is any scalar
+                f"{scale * r.lower:>10.3g} {scale * r.upper:>10.3g} {unit}"  # type: ignore[operator, str-bytes-safe]  # pandas-stubs: an itertuples field is any scalar
             )
         if len(self.p_drawbar_pull_negative):
             lines.append("")

@@ -322,7 +322,7 @@ class WheelCalibration:
     def to_netcdf(self, path: str | os.PathLike[str]) -> None:
         """Save as ArviZ netCDF: the posterior group holds the sampled vector; the attributes
         hold the law, plate prior, input priors, wheels, discrepancy and calibration runs."""
-        from ...bayes._arviz import az
+        from ...bayes._arviz import az  # deferred: arviz, 2 s (only to write)
 
         post = {n: self.chain[:, :, i] for i, n in enumerate(self.names)}
         idata = az.from_dict(posterior=post)
@@ -427,7 +427,7 @@ def _design_from(d: Mapping) -> RunDesign:
 
 def load_calibration(path: str | os.PathLike[str]) -> WheelCalibration:
     """A :class:`WheelCalibration` saved by :meth:`WheelCalibration.to_netcdf`."""
-    from ...bayes._arviz import az
+    from ...bayes._arviz import az  # deferred: arviz, 2 s (only to read)
 
     try:
         idata = az.from_netcdf(str(path))
