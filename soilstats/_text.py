@@ -43,13 +43,16 @@ def natural_key(value: object) -> tuple:
 
 
 def ascii_float(text: str) -> float:
-    """``float(text)`` for ASCII text only; ValueError otherwise.
+    """``float(text)`` for ASCII text only; InputError (a ValueError, as ``float`` raises)
+    otherwise.
 
     Python's ``float`` reads any Unicode decimal digit (``float("٣") == 3.0``, fullwidth
     ``"１"``): a number typed in another script would be taken silently, so it is refused.
     """
     if not str(text).isascii():
-        raise ValueError(f"not an ASCII number: {text!r}")
+        from .errors import InputError  # not at the top: errors imports this module
+
+        raise InputError(f"not an ASCII number: {text!r}")
     return float(text)
 
 
