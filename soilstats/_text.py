@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["ascii_float", "natural_key", "non_ascii_note", "plural", "shown"]
+__all__ = ["natural_key", "plural", "shown"]
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:
@@ -40,24 +40,3 @@ def natural_key(value: object) -> tuple:
             0.0,
             tuple((0, float(p), "") if i % 2 else (1, 0.0, p) for i, p in enumerate(parts)),
         )
-
-
-def ascii_float(text: str) -> float:
-    """``float(text)`` for ASCII text only; InputError (a ValueError, as ``float`` raises)
-    otherwise.
-
-    Python's ``float`` reads any Unicode decimal digit (``float("٣") == 3.0``, fullwidth
-    ``"１"``): a number typed in another script would be taken silently, so it is refused.
-    """
-    if not str(text).isascii():
-        from .errors import InputError  # not at the top: errors imports this module
-
-        raise InputError(f"not an ASCII number: {text!r}")
-    return float(text)
-
-
-def non_ascii_note(text: str) -> str:
-    """`` (numbers in ASCII digits only: '٣' is not one)`` for text with non-ASCII
-    characters, else ``""``: the clause a refusal by :func:`ascii_float` adds to its message."""
-    odd = "".join(dict.fromkeys(c for c in str(text) if not c.isascii()))
-    return f" (numbers in ASCII digits only: {odd[:8]!r} is not one)" if odd else ""

@@ -38,7 +38,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from .._text import ascii_float, non_ascii_note
+from .._ascii import ascii_float, non_ascii_note
 from ..errors import InputError, ModelError
 from ..models import MODELS, Model, get_model
 from ..models.priors import FLAT, Normal, Prior, Uniform

@@ -24,7 +24,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 from scipy.stats import truncnorm
 
-from .._text import ascii_float, non_ascii_note
+from .._ascii import ascii_float, non_ascii_note
 from ..errors import InputError
 
 __all__ = ["SUPPORT", "describe_prior", "parse_stated_prior", "sample_priors", "stated_priors_of"]

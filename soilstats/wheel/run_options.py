@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._text import ascii_float, non_ascii_note
+from .._ascii import ascii_float, non_ascii_note
 from ..bayes.pooling import pooling_warnings
 from ..campaign.io import resolve
 from ..errors import InputError
