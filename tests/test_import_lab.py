@@ -305,3 +305,33 @@ def test_the_test_id_can_come_from_a_header_line(tmp_path):
     assert sorted(campaign.tests["test_id"]) == sorted(f"lab-{t}" for t in PLATES_MM)
     radius = campaign.tests.set_index("test_id").loc["lab-B07", "radius_m"]
     assert radius == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize(
+    "where", ["../records", "../records/*.csv", "../records/A01.csv", "abs", "link"]
+)
+def test_a_lab_file_outside_the_mappings_folder_is_refused_before_reading(
+    tmp_path, monkeypatch, where
+):
+    # A mapping names the files beside it; `../../etc/passwd` used to be read, then refused
+    # as a bad table. Now nothing outside the folder is opened, and the key is named.
+    import soilstats.campaign.importing as importing
+
+    records = _export(tmp_path)  # tmp_path/records: outside tmp_path/lab
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    if where == "abs":
+        where = str(records / "A01.csv")
+    elif where == "link":
+        (lab / "records").symlink_to(records, target_is_directory=True)
+        where = "records"
+    read = []
+    monkeypatch.setattr(importing, "_read", lambda *a, **k: read.append(a) or 1 / 0)
+    with pytest.raises(CampaignError, match=r"sinkage\.file.*leads outside the mapping's folder"):
+        import_campaign(_mapping(lab, file=where))
+    assert read == []
+    # The same files inside the folder import, to the values written.
+    monkeypatch.undo()
+    (lab / "records").unlink(missing_ok=True)
+    records.rename(lab / "records")
+    _check_values(import_campaign(_mapping(lab)))

@@ -192,3 +192,43 @@ def test_a_force_whose_pressure_a_fit_cannot_square_is_refused_naming_the_test(t
     with pytest.warns(SoilstatsWarning, match="shape-0002"):
         kept = load_campaign(folder, on_error="skip")
     assert "shape-0002" not in set(kept.tests["test_id"]) and len(kept.tests) == 17
+
+
+@pytest.mark.parametrize(
+    ("test", "column", "value", "says"),
+    [
+        ("shape-0001", "width_m", "0.1", "a circular plate is sized by radius_m"),
+        ("shear-ring-0001", "shape", "circle", "a shear-ring test has no plate shape"),
+        ("shear-ring-0002", "grousers", "1e3", "1000 grousers on a shear ring"),
+        ("shape-0003", "repetition", "-1", "repetition -1 is negative"),
+    ],
+)
+def test_log_cells_the_format_allows_but_are_likely_slips_warn_and_are_kept(
+    tmp_path, test, column, value, says
+):
+    """Each was read without a word (the format allows it: docs/campaign-format.md); now one
+    warning names the file, column and test, and the value is kept exactly as written."""
+
+    def edit(t):
+        bench._set_cell(t, "tests", column, bench._tests_row(t, test), value)
+
+    folder = _folder(tmp_path, edit)
+    messages = _load_warnings(folder)
+    assert len(messages) == 1, messages
+    assert messages[0].startswith(f"file 'tests.csv', column {column!r}, test(s) {test!r}: ")
+    assert says in messages[0]
+    with pytest.warns(SoilstatsWarning):
+        tests = load_campaign(folder).tests.set_index("test_id")
+    kept = tests.loc[test, column]
+    assert kept == (value if column == "shape" else float(value))  # nothing changed
+
+
+def test_grouser_counts_and_repetitions_within_reason_say_nothing(tmp_path):
+    from soilstats.campaign.log_warnings import MAX_GROUSERS
+
+    def edit(t):
+        bench._set_cell(t, "tests", "grousers", bench._tests_row(t, "shear-ring-0001"), "100")
+        bench._set_cell(t, "tests", "repetition", bench._tests_row(t, "shape-0001"), "0")
+
+    assert MAX_GROUSERS == 100
+    assert _load_warnings(_folder(tmp_path, edit)) == []

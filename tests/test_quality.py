@@ -140,6 +140,19 @@ def test_sinkage_in_millimetres_is_a_units_flag_in_check_and_an_error_at_load():
     assert {f.test_id for f in report.flags if f.code == "units"} == set(tests["test_id"])
 
 
+def test_the_units_code_text_names_the_upper_plate_pressure_bound_it_checks():
+    # The code's own description (shown by `soilstats check`) must state every bound the
+    # units check applies, read from the constant itself, as docs/quality.md does.
+    from soilstats.campaign.units import MAX_PEAK_PRESSURE_PA
+
+    bound = f"{MAX_PEAK_PRESSURE_PA / 1e6:g} MPa"
+    assert bound == "100 MPa"
+    assert f"above {bound}" in CODES["units"].what
+    assert "mN read as N" in CODES["units"].what
+    doc = (Path(__file__).parents[1] / "docs" / "quality.md").read_text(encoding="utf-8")
+    assert f"above {bound}" in doc
+
+
 def test_real_campaigns_grc1_load_capped_and_small_plates_fail_cullinan_phases_named():
     grc = screen(load_campaign("grc1-oravec2009"))
     by_code: dict[str, set] = {}

@@ -70,3 +70,28 @@ def test_truncnormal_is_seeded():
 def test_truncnormal_beyond_double_precision_is_an_error_not_a_wall():
     with pytest.raises(InputError, match="cannot be sampled: its window lies 1e\\+200 sd"):
         sample_priors({"x": ("truncnormal", 0.0, 1.0, 1e200, 2e200)}, 10, 1)
+
+
+# Python's float reads any Unicode decimal digit (float("٣") == 3.0): every prior parser must
+# refuse such text instead of taking the number silently (issue #44).
+@pytest.mark.parametrize("digit", ["٣", "３", "३"])  # Arabic-Indic, fullwidth, Devanagari 3
+def test_prior_parsers_refuse_non_ascii_digits_and_name_them(digit):
+    from soilstats.bayes.priors import parse_prior
+    from soilstats.bayes.stated_priors import parse_stated_prior
+    from soilstats.wheel.run_options import parse_prior_item
+
+    assert float(digit) == 3.0  # the silent reading this guards against
+    for parse, text in (
+        (parse_prior, f"normal:{digit}:1"),
+        (parse_prior, f"0:{digit}"),
+        (parse_stated_prior, f"normal:{digit}:1"),
+        (parse_stated_prior, f"1:{digit}"),
+        (parse_prior_item, f"c=normal:{digit}:1"),
+    ):
+        with pytest.raises(InputError, match="ASCII digits only") as err:
+            parse(text)
+        assert digit in str(err.value)
+    # The same priors written in ASCII are still read, to the value.
+    assert parse_prior_item("c=normal:3:1") == ("c", ("normal", 3.0, 1.0))
+    assert parse_stated_prior("normal:3:1") == ("normal", 3.0, 1.0)
+    assert (parse_prior("normal:3:1").mu, parse_prior("0:3").upper) == (3.0, 3.0)

@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._ascii import ascii_float, non_ascii_note
 from ..errors import InputError, ModelError
 from ..models import MODELS, Model, get_model, model_names
 from ..models.priors import FLAT, Normal, Prior, Uniform
@@ -135,18 +136,18 @@ def parse_prior(text: str) -> Prior:
     parts = [p.strip() for p in str(text).split(":")]
     try:
         if parts[0].lower() == "normal" and len(parts) in (3, 5):
-            mu, sd, *bounds = (float(p) for p in parts[1:])
+            mu, sd, *bounds = (ascii_float(p) for p in parts[1:])
             lo, hi = bounds or (-np.inf, np.inf)
             return Normal(lower=lo, upper=hi, mu=mu, sd=sd)
         if len(parts) == 2:
-            lo, hi = float(parts[0]), float(parts[1])
+            lo, hi = ascii_float(parts[0]), ascii_float(parts[1])
             if lo < hi:
                 return Uniform(lo, hi)
     except ValueError:
         pass
     raise InputError(
         f"cannot read the prior {text!r}: write LO:HI (flat), normal:MU:SD or "
-        "normal:MU:SD:LO:HI, e.g. 0.2:2 or normal:1.0:0.3:0:inf"
+        f"normal:MU:SD:LO:HI, e.g. 0.2:2 or normal:1.0:0.3:0:inf{non_ascii_note(text)}"
     )
 
 

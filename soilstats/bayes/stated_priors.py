@@ -24,6 +24,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 from scipy.stats import truncnorm
 
+from .._ascii import ascii_float, non_ascii_note
 from ..errors import InputError
 
 __all__ = ["SUPPORT", "describe_prior", "parse_stated_prior", "sample_priors", "stated_priors_of"]
@@ -67,12 +68,15 @@ def parse_stated_prior(text: str) -> tuple:
         if kind == "normal" and len(parts) == 5:
             kind = "truncnormal"
         if kind in ("uniform", "normal", "lognormal", "truncnormal"):
-            return (kind, *(float(p) for p in parts[1:]))
+            return (kind, *(ascii_float(p) for p in parts[1:]))
         if len(parts) == 2:
-            return ("uniform", float(parts[0]), float(parts[1]))
+            return ("uniform", ascii_float(parts[0]), ascii_float(parts[1]))
     except ValueError:
         pass
-    raise InputError(f"cannot read the prior {text!r}: write {_STATED_FORMS}, e.g. normal:30:3")
+    raise InputError(
+        f"cannot read the prior {text!r}: write {_STATED_FORMS}, e.g. normal:30:3"
+        f"{non_ascii_note(text)}"
+    )
 
 
 def _check(name: str, spec: object) -> tuple[str, tuple[float, ...]]:

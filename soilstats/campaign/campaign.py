@@ -21,6 +21,7 @@ from .derived_checks import derived_issues
 from .digest import campaign_sha256
 from .frame_checks import check_frame
 from .index import campaign_index, grouped_by_code
+from .log_warnings import warn_unlikely_log_cells
 from .matching import match_values, values_present
 from .near_names import warn_near_names
 from .schema import DERIVED_COLUMNS, FILES, KINDS, spec
@@ -170,6 +171,7 @@ def _build(frames: Frames, *, source: str, on_error: OnError, check_units: bool)
             stacklevel=3,  # the caller of load_campaign or from_frames
         )
     warn_near_names(out, file_names)
+    warn_unlikely_log_cells(out["tests"], file_names["tests"])
     if check_units:
         check_plausible_units(out["tests"], out["sinkage"], out["shear"], file_names)
     return Campaign(out["tests"], out["sinkage"], out["shear"], source, skipped, files=file_names)

@@ -95,19 +95,41 @@ def _files(folder: Path, mapping: Path, stem: str, name: str) -> tuple[list[Path
     """The lab files of a table, and whether they are one file per test (a folder or a
     glob: sorted by name, so the import is the same on every machine)."""
     path = folder / name
+    _refuse_outside(folder, mapping, stem, name, [path])
     if path.is_dir():
         found = sorted(p for p in path.iterdir() if p.is_file() and not p.name.startswith("."))
         if not found:
             raise _fail(mapping, f"{stem}.file", f"the folder {str(path)!r} holds no file")
+        _refuse_outside(folder, mapping, stem, name, found)
         return found, True
     if glob.has_magic(name):
         found = sorted(Path(p) for p in glob.glob(str(path)) if Path(p).is_file())
         if not found:
             raise _fail(mapping, f"{stem}.file", f"the pattern {str(path)!r} matches no file")
+        _refuse_outside(folder, mapping, stem, name, found)
         return found, True
     if not path.is_file():
         raise _fail(mapping, f"{stem}.file", f"{str(path)!r} is not a file")
     return [path], False
+
+
+def _refuse_outside(folder: Path, mapping: Path, stem: str, name: str, paths: list[Path]) -> None:
+    """Refuse lab files outside the mapping's folder, before any is read: a mapping names
+    the files beside it, and one shared or downloaded must not read ``../../etc/passwd``
+    (an absolute path, ``..`` or a link that leads out)."""
+    base = folder.resolve()
+    for p in paths:
+        if (
+            Path(name).is_absolute()
+            or ".." in Path(name).parts
+            or not p.resolve().is_relative_to(base)
+        ):
+            raise _fail(
+                mapping,
+                f"{stem}.file",
+                f"{name!r} leads outside the mapping's folder {str(folder)!r} ({p.name!r}); "
+                "put the lab files in that folder (or below it) and name them relative to it",
+            )
 
 
 def _fields(line: str, separator: str) -> int:

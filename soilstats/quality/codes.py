@@ -136,7 +136,9 @@ CODES: dict[str, QualityCode] = {
             "units",
             "A value whose size only makes sense in another unit (sinkage spanning more than "
             "1 m, a tool larger than 1 m, a peak pressure below 200 Pa, a shear stress above "
-            "5 MPa or below 20 Pa, more than two ring revolutions), or one test off the other "
+            "5 MPa or below 20 Pa, more than two ring revolutions), or a peak plate pressure "
+            "above 100 MPa (beyond any soil, rock crushes near it: a force in mN read as N or "
+            "the wrong column; fix the force column), or one test off the other "
             "tests of its soil by a unit's factor (peak pressure below 1/100 of their median: "
             "kN among N; sinkage span above 30x their median: cm or mm among m), or no "
             "positive force in contact (a reversed load cell), or a sinkage that falls "

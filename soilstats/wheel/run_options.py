@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._ascii import ascii_float, non_ascii_note
 from ..bayes.pooling import pooling_warnings
 from ..campaign.io import resolve
 from ..errors import InputError
@@ -68,13 +69,13 @@ def parse_prior_item(item: str) -> tuple[str, tuple]:
     name, sep, spec = item.partition("=")
     kind, *numbers = spec.split(":")
     try:
-        values = tuple(float(x) for x in numbers)
+        values = tuple(ascii_float(x) for x in numbers)
     except ValueError:
         values = ()
     if not sep or not name.strip() or not kind or not values:
         raise InputError(
             f"--prior takes NAME=KIND:ARGS (e.g. phi=normal:29:4, c=uniform:0:1500, "
-            f"K=lognormal:0.01:0.8), got {item!r}"
+            f"K=lognormal:0.01:0.8), got {item!r}{non_ascii_note(spec)}"
         )
     return name.strip(), (kind.strip(), *values)
 
