@@ -437,18 +437,18 @@ def test_cli_jobs_2_samples_the_second_model_in_a_worker_with_identical_outputs(
 ):
     import arviz as az
 
-    from soilstats import parallel
+    from soilstats.bayes import run_sampling
     from soilstats.cli.posterior import main
 
     started = []
-    real = parallel.in_one_worker
+    real = run_sampling.in_one_worker
 
     def spying(function, item):
         if function.__name__ == "_sample_and_draw":  # (not the warm-up's imports)
             started.append(item[1])
         return real(function, item)
 
-    monkeypatch.setattr(parallel, "in_one_worker", spying)
+    monkeypatch.setattr(run_sampling, "in_one_worker", spying)  # where the run looks it up
     folder = campaign.save(tmp_path / "camp")
     outs = {}
     for jobs in (1, 2):
