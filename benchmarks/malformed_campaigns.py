@@ -62,6 +62,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from soilstats.campaign.schema import SPECS  # noqa: E402
+
 Table = list[list[str]]  # header first
 Tables = dict[str, Table]
 FAILING = ("silent-change", "traceback", "crash", "hang")
@@ -72,20 +74,8 @@ NAMES = re.compile(
 )
 SINK_IDS = [f"shape-{i:04d}" for i in range(1, 13)]
 SHEAR_IDS = [f"shear-ring-{i:04d}" for i in range(1, 7)]
-NUMERIC = {
-    "tests": [
-        "radius_m",
-        "width_m",
-        "length_m",
-        "velocity_m_s",
-        "r_inner_m",
-        "r_outer_m",
-        "grouser_height_m",
-        "omega_rpm",
-    ],
-    "sinkage": ["z_m", "force_N"],
-    "shear": ["angle_rad", "torque_Nm", "normal_force_N"],
-}
+#: The format's numeric columns per table, from the schema (a new column is broken too).
+NUMERIC = {stem: [c.name for c in specs if c.dtype == "float"] for stem, specs in SPECS.items()}
 
 
 def base_tables(samples_per_test: int = 40) -> Tables:
