@@ -16,6 +16,7 @@ of freedom.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -101,6 +102,14 @@ def tukey_hsd(
         n_obs=len(frame),
         n_dropped=n_dropped,
     )
+
+
+@functools.lru_cache(maxsize=256)
+def _q_crit(alpha: float, k: int, df: float) -> float:
+    """Critical studentized range q(1 − α; k, df): kept, since scipy's ppf integrates
+    numerically (~0.1 s) and studies ask again for the same (α, k, df) — per soil, per
+    response, and when a default is re-evaluated (:mod:`soilstats.study.defaults`)."""
+    return float(studentized_range.ppf(1 - alpha, k, df))
 
 
 def tukey_lsmeans(
@@ -193,7 +202,7 @@ def tukey_lsmeans(
     i1, i2 = np.triu_indices(k, 1)
     diff = eff[i2] - eff[i1]
     se = np.sqrt(cov[i1, i1] + cov[i2, i2] - 2 * cov[i1, i2])
-    q_crit = float(studentized_range.ppf(1 - alpha, k, df))
+    q_crit = _q_crit(alpha, k, df)
     q = np.abs(diff) / se * np.sqrt(2.0)
     p_adj = np.atleast_1d(studentized_range.sf(q, k, df))
     half = q_crit / np.sqrt(2.0) * se
