@@ -80,24 +80,25 @@ def moved_verdicts(
     changed ``log10_p_ref`` p-value may move another response's verdict too: all are compared.
     """
     base = _verdicts(effects)
-    out: dict[str, list[str]] = {}
+    out: dict[str, dict[tuple[str, str], list[str]]] = {}
     for key, value in alternatives(spec, defaults):
         other = rerun(replace(spec, **{key: value}))
         if other is None:
             continue
-        new = _verdicts(other)
-        for (soil, response), verdict in base.items():
-            moved = new.get((soil, response))
+        for effect, verdict in base.items():
+            moved = _verdicts(other).get(effect)
             if moved is not None and moved != verdict:
-                out.setdefault(key, []).append(
-                    f"{soil} {response} is '{verdict}', at {key} = {value:g} m '{moved}'"
-                )
+                out.setdefault(key, {}).setdefault(effect, []).append(f"at {value:g} m '{moved}'")
     return {
         f"spec: {key}": (
-            f"the study's {key} moves a verdict: left at its default "
-            f"{getattr(spec, key):g} m, " + "; ".join(moved) + f"; give {key} in the specification"
+            f"the study's {key} moves a verdict: at its default {getattr(spec, key):g} m, "
+            + "; ".join(
+                f"{soil} {response} is '{base[(soil, response)]}', " + ", ".join(at)
+                for (soil, response), at in effects_moved.items()
+            )
+            + f"; give {key} in the specification"
         )
-        for key, moved in out.items()
+        for key, effects_moved in out.items()
     }
 
 
