@@ -175,8 +175,9 @@ def influential_warning(model_name: str, table: pd.DataFrame | None) -> str | No
     return (
         f"the default priors of the {model_name} posterior are influential: power-scaling "
         f"sensitivity above {THRESHOLD:g} for {listed} — these draws rest on priors nobody "
-        "stated, not on the tests alone; state a prior you can defend (--prior NAME=SPEC) "
-        "or add tests (docs/posterior.md, 'Prior sensitivity')"
+        "stated, not on the tests alone; state a prior you can defend for the soil "
+        "parameters (--prior NAME=SPEC) or add tests (the priors of the scatter between "
+        "preparations are fixed: only more tests help; docs/posterior.md, 'Prior sensitivity')"
     )
 
 
