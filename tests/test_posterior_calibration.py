@@ -239,6 +239,9 @@ def _crossing_campaign(rng, *, tests=6, z_ref=0.01, sd_p=0.05, sd_n=0.15, b=0.05
     return camp, (k, n, z_ref, sd_p, sd_n)
 
 
+# Six tests leave the default priors borderline-influential (power-scaling sensitivity of
+# mu_n ≈ 0.05, issue #47 item 3): the DefaultWarning says so; this test is about the band.
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")
 def test_population_band_inside_the_measured_range_is_as_wide_as_the_scatter_of_crossing_curves():
     # Review finding F1: with the scatter placed on ln k (the pressure at z = 1 m), curves that
     # cross inside the measured range need corr(ln k, n) ≈ 1, which the Beta(2, 2) prior on

@@ -108,6 +108,17 @@ def power_scaling_sensitivity(
     return {name: v / scale for name, v in out.items()}, k_max
 
 
+def _scale(x: np.ndarray) -> np.ndarray:
+    """The draws of a quantity on the scale its sensitivity is judged on: the logarithm of a
+    quantity positive at every draw (a modulus, a scatter sd, K), the draws otherwise.  The
+    CJS distance integrates over the quantity's axis, so it is not invariant to a monotone
+    transform: on the raw scale, the long right tail of a modulus spanning decades (Bernstein
+    k, the pressure at 1 m) dominates it (GRC-1's new-preparation k: 0.15 raw, 0.02 in ln),
+    while the population model is defined in the logs of its scales."""
+    x = np.asarray(x, float).ravel()
+    return np.log(x) if np.all(x > 0) else x
+
+
 def sensitivity_table(
     draws: Mapping[str, np.ndarray],
     log_default: np.ndarray,
@@ -117,7 +128,9 @@ def sensitivity_table(
     """One row per quantity of ``draws``: its sensitivity to the *default* priors
     (``log_default`` per draw) and, where the user gave some (``given``, ``log_given``), to
     those; ``influential`` marks a default-prior sensitivity above :data:`THRESHOLD` with
-    trusted weights (Pareto k ≤ :data:`K_MAX`)."""
+    trusted weights (Pareto k ≤ :data:`K_MAX`).  A quantity positive at every draw is judged
+    in its logarithm (:func:`_scale`)."""
+    draws = {q: _scale(x) for q, x in draws.items()}
     default, k_default = power_scaling_sensitivity(draws, log_default)
     stated, k_stated = (
         power_scaling_sensitivity(draws, log_given)
