@@ -45,8 +45,9 @@ def _campaign(case: str, seed: int, sinkage_m: float = 0.06):
             {"where": {"velocity_m_s": 4.8e-4}, "kc": 0.0, "n": 0.6, "kphi": 1.2e6 * Z0**0.5},
             {"where": {"velocity_m_s": 4.8e-3}, "kc": 0.0, "n": 1.1, "kphi": 1.2e6},
         ]
-    else:  # (4.8e-4 / 4.8e-3)^-0.3 = 2.0 on kc, kφ at the slow velocity
+    elif case == "uniform":  # (4.8e-4 / 4.8e-3)^-0.3 = 2.0 on kc, kφ at the slow velocity
         effects = [{"kind": "velocity", "exponent": -0.3, "reference_m_s": 4.8e-3}]
+    # "null": the same design with no effect (benchmarks/defaults_verdicts.py)
     spec = {
         "name": f"velocity-{case}",
         "soils": {"sand": soil},
