@@ -18,6 +18,7 @@ from ..outputs import json_safe
 from ..outputs.text import notes_block
 from ._arviz import az
 from .handout import hand_out
+from .prior_sensitivity import THRESHOLD, influential_warning
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
@@ -290,8 +291,6 @@ class PosteriorResult:
 
     def _sensitivity_lines(self) -> list[str]:
         """One line on the prior sensitivity (power-scaling), none where it was not checked."""
-        from .prior_sensitivity import THRESHOLD, influential_warning
-
         table = self.prior_sensitivity
         if table is None or table.empty:
             return []

@@ -172,7 +172,7 @@ def factor_effects(
     alpha: float,
     *,
     seed: int = 0,
-    pair_p: bool = True,
+    **tukey: bool,
 ) -> dict:
     """ANOVA, Tukey pairs and relevance of every response of ``spec`` for one soil.
 
@@ -187,9 +187,10 @@ def factor_effects(
     seed : int, default 0
         Seed of the Welch-type test's parametric bootstrap (with a random block), combined
         with the soil and response so that each test draws its own stream.
-    pair_p : bool, default True
-        Compute the Tukey pairs' adjusted p-values (the verdicts read only the intervals:
-        :mod:`.defaults` re-tests without them).
+    **tukey
+        ``p_values=False`` (for :func:`soilstats.statistics.tukey_lsmeans`) skips the
+        pairs' adjusted p-values (the verdicts read only the intervals: :mod:`.defaults`
+        re-tests without them).
 
     Returns
     -------
@@ -253,9 +254,7 @@ def factor_effects(
         residual = "within" if "within" in table.index else "Residual"
         row["df_error"] = error[1] if error is not None else float(table.loc[residual, "df"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         try:
-            tk = tukey_lsmeans(
-                data, resp.name, "level", blocks, alpha=alpha, error=error, p_values=pair_p
-            )
+            tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha, error=error, **tukey)
         except StatisticsInputError as err:
             notes.append(f"{soil}, {resp.name}: no pairwise comparison — {_in_terms(err, factor)}")
             tk = None

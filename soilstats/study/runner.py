@@ -211,7 +211,7 @@ def _soil_effects(
     data = per_test[per_test["soil"].astype(str) == soil]
     if spec.kind == "shear":
         return shear_effects(data, spec, soil)
-    return factor_effects(data, spec, soil, spec.alpha, seed=seed or 0, pair_p=pair_p)
+    return factor_effects(data, spec, soil, spec.alpha, seed=seed or 0, p_values=pair_p)
 
 
 def _effects_at(
