@@ -332,8 +332,8 @@ def sample_population(
     # Do the default priors carry the result? Power-scaling on these draws (no resampling).
     given = tuple(n for n in names if n in (priors or {}))
     log_default, log_given = pops.log_priors(run.chain.reshape(-1, run.chain.shape[-1]), given)
-    draws = {q: idata.posterior[q].to_numpy().ravel() for q in (*var_names, *names)}
-    table = sensitivity_table(draws, log_default, log_given, given)
+    quantities = {q: idata.posterior[q].to_numpy().ravel() for q in (*var_names, *names)}
+    table = sensitivity_table(quantities, log_default, log_given, given)
     warn_influential(spec.name, table)
     return replace(result, prior_sensitivity=table)
 

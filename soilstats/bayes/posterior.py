@@ -137,7 +137,9 @@ def sample_posterior(
         fit,
     )
     # Do the default priors carry the result? Power-scaling on these draws (no resampling).
-    table = pooled_sensitivity(idata.posterior, spec.param_names, problem.priors, priors or {})
+    table = pooled_sensitivity(
+        result.idata.posterior, spec.param_names, problem.priors, priors or {}
+    )
     warn_influential(spec.name, table)
     return replace(result, prior_sensitivity=table)
 

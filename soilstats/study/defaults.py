@@ -82,7 +82,8 @@ def moved_verdicts(
     base = _verdicts(effects)
     out: dict[str, dict[tuple[str, str], list[str]]] = {}
     for key, value in alternatives(spec, defaults):
-        other = rerun(replace(spec, **{key: value}))
+        alt = replace(spec, z_ref_m=value) if key == "z_ref_m" else replace(spec, z_window_m=value)
+        other = rerun(alt)
         if other is None:
             continue
         for effect, verdict in base.items():
