@@ -41,6 +41,8 @@ def test_pooled_90pct_intervals_cover_truth_90pct():
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # few tests: the
+# default priors carry this population (issue #47 item 3 warns so); not this test's subject
 def test_population_band_covers_held_out_curves_where_pooled_sigma_does_not():
     # 4 simulated campaigns (soil01, 3 plates, cv 10 % stiffness and sd 0.03 in n between
     # preparations), 4 training repetitions per plate, 10 held-out repetitions per plate:
@@ -154,6 +156,8 @@ def test_bundled_pooled_posteriors_converge_at_defaults(name, model, selection):
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # few tests: the
+# default priors carry this population (issue #47 item 3 warns so); not this test's subject
 def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
     camp = soilstats.load_campaign("cullinan-sand")
     pop = sample_population(camp, "bernstein", seed=0, preparation="1")
@@ -167,6 +171,8 @@ def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
 
 
 @pytest.mark.slow  # a population from the CLI on real data (3 s): CI runs it
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # few tests: the
+# default priors carry this population (issue #47 item 3 warns so); not this test's subject
 def test_cli_population_with_select_on_real_data(tmp_path):
     from soilstats.bayes._arviz import az
     from soilstats.cli.posterior import main
