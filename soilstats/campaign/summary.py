@@ -89,8 +89,7 @@ def describe(c: CampaignTables) -> str:
         lines.append(
             "rings: "
             + ", ".join(
-                f"r {ri:.4g}–{ro:.4g} m, {g:g} grousers (×{n})"
-                for (ri, ro, g), n in rings.items()  # type: ignore[has-type, misc]  # pandas-stubs: a multi-column value_counts key is a tuple
+                f"r {ri:.4g}–{ro:.4g} m, {g:g} grousers (×{n})" for (ri, ro, g), n in rings.items()  # type: ignore[has-type, misc]  # pandas-stubs: a multi-column value_counts key is a tuple
             )
         )
     lines.append("log columns: " + ", ".join(map(str, t.columns)))

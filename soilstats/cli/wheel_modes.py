@@ -266,6 +266,7 @@ def _draws_netcdf(draws: pd.DataFrame, path: Path, overwrite: bool) -> None:
     """The joint draws as netCDF: one variable per quantity over (draw, slip)."""
     import xarray as xr  # deferred: pandas
 
+
     target = output_path(path.parent, path.name, overwrite=overwrite)
     ds = xr.Dataset.from_dataframe(draws.set_index(["draw", "slip"]))
     buffer = io.BytesIO()

@@ -175,7 +175,9 @@ def _extension_plans(
     return plans, tasks
 
 
-def _tried_entry(entry: dict, gain: Gain, search_gain: Gain | None, reasons: list[str]) -> dict:
+def _tried_entry(
+    entry: dict, gain: Gain, search_gain: Gain | None, reasons: list[str]
+) -> dict:
     """``entry`` (a tried extension's record) with its gains, cause fixed and whole search,
     and the reasons its parameters are implausible."""
     entry.update(

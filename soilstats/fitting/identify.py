@@ -467,7 +467,9 @@ def _judge_end_point(
     return _EndPoint(converged, message, tuple(flags), cond, cov, stderr)
 
 
-def _undetermined(stderr: np.ndarray, values: np.ndarray, param_names: Sequence[str]) -> list[str]:
+def _undetermined(
+    stderr: np.ndarray, values: np.ndarray, param_names: Sequence[str]
+) -> list[str]:
     """Names of the parameters whose σ exceeds 1e8 × |θ|.
 
     Column scaling makes cond(J) blind to a parameter whose column has vanished (BoxBOD

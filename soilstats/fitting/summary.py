@@ -164,8 +164,7 @@ def parameter_frame(fit: ShownFit) -> pd.DataFrame:
             "value": [f"{v:.6g}" for v in fit.values],
             "stderr (Eq. 3)": [f"{s:.4g}" for s in fit.stderr_values],
             "95% CI (t)": [
-                f"[{ci.loc[n, 'lower']:.5g}, {ci.loc[n, 'upper']:.5g}]"
-                for n in fit.param_names  # type: ignore[str-bytes-safe]  # pandas-stubs: .loc[row, col] is any scalar
+                f"[{ci.loc[n, 'lower']:.5g}, {ci.loc[n, 'upper']:.5g}]" for n in fit.param_names  # type: ignore[str-bytes-safe]  # pandas-stubs: .loc[row, col] is any scalar
             ],
             "unit": [fit.units.get(n, "") for n in fit.param_names],
         }

@@ -39,6 +39,7 @@ from .methods import write_equations
 from .parameters import EQ4_NOTE, fit_table
 
 if TYPE_CHECKING:
+
     from ..discovery.crossval import Gain
     from ..discovery.selection import CombinedModel
 

@@ -149,7 +149,9 @@ def _soil_figure(soil: str, pairs: list) -> Figure:
 _MAX_POINTS = 400
 
 
-def _measured_points(ax: Axes, fit: CampaignFit, x: np.ndarray, scale: float, colour: Any) -> None:
+def _measured_points(
+    ax: Axes, fit: CampaignFit, x: np.ndarray, scale: float, colour: Any
+) -> None:
     """The samples the fit was made on, as small dots under its curve: for a plate-size
     model only those of the plate the curve is drawn at."""
     if fit.x_data is None or fit.y_data is None:

@@ -34,7 +34,9 @@ from .posterior_predictive import predictive_figure
 __all__ = ["write_report"]
 
 
-def _estimates(res: PosteriorResult, prob: float, handed_out: pd.DataFrame | None = None) -> list:
+def _estimates(
+    res: PosteriorResult, prob: float, handed_out: pd.DataFrame | None = None
+) -> list:
     table = res.summary_table(prob, handed_out)
     lo, hi = table.columns[2], table.columns[3]
     parts: list = []
