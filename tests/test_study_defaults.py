@@ -98,6 +98,7 @@ def test_a_verdict_resting_on_z_ref_warns(spec):
     text = result.default_warnings["spec: z_ref_m"]
     assert "at 0.0125 m 'effect'" in text and "at 0.05 m 'effect'" in text
     assert "Warning: the study's z_ref_m moves a verdict" in result.summary()
+    assert "z_ref_m moves a verdict" in result._repr_html_()
     assert result.to_dict()["default_warnings"] == result.default_warnings
 
 

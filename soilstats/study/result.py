@@ -203,5 +203,7 @@ class StudyResult:
             parts.append(
                 facts_html({"best preparation": f"{self.best.get('best')}: {self.best['reason']}"})
             )
+        if self.default_warnings:  # a default that moves a verdict (soilstats.study.defaults)
+            parts.append(facts_html({"warning": " ".join(self.default_warnings.values())}))
         parts.append(notes_html(self.notes))
         return result_html(f"Study {self.name!r}: {self.spec.title}", *parts)
