@@ -139,3 +139,21 @@ def test_the_paper_campaign_pooled_posterior_is_silent():
     assert result.prior_sensitivity is not None
     assert not result.prior_sensitivity["influential"].any()
     assert "default priors are not influential" in result.summary()
+
+
+def test_a_strong_user_prior_is_reported_and_not_warned_on_a_real_posterior():
+    """GRC-1's pooled Bernstein with n ~ N(1, 0.05²) stated: the posterior rests on that prior
+    (its sensitivity is reported), but the user chose it — no warning."""
+    from soilstats.bayes import sample_posterior
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DefaultWarning)
+        result = sample_posterior(
+            load_campaign("grc1-oravec2009"),
+            "bernstein",
+            seed=0,
+            priors={"n": Normal(mu=1.0, sd=0.05, lower=0.0)},
+        )
+    table = result.prior_sensitivity.set_index("quantity")
+    assert table.loc["n", "given_prior_sensitivity"] > THRESHOLD
+    assert not table["influential"].any()
