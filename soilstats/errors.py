@@ -17,6 +17,7 @@ __all__ = [
     "ConfoundingError",
     "ConvergenceError",
     "ConvergenceWarning",
+    "DefaultWarning",
     "IdentifiabilityError",
     "InputError",
     "ModelError",
@@ -42,6 +43,11 @@ class SoilstatsWarning(UserWarning):
 
 class ConvergenceWarning(SoilstatsWarning):
     """A fit or sampler finished, but a health check failed (see the result's flags)."""
+
+
+class DefaultWarning(SoilstatsWarning):
+    """A default the user did not give moves a verdict: tried at its documented alternative,
+    the verdict changes (docs/conventions.md, "Defaults that move a verdict")."""
 
 
 class RenamedWarning(SoilstatsWarning, FutureWarning):

@@ -414,6 +414,8 @@ def test_a_posterior_carries_the_health_of_the_fit_it_started_from(tmp_path, cap
 # warning, which pytest's error filter would otherwise raise before the CLI can record it).
 @pytest.mark.slow  # two population runs: CI runs it
 @pytest.mark.filterwarnings("default::RuntimeWarning")
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # few tests: the
+# default priors carry this population (issue #47 item 3 warns so); not this test's subject
 def test_population_draws_of_a_model_flagged_plate_exponents_are_refused(tmp_path, capsys):
     """GRC-1's plates disagree on Bekker's n (identify: plate-exponents, ANOVA p = 4e-6); a
     population posterior would hand that misfit out as scatter between preparations, so

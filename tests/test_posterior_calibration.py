@@ -41,6 +41,8 @@ def test_pooled_90pct_intervals_cover_truth_90pct():
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # few tests: the
+# default priors carry this population (issue #47 item 3 warns so); not this test's subject
 def test_population_band_covers_held_out_curves_where_pooled_sigma_does_not():
     # 4 simulated campaigns (soil01, 3 plates, cv 10 % stiffness and sd 0.03 in n between
     # preparations), 4 training repetitions per plate, 10 held-out repetitions per plate:
@@ -154,6 +156,8 @@ def test_bundled_pooled_posteriors_converge_at_defaults(name, model, selection):
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # few tests: the
+# default priors carry this population (issue #47 item 3 warns so); not this test's subject
 def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
     camp = soilstats.load_campaign("cullinan-sand")
     pop = sample_population(camp, "bernstein", seed=0, preparation="1")
@@ -167,6 +171,8 @@ def test_population_on_cullinan_method_1_converges_and_is_wider_than_pooled():
 
 
 @pytest.mark.slow  # a population from the CLI on real data (3 s): CI runs it
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # few tests: the
+# default priors carry this population (issue #47 item 3 warns so); not this test's subject
 def test_cli_population_with_select_on_real_data(tmp_path):
     from soilstats.bayes._arviz import az
     from soilstats.cli.posterior import main
@@ -239,6 +245,9 @@ def _crossing_campaign(rng, *, tests=6, z_ref=0.01, sd_p=0.05, sd_n=0.15, b=0.05
     return camp, (k, n, z_ref, sd_p, sd_n)
 
 
+# Six tests leave the default priors borderline-influential (power-scaling sensitivity of
+# mu_n ≈ 0.05, issue #47 item 3): the DefaultWarning says so; this test is about the band.
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")
 def test_population_band_inside_the_measured_range_is_as_wide_as_the_scatter_of_crossing_curves():
     # Review finding F1: with the scatter placed on ln k (the pressure at z = 1 m), curves that
     # cross inside the measured range need corr(ln k, n) ≈ 1, which the Beta(2, 2) prior on

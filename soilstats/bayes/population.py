@@ -11,7 +11,7 @@ groups and notes of the result.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -33,6 +33,7 @@ from .predictive import (
     response_dataset,
     spread_draws,
 )
+from .prior_sensitivity import sensitivity_table, warn_influential
 from .priors import resolve_priors
 from .reduction import (
     PerTestFits,
@@ -325,9 +326,16 @@ def sample_population(
         idata.posterior.attrs["calibration"] = check.to_json()
         notes.append(check.sentence)
     units = dict(zip(names, spec.units, strict=True))
-    return finish(
+    result = finish(
         idata, spec.name, "population", names, units, (*var_names, *names), run, notes, lsq
     )
+    # Do the default priors carry the result? Power-scaling on these draws (no resampling).
+    given = tuple(n for n in names if n in (priors or {}))
+    log_default, log_given = pops.log_priors(run.chain.reshape(-1, run.chain.shape[-1]), given)
+    quantities = {q: idata.posterior[q].to_numpy().ravel() for q in (*var_names, *names)}
+    table = sensitivity_table(quantities, log_default, log_given, given)
+    warn_influential(spec.name, table)
+    return replace(result, prior_sensitivity=table)
 
 
 def _population_notes(pops: PopulationModel, fits: PerTestFits, ln_zref: float) -> list[str]:

@@ -82,7 +82,7 @@ fails are left out and named in the notes.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -239,6 +239,24 @@ class PopulationModel:
         if self.log_flat_second:
             out -= self.layout.second(theta)  # g = ln K: 1/K on K
         return out
+
+    def log_priors(self, v: np.ndarray, given: Iterable[str]) -> tuple[np.ndarray, np.ndarray]:
+        """(default, given) log prior densities at the rows of ``v``, each in the quantities'
+        own scale (no Jacobian of the sampling coordinates): the default is the soil-level
+        priors not in ``given``, the log-flat factor, the half-Cauchy scatter scales and the
+        Beta(2, 2) correlation; the given one the user's soil-level priors
+        (:mod:`soilstats.bayes.prior_sensitivity`)."""
+        theta, chosen = self.theta(v), set(given)
+        default = self.log_scale_prior(theta)
+        user = np.zeros(theta.shape[0])
+        for i, (name, prior) in enumerate(zip(self.model.param_names, self.priors, strict=True)):
+            if name in chosen:
+                user = user + prior.logpdf(theta[:, i])
+            else:
+                default = default + prior.logpdf(theta[:, i])
+        s = np.exp(v[:, self.p : self.p + 2])
+        default = default - np.sum(np.log1p((s / self.scales) ** 2), axis=1)
+        return default + np.log1p(-(np.tanh(v[:, self.p + 2]) ** 2)), user
 
     def describe_priors(self) -> str:
         """The soil-level priors in words (notes, ``posterior.attrs['priors']``)."""

@@ -18,6 +18,7 @@ from ._arviz import az
 from .data import pooled_problem
 from .likelihood import PooledProblem
 from .predictive import PREDICTIVE_DRAWS, pooled_groups
+from .prior_sensitivity import pooled_sensitivity, warn_influential
 from .result import PosteriorResult, chain_diagnostics, diagnose, draws_converge
 from .sampler import EnsembleRun, run_ensemble
 from .transforms import Coordinates, sampling_coordinates
@@ -124,7 +125,7 @@ def sample_posterior(
     run, rss = _back_to_theta(problem, coords, run)
     rng = np.random.default_rng(None if seed is None else [seed, 1])
     idata = _inference_data(problem, run, rss, rng, predictive_draws=predictive_draws)
-    return finish(
+    result = finish(
         idata,
         problem.model.name,
         "pooled",
@@ -135,6 +136,12 @@ def sample_posterior(
         _pooled_notes(problem),
         fit,
     )
+    # Do the default priors carry the result? Power-scaling on these draws (no resampling).
+    table = pooled_sensitivity(
+        result.idata.posterior, spec.param_names, problem.priors, priors or {}
+    )
+    warn_influential(spec.name, table)
+    return replace(result, prior_sensitivity=table)
 
 
 def finish(

@@ -18,6 +18,7 @@ from ..outputs import json_safe
 from ..outputs.text import notes_block
 from ._arviz import az
 from .handout import hand_out
+from .prior_sensitivity import THRESHOLD, influential_warning
 
 if TYPE_CHECKING:
     from ..fitting.result import FitResult
@@ -127,6 +128,10 @@ class PosteriorResult:
     sampler: dict = field(repr=False)
     notes: tuple[str, ...] = ()
     lsq: FitResult | None = field(default=None, repr=False)  # the least-squares fit it began at
+    #: Power-scaling prior sensitivity per quantity (:mod:`soilstats.bayes.prior_sensitivity`):
+    #: to the default priors and to the user's; ``influential`` marks a default prior the
+    #: draws rest on (also a DefaultWarning and a line of :meth:`summary`).
+    prior_sensitivity: pd.DataFrame | None = field(default=None, repr=False, compare=False)
     # The chains' diagnostics when the sampler already computed them (its convergence check):
     # ArviZ's summary is the most expensive table here, so it is made once.
     _chains: pd.DataFrame | None = field(default=None, repr=False, compare=False)
@@ -284,6 +289,20 @@ class PosteriorResult:
         adequacy (lack-of-fit, test-scatter …) hold for the posterior too."""
         return [{"code": f.code, "message": f.message} for f in getattr(self.lsq, "flags", ())]
 
+    def _sensitivity_lines(self) -> list[str]:
+        """One line on the prior sensitivity (power-scaling), none where it was not checked."""
+        table = self.prior_sensitivity
+        if table is None or table.empty:
+            return []
+        warning = influential_warning(self.model_name, table)
+        if warning is not None:
+            return [f"Prior sensitivity: WARNING: {warning}"]
+        worst = float(table["default_prior_sensitivity"].max())
+        return [
+            f"Prior sensitivity: the default priors are not influential (power-scaling "
+            f"sensitivity {worst:.2g} <= {THRESHOLD:g} for every quantity)"
+        ]
+
     def summary(self, prob: float = 0.9, handed_out: pd.DataFrame | None = None) -> str:
         """Readable report: estimates, ``prob`` interval, diagnostics, sampler and numbered
         notes; ``handed_out`` as in :meth:`summary_table`."""
@@ -317,6 +336,7 @@ class PosteriorResult:
                 "do not use these draws (run longer: more draws)"
             )
             lines.extend(f"  ! {flag}" for flag in self.flags)
+        lines += self._sensitivity_lines()
         units = ", ".join(f"{n} [{self.units[n]}]" for n in self.param_names)
         over = ""
         if handed_out is not None:

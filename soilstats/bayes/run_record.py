@@ -37,13 +37,23 @@ def posterior_record(
     pools (:func:`soilstats.bayes.pooling.pooling_warnings`), the ``selection`` as given and
     the ``provenance`` (:class:`soilstats.outputs.Provenance`) and the ``defaults`` the run rests
     on unsaid (``{"--walkers": "32"}``: the options left at their defaults, printed on page 1
-    of the report); NaN written as null."""
+    of the report); ``prior_sensitivity`` per model (power-scaling,
+    :mod:`soilstats.bayes.prior_sensitivity`) and ``default_warnings`` where a model's default
+    priors are influential (``{"MODEL: priors": warning}``, page 1); NaN written as null."""
     decision = handout.to_dict()
+    from .prior_sensitivity import influential_warning  # deferred: arviz
+
+    # Issue #47 item 3: a default prior the draws rest on is a warning (page 1 too).
+    moved = {
+        f"{r.model_name}: priors": influential_warning(r.model_name, r.prior_sensitivity)
+        for r in results
+    }
     checks = {r.model_name: band_calibration(r) for r in results if r.kind == "population"}
     return json_safe(
         {
             "soil": soil,
             "defaults": dict(defaults or {}),
+            "default_warnings": {k: v for k, v in moved.items() if v},
             "models": models,
             "kind": [r.kind for r in results],
             "converged": all(r.converged for r in results),
@@ -53,6 +63,9 @@ def posterior_record(
             "draws_written": decision["draws_written"],
             "negative_modulus_below_m": decision["negative_modulus_below_m"],
             "priors": {r.model_name: r.idata.posterior.attrs.get("priors", "") for r in results},
+            "prior_sensitivity": {
+                r.model_name: _sensitivity_records(r.prior_sensitivity) for r in results
+            },
             "pooling_warnings": pooling_warnings,
             "least_squares_health": decision["least_squares_health"],
             # The population band against its own tests (issue #36): which criterion fails.
@@ -64,6 +77,13 @@ def posterior_record(
             "provenance": provenance.to_dict(),
         }
     )
+
+
+def _sensitivity_records(table: Any) -> list[dict]:
+    """The power-scaling table of one posterior as JSON records (none where not checked)."""
+    if table is None or table.empty:
+        return []
+    return [json_safe(row) for row in table.to_dict("records")]
 
 
 class _Annotated:

@@ -203,8 +203,10 @@ def _conclusion(
             f"{support['max_share']:.0%} allowed) — "
             + ("passed." if support["passed"] else "FAILED.")
         )
+    said = set((record.get("default_warnings") or {}).values())  # already under Data
     for w in [*record.get("warnings", []), *record.get("pooling_warnings", [])]:
-        out.append([strong("Warning: "), w])
+        if w not in said:
+            out.append([strong("Warning: "), w])
     return out
 
 
@@ -337,6 +339,7 @@ def write_report(
         ],
         conclusion=_conclusion(results, record, prob, handed_out),
         defaults=record.get("defaults"),
+        default_warnings=record.get("default_warnings"),
     )
     doc.page_break()
     doc.heading("Methods")

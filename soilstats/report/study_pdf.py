@@ -422,6 +422,7 @@ def write_report(
         ],
         conclusion=_conclusion(result),
         defaults=getattr(result, "defaults", None),
+        default_warnings=getattr(result, "default_warnings", None),
     )
     if result.notes:
         doc.heading("Notes", level=2)

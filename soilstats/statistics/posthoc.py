@@ -16,6 +16,7 @@ of freedom.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -103,6 +104,14 @@ def tukey_hsd(
     )
 
 
+@functools.lru_cache(maxsize=256)
+def _q_crit(alpha: float, k: int, df: float) -> float:
+    """Critical studentized range q(1 − α; k, df): kept, since scipy's ppf integrates
+    numerically (~0.1 s) and studies ask again for the same (α, k, df) — per soil, per
+    response, and when a default is re-evaluated (:mod:`soilstats.study.defaults`)."""
+    return float(studentized_range.ppf(1 - alpha, k, df))
+
+
 def tukey_lsmeans(
     data: pd.DataFrame,
     response: str,
@@ -112,6 +121,7 @@ def tukey_lsmeans(
     alpha: float = 0.05,
     error: tuple[float, float] | None = None,
     dropna: bool = False,
+    p_values: bool = True,
 ) -> pd.DataFrame:
     """Tukey–Kramer pairs of the least-squares means of ``factor`` in the additive block model.
 
@@ -134,6 +144,10 @@ def tukey_lsmeans(
         Error term instead of the model's residual: e.g. the factor × operator mean square
         and its df when operators are random (:func:`anova_random_block`), so that the pairs
         face the same error as the factor's F-test.
+    p_values : bool, default True
+        Compute the adjusted p-values (``p_adj``; NaN when False).  Each one integrates the
+        studentized range numerically (~25 ms a pair); the intervals and ``reject`` do not
+        need them (a study re-evaluating a default reads only those).
 
     Returns
     -------
@@ -193,9 +207,9 @@ def tukey_lsmeans(
     i1, i2 = np.triu_indices(k, 1)
     diff = eff[i2] - eff[i1]
     se = np.sqrt(cov[i1, i1] + cov[i2, i2] - 2 * cov[i1, i2])
-    q_crit = float(studentized_range.ppf(1 - alpha, k, df))
+    q_crit = _q_crit(alpha, k, df)
     q = np.abs(diff) / se * np.sqrt(2.0)
-    p_adj = np.atleast_1d(studentized_range.sf(q, k, df))
+    p_adj = np.atleast_1d(studentized_range.sf(q, k, df) if p_values else np.full(q.shape, np.nan))
     half = q_crit / np.sqrt(2.0) * se
     return _pairs_frame(
         levels[i1],

@@ -166,7 +166,13 @@ def _tidy_anova(table: pd.DataFrame, soil: str, response: str) -> pd.DataFrame:
 
 
 def factor_effects(
-    per_test: pd.DataFrame, spec: StudySpec, soil: str, alpha: float, *, seed: int = 0
+    per_test: pd.DataFrame,
+    spec: StudySpec,
+    soil: str,
+    alpha: float,
+    *,
+    seed: int = 0,
+    **tukey: bool,
 ) -> dict:
     """ANOVA, Tukey pairs and relevance of every response of ``spec`` for one soil.
 
@@ -181,6 +187,10 @@ def factor_effects(
     seed : int, default 0
         Seed of the Welch-type test's parametric bootstrap (with a random block), combined
         with the soil and response so that each test draws its own stream.
+    **tukey
+        ``p_values=False`` (for :func:`soilstats.statistics.tukey_lsmeans`) skips the
+        pairs' adjusted p-values (the verdicts read only the intervals: :mod:`.defaults`
+        re-tests without them).
 
     Returns
     -------
@@ -244,7 +254,7 @@ def factor_effects(
         residual = "within" if "within" in table.index else "Residual"
         row["df_error"] = error[1] if error is not None else float(table.loc[residual, "df"])  # type: ignore[arg-type]  # pandas-stubs: .loc[row, col] is any scalar
         try:
-            tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha, error=error)
+            tk = tukey_lsmeans(data, resp.name, "level", blocks, alpha=alpha, error=error, **tukey)
         except StatisticsInputError as err:
             notes.append(f"{soil}, {resp.name}: no pairwise comparison — {_in_terms(err, factor)}")
             tk = None

@@ -115,6 +115,7 @@ def to_json_dict(result: StudyRecord) -> dict:
         "lines": _records(result.lines),
         "notes": list(result.notes),
         "defaults": dict(getattr(result, "defaults", {})),
+        "default_warnings": dict(getattr(result, "default_warnings", {})),
     }
     if result.date is not None:  # only when SOURCE_DATE_EPOCH asks for one
         doc["date"] = result.date

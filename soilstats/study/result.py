@@ -78,6 +78,10 @@ class StudyResult:
         What the result rests on that the user did not give: the spec's keys left at their
         defaults (``{"spec: z_window_m": "0.001"}``) and, from the CLI, its options
         (``{"--seed": "0"}``); the JSON's ``"defaults"`` and page 1 of the report.
+    default_warnings : dict of str to str
+        Those of the spec's defaults that move a verdict (``{"spec: z_ref_m": warning}``,
+        :mod:`soilstats.study.defaults`): the JSON's ``"default_warnings"``, warnings on
+        page 1 and in :meth:`summary`.
     """
 
     spec: StudySpec
@@ -97,6 +101,7 @@ class StudyResult:
     seed: int | None = None
     provenance: Provenance | None = None
     defaults: dict[str, str] = field(default_factory=dict)
+    default_warnings: dict[str, str] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -176,6 +181,7 @@ class StudyResult:
             lines.append(
                 f"Best preparation method: {self.best.get('best')} — {self.best['reason']}"
             )
+        lines += [f"Warning: {text}" for text in self.default_warnings.values()]
         lines += notes_block(self.notes)
         return "\n".join(lines)
 
@@ -197,5 +203,7 @@ class StudyResult:
             parts.append(
                 facts_html({"best preparation": f"{self.best.get('best')}: {self.best['reason']}"})
             )
+        if self.default_warnings:  # a default that moves a verdict (soilstats.study.defaults)
+            parts.append(facts_html({"warning": " ".join(self.default_warnings.values())}))
         parts.append(notes_html(self.notes))
         return result_html(f"Study {self.name!r}: {self.spec.title}", *parts)

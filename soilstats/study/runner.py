@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -21,6 +22,7 @@ from ..identification.result import ONSET_TOLERANCE
 from ..outputs import Provenance, source_date
 from ..quality import ScreenedCampaign
 from .data import StudyDataError, check_reference, select_tests, soils_with_levels
+from .defaults import RESPONSE, moved_verdicts, warn_moved
 from .effects import factor_effects
 from .preparation import evaluate_criteria
 from .responses import PerTestCache
@@ -131,12 +133,10 @@ def run_study(
         notes.append(failed)
     effect_rows, anovas, pairs, lines, params, untested = [], [], [], [], [], []
     for soil in soils:
-        data = per_test[per_test["soil"].astype(str) == soil]
+        out = _soil_effects(per_test, spec, soil, seed)
         if spec.kind == "shear":
-            out = shear_effects(data, spec, soil)
             lines.append(out["lines"])
         else:
-            out = factor_effects(data, spec, soil, spec.alpha, seed=seed or 0)
             pairs.append(out["pairs"])
         effect_rows += out["effects"]
         untested += out.get("untested", [])
@@ -146,6 +146,14 @@ def run_study(
     if untested and not effect_rows:  # nothing tested: an error, not an empty verdict
         raise StudyDataError("\n".join(untested))
     effects = classify(effect_rows, alpha=spec.alpha, family=spec.family)
+    defaults = spec_defaults(spec)
+    moved = moved_verdicts(
+        spec,
+        defaults,
+        effects,
+        lambda alt: _effects_at(cache, per_test, effect_rows, soils, alt, seed),
+    )
+    warn_moved(moved)
     parameters = pd.concat(params, ignore_index=True) if params else pd.DataFrame()
     criteria = best = None
     if spec.type == "preparation":
@@ -167,7 +175,8 @@ def run_study(
         runtime_s=time.perf_counter() - start,
         seed=seed,
         provenance=provenance,
-        defaults=spec_defaults(spec),
+        defaults=defaults,
+        default_warnings=moved,
     )
 
 
@@ -192,6 +201,43 @@ def spec_defaults(spec: StudySpec) -> dict[str, str]:
         for key, (value, kinds) in _SPEC_DEFAULTS.items()
         if key not in raw and spec.kind in kinds
     }
+
+
+def _soil_effects(
+    per_test: pd.DataFrame, spec: StudySpec, soil: str, seed: int | None, *, pair_p: bool = True
+) -> dict:
+    """The effects of ``spec``'s factor in ``soil`` (:func:`.shear.shear_effects` or
+    :func:`.effects.factor_effects`; ``pair_p``: the Tukey pairs' p-values too)."""
+    data = per_test[per_test["soil"].astype(str) == soil]
+    if spec.kind == "shear":
+        return shear_effects(data, spec, soil)
+    return factor_effects(data, spec, soil, spec.alpha, seed=seed or 0, p_values=pair_p)
+
+
+def _effects_at(
+    cache: PerTestCache,
+    per_test: pd.DataFrame,
+    effect_rows: list[dict],
+    soils: list[str],
+    alt: StudySpec,
+    seed: int | None,
+) -> pd.DataFrame | None:
+    """The classified effects with the :data:`~.defaults.RESPONSE` rows re-tested at
+    ``alt``'s z_ref_m and z_window_m (the per-test fits reused from ``cache``, the other
+    responses' rows kept); None when a test with a pressure at the default has none there."""
+    ids = per_test["test_id"].astype(str).tolist()
+    at = cache.sinkage(ids, alt.z_ref_m, alt.z_window_m)
+    if (at["p_ref_Pa"].isna() & per_test["p_ref_Pa"].notna().to_numpy()).any():
+        return None
+    one = replace(alt, responses=tuple(r for r in alt.responses if r.name == RESPONSE))
+    new = per_test.assign(
+        p_ref_Pa=at["p_ref_Pa"].to_numpy(), log10_p_ref=at["log10_p_ref"].to_numpy()
+    )
+    rows = [r for r in effect_rows if r["response"] != RESPONSE]
+    for soil in soils:
+        # the verdicts read the pairs' intervals, not their p-values (the costly part)
+        rows += _soil_effects(new, one, soil, seed, pair_p=False)["effects"]
+    return classify(rows, alpha=alt.alpha, family=alt.family)
 
 
 def _per_test(
