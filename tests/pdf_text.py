@@ -23,6 +23,7 @@ overlap when their turned boxes share more than 1 pt along every edge direction 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -226,3 +227,24 @@ def small_and_overlapping(path) -> list[tuple]:
                     seen.add((a, b))
                     problems.append((page.page_number, "overlap", text[a], text[b]))
     return problems
+
+
+#: What a Python object or API call printed as text looks like (issue #47 item 5: typeset
+#: tables only): a dict or list of strings, numpy's scalar repr, a missing value, Python's None
+#: as a value, an API attribute or call pointed to from a report.
+PYTHON_TEXT = re.compile(
+    r"\{'|\['|np\.float|\bnan\b|\bNaN\b|\bNone[.,;:)]|[:=]\s*None\b|to_dict\(\)|\bresult\.\w"
+)
+
+
+def python_text(path) -> list[tuple[int, str]]:
+    """[(page, context)] of every :data:`PYTHON_TEXT` match in the PDF at ``path`` (its text
+    with line breaks joined; soft hyphens and zero-width breaks removed)."""
+    out = []
+    with pdfplumber.open(path) as doc:
+        for page in doc.pages:
+            text = re.sub(r"[\u200b\u00ad]", "", page.extract_text() or "")
+            text = re.sub(r"\s+", " ", text)
+            for m in PYTHON_TEXT.finditer(text):
+                out.append((page.page_number, text[max(0, m.start() - 40) : m.end() + 40]))
+    return out

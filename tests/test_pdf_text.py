@@ -115,3 +115,33 @@ def test_turned_boxes_are_not_their_upright_hulls(tmp_path):
     assert hull_overlap > 30  # what an upright-hull check would call an overlap
     assert small_and_overlapping(far) == []
     assert small_and_overlapping(parallel(6.0, "near.pdf")) != []
+
+
+def test_python_text_is_found_and_prose_is_not(tmp_path):
+    """A printed dict, list, numpy scalar, nan, None as a value and an API pointer are found;
+    the same words as prose ("None of the tests", "[1, 2]" note numbers) are not."""
+    from pdf_text import python_text
+
+    from soilstats.report.document import Document
+
+    planted = [
+        "Physical support: {'b_m': 0.05}",
+        "levels ['1', '10', '2']",
+        "k = np.float64(3.2)",
+        "mean nan kPa",
+        "Best method: None.",
+        "rows in to_dict()['excluded']",
+        "per test in result.tests",
+    ]
+    doc = Document("Planted reprs")
+    for text in planted:
+        doc.paragraph(text)
+    path = tmp_path / "reprs.pdf"
+    doc.render(path)
+    found = " | ".join(context for _, context in python_text(path))
+    for needle in ("{'b_m'", "['1'", "np.float64", "nan kPa", "None.", "to_dict()", "result.tests"):
+        assert needle in found, needle
+    prose = Document("Prose")
+    prose.paragraph("None of the 962 tests carries a screening code; notes [1, 2]; k_[0, inf).")
+    prose.render(tmp_path / "prose.pdf")
+    assert python_text(tmp_path / "prose.pdf") == []

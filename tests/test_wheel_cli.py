@@ -88,6 +88,12 @@ def test_wheel_provenance_last(reports):
     test_reports.test_last_page_carries_the_provenance(reports)
 
 
+@pytest.mark.slow
+def test_wheel_text_not_small_nor_overlapping(reports):
+    test_reports.test_no_text_below_8_pt_and_no_overlapping_text(reports)
+    test_reports.test_no_python_text_in_any_report(reports)
+
+
 @pytest.mark.slow  # the CMU wheel run, ~12 s: CI runs it
 def test_json_schema_and_files(cmu):
     doc, folder = cmu

@@ -173,9 +173,7 @@ class StudyResult:
             )[[c for c in CRITERIA_COLUMNS if c != "operator_p"]]
             lines += ["  " + row for row in table.to_string(index=False).splitlines()]
         if self.best is not None:
-            lines.append(
-                f"Best preparation method: {self.best.get('best')} — {self.best['reason']}"
-            )
+            lines.append(f"Best preparation method: {_named(self.best)} — {self.best['reason']}")
         lines += notes_block(self.notes)
         return "\n".join(lines)
 
@@ -195,7 +193,12 @@ class StudyResult:
             parts.append(table_html(self.criteria, caption="Criteria of Table 1 per method"))
         if self.best is not None:
             parts.append(
-                facts_html({"best preparation": f"{self.best.get('best')}: {self.best['reason']}"})
+                facts_html({"best preparation": f"{_named(self.best)}: {self.best['reason']}"})
             )
         parts.append(notes_html(self.notes))
         return result_html(f"Study {self.name!r}: {self.spec.title}", *parts)
+
+
+def _named(best: dict) -> str:
+    """The best method, or "none" where none is named (never Python's None)."""
+    return "none" if best.get("best") is None else str(best["best"])
