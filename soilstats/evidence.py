@@ -93,8 +93,16 @@ def gain_text(
     d, se = float(difference) * scale, float(stderr) * scale
     z = z_score(difference, stderr)
     unit = f" {unit}" if unit else ""
-    z_text = "z n/a" if math.isnan(z) else ("∞ SE" if math.isinf(z) else f"{z:.1f} SE")
+    z_text = "z n/a" if math.isnan(z) else ("∞ SE" if math.isinf(z) else f"{_z_digits(z)} SE")
     return f"{d:.{digits}g} ± {se:.2g}{unit} ({z_text})"
+
+
+def _z_digits(z: float) -> str:
+    """z to one decimal, or to two (cut, not rounded) where one would round a weak gain up to
+    the threshold: 1.96 SE, never "2.0 SE; real needs 2"."""
+    if z < REAL_SE <= round(z, 1):
+        return f"{math.floor(z * 100) / 100:.2f}"
+    return f"{z:.1f}"
 
 
 def describe(

@@ -145,6 +145,16 @@ def test_export_simulator_refuses_what_chrono_would_change_unless_asked_to_repai
         export_simulator(_draws(1e6), priors=["uniform:0:2000"], seed=3)
 
 
+def test_export_simulator_is_found_beside_the_samplers():
+    """``from soilstats.bayes import export_simulator`` works where ``sample_posterior`` and
+    ``joint_draws`` are imported from (it raised ImportError: only ``bayes.export`` had it)."""
+    import soilstats.bayes as bayes
+
+    assert bayes.export_simulator is export_simulator
+    assert bayes.SimulatorConstraintError is SimulatorConstraintError
+    assert {"export_simulator", "SimulatorConstraintError"} <= set(bayes.__all__)
+
+
 def test_identifys_figure_shows_the_measured_points_under_the_fit():
     """Issue #47 item 5: the identify report's figure draws the samples the fit was made on."""
     import matplotlib.pyplot as plt

@@ -39,6 +39,18 @@ def test_every_gain_is_printed_with_its_standard_error_and_z():
     assert math.isnan(evidence.z_score(1.0, float("nan")))
 
 
+@pytest.mark.parametrize(
+    ("difference", "z_text"),
+    [(1.96, "1.96 SE"), (1.9999, "1.99 SE"), (1.94, "1.9 SE"), (2.0, "2.0 SE"), (2.04, "2.0 SE")],
+)
+def test_a_weak_gain_never_prints_as_two_standard_errors(difference, z_text):
+    """A weak gain of 1.96 SE printed "(2.0 SE; real needs 2)" on discover's page 1 (the
+    simulated-paper campaign): the printed z stays below the threshold it did not reach."""
+    text = evidence.describe(difference, 1.0)
+    assert f"({z_text}" in text
+    assert text.startswith("real") == (difference >= 2.0)
+
+
 def _errors(mean_difference: float, stderr: float, n: int = 25, seed: int = 0):
     """Held-out errors whose paired differences have exactly this mean and standard error."""
     rng = np.random.default_rng(seed)

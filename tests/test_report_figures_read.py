@@ -60,3 +60,11 @@ def test_levels_are_named_in_natural_order():
     warnings = pooling_warnings(load_campaign("simulated-paper"), "soil01", ["bekker"])
     text = next(w for w in warnings if "values of preparation" in w)
     assert "(1, 2, 3, 4, 5, 6)" in text
+
+
+def test_one_plate_size_is_a_width_not_a_range():
+    """The Cullinan posterior said "at contact widths 0.075694–0.075694 m"."""
+    from soilstats.bayes.support import widths_text
+
+    assert widths_text(0.075694, 0.075694) == "contact width 0.0757 m"
+    assert widths_text(0.025, 0.075) == "contact widths 0.025–0.075 m"

@@ -10,7 +10,7 @@ import json
 import re
 
 import pytest
-from pdf_text import small_and_overlapping
+from pdf_text import python_text, small_and_overlapping
 from pypdf import PdfReader
 
 from soilstats.cli.main import main
@@ -35,6 +35,7 @@ def test_identify_report_fits_in_eight_pages_with_a_figure_per_soil(campaign, tm
     reader = PdfReader(tmp_path / "identify.pdf")
     assert len(reader.pages) <= IDENTIFY_MAX_PAGES, len(reader.pages)
     assert small_and_overlapping(tmp_path / "identify.pdf") == []  # issue #47
+    assert python_text(tmp_path / "identify.pdf") == []
     soils = {fit["soil"] for fit in json.loads((tmp_path / "identify.json").read_text())["fits"]}
     text = re.sub(r"\s+", "", "".join(page.extract_text() for page in reader.pages))
     captions = [f"Figure{k}:" for k in range(1, len(soils) + 1)]
@@ -70,6 +71,7 @@ def test_discover_report_fits_in_thirteen_pages_with_its_findings_drawn(campaign
     reader = PdfReader(tmp_path / "discover.pdf")
     assert len(reader.pages) <= DISCOVER_MAX_PAGES, len(reader.pages)
     assert small_and_overlapping(tmp_path / "discover.pdf") == []  # issue #47
+    assert python_text(tmp_path / "discover.pdf") == []
     findings = json.loads((tmp_path / "discover.json").read_text())["findings"]
     text = re.sub(r"\s+", "", "".join(page.extract_text() for page in reader.pages))
     figures = -(-len(findings) // 4)  # four findings a figure: 8 pt text, one to a row

@@ -260,6 +260,25 @@ def test_no_text_below_8_pt_and_no_overlapping_text(reports):
         assert small_and_overlapping(pdf) == [], name
 
 
+def test_a_studys_curve_caption_names_the_campaigns_plate_not_the_papers(reports):
+    """Issue #47 item 5: the preparation study's curves figure said "plate radius (m) = 0.05"
+    (the paper's plate, from the spec) under the Cullinan curves, all drawn on 0.075694 m
+    plates (the spec's filter matches no test there, so none is applied)."""
+    pdf, _ = reports["study"]
+    text = pdf_text(pdf)
+    caption = text[text.index("Pressure–sinkagecurvesbypreparation") :][:120]
+    assert "plateradius(m)=0.075694" in caption and "=0.05)" not in caption, caption
+
+
+def test_no_python_text_in_any_report(reports):
+    """Issue #47 item 5: no dict or list repr, numpy scalar, nan, Python None or API pointer
+    (``to_dict()['excluded']``, ``result.tests``) printed in any report (tests/pdf_text.py)."""
+    from pdf_text import python_text
+
+    for name, (pdf, _) in reports.items():
+        assert python_text(pdf) == [], name
+
+
 def test_a_studys_methods_describe_the_campaign_before_the_papers_design(reports):
     """Issue #47 item 5: the Cullinan preparation study has 13 tests of 5 methods, not the
     paper's thirteen methods; the Methods say the campaign's design first, from its tests."""

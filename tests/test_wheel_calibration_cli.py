@@ -12,6 +12,7 @@ import os
 import numpy as np
 import pandas as pd
 import pytest
+from pdf_text import python_text, small_and_overlapping
 
 from soilstats.cli.main import main
 from soilstats.data import bundled_path
@@ -94,6 +95,9 @@ def test_predict_own_wheel_json_has_the_issues_keys(tmp_path):
     assert all(0 <= x <= 1 for x in p)
     for name in ("wheel.json", "wheel.pdf", "wheel_draws.nc", "wheel_draws.csv"):
         assert (tmp_path / name).is_file(), name
+    # issue #47 item 5: the report reads as the others (its legend was set in 7 pt)
+    assert small_and_overlapping(tmp_path / "wheel.pdf") == []
+    assert python_text(tmp_path / "wheel.pdf") == []
     draws = pd.read_csv(tmp_path / "wheel_draws.csv", comment="#")
     assert len(draws) == 300 * 4 and {"draw", "slip", "drawbar_pull_N"} <= set(draws)
     # the stall probability is the share of the written joint draws with negative pull
@@ -139,6 +143,9 @@ def test_cmu_calibration_held_out_by_slip_and_wheel(calibrated):
     for t in doc["targets"]:
         assert isinstance(t["met"], bool) and t["text"]
     assert (out / "wheel_calibration.nc").is_file()
+    # issue #47 item 5: the calibration's figure legend was set in 7 pt
+    assert small_and_overlapping(out / "wheel.pdf") == []
+    assert python_text(out / "wheel.pdf") == []
 
 
 @SLOW

@@ -27,6 +27,8 @@ from .._lazy import lazy_names
 _NAMES = {
     "SCM_DEFAULTS": ".export",
     "SIMULATOR_FORMATS": ".export",
+    "SimulatorConstraintError": ".export",
+    "export_simulator": ".export",
     "simulator_parameters": ".simulator_api",
     "simulator_record": ".simulator_api",
     "joint_draws": ".joint",
@@ -51,7 +53,9 @@ __all__ = [
     "Normal",
     "PosteriorResult",
     "Prior",
+    "SimulatorConstraintError",
     "Uniform",
+    "export_simulator",
     "joint_draws",
     "sample_population",
     "sample_posterior",

@@ -33,7 +33,13 @@ from ..models import MODELS, get_model
 if TYPE_CHECKING:
     from ..models.base import Model
 
-__all__ = ["MAX_OUTSIDE", "SupportCheck", "check_support", "negative_modulus_width"]
+__all__ = [
+    "MAX_OUTSIDE",
+    "SupportCheck",
+    "check_support",
+    "negative_modulus_width",
+    "widths_text",
+]
 
 #: Largest share of draws outside the physical support for a posterior to be usable.
 MAX_OUTSIDE = 0.01
@@ -70,13 +76,13 @@ class SupportCheck:
         return self.share_outside <= MAX_OUTSIDE
 
     def describe(self) -> str:
-        lo, hi = self.contact_widths
+        widths = widths_text(*self.contact_widths)
         if not self.n_outside:
-            return f"all {len(self.inside)} draws physical (contact widths {lo:g}–{hi:g} m)"
+            return f"all {len(self.inside)} draws physical ({widths})"
         why = ", ".join(f"{rule}: {count}" for rule, count in self.reasons.items() if count)
         return (
             f"{self.n_outside} of {len(self.inside)} draws ({self.share_outside:.1%}) outside "
-            f"the physical support at contact widths {lo:g}–{hi:g} m ({why})"
+            f"the physical support at {widths} ({why})"
         )
 
     def to_dict(self) -> dict:
@@ -89,6 +95,14 @@ class SupportCheck:
             "reasons": {k: int(v) for k, v in self.reasons.items()},
             "contact_widths_m": list(self.contact_widths),
         }
+
+
+def widths_text(lo: float, hi: float) -> str:
+    """``"contact widths 0.025–0.075 m"``, or ``"contact width 0.0757 m"`` for one plate
+    size (not a range from a value to itself)."""
+    if lo == hi:
+        return f"contact width {lo:.3g} m"
+    return f"contact widths {lo:g}–{hi:g} m"
 
 
 def check_support(

@@ -347,7 +347,7 @@ def data_findings(
             f"Data quality ({report.mode}): {sum(len(f.rows) for f in excluded)} samples left "
             "out ("
             + ", ".join(f"{code} in {plural(len(t), 'test')}" for code, t in by_code.items())
-            + "; rows in to_dict()['excluded'])."
+            + "; their rows are listed as excluded)."
             + (" z re-zeroed at the contact found." if "pre-contact" in by_code else "")
         )
     capped = {f.test_id for f in mine if f.code == "load-capped"}

@@ -71,7 +71,7 @@ def _notes(pooled: PooledData, points_per_test: int | None, weighting: str) -> l
     dropped = int(g["excluded_z_nonpositive"].sum())
     if dropped:
         notes.append(
-            f"{dropped} samples with z <= 0 excluded (z^n undefined; per test in result.tests)."
+            f"{dropped} samples with z <= 0 excluded (z^n undefined; counted per test)."
         )
     return notes
 

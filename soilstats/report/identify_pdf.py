@@ -320,15 +320,18 @@ def _flags_and_notes(doc: Document, records: list[dict], failures: list, notes: 
         own = [n for n in d["notes"] if n not in shared]
         row = {
             "set": f"{d['kind']} / {_where(d)}",
-            "notes": "; ".join(([f"[{', '.join(map(str, numbers))}]"] if numbers else []) + own)
+            # each note a sentence of its own (they end in a full stop: no ".;")
+            "notes": " ".join(
+                ([f"[{', '.join(map(str, numbers))}]"] if numbers else [])
+                + [n if n.endswith((".", "?", "!")) else n + "." for n in own]
+            )
             or "–",
             "samples": d["nobs"],
         }
         row |= {key: values[i] for key, values in settings.items() if key not in common}
         if d.get("excluded"):
-            row["notes"] += "; excluded by screening: " + "; ".join(
-                map(_excluded_text, d["excluded"])
-            )
+            said = "Excluded by screening: " + "; ".join(map(_excluded_text, d["excluded"]))
+            row["notes"] = said if row["notes"] == "–" else f"{row['notes']} {said}"
         rows.append(row)
     frame = pd.DataFrame(rows)
     wide = {"set": "22%", "notes": "1fr", "method": "16%"}

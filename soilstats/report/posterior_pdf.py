@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from ..bayes.result import PosteriorResult
+from ..bayes.support import widths_text
 from ..identification.table import format_value
 from ..models import get_model
 from ..outputs.files import output_path
@@ -198,7 +199,7 @@ def _conclusion(
     if support:
         lo, hi = (support.get("contact_widths_m") or [float("nan")] * 2)[:2]
         out.append(
-            f"Physical support at contact widths {lo:g}–{hi:g} m: {support['outside']} of "
+            f"Physical support at {widths_text(lo, hi)}: {support['outside']} of "
             f"{support['draws']} draws outside ({support['share_outside']:.1%}, at most "
             f"{support['max_share']:.0%} allowed) — "
             + ("passed." if support["passed"] else "FAILED.")

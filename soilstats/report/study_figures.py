@@ -40,15 +40,30 @@ def _panels(n: int) -> tuple[Figure, np.ndarray]:
     return fig, axes[0]
 
 
+def _curves_tests(result: StudyResult) -> tuple[pd.DataFrame, str]:
+    """The tests the curves figure draws and, for its caption, what they share: the spec's
+    ``[curves] where`` where this campaign has such tests (the paper's plate), else the value
+    every test of the campaign has (Cullinan's plates are not the paper's 0.05 m)."""
+    tests = result.per_test
+    said = []
+    for column, value in result.spec.curves_where.items():
+        if column not in tests.columns:
+            continue
+        keep = match_values(tests[column], value, column)
+        if keep.any():
+            tests = tests[keep]
+            said.append(f"{column_label(column)} = {value}")
+        elif tests[column].nunique() == 1:
+            only = tests[column].iloc[0]
+            shown = f"{only:g}" if isinstance(only, float) else str(only)
+            said.append(f"{column_label(column)} = {shown}")
+    return tests, ", ".join(said)
+
+
 def curves(result: StudyResult, campaign: Campaign) -> plt.Figure:
     """Pressure–sinkage curves per condition: mean and ± 1 sd band over the tests (Fig. 7/8)."""
     spec = result.spec
-    tests = result.per_test
-    for column, value in spec.curves_where.items():
-        if column in tests.columns:
-            keep = match_values(tests[column], value, column)
-            if keep.any():
-                tests = tests[keep]
+    tests, _ = _curves_tests(result)
     samples = campaign.sinkage[campaign.sinkage["test_id"].isin(set(tests["test_id"]))]
     samples = samples.merge(tests[["test_id", "soil", spec.factor]], on="test_id")
     samples = samples[samples["z_m"] > 0]
@@ -253,7 +268,7 @@ def caption(name: str, result: StudyResult) -> str:
     """The caption of figure ``name``: what is shown, with units and the paper's figure."""
     spec = result.spec
     factor = column_label(spec.factor)
-    where = ", ".join(f"{column_label(k)} = {v}" for k, v in spec.curves_where.items())
+    where = _curves_tests(result)[1] if name == "curves" else ""
     return {
         "curves": f"Pressure–sinkage curves by {factor}"
         + (f" ({where})" if where else "")

@@ -109,12 +109,19 @@ def _conclusion(result: StudyResult) -> list[list]:
         out.append(
             [
                 strong("Best preparation method: "),
-                f"{result.best.get('best')}. ",
-                result.best["reason"],
+                _best_and_reason(result.best),
             ]
         )
     out.append(["The paper found (", spec.paper, "): ", " ".join(spec.paper_finding.split())])
     return out
+
+
+def _best_and_reason(best: dict) -> str:
+    """The best method and why, in words: none named is "none", never Python's None."""
+    reason = str(best["reason"])
+    if best.get("best") is None:
+        return f"none — {reason}"
+    return f"{best['best']}. {reason}"
 
 
 def _campaign_design(result: StudyResult) -> str:
@@ -372,8 +379,8 @@ def _pairs_and_criteria(doc: Document, result: StudyResult) -> None:
         )
         if result.best is not None:
             doc.paragraph(
-                strong(f"Best method: {result.best.get('best')}. "),
-                result.best["reason"],
+                strong("Best method: "),
+                _best_and_reason(result.best),
                 ". Ranking: " if result.best.get("ranking") else "",
                 ", ".join(map(str, result.best.get("ranking") or [])),
             )

@@ -121,7 +121,7 @@ def _heldout_figure(report: CalibrationReport) -> tuple[Figure, str]:
         ax.set_title(f"{wheel} wheel, β = 0", fontsize=9)
         ax.set_xlabel("slip s")
     axes[0][0].set_ylabel("sinkage [mm]")
-    axes[0][0].legend(fontsize=7, loc="upper center")
+    axes[0][0].legend(fontsize=8, loc="upper center")  # 8 pt: the smallest a report prints
     fig.tight_layout()
     caption = (
         "Sinkage of each β = 0 run predicted by a calibration that never saw its slip "

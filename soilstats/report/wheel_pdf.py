@@ -101,9 +101,11 @@ def _conclusion(res: WheelValidation) -> list:
     per_wheel = []
     for wheel, cov in c["by_wheel"].items():
         near, bw = cov["near_zero_slip_beta_0"], b["by_wheel"][wheel]
+        # the MAE beside the mean bias: over a U-shaped error in slip a mean alone hides
         per_wheel.append(
-            f"{wheel} {cov['beta_0']['covered']}/{cov['beta_0']['runs']}, bias "
-            f"{_signed_mm(bw['beta_0']['mean_m'])} (at s ≈ 0: {near['covered']}/{near['runs']}, "
+            f"{wheel} {cov['beta_0']['covered']}/{cov['beta_0']['runs']}, MAE "
+            f"{_mm(bw['beta_0']['mae_m'])}, mean bias {_signed_mm(bw['beta_0']['mean_m'])} "
+            f"(at s ≈ 0: {near['covered']}/{near['runs']}, "
             f"{_mm(bw['near_zero_slip_beta_0']['predicted_mean_m'])} predicted, "
             f"{_mm(bw['near_zero_slip_beta_0']['measured_mean_m'])} measured)"
         )

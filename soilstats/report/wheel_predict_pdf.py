@@ -53,7 +53,7 @@ def _figure(pred: OwnWheelPrediction) -> tuple[Figure, str]:
             ax.axhline(0.0, color="k", lw=0.6)
         ax.set_xlabel("slip s")
         ax.set_ylabel(label)
-    axes[0][0].legend(fontsize=7)
+    axes[0][0].legend(fontsize=8)  # 8 pt: the smallest a report prints
     fig.tight_layout()
     return fig, f"Predicted bands against slip at W = {pred.load_N:g} N ({pred.band_kind})."
 

@@ -178,9 +178,7 @@ class StudyResult:
             )[[c for c in CRITERIA_COLUMNS if c != "operator_p"]]
             lines += ["  " + row for row in table.to_string(index=False).splitlines()]
         if self.best is not None:
-            lines.append(
-                f"Best preparation method: {self.best.get('best')} — {self.best['reason']}"
-            )
+            lines.append(f"Best preparation method: {_named(self.best)} — {self.best['reason']}")
         lines += [f"Warning: {text}" for text in self.default_warnings.values()]
         lines += notes_block(self.notes)
         return "\n".join(lines)
@@ -201,9 +199,14 @@ class StudyResult:
             parts.append(table_html(self.criteria, caption="Criteria of Table 1 per method"))
         if self.best is not None:
             parts.append(
-                facts_html({"best preparation": f"{self.best.get('best')}: {self.best['reason']}"})
+                facts_html({"best preparation": f"{_named(self.best)}: {self.best['reason']}"})
             )
         if self.default_warnings:  # a default that moves a verdict (soilstats.study.defaults)
             parts.append(facts_html({"warning": " ".join(self.default_warnings.values())}))
         parts.append(notes_html(self.notes))
         return result_html(f"Study {self.name!r}: {self.spec.title}", *parts)
+
+
+def _named(best: dict) -> str:
+    """The best method, or "none" where none is named (never Python's None)."""
+    return "none" if best.get("best") is None else str(best["best"])
