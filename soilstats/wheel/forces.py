@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike
 
 from .geometry import Wheel
 from .lateral import bulldozing_resistance, combined_shear
-from .stress import RAD_PER_DEG, displacement, janosi
+from .stress import RAD_PER_DEG, displacement
 
 __all__ = [
     "N_NODES",
@@ -375,8 +375,9 @@ def _contact_forces(
         vertical = vertical + integral(tau_f * sin_f, tau_r * sin_r)
     elif cases.with_shear:
         sin1 = np.sin(t1)
-        tau_f = _tau(sig_f, t1, u_front, sin1 - sin_f, cases, geo)
-        tau_r = _tau(sig_r, t1, u_rear, sin1 - sin_r, cases, geo)
+        strength, nu = _shear_strength(sig_f, cases)  # one for both pieces, as σ is
+        tau_f = strength * _mobilised(t1, u_front, sin1 - sin_f, nu, cases, geo)
+        tau_r = strength * _mobilised(t1, u_rear, sin1 - sin_r, nu, cases, geo)
         vertical = vertical + integral(tau_f * sin_f, tau_r * sin_r)
     if load_only:
         return scale * vertical
@@ -404,22 +405,29 @@ def _contact_forces(
     )
 
 
-def _tau(
-    sigma: np.ndarray,
+def _shear_strength(sigma: np.ndarray, cases: Cases) -> tuple[np.ndarray, np.ndarray]:
+    """(c + σ tan φ [Pa] at the nodes, ν per case as a column, ∞ as a huge finite ν)."""
+    c, tan_phi = cases.c, cases.tan_phi
+    assert c is not None and tan_phi is not None  # cases.with_shear
+    nu = cases.nu[:, None]
+    # a locked wheel (ν = ∞) as a huge finite ν: j → −huge, τ = −τ_max exactly, no masking
+    return c[:, None] + sigma * tan_phi[:, None], np.where(np.isfinite(nu), nu, 1e200)
+
+
+def _mobilised(
     t1: np.ndarray,
     u: np.ndarray,
     ahead: np.ndarray,
+    nu: np.ndarray,
     cases: Cases,
     wheel: Wheel | _Geometry,
 ) -> np.ndarray:
-    """Janosi–Hanamoto τ at the nodes (:func:`~soilstats.wheel.stress.janosi`)."""
-    nu = cases.nu[:, None]
-    # a locked wheel (ν = ∞) as a huge finite ν: j → −huge, τ = −τ_max exactly, no masking
-    nu = np.where(np.isfinite(nu), nu, 1e200)
+    """sign(j)(1 − exp(−|j|/K)) at the nodes: τ / (c + σ tan φ) of Janosi–Hanamoto
+    (:func:`~soilstats.wheel.stress.janosi`, the same operations in the same order)."""
     j = displacement(t1 * (1.0 - u), ahead, nu, wheel)
-    c, tan_phi, k = cases.c, cases.tan_phi, cases.K
-    assert c is not None and tan_phi is not None and k is not None  # cases.with_shear
-    return janosi(sigma, j, c[:, None], tan_phi[:, None], k[:, None])
+    k = cases.K
+    assert k is not None  # cases.with_shear
+    return np.copysign(1.0 - np.exp(-np.abs(j) / k[:, None]), j)
 
 
 def _tau_xy(
