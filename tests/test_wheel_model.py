@@ -374,3 +374,21 @@ def test_stacked_wheels_solve_as_each_wheel_alone(beta_deg):
         np.testing.assert_allclose(getattr(forces, name), expect, rtol=1e-12, atol=1e-12)
     # the wheels really differ: the wide wheel's load is carried at another θ1
     assert not np.allclose(alone[0][0][:2], alone[1][0][:2], rtol=1e-3)
+
+
+def test_cases_of_different_kinds_are_not_stacked():
+    """Shear on one wheel's cases and not on the other's: a clear error, never a silent mix."""
+    from soilstats.errors import InputError
+    from soilstats.wheel.forces import stack_cases, stackable
+
+    with_shear, _ = model_cases(
+        {"k": 8e5, "n": 1.0, "c": 0.0, "phi": 30.0, "K": 0.01},
+        SMOOTH,
+        0.2,
+        "bernstein",
+        StressAngles(),
+    )
+    without, _ = model_cases({"k": 8e5, "n": 1.0}, GROUSER, 0.2, "bernstein", StressAngles())
+    assert stackable(with_shear) != stackable(without)
+    with pytest.raises(InputError, match="differ in 'c'"):
+        stack_cases([(with_shear, SMOOTH), (without, GROUSER)])

@@ -40,6 +40,7 @@ from typing import Any, Literal, overload
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..errors import InputError
 from .geometry import Wheel
 from .lateral import bulldozing_resistance, combined_shear
 from .stress import RAD_PER_DEG, displacement
@@ -177,7 +178,7 @@ def stack_cases(parts: Sequence[tuple[Cases, Wheel]]) -> Cases:
     One solve of the batch does per case exactly what one solve per wheel did, with fewer
     and larger numpy calls (a calibration's batches are small: their per-call overhead was
     half the cost).  The parts must set the same optional fields (shear, slip angle) and use
-    a power law (no :class:`PlateStress`, which holds one wheel); ValueError otherwise.
+    a power law (no :class:`PlateStress`, which holds one wheel); InputError otherwise.
     """
     fields_out = {}
     for name in _CASE_FIELDS:
@@ -187,7 +188,7 @@ def stack_cases(parts: Sequence[tuple[Cases, Wheel]]) -> Cases:
         if all(v is None for v in values):
             fields_out[name] = None
         elif any(v is None or isinstance(v, PlateStress) for v in values):
-            raise ValueError(f"cases to stack differ in {name!r} or use a plate law's hook")
+            raise InputError(f"cases to stack differ in {name!r} or use a plate law's hook")
         else:
             fields_out[name] = np.concatenate(values)
     wheel_attrs = ("contact_radius_m", "radius_m", "width_m")
