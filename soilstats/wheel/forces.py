@@ -180,7 +180,7 @@ def stack_cases(parts: Sequence[tuple[Cases, Wheel]]) -> Cases:
     half the cost).  The parts must set the same optional fields (shear, slip angle) and use
     a power law (no :class:`PlateStress`, which holds one wheel); InputError otherwise.
     """
-    fields_out = {}
+    fields_out: dict[str, Any] = {}
     for name in _CASE_FIELDS:
         if name in _GEOMETRY_FIELDS:
             continue
