@@ -340,3 +340,55 @@ def test_a_solve_that_does_not_converge_is_flagged():
     assert status.tolist() == [2, 2] and np.isnan(theta1).all()
     theta1, status = solve_entry_angle(22.0, cases, SMOOTH)
     assert status.tolist() == [0, 0] and np.all((theta1 > 0) & (theta1 < np.pi / 2))
+
+
+@pytest.mark.parametrize("beta_deg", [0.0, 40.0])
+def test_stacked_wheels_solve_as_each_wheel_alone(beta_deg):
+    """Cases of two wheels (different r, r_s, b) stacked into one batch solve to the θ1 and
+    forces of one solve per wheel (the calibration's one-solve-per-model-call path)."""
+    from soilstats.wheel.forces import stack_cases, stackable
+    from soilstats.wheel.solve import solve_entry_angle
+
+    wide = Wheel(radius_m=0.09, width_m=0.12, shear_radius_m=0.095, grouser_area_ratio=0.3)
+    params = {"kc": 900.0, "kphi": np.array([6e5, 8e5]), "n": 1.1, "c": 300.0, "phi": 31.0}
+    params["K"] = 0.012
+    rule = gauss_rule(10)
+    parts, alone = [], []
+    for wheel, slips, load in ((GROUSER, [-0.4, 0.0, 0.6], 25.0), (wide, [0.2, 0.9], 60.0)):
+        cases, _ = model_cases(params, wheel, np.array(slips), "bekker", StressAngles())
+        if beta_deg:
+            cases = cases.at_slip_angle(np.deg2rad(beta_deg), None, 13000.0)
+        theta1, status = solve_entry_angle(np.full(len(cases), load), cases, wheel, rule)
+        alone.append((theta1, contact_forces(theta1, cases, wheel, rule), load))
+        parts.append((cases, wheel))
+    assert stackable(parts[0][0]) == stackable(parts[1][0]) is not None
+    stacked = stack_cases(parts)
+    load = np.concatenate([np.full(len(c), a[2]) for (c, _), a in zip(parts, alone, strict=True)])
+    theta1, status = solve_entry_angle(load, stacked, GROUSER, rule)  # the wheel is unused
+    assert np.all(status == 0)
+    forces = contact_forces(theta1, stacked, GROUSER, rule)
+    expect_theta = np.concatenate([a[0] for a in alone])
+    np.testing.assert_allclose(theta1, expect_theta, rtol=1e-13)
+    for name in ("load_N", "thrust_N", "resistance_N", "torque_Nm", "lateral_force_N"):
+        expect = np.concatenate([getattr(a[1], name) for a in alone])
+        np.testing.assert_allclose(getattr(forces, name), expect, rtol=1e-12, atol=1e-12)
+    # the wheels really differ: the wide wheel's load is carried at another θ1
+    assert not np.allclose(alone[0][0][:2], alone[1][0][:2], rtol=1e-3)
+
+
+def test_cases_of_different_kinds_are_not_stacked():
+    """Shear on one wheel's cases and not on the other's: a clear error, never a silent mix."""
+    from soilstats.errors import InputError
+    from soilstats.wheel.forces import stack_cases, stackable
+
+    with_shear, _ = model_cases(
+        {"k": 8e5, "n": 1.0, "c": 0.0, "phi": 30.0, "K": 0.01},
+        SMOOTH,
+        0.2,
+        "bernstein",
+        StressAngles(),
+    )
+    without, _ = model_cases({"k": 8e5, "n": 1.0}, GROUSER, 0.2, "bernstein", StressAngles())
+    assert stackable(with_shear) != stackable(without)
+    with pytest.raises(InputError, match="differ in 'c'"):
+        stack_cases([(with_shear, SMOOTH), (without, GROUSER)])

@@ -32,6 +32,7 @@ for K/r ≥ 0.3 (``tests/test_wheel_model.py``).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields, replace
 from typing import Any, Literal, overload
@@ -39,11 +40,21 @@ from typing import Any, Literal, overload
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..errors import InputError
 from .geometry import Wheel
 from .lateral import bulldozing_resistance, combined_shear
-from .stress import RAD_PER_DEG, displacement, janosi
+from .stress import RAD_PER_DEG, displacement
 
-__all__ = ["N_NODES", "Cases", "ContactForces", "PlateStress", "contact_forces", "gauss_rule"]
+__all__ = [
+    "N_NODES",
+    "Cases",
+    "ContactForces",
+    "PlateStress",
+    "contact_forces",
+    "gauss_rule",
+    "stack_cases",
+    "stackable",
+]
 
 #: Gauss–Legendre nodes on each piece of the contact (front and rear).
 N_NODES = 16
@@ -51,10 +62,14 @@ N_NODES = 16
 BLOCK = 2048
 
 
+@functools.lru_cache(maxsize=16)
 def gauss_rule(n_nodes: int = N_NODES) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes and weights on [0, 1]."""
+    """Gauss–Legendre nodes and weights on [0, 1] (read-only arrays, computed once per count:
+    a calibration asks for them at every one of its ~10⁴ model evaluations)."""
     x, w = np.polynomial.legendre.leggauss(n_nodes)
-    return 0.5 * (x + 1.0), 0.5 * w
+    nodes, weights = 0.5 * (x + 1.0), 0.5 * w
+    nodes.flags.writeable = weights.flags.writeable = False
+    return nodes, weights
 
 
 @dataclass(frozen=True)
@@ -71,6 +86,10 @@ class Cases:
     :class:`PlateStress` (σ from the depth factor cos θe − cos θ1 and the law's parameters),
     and ``plate_params``, the (cases, p) parameters of each case; ``prefactor`` is then NaN
     and ``n`` only the solver's first guess.
+
+    ``contact_radius``, ``rim_radius`` and ``width`` [m] are each case's wheel geometry where
+    one batch holds the cases of several wheels (:func:`stack_cases`); None: the geometry
+    of the wheel passed to :func:`contact_forces`.
     """
 
     prefactor: np.ndarray
@@ -87,6 +106,9 @@ class Cases:
     unit_weight: np.ndarray | None = None
     plate: PlateStress | None = None
     plate_params: np.ndarray | None = None
+    contact_radius: np.ndarray | None = None
+    rim_radius: np.ndarray | None = None
+    width: np.ndarray | None = None
 
     @property
     def with_shear(self) -> bool:
@@ -116,7 +138,7 @@ class Cases:
 
     def take(self, index: np.ndarray | slice) -> Cases:
         """The cases at ``index`` (an integer array or boolean mask)."""
-        return Cases(**{f.name: _take(getattr(self, f.name), index) for f in fields(self)})
+        return Cases(*(_take(getattr(self, name), index) for name in _CASE_FIELDS))
 
     @classmethod
     def build(
@@ -140,6 +162,69 @@ class Cases:
             return cls(prefactor, n, a, b, nu)
         prefactor, n, a, b, nu, c, tan_phi, K = flat
         return cls(prefactor, n, a, b, nu, c=c, tan_phi=tan_phi, K=K)
+
+
+#: The fields of :class:`Cases` in order (looked up once: ``take`` runs at every solver step).
+_CASE_FIELDS = tuple(f.name for f in fields(Cases))
+
+
+#: The geometry fields of :class:`Cases` (set by :func:`stack_cases`).
+_GEOMETRY_FIELDS = ("contact_radius", "rim_radius", "width")
+
+
+def stack_cases(parts: Sequence[tuple[Cases, Wheel]]) -> Cases:
+    """The cases of several wheels as one batch, each case carrying its wheel's geometry.
+
+    One solve of the batch does per case exactly what one solve per wheel did, with fewer
+    and larger numpy calls (a calibration's batches are small: their per-call overhead was
+    half the cost).  The parts must set the same optional fields (shear, slip angle) and use
+    a power law (no :class:`PlateStress`, which holds one wheel); InputError otherwise.
+    """
+    fields_out: dict[str, Any] = {}
+    for name in _CASE_FIELDS:
+        if name in _GEOMETRY_FIELDS:
+            continue
+        values = [getattr(cases, name) for cases, _ in parts]
+        if all(v is None for v in values):
+            fields_out[name] = None
+        elif any(v is None or isinstance(v, PlateStress) for v in values):
+            raise InputError(f"cases to stack differ in {name!r} or use a plate law's hook")
+        else:
+            fields_out[name] = np.concatenate(values)
+    wheel_attrs = ("contact_radius_m", "radius_m", "width_m")
+    for name, attr in zip(_GEOMETRY_FIELDS, wheel_attrs, strict=True):
+        fields_out[name] = np.concatenate(
+            [
+                np.full(len(cases), getattr(wheel, attr), dtype=float)
+                if getattr(cases, name) is None
+                else getattr(cases, name)
+                for cases, wheel in parts
+            ]
+        )
+    return Cases(**fields_out)
+
+
+def stackable(cases: Cases) -> tuple[bool, ...] | None:
+    """The key of the batches :func:`stack_cases` can join ``cases`` with (which optional
+    fields are set), or None where they cannot be stacked (a plate law's hook)."""
+    if cases.plate is not None:
+        return None
+    return tuple(getattr(cases, name) is None for name in _CASE_FIELDS)
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """Per-case wheel geometry [m] as (cases, 1) columns, read like a :class:`Wheel`."""
+
+    contact_radius_m: np.ndarray
+    radius_m: np.ndarray
+    width_m: np.ndarray
+
+
+def _geometry(cases: Cases, wheel: Wheel) -> Wheel | _Geometry:
+    if cases.contact_radius is None or cases.rim_radius is None or cases.width is None:
+        return wheel
+    return _Geometry(cases.contact_radius[:, None], cases.rim_radius[:, None], cases.width[:, None])
 
 
 def _take(value, index):
@@ -259,7 +344,7 @@ def _contact_forces(
     load_only: bool,
 ) -> Any:  # ContactForces, or the load W [N] with load_only (contact_forces' overloads)
     v, w = rule
-
+    geo = _geometry(cases, wheel)  # the wheel, or each case's own (stack_cases)
     t1 = theta1[:, None]
     a, b = cases.a[:, None], cases.b[:, None]
     v2, w = v * v, 2.0 * v * w  # θ = θ1 − (θ1 − θm)v² in front, θ2 + (θm − θ2)v² behind
@@ -282,17 +367,18 @@ def _contact_forces(
         return len_front * (front @ w) + len_rear * (rear @ w)
 
     vertical = integral(sig_f * cos_f, sig_r * cos_r)
-    scale = wheel.contact_radius_m * wheel.width_m * t1[:, 0]
+    scale = (geo.contact_radius_m * geo.width_m * t1)[:, 0]
     lateral = cases.with_shear and cases.with_slip_angle
     if lateral:
         sin1 = np.sin(t1)
-        tau_f, tau_y_f = _tau_xy(sig_f, t1, u_front, sin1 - sin_f, cases, wheel)
-        tau_r, tau_y_r = _tau_xy(sig_r, t1, u_rear, sin1 - sin_r, cases, wheel)
+        tau_f, tau_y_f = _tau_xy(sig_f, t1, u_front, sin1 - sin_f, cases, geo)
+        tau_r, tau_y_r = _tau_xy(sig_r, t1, u_rear, sin1 - sin_r, cases, geo)
         vertical = vertical + integral(tau_f * sin_f, tau_r * sin_r)
     elif cases.with_shear:
         sin1 = np.sin(t1)
-        tau_f = _tau(sig_f, t1, u_front, sin1 - sin_f, cases, wheel)
-        tau_r = _tau(sig_r, t1, u_rear, sin1 - sin_r, cases, wheel)
+        strength, nu = _shear_strength(sig_f, cases)  # one for both pieces, as σ is
+        tau_f = strength * _mobilised(t1, u_front, sin1 - sin_f, nu, cases, geo)
+        tau_r = strength * _mobilised(t1, u_rear, sin1 - sin_r, nu, cases, geo)
         vertical = vertical + integral(tau_f * sin_f, tau_r * sin_r)
     if load_only:
         return scale * vertical
@@ -306,36 +392,43 @@ def _contact_forces(
     if lateral:
         shear_y = scale * integral(tau_y_f, tau_y_r)
         cos1 = np.cos(t1)
-        side_f = _side_face(cos_f, cos1, cases, wheel)
-        side_r = _side_face(cos_r, cos1, cases, wheel)
+        side_f = _side_face(cos_f, cos1, cases, geo)
+        side_r = _side_face(cos_r, cos1, cases, geo)
         assert cases.sin_beta is not None  # lateral
         side = cases.sin_beta * t1[:, 0] * integral(side_f, side_r)
     return ContactForces(
         scale * vertical,
         scale * thrust,
         scale * resistance,
-        wheel.contact_radius_m * scale * torque,
+        (geo.contact_radius_m * scale[:, None])[:, 0] * torque,
         shear_y,
         side,
     )
 
 
-def _tau(
-    sigma: np.ndarray,
+def _shear_strength(sigma: np.ndarray, cases: Cases) -> tuple[np.ndarray, np.ndarray]:
+    """(c + σ tan φ [Pa] at the nodes, ν per case as a column, ∞ as a huge finite ν)."""
+    c, tan_phi = cases.c, cases.tan_phi
+    assert c is not None and tan_phi is not None  # cases.with_shear
+    nu = cases.nu[:, None]
+    # a locked wheel (ν = ∞) as a huge finite ν: j → −huge, τ = −τ_max exactly, no masking
+    return c[:, None] + sigma * tan_phi[:, None], np.where(np.isfinite(nu), nu, 1e200)
+
+
+def _mobilised(
     t1: np.ndarray,
     u: np.ndarray,
     ahead: np.ndarray,
+    nu: np.ndarray,
     cases: Cases,
-    wheel: Wheel,
+    wheel: Wheel | _Geometry,
 ) -> np.ndarray:
-    """Janosi–Hanamoto τ at the nodes (:func:`~soilstats.wheel.stress.janosi`)."""
-    nu = cases.nu[:, None]
-    # a locked wheel (ν = ∞) as a huge finite ν: j → −huge, τ = −τ_max exactly, no masking
-    nu = np.where(np.isfinite(nu), nu, 1e200)
+    """sign(j)(1 − exp(−|j|/K)) at the nodes: τ / (c + σ tan φ) of Janosi–Hanamoto
+    (:func:`~soilstats.wheel.stress.janosi`, the same operations in the same order)."""
     j = displacement(t1 * (1.0 - u), ahead, nu, wheel)
-    c, tan_phi, k = cases.c, cases.tan_phi, cases.K
-    assert c is not None and tan_phi is not None and k is not None  # cases.with_shear
-    return janosi(sigma, j, c[:, None], tan_phi[:, None], k[:, None])
+    k = cases.K
+    assert k is not None  # cases.with_shear
+    return np.copysign(1.0 - np.exp(-np.abs(j) / k[:, None]), j)
 
 
 def _tau_xy(
@@ -344,7 +437,7 @@ def _tau_xy(
     u: np.ndarray,
     ahead: np.ndarray,
     cases: Cases,
-    wheel: Wheel,
+    wheel: Wheel | _Geometry,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(τ_x, τ_y) at the nodes at slip angle β (:func:`~soilstats.wheel.lateral.combined_shear`).
 
@@ -370,7 +463,9 @@ def _tau_xy(
     )
 
 
-def _side_face(cos_theta: np.ndarray, cos1: np.ndarray, cases: Cases, wheel: Wheel) -> np.ndarray:
+def _side_face(
+    cos_theta: np.ndarray, cos1: np.ndarray, cases: Cases, wheel: Wheel | _Geometry
+) -> np.ndarray:
     """Ishigami's side-face integrand R_b(h) (R − h cos θ), h = R(cos θ − cos θ1) [N/m]."""
     rc = wheel.contact_radius_m
     h = rc * np.maximum(cos_theta - cos1, 0.0)

@@ -69,7 +69,9 @@ def solve_entry_angle(
         if active.size == 0:
             break
         i = active
-        w = contact_forces(x[i], cases.take(i), wheel, rule, load_only=True)
+        # every case still active (the usual first steps): no copy of the cases
+        active_cases = cases if i.size == len(cases) else cases.take(i)
+        w = contact_forces(x[i], active_cases, wheel, rule, load_only=True)
         below = w < target[i]
         lo[i] = np.where(below, x[i], lo[i])
         hi[i] = np.where(below, hi[i], x[i])

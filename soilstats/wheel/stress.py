@@ -48,7 +48,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -256,7 +256,16 @@ def shear_displacement(theta: ArrayLike, theta1: Value, speed_ratio: Value, whee
     return displacement(theta1 - theta, np.sin(theta1) - np.sin(theta), speed_ratio, wheel)
 
 
-def displacement(behind: Value, ahead: Value, speed_ratio: Value, wheel: Wheel) -> Value:
+class Radii(Protocol):
+    """What :func:`displacement` reads of a wheel: r_s and r [m] (floats, or one per case)."""
+
+    @property
+    def contact_radius_m(self) -> Any: ...
+    @property
+    def radius_m(self) -> Any: ...
+
+
+def displacement(behind: Value, ahead: Value, speed_ratio: Value, wheel: Radii) -> Value:
     """j from θ1 − θ (``behind``) and sin θ1 − sin θ (``ahead``): the one formula of j."""
     finite = np.isfinite(speed_ratio)
     if np.all(finite):

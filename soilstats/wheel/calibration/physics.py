@@ -3,7 +3,8 @@
 :class:`RunDesign` holds what the runs fix (wheel, slip, slip angle, load) and what they
 measured; :func:`simulate` evaluates the Wong–Reece wheel (:mod:`soilstats.wheel.forces`,
 :func:`~soilstats.wheel.solve.solve_entry_angle`) for P parameter sets × R runs in one
-vectorised pass per wheel type, with every uncertain input of :mod:`.inputs` per case:
+vectorised pass (the wheel types' cases stacked: :func:`~soilstats.wheel.forces.stack_cases`),
+with every uncertain input of :mod:`.inputs` per case:
 
 * the plate law's parameters (from the plate posterior; any law of the model record, through
   :func:`~soilstats.wheel.solve.model_cases`),
@@ -20,13 +21,13 @@ run" (log-probability −∞), never as a number.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
-from ..forces import contact_forces, gauss_rule
+from ..forces import Cases, ContactForces, contact_forces, gauss_rule, stack_cases, stackable
 from ..geometry import Wheel, sinkage_from_entry_angle
 from ..lateral import LateralSoil, slip_angle_rad
 from ..solve import model_cases, solve_entry_angle
@@ -138,7 +139,6 @@ def simulate(
     }
     rule = gauss_rule(n_nodes)
     model = sinkage_law(law)
-    exponent = model.exponent
 
     def col(name: str) -> np.ndarray:
         return np.asarray(params[name], float).reshape(-1, 1)
@@ -148,44 +148,107 @@ def simulate(
         law_params.update(
             c=1e3 * col("c_kPa")[:, 0], phi=col("phi")[:, 0], K=np.exp(col("log_K")[:, 0])
         )
-    for name in np.unique(design.wheel):
-        wheel = wheels[str(name)]
-        idx = np.flatnonzero(design.wheel == name)
-        s = design.slip[idx]
-        a = col("a0") + col("a1") * s[None, :]
-        b = col("b0") + col("b1") * s[None, :]
-        shift = col("n1") * np.maximum(s, 0.0) + col("n2") * np.maximum(-s, 0.0)
-        ordered = (b >= -1.0) & (b <= a) & (a <= 1.0)
-        if exponent is not None:
-            ordered &= law_params[exponent][:, None] + shift > 0
-        cases, shape = model_cases(
-            law_params,
-            wheel,
-            s,
-            law,
-            (np.where(ordered, a, 0.4), np.where(ordered, b, 0.0)),
-            exponent_shift=np.where(ordered, shift, 0.0) if exponent is not None else None,
+    batches = [
+        _wheel_batch(
+            law_params, col, design, str(name), wheels[str(name)], law, with_shear, lateral
         )
-        if cases.plate is None:
-            ordered &= (cases.prefactor > 0).reshape(shape)
-        beta = design.beta_deg[idx]
-        if with_shear and np.any(beta != 0):
-            soil = LateralSoil() if lateral is None else lateral
-            cases = cases.at_slip_angle(
-                np.broadcast_to(slip_angle_rad(beta), shape).reshape(-1),
-                soil.K_y_m,
-                soil.unit_weight_N_m3,
-            )
-        load = np.broadcast_to(design.load_N[idx][None, :], shape).reshape(-1)
+        for name in np.unique(design.wheel)
+    ]
+    # the wheels' cases as one batch where they can be (same optional fields, a power law):
+    # one solve instead of one per wheel, each case solved exactly as alone
+    groups: dict[object, list[_Batch]] = {}
+    for k, batch in enumerate(batches):
+        key = stackable(batch.cases)
+        groups.setdefault(k if key is None else key, []).append(batch)
+    for group in groups.values():
+        if len(group) == 1:
+            cases, wheel = group[0].cases, group[0].wheel
+        else:
+            cases, wheel = stack_cases([(b.cases, b.wheel) for b in group]), group[0].wheel
+        load = np.concatenate([b.load for b in group])
         theta1, status = solve_entry_angle(load, cases, wheel, rule)
-        good = (status == 0) & ordered.reshape(-1)
+        ordered = np.concatenate([b.ordered.reshape(-1) for b in group])
+        good = (status == 0) & ordered
         forces = contact_forces(np.where(good, theta1, 0.1), cases, wheel, rule)
-        nan = np.where(good, 1.0, np.nan).reshape(shape)
-        h = sinkage_from_entry_angle(np.where(good, theta1, np.nan), wheel.contact_radius_m)
-        out["sinkage_m"][:, idx] = h.reshape(shape) + 1e-3 * col("datum_mm") * nan
-        if with_shear:
-            out["drawbar_pull_N"][:, idx] = forces.drawbar_pull_N.reshape(shape) * nan
-            out["torque_Nm"][:, idx] = forces.torque_Nm.reshape(shape) * nan
-            out["lateral_force_N"][:, idx] = forces.lateral_force_N.reshape(shape) * nan
+        at = 0
+        for b in group:
+            part = slice(at, at + len(b.cases))
+            at = part.stop
+            _write(out, b, good[part], theta1[part], forces, part, col("datum_mm"), with_shear)
     out["ok"] = np.isfinite(out["sinkage_m"])
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class _Batch:
+    """The cases of one wheel type's runs: (P, R_w) of ``shape``, runs ``idx`` of the design."""
+
+    wheel: Wheel
+    idx: np.ndarray
+    cases: Cases
+    shape: tuple[int, ...]
+    ordered: np.ndarray
+    load: np.ndarray
+
+
+def _wheel_batch(
+    law_params: Mapping[str, np.ndarray],
+    col: Callable[[str], np.ndarray],
+    design: RunDesign,
+    name: str,
+    wheel: Wheel,
+    law: str,
+    with_shear: bool,
+    lateral: LateralSoil | None,
+) -> _Batch:
+    """The cases of P parameter sets × one wheel type's runs (:func:`simulate`)."""
+    exponent = sinkage_law(law).exponent
+    idx = np.flatnonzero(design.wheel == name)
+    s = design.slip[idx]
+    a = col("a0") + col("a1") * s[None, :]
+    b = col("b0") + col("b1") * s[None, :]
+    shift = col("n1") * np.maximum(s, 0.0) + col("n2") * np.maximum(-s, 0.0)
+    ordered = (b >= -1.0) & (b <= a) & (a <= 1.0)
+    if exponent is not None:
+        ordered &= law_params[exponent][:, None] + shift > 0
+    cases, shape = model_cases(
+        law_params,
+        wheel,
+        s,
+        law,
+        (np.where(ordered, a, 0.4), np.where(ordered, b, 0.0)),
+        exponent_shift=np.where(ordered, shift, 0.0) if exponent is not None else None,
+    )
+    if cases.plate is None:
+        ordered &= (cases.prefactor > 0).reshape(shape)
+    beta = design.beta_deg[idx]
+    if with_shear and np.any(beta != 0):
+        soil = LateralSoil() if lateral is None else lateral
+        cases = cases.at_slip_angle(
+            np.broadcast_to(slip_angle_rad(beta), shape).reshape(-1),
+            soil.K_y_m,
+            soil.unit_weight_N_m3,
+        )
+    load = np.broadcast_to(design.load_N[idx][None, :], shape).reshape(-1)
+    return _Batch(wheel, idx, cases, shape, ordered, load)
+
+
+def _write(
+    out: dict[str, np.ndarray],
+    batch: _Batch,
+    good: np.ndarray,
+    theta1: np.ndarray,
+    forces: ContactForces,
+    part: slice,
+    datum_mm: np.ndarray,
+    with_shear: bool,
+) -> None:
+    """One wheel type's outputs (its slice ``part`` of the solved batch) into ``out``."""
+    shape, idx = batch.shape, batch.idx
+    nan = np.where(good, 1.0, np.nan).reshape(shape)
+    h = sinkage_from_entry_angle(np.where(good, theta1, np.nan), batch.wheel.contact_radius_m)
+    out["sinkage_m"][:, idx] = h.reshape(shape) + 1e-3 * datum_mm * nan
+    if with_shear:
+        out["drawbar_pull_N"][:, idx] = forces.drawbar_pull_N[part].reshape(shape) * nan
+        out["torque_Nm"][:, idx] = forces.torque_Nm[part].reshape(shape) * nan
+        out["lateral_force_N"][:, idx] = forces.lateral_force_N[part].reshape(shape) * nan
