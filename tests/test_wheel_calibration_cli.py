@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from pdf_text import python_text, small_and_overlapping
+from readme_commands import WHEEL_CHAIN, out_folder, prepared, run_readme_command
 
 from soilstats.cli.main import main
 from soilstats.data import bundled_path
@@ -107,26 +108,25 @@ def test_predict_own_wheel_json_has_the_issues_keys(tmp_path):
 
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
-    """`--calibrate` on the CMU runs, once, with shorter chains than the documented defaults
-    (the README's command runs those in CI: tests/test_readme_commands.py).  The final
-    calibration at the least draws the command takes: what this file asserts (held-out scores,
-    targets) comes from the folds (``--fold-draws``, own seeds) and the discrepancy fitted at
-    the least-squares start, not from the final chain — the same values, to the last digit,
-    as with 1000 draws (checked when this was set, 2026-11-29)."""
-    out = tmp_path_factory.mktemp("calibrated")
-    code, text, err = _run(
-        CMU,
-        "--calibrate",
-        "--json",
-        "--out",
-        str(out),
-        "--calibration-draws",
-        "400",
-        "--fold-draws",
-        "400",
-    )
-    assert code == 0, err
-    return json.loads(text), out
+    """The README's ``--calibrate`` command on the CMU runs, as written there (its default
+    chains), run once as a reader runs it: it must exit 0 without a warning line (issue #47
+    item 6), and its ``wheel.json`` is what the held-out tests below read."""
+    folder = tmp_path_factory.mktemp("readme_wheel")
+    written = out_folder(prepared(WHEEL_CHAIN[0]) or [])
+    assert written, WHEEL_CHAIN[0]  # the README names the folder the calibration goes to
+    run_readme_command(WHEEL_CHAIN[0], folder)
+    out = folder / written
+    return json.loads((out / "wheel.json").read_text(encoding="utf-8")), out
+
+
+@SLOW
+def test_readme_own_wheel_from_the_calibration(calibrated):
+    """The README's commands after ``--calibrate`` (a rover team's own wheel from the saved
+    calibration) run in its folder without a warning line."""
+    _, out = calibrated
+    assert len(WHEEL_CHAIN) > 1 and all("--calibrate" not in c for c in WHEEL_CHAIN[1:])
+    for command in WHEEL_CHAIN[1:]:
+        run_readme_command(command, out.parent)
 
 
 @SLOW
