@@ -17,6 +17,7 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from soilstats.errors import DefaultWarning
@@ -149,3 +150,45 @@ def test_every_spec_key_the_module_re_evaluates_is_a_default_listed(spec):
 
     assert set(SCALES) <= set(_SPEC_DEFAULTS)
     assert Path(spec.path).is_file()
+
+
+def test_a_default_moving_the_best_preparation_method_is_a_warning(spec):
+    """The preparation study's best method is a verdict: a different choice at an alternative
+    is named like a moved effect (the effects themselves unchanged here)."""
+    from soilstats.study.defaults import moved_verdicts, with_best_method
+
+    effects = pd.DataFrame([{"soil": "sand", "response": "log10_p_ref", "verdict": "effect"}])
+    base = with_best_method(effects, {"best": "13"})
+    at = {0.0125: "13", 0.05: "9"}  # the deeper reference depth would choose method 9
+    moved = moved_verdicts(
+        spec,
+        {"spec: z_ref_m": "0.025"},
+        base,
+        lambda alt: with_best_method(effects, {"best": at[alt.z_ref_m]}),
+    )
+    assert list(moved) == ["spec: z_ref_m"]
+    text = moved["spec: z_ref_m"]
+    assert "best preparation method is '13', at 0.05 m '9'" in text and "0.0125" not in text
+    same = moved_verdicts(spec, {"spec: z_ref_m": "0.025"}, base, lambda alt: base)
+    assert same == {}
+    assert with_best_method(effects, {"best": None})["verdict"].iloc[-1] == "none"
+
+
+def test_the_shipped_preparation_study_rechecks_its_best_method_and_is_silent(monkeypatch):
+    """preparation.toml leaves z_window_m out: the best method is chosen again at ±0.5 and
+    ±2 mm (three choices in all) and stays the same on the paper campaign."""
+    import soilstats.study.runner as runner
+
+    calls = []
+    original = runner._preparation
+
+    def counting(campaign, per_test, parameters, spec, notes):
+        calls.append(spec.z_window_m)
+        return original(campaign, per_test, parameters, spec, notes)
+
+    monkeypatch.setattr(runner, "_preparation", counting)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DefaultWarning)
+        result = run_study("preparation", "simulated-paper", seed=0)
+    assert sorted(calls) == [0.0005, 0.001, 0.002]
+    assert "spec: z_window_m" in result.defaults and result.default_warnings == {}

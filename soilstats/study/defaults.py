@@ -16,6 +16,10 @@ used".  The alternatives (docs/studies.md, "Defaults that move a verdict"):
   data, not the question);
 * ``z_window_m``: halved and doubled (0.5 and 2 mm).
 
+A preparation study's best method (Table 3's criteria, :mod:`.preparation`) is a verdict too:
+it is chosen again at each alternative from the per-test table there, and a different choice
+is a warning like a moved effect.
+
 Not re-evaluated: ``alpha`` is the user's error-rate policy, not a model of the soil, and
 ``fallback_model`` feeds only the per-condition parameter tables (no effect verdict reads
 them).
@@ -35,10 +39,19 @@ from ..errors import DefaultWarning
 if TYPE_CHECKING:
     from .spec import StudySpec
 
-__all__ = ["RESPONSE", "alternatives", "moved_verdicts", "warn_moved"]
+__all__ = [
+    "BEST_METHOD",
+    "RESPONSE",
+    "alternatives",
+    "moved_verdicts",
+    "warn_moved",
+    "with_best_method",
+]
 
 #: The one response the re-evaluated defaults enter.
 RESPONSE = "log10_p_ref"
+#: The row :func:`with_best_method` adds: (soil, response) of a preparation study's best method.
+BEST_METHOD = ("all soils", "best preparation method")
 #: Alternatives as multiples of the default, per spec key.
 SCALES = {"z_ref_m": (0.5, 2.0), "z_window_m": (0.5, 2.0)}
 
@@ -54,6 +67,15 @@ def alternatives(spec: StudySpec, defaults: Mapping[str, str]) -> list[tuple[str
         if f"spec: {key}" in defaults
         for scale in scales
     ]
+
+
+def with_best_method(effects: pd.DataFrame, best: Mapping | None) -> pd.DataFrame:
+    """``effects`` with one more row whose verdict is the preparation study's best method
+    (``best["best"]``, "none" where no method meets the criteria), so that a default moving
+    the choice of method is found as a moved effect verdict is."""
+    name = "none" if not best or best.get("best") is None else str(best["best"])
+    row = pd.DataFrame([{"soil": BEST_METHOD[0], "response": BEST_METHOD[1], "verdict": name}])
+    return row if effects.empty else pd.concat([effects, row], ignore_index=True)
 
 
 def _verdicts(effects: pd.DataFrame) -> dict[tuple[str, str], str]:

@@ -22,7 +22,7 @@ from ..identification.result import ONSET_TOLERANCE
 from ..outputs import Provenance, source_date
 from ..quality import ScreenedCampaign
 from .data import StudyDataError, check_reference, select_tests, soils_with_levels
-from .defaults import RESPONSE, moved_verdicts, warn_moved
+from .defaults import RESPONSE, moved_verdicts, warn_moved, with_best_method
 from .effects import factor_effects
 from .preparation import evaluate_criteria
 from .responses import PerTestCache
@@ -146,18 +146,21 @@ def run_study(
     if untested and not effect_rows:  # nothing tested: an error, not an empty verdict
         raise StudyDataError("\n".join(untested))
     effects = classify(effect_rows, alpha=spec.alpha, family=spec.family)
-    defaults = spec_defaults(spec)
-    moved = moved_verdicts(
-        spec,
-        defaults,
-        effects,
-        lambda alt: _effects_at(cache, per_test, effect_rows, soils, alt, seed),
-    )
-    warn_moved(moved)
     parameters = pd.concat(params, ignore_index=True) if params else pd.DataFrame()
     criteria = best = None
     if spec.type == "preparation":
         criteria, best = _preparation(campaign, per_test, parameters, spec, notes)
+
+    defaults = spec_defaults(spec)
+    moved = moved_verdicts(
+        spec,
+        defaults,
+        effects if best is None else with_best_method(effects, best),
+        lambda alt: _verdicts_at(
+            alt, cache, per_test, effect_rows, soils, seed, campaign, parameters, best
+        ),
+    )
+    warn_moved(moved)
     return StudyResult(
         spec=spec,
         source=str(campaign.source),
@@ -214,6 +217,30 @@ def _soil_effects(
     return factor_effects(data, spec, soil, spec.alpha, seed=seed or 0, p_values=pair_p)
 
 
+def _verdicts_at(
+    alt: StudySpec,
+    cache: PerTestCache,
+    per_test: pd.DataFrame,
+    effect_rows: list[dict],
+    soils: list[str],
+    seed: int | None,
+    campaign: Campaign,
+    parameters: pd.DataFrame,
+    best: dict | None,
+) -> pd.DataFrame | None:
+    """The classified effects at ``alt`` (:func:`_effects_at`) and, for a preparation study
+    (``best`` given), its best method chosen again there (:func:`.defaults.with_best_method`);
+    None where ``alt``'s depth is not reached by every test."""
+    at = _effects_at(cache, per_test, effect_rows, soils, alt, seed)
+    if at is None:
+        return None
+    effects, per_test_alt = at
+    if best is None:
+        return effects
+    _, best_alt = _preparation(campaign, per_test_alt, parameters, alt, [])
+    return with_best_method(effects, best_alt)
+
+
 def _effects_at(
     cache: PerTestCache,
     per_test: pd.DataFrame,
@@ -221,10 +248,11 @@ def _effects_at(
     soils: list[str],
     alt: StudySpec,
     seed: int | None,
-) -> pd.DataFrame | None:
+) -> tuple[pd.DataFrame, pd.DataFrame] | None:
     """The classified effects with the :data:`~.defaults.RESPONSE` rows re-tested at
     ``alt``'s z_ref_m and z_window_m (the per-test fits reused from ``cache``, the other
-    responses' rows kept); None when a test with a pressure at the default has none there."""
+    responses' rows kept), and the per-test table there; None when a test with a pressure at
+    the default has none there."""
     ids = per_test["test_id"].astype(str).tolist()
     at = cache.sinkage(ids, alt.z_ref_m, alt.z_window_m)
     if (at["p_ref_Pa"].isna() & per_test["p_ref_Pa"].notna().to_numpy()).any():
@@ -237,7 +265,7 @@ def _effects_at(
     for soil in soils:
         # the verdicts read the pairs' intervals, not their p-values (the costly part)
         rows += _soil_effects(new, one, soil, seed, pair_p=False)["effects"]
-    return classify(rows, alpha=alt.alpha, family=alt.family)
+    return classify(rows, alpha=alt.alpha, family=alt.family), new
 
 
 def _per_test(
