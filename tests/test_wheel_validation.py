@@ -220,6 +220,9 @@ def test_shear_priors_predict_drawbar_pull_and_only_all_three_are_taken():
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::soilstats.errors.DefaultWarning")  # 18 tests: the
+# population's correlation rests partly on its fixed Beta(2, 2) prior (sensitivity 0.09 at
+# seed 1; issue #47 item 3 warns so); this test's subject is the band's coverage
 def test_from_simulated_plates_to_wheel_runs_the_population_band_is_calibrated():
     # Full chain with known truth: plates simulated from a Bekker soil with preparation
     # scatter, the population posterior identified on them, wheel runs simulated from new
