@@ -49,6 +49,9 @@ def test_test_scatter_widens_stderr_which_is_the_test_level_sigma():
     assert fit.stderr_level == "tests"
     assert fit.stderr["kc"] == fit.stderr_tests["kc"] > 2 * fit.stderr_eq4["kc"]
     assert not any("scatter more than their samples say" in n for n in fit.notes)
+    # the note is written for readers of the report, not in the JSON's field names (#47)
+    assert any(n.startswith("Test-level σ: the sd of the estimates over 400") for n in fit.notes)
+    assert not any("stderr_tests" in n for n in fit.notes)
     eq4 = fit.conf_int(level="samples").loc["kc"]
     tests = fit.conf_int(level="tests").loc["kc"]
     sign_differs = (eq4["upper"] < 0 or eq4["lower"] > 0) and tests["lower"] <= 0 <= tests["upper"]

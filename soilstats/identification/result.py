@@ -493,8 +493,8 @@ def _bootstrap_findings(fit: FitResult, bs: TestBootstrap) -> tuple[list[str], l
     notes = [
         # One wording for every set of a campaign (the number of tests is the fit's own
         # field), so a report prints it once.
-        f"stderr_tests: sd of the estimates over {bs.n_resamples} cluster-bootstrap "
-        f"resamples of the tests (seed {bs.seed}); Eq. 4's stderr assumes independent samples."
+        f"Test-level σ: the sd of the estimates over {bs.n_resamples} cluster-bootstrap "
+        f"resamples of the tests (seed {bs.seed}); Eq. 4's σ assumes independent samples."
     ]
     flags = []
     sd, half = bs.stderr, bs.central_halfwidth  # each a pass over the resamples
