@@ -17,7 +17,7 @@ import pandas as pd
 from .._text import plural
 from ..outputs.files import output_path
 from ..outputs.provenance import Provenance
-from ..study.result import CRITERIA_COLUMNS, StudyResult
+from ..study.result import CRITERIA_COLUMNS, StudyResult, best_method_name
 from .document import Document, Markup, strong
 from .front import data_origin, front_page
 from .labels import column_label, natural_key, natural_sorted
@@ -119,9 +119,8 @@ def _conclusion(result: StudyResult) -> list[list]:
 def _best_and_reason(best: dict) -> str:
     """The best method and why, in words: none named is "none", never Python's None."""
     reason = str(best["reason"])
-    if best.get("best") is None:
-        return f"none — {reason}"
-    return f"{best['best']}. {reason}"
+    name = best_method_name(best)
+    return f"{name} — {reason}" if best.get("best") is None else f"{name}. {reason}"
 
 
 def _campaign_design(result: StudyResult) -> str:

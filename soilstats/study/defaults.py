@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from ..errors import DefaultWarning
+from .result import best_method_name
 
 if TYPE_CHECKING:
     from .spec import StudySpec
@@ -73,7 +74,7 @@ def with_best_method(effects: pd.DataFrame, best: Mapping | None) -> pd.DataFram
     """``effects`` with one more row whose verdict is the preparation study's best method
     (``best["best"]``, "none" where no method meets the criteria), so that a default moving
     the choice of method is found as a moved effect verdict is."""
-    name = "none" if not best or best.get("best") is None else str(best["best"])
+    name = best_method_name(best)
     row = pd.DataFrame([{"soil": BEST_METHOD[0], "response": BEST_METHOD[1], "verdict": name}])
     return row if effects.empty else pd.concat([effects, row], ignore_index=True)
 

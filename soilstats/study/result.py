@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -18,7 +19,7 @@ from .outputs import to_json_dict
 if TYPE_CHECKING:
     from .spec import StudySpec
 
-__all__ = ["CRITERIA_COLUMNS", "StudyResult"]
+__all__ = ["CRITERIA_COLUMNS", "StudyResult", "best_method_name"]
 
 # The columns of the paper's Table 3 as the PDF prints them (the summary without the p-value).
 CRITERIA_COLUMNS = [
@@ -178,7 +179,9 @@ class StudyResult:
             )[[c for c in CRITERIA_COLUMNS if c != "operator_p"]]
             lines += ["  " + row for row in table.to_string(index=False).splitlines()]
         if self.best is not None:
-            lines.append(f"Best preparation method: {_named(self.best)} — {self.best['reason']}")
+            lines.append(
+                f"Best preparation method: {best_method_name(self.best)} — {self.best['reason']}"
+            )
         lines += [f"Warning: {text}" for text in self.default_warnings.values()]
         lines += notes_block(self.notes)
         return "\n".join(lines)
@@ -199,7 +202,9 @@ class StudyResult:
             parts.append(table_html(self.criteria, caption="Criteria of Table 1 per method"))
         if self.best is not None:
             parts.append(
-                facts_html({"best preparation": f"{_named(self.best)}: {self.best['reason']}"})
+                facts_html(
+                    {"best preparation": f"{best_method_name(self.best)}: {self.best['reason']}"}
+                )
             )
         if self.default_warnings:  # a default that moves a verdict (soilstats.study.defaults)
             parts.append(facts_html({"warning": " ".join(self.default_warnings.values())}))
@@ -207,6 +212,7 @@ class StudyResult:
         return result_html(f"Study {self.name!r}: {self.spec.title}", *parts)
 
 
-def _named(best: dict) -> str:
-    """The best method, or "none" where none is named (never Python's None)."""
-    return "none" if best.get("best") is None else str(best["best"])
+def best_method_name(best: Mapping | None) -> str:
+    """The method a preparation study's ``best`` (``{"best": …, "reason": …}``) names, as
+    printed: "none" where it names none (never Python's None)."""
+    return "none" if not best or best.get("best") is None else str(best["best"])
